@@ -1,0 +1,132 @@
+"""Table schemas: every column's dtype kind, unit and meaning, and :func:`validate`.
+
+Ids are always columns, never the index.  Positions are in pixels with
+``x`` = image column and ``y`` = image row, origin at the centre of pixel
+(0, 0).  Complex values are stored as ``_re``/``_im`` column pairs so the
+tables round-trip through Parquet.  Columns whose name contains ``{p}`` stand
+for one column per symmetry order ``p`` (e.g. ``gamma6_re``).
+"""
+from __future__ import annotations
+
+import re
+
+import pandas as pd
+
+from .errors import InputError
+
+__all__ = ["TABLES", "validate", "describe"]
+
+# column -> (dtype kind: i integer, f float, b bool, O string/object, unit, meaning)
+TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
+    "cells": {
+        "frame": ("i", "frame", "time point (movies only)"),
+        "cell": ("i", "", "label id in the segmented image"),
+        "track": ("i", "", "track id (equal to `cell` when ids are consistent over time)"),
+        "x": ("f", "px", "pixel centroid, column"),
+        "y": ("f", "px", "pixel centroid, row"),
+        "area": ("f", "px^2", "number of pixels of the cell (membranes split between neighbours)"),
+        "polygon_area": ("f", "px^2", "area of the vertex polygon"),
+        "perimeter": ("f", "px", "perimeter of the vertex polygon"),
+        "n_sides": ("i", "", "number of polygon vertices (= junctions around the cell)"),
+        "is_border": ("b", "", "touches the image edge or the background (0)"),
+        "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
+        "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
+    },
+    "vertices": {
+        "frame": ("i", "frame", "time point (movies only)"),
+        "vertex": ("i", "", "vertex id"),
+        "x": ("f", "px", "column"),
+        "y": ("f", "px", "row"),
+        "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 only on a vertex-less loop)"),
+        "is_border": ("b", "", "touches the background (cell 0)"),
+    },
+    "edges": {
+        "frame": ("i", "frame", "time point (movies only)"),
+        "edge": ("i", "", "junction id"),
+        "vertex_a": ("i", "", "first end vertex"),
+        "vertex_b": ("i", "", "second end vertex"),
+        "cell_a": ("i", "", "smaller id of the two cells the junction separates (0 = outside the tissue)"),
+        "cell_b": ("i", "", "larger id of the two cells"),
+        "length": ("f", "px", "straight-line distance between the end vertices"),
+    },
+    "cell_vertices": {
+        "frame": ("i", "frame", "time point (movies only)"),
+        "cell": ("i", "", "cell id"),
+        "rank": ("i", "", "position of the vertex in the polygon (counter-clockwise in x, y)"),
+        "vertex": ("i", "", "vertex id"),
+    },
+    "events": {
+        "event": ("i", "", "event id"),
+        "kind": ("O", "", "cycle, intercalation or unresolved"),
+        "frame_start": ("i", "frame", "first frame after the a-b contact is lost"),
+        "frame_end": ("f", "frame", "frame the inverse T1 restores a-b (NaN unless kind == cycle)"),
+        "duration": ("f", "frame", "frame_end - frame_start (cycles), else NaN"),
+        "cell_a": ("i", "", "first cell losing the contact"),
+        "cell_b": ("i", "", "second cell losing the contact"),
+        "cell_c": ("i", "", "first cell gaining a contact"),
+        "cell_d": ("i", "", "second cell gaining a contact"),
+        "x": ("f", "px", "centre of the quartet, column"),
+        "y": ("f", "px", "centre of the quartet, row"),
+    },
+    "grid": {
+        "frame": ("i", "frame", "time point (movies only)"),
+        "node": ("i", "", "grid node id"),
+        "x": ("f", "px", "node position, column"),
+        "y": ("f", "px", "node position, row"),
+        "Gamma{p}_re": ("f", "", "real part of the coarse-grained shape parameter"),
+        "Gamma{p}_im": ("f", "", "imaginary part of the coarse-grained shape parameter"),
+        "n_cells": ("i", "", "number of cells averaged"),
+    },
+    "defects": {
+        "frame": ("i", "frame", "time point (movies only)"),
+        "defect": ("i", "", "defect id"),
+        "x": ("f", "px", "position, column"),
+        "y": ("f", "px", "position, row"),
+        "charge": ("f", "", "topological charge (multiple of 1/p)"),
+        "p": ("i", "", "symmetry order"),
+    },
+}
+
+_OPTIONAL = {"frame", "track"}
+_KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
+
+
+def _pattern(column: str) -> re.Pattern:
+    return re.compile("^" + re.escape(column).replace(r"\{p\}", r"\d+") + "$")
+
+
+def describe(table: str) -> pd.DataFrame:
+    """The schema of ``table`` as a DataFrame (column, dtype kind, unit, meaning)."""
+    if table not in TABLES:
+        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
+    rows = [(c, k, u, m) for c, (k, u, m) in TABLES[table].items()]
+    return pd.DataFrame(rows, columns=["column", "kind", "unit", "meaning"])
+
+
+def validate(df: pd.DataFrame, table: str) -> pd.DataFrame:
+    """Check that ``df`` has the columns of ``table`` with compatible dtypes; return it.
+
+    Required columns are every schema column except ``frame``, ``track`` and
+    the per-``p`` patterns; columns not in the schema are allowed (analyses
+    add their own).  Raises :class:`~hexatissue.errors.InputError` naming the
+    offending column.
+    """
+    if table not in TABLES:
+        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
+    if not isinstance(df, pd.DataFrame):
+        raise InputError(f"{table} table must be a pandas DataFrame; got {type(df).__name__}")
+    spec = TABLES[table]
+    for column, (kind, _, _) in spec.items():
+        if "{p}" in column:
+            matches = [c for c in df.columns if _pattern(column).match(str(c))]
+        elif column in df.columns:
+            matches = [column]
+        elif column in _OPTIONAL:
+            matches = []
+        else:
+            raise InputError(f"{table} table is missing column {column!r}; expected columns {list(spec)}")
+        for c in matches:
+            dkind = df[c].dtype.kind
+            if dkind not in _KIND_OK[kind] and not (kind == "O" and pd.api.types.is_string_dtype(df[c])):
+                raise InputError(f"{table} table column {c!r} has dtype {df[c].dtype}; expected kind {kind!r}")
+    return df

@@ -1,0 +1,23 @@
+"""Shared fixtures: the folder of real third-party data, skipped cleanly when absent."""
+import os
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+REAL_DATA = Path(os.environ.get("HEXATISSUE_REAL_DATA", ROOT.parent / "shared" / "data" / "real"))
+
+
+@pytest.fixture(scope="session")
+def real_data():
+    """Path to ``../shared/data/real``; skips the test when the folder is not there."""
+    if not REAL_DATA.is_dir():
+        pytest.skip(f"real data folder {REAL_DATA} is absent")
+    return REAL_DATA
+
+
+def real_subdir(real_data, name):
+    path = real_data / name
+    if not path.is_dir():
+        pytest.skip(f"real data set {name} is absent")
+    return path
