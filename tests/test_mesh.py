@@ -231,11 +231,16 @@ def numpy_corner_arms(pad):
 def test_corner_kernel_matches_numpy():
     labels = voronoi_labels(jittered_seeds((60, 80), 9, seed=1), (60, 80))
     pad = np.pad(labels, 1)
-    arms, kind = K.corner_types(pad, 61, 81)
+    arms, kind, vid, vi, vj, n_cracks = K.corner_types(pad, 61, 81)
     np.testing.assert_array_equal(arms, numpy_corner_arms(pad))
     degree = np.unpackbits(arms[..., None], axis=-1).sum(-1)
     assert set(np.unique(kind[degree == 3])) == {3}
     assert set(np.unique(kind[degree == 2])) == {2}
+    assert n_cracks == degree.sum() // 2
+    rows, cols = np.nonzero((kind == 3) | (kind == 4))
+    np.testing.assert_array_equal(vi, rows)
+    np.testing.assert_array_equal(vj, cols)
+    np.testing.assert_array_equal(vid[rows, cols], np.arange(len(rows)))
 
 
 def test_moments_kernel_matches_numpy():

@@ -41,8 +41,7 @@ def _compact(lab):
     """Labels as int32 0..n (0 kept) and the original id of each compact id."""
     top = int(lab.max())
     if top < 2**24 and top <= 4 * lab.size:
-        present = np.zeros(top + 1, bool)
-        present[lab.ravel()] = True
+        present = np.bincount(lab.ravel(), minlength=top + 1) > 0
         present[0] = True
         ids = np.flatnonzero(present)
         if len(ids) == top + 1:
@@ -63,11 +62,8 @@ def _trace(lab32, periodic, membrane):
     pad = np.pad(lab32, 1, mode=mode)
     h, w = lab32.shape
     nci, ncj = (h, w) if periodic else (h + 1, w + 1)
-    arms, ctype = K.corner_types(pad, nci, ncj)
-    vi, vj = np.nonzero((ctype == 3) | (ctype == 4))
-    vid = np.full((nci, ncj), -1, np.int64)
-    vid[vi, vj] = np.arange(len(vi))
-    n_max = int(np.unpackbits(arms[vi, vj][:, None], axis=1).sum()) + 1
+    arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj)
+    n_max = 4 * len(vi) + 1
     start, end, sarm, earm, left, right, dx, dy, ncrack, visited = K.trace_junctions(
         pad, arms, ctype, vid, vi, vj, n_max
     )
@@ -79,7 +75,10 @@ def _trace(lab32, periodic, membrane):
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0
-    lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(pad, arms, ctype, visited)
+    if ncrack.sum() < n_cracks:  # boundaries with no vertex on them are left
+        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(pad, arms, ctype, visited)
+    else:
+        lr = lc = ll = lrt = ldx = ldy = np.zeros(0, np.int64)
     n_loops = len(lr)
     loop_v = len(vi) + np.arange(n_loops)
     no_arm = -np.ones(n_loops, np.int64)  # loop points are not vertices: no arm lines
