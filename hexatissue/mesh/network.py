@@ -20,6 +20,7 @@ __all__ = ["mesh_from_labels"]
 
 ARM_REACH = 8  # cracks per arm in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
+MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practically never needed
 
 
 def _resolve_box(box, shape):
@@ -129,25 +130,23 @@ def _subpixel_shift(cluster, off, j, use, lines, n_clusters):
 
 
 def _merge_short(pos, j, lines, merge_distance, box):
-    """Contract junctions shorter than ``merge_distance``; returns merged positions and kept junctions."""
-    n = len(pos)
+    """Contract junctions shorter than ``merge_distance``; returns merged positions and kept junctions.
+
+    Lengths are measured between sub-pixel vertex positions, which depend on
+    what was merged, so contraction is repeated until no kept junction is
+    shorter than ``merge_distance``.
+    """
     loop = j["start"] == j["end"]
     short = ~loop & (np.hypot(*j["vec"].T) < merge_distance)
-    graph = coo_matrix((np.ones(short.sum()), (j["start"][short], j["end"][short])), shape=(n, n))
-    _, cluster = connected_components(graph, directed=False)
-    first = np.unique(cluster, return_index=True)[1]
-    min_image = box.min_image if box is not None else (lambda d: d)
-    off_first = min_image(pos - pos[first[cluster]])
-    counts = np.bincount(cluster)
-    mean_off = np.c_[np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])] / counts[:, None]
-    centre = pos[first] + mean_off
-    off = off_first - mean_off[cluster]  # vertex position = its cluster centre + off
-    keep = ~short
-    shift = _subpixel_shift(cluster, off, j, keep, lines, len(centre))
-    centre = centre + shift
-    off = off - shift[cluster]
-    vec = j["vec"][keep] + off[j["start"][keep]] - off[j["end"][keep]]
-    a, b = cluster[j["start"][keep]], cluster[j["end"][keep]]
+    for _ in range(MAX_MERGE_ROUNDS):
+        cluster, centre, off = _clusters(pos, j, short, lines, box)
+        keep = ~short
+        vec = j["vec"][keep] + off[j["start"][keep]] - off[j["end"][keep]]
+        a, b = cluster[j["start"][keep]], cluster[j["end"][keep]]
+        again = (a != b) & (np.hypot(*vec.T) < merge_distance)
+        if not again.any():
+            break
+        short[np.flatnonzero(keep)[again]] = True
     collapsed = (a == b) & ~loop[keep]
     if collapsed.any():
         warnings.warn(
@@ -167,6 +166,26 @@ def _merge_short(pos, j, lines, merge_distance, box):
     if box is not None:
         centre = box.wrap(centre)
     return centre, kept
+
+
+def _clusters(pos, j, short, lines, box):
+    """Vertices joined by ``short`` junctions: cluster id per vertex, cluster positions, vertex offsets.
+
+    A vertex's position is its cluster's position plus its offset (minimum
+    image); cluster positions are refined to the intersection of their arms.
+    """
+    n = len(pos)
+    graph = coo_matrix((np.ones(short.sum()), (j["start"][short], j["end"][short])), shape=(n, n))
+    _, cluster = connected_components(graph, directed=False)
+    first = np.unique(cluster, return_index=True)[1]
+    min_image = box.min_image if box is not None else (lambda d: d)
+    off_first = min_image(pos - pos[first[cluster]])
+    counts = np.bincount(cluster)
+    mean_off = np.c_[np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])] / counts[:, None]
+    centre = pos[first] + mean_off
+    off = off_first - mean_off[cluster]
+    shift = _subpixel_shift(cluster, off, j, ~short, lines, len(centre))
+    return cluster, centre + shift, off - shift[cluster]
 
 
 def _polygons(centre, kept, n_labels):
