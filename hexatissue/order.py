@@ -24,6 +24,7 @@ __all__ = [
     "polygon_area_centroid",
     "cell_radius",
     "coarse_grain",
+    "order_vs_radius",
     "cell_stress",
 ]
 
@@ -155,7 +156,8 @@ def shape_function(polygons, p=6, center="vertex_mean"):
 RADIUS_FACTOR = 1.5
 SPACING_FACTOR = 1.0
 #: On open images a disk sample point counts as tissue when its nearest cell centroid is an
-#: interior cell closer than this many R_cell (a regular hexagon's corner is 1.1 R_cell away).
+#: interior cell c closer than COVER_FACTOR * max(sqrt(area_c / pi), R_cell) (a regular hexagon's
+#: corners are 1.1 sqrt(area / pi) from its centre).
 COVER_FACTOR = 1.5
 
 
@@ -237,12 +239,29 @@ def _disk_means(nodes, xy, gamma, radius, box):
         return total / counts, counts
 
 
-def _coverage(nodes, radius, all_xy, interior, r_cell):
-    """Fraction of each node's disk lying on interior cells (open images, see :func:`coarse_grain`)."""
+def _reach(cells, r_cell):
+    """Largest distance from each centroid still counted as inside the cell, px.
+
+    ``COVER_FACTOR * max(sqrt(area / pi), R_cell)``: large cells reach further, and
+    small cells next to large ones do not punch holes into the coverage.
+    """
+    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
+    r = np.full(len(cells), r_cell)
+    if column is not None:
+        own = np.sqrt(np.abs(cells[column].to_numpy(float)) / np.pi)
+        r = np.fmax(r, own)  # fmax ignores NaN areas
+    return COVER_FACTOR * r
+
+
+def _coverage(nodes, radius, all_xy, interior, reach):
+    """Fraction of each node's disk lying on interior cells (open images, see :func:`coarse_grain`).
+
+    ``reach`` is, per cell, the largest distance from its centroid still counted as inside it.
+    """
     tree = cKDTree(all_xy)
     samples = nodes[:, None, :] + radius * _DISK[None, :, :]
     dist, nearest = tree.query(samples.reshape(-1, 2))
-    covered = interior[nearest] & (dist <= COVER_FACTOR * r_cell)
+    covered = interior[nearest] & (dist <= reach[nearest])
     return covered.reshape(len(nodes), len(_DISK)).mean(axis=1)
 
 
@@ -263,7 +282,8 @@ def _coarse_grain_frame(cells, p, radius, spacing, box, min_coverage):
     mean, counts = _disk_means(nodes, xy_all[use], gamma[use], radius, box)
     if box is None:
         finite = np.isfinite(xy_all).all(axis=1)
-        coverage = _coverage(nodes, radius, xy_all[finite], use[finite], r_cell)
+        reach = _reach(cells, r_cell)
+        coverage = _coverage(nodes, radius, xy_all[finite], use[finite], reach[finite])
     else:
         coverage = np.ones(len(nodes))
     return pd.DataFrame(
@@ -319,8 +339,9 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
         Open images only: a node is ``valid`` when at least this fraction of
         its disk lies on interior cells.  The fraction is measured on 61 points
         spread over the disk; a point lies on an interior cell when its nearest
-        cell centroid (border cells included) belongs to an interior cell and
-        is closer than ``1.5 R_cell``.  The default 1.0 keeps only disks that
+        cell centroid (border cells included) belongs to an interior cell c and
+        is closer than ``1.5 max(sqrt(area_c / pi), R_cell)`` (a regular
+        hexagon's corners are ``1.1 sqrt(area / pi)`` from its centre).  The default 1.0 keeps only disks that
         lie wholly inside the tissue, so the tissue edge, the border cells and
         holes do not bias Gamma_p.
 
@@ -359,6 +380,48 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
         grid.insert(0, "frame", np.full(len(grid), frame, dtype=cells["frame"].dtype))
         parts.append(grid)
     return validate(pd.concat(parts, ignore_index=True), "grid")
+
+
+def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box=None, min_coverage=1.0):
+    """Mean ``|Gamma_p|`` over the valid grid nodes as a function of the coarse-graining radius.
+
+    For each factor, every frame is coarse-grained (:func:`coarse_grain`)
+    with ``R = factor * R_cell`` (R_cell of that frame, grid spacing R_cell)
+    and ``|Gamma_p|`` is averaged over its valid nodes.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table as for :func:`coarse_grain` (``area`` needed).
+    p : int
+        Symmetry order.
+    factors : sequence of float
+        Radii in units of R_cell.
+    box, min_coverage
+        As for :func:`coarse_grain`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per frame and factor: ``frame`` (movies only), ``p``,
+        ``factor`` (R / R_cell), ``radius`` (R, px), ``abs_Gamma`` (mean
+        ``|Gamma_p|`` over valid nodes, dimensionless; NaN when none is
+        valid), ``n_nodes`` (valid nodes).
+    """
+    p = _check_p(p)
+    groups = cells.groupby("frame", sort=True) if "frame" in cells.columns else [(None, cells)]
+    rows = []
+    for frame, group in groups:
+        r_cell = cell_radius(group)
+        for factor in factors:
+            grid = coarse_grain(group, p=p, radius=float(factor) * r_cell, spacing=r_cell, box=box,
+                                min_coverage=min_coverage)
+            valid = grid[grid["valid"]]
+            size = np.hypot(valid[f"Gamma{p}_re"], valid[f"Gamma{p}_im"]).to_numpy()
+            rows.append((frame, p, float(factor), float(factor) * r_cell,
+                         size.mean() if len(size) else np.nan, len(size)))
+    out = pd.DataFrame(rows, columns=["frame", "p", "factor", "radius", "abs_Gamma", "n_nodes"])
+    return out.drop(columns="frame") if "frame" not in cells.columns else out
 
 
 # ----------------------------------------------------------------------------
