@@ -22,6 +22,7 @@ __all__ = [
     "shape_function",
     "shape_function_flat",
     "polygon_area_centroid",
+    "cells_from_polygons",
     "cell_radius",
     "coarse_grain",
     "order_vs_radius",
@@ -146,6 +147,63 @@ def shape_function(polygons, p=6, center="vertex_mean"):
         return np.zeros(0, dtype=complex)
     starts = np.cumsum([0] + [len(a) for a in arrays[:-1]])
     return shape_function_flat(np.concatenate(arrays), starts, p=p, center=center)
+
+
+def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center="vertex_mean"):
+    """Cells table from cell polygons (e.g. published polygon data, or another segmentation tool).
+
+    Parameters
+    ----------
+    polygons : dict or sequence
+        ``{cell: (n, 2) array of (x, y)}`` or a sequence (cells numbered from
+        1); x = column, y = row, origin at the centre of pixel (0, 0).  A
+        repeated closing vertex is dropped.
+    p : int or sequence of int
+        Symmetry orders of the shape functions to compute.
+    centers : (N, 2) array, optional
+        Cell positions ``x``, ``y`` (e.g. the published centres of mass);
+        default the polygons' area centroids.
+    is_border : (N,) bool array, optional
+        Border flags; default all False (interior cells).
+    center : str or (N, 2) array
+        Centre used by :func:`shape_function`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Cells table: ``cell``, ``x``, ``y`` (px), ``area`` and
+        ``polygon_area`` (both the polygon's area, px^2), ``perimeter`` (px),
+        ``n_sides``, ``is_border``, ``gamma{p}_re``, ``gamma{p}_im``.
+    """
+    if isinstance(polygons, dict):
+        ids, polys = list(polygons), list(polygons.values())
+    else:
+        polys = list(polygons)
+        ids = list(range(1, len(polys) + 1))
+    arrays = []
+    for k, poly in zip(ids, polys):
+        a = np.asarray(poly, dtype=float)
+        if a.ndim != 2 or a.shape[1] != 2 or len(a) < 3:
+            raise InputError(f"polygon of cell {k} must be an (n >= 3, 2) array of (x, y); got shape {a.shape}")
+        arrays.append(a[:-1] if np.array_equal(a[0], a[-1]) else a)
+    orders = [p] if np.isscalar(p) else list(p)
+    xy = np.concatenate(arrays) if arrays else np.zeros((0, 2))
+    lengths = np.array([len(a) for a in arrays], np.int64)
+    starts = np.r_[0, np.cumsum(lengths)[:-1]].astype(np.int64) if arrays else np.zeros(0, np.int64)
+    area, centroid = polygon_area_centroid(xy, starts)
+    pos = centroid if centers is None else np.asarray(centers, float)
+    if pos.shape != (len(arrays), 2):
+        raise InputError(f"centers must have shape ({len(arrays)}, 2); got {pos.shape}")
+    border = np.zeros(len(arrays), bool) if is_border is None else np.asarray(is_border, bool)
+    if border.shape != (len(arrays),):
+        raise InputError(f"is_border must have shape ({len(arrays)},); got {border.shape}")
+    perimeter = np.array([np.hypot(*np.diff(np.vstack([a, a[:1]]), axis=0).T).sum() for a in arrays])
+    table = {"cell": np.asarray(ids, np.int64), "x": pos[:, 0], "y": pos[:, 1], "area": np.abs(area),
+             "polygon_area": np.abs(area), "perimeter": perimeter, "n_sides": lengths, "is_border": border}
+    for order in orders:
+        gamma = shape_function_flat(xy, starts, p=_check_p(order), center=center)
+        table[f"gamma{order}_re"], table[f"gamma{order}_im"] = gamma.real, gamma.imag
+    return validate(pd.DataFrame(table), "cells")
 
 
 # ----------------------------------------------------------------------------

@@ -5,7 +5,7 @@ import pytest
 
 from hexatissue import Box, InputError
 from hexatissue.defects import find_defects
-from hexatissue.order import cell_radius, coarse_grain, polygon_area_centroid, shape_function
+from hexatissue.order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius
 
 from .conftest import real_subdir
 
@@ -306,17 +306,25 @@ def mdck_cells(folder, images):
     parts = []
     for image in images:
         polygon = scipy_io.loadmat(folder / "mat" / f"Image{image}_Polygon.mat", simplify_cells=True)["Polygon"]
-        polys = [np.asarray(v, float)[:-1] for v in polygon["Vertex"]]  # drop the closing vertex
-        centre = np.asarray(polygon["CenterOfMass"], float)
-        starts = np.cumsum([0] + [len(q) for q in polys[:-1]])
-        area = np.abs(polygon_area_centroid(np.concatenate(polys), starts)[0])
-        table = {"frame": image, "cell": np.arange(1, len(polys) + 1), "x": centre[:, 0], "y": centre[:, 1],
-                 "area": area, "is_border": False}  # the published polygons hold interior cells only
-        for p in (2, 6):
-            g = shape_function(polys, p=p)
-            table[f"gamma{p}_re"], table[f"gamma{p}_im"] = g.real, g.imag
-        parts.append(pd.DataFrame(table))
+        # the published polygons hold interior cells only (is_border False)
+        cells = cells_from_polygons(polygon["Vertex"], centers=polygon["CenterOfMass"])
+        parts.append(cells.assign(frame=image))
     return pd.concat(parts, ignore_index=True)
+
+
+def test_cells_from_polygons():
+    square = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [0, 0]], float)  # closed: last vertex dropped
+    hexagon = 5 * np.c_[np.cos(np.arange(6) * np.pi / 3), np.sin(np.arange(6) * np.pi / 3)] + [20, 10]
+    cells = cells_from_polygons({7: square, 9: hexagon}, p=(4, 6))
+    assert cells["cell"].tolist() == [7, 9] and cells["n_sides"].tolist() == [4, 6]
+    np.testing.assert_allclose(cells[["x", "y"]], [[2, 2], [20, 10]], atol=1e-12)
+    np.testing.assert_allclose(cells["area"], [16, 1.5 * np.sqrt(3) * 25])
+    np.testing.assert_allclose(cells["perimeter"], [16, 30])
+    np.testing.assert_allclose(cells["gamma4_re"].iloc[0], -1.0)  # corners at 45 deg: e^{i 4 pi/4}
+    np.testing.assert_allclose(cells["gamma6_re"].iloc[1], 1.0)
+    assert not cells["is_border"].any()
+    with pytest.raises(InputError, match="centers"):
+        cells_from_polygons([square], centers=np.zeros((2, 2)))
 
 
 @pytest.fixture(scope="module")
@@ -341,16 +349,22 @@ def test_mdck_defect_counts_are_balanced(mdck, p):
 @pytest.mark.parametrize("p", [2, 6])
 def test_mdck_order_decreases_with_radius(mdck, p):
     subset = mdck[mdck["frame"].isin([6, 20, 40, 60])]
-    curve = []
-    for factor in (1.0, 1.5, 2.0, 3.0, 4.0, 6.0):
-        values = []
-        for _, cells in subset.groupby("frame"):
-            grid = coarse_grain(cells, p=p, radius=factor * cell_radius(cells))
-            valid = grid[grid["valid"]]
-            values.append(np.hypot(valid[f"Gamma{p}_re"], valid[f"Gamma{p}_im"]).mean())
-        curve.append(np.mean(values))
-    assert np.all(np.diff(curve) < 0), curve
-    assert curve[0] > 2 * curve[-1]
+    curve = order_vs_radius(subset, p=p, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0))
+    assert len(curve) == 4 * 6 and (curve["n_nodes"] > 0).all()
+    mean = curve.groupby("factor")["abs_Gamma"].mean().to_numpy()
+    assert np.all(np.diff(mean) < 0), mean
+    assert mean[0] > 2 * mean[-1]
+
+
+def test_order_vs_radius_is_the_mean_over_valid_nodes():
+    cells, _, _ = setup(False, 0)
+    curve = order_vs_radius(cells, p=6, factors=(1.5, 3.0))
+    assert list(curve.columns) == ["p", "factor", "radius", "abs_Gamma", "n_nodes"]
+    grid = coarse_grain(cells, radius=3.0 * R_CELL)
+    valid = grid[grid["valid"]]
+    assert curve["abs_Gamma"].iloc[1] == pytest.approx(np.hypot(valid["Gamma6_re"], valid["Gamma6_im"]).mean())
+    assert curve["n_nodes"].iloc[1] == len(valid)
+    assert curve["radius"].tolist() == pytest.approx([1.5 * R_CELL, 3.0 * R_CELL])
 
 
 # ---------------------------------------------------------------------------- MPF cell stress

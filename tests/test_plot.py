@@ -7,7 +7,7 @@ from scipy.spatial import Voronoi
 from hexatissue import Box, InputError
 from hexatissue import plot
 from hexatissue.defects import find_defects
-from hexatissue.order import coarse_grain, shape_function
+from hexatissue.order import cells_from_polygons, coarse_grain
 
 
 def voronoi_tissue(seed=0, n=9, a=20.0):
@@ -23,13 +23,8 @@ def voronoi_tissue(seed=0, n=9, a=20.0):
             poly = vor.vertices[verts]
             if np.all(np.hypot(*(poly - seeds[k]).T) < 2 * a):
                 polygons[k + 1] = poly
-    ids = np.array(sorted(polygons))
-    table = {"cell": ids, "x": seeds[ids - 1, 0], "y": seeds[ids - 1, 1], "is_border": np.zeros(len(ids), bool),
-             "area": np.full(len(ids), 0.87 * a * a)}
-    for p in (2, 6):
-        g = shape_function([polygons[c] for c in ids], p=p)
-        table[f"gamma{p}_re"], table[f"gamma{p}_im"] = g.real, g.imag
-    return polygons, pd.DataFrame(table)
+    ids = np.array(list(polygons))
+    return polygons, cells_from_polygons(polygons, centers=seeds[ids - 1])
 
 
 def png_pixels(path):
