@@ -286,7 +286,7 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
     _draw_polygons(ax, polygons, color="0.55", linewidth=0.5)
     spacing = _grid_spacing(grid)
     _add_stars(ax, xy[valid], gamma[valid] / max(np.abs(gamma[valid]).max(), 1e-12) if valid.any() else
-               gamma[valid], p, 0.5 * spacing, "k", linewidth=0.8)
+               gamma[valid], p, 0.4 * spacing, "k", linewidth=0.8)
     if defects is not None and len(defects):
         _draw_defects(ax, defects, p, size=8)
     _image_axes(ax, _extent_of(background, polygons, xy, box))
