@@ -175,7 +175,8 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
     pandas.DataFrame
         Cells table: ``cell``, ``x``, ``y`` (px), ``area`` and
         ``polygon_area`` (both the polygon's area, px^2), ``perimeter`` (px),
-        ``n_sides``, ``is_border``, ``gamma{p}_re``, ``gamma{p}_im``.
+        ``n_sides``, ``n_cycles`` (1: one polygon per cell), ``is_border``,
+        ``gamma{p}_re``, ``gamma{p}_im``.
     """
     if isinstance(polygons, dict):
         ids, polys = list(polygons), list(polygons.values())
@@ -201,7 +202,8 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
         raise InputError(f"is_border must have shape ({len(arrays)},); got {border.shape}")
     perimeter = np.array([np.hypot(*np.diff(np.vstack([a, a[:1]]), axis=0).T).sum() for a in arrays])
     table = {"cell": np.asarray(ids, np.int64), "x": pos[:, 0], "y": pos[:, 1], "area": np.abs(area),
-             "polygon_area": np.abs(area), "perimeter": perimeter, "n_sides": lengths, "is_border": border}
+             "polygon_area": np.abs(area), "perimeter": perimeter, "n_sides": lengths,
+             "n_cycles": np.ones(len(arrays), np.int64), "is_border": border}
     for order in orders:
         gamma = shape_function_flat(xy, starts, p=_check_p(order), center=center)
         table[f"gamma{order}_re"], table[f"gamma{order}_im"] = gamma.real, gamma.imag

@@ -453,3 +453,24 @@ def test_stress_bad_input():
         cell_stress(phi, np.zeros(3), 1.0, 2)
     with pytest.raises(InputError, match="p must"):
         cell_stress(phi, np.zeros(2), 1.0, 0)
+
+
+# ---------------------------------------------------------------------------- label image -> mesh -> Gamma6
+
+
+@pytest.mark.parametrize("periodic", [True, False])
+def test_hexagonal_tissue_from_labels_has_no_defect(periodic):
+    from hexatissue import mesh_from_labels
+    from hexatissue.synthetic import hexagonal_seeds, voronoi_labels
+
+    seeds, box = hexagonal_seeds(16, 18, spacing=15.0, row_spacing=13.0)
+    shape = (int(box.Ly), int(box.Lx))
+    labels = voronoi_labels(seeds, shape, periodic=periodic)
+    frame = mesh_from_labels(labels, box=box if periodic else None)
+    cells = frame.cells
+    interior = cells[~cells["is_border"]]
+    assert (interior["n_sides"] == 6).all()
+    assert np.abs(interior["gamma6_re"] + 1j * interior["gamma6_im"]).min() > 0.9
+    grid = coarse_grain(cells, p=6, box=box if periodic else None)
+    assert grid["valid"].sum() > (0.9 if periodic else 0.4) * len(grid)
+    assert len(find_defects(grid, p=6, box=box if periodic else None)) == 0

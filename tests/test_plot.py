@@ -142,3 +142,21 @@ def test_figures_draw_into_given_axes():
     axes = fig.subplots(1, 2)
     assert plot.plot_stars(cells, 6, ax=axes[0]) is fig
     assert plot.plot_labels(polygons=polygons, ax=axes[1]) is fig
+
+
+def test_figures_from_a_label_image(tmp_path):
+    from hexatissue import mesh_from_labels
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    labels = voronoi_labels(jittered_seeds((120, 150), 15.0, seed=4), (120, 150))
+    frame = mesh_from_labels(labels)
+    polygons = frame.polygons()
+    fig = plot.plot_labels(labels, polygons, frame.cells, path=tmp_path / "labels.png")
+    png_pixels(tmp_path / "labels.png")
+    assert len(fig.axes[0].collections[0].get_paths()) == len(frame.cells)
+    assert fig.axes[0].get_xlim() == (-0.5, 149.5) and fig.axes[0].get_ylim() == (119.5, -0.5)
+    plot.plot_stars(frame.cells, 6, polygons=polygons, labels=labels, path=tmp_path / "stars.png")
+    png_pixels(tmp_path / "stars.png")
+    grid = coarse_grain(frame.cells)
+    plot.plot_order_field(grid, find_defects(grid), polygons=polygons, labels=labels, path=tmp_path / "field.png")
+    png_pixels(tmp_path / "field.png")
