@@ -193,6 +193,7 @@ def draw_membranes(labels, width=1, periodic=False):
 # ---------------------------------------------------------------------------
 
 from dataclasses import dataclass, field  # noqa: E402
+from functools import cached_property  # noqa: E402
 
 import pandas as pd  # noqa: E402
 
@@ -236,7 +237,8 @@ class T1Movie:
     Attributes
     ----------
     labels : (T, rows, cols) int32 array
-        Label ``k`` is the Voronoi cell of seed ``k - 1``; ids are consistent over time.
+        Label ``k`` is the Voronoi cell of seed ``k - 1``; ids are consistent
+        over time.  Rendered on first access.
     seeds : (T, n, 2) float array
         Seed positions (x, y) per frame, px (wrapped into the box when periodic).
     box : Box or None
@@ -259,8 +261,8 @@ class T1Movie:
         ``name``, ``cell_a``, ``cell_b``, ``cell_c``, ``cell_d`` of every scripted quartet.
     """
 
-    labels: np.ndarray
     seeds: np.ndarray
+    shape: tuple
     box: Box | None
     events: pd.DataFrame
     cells: pd.DataFrame
@@ -268,6 +270,10 @@ class T1Movie:
     min_length: float
     censor: int
     quartets: pd.DataFrame = field(default_factory=pd.DataFrame)
+
+    @cached_property
+    def labels(self) -> np.ndarray:
+        return np.stack([voronoi_labels(s, self.shape, periodic=self.box is not None) for s in self.seeds])
 
 
 def movie_contacts(seeds, shape, periodic):
@@ -417,17 +423,25 @@ def t1_movie(periodic=True, n_frames=36, nx=12, ny=10, min_length=4.0, censor=5,
     quartets = pd.DataFrame(quartets, columns=["name", "cell_a", "cell_b", "cell_c", "cell_d"])
     edges = movie_contacts(seeds, shape, periodic)
     _check_script(edges, quartets, min_length)
-    labels = np.stack([voronoi_labels(s, shape, periodic=periodic) for s in seeds])
     border = np.zeros((n_frames, n), bool)
-    if not periodic:
+    if not periodic:  # cells whose clipped Voronoi region reaches the image edge
         for k in range(n_frames):
-            rim = np.unique(np.r_[labels[k, 0], labels[k, -1], labels[k, :, 0], labels[k, :, -1]])
-            border[k, rim - 1] = True
+            border[k, _rim_cells(seeds[k], shape) - 1] = True
     cells = pd.DataFrame({
         "frame": np.repeat(np.arange(n_frames), n), "cell": np.tile(np.arange(1, n + 1), n_frames),
         "x": seeds[..., 0].ravel(), "y": seeds[..., 1].ravel(), "is_border": border.ravel()})
     events = _truth_events(edges, quartets, n_frames, min_length, censor, seeds, out_box)
-    return T1Movie(labels, seeds, out_box, events, cells, edges, float(min_length), int(censor), quartets)
+    return T1Movie(seeds, shape, out_box, events, cells, edges, float(min_length), int(censor), quartets)
+
+
+def _rim_cells(seeds, shape):
+    """Labels of the cells owning a pixel on the image rim (nearest seed, as in voronoi_labels)."""
+    rows, cols = shape
+    r, c = np.arange(rows, dtype=float), np.arange(cols, dtype=float)
+    rim = np.r_[np.c_[c, np.zeros(cols)], np.c_[c, np.full(cols, rows - 1.0)],
+                np.c_[np.zeros(rows), r], np.c_[np.full(rows, cols - 1.0), r]]
+    _, idx = cKDTree(seeds).query(rim)
+    return np.unique(idx) + 1
 
 
 def _check_script(edges, quartets, min_length):
