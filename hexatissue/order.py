@@ -22,8 +22,10 @@ CENTERS = ("vertex_mean", "area_centroid")
 def _segment_sum(values, starts, n):
     """Sum of ``values`` over the consecutive segments beginning at ``starts`` (empty segments give 0)."""
     out = np.zeros((n,) + values.shape[1:], dtype=values.dtype)
+    if n == 0 or len(values) == 0:
+        return out
     nonempty = np.r_[starts[1:], len(values)] > starts
-    if len(values):
+    if nonempty.any():
         out[nonempty] = np.add.reduceat(values, starts[nonempty], axis=0)
     return out
 

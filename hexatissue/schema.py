@@ -28,6 +28,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "polygon_area": ("f", "px^2", "area of the vertex polygon"),
         "perimeter": ("f", "px", "perimeter of the vertex polygon"),
         "n_sides": ("i", "", "number of polygon vertices (= junctions around the cell)"),
+        "n_cycles": ("i", "", "boundary cycles of the cell (> 1: holes, pieces or pinches)"),
         "is_border": ("b", "", "touches the image edge or the background (0)"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
