@@ -30,6 +30,7 @@ import pandas as pd
 
 from .box import Box
 from .errors import InputError
+from .graph import contact_table as graph_contacts
 from .schema import validate
 
 __all__ = ["detect_t1", "classify_t1", "find_t1", "contact_table", "cell_event_stats",
@@ -86,11 +87,10 @@ def contact_table(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_le
             raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
     if not np.isfinite(min_length) or min_length < 0:
         raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
-    frame = edges["frame"].to_numpy(np.int64)
-    a, b = edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)
-    inside = (a > 0) & (b > 0)
-    frame, a, b = frame[inside], a[inside], b[inside]
-    length = edges["length"].to_numpy(float)[inside]
+    pairs = graph_contacts(edges[["frame", "cell_a", "cell_b", "length"]])
+    frame = pairs["frame"].to_numpy(np.int64)
+    a, b = pairs["cell_a"].to_numpy(np.int64), pairs["cell_b"].to_numpy(np.int64)
+    length = pairs["length"].to_numpy(float)
     if cells is not None and "track" in cells.columns:
         lut = pd.Series(cells["track"].to_numpy(np.int64),
                         index=pd.MultiIndex.from_arrays([cells["frame"].to_numpy(np.int64),
@@ -100,12 +100,10 @@ def contact_table(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_le
         if np.isnan(a.astype(float)).any() or np.isnan(b.astype(float)).any():
             raise InputError("edges refer to (frame, cell) pairs missing from the cells table")
         a, b = a.astype(np.int64), b.astype(np.int64)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    df = pd.DataFrame({"frame": frame, "a": lo, "b": hi, "length": length})
-    df = df[df["a"] != df["b"]].groupby(["frame", "a", "b"], as_index=False, sort=True)["length"].sum()
+    df = pd.DataFrame({"frame": frame, "a": np.minimum(a, b), "b": np.maximum(a, b), "length": length})
     if min_length > 0:
         df = df[df["length"] >= min_length]
-    return df.reset_index(drop=True)
+    return df.sort_values(["frame", "a", "b"], ignore_index=True)
 
 
 def _expand(lo, hi):

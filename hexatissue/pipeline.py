@@ -136,13 +136,20 @@ class _Dask:
 
 
 class _Pool:
-    """A local process pool (spawned workers: safe with numba and threads in the parent)."""
+    """A local process pool.
+
+    Workers are forked where the OS allows it: they start at once and need no
+    importable ``__main__`` (scripts piped to Python, notebooks).  The mesh
+    kernels are serial numba code, so no numba thread pool is forked.
+    Elsewhere (Windows) the platform's default start method is used.
+    """
 
     def __init__(self, n_workers):
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
-        self.pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=mp.get_context("spawn"))
+        method = "fork" if "fork" in mp.get_all_start_methods() else None
+        self.pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=mp.get_context(method))
 
     def submit(self, fn, *args):
         return self.pool.submit(fn, *args)

@@ -133,16 +133,31 @@ def test_every_event_is_a_valid_quartet_on_a_random_movie():
                           "x": seeds[..., 0].ravel(), "y": seeds[..., 1].ravel()})
     ev = detect_t1(edges, cells, censor=3, box=mov.box)
     assert len(ev) >= 5
-    con = contact_table(edges)
-    keys = set(zip(con["frame"], con["a"], con["b"]))
-    nb = lambda t, u: {b for (f, a, b) in keys if f == t and a == u} | {a for (f, a, b) in keys if f == t and b == u}
-    for r in ev.itertuples():
-        before, after = r.frame_start - 1, r.frame_gain
-        assert (before, r.cell_a, r.cell_b) in keys and (r.frame_start, r.cell_a, r.cell_b) not in keys
-        assert {r.cell_c, r.cell_d} <= nb(before, r.cell_a) & nb(before, r.cell_b)
-        assert (after, r.cell_c, r.cell_d) in keys and (after - 1, r.cell_c, r.cell_d) not in keys
-        assert {r.cell_a, r.cell_b} <= nb(after, r.cell_c) & nb(after, r.cell_d)
+    assert_valid_quartets(ev, edges, cells)
     assert set(ev["kind"]) <= {"cycle", "intercalation", "unresolved"}
+
+
+def assert_valid_quartets(events, edges, cells):
+    """Every event is a neighbour exchange in a quartet, checked directly on the contacts."""
+    con = contact_table(edges, cells)
+    keys = set(zip(con["frame"], con["a"], con["b"]))
+    frames = np.unique(cells["frame"])
+    nbrs = {}
+    for f, a, b in keys:
+        nbrs.setdefault((f, a), set()).add(b)
+        nbrs.setdefault((f, b), set()).add(a)
+    touch = lambda f, u, v: (f, min(u, v), max(u, v)) in keys
+    for r in events.itertuples():
+        before = frames[np.searchsorted(frames, r.frame_start) - 1]
+        after = r.frame_gain
+        assert touch(before, r.cell_a, r.cell_b) and not touch(r.frame_start, r.cell_a, r.cell_b)
+        assert {r.cell_c, r.cell_d} <= nbrs[(before, r.cell_a)] & nbrs[(before, r.cell_b)]
+        assert touch(after, r.cell_c, r.cell_d)
+        assert {r.cell_a, r.cell_b} <= nbrs[(after, r.cell_c)] & nbrs[(after, r.cell_d)]
+        between = frames[(frames >= r.frame_start) & (frames < after)]
+        assert not any(touch(f, r.cell_a, r.cell_b) or touch(f, r.cell_c, r.cell_d) for f in between)
+        if r.kind == "cycle":
+            assert touch(r.frame_end, r.cell_a, r.cell_b) and not touch(r.frame_end, r.cell_c, r.cell_d)
 
 
 def test_cell_statistics():
