@@ -519,7 +519,13 @@ class VoronoiMovie:
             raise InputError(f"n_cells must be >= 2 and n_frames >= 1; got {n_cells}, {n_frames}")
         rng = _rng(seed)
         spacing = np.sqrt(rows * cols / n_cells)
-        base = jittered_seeds((rows, cols), spacing, jitter=0.3, seed=rng)
+        # a lattice with at least n_cells sites, jittered, then random sites dropped: exactly n_cells seeds
+        ny = max(1, int(round(rows / spacing)))
+        nx = int(np.ceil(n_cells / ny))
+        gx, gy = np.meshgrid((np.arange(nx) + 0.5) * cols / nx, (np.arange(ny) + 0.5) * rows / ny)
+        base = np.c_[gx.ravel(), gy.ravel()]
+        base = base[np.sort(rng.permutation(len(base))[:n_cells])]
+        base = base + rng.uniform(-0.3, 0.3, size=base.shape) * spacing
         self.base = base
         self.n_cells = len(base)
         self.periodic = bool(periodic)

@@ -93,15 +93,16 @@ def _compact(labels: np.ndarray) -> _Compact:
 
 def _contingency(a: _Compact, b: _Compact):
     """Sparse overlap counts ``(i, j, n)`` between the cells of two compact frames."""
-    both = (a.index >= 0) & (b.index >= 0)
     na, nb = len(a.ids), len(b.ids)
-    key = a.index[both].astype(np.int64) * nb + b.index[both]
-    if na * nb <= _DENSE_LIMIT:
-        counts = np.bincount(key, minlength=na * nb)
-        key = np.flatnonzero(counts)
-        n = counts[key]
-    else:
-        key, n = np.unique(key, return_counts=True)
+    if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
+        # background (-1) wraps to the last row/column: one bincount, no masking
+        ia = np.where(a.index < 0, na, a.index).astype(np.int64)
+        counts = np.bincount(ia * (nb + 1) + np.where(b.index < 0, nb, b.index), minlength=(na + 1) * (nb + 1))
+        counts = counts.reshape(na + 1, nb + 1)[:na, :nb]
+        i, j = np.nonzero(counts)
+        return i.astype(np.int64), j.astype(np.int64), counts[i, j].astype(np.int64)
+    both = (a.index >= 0) & (b.index >= 0)
+    key, n = np.unique(a.index[both].astype(np.int64) * nb + b.index[both], return_counts=True)
     i, j = np.divmod(key, nb)
     return i, j, n.astype(np.int64)
 
@@ -155,36 +156,40 @@ def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction):
 
 
 def _assign(i, j, iou):
-    """Optimal one-to-one links maximising the summed IoU; returns index pairs and their IoU."""
+    """Links maximising the summed IoU over the candidate pairs ``(i, j, iou)``; returns (i, j, iou) linked.
+
+    Candidates that are the only option of both their row and their column
+    are linked directly; the rest is solved with linear_sum_assignment, per
+    connected component when it is large.
+    """
+    empty = (np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0))
     if len(i) == 0:
-        return np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
-    rows, ri = np.unique(i, return_inverse=True)
-    cols, cj = np.unique(j, return_inverse=True)
-    if len(rows) * len(cols) <= _DENSE_LIMIT:
-        dense = np.zeros((len(rows), len(cols)))
-        dense[ri, cj] = iou
-        r, c = linear_sum_assignment(dense, maximize=True)
-        value = dense[r, c]
-        keep = value > 0
-        return rows[r[keep]], cols[c[keep]], value[keep]
-    # Large problem: the overlap graph splits into independent components.
-    graph = coo_matrix((np.ones(len(i)), (ri, len(rows) + cj)), shape=(len(rows) + len(cols),) * 2)
-    _, comp = connected_components(graph, directed=False)
-    out_r, out_c, out_v = [], [], []
-    order = np.argsort(comp[ri], kind="stable")
-    bounds = np.flatnonzero(np.diff(comp[ri][order])) + 1
-    for sel in np.split(order, bounds):
-        sr, sri = np.unique(ri[sel], return_inverse=True)
-        sc, sci = np.unique(cj[sel], return_inverse=True)
-        dense = np.zeros((len(sr), len(sc)))
-        dense[sri, sci] = iou[sel]
-        r, c = linear_sum_assignment(dense, maximize=True)
-        value = dense[r, c]
-        keep = value > 0
-        out_r.append(rows[sr[r[keep]]])
-        out_c.append(cols[sc[c[keep]]])
-        out_v.append(value[keep])
-    return np.concatenate(out_r), np.concatenate(out_c), np.concatenate(out_v)
+        return empty
+    row_deg = np.bincount(i)[i]
+    col_deg = np.bincount(j)[j]
+    alone = (row_deg == 1) & (col_deg == 1)
+    out = [(i[alone], j[alone], iou[alone])]
+    i, j, iou = i[~alone], j[~alone], iou[~alone]
+    if len(i):
+        rows, ri = np.unique(i, return_inverse=True)
+        cols, cj = np.unique(j, return_inverse=True)
+        if len(rows) * len(cols) <= _DENSE_LIMIT:
+            groups = [np.arange(len(i))]
+        else:  # large problem: the candidate graph splits into independent components
+            graph = coo_matrix((np.ones(len(i)), (ri, len(rows) + cj)), shape=(len(rows) + len(cols),) * 2)
+            comp = connected_components(graph, directed=False)[1][ri]
+            order = np.argsort(comp, kind="stable")
+            groups = np.split(order, np.flatnonzero(np.diff(comp[order])) + 1)
+        for sel in groups:
+            sr, sri = np.unique(ri[sel], return_inverse=True)
+            sc, sci = np.unique(cj[sel], return_inverse=True)
+            dense = np.zeros((len(sr), len(sc)))
+            dense[sri, sci] = iou[sel]
+            r, c = linear_sum_assignment(dense, maximize=True)
+            value = dense[r, c]
+            keep = value > 0
+            out.append((rows[sr[r[keep]]], cols[sc[c[keep]]], value[keep]))
+    return tuple(np.concatenate(parts) for parts in zip(*out))
 
 
 def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
@@ -194,9 +199,9 @@ def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
     free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
     i, j, n = i[free], j[free], n[free]
     iou = n / (a.area[i] + b.area[j] - n)
-    r, c, value = _assign(i, j, iou)
-    good = value >= min_iou
-    return r[good], c[good], mothers, daughters
+    cand = iou >= min_iou
+    r, c, _ = _assign(i[cand], j[cand], iou[cand])
+    return r, c, mothers, daughters
 
 
 def match_frames(prev, cur, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2):
@@ -207,7 +212,8 @@ def match_frames(prev, cur, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2
     prev, cur : (rows, cols) int arrays
         Label images indexed ``[row, col]``; 0 = background.
     min_iou : float
-        Smallest IoU accepted for a link (the assignment maximises the summed IoU).
+        Smallest IoU of a candidate link; among the candidates the links
+        maximise the summed IoU (one-to-one).
     child_fraction, mother_fraction : float
         Division rule: a cell of ``cur`` is a daughter of a cell of ``prev``
         when at least ``child_fraction`` of the daughter and at least
@@ -293,9 +299,9 @@ class Tracker:
         key, n = np.unique(owner[ok].astype(np.int64) * len(cur.ids) + hit[ok], return_counts=True)
         i, j = np.divmod(key, len(cur.ids))
         area_d = np.array([len(p) for _, _, p in self._dormant])
-        r, c, value = _assign(i, j, n / (area_d[i] + cur.area[j] - n))
-        good = value >= self.min_iou
-        r, c = r[good], c[good]
+        iou = n / (area_d[i] + cur.area[j] - n)
+        cand = iou >= self.min_iou
+        r, c, _ = _assign(i[cand], j[cand], iou[cand])
         tracks[c] = [self._dormant[k][0] for k in r.tolist()]
         new[c] = False
         self._dormant = [d for k, d in enumerate(self._dormant) if k not in set(r.tolist())]
