@@ -25,9 +25,17 @@ DJ = np.array([1, 0, -1, 0], dtype=np.int64)
 
 @njit(cache=True)
 def corner_types(pad, nci, ncj):
-    """Arm bit masks (bit d = arm in direction d) and type codes of all corners."""
+    """Arm bit masks (bit d = arm in direction d) and type codes of all corners.
+
+    Also returns the vertices (corners of type 3 and 4) as row and column
+    arrays in raster order, the map ``vid`` from corners to vertex ids (-1
+    elsewhere) and the total number of cracks.
+    """
     arms = np.zeros((nci, ncj), dtype=np.uint8)
     kind = np.zeros((nci, ncj), dtype=np.uint8)
+    vid = np.full((nci, ncj), -1, dtype=np.int32)
+    n_vertices = 0
+    n_arms = 0
     for ci in range(nci):
         for cj in range(ncj):
             tl = pad[ci, cj]
@@ -45,6 +53,7 @@ def corner_types(pad, nci, ncj):
                 m |= 8
             arms[ci, cj] = m
             n = (m & 1) + ((m >> 1) & 1) + ((m >> 2) & 1) + ((m >> 3) & 1)
+            n_arms += n
             if n == 0:
                 continue
             if n == 2:
@@ -61,7 +70,18 @@ def corner_types(pad, nci, ncj):
                     kind[ci, cj] = 6
                 else:
                     kind[ci, cj] = 4
-    return arms, kind
+            if kind[ci, cj] == 3 or kind[ci, cj] == 4:
+                vid[ci, cj] = n_vertices
+                n_vertices += 1
+    vi = np.empty(n_vertices, np.int64)
+    vj = np.empty(n_vertices, np.int64)
+    for ci in range(nci):
+        for cj in range(ncj):
+            v = vid[ci, cj]
+            if v >= 0:
+                vi[v] = ci
+                vj[v] = cj
+    return arms, kind, vid, vi, vj, n_arms // 2
 
 
 @njit(cache=True)
@@ -104,6 +124,22 @@ def _sides(pad, ci, cj, d):
 
 
 @njit(cache=True)
+def _step(ci, cj, d, nci, ncj):
+    """The corner next to (ci, cj) in direction d, wrapping around the lattice."""
+    ci += DI[d]
+    cj += DJ[d]
+    if ci < 0:
+        ci += nci
+    elif ci >= nci:
+        ci -= nci
+    if cj < 0:
+        cj += ncj
+    elif cj >= ncj:
+        cj -= ncj
+    return ci, cj
+
+
+@njit(cache=True)
 def _crack_index(ci, cj, d, nci, ncj):
     """(array 0 = horizontal / 1 = vertical, row, col) of the crack leaving (ci, cj) in direction d."""
     if d == 0:
@@ -111,8 +147,8 @@ def _crack_index(ci, cj, d, nci, ncj):
     if d == 1:
         return 1, ci, cj
     if d == 2:
-        return 0, ci, (cj - 1) % ncj
-    return 1, (ci - 1) % nci, cj
+        return 0, ci, cj - 1 if cj > 0 else ncj - 1
+    return 1, ci - 1 if ci > 0 else nci - 1, cj
 
 
 @njit(cache=True)
@@ -130,8 +166,7 @@ def _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj):
         dx += DJ[d]
         dy += DI[d]
         n += 1
-        ci = (ci + DI[d]) % nci
-        cj = (cj + DJ[d]) % ncj
+        ci, cj = _step(ci, cj, d, nci, ncj)
         if vid[ci, cj] >= 0:
             return ci, cj, dx, dy, n, d
         d = _next_dir(kind[ci, cj], arms[ci, cj], d)
@@ -217,8 +252,7 @@ def trace_loops(pad, arms, kind, visited):
                     dx += DJ[dd]
                     dy += DI[dd]
                     n += 1
-                    i = (i + DI[dd]) % nci
-                    j = (j + DJ[dd]) % ncj
+                    i, j = _step(i, j, dd, nci, ncj)
                     dd = _next_dir(kind[i, j], arms[i, j], dd)
                 rows.append(ci)
                 cols.append(cj)
@@ -254,8 +288,15 @@ def cell_moments(labels, n_labels, periodic):
                 if count[lab] == 0:
                     ref_x[lab] = x
                     ref_y[lab] = y
-                x -= w * np.round((x - ref_x[lab]) / w)
-                y -= h * np.round((y - ref_y[lab]) / h)
+                # the image of the pixel nearest the label's first pixel
+                if x - ref_x[lab] > 0.5 * w:
+                    x -= w
+                elif x - ref_x[lab] < -0.5 * w:
+                    x += w
+                if y - ref_y[lab] > 0.5 * h:
+                    y -= h
+                elif y - ref_y[lab] < -0.5 * h:
+                    y += h
             count[lab] += 1
             sx[lab] += x
             sy[lab] += y
@@ -452,8 +493,7 @@ def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
                 n += 1
                 px += DJ[d]
                 py += DI[d]
-                ci = (ci + DI[d]) % nci
-                cj = (cj + DJ[d]) % ncj
+                ci, cj = _step(ci, cj, d, nci, ncj)
                 if vid[ci, cj] >= 0:
                     break
                 d = _next_dir(kind[ci, cj], arms[ci, cj], d)

@@ -20,6 +20,7 @@ __all__ = ["mesh_from_labels"]
 
 ARM_REACH = 8  # cracks per arm in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
+MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practically never needed
 
 
 def _resolve_box(box, shape):
@@ -41,8 +42,7 @@ def _compact(lab):
     """Labels as int32 0..n (0 kept) and the original id of each compact id."""
     top = int(lab.max())
     if top < 2**24 and top <= 4 * lab.size:
-        present = np.zeros(top + 1, bool)
-        present[lab.ravel()] = True
+        present = np.bincount(lab.ravel(), minlength=top + 1) > 0
         present[0] = True
         ids = np.flatnonzero(present)
         if len(ids) == top + 1:
@@ -63,11 +63,8 @@ def _trace(lab32, periodic, membrane):
     pad = np.pad(lab32, 1, mode=mode)
     h, w = lab32.shape
     nci, ncj = (h, w) if periodic else (h + 1, w + 1)
-    arms, ctype = K.corner_types(pad, nci, ncj)
-    vi, vj = np.nonzero((ctype == 3) | (ctype == 4))
-    vid = np.full((nci, ncj), -1, np.int64)
-    vid[vi, vj] = np.arange(len(vi))
-    n_max = int(np.unpackbits(arms[vi, vj][:, None], axis=1).sum()) + 1
+    arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj)
+    n_max = 4 * len(vi) + 1
     start, end, sarm, earm, left, right, dx, dy, ncrack, visited = K.trace_junctions(
         pad, arms, ctype, vid, vi, vj, n_max
     )
@@ -79,7 +76,10 @@ def _trace(lab32, periodic, membrane):
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0
-    lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(pad, arms, ctype, visited)
+    if ncrack.sum() < n_cracks:  # boundaries with no vertex on them are left
+        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(pad, arms, ctype, visited)
+    else:
+        lr = lc = ll = lrt = ldx = ldy = np.zeros(0, np.int64)
     n_loops = len(lr)
     loop_v = len(vi) + np.arange(n_loops)
     no_arm = -np.ones(n_loops, np.int64)  # loop points are not vertices: no arm lines
@@ -130,25 +130,23 @@ def _subpixel_shift(cluster, off, j, use, lines, n_clusters):
 
 
 def _merge_short(pos, j, lines, merge_distance, box):
-    """Contract junctions shorter than ``merge_distance``; returns merged positions and kept junctions."""
-    n = len(pos)
+    """Contract junctions shorter than ``merge_distance``; returns merged positions and kept junctions.
+
+    Lengths are measured between sub-pixel vertex positions, which depend on
+    what was merged, so contraction is repeated until no kept junction is
+    shorter than ``merge_distance``.
+    """
     loop = j["start"] == j["end"]
     short = ~loop & (np.hypot(*j["vec"].T) < merge_distance)
-    graph = coo_matrix((np.ones(short.sum()), (j["start"][short], j["end"][short])), shape=(n, n))
-    _, cluster = connected_components(graph, directed=False)
-    first = np.unique(cluster, return_index=True)[1]
-    min_image = box.min_image if box is not None else (lambda d: d)
-    off_first = min_image(pos - pos[first[cluster]])
-    counts = np.bincount(cluster)
-    mean_off = np.c_[np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])] / counts[:, None]
-    centre = pos[first] + mean_off
-    off = off_first - mean_off[cluster]  # vertex position = its cluster centre + off
-    keep = ~short
-    shift = _subpixel_shift(cluster, off, j, keep, lines, len(centre))
-    centre = centre + shift
-    off = off - shift[cluster]
-    vec = j["vec"][keep] + off[j["start"][keep]] - off[j["end"][keep]]
-    a, b = cluster[j["start"][keep]], cluster[j["end"][keep]]
+    for _ in range(MAX_MERGE_ROUNDS):
+        cluster, centre, off = _clusters(pos, j, short, lines, box)
+        keep = ~short
+        vec = j["vec"][keep] + off[j["start"][keep]] - off[j["end"][keep]]
+        a, b = cluster[j["start"][keep]], cluster[j["end"][keep]]
+        again = (a != b) & (np.hypot(*vec.T) < merge_distance)
+        if not again.any():
+            break
+        short[np.flatnonzero(keep)[again]] = True
     collapsed = (a == b) & ~loop[keep]
     if collapsed.any():
         warnings.warn(
@@ -168,6 +166,26 @@ def _merge_short(pos, j, lines, merge_distance, box):
     if box is not None:
         centre = box.wrap(centre)
     return centre, kept
+
+
+def _clusters(pos, j, short, lines, box):
+    """Vertices joined by ``short`` junctions: cluster id per vertex, cluster positions, vertex offsets.
+
+    A vertex's position is its cluster's position plus its offset (minimum
+    image); cluster positions are refined to the intersection of their arms.
+    """
+    n = len(pos)
+    graph = coo_matrix((np.ones(short.sum()), (j["start"][short], j["end"][short])), shape=(n, n))
+    _, cluster = connected_components(graph, directed=False)
+    first = np.unique(cluster, return_index=True)[1]
+    min_image = box.min_image if box is not None else (lambda d: d)
+    off_first = min_image(pos - pos[first[cluster]])
+    counts = np.bincount(cluster)
+    mean_off = np.c_[np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])] / counts[:, None]
+    centre = pos[first] + mean_off
+    off = off_first - mean_off[cluster]
+    shift = _subpixel_shift(cluster, off, j, ~short, lines, len(centre))
+    return cluster, centre + shift, off - shift[cluster]
 
 
 def _polygons(centre, kept, n_labels):
