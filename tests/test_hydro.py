@@ -241,3 +241,16 @@ def test_bad_input():
         Solver(16, off=["magic"])
     with pytest.raises(InputError, match="psi"):
         Solver(16).state_from_fields(np.ones((8, 8)))
+
+
+def test_command_line_runs_and_resumes(tmp_path, capsys):
+    from hexatissue.hydro.command import main
+
+    out = tmp_path / "run.zarr"
+    args = ["hydro", "dipole", "--alpha", "0", "--n", "32", "--distance", "8", "--steps", "20", "--out", str(out),
+            "--defects", str(tmp_path / "d.csv")]
+    assert main(args) == 0
+    assert "dipole alpha6=+0" in capsys.readouterr().out
+    diag, defects, fields, attrs = open_run(out)
+    assert attrs["params"]["alpha6"] == 0.0 and len(diag) == 3 and (tmp_path / "d.csv").exists()
+    assert main(args[:-2] + ["--resume"]) == 0
