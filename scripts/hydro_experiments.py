@@ -22,7 +22,7 @@ def dipole(a):
     results = {}
     for alpha in a.alphas:
         out = RUNS / f"dipole_n{a.n}_d{a.distance:g}_a{alpha:+g}.zarr"
-        r = run_dipole(alpha, n=a.n, distance=a.distance, out=out, seed=a.seed, resume=True)
+        r = run_dipole(alpha, n=a.n, distance=a.distance, out=out, seed=a.seed, resume=True, progress=False)
         results[alpha] = r
         print(f"dipole alpha={alpha:+g}: annihilation time {r.annihilation_time}", flush=True)
     tag = f"n{a.n}_d{a.distance:g}"
@@ -59,7 +59,7 @@ def quadrupole(a):
     for ax, alpha in zip(axes[0], a.alphas):
         out = RUNS / f"quad_n{a.n}_a{alpha:+g}.zarr"
         r = run_quadrupole(alpha, n=a.n, ell=a.ell, out=out, seed=a.seed, resume=True, max_time=a.max_time,
-                           field_every=5)
+                           field_every=5, progress=False)
         centre = ((a.n / 2 - 0.5),) * 2
         last = r.defects[r.defects["frame"] == r.defects["frame"].max()] if len(r.defects) else r.defects
         far = float(np.hypot(last["x"] - centre[0], last["y"] - centre[1]).max()) if len(last) else 0.0

@@ -27,10 +27,10 @@ def pointwise_numpy(psi, psi_x, psi_y, lap, vel, omega, domega, L6, A6, B6):
     return h, n, f, r
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _pointwise(psi, psi_x, psi_y, lap, vel, omega, domega, L6, A6, B6, h, n, f, r):
     ny, nx = psi.shape
-    for i in numba.prange(ny):
+    for i in range(ny):
         for j in range(nx):
             p = psi[i, j]
             px = psi_x[i, j]

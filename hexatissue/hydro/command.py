@@ -20,7 +20,7 @@ def add_parser(subparsers):
     p.add_argument("--n", type=int, default=256, help="grid size (default 256)")
     p.add_argument("--steps", type=int, default=None,
                    help="number of time steps (default: until annihilation, capped)")
-    p.add_argument("--dt", type=float, default=None, help="time step (default 0.1)")
+    p.add_argument("--dt", type=float, default=None, help="time step (default 0.05)")
     p.add_argument("--distance", type=float, default=64.0, help="dipole: initial separation")
     p.add_argument("--ell", type=float, default=7.0, help="quadrupole: half-distance of like defects")
     p.add_argument("--max-time", type=float, default=None, help="safety cap on the simulated time")

@@ -35,7 +35,7 @@ def core_profile(r, params):
     return r / np.sqrt(r**2 + 2 * xi2)
 
 
-def thermalise(psi, fixed, params, dt=0.5, check_time=10.0, tol=1e-3, max_time=20000.0, clean=True):
+def thermalise(psi, fixed, params, dt=0.5, check_time=10.0, tol=1e-3, max_time=10000.0, clean=True):
     """Relax ``d_t Psi = Gamma6 H`` (no flow) holding ``psi[fixed]`` fixed.
 
     Semi-implicit Euler (diffusion implicit), with the scheme's Laplacian.
@@ -81,17 +81,27 @@ def _clean(psi, fixed):
     return not np.any(charges[~near] != 0)
 
 
-def _random_outside(psi, fixed, params, seed):
+def _random_outside(psi, fixed, params, seed, noise):
+    """Outside ``fixed``: random phases (``noise=None``) or the analytic phase plus uniform noise in (-noise, noise)."""
     rng = _rng(seed)
-    phase = rng.uniform(0, 2 * np.pi, psi.shape)
-    return np.where(fixed, psi, params.psi0 * np.exp(1j * phase))
+    if noise is None:
+        outside = params.psi0 * np.exp(1j * rng.uniform(0, 2 * np.pi, psi.shape))
+    else:
+        outside = params.psi0 * np.exp(1j * (np.angle(psi) + rng.uniform(-noise, noise, psi.shape)))
+    return np.where(fixed, psi, outside)
 
 
-def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, thermalise_kw=None):
+NOISE = np.pi / 3
+
+
+def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, noise=NOISE, thermalise_kw=None):
     """Quadrupole of +-1/6 defects (Psi6 = W/|W|, exact) fixed in a disk, random outside, relaxed.
 
     -1/6 defects at ``(cx +- ell, cy)``, +1/6 at ``(cx, cy +- ell)``, with
-    ``cx = cy = (n/2 - 1/2) dx`` (a plaquette centre).
+    ``cx = cy = (n/2 - 1/2) dx`` (a plaquette centre).  Outside the disk the
+    phase of Psi6 is the analytic one plus uniform noise in ``(-noise,
+    noise)``; ``noise=None`` takes fully random phases (the paper's wording),
+    which leaves stray defects, some trapped at the edge of the fixed disk.
 
     Returns
     -------
@@ -107,12 +117,12 @@ def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, thermalis
     for zc in (c + ell + 1j * c, c - ell + 1j * c, c + 1j * (c + ell), c + 1j * (c - ell)):
         psi = psi * core_profile(np.abs(X + 1j * Y - zc), params)
     fixed = np.hypot(X - c, Y - c) <= disk
-    psi = _random_outside(psi, fixed, params, seed)
+    psi = _random_outside(psi, fixed, params, seed, noise)
     psi, t = thermalise(psi, fixed, params, **(thermalise_kw or {}))
     return psi, {"centre": (c, c), "thermalise_time": t}
 
 
-def dipole_initial(n=256, distance=64.0, disk=5.0, params=None, seed=0, thermalise_kw=None):
+def dipole_initial(n=256, distance=64.0, disk=5.0, params=None, seed=0, noise=NOISE, thermalise_kw=None):
     """+1/6 defect at ``(cx - d/2, cy)`` and -1/6 at ``(cx + d/2, cy)``, phase fixed in disks, relaxed.
 
     Returns
@@ -130,7 +140,7 @@ def dipole_initial(n=256, distance=64.0, disk=5.0, params=None, seed=0, thermali
     psi = params.psi0 * np.exp(1j * (np.angle(z - zp) - np.angle(z - zm)))
     psi = psi * core_profile(np.abs(z - zp), params) * core_profile(np.abs(z - zm), params)
     fixed = (np.abs(z - zp) <= disk) | (np.abs(z - zm) <= disk)
-    psi = _random_outside(psi, fixed, params, seed)
+    psi = _random_outside(psi, fixed, params, seed, noise)
     psi, t = thermalise(psi, fixed, params, **(thermalise_kw or {}))
     info = {"positions": [(zp.real, zp.imag, 1 / 6), (zm.real, zm.imag, -1 / 6)], "thermalise_time": t}
     return psi, info

@@ -9,8 +9,9 @@ Store layout (zarr group ``RUN.zarr``):
   float32 fields (node ``[i, j]`` at x = j dx, y = i dx), one frame every
   ``field_every`` diagnostics;
 - ``defects/{frame,x,y,charge}``: all defects, ``frame`` indexing ``time``;
-- ``checkpoint.npz`` beside the arrays: the full solver state after the last
-  diagnostic, written atomically.  Resuming truncates the arrays to the
+- ``checkpoint.npz`` beside the arrays: the full solver state at the last
+  flush (diagnostics are buffered and flushed with every stored field, and at
+  the end), written atomically.  Resuming truncates the arrays to the
   checkpoint and continues; the result is identical to an uninterrupted run.
 """
 from __future__ import annotations
@@ -150,17 +151,21 @@ class _Store:
             mem.defects = [pd.DataFrame({k: g[f"defects/{k}"][:] for k in DEFECT_COLS})]
         return state, mem, frames, fields
 
-    def write(self, scal, d, frame, psi=None, vel=None, time=None):
+    def write(self, pending, psi=None, vel=None, time=None):
+        """Append buffered diagnostics [(scal, defects, frame), ...] and optionally one field frame."""
         g = self.group
-        for k in SCALARS:
-            g[k].resize((frame + 1,))
-            g[k][frame] = scal[k]
-        if len(d):
-            m = g["defects/x"].shape[0]
-            cols = {"frame": np.full(len(d), frame), "x": d["x"], "y": d["y"], "charge": d["charge"]}
-            for k, v in cols.items():
-                g[f"defects/{k}"].resize((m + len(d),))
-                g[f"defects/{k}"][m:] = np.asarray(v)
+        if pending:
+            m = g["time"].shape[0]
+            for k in SCALARS:
+                g[k].resize((m + len(pending),))
+                g[k][m:] = np.array([p[0][k] for p in pending], dtype=SCALARS[k])
+            tables = [p[1].assign(frame=p[2]) for p in pending if len(p[1])]
+            if tables:
+                d = pd.concat(tables, ignore_index=True)
+                m = g["defects/x"].shape[0]
+                for k in DEFECT_COLS:
+                    g[f"defects/{k}"].resize((m + len(d),))
+                    g[f"defects/{k}"][m:] = d[k].to_numpy(DEFECT_COLS[k])
         if psi is not None:
             m = g["field_time"].shape[0]
             g["field_time"].resize((m + 1,))
@@ -225,16 +230,17 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
         state = state.copy()
         mem, frame = _Memory(), 0
     bar = tqdm(total=last_step, initial=state.step, disable=not progress, unit="step", leave=False)
+    pending = []
     done = False
     if frame == 0:
-        done = _record(solver, state, mem, store, 0, field_every, stop)
+        done = _record(solver, state, mem, store, pending, 0, field_every, stop, last=False)
         frame = 1
     while not done and state.step < last_step:
         n = min(save_every, last_step - state.step)
         for _ in range(n):
             solver.step(state)
         bar.update(n)
-        done = _record(solver, state, mem, store, frame, field_every, stop)
+        done = _record(solver, state, mem, store, pending, frame, field_every, stop, state.step >= last_step)
         frame += 1
     bar.close()
     if not np.all(np.isfinite(state.psi_hat)):
@@ -247,17 +253,20 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
                        meta or {}, None if out is None else Path(out))
 
 
-def _record(solver, state, mem, store, frame, field_every, stop):
+def _record(solver, state, mem, store, pending, frame, field_every, stop, last):
+    """Diagnose, buffer; flush to the store (with a checkpoint) on field frames and at the end."""
     scal, d, psi = _diagnose(solver, state)
     mem.add(scal, d, frame)
+    done = not np.isfinite(scal["free_energy"]) or (stop is not None and bool(stop(scal, d)))
     if store is not None:
+        pending.append((scal, d, frame))
         with_field = frame % field_every == 0
-        vel = solver.velocity(state) if with_field else None
-        store.write(scal, d, frame, psi if with_field else None, vel, state.time)
-        store.checkpoint(state, frame + 1)
-    if not np.isfinite(scal["free_energy"]):
-        return True
-    return bool(stop(scal, d)) if stop is not None else False
+        if with_field or done or last:
+            vel = solver.velocity(state) if with_field else None
+            store.write(pending, psi if with_field else None, vel, state.time)
+            store.checkpoint(state, frame + 1)
+            pending.clear()
+    return done
 
 
 def open_run(path):
