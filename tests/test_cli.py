@@ -32,8 +32,27 @@ def test_analyze_stack_writes_frame_column(tmp_path):
     assert sorted(cells["frame"].unique()) == list(range(11))
     per_frame = cells.groupby("frame").size()
     assert (per_frame == [82, 81, 81, 82, 82, 81, 82, 82, 83, 83, 83]).all()  # published counts
-    assert (out / "metadata.json").exists() and (out / "cell_vertices.parquet").exists()
-    assert not list(out.glob("*.tmp"))
+    for name in ("cell_vertices", "grid", "defects", "events", "lineage", "cell_events"):
+        assert (out / f"{name}.parquet").exists(), name
+    assert (out / "metadata.json").exists() and not list(out.glob("*.tmp"))
+    # the curated ids are consistent: tracking reproduces them (cells leaving the crop and coming back
+    # start new tracks), and the annotated division 73 -> 477 + 490 at frame 3 is found
+    assert (cells["track"] == cells["cell"]).mean() > 0.95
+    lineage = pd.read_parquet(out / "lineage.parquet").set_index("track")
+    assert lineage.loc[477, "parent"] == 73 and lineage.loc[490, "parent"] == 73
+    assert lineage.loc[477, "frame_start"] == 3
+    defects = pd.read_parquet(out / "defects.parquet")
+    assert set(defects["p"]) <= {2, 6} and np.all(np.isin(np.round(defects["charge"] * 6), [-1, 1]) | (defects["p"] == 2))
+
+
+def test_analyze_figures(tmp_path):
+    labels = voronoi_labels(jittered_seeds((120, 150), 14, seed=1), (120, 150))
+    path = tmp_path / "labels.npy"
+    np.save(path, labels)
+    assert main(["analyze", str(path), "--out", str(tmp_path / "out"), "--figures", "--order-p", "6"]) == 0
+    pngs = sorted(p.name for p in (tmp_path / "out" / "figures").glob("*.png"))
+    assert pngs == ["order6.png", "polygons.png", "stars6.png"]
+    assert all((tmp_path / "out" / "figures" / name).stat().st_size > 10_000 for name in pngs)
 
 
 def test_analyze_bad_input(tmp_path, capsys):
@@ -48,4 +67,5 @@ def test_analyze_bad_input(tmp_path, capsys):
 def test_help_lists_commands(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
-    assert "analyze" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "analyze" in text and "hydro" in text
