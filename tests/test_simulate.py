@@ -302,7 +302,7 @@ def test_loewe_preset_runs_stably():
 
 
 # -- runs, store, resume ---------------------------------------------------------------------
-RUN = dict(steps=60, save_every=10, relax=30, seed=5, progress=False, checkpoint_seconds=0)
+RUN = dict(steps=60, save_every=10, relax=30, seed=5, progress=False)
 RUNP = Params(n_cells=6, Lx=48, Ly=44, D_r=1e-3, v0=0.01)
 
 
@@ -408,3 +408,24 @@ def test_resume_equals_uninterrupted(tmp_path, monkeypatch):
     g.attrs["n_frames"] = 5
     run_simulation(killed, steps=60, resume=True, progress=False)
     _assert_same_run(_arrays(killed), expected)
+
+
+def test_command_line(tmp_path, capsys):
+    import argparse
+
+    from hexatissue.simulate.command import add_parser
+
+    parser = argparse.ArgumentParser(prog="hexatissue")
+    add_parser(parser.add_subparsers())
+    out = tmp_path / "cli.zarr"
+    base = ["simulate", "--out", str(out), "--cells", "6", "--size", "48", "44", "--quiet", "--threads", "1"]
+    args = parser.parse_args(base + ["--steps", "20", "--save-every", "10", "--relax", "10", "--seed", "3"])
+    assert args.func(args) == 0
+    assert "3 frames" in capsys.readouterr().out
+    args = parser.parse_args(["simulate", "--out", str(out), "--resume", "--steps", "40", "--quiet"])
+    assert args.func(args) == 0
+    run = read_run(out)
+    assert run.n_frames == 5 and run.params.n_cells == 6 and run.seed == 3
+    args = parser.parse_args(base + ["--dt", "2", "--overwrite"])
+    assert args.func(args) == 2
+    assert "unstable" in capsys.readouterr().err

@@ -177,6 +177,8 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
         store = RunStore.create(out, params, seed, relax, steps, save_every, patches_every, overwrite=overwrite)
         if labels is not None:
             store.g.create_array("init_labels", data=np.asarray(labels))
+    n_frames_total = steps // save_every + 1
+    store.reserve(n_frames_total, (n_frames_total - 1) // patches_every + 1 if patches_every else 0)
     n_threads = set_threads(threads)
 
     bar = None

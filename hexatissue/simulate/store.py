@@ -73,15 +73,16 @@ class RunStore:
         g = zarr.open_group(str(path), mode="w")
         N, (Ly, Lx), P = params.n_cells, params.shape, params.patch
         g.create_array("labels", shape=(0, Ly, Lx), chunks=(1, Ly, Lx), dtype=_label_dtype(N), fill_value=0)
-        g.create_array("step", shape=(0,), chunks=(4096,), dtype="int64", fill_value=0)
-        rows = max(1, min(1024, 2**20 // (8 * N)))
+        g.create_array("step", shape=(0,), chunks=(256,), dtype="int64", fill_value=0)
+        # small row blocks: appending a frame rewrites one chunk of each per-cell array
+        rows = max(1, min(16, 2**16 // (8 * N)))
         for name in PER_CELL:
             g.create_array(name, shape=(0, N), chunks=(rows, N), dtype="float64", fill_value=0.0)
         pg = g.require_group("patches")
         pg.create_array("phi", shape=(0, N, P, P), chunks=(1, N, P, P), dtype=params.dtype, fill_value=0.0)
         pg.create_array("ox", shape=(0, N), chunks=(1, N), dtype="int64", fill_value=0)
         pg.create_array("oy", shape=(0, N), chunks=(1, N), dtype="int64", fill_value=0)
-        pg.create_array("frame", shape=(0,), chunks=(4096,), dtype="int64", fill_value=0)
+        pg.create_array("frame", shape=(0,), chunks=(256,), dtype="int64", fill_value=0)
         g.attrs.update(
             {
                 "format": FORMAT,
@@ -143,20 +144,27 @@ class RunStore:
         self._put("patches/frame", k, frame)
         self.g.attrs["n_patch_frames"] = k + 1
 
+    def reserve(self, n_frames, n_patch_frames):
+        """Grow the arrays to hold ``n_frames`` frames and ``n_patch_frames`` patch snapshots.
+
+        Done once per run, not per frame: resizing rewrites array metadata.
+        Entries beyond ``attrs.n_frames`` are not part of the run.
+        """
+        for names, n in ((("labels", "step") + PER_CELL, n_frames),
+                         (("patches/phi", "patches/ox", "patches/oy", "patches/frame"), n_patch_frames)):
+            for name in names:
+                a = self.g[name]
+                if a.shape[0] < n:
+                    a.resize((n,) + a.shape[1:])
+
     def _put(self, name, t, value):
         a = self.g[name]
-        if a.shape[0] != t + 1:
+        if a.shape[0] <= t:
             a.resize((t + 1,) + a.shape[1:])
         a[t] = value
 
     def truncate(self, n_frames, n_patch_frames):
-        """Drop frames beyond the given counts (those written after the last checkpoint)."""
-        for name in ("labels", "step") + PER_CELL:
-            a = self.g[name]
-            a.resize((n_frames,) + a.shape[1:])
-        for name in ("patches/phi", "patches/ox", "patches/oy", "patches/frame"):
-            a = self.g[name]
-            a.resize((n_patch_frames,) + a.shape[1:])
+        """Forget frames beyond the given counts (those written after the last checkpoint)."""
         self.g.attrs.update({"n_frames": int(n_frames), "n_patch_frames": int(n_patch_frames)})
 
     # -- checkpoints --------------------------------------------------------------------
@@ -164,13 +172,13 @@ class RunStore:
         """Save the full state of ``sim`` to the free slot, then point ``attrs.checkpoint`` at it."""
         current = self.g.attrs.get("checkpoint")
         slot = "b" if current == "a" else "a"
-        name = f"checkpoint/{slot}"
-        if name in self.g:
-            del self.g[name]
-        cg = self.g.require_group(name)
+        cg = self.g.require_group(f"checkpoint/{slot}")
         for key in ("phi", "ox", "oy", "theta", "leak"):
             arr = np.ascontiguousarray(getattr(sim, key))
-            cg.create_array(key, data=arr, chunks=arr.shape)
+            if key in cg and cg[key].shape == arr.shape and cg[key].dtype == arr.dtype:
+                cg[key][...] = arr  # the slot is reused: overwrite in place
+            else:
+                cg.create_array(key, data=arr, chunks=arr.shape, overwrite=True)
         cg.attrs.update(
             {
                 "step": int(sim.step),
