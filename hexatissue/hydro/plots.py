@@ -70,6 +70,7 @@ def plot_state(psi, velocity, defects=None, dx=1.0, ax=None, title=None, window=
         ax.set_title(title, fontsize=9)
     cb = fig.colorbar(im, ax=ax, fraction=0.046, pad=0.03)
     cb.set_label(r"$\theta = \arg\Psi_6/6$")
+    fig.tight_layout()
     return fig
 
 
@@ -91,7 +92,7 @@ def plot_dipole_trajectories(results, path=None):
     colours = plt.cm.coolwarm(np.linspace(0, 1, max(2, len(results))))
     for colour, (alpha, res) in zip(colours, sorted(results.items())):
         d = res.defects
-        label = rf"$\alpha_6={alpha:+.2f}$" + (f", $t_a={res.annihilation_time:.0f}$" if res.annihilation_time else "")
+        label = rf"$\alpha_6={alpha:+.2f}$" + (f", $t_a={res.annihilation_time:.1f}$" if res.annihilation_time else "")
         for k, (track, g) in enumerate(d.groupby("defect")):
             g = g.sort_values("time")
             style = "-" if g["charge"].iloc[0] > 0 else "--"
