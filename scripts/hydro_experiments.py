@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hexatissue.hydro import departure_angle, run_dipole, run_quadrupole
+from hexatissue.hydro import default_params, departure_angle, run_dipole, run_quadrupole
 from hexatissue.hydro.plots import plot_dipole_trajectories, plot_quadrupole_tracks, plot_state
 
 FIG = Path("docs/figures")
@@ -21,11 +21,13 @@ RUNS = Path("runs")
 def dipole(a):
     results = {}
     for alpha in a.alphas:
-        out = RUNS / f"dipole_n{a.n}_d{a.distance:g}_a{alpha:+g}.zarr"
-        r = run_dipole(alpha, n=a.n, distance=a.distance, out=out, seed=a.seed, resume=True, progress=False)
+        out = RUNS / f"dipole_n{a.n}_d{a.distance:g}_a{alpha:+g}{_scheme_tag(a)}.zarr"
+        # diagnostics every 2 steps (0.1 time units): the activity effect on t_a is small
+        r = run_dipole(alpha, n=a.n, distance=a.distance, out=out, seed=a.seed, resume=True, progress=False,
+                       save_every=2 if a.scheme == "spectral" else 1, field_every=100, params=_params(a, alpha))
         results[alpha] = r
         print(f"dipole alpha={alpha:+g}: annihilation time {r.annihilation_time}", flush=True)
-    tag = f"n{a.n}_d{a.distance:g}"
+    tag = f"n{a.n}_d{a.distance:g}{_scheme_tag(a)}" + (f"_{a.tag}" if a.tag else "")
     plot_dipole_trajectories(results, FIG / f"hydro_dipole_{tag}.png")
     summary = {str(k): {"annihilation_time": v.annihilation_time,
                         "final_time": float(v.diagnostics["time"].iloc[-1])} for k, v in results.items()}
@@ -34,9 +36,20 @@ def dipole(a):
     import zarr
 
     alpha = min(results)
-    g = zarr.open_group(str(RUNS / f"dipole_n{a.n}_d{a.distance:g}_a{alpha:+g}.zarr"), mode="r")
-    k = len(g["field_time"]) // 2
+    g = zarr.open_group(str(RUNS / f"dipole_n{a.n}_d{a.distance:g}_a{alpha:+g}{_scheme_tag(a)}.zarr"), mode="r")
+    k = g["field_time"].shape[0] // 2
     _snapshot(g, k, results[alpha], FIG / f"hydro_dipole_state_{tag}.png", f"dipole, alpha6={alpha:+g}")
+
+
+def _scheme_tag(a):
+    return "" if a.scheme == "spectral" else "_fd"
+
+
+def _params(a, alpha):
+    """Production scheme, or the paper's finite differences (explicit RK4, dt = 0.1)."""
+    if a.scheme == "spectral":
+        return default_params(alpha)
+    return default_params(alpha, scheme="fd", integrator="rk4", dt=0.1)
 
 
 def _snapshot(g, k, result, path, title, window=None):
@@ -57,13 +70,21 @@ def quadrupole(a):
 
     fig, axes = plt.subplots(1, len(a.alphas), figsize=(3.2 * len(a.alphas), 3.4), squeeze=False)
     for ax, alpha in zip(axes[0], a.alphas):
-        out = RUNS / f"quad_n{a.n}_a{alpha:+g}.zarr"
-        r = run_quadrupole(alpha, n=a.n, ell=a.ell, out=out, seed=a.seed, resume=True, max_time=a.max_time,
-                           field_every=5, progress=False)
+        out = RUNS / f"quad_n{a.n}_a{alpha:+g}{_scheme_tag(a)}.zarr"
+        try:
+            r = run_quadrupole(alpha, n=a.n, ell=a.ell, out=out, seed=a.seed, resume=True, max_time=a.max_time,
+                               field_every=5, progress=False, params=_params(a, alpha))
+        except FloatingPointError as exc:
+            summary[str(alpha)] = {"fate": "numerically unstable", "error": str(exc)}
+            print(f"quadrupole alpha={alpha:+g}: {exc}", flush=True)
+            continue
         centre = ((a.n / 2 - 0.5),) * 2
         last = r.defects[r.defects["frame"] == r.defects["frame"].max()] if len(r.defects) else r.defects
         far = float(np.hypot(last["x"] - centre[0], last["y"] - centre[1]).max()) if len(last) else 0.0
-        if r.annihilation_time is not None:
+        n_max = int(r.diagnostics["n_defects"].max())
+        if n_max > 4:
+            fate = "proliferated"  # activity creates new defects: bulk active instability
+        elif r.annihilation_time is not None:
             fate = "annihilated"
         elif far > 6 * a.ell:
             fate = "split"
@@ -73,20 +94,20 @@ def quadrupole(a):
         summary[str(alpha)] = {"fate": fate, "annihilation_time": r.annihilation_time,
                                "final_time": float(r.diagnostics["time"].iloc[-1]),
                                "departure_angles_deg": np.degrees(angles).round(1).tolist(),
-                               "max_distance_from_centre": far}
+                               "max_distance_from_centre": far, "max_defects": n_max}
         print(f"quadrupole alpha={alpha:+g}: {summary[str(alpha)]}", flush=True)
         plot_quadrupole_tracks(r, centre, ax=ax, title=rf"$\alpha_6={alpha:+g}$: {fate}")
         import zarr
 
         g = zarr.open_group(str(out), mode="r")
-        k = min(len(g["field_time"]) - 1, max(1, len(g["field_time"]) // 2))
+        k = min(g["field_time"].shape[0] - 1, max(1, g["field_time"].shape[0] // 2))
         c = centre[0]
         w = 6 * a.ell
-        _snapshot(g, k, r, FIG / f"hydro_quadrupole_state_a{alpha:+g}.png", f"quadrupole, alpha6={alpha:+g}",
+        _snapshot(g, k, r, FIG / f"hydro_quadrupole_state_a{alpha:+g}{_scheme_tag(a)}.png", f"quadrupole, alpha6={alpha:+g}",
                   window=(c - w, c + w, c - w, c + w))
     fig.tight_layout()
-    fig.savefig(FIG / f"hydro_quadrupole_tracks_n{a.n}.png", dpi=120)
-    path = FIG / f"hydro_quadrupole_n{a.n}.json"
+    fig.savefig(FIG / f"hydro_quadrupole_tracks_n{a.n}{_scheme_tag(a)}{'_' + a.tag if a.tag else ''}.png", dpi=120)
+    path = FIG / f"hydro_quadrupole_n{a.n}{_scheme_tag(a)}.json"
     old = json.loads(path.read_text()) if path.exists() else {}
     old.update(summary)
     path.write_text(json.dumps(old, indent=1))
@@ -101,6 +122,8 @@ def main():
     ap.add_argument("--alphas", type=float, nargs="+", default=None)
     ap.add_argument("--max-time", type=float, default=1500.0)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--tag", default="", help="suffix of the output figure names")
+    ap.add_argument("--scheme", choices=["spectral", "fd"], default="spectral")
     a = ap.parse_args()
     FIG.mkdir(parents=True, exist_ok=True)
     RUNS.mkdir(exist_ok=True)

@@ -70,6 +70,7 @@ def plot_state(psi, velocity, defects=None, dx=1.0, ax=None, title=None, window=
         ax.set_title(title, fontsize=9)
     cb = fig.colorbar(im, ax=ax, fraction=0.046, pad=0.03)
     cb.set_label(r"$\theta = \arg\Psi_6/6$")
+    fig.tight_layout()
     return fig
 
 
@@ -88,24 +89,31 @@ def plot_dipole_trajectories(results, path=None):
     """
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    colours = plt.cm.coolwarm(np.linspace(0, 1, max(2, len(results))))
+    colours = plt.cm.plasma(np.linspace(0, 0.85, max(2, len(results))))
+    top = 1.0
     for colour, (alpha, res) in zip(colours, sorted(results.items())):
         d = res.defects
-        label = rf"$\alpha_6={alpha:+.2f}$" + (f", $t_a={res.annihilation_time:.0f}$" if res.annihilation_time else "")
+        label = rf"$\alpha_6={alpha:+.2f}$" + (f", $t_a={res.annihilation_time:.1f}$" if res.annihilation_time else "")
         for k, (track, g) in enumerate(d.groupby("defect")):
             g = g.sort_values("time")
             style = "-" if g["charge"].iloc[0] > 0 else "--"
             axes[0].plot(g["time"], g["x"], style, color=colour, label=label if k == 0 else None)
-            axes[1].plot(g["x"], g["y"], style, color=colour)
+        pairs = d[d.groupby("frame")["charge"].transform("size") == 2]
+        sep = pairs.groupby("time").apply(lambda g: np.hypot(np.ptp(g["x"]), np.ptp(g["y"])), include_groups=False)
+        axes[1].plot(sep.index, sep.to_numpy(), color=colour, label=rf"$\alpha_6={alpha:+.2f}$")
+        late = sep[sep.index >= 0.8 * sep.index.max()]
+        top = max(top, float(late.max()) if len(late) else 0.0)
         if res.annihilation_time:
             axes[0].axvline(res.annihilation_time, color=colour, lw=0.6, ls=":")
     axes[0].set_xlabel("time")
     axes[0].set_ylabel("x of defect (solid +1/6, dashed -1/6)")
     axes[0].legend(fontsize=8)
-    axes[1].set_xlabel("x")
-    axes[1].set_ylabel("y")
-    axes[1].set_aspect("equal", adjustable="datalim")
-    axes[1].set_title("trajectories", fontsize=9)
+    axes[1].set_xlabel("time")
+    axes[1].set_ylabel("pair separation (px, plaquette resolution)")
+    last = max(r.diagnostics["time"].iloc[-1] for r in results.values())
+    axes[1].set_xlim(0.8 * last, 1.01 * last)
+    axes[1].set_ylim(0, 1.1 * top)
+    axes[1].legend(fontsize=8)
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=120)

@@ -80,11 +80,13 @@ class Operators:
         self.a = p.Gamma6 * p.L6 * self.k2
         self.visc = p.eta / p.rho * self.k2
         self.c1 = p.lambda6 * m * self.inv_k2 / 2
+        # the linear active stress has the same structure as the reactive one: it enters the same block
         self.c2 = p.lambda6 * p.L6 * self.k2 * m / (16 * p.rho)
+        self.c2_active = p.alpha6 * m / (16 * p.rho)
         for name in ("kx", "ky", "D", "Dbar", "D6", "Dbar6", "u"):
             setattr(self, name, getattr(self, name).astype(ctype) if np.iscomplexobj(getattr(self, name))
                     else getattr(self, name).astype(params.real_dtype))
-        for name in ("k2", "inv_k2", "a", "visc", "c1", "c2"):
+        for name in ("k2", "inv_k2", "a", "visc", "c1", "c2", "c2_active"):
             setattr(self, name, getattr(self, name).astype(params.real_dtype))
 
     def partner(self, a_hat):
@@ -150,7 +152,7 @@ class Solver:
             raise InputError(f"off must name terms among {self.TERMS}; got {sorted(bad)}")
         self.on = {t: float(t not in off) for t in self.TERMS}
         self.ops.c1 = self.ops.c1 * self.on["alignment"]
-        self.ops.c2 = self.ops.c2 * self.on["reactive"]
+        self.ops.c2 = self.ops.c2 * self.on["reactive"] + self.ops.c2_active * self.on["active"]
 
     # ---- state conversion -------------------------------------------------
     def state_from_fields(self, psi, omega=None, time=0.0):
@@ -231,7 +233,15 @@ class Solver:
 
     # ---- stiff linear block ----------------------------------------------
     def linear(self, psi_hat, omega_hat):
-        """The linear block treated implicitly (diffusion, viscosity, linearised lambda6 couplings)."""
+        """The linear block treated implicitly.
+
+        Diffusion of Psi, viscosity, the lambda6 couplings linearised with
+        ``H ~ L6 lap Psi``, and the (linear) active stress.  Per wavevector it
+        couples ``p = Psi_hat(k)``, ``q = conj(Psi_hat(-k))`` and ``w = omega_hat(k)``;
+        with ``D^6 = m u`` (``|u| = 1``), ``s = conj(u) p + u q`` decays alone and
+        ``e = conj(u) p - u q`` pairs with ``w``:
+        ``de/dt = -a e - i c1 w``, ``dw/dt = -i c2 e - nu k2 w``.
+        """
         o, p = self.ops, self.params
         stream = omega_hat * o.inv_k2
         # (lambda6/4) D^6 / k2 = (c1/2) u: the same coefficients as solve_implicit
