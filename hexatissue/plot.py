@@ -24,6 +24,7 @@ __all__ = [
     "plot_stress",
     "plot_order_vs_radius",
     "save_figure",
+    "save_analysis_figures",
 ]
 
 #: Colours of positive and negative defects (the paper's Fig. 3: red +, blue -).
@@ -393,3 +394,48 @@ def plot_order_vs_radius(curve, ax=None, path=None, figsize=(5, 3.6)):
     ax.set_ylim(bottom=0)
     ax.legend()
     return _finish(fig, path)
+
+
+def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None, p=6, prefix=""):
+    """Write the standard figures of one frame: polygons, p-legged stars, Gamma_p field with defects.
+
+    Parameters
+    ----------
+    frame : hexatissue.Frame
+        One time point (``frame.cells`` with ``gamma{p}``, ``frame.box``, polygons).
+    directory : str or Path
+        Output folder (created if needed).
+    labels : (rows, cols) int array, optional
+        The label image, drawn underneath.
+    grid, defects : pandas.DataFrame, optional
+        This frame's grid and defects tables; computed with the defaults of
+        :func:`hexatissue.coarse_grain` and :func:`hexatissue.find_defects`
+        when not given.
+    p : int
+        Symmetry order of the stars and the field.
+    prefix : str
+        Prepended to the file names (e.g. ``"frame0003_"``).
+
+    Returns
+    -------
+    list of pathlib.Path
+        ``{prefix}polygons.png``, ``{prefix}stars{p}.png``, ``{prefix}gamma{p}_defects.png``.
+    """
+    from pathlib import Path
+
+    from .defects import find_defects
+    from .order import coarse_grain
+
+    directory = Path(directory)
+    box = frame.box if frame.box is not None and frame.box.periodic else None
+    if grid is None:
+        grid = coarse_grain(frame.cells, p=p, box=box)
+    if defects is None:
+        defects = find_defects(grid, p=p, box=box)
+    polygons = frame.polygons()
+    paths = [directory / f"{prefix}polygons.png", directory / f"{prefix}stars{p}.png",
+             directory / f"{prefix}gamma{p}_defects.png"]
+    plot_labels(labels, polygons, frame.cells, path=paths[0])
+    plot_stars(frame.cells, p=p, polygons=polygons, labels=labels, path=paths[1])
+    plot_order_field(grid, defects, p=p, polygons=polygons, labels=labels, box=box, path=paths[2])
+    return paths

@@ -160,3 +160,15 @@ def test_figures_from_a_label_image(tmp_path):
     grid = coarse_grain(frame.cells)
     plot.plot_order_field(grid, find_defects(grid), polygons=polygons, labels=labels, path=tmp_path / "field.png")
     png_pixels(tmp_path / "field.png")
+
+
+def test_save_analysis_figures_of_a_periodic_frame(tmp_path):
+    from hexatissue import mesh_from_labels
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    labels = voronoi_labels(jittered_seeds((90, 120), 15.0, seed=5), (90, 120), periodic=True)
+    frame = mesh_from_labels(labels, box=Box(120, 90))
+    paths = plot.save_analysis_figures(frame, tmp_path / "figs", labels=labels, prefix="f0_")
+    assert [p.name for p in paths] == ["f0_polygons.png", "f0_stars6.png", "f0_gamma6_defects.png"]
+    for path in paths:
+        png_pixels(path)
