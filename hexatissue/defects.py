@@ -149,6 +149,9 @@ def _find_defects_frame(grid, p, box):
     # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
     dx = (x[0, -1] - x[0, 0]) / (x.shape[1] - 1)
     dy = (y[-1, 0] - y[0, 0]) / (y.shape[0] - 1)
+    if periodic and not np.allclose([dx * x.shape[1], dy * y.shape[0]], box.lengths, rtol=1e-9):
+        raise InputError(f"grid does not tile the periodic box {box}: build it with coarse_grain(..., box=box) "
+                         "or pass box=None for an open image")
     xy = np.c_[x[i, j] + dx / 2, y[i, j] + dy / 2]
     if periodic:
         xy = box.wrap(xy)

@@ -295,6 +295,9 @@ def test_find_defects_bad_input():
         find_defects(grid.iloc[:-1], box=box)
     with pytest.raises(InputError, match="box"):
         find_defects(grid, box="periodic")
+    open_grid = coarse_grain(cells)  # an open-image grid does not wrap around the box
+    with pytest.raises(InputError, match="tile"):
+        find_defects(open_grid, box=box)
 
 
 # ---------------------------------------------------------------------------- real MDCK cells
