@@ -286,8 +286,9 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
         _shade_magnitude(fig, ax, grid, gamma, valid, p)
     _draw_polygons(ax, polygons, color="0.55", linewidth=0.5)
     spacing = _grid_spacing(grid)
-    _add_stars(ax, xy[valid], gamma[valid] / max(np.abs(gamma[valid]).max(), 1e-12) if valid.any() else
-               gamma[valid], p, 0.4 * spacing, "k", linewidth=0.8)
+    # the longest star spans 0.8 grid spacings, so neighbouring stars never touch
+    largest = np.abs(gamma[valid]).max() if valid.any() else 1.0
+    _add_stars(ax, xy[valid], gamma[valid] / max(largest, 1e-12), p, 0.4 * spacing, "k", linewidth=0.8)
     if defects is not None and len(defects):
         _draw_defects(ax, defects, p, size=8)
     _image_axes(ax, _extent_of(background, polygons, xy, box))
@@ -318,9 +319,10 @@ def _shade_magnitude(fig, ax, grid, gamma, valid, p):
 def _draw_defects(ax, defects, p, size):
     """Positive defects as red discs, negative ones as blue triangles; ``size`` in points."""
     charge = defects["charge"].to_numpy(float)
-    for sel, color, marker, label in ((charge > 0, PLUS_COLOR, "o", f"$+1/{p}$"),
-                                      (charge < 0, MINUS_COLOR, "^", f"$-1/{p}$")):
+    for sel, color, marker, sign in ((charge > 0, PLUS_COLOR, "o", "+"), (charge < 0, MINUS_COLOR, "^", "-")):
         if sel.any():
+            units = np.unique(np.rint(np.abs(charge[sel]) * p).astype(int))
+            label = f"${sign}1/{p}$" if list(units) == [1] else f"${sign}$ ({', '.join(f'{u}/{p}' for u in units)})"
             ax.plot(defects["x"].to_numpy()[sel], defects["y"].to_numpy()[sel], marker, color=color, ms=size,
                     mec="k", mew=0.6, lw=0, label=label, zorder=5)
     ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
