@@ -16,6 +16,7 @@ from scipy.optimize import linear_sum_assignment
 
 from .box import Box
 from .errors import InputError
+from .order import _check_p
 from .schema import validate
 
 __all__ = [
@@ -148,6 +149,9 @@ def _find_defects_frame(grid, p, box):
     # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
     dx = (x[0, -1] - x[0, 0]) / (x.shape[1] - 1)
     dy = (y[-1, 0] - y[0, 0]) / (y.shape[0] - 1)
+    if periodic and not np.allclose([dx * x.shape[1], dy * y.shape[0]], box.lengths, rtol=1e-9):
+        raise InputError(f"grid does not tile the periodic box {box}: build it with coarse_grain(..., box=box) "
+                         "or pass box=None for an open image")
     xy = np.c_[x[i, j] + dx / 2, y[i, j] + dy / 2]
     if periodic:
         xy = box.wrap(xy)
@@ -192,10 +196,10 @@ def find_defects(grid, p=6, box=None):
         px; x = column, y = row, origin at the centre of pixel (0, 0)),
         ``charge`` (a nonzero multiple of ``1/p``), ``p``.
     """
-    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
-        raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
-    p = int(p)
+    p = _check_p(p)
     _check_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
+    if len(grid) == 0:
+        raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
     _check_box(box)
     box = box if box is not None and box.periodic else None
     if "frame" not in grid.columns:

@@ -24,6 +24,7 @@ __all__ = [
     "plot_stress",
     "plot_order_vs_radius",
     "save_figure",
+    "save_analysis_figures",
 ]
 
 #: Colours of positive and negative defects (the paper's Fig. 3: red +, blue -).
@@ -67,22 +68,40 @@ def _image_axes(ax, extent):
     ax.set_ylabel("y (px)")
 
 
-def _polygon_list(polygons):
+def _polygon_list(polygons, box=None):
+    """``(ids, polygons)``; in a periodic box each polygon is moved so its vertex mean lies in the box,
+    and the periodic copies that overlap the box are appended (with repeated ids)."""
     if polygons is None:
         return [], []
     if not isinstance(polygons, dict):
         raise InputError(f"polygons must be a dict {{cell: (n, 2) array}}; got {type(polygons).__name__}")
     ids = list(polygons)
-    return ids, [np.asarray(polygons[c], float) for c in ids]
+    polys = [np.asarray(polygons[c], float) for c in ids]
+    if box is None or not box.periodic:
+        return ids, polys
+    L = box.lengths
+    out_ids, out = [], []
+    for c, poly in zip(ids, polys):
+        poly = poly - L * np.floor(poly.mean(axis=0) / L)
+        for shift in np.array([(i, j) for i in (0, -1, 1) for j in (0, -1, 1)]) * L:
+            moved = poly + shift
+            if (moved.max(axis=0) > 0).all() and (moved.min(axis=0) < L).all():
+                out_ids.append(c)
+                out.append(moved)
+    return out_ids, out
 
 
-def _draw_polygons(ax, polygons, color="k", linewidth=0.6):
+def _draw_polygons(ax, polygons, color="k", linewidth=0.6, box=None):
     from matplotlib.collections import PolyCollection
 
-    polys = _polygon_list(polygons)[1]
+    polys = _polygon_list(polygons, box)[1]
     if polys:
         ax.add_collection(PolyCollection(polys, closed=True, edgecolors=color, linewidths=linewidth,
                                          facecolors="none"))
+
+
+def _periodic(box):
+    return box if box is not None and box.periodic else None
 
 
 def _extent_of(labels=None, polygons=None, xy=None, box=None):
@@ -134,7 +153,7 @@ def _draw_background(ax, labels=None, image=None, alpha=1.0):
 
 
 def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show_ids=False, image=None,
-                figsize=(6, 6)):
+                box=None, figsize=(6, 6)):
     """Label image with the cells' polygons (and optionally their ids).
 
     Parameters
@@ -145,6 +164,8 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
         ``{cell: (n, 2) array of (x, y)}``, drawn as outlines.
     image : (rows, cols) array, optional
         Grey-level micrograph drawn instead of ``labels``.
+    box : Box, optional
+        Periodic box: polygons are drawn with their periodic copies, clipped to the box.
     cells : pandas.DataFrame, optional
         Cells table (``cell``, ``x``, ``y``; ``is_border``): border cells'
         centres are marked with a grey cross, and ids are written when
@@ -163,7 +184,7 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
         raise InputError("plot_labels needs labels, image and/or polygons")
     fig, ax = _new_axes(ax, figsize)
     background = _draw_background(ax, labels, image)
-    _draw_polygons(ax, polygons, color="k" if image is None else "#ffd700", linewidth=0.8)
+    _draw_polygons(ax, polygons, color="k" if image is None else "#ffd700", linewidth=0.8, box=box)
     if cells is not None:
         if "is_border" in cells.columns:
             border = cells[cells["is_border"].to_numpy(bool)]
@@ -171,7 +192,8 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
         if show_ids:
             for _, c in cells.iterrows():
                 ax.text(c["x"], c["y"], str(int(c["cell"])), fontsize=5, ha="center", va="center")
-    _image_axes(ax, _extent_of(background, polygons, None if cells is None else cells[["x", "y"]].to_numpy()))
+    xy = None if cells is None else cells[["x", "y"]].to_numpy()
+    _image_axes(ax, _extent_of(background, polygons, xy, _periodic(box)))
     ax.set_title("cells and polygons")
     return _finish(fig, path)
 
@@ -204,7 +226,7 @@ def _typical_spacing(xy):
 
 
 def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale=0.45, color="#b0006e",
-               image=None, figsize=(6, 6)):
+               image=None, box=None, figsize=(6, 6)):
     """p-legged stars at the cell centres showing each cell's p-fold orientation Arg(gamma_p)/p.
 
     Parameters
@@ -213,7 +235,7 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
         Cells table with ``x``, ``y`` (px) and ``gamma{p}_re``, ``gamma{p}_im``.
     p : int
         Symmetry order (6: six-legged stars; 2: nematic bars).
-    polygons, labels, image : optional
+    polygons, labels, image, box : optional
         Drawn underneath (see :func:`plot_labels`).
     scale : float
         Leg length for ``|gamma_p| = 1`` in units of the typical cell spacing;
@@ -230,9 +252,9 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
     gamma = _gamma(cells, "gamma", p)
     ok = np.isfinite(gamma) & np.isfinite(xy).all(axis=1)
     background = _draw_background(ax, labels, image, alpha=0.5)
-    _draw_polygons(ax, polygons, color="0.35", linewidth=0.6)
+    _draw_polygons(ax, polygons, color="0.35", linewidth=0.6, box=box)
     _add_stars(ax, xy[ok], gamma[ok], p, scale * _typical_spacing(xy[ok]), color, linewidth=1.1)
-    _image_axes(ax, _extent_of(background, polygons, xy[ok]))
+    _image_axes(ax, _extent_of(background, polygons, xy[ok], _periodic(box)))
     ax.set_title(f"cell orientation Arg($\\gamma_{p}$)/{p}")
     return _finish(fig, path)
 
@@ -263,7 +285,7 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
     polygons, labels, image : optional
         Cell outlines / label image / grey-level image drawn underneath.
     box : Box, optional
-        Periodic box (sets the plot limits).
+        Periodic box: sets the plot limits; polygons are drawn with their periodic copies.
     show_magnitude : bool
         Shade the valid nodes by ``|Gamma_p|``.
 
@@ -283,13 +305,14 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
     background = _draw_background(ax, labels, image, alpha=0.35)
     if show_magnitude and valid.any():
         _shade_magnitude(fig, ax, grid, gamma, valid, p)
-    _draw_polygons(ax, polygons, color="0.55", linewidth=0.5)
+    _draw_polygons(ax, polygons, color="0.55", linewidth=0.5, box=_periodic(box))
     spacing = _grid_spacing(grid)
-    _add_stars(ax, xy[valid], gamma[valid] / max(np.abs(gamma[valid]).max(), 1e-12) if valid.any() else
-               gamma[valid], p, 0.4 * spacing, "k", linewidth=0.8)
+    # the longest star spans 0.8 grid spacings, so neighbouring stars never touch
+    largest = np.abs(gamma[valid]).max() if valid.any() else 1.0
+    _add_stars(ax, xy[valid], gamma[valid] / max(largest, 1e-12), p, 0.4 * spacing, "k", linewidth=0.8)
     if defects is not None and len(defects):
         _draw_defects(ax, defects, p, size=8)
-    _image_axes(ax, _extent_of(background, polygons, xy, box))
+    _image_axes(ax, _extent_of(background, polygons, xy, _periodic(box)))
     ax.set_title(f"$\\Gamma_{p}$ orientation and $\\pm 1/{p}$ defects")
     return _finish(fig, path)
 
@@ -317,15 +340,17 @@ def _shade_magnitude(fig, ax, grid, gamma, valid, p):
 def _draw_defects(ax, defects, p, size):
     """Positive defects as red discs, negative ones as blue triangles; ``size`` in points."""
     charge = defects["charge"].to_numpy(float)
-    for sel, color, marker, label in ((charge > 0, PLUS_COLOR, "o", f"$+1/{p}$"),
-                                      (charge < 0, MINUS_COLOR, "^", f"$-1/{p}$")):
+    for sel, color, marker, sign in ((charge > 0, PLUS_COLOR, "o", "+"), (charge < 0, MINUS_COLOR, "^", "-")):
         if sel.any():
+            units = np.unique(np.rint(np.abs(charge[sel]) * p).astype(int))
+            label = f"${sign}1/{p}$" if list(units) == [1] else f"${sign}$ ({', '.join(f'{u}/{p}' for u in units)})"
             ax.plot(defects["x"].to_numpy()[sel], defects["y"].to_numpy()[sel], marker, color=color, ms=size,
                     mec="k", mew=0.6, lw=0, label=label, zorder=5)
     ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
 
 
-def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", title=None, figsize=(6.4, 6)):
+def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", title=None, box=None,
+                figsize=(6.4, 6)):
     """Cells filled with a colour by a per-cell value, e.g. the stress (the paper's Fig. 3a, b).
 
     Parameters
@@ -339,6 +364,8 @@ def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", titl
         ``{cell: (n, 2) array of (x, y)}``; cells without a polygon are not drawn.
     cmap : str
         Diverging colour map.
+    box : Box, optional
+        Periodic box: polygons are drawn with their periodic copies, clipped to the box.
 
     Returns
     -------
@@ -349,7 +376,7 @@ def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", titl
 
     if column not in cells.columns:
         raise InputError(f"cells has no column {column!r} to colour by")
-    ids, polys = _polygon_list(polygons)
+    ids, polys = _polygon_list(polygons, box)
     if not polys:
         raise InputError("plot_stress needs the cells' polygons")
     value = cells.set_index("cell")[column].reindex(ids).to_numpy(float)
@@ -362,7 +389,7 @@ def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", titl
     coll.set_array(value[finite])
     ax.add_collection(coll)
     fig.colorbar(coll, ax=ax, shrink=0.7, label=column)
-    _image_axes(ax, _extent_of(None, polygons))
+    _image_axes(ax, _extent_of(None, polygons, None, _periodic(box)))
     ax.set_title(title or f"cells coloured by {column}")
     return _finish(fig, path)
 
@@ -393,3 +420,48 @@ def plot_order_vs_radius(curve, ax=None, path=None, figsize=(5, 3.6)):
     ax.set_ylim(bottom=0)
     ax.legend()
     return _finish(fig, path)
+
+
+def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None, p=6, prefix=""):
+    """Write the standard figures of one frame: polygons, p-legged stars, Gamma_p field with defects.
+
+    Parameters
+    ----------
+    frame : hexatissue.Frame
+        One time point (``frame.cells`` with ``gamma{p}``, ``frame.box``, polygons).
+    directory : str or Path
+        Output folder (created if needed).
+    labels : (rows, cols) int array, optional
+        The label image, drawn underneath.
+    grid, defects : pandas.DataFrame, optional
+        This frame's grid and defects tables; computed with the defaults of
+        :func:`hexatissue.coarse_grain` and :func:`hexatissue.find_defects`
+        when not given.
+    p : int
+        Symmetry order of the stars and the field.
+    prefix : str
+        Prepended to the file names (e.g. ``"frame0003_"``).
+
+    Returns
+    -------
+    list of pathlib.Path
+        ``{prefix}polygons.png``, ``{prefix}stars{p}.png``, ``{prefix}gamma{p}_defects.png``.
+    """
+    from pathlib import Path
+
+    from .defects import find_defects
+    from .order import coarse_grain
+
+    directory = Path(directory)
+    box = frame.box if frame.box is not None and frame.box.periodic else None
+    if grid is None:
+        grid = coarse_grain(frame.cells, p=p, box=box)
+    if defects is None:
+        defects = find_defects(grid, p=p, box=box)
+    polygons = frame.polygons()
+    paths = [directory / f"{prefix}polygons.png", directory / f"{prefix}stars{p}.png",
+             directory / f"{prefix}gamma{p}_defects.png"]
+    plot_labels(labels, polygons, frame.cells, path=paths[0], box=box)
+    plot_stars(frame.cells, p=p, polygons=polygons, labels=labels, path=paths[1], box=box)
+    plot_order_field(grid, defects, p=p, polygons=polygons, labels=labels, box=box, path=paths[2])
+    return paths

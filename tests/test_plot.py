@@ -160,3 +160,31 @@ def test_figures_from_a_label_image(tmp_path):
     grid = coarse_grain(frame.cells)
     plot.plot_order_field(grid, find_defects(grid), polygons=polygons, labels=labels, path=tmp_path / "field.png")
     png_pixels(tmp_path / "field.png")
+
+
+def test_save_analysis_figures_of_a_periodic_frame(tmp_path):
+    from hexatissue import mesh_from_labels
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    labels = voronoi_labels(jittered_seeds((90, 120), 15.0, seed=5), (90, 120), periodic=True)
+    frame = mesh_from_labels(labels, box=Box(120, 90))
+    paths = plot.save_analysis_figures(frame, tmp_path / "figs", labels=labels, prefix="f0_")
+    assert [p.name for p in paths] == ["f0_polygons.png", "f0_stars6.png", "f0_gamma6_defects.png"]
+    for path in paths:
+        png_pixels(path)
+
+
+def test_periodic_polygons_are_drawn_with_their_copies(tmp_path):
+    box = Box(50.0, 40.0)
+    square = np.array([[0, 0], [6, 0], [6, 6], [0, 6]], float)
+    polygons = {1: square + [20, 15],  # inside
+                2: square + [47, 17],  # crosses x = L: one copy
+                3: square + [-53, 37]}  # unwrapped one box away, crosses x = 0 and y = L: four copies
+    cells = pd.DataFrame({"cell": [1, 2, 3], "sigma": [1.0, 2.0, 3.0]})
+    fig = plot.plot_stress(cells, "sigma", polygons, box=box, path=tmp_path / "p.png")
+    coll = fig.axes[0].collections[0]
+    assert sorted(coll.get_array()) == [1.0, 2.0, 2.0, 3.0, 3.0, 3.0, 3.0]
+    for path in coll.get_paths():
+        xy = path.vertices
+        assert (xy.max(axis=0) > 0).all() and (xy.min(axis=0) < box.lengths).all()
+    assert fig.axes[0].get_xlim() == (0.0, 50.0)
