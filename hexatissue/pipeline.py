@@ -24,7 +24,8 @@ from .box import Box
 from .errors import InputError
 from .events import cell_event_stats, detect_t1
 from .frame import MESH_TABLES, Movie
-from .track import Tracker, as_label_image, lineage_table
+from .mesh.labels import validate_labels
+from .track import Tracker, lineage_table
 
 __all__ = ["analyze_movie", "open_movie"]
 
@@ -214,7 +215,7 @@ def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, st
 
     try:
         for t in tqdm(range(start, n_frames), desc="frames", disable=not progress, initial=start, total=n_frames):
-            labels = as_label_image(frames[t], f"frame {t}")
+            labels = validate_labels(frames[t], f"frame {t}")
             if shape is None:
                 shape = labels.shape
             if t == start:

@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from hexatissue.errors import InputError
-from hexatissue.events import (cell_event_stats, classify_t1, contact_table, detect_t1, find_t1,
+from hexatissue.events import (cell_event_stats, classify_t1, track_contacts, detect_t1, find_t1,
                                intercalation_intervals)
 from hexatissue.synthetic import movie_contacts, t1_movie, voronoi_movie
 
@@ -139,7 +139,7 @@ def test_every_event_is_a_valid_quartet_on_a_random_movie():
 
 def assert_valid_quartets(events, edges, cells):
     """Every event is a neighbour exchange in a quartet, checked directly on the contacts."""
-    con = contact_table(edges, cells)
+    con = track_contacts(edges, cells)
     keys = set(zip(con["frame"], con["a"], con["b"]))
     frames = np.unique(cells["frame"])
     nbrs = {}
@@ -188,5 +188,5 @@ def test_bad_input():
         detect_t1(edges.drop(columns="length"), cells)
     with pytest.raises(InputError, match="'x'"):
         detect_t1(edges, cells.drop(columns="x"))
-    empty = classify_t1(find_t1(contact_table(edges.iloc[:0]), cells.rename(columns={"cell": "track"})), 1)
+    empty = classify_t1(find_t1(track_contacts(edges.iloc[:0]), cells.rename(columns={"cell": "track"})), 1)
     assert empty.empty and "kind" in empty.columns
