@@ -114,15 +114,25 @@ def frame_overlaps(prev, cur) -> pd.DataFrame:
     )
 
 
-def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction):
+def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
     """Mother index -> two daughter indices, from overlaps.
 
     A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
     ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
-    it (``n_ij >= mother_fraction * area_i``).  A mother with two or more
-    candidates divided; its two largest overlaps are the daughters.
+    it (``n_ij >= mother_fraction * area_i``), and that is not the best
+    successor (highest IoU, at least ``min_iou / 2``) of another cell: a
+    neighbour that took over part of ``i`` is not its daughter.  A mother with
+    two or more candidates divided; its two largest overlaps are the daughters.
     """
-    cand = (n >= child_fraction * area_b[j]) & (n >= mother_fraction * area_a[i])
+    iou = n / (area_a[i] + area_b[j] - n)
+    order = np.lexsort((-iou, i))
+    first = order[np.r_[True, i[order][1:] != i[order][:-1]]] if len(i) else order
+    best_j = np.full(len(area_a), -1)
+    strong = iou[first] >= min_iou / 2
+    best_j[i[first][strong]] = j[first][strong]
+    n_best = np.bincount(best_j[best_j >= 0], minlength=len(area_b))
+    others = n_best[j] - (best_j[i] == j)
+    cand = (n >= child_fraction * area_b[j]) & (n >= mother_fraction * area_a[i]) & (others == 0)
     ci, cj, cn = i[cand], j[cand], n[cand]
     if len(ci) < 2:
         return np.empty(0, np.int64), np.empty((0, 2), np.int64)
@@ -174,7 +184,7 @@ def _assign(i, j, iou):
 
 def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
     i, j, n = _contingency(a, b)
-    mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction)
+    mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction, min_iou)
     # Mothers and daughters leave the one-to-one assignment.
     free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
     i, j, n = i[free], j[free], n[free]
