@@ -175,10 +175,12 @@ def _executor(client, n_workers, n_frames):
 
 
 def _check_box(box, shape):
-    if box is None:
+    if box is None or box is False:
         return None
+    if box is True:  # periodic box covering the frames
+        return Box.from_shape(shape)
     if not isinstance(box, Box):
-        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
+        raise InputError(f"box must be a hexatissue.Box, True (periodic frames) or None; got {type(box).__name__}")
     if (box.Ly, box.Lx) != (float(shape[0]), float(shape[1])):
         raise InputError(f"box {box} does not match the frames' shape {tuple(shape)} (rows, cols); "
                          f"expected Box(Lx={shape[1]}, Ly={shape[0]})")
@@ -186,7 +188,7 @@ def _check_box(box, shape):
 
 
 def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store, progress):
-    """Per-frame mesh tables (in frame order) and tracking, with bounded frames in flight."""
+    """Per-frame mesh tables (in frame order), tracking and the checked box, with bounded frames in flight."""
     from tqdm.auto import tqdm
 
     parts = {name: [] for name in MESH_TABLES}
@@ -196,7 +198,7 @@ def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, st
         if start:
             parts, tracker = loaded, saved_tracker
     if start >= n_frames:
-        return parts, shape, tracker
+        return parts, shape, tracker, _check_box(box, shape)
     executor, max_inflight = _executor(client, n_workers, n_frames - start)
     pending: deque = deque()
     snapshots = {}  # frame -> pickled tracker state after that frame (for checkpoints)
@@ -231,7 +233,7 @@ def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, st
             collect(pending.popleft())
     finally:
         executor.shutdown()
-    return parts, shape, tracker
+    return parts, shape, tracker, box
 
 
 class _Checkpoint:
@@ -305,9 +307,9 @@ def analyze_movie(stack_or_run, box=None, track=None, client=None, n_workers=Non
         See :func:`open_movie`: a T x rows x cols label stack (frames are read
         one at a time with ``stack[t]``), a list of label images, an MPF run
         (``.labels``, ``.box``) or a path to either.  0 = background/membrane.
-    box : Box, optional
-        Periodic box of the frames (``Box(cols, rows)``); default: the run's
-        box, else None (open images).
+    box : Box or bool, optional
+        Periodic box of the frames (``Box(cols, rows)``; ``True`` builds it
+        from the frame shape); default: the run's box, else None (open images).
     track : bool, optional
         Link cells by overlap (:class:`hexatissue.track.Tracker`).  Default:
         True for label stacks (consistent ids are reproduced), False for MPF
@@ -356,7 +358,7 @@ def analyze_movie(stack_or_run, box=None, track=None, client=None, n_workers=Non
         options = dict(n_frames=n_frames, box=repr(box), track=do_track, min_iou=min_iou, max_gap=max_gap,
                        mesh=repr(sorted(mesh_options.items())))
         store = _Checkpoint(checkpoint, options, checkpoint_every)
-    parts, shape, tracker = _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store,
+    parts, shape, tracker, box = _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store,
                                      progress)
     tables = {name: pd.concat(parts[name], ignore_index=True) for name in MESH_TABLES}
     cells = tables["cells"]

@@ -86,8 +86,8 @@ def test_run_objects_skip_tracking_unless_forced():
     orig = np.array([maps[f][c] for f, c in zip(mv.cells["frame"], mv.cells["cell"])])
     assert len(set(zip(mv.cells["track"], orig))) == len(np.unique(orig)) == mv.cells["track"].nunique()
     # a label stack can be trusted too
-    mv = analyze_movie(relabelled, box=run.box, track=False, n_workers=1, progress=False)
-    assert (mv.cells["track"] == mv.cells["cell"]).all()
+    mv = analyze_movie(relabelled, box=True, track=False, n_workers=1, progress=False)
+    assert (mv.cells["track"] == mv.cells["cell"]).all() and mv.box == run.box
 
 
 def test_inputs_and_writing(tmp_path):
