@@ -101,8 +101,10 @@ def _mesh_job(labels, frame, box, mesh_options):
     result = mesh_from_labels(labels, box=box, **mesh_options)
     out = {}
     for name in MESH_TABLES:
-        table = getattr(result, name).drop(columns="frame", errors="ignore")
-        table.insert(0, "frame", np.int64(frame))
+        table = getattr(result, name)
+        if "frame" in table.columns:
+            table = table.drop(columns="frame")
+        table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
         out[name] = table
     return out
 
