@@ -12,10 +12,20 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from scipy.optimize import linear_sum_assignment
 
+from .box import Box
 from .errors import InputError
+from .schema import validate
 
-__all__ = ["plaquette_charges", "defects_from_field"]
+__all__ = [
+    "plaquette_charges",
+    "defects_from_field",
+    "find_defects",
+    "defect_density",
+    "track_defects",
+    "defect_events",
+]
 
 
 def _wrap_angle(d, p):
@@ -106,3 +116,430 @@ def defects_from_field(field, p, x0=0.0, y0=0.0, spacing=1.0, periodic=False, bo
             "p": np.full(len(i), int(p), dtype=np.int64),
         }
     )
+
+
+# ----------------------------------------------------------------------------
+# Defects of a coarse-grained grid table
+# ----------------------------------------------------------------------------
+
+def _grid_arrays(grid, p):
+    """Field ``Gamma_p`` (NaN at invalid nodes) and node positions as ``[row, col]`` arrays."""
+    row, col = grid["row"].to_numpy(np.int64), grid["col"].to_numpy(np.int64)
+    shape = (int(row.max()) + 1, int(col.max()) + 1)
+    if len(grid) != shape[0] * shape[1] or len(np.unique(row * shape[1] + col)) != len(grid):
+        raise InputError(f"grid must hold every node of a {shape[0]} x {shape[1]} grid exactly once per frame")
+    if min(shape) < 2:
+        raise InputError(f"grid must have at least 2 x 2 nodes; got {shape[0]} x {shape[1]}")
+    gamma = grid[f"Gamma{p}_re"].to_numpy(float) + 1j * grid[f"Gamma{p}_im"].to_numpy(float)
+    if "valid" in grid.columns:
+        gamma = np.where(grid["valid"].to_numpy(bool), gamma, np.nan)
+    field = np.full(shape, np.nan, complex)
+    x, y = np.full(shape, np.nan), np.full(shape, np.nan)
+    field[row, col] = gamma
+    x[row, col], y[row, col] = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
+    return field, x, y
+
+
+def _find_defects_frame(grid, p, box):
+    field, x, y = _grid_arrays(grid, p)
+    periodic = box is not None
+    charges = plaquette_charges(field, p, periodic=periodic)
+    i, j = np.nonzero(np.nan_to_num(charges) != 0)
+    # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
+    dx = (x[0, -1] - x[0, 0]) / (x.shape[1] - 1)
+    dy = (y[-1, 0] - y[0, 0]) / (y.shape[0] - 1)
+    xy = np.c_[x[i, j] + dx / 2, y[i, j] + dy / 2]
+    if periodic:
+        xy = box.wrap(xy)
+    return pd.DataFrame(
+        {
+            "defect": np.arange(len(i), dtype=np.int64),
+            "x": xy[:, 0],
+            "y": xy[:, 1],
+            "charge": charges[i, j],
+            "p": np.full(len(i), p, dtype=np.int64),
+        }
+    )
+
+
+def find_defects(grid, p=6, box=None):
+    """Topological defects of a coarse-grained p-atic field.
+
+    The charge of every grid plaquette is the winding number of
+    ``theta = Arg(Gamma_p) / p`` around it, ``s = (1/2 pi) sum dtheta`` with
+    each ``dtheta`` wrapped into ``(-pi/p, pi/p]`` (:func:`plaquette_charges`);
+    plaquettes with nonzero ``s`` are defects.  Plaquettes touching an
+    invalid node (``valid`` False, e.g. near the edge of an open image) are
+    skipped.  In a periodic box the grid wraps around and the charges of a
+    fully valid grid sum to zero.
+
+    Parameters
+    ----------
+    grid : pandas.DataFrame
+        Grid table from :func:`hexatissue.coarse_grain` (columns ``row``,
+        ``col``, ``x``, ``y``, ``Gamma{p}_re``, ``Gamma{p}_im``; optional
+        ``valid`` and ``frame``).
+    p : int
+        Symmetry order.
+    box : Box, optional
+        The periodic box the grid was built in (None for open images).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Defects table, one row per defect: ``frame`` (movies only),
+        ``defect`` (id, 0-based per frame), ``x``, ``y`` (plaquette centre,
+        px; x = column, y = row, origin at the centre of pixel (0, 0)),
+        ``charge`` (a nonzero multiple of ``1/p``), ``p``.
+    """
+    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
+        raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
+    p = int(p)
+    _check_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
+    _check_box(box)
+    box = box if box is not None and box.periodic else None
+    if "frame" not in grid.columns:
+        return validate(_find_defects_frame(grid, p, box), "defects")
+    parts = []
+    for frame, group in grid.groupby("frame", sort=True):
+        found = _find_defects_frame(group, p, box)
+        found.insert(0, "frame", np.full(len(found), frame, dtype=grid["frame"].dtype))
+        parts.append(found)
+    if not parts:
+        return validate(_empty_defects(p, grid["frame"].dtype), "defects")
+    return validate(pd.concat(parts, ignore_index=True), "defects")
+
+
+def _empty_defects(p, frame_dtype):
+    return pd.DataFrame(
+        {
+            "frame": pd.Series(dtype=frame_dtype),
+            "defect": pd.Series(dtype=np.int64),
+            "x": pd.Series(dtype=float),
+            "y": pd.Series(dtype=float),
+            "charge": pd.Series(dtype=float),
+            "p": pd.Series(dtype=np.int64),
+        }
+    )
+
+
+def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
+    """Number and charge density of defects on a square-ish grid of bins, per frame.
+
+    Parameters
+    ----------
+    defects : pandas.DataFrame
+        Defects table (``x``, ``y``, ``charge``; ``time_column`` for movies).
+    extent : Box or (rows, cols)
+        A box spans ``[0, Lx) x [0, Ly)`` (positions are wrapped into it when
+        periodic); an image shape spans ``[-0.5, cols - 0.5) x [-0.5, rows - 0.5)``
+        (pixel centres at integer x = column, y = row).
+    bin_size : float
+        Requested bin side, px; the extent is cut into ``round(L / bin_size)``
+        equal bins per axis (at least one).
+    time_column : str
+        Column giving the frame; when absent from ``defects`` the table is one frame.
+    frames : array_like, optional
+        Frames to report (frames without defects get zero density).  Default:
+        the frames present in ``defects``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per bin and frame: ``frame`` (when ``time_column`` exists or
+        ``frames`` is given), ``row``, ``col`` (bin index along y and x),
+        ``x``, ``y`` (bin centre, px), ``n_plus``, ``n_minus`` (defects of
+        positive and negative charge), ``density`` (``(n_plus + n_minus) /
+        bin area``, 1/px^2), ``charge_density`` (sum of charges / bin area,
+        1/px^2).  Defects outside the extent are ignored.
+    """
+    _check_columns(defects, ("x", "y", "charge"), "defects")
+    if isinstance(extent, Box):
+        lo, size = np.zeros(2), extent.lengths
+        wrap = extent.wrap if extent.periodic else (lambda xy: xy)
+    else:
+        if len(extent) != 2 or min(extent) <= 0:
+            raise InputError(f"extent must be a Box or an image shape (rows, cols); got {extent!r}")
+        lo, size, wrap = np.array([-0.5, -0.5]), np.array([extent[1], extent[0]], float), (lambda xy: xy)
+    if isinstance(bin_size, bool) or not np.isfinite(bin_size) or bin_size <= 0:
+        raise InputError(f"bin_size must be a positive finite length in px; got {bin_size!r}")
+    nbins = np.maximum(1, np.round(size / bin_size)).astype(int)
+    step = size / nbins
+    has_time = time_column in defects.columns
+    times = defects[time_column].to_numpy() if has_time else np.zeros(len(defects), np.int64)
+    with_frame = has_time or frames is not None
+    frames = np.unique(times if frames is None else np.asarray(frames)) if with_frame else np.zeros(1, np.int64)
+    xy = wrap(defects[["x", "y"]].to_numpy(float))
+    ij = np.floor((xy - lo) / step).astype(np.int64)
+    inside = ((ij >= 0) & (ij < nbins)).all(axis=1) & np.isin(times, frames)
+    frame_index = np.searchsorted(frames, times)
+    charge = defects["charge"].to_numpy(float)
+    shape = (len(frames), nbins[1], nbins[0])
+    n_plus, n_minus, q = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    at = (frame_index[inside], ij[inside, 1], ij[inside, 0])
+    np.add.at(n_plus, at, charge[inside] > 0)
+    np.add.at(n_minus, at, charge[inside] < 0)
+    np.add.at(q, at, charge[inside])
+    f, r, c = np.meshgrid(frames, np.arange(nbins[1]), np.arange(nbins[0]), indexing="ij")
+    area = step[0] * step[1]
+    out = pd.DataFrame(
+        {
+            "row": r.ravel().astype(np.int64),
+            "col": c.ravel().astype(np.int64),
+            "x": lo[0] + (c.ravel() + 0.5) * step[0],
+            "y": lo[1] + (r.ravel() + 0.5) * step[1],
+            "n_plus": n_plus.ravel().astype(np.int64),
+            "n_minus": n_minus.ravel().astype(np.int64),
+            "density": (n_plus + n_minus).ravel() / area,
+            "charge_density": q.ravel() / area,
+        }
+    )
+    if with_frame:
+        out.insert(0, "frame", f.ravel())
+    return out
+
+
+# ----------------------------------------------------------------------------
+# Tracking defects across frames
+# ----------------------------------------------------------------------------
+
+def _check_box(box):
+    if box is not None and not isinstance(box, Box):
+        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
+    return box
+
+
+def _check_columns(table, columns, name):
+    if not isinstance(table, pd.DataFrame):
+        raise InputError(f"{name} must be a pandas DataFrame; got {type(table).__name__}")
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise InputError(f"{name} is missing column(s) {missing}; expected at least {list(columns)}")
+
+
+def _pair_distances(a, b, box):
+    """(len(a), len(b)) distances between points ``a`` and ``b`` (minimum image in a periodic box)."""
+    d = b[None, :, :] - a[:, None, :]
+    if box is not None:
+        d = box.min_image(d)
+    return np.hypot(d[..., 0], d[..., 1])
+
+
+def _match(a, b, max_distance, box):
+    """Optimal one-to-one matching of points ``a`` to ``b`` within ``max_distance``; ``(ia, ib)``."""
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return _match_cost(_pair_distances(a, b, box), max_distance)
+
+
+def _match_cost(dist, max_distance):
+    """Among the matchings of rows to columns that pair the most entries with ``dist <= max_distance``,
+    the one of least total distance.  Returns index arrays ``(ia, ib)``."""
+    allowed = dist <= max_distance
+    # A forbidden pair costs more than any sum of allowed ones, so the optimum
+    # first maximises the number of allowed pairs, then minimises distance.
+    forbidden_cost = 1.0 + float(min(dist.shape)) * (max_distance + 1.0)
+    ia, ib = linear_sum_assignment(np.where(allowed, dist, forbidden_cost))
+    keep = allowed[ia, ib]
+    return ia[keep], ib[keep]
+
+
+def _charge_keys(charge):
+    """Integer keys identifying equal charges (robust to float round-off)."""
+    return np.round(np.asarray(charge, float) * 7_207_200).astype(np.int64)  # lcm(1..16) * 10
+
+
+def _frame_sequence(times, frames):
+    """Sorted frames to link consecutively; defects in frames not listed are an error."""
+    present = np.unique(times)
+    if frames is None:
+        return present
+    frames = np.unique(np.asarray(frames))
+    if not np.isin(present, frames).all():
+        raise InputError("frames must list every frame present in the defects table")
+    return frames
+
+
+def track_defects(defects, max_distance, box=None, time_column="frame", frames=None):
+    """Link defects across consecutive frames into tracks.
+
+    Between each pair of consecutive frames, defects of the same charge are
+    matched one to one by optimal assignment
+    (:func:`scipy.optimize.linear_sum_assignment`): among the matchings that
+    link the most defects with every link shorter than ``max_distance``, the
+    one of least total distance.  Distances are minimum-image in a periodic
+    ``box``.  Defects left unmatched start (or end) a track, which is how
+    pair creation and annihilation show up (see :func:`defect_events`).
+
+    Parameters
+    ----------
+    defects : pandas.DataFrame
+        Defects table with columns ``time_column``, ``x``, ``y`` (px; x =
+        column, y = row, origin at the centre of pixel (0, 0)) and ``charge``.
+    max_distance : float
+        Largest displacement of a defect between consecutive frames, px.
+    box : Box, optional
+        Periodic box for minimum-image distances; None (or a non-periodic
+        box) for an open image.
+    time_column : str
+        Column giving the time point (default ``"frame"``).
+    frames : array_like, optional
+        Every time point of the movie, including those without defects.
+        Consecutive entries are linked; by default the sorted distinct values
+        of ``time_column`` are (so a frame without any defect would be
+        skipped over; pass ``frames`` to break tracks there).
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy of ``defects`` (same rows, same order) with an added ``track``
+        column (int64): tracks are numbered from 0 in order of their first
+        frame, then of row order.
+    """
+    _check_columns(defects, (time_column, "x", "y", "charge"), "defects")
+    _check_box(box)
+    if not np.isfinite(max_distance) or max_distance <= 0:
+        raise InputError(f"max_distance must be a positive finite distance in px; got {max_distance!r}")
+    if box is not None and not box.periodic:
+        box = None
+    times = defects[time_column].to_numpy()
+    xy = defects[["x", "y"]].to_numpy(float)
+    keys = _charge_keys(defects["charge"].to_numpy(float))
+    sequence = _frame_sequence(times, frames)
+    track = np.full(len(defects), -1, np.int64)
+    rows_of = {t: np.flatnonzero(times == t) for t in np.unique(times)}
+    empty = np.zeros(0, np.int64)
+    previous = empty
+    next_id = 0
+    for t in sequence:
+        current = rows_of.get(t, empty)
+        for key in np.unique(keys[current]):
+            cur = current[keys[current] == key]
+            prev = previous[keys[previous] == key]
+            ia, ib = _match(xy[prev], xy[cur], max_distance, box)
+            track[cur[ib]] = track[prev[ia]]
+        new = current[track[current] < 0]
+        track[new] = np.arange(next_id, next_id + len(new))
+        next_id += len(new)
+        previous = current
+    out = defects.copy()
+    out["track"] = track
+    return out
+
+
+def _track_ends(tracked, time_column, first):
+    """One row per track: its first (``first=True``) or last frame, position and charge."""
+    groups = tracked.sort_values([time_column], kind="stable").groupby("track")
+    return groups.head(1) if first else groups.tail(1)
+
+
+def _pair_ends(ends, pair_distance, box):
+    """Match positive to negative ends (same frame, charges cancelling) within ``pair_distance``."""
+    pos, neg = ends[ends["charge"] > 0], ends[ends["charge"] < 0]
+    if len(pos) == 0 or len(neg) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    a, b = pos[["x", "y"]].to_numpy(float), neg[["x", "y"]].to_numpy(float)
+    dist = _pair_distances(a, b, box)
+    cancel = _charge_keys(pos["charge"].to_numpy())[:, None] == -_charge_keys(neg["charge"].to_numpy())[None, :]
+    far = np.where(cancel, dist, np.inf)
+    ia, ib = _match_cost(far, pair_distance)
+    return pos.index.to_numpy()[ia], neg.index.to_numpy()[ib]
+
+
+def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False):
+    """Creation and annihilation of +- defect pairs from tracked defects.
+
+    A track that starts after the first frame of the movie is a birth and one
+    that ends before the last frame is a death.  In each frame, births are
+    paired (positive with negative, charges summing to zero, within
+    ``pair_distance``) by optimal assignment into *creation* events, and
+    deaths likewise into *annihilation* events.  Births and deaths without a
+    partner (a defect entering or leaving an open image, or a linking
+    failure) are ``appearance`` / ``disappearance`` events, reported only if
+    ``include_unpaired``.
+
+    Parameters
+    ----------
+    tracked : pandas.DataFrame
+        Output of :func:`track_defects` (columns ``time_column``, ``x``,
+        ``y``, ``charge``, ``track``).
+    pair_distance : float
+        Largest separation of the two partners, px (typically the
+        ``max_distance`` used for tracking, or a few grid spacings).
+    box : Box, optional
+        Periodic box for minimum-image distances and midpoints.
+    time_column : str
+        Column giving the time point.
+    include_unpaired : bool
+        Also report unpaired births and deaths.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per event, sorted by time: ``time_column`` (for a creation:
+        the first frame in which the pair exists; for an annihilation: the
+        last frame in which it exists), ``kind`` (``"creation"``,
+        ``"annihilation"``, and if requested ``"appearance"``,
+        ``"disappearance"``), ``x``, ``y`` (px: pair midpoint, minimum image,
+        wrapped into a periodic box; the defect itself for unpaired events),
+        ``track_plus``, ``track_minus`` (track ids of the positive and
+        negative partners; -1 when absent), ``separation`` (px, distance
+        between the partners; NaN when unpaired).
+    """
+    _check_columns(tracked, (time_column, "x", "y", "charge", "track"), "tracked")
+    _check_box(box)
+    if not np.isfinite(pair_distance) or pair_distance <= 0:
+        raise InputError(f"pair_distance must be a positive finite distance in px; got {pair_distance!r}")
+    if box is not None and not box.periodic:
+        box = None
+    columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
+    if len(tracked) == 0:
+        return _empty_events(columns, time_column)
+    t_first, t_last = tracked[time_column].min(), tracked[time_column].max()
+    rows = []
+    for first, kind, lone in ((True, "creation", "appearance"), (False, "annihilation", "disappearance")):
+        ends = _track_ends(tracked, time_column, first).reset_index(drop=True)
+        ends = ends[ends[time_column] != (t_first if first else t_last)]
+        for t, group in ends.groupby(time_column, sort=True):
+            ip, ineg = _pair_ends(group, pair_distance, box)
+            rows.extend(_pair_rows(group, ip, ineg, t, kind, box, time_column))
+            if include_unpaired:
+                lonely = group.drop(index=np.r_[ip, ineg])
+                rows.extend(_lone_rows(lonely, t, lone, time_column))
+    if not rows:
+        return _empty_events(columns, time_column)
+    out = pd.DataFrame(rows, columns=columns)
+    out["kind"] = out["kind"].astype(object)
+    return out.sort_values([time_column, "kind", "x", "y"], kind="stable").reset_index(drop=True)
+
+
+def _pair_rows(group, ip, ineg, t, kind, box, time_column):
+    rows = []
+    for a, b in zip(ip, ineg):
+        pa = group.loc[a, ["x", "y"]].to_numpy(float)
+        d = group.loc[b, ["x", "y"]].to_numpy(float) - pa
+        if box is not None:
+            d = box.min_image(d)
+        mid = pa + d / 2
+        if box is not None:
+            mid = box.wrap(mid)
+        rows.append((t, kind, mid[0], mid[1], int(group.loc[a, "track"]), int(group.loc[b, "track"]),
+                     float(np.hypot(*d))))
+    return rows
+
+
+def _lone_rows(lonely, t, kind, time_column):
+    rows = []
+    for _, r in lonely.iterrows():
+        plus = r["charge"] > 0
+        rows.append((t, kind, float(r["x"]), float(r["y"]), int(r["track"]) if plus else -1,
+                     -1 if plus else int(r["track"]), np.nan))
+    return rows
+
+
+def _empty_events(columns, time_column):
+    out = pd.DataFrame({c: pd.Series(dtype=float) for c in columns})
+    out["kind"] = out["kind"].astype(object)
+    for c in ("track_plus", "track_minus"):
+        out[c] = out[c].astype(np.int64)
+    return out

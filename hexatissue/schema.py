@@ -38,7 +38,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "vertex": ("i", "", "vertex id"),
         "x": ("f", "px", "column"),
         "y": ("f", "px", "row"),
-        "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 only on a vertex-less loop)"),
+        "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 at a corner of an open "
+                   "image or on a closed boundary with no vertex)"),
         "is_border": ("b", "", "touches the background (cell 0)"),
     },
     "edges": {

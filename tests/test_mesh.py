@@ -236,7 +236,7 @@ def numpy_corner_arms(pad):
 def test_corner_kernel_matches_numpy():
     labels = voronoi_labels(jittered_seeds((60, 80), 9, seed=1), (60, 80))
     pad = np.pad(labels, 1)
-    arms, kind, vid, vi, vj, n_cracks = K.corner_types(pad, 61, 81)
+    arms, kind, vid, vi, vj, n_cracks = K.corner_types(pad, 61, 81, False)
     np.testing.assert_array_equal(arms, numpy_corner_arms(pad))
     degree = np.unpackbits(arms[..., None], axis=-1).sum(-1)
     assert set(np.unique(kind[degree == 3])) == {3}
@@ -271,7 +271,10 @@ def test_single_cell():
     f = mesh_from_labels(np.ones((10, 12), np.uint8))
     assert len(f.cells) == 1 and f.cells["is_border"].all()
     assert f.cells["area"].iloc[0] == 120
-    assert len(f.edges) == 1 and tuple(f.edges[["cell_a", "cell_b"]].iloc[0]) == (0, 1)
+    # the image corners are vertices: the cell is the image rectangle
+    assert len(f.edges) == 4 and set(zip(f.edges["cell_a"], f.edges["cell_b"])) == {(0, 1)}
+    assert (f.vertices["degree"] == 2).all() and f.cells["n_sides"].iloc[0] == 4
+    assert f.cells["polygon_area"].iloc[0] == pytest.approx(120.0)
     periodic = mesh_from_labels(np.ones((10, 12), np.uint8), box=Box(12, 10))
     assert len(periodic.cells) == 1 and len(periodic.edges) == 0 and periodic.cells["n_sides"].iloc[0] == 0
 
@@ -291,6 +294,14 @@ def test_cell_in_two_pieces_warns():
         f = mesh_from_labels(labels)
     row = f.cells.set_index("cell").loc[1]
     assert row["n_cycles"] == 2 and row["n_sides"] >= 3
+
+
+def test_border_polygons_follow_the_image_edge():
+    labels = square_labels(3, 2, 10)
+    f = mesh_from_labels(labels)
+    np.testing.assert_allclose(f.cells["polygon_area"], 100.0)
+    assert set(f.vertices.loc[f.vertices["degree"] == 2, ["x", "y"]].itertuples(index=False, name=None)) == {
+        (-0.5, -0.5), (29.5, -0.5), (-0.5, 19.5), (29.5, 19.5)}
 
 
 def test_background_marks_border_cells():

@@ -167,5 +167,6 @@ def test_real_segmentations_give_valid_networks(real_data, name):
     inner = frame.cells[~frame.cells["is_border"] & (frame.cells["n_sides"] >= 3)]
     assert len(inner) > 50
     assert 5.5 < inner["n_sides"].mean() < 6.5  # Euler: interior polygons average about six sides
-    assert (frame.vertices["degree"] >= 3).mean() > 0.99
+    inner_vertices = frame.vertices[~frame.vertices["is_border"]]
+    assert (inner_vertices["degree"] >= 3).mean() > 0.99  # degree 2 only on loops (a cell inside another)
     assert (inner["polygon_area"] > 0).all()

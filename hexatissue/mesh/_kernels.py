@@ -24,12 +24,13 @@ DJ = np.array([1, 0, -1, 0], dtype=np.int64)
 
 
 @njit(cache=True)
-def corner_types(pad, nci, ncj):
+def corner_types(pad, nci, ncj, image_corners):
     """Arm bit masks (bit d = arm in direction d) and type codes of all corners.
 
-    Also returns the vertices (corners of type 3 and 4) as row and column
-    arrays in raster order, the map ``vid`` from corners to vertex ids (-1
-    elsewhere) and the total number of cracks.
+    Also returns the vertices (corners of type 3 and 4, and when
+    ``image_corners`` the four corners of an open image where a boundary
+    turns) as row and column arrays in raster order, the map ``vid`` from
+    corners to vertex ids (-1 elsewhere) and the total number of cracks.
     """
     arms = np.zeros((nci, ncj), dtype=np.uint8)
     kind = np.zeros((nci, ncj), dtype=np.uint8)
@@ -70,7 +71,8 @@ def corner_types(pad, nci, ncj):
                     kind[ci, cj] = 6
                 else:
                     kind[ci, cj] = 4
-            if kind[ci, cj] == 3 or kind[ci, cj] == 4:
+            corner = image_corners and (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1)
+            if kind[ci, cj] == 3 or kind[ci, cj] == 4 or corner:
                 vid[ci, cj] = n_vertices
                 n_vertices += 1
     vi = np.empty(n_vertices, np.int64)

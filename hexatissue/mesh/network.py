@@ -63,7 +63,8 @@ def _trace(lab32, periodic, membrane):
     pad = np.pad(lab32, 1, mode=mode)
     h, w = lab32.shape
     nci, ncj = (h, w) if periodic else (h + 1, w + 1)
-    arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj)
+    # on an open image the image corners are vertices, so border polygons follow the image edge
+    arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj, not periodic)
     n_max = 4 * len(vi) + 1
     start, end, sarm, earm, left, right, dx, dy, ncrack, visited = K.trace_junctions(
         pad, arms, ctype, vid, vi, vj, n_max
@@ -289,8 +290,8 @@ def mesh_from_labels(
         gamma{p}_re, gamma{p}_im (shape function, dimensionless; NaN without polygon).
 
         ``vertices``: vertex, x, y (px), degree (number of junction ends; 2
-        only for the single point placed on a closed boundary with no
-        vertex), is_border (touches cell 0).
+        at the corners of an open image and for the single point placed on
+        a closed boundary with no vertex), is_border (touches cell 0).
 
         ``edges``: edge, vertex_a, vertex_b, cell_a < cell_b (0 = outside),
         length (straight distance between the vertices, px).

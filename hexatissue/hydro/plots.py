@@ -1,0 +1,133 @@
+"""Figures of the hydro experiments (matplotlib, Agg backend, imported lazily).
+
+Images are drawn with x = column, y = row and the origin at the lower left
+(``origin="lower"``), so angles are counter-clockwise from +x.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_state", "plot_dipole_trajectories", "plot_quadrupole_tracks"]
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _defects(ax, defects, size=40):
+    if defects is None or not len(defects):
+        return
+    for sign, colour in ((1, "red"), (-1, "blue")):
+        d = defects[np.sign(defects["charge"]) == sign]
+        ax.scatter(d["x"], d["y"], s=size, c=colour, edgecolors="white", linewidths=0.8, zorder=3,
+                   label="+1/6" if sign > 0 else "-1/6")
+
+
+def plot_state(psi, velocity, defects=None, dx=1.0, ax=None, title=None, window=None, density=1.2):
+    """Like the paper's Fig. 2: orientation arg(Psi6)/6 (cyclic colours), flow streamlines, defects.
+
+    Parameters
+    ----------
+    psi : (n, n) complex array
+        Psi6, indexed [row, col].
+    velocity : (n, n) complex array
+        ``v_x + i v_y``.
+    defects : DataFrame, optional
+        Columns x, y, charge (+1/6 red, -1/6 blue).
+    window : (x0, x1, y0, y1), optional
+        Region to show.
+
+    Returns
+    -------
+    matplotlib Figure
+    """
+    plt = _plt()
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(5.5, 5))
+    else:
+        fig = ax.figure
+    n = psi.shape[0]
+    x = np.arange(n) * dx
+    theta = np.angle(psi) / 6
+    im = ax.imshow(theta, origin="lower", extent=(x[0] - dx / 2, x[-1] + dx / 2) * 2, cmap="twilight",
+                   vmin=-np.pi / 6, vmax=np.pi / 6, interpolation="nearest")
+    speed = np.abs(velocity)
+    if speed.max() > 0:
+        ax.streamplot(x, x, velocity.real, velocity.imag, color="k", linewidth=0.5, density=density,
+                      arrowsize=0.6)
+    _defects(ax, defects)
+    if window is not None:
+        ax.set_xlim(window[0], window[1])
+        ax.set_ylim(window[2], window[3])
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    if title:
+        ax.set_title(title, fontsize=9)
+    cb = fig.colorbar(im, ax=ax, fraction=0.046, pad=0.03)
+    cb.set_label(r"$\theta = \arg\Psi_6/6$")
+    return fig
+
+
+def plot_dipole_trajectories(results, path=None):
+    """Like the paper's SI Fig. 2: x(t) of the +1/6 and -1/6 defect for several alpha6.
+
+    Parameters
+    ----------
+    results : dict {alpha: HydroResult}
+    path : path, optional
+        PNG written when given.
+
+    Returns
+    -------
+    matplotlib Figure
+    """
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    colours = plt.cm.coolwarm(np.linspace(0, 1, max(2, len(results))))
+    for colour, (alpha, res) in zip(colours, sorted(results.items())):
+        d = res.defects
+        label = rf"$\alpha_6={alpha:+.2f}$" + (f", $t_a={res.annihilation_time:.0f}$" if res.annihilation_time else "")
+        for k, (track, g) in enumerate(d.groupby("defect")):
+            g = g.sort_values("time")
+            style = "-" if g["charge"].iloc[0] > 0 else "--"
+            axes[0].plot(g["time"], g["x"], style, color=colour, label=label if k == 0 else None)
+            axes[1].plot(g["x"], g["y"], style, color=colour)
+        if res.annihilation_time:
+            axes[0].axvline(res.annihilation_time, color=colour, lw=0.6, ls=":")
+    axes[0].set_xlabel("time")
+    axes[0].set_ylabel("x of defect (solid +1/6, dashed -1/6)")
+    axes[0].legend(fontsize=8)
+    axes[1].set_xlabel("x")
+    axes[1].set_ylabel("y")
+    axes[1].set_aspect("equal", adjustable="datalim")
+    axes[1].set_title("trajectories", fontsize=9)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=120)
+    return fig
+
+
+def plot_quadrupole_tracks(result, centre, ax=None, title=None):
+    """Defect trajectories of a quadrupole run (+1/6 red, -1/6 blue), start marked by circles."""
+    plt = _plt()
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(4.5, 4.5))
+    else:
+        fig = ax.figure
+    d = result.defects
+    for _, g in d.groupby("defect"):
+        g = g.sort_values("time")
+        colour = "red" if g["charge"].iloc[0] > 0 else "blue"
+        ax.plot(g["x"] - centre[0], g["y"] - centre[1], color=colour, lw=1)
+        ax.plot(g["x"].iloc[0] - centre[0], g["y"].iloc[0] - centre[1], "o", color=colour, ms=3)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x - centre")
+    ax.set_ylabel("y - centre")
+    if title:
+        ax.set_title(title, fontsize=9)
+    return fig
