@@ -190,6 +190,8 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     i_pair, i_start, i_stop = pair[starts], fr[starts], fr[ends] + 1
     same_next = np.r_[i_pair[1:] == i_pair[:-1], False]
     i_next = np.where(same_next, np.r_[i_start[1:], 0], np.iinfo(np.int64).max)
+    same_prev = np.r_[False, i_pair[1:] == i_pair[:-1]]
+    i_prev = np.where(same_prev, np.r_[0, i_stop[:-1]], -1)  # end of the contact's previous run
     ia, ib = np.divmod(i_pair, g.K)
     T = len(frames)
     # losses: a-b present at stop-1, absent at stop, both cells present at stop
@@ -207,15 +209,17 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     gq, ga, gb = _quartets(q, v)
     losses = pd.DataFrame({"ab": i_pair[L][lq], "cd": lc * g.K + ld, "frame_lost": i_stop[L][lq],
                            "next_ab": i_next[L][lq]}).sort_values("frame_lost")
-    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq]})
+    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq],
+                          "prev_cd": i_prev[G][gq]})
     gains = gains.sort_values("frame_gain")
     if losses.empty or gains.empty:
         return empty
     # Each gain pairs with the latest loss of the same quartet at or before it ...
     m = pd.merge_asof(gains, losses, left_on="frame_gain", right_on="frame_lost", by=["ab", "cd"],
                       direction="backward").dropna(subset=["frame_lost"])
-    # ... provided a-b did not touch again in between; the first such gain completes the T1.
-    m = m[m["next_ab"] > m["frame_gain"]]
+    # ... provided neither a-b nor c-d touched in between (a four-fold vertex at most); the first
+    # such gain completes the T1.
+    m = m[(m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
     m = m.sort_values("frame_gain").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
     ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
     out = pd.DataFrame({
