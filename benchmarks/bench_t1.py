@@ -2,7 +2,7 @@
 
 A smoothly moving periodic Voronoi movie (default 1000 frames x 440 cells in a
 384 x 403 px box, ``hexatissue.synthetic.VoronoiMovie``) is rendered once to a
-memory-mapped ``.npy`` (uint16) in ``--cache`` and read lazily from there.
+``.npy`` (uint16) in ``--cache`` and read lazily from there, one frame per read.
 
 Stages, each in its own forked process so that its peak resident memory
 (``ru_maxrss``) is its own:
@@ -62,6 +62,33 @@ def render(path: Path, n_frames, n_cells, shape, seed=0):
     return np.load(path, mmap_mode="r")
 
 
+class RawStack:
+    """A T x rows x cols ``.npy`` read frame by frame with plain file reads.
+
+    Unlike a memory map, pages of frames already read do not count in the
+    process's resident memory, so ``ru_maxrss`` measures the analysis only.
+    """
+
+    def __init__(self, path, n_frames=None):
+        with open(path, "rb") as f:
+            major, _ = np.lib.format.read_magic(f)
+            read_header = np.lib.format.read_array_header_1_0 if major == 1 else np.lib.format.read_array_header_2_0
+            shape, _, dtype = read_header(f)
+            self.offset = f.tell()
+        self.path, self.dtype = path, np.dtype(dtype)
+        self.shape = (shape[0] if n_frames is None else min(n_frames, shape[0]), *shape[1:])
+        self.ndim = 3
+        self._size = int(np.prod(shape[1:]))
+
+    def __len__(self):
+        return self.shape[0]
+
+    def __getitem__(self, t):
+        with open(self.path, "rb") as f:
+            f.seek(self.offset + int(t) * self._size * self.dtype.itemsize)
+            return np.fromfile(f, dtype=self.dtype, count=self._size).reshape(self.shape[1:])
+
+
 def _maxrss_mb(who=resource.RUSAGE_SELF):
     return resource.getrusage(who).ru_maxrss / 1024.0  # Linux: KiB
 
@@ -74,7 +101,7 @@ def _rss_mb():
 def stage_track(path, n_frames):
     from hexatissue.track import Tracker
 
-    stack = np.load(path, mmap_mode="r")
+    stack = RawStack(path)
     tracker = Tracker()
     t0 = time.perf_counter()
     for t in range(n_frames):
@@ -88,7 +115,7 @@ def stage_mesh(path, n_frames, box, tables_dir):
 
     from hexatissue.pipeline import _mesh_job
 
-    stack = np.load(path, mmap_mode="r")
+    stack = RawStack(path)
     parts = {"cells": [], "edges": []}
     t0 = time.perf_counter()
     for t in range(n_frames):
@@ -121,7 +148,7 @@ def stage_events(tables_dir, box):
 def stage_analyze(path, n_frames, box, workers):
     from hexatissue.pipeline import analyze_movie
 
-    stack = np.load(path, mmap_mode="r")[:n_frames]
+    stack = RawStack(path, n_frames)
     t0 = time.perf_counter()
     movie = analyze_movie(stack, box=box, n_workers=workers, progress=False)
     elapsed = time.perf_counter() - t0

@@ -33,7 +33,7 @@ from .errors import InputError
 from .graph import contact_table as graph_contacts
 from .schema import validate
 
-__all__ = ["detect_t1", "classify_t1", "find_t1", "contact_table", "cell_event_stats",
+__all__ = ["detect_t1", "classify_t1", "find_t1", "track_contacts", "cell_event_stats",
            "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
 
 # Columns of the events table beyond the schema's.
@@ -55,14 +55,7 @@ CELL_EVENT_COLUMNS = {
 }
 
 
-def _ids(table, name):
-    """Track ids of a cells/edges id column: ``track`` when a mapping exists, else the label."""
-    if name not in table.columns:
-        raise InputError(f"table is missing column {name!r}")
-    return table[name].to_numpy(np.int64)
-
-
-def contact_table(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
+def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
     """Cell-cell contacts per frame, in track ids.
 
     Parameters
@@ -148,7 +141,7 @@ class _Graph:
         return owner[keep], v[keep]
 
 
-def _quartets(owner, v, n_queries):
+def _quartets(owner, v):
     """Every pair (c < d) of common neighbours per query: arrays (query, c, d)."""
     df = pd.DataFrame({"q": owner, "v": v})
     pairs = df.merge(df, on="q")
@@ -162,7 +155,7 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     Parameters
     ----------
     contacts : pandas.DataFrame
-        ``frame``, ``a`` < ``b`` (track ids), e.g. from :func:`contact_table`.
+        ``frame``, ``a`` < ``b`` (track ids), e.g. from :func:`track_contacts`.
     presence : pandas.DataFrame
         ``frame``, ``track``: which cells exist in which frame.
 
@@ -197,6 +190,8 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     i_pair, i_start, i_stop = pair[starts], fr[starts], fr[ends] + 1
     same_next = np.r_[i_pair[1:] == i_pair[:-1], False]
     i_next = np.where(same_next, np.r_[i_start[1:], 0], np.iinfo(np.int64).max)
+    same_prev = np.r_[False, i_pair[1:] == i_pair[:-1]]
+    i_prev = np.where(same_prev, np.r_[0, i_stop[:-1]], -1)  # end of the contact's previous run
     ia, ib = np.divmod(i_pair, g.K)
     T = len(frames)
     # losses: a-b present at stop-1, absent at stop, both cells present at stop
@@ -209,20 +204,22 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     G = np.flatnonzero(gain)
     # Quartet of a loss: common neighbours of a, b just before; of a gain: of c, d just after.
     q, v = g.common_neighbours(i_stop[L] - 1, ia[L], ib[L])
-    lq, lc, ld = _quartets(q, v, len(L))
+    lq, lc, ld = _quartets(q, v)
     q, v = g.common_neighbours(i_start[G], ia[G], ib[G])
-    gq, ga, gb = _quartets(q, v, len(G))
+    gq, ga, gb = _quartets(q, v)
     losses = pd.DataFrame({"ab": i_pair[L][lq], "cd": lc * g.K + ld, "frame_lost": i_stop[L][lq],
                            "next_ab": i_next[L][lq]}).sort_values("frame_lost")
-    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq]})
+    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq],
+                          "prev_cd": i_prev[G][gq]})
     gains = gains.sort_values("frame_gain")
     if losses.empty or gains.empty:
         return empty
     # Each gain pairs with the latest loss of the same quartet at or before it ...
     m = pd.merge_asof(gains, losses, left_on="frame_gain", right_on="frame_lost", by=["ab", "cd"],
                       direction="backward").dropna(subset=["frame_lost"])
-    # ... provided a-b did not touch again in between; the first such gain completes the T1.
-    m = m[m["next_ab"] > m["frame_gain"]]
+    # ... provided neither a-b nor c-d touched in between (a four-fold vertex at most); the first
+    # such gain completes the T1.
+    m = m[(m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
     m = m.sort_values("frame_gain").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
     ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
     out = pd.DataFrame({
@@ -350,7 +347,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
             raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
     tid = cells["track"] if "track" in cells.columns else cells["cell"]
     presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": tid.to_numpy(np.int64)})
-    contacts = contact_table(edges, cells, min_length)
+    contacts = track_contacts(edges, cells, min_length)
     raw = find_t1(contacts, presence)
     last = int(presence["frame"].max()) if len(presence) else 0
     events = classify_t1(raw, last, censor)

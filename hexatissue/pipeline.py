@@ -13,6 +13,7 @@ column, ``y`` = row, in px, origin at the centre of pixel (0, 0).
 from __future__ import annotations
 
 import os
+import pickle
 from collections import deque
 from pathlib import Path
 
@@ -23,7 +24,8 @@ from .box import Box
 from .errors import InputError
 from .events import cell_event_stats, detect_t1
 from .frame import MESH_TABLES, Movie
-from .track import Tracker, as_label_image, lineage_table
+from .mesh.labels import validate_labels
+from .track import Tracker, lineage_table
 
 __all__ = ["analyze_movie", "open_movie"]
 
@@ -99,8 +101,10 @@ def _mesh_job(labels, frame, box, mesh_options):
     result = mesh_from_labels(labels, box=box, **mesh_options)
     out = {}
     for name in MESH_TABLES:
-        table = getattr(result, name).drop(columns="frame", errors="ignore")
-        table.insert(0, "frame", np.int64(frame))
+        table = getattr(result, name)
+        if "frame" in table.columns:
+            table = table.drop(columns="frame")
+        table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
         out[name] = table
     return out
 
@@ -173,18 +177,130 @@ def _executor(client, n_workers, n_frames):
 
 
 def _check_box(box, shape):
-    if box is None:
+    if box is None or box is False:
         return None
+    if box is True:  # periodic box covering the frames
+        return Box.from_shape(shape)
     if not isinstance(box, Box):
-        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
+        raise InputError(f"box must be a hexatissue.Box, True (periodic frames) or None; got {type(box).__name__}")
     if (box.Ly, box.Lx) != (float(shape[0]), float(shape[1])):
         raise InputError(f"box {box} does not match the frames' shape {tuple(shape)} (rows, cols); "
                          f"expected Box(Lx={shape[1]}, Ly={shape[0]})")
     return box
 
 
+def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store, progress):
+    """Per-frame mesh tables (in frame order), tracking and the checked box, with bounded frames in flight."""
+    from tqdm.auto import tqdm
+
+    parts = {name: [] for name in MESH_TABLES}
+    start, shape = 0, None
+    if store is not None:
+        start, loaded, saved_tracker, shape = store.load()
+        if start:
+            parts, tracker = loaded, saved_tracker
+    if start >= n_frames:
+        return parts, shape, tracker, _check_box(box, shape)
+    executor, max_inflight = _executor(client, n_workers, n_frames - start)
+    pending: deque = deque()
+    snapshots = {}  # frame -> pickled tracker state after that frame (for checkpoints)
+    due = store.due(start, n_frames) if store is not None else set()
+    new_parts = {name: [] for name in MESH_TABLES}
+
+    def collect(item):
+        t, future = item
+        for name, table in future.result().items():
+            parts[name].append(table)
+            new_parts[name].append(table)
+        if t + 1 in due:
+            store.save(t + 1, new_parts, snapshots.pop(t, None), shape)
+            for name in new_parts:
+                new_parts[name] = []
+
+    try:
+        for t in tqdm(range(start, n_frames), desc="frames", disable=not progress, initial=start, total=n_frames):
+            labels = validate_labels(frames[t], f"frame {t}")
+            if shape is None:
+                shape = labels.shape
+            if t == start:
+                box = _check_box(box, shape)
+            if tracker is not None:
+                tracker.add(labels, t)
+                if t + 1 in due:
+                    snapshots[t] = pickle.dumps(tracker)
+            pending.append((t, executor.submit(_mesh_job, labels, t, box, mesh_options)))
+            while len(pending) >= max_inflight:
+                collect(pending.popleft())
+        while pending:
+            collect(pending.popleft())
+    finally:
+        executor.shutdown()
+    return parts, shape, tracker, box
+
+
+class _Checkpoint:
+    """Mesh tables and tracker state saved every ``every`` frames in ``directory``."""
+
+    def __init__(self, directory, options, every):
+        if int(every) != every or every < 1:
+            raise InputError(f"checkpoint_every must be a positive integer number of frames; got {every!r}")
+        self.dir = Path(directory)
+        self.options = options
+        self.every = int(every)
+        self.state_path = self.dir / "checkpoint.json"
+
+    def due(self, start, n_frames):
+        """Frame counts after which a checkpoint is written."""
+        return set(range(start + self.every, n_frames + 1, self.every)) | {n_frames}
+
+    def load(self):
+        """(frames done, tables, tracker, shape) from the last checkpoint, or (0, None, None, None)."""
+        import json
+
+        if not self.state_path.exists():
+            return 0, None, None, None
+        state = json.loads(self.state_path.read_text())
+        if state["options"] != self.options:
+            raise InputError(f"checkpoint folder {str(self.dir)!r} holds another movie or other options "
+                             f"({state['options']}); use a new folder or delete it")
+        parts = {name: [pd.read_parquet(self.dir / f) for f in state["files"][name]] for name in MESH_TABLES}
+        tracker = None
+        if state["tracker"]:
+            tracker = pickle.loads((self.dir / state["tracker"]).read_bytes())
+        return int(state["done"]), parts, tracker, tuple(state["shape"])
+
+    def save(self, done, new_parts, tracker_bytes, shape):
+        import json
+
+        from .io import atomic_path
+
+        state = {"options": self.options, "done": 0, "files": {name: [] for name in MESH_TABLES}, "tracker": None,
+                 "shape": list(shape)}
+        if self.state_path.exists():
+            state = json.loads(self.state_path.read_text())
+        for name, tables in new_parts.items():
+            if not tables:
+                continue
+            fname = f"{name}_{done:08d}.parquet"
+            with atomic_path(self.dir / fname) as tmp:
+                pd.concat(tables, ignore_index=True).to_parquet(tmp, index=False)
+            state["files"][name].append(fname)
+        if tracker_bytes is not None:
+            fname = f"tracker_{done:08d}.pkl"
+            with atomic_path(self.dir / fname) as tmp:
+                tmp.write_bytes(tracker_bytes)
+            if state["tracker"]:
+                (self.dir / state["tracker"]).unlink(missing_ok=True)
+            state["tracker"] = fname
+        state["done"] = int(done)
+        # the state file is written last: a crash before this line leaves the previous checkpoint valid
+        with atomic_path(self.state_path) as tmp:
+            tmp.write_text(json.dumps(state))
+
+
 def analyze_movie(stack_or_run, box=None, track=None, client=None, n_workers=None, *, min_length=0.0,
-                  censor=10, max_gap=0, min_iou=0.2, progress=True, **mesh_options) -> Movie:
+                  censor=10, max_gap=0, min_iou=0.2, checkpoint=None, checkpoint_every=100, progress=True,
+                  **mesh_options) -> Movie:
     """Junction networks, tracks, lineage and classified T1 events of a label movie or MPF run.
 
     Parameters
@@ -193,9 +309,9 @@ def analyze_movie(stack_or_run, box=None, track=None, client=None, n_workers=Non
         See :func:`open_movie`: a T x rows x cols label stack (frames are read
         one at a time with ``stack[t]``), a list of label images, an MPF run
         (``.labels``, ``.box``) or a path to either.  0 = background/membrane.
-    box : Box, optional
-        Periodic box of the frames (``Box(cols, rows)``); default: the run's
-        box, else None (open images).
+    box : Box or bool, optional
+        Periodic box of the frames (``Box(cols, rows)``; ``True`` builds it
+        from the frame shape); default: the run's box, else None (open images).
     track : bool, optional
         Link cells by overlap (:class:`hexatissue.track.Tracker`).  Default:
         True for label stacks (consistent ids are reproduced), False for MPF
@@ -212,6 +328,14 @@ def analyze_movie(stack_or_run, box=None, track=None, client=None, n_workers=Non
         Right-censoring window for T1 classification, frames.
     max_gap, min_iou : int, float
         Tracking options (gap closing in frames; smallest IoU of a link).
+    checkpoint : str or Path, optional
+        Folder for checkpoints: every ``checkpoint_every`` frames the mesh
+        tables of the finished frames and the tracker state are saved there
+        (atomically); a later call with the same movie and options resumes
+        after the last checkpoint.  The tracker state is a pickle: only
+        resume from folders you wrote yourself.
+    checkpoint_every : int
+        Frames per checkpoint.
     progress : bool
         Show a tqdm progress bar.
     **mesh_options
@@ -227,36 +351,17 @@ def analyze_movie(stack_or_run, box=None, track=None, client=None, n_workers=Non
         ``lineage`` (:func:`~hexatissue.track.lineage_table`) and
         ``cell_events`` (:func:`~hexatissue.events.cell_event_stats`).
     """
-    from tqdm.auto import tqdm
-
     frames, n_frames, run_box, is_run = open_movie(stack_or_run)
     box = run_box if box is None else box
     do_track = (not is_run) if track is None else bool(track)
     tracker = Tracker(min_iou=min_iou, max_gap=max_gap) if do_track else None
-    executor, max_inflight = _executor(client, n_workers, n_frames)
-    parts = {name: [] for name in MESH_TABLES}
-    pending: deque = deque()
-    shape = None
-
-    def collect(future):
-        for name, table in future.result().items():
-            parts[name].append(table)
-
-    try:
-        for t in tqdm(range(n_frames), desc="frames", disable=not progress):
-            labels = as_label_image(frames[t], f"frame {t}")
-            if shape is None:
-                shape = labels.shape
-                box = _check_box(box, shape)
-            if tracker is not None:
-                tracker.add(labels, t)
-            pending.append(executor.submit(_mesh_job, labels, t, box, mesh_options))
-            while len(pending) >= max_inflight:
-                collect(pending.popleft())
-        while pending:
-            collect(pending.popleft())
-    finally:
-        executor.shutdown()
+    store = None
+    if checkpoint is not None:
+        options = dict(n_frames=n_frames, box=repr(box), track=do_track, min_iou=min_iou, max_gap=max_gap,
+                       mesh=repr(sorted(mesh_options.items())))
+        store = _Checkpoint(checkpoint, options, checkpoint_every)
+    parts, shape, tracker, box = _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store,
+                                     progress)
     tables = {name: pd.concat(parts[name], ignore_index=True) for name in MESH_TABLES}
     cells = tables["cells"]
     if tracker is not None:

@@ -25,6 +25,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .errors import InputError
+from .mesh.labels import validate_labels
 
 __all__ = ["Tracker", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
 
@@ -43,27 +44,6 @@ LINEAGE_COLUMNS = {
     "begin": "how the track starts: movie_start, division, border (enters the field of view) or appearance (interior)",
     "end": "how the track ends: movie_end, division, border (leaves the field of view) or extrusion (interior)",
 }
-
-
-def as_label_image(labels, name="labels") -> np.ndarray:
-    """A 2-D integer label array from ``labels`` (integer-valued floats accepted).
-
-    Raises :class:`InputError` for other shapes, non-integer or negative values.
-    """
-    arr = np.asarray(labels)
-    if arr.ndim != 2:
-        raise InputError(f"{name} must be a 2-D label image [row, col]; got an array of shape {arr.shape}")
-    if arr.dtype.kind == "f":
-        if not np.all(np.isfinite(arr)) or not np.array_equal(arr, np.round(arr)):
-            raise InputError(f"{name} must hold integer label ids; got non-integer float values")
-        arr = arr.astype(np.int64)
-    elif arr.dtype.kind == "b":
-        arr = arr.astype(np.int64)
-    elif arr.dtype.kind not in "iu":
-        raise InputError(f"{name} must be an integer label image; got dtype {arr.dtype}")
-    if arr.size and arr.min() < 0:
-        raise InputError(f"{name} must hold non-negative label ids (0 = background); got minimum {arr.min()}")
-    return arr
 
 
 @dataclass
@@ -122,7 +102,7 @@ def frame_overlaps(prev, cur) -> pd.DataFrame:
         ``overlap`` (px), ``area_prev``, ``area_next`` (px), ``iou``
         (overlap / union, dimensionless).
     """
-    prev, cur = as_label_image(prev, "prev"), as_label_image(cur, "cur")
+    prev, cur = validate_labels(prev, "prev"), validate_labels(cur, "cur")
     if prev.shape != cur.shape:
         raise InputError(f"prev and cur must have the same shape; got {prev.shape} and {cur.shape}")
     a, b = _compact(prev), _compact(cur)
@@ -134,15 +114,25 @@ def frame_overlaps(prev, cur) -> pd.DataFrame:
     )
 
 
-def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction):
+def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
     """Mother index -> two daughter indices, from overlaps.
 
     A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
     ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
-    it (``n_ij >= mother_fraction * area_i``).  A mother with two or more
-    candidates divided; its two largest overlaps are the daughters.
+    it (``n_ij >= mother_fraction * area_i``), and that is not the best
+    successor (highest IoU, at least ``min_iou / 2``) of another cell: a
+    neighbour that took over part of ``i`` is not its daughter.  A mother with
+    two or more candidates divided; its two largest overlaps are the daughters.
     """
-    cand = (n >= child_fraction * area_b[j]) & (n >= mother_fraction * area_a[i])
+    iou = n / (area_a[i] + area_b[j] - n)
+    order = np.lexsort((-iou, i))
+    first = order[np.r_[True, i[order][1:] != i[order][:-1]]] if len(i) else order
+    best_j = np.full(len(area_a), -1)
+    strong = iou[first] >= min_iou / 2
+    best_j[i[first][strong]] = j[first][strong]
+    n_best = np.bincount(best_j[best_j >= 0], minlength=len(area_b))
+    others = n_best[j] - (best_j[i] == j)
+    cand = (n >= child_fraction * area_b[j]) & (n >= mother_fraction * area_a[i]) & (others == 0)
     ci, cj, cn = i[cand], j[cand], n[cand]
     if len(ci) < 2:
         return np.empty(0, np.int64), np.empty((0, 2), np.int64)
@@ -194,7 +184,7 @@ def _assign(i, j, iou):
 
 def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
     i, j, n = _contingency(a, b)
-    mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction)
+    mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction, min_iou)
     # Mothers and daughters leave the one-to-one assignment.
     free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
     i, j, n = i[free], j[free], n[free]
@@ -227,7 +217,7 @@ def match_frames(prev, cur, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2
     divisions : pandas.DataFrame
         ``mother`` (id in ``prev``), ``daughter_a``, ``daughter_b`` (ids in ``cur``).
     """
-    a, b = _compact(as_label_image(prev, "prev")), _compact(as_label_image(cur, "cur"))
+    a, b = _compact(validate_labels(prev, "prev")), _compact(validate_labels(cur, "cur"))
     if a.index.shape != b.index.shape:
         raise InputError(f"prev and cur must have the same shape; got {np.shape(prev)} and {np.shape(cur)}")
     r, c, mothers, daughters = _match(a, b, min_iou, child_fraction, mother_fraction)
@@ -326,7 +316,7 @@ class Tracker:
 
         ``frame`` defaults to the number of frames added so far.
         """
-        labels = as_label_image(labels)
+        labels = validate_labels(labels)
         frame = self._n if frame is None else int(frame)
         if self._shape is not None and labels.shape != self._shape:
             raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
@@ -457,7 +447,7 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
     tracker = Tracker(min_iou, child_fraction, mother_fraction, max_gap)
     border = []
     for t in tqdm(range(n), desc="tracking", disable=not progress):
-        labels = as_label_image(stack[t], f"stack[{t}]")
+        labels = validate_labels(stack[t], f"stack[{t}]")
         tracker.add(labels, t)
         border.append(np.isin(tracker._cells[-1], edge_touching(labels)))
     tracks = tracker.tracks()

@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from hexatissue.errors import InputError
-from hexatissue.events import (cell_event_stats, classify_t1, contact_table, detect_t1, find_t1,
+from hexatissue.events import (cell_event_stats, classify_t1, track_contacts, detect_t1, find_t1,
                                intercalation_intervals)
 from hexatissue.synthetic import movie_contacts, t1_movie, voronoi_movie
 
@@ -112,6 +112,18 @@ def test_failed_t1_and_repeated_gain_are_not_events():
     assert ev["kind"].tolist() == ["intercalation"] and ev["frame_start"].tolist() == [3]
 
 
+def test_gain_after_an_intermediate_c_d_contact_is_not_paired_with_the_loss():
+    # a-b lost at 3; c-d touch at 4 while a no longer touches c (no valid quartet), lose it at 5,
+    # touch again with a valid quartet at 7: the intermediate state was not a four-fold vertex
+    edges, cells = _quartet_tables(["ab"] * 3 + ["4", "cd", "4", "4"] + ["cd"] * 5)
+    edges = edges[~((edges["frame"] == 4) & (edges["cell_a"] == 1) & (edges["cell_b"] == 3))]
+    assert detect_t1(edges, cells, censor=0).empty
+    # the same without the intermediate contact is one T1 through a persistent four-fold vertex
+    edges, cells = _quartet_tables(["ab"] * 3 + ["4"] * 4 + ["cd"] * 5)
+    ev = detect_t1(edges, cells, censor=0)
+    assert ev[["frame_start", "frame_gain"]].values.tolist() == [[3, 7]]
+
+
 def test_contacts_of_cells_entering_or_leaving_are_not_t1s():
     states = ["ab"] * 3 + ["cd"] * 5
     # cell 1 is absent at frame 3: the loss of a-b is explained by it leaving
@@ -139,7 +151,7 @@ def test_every_event_is_a_valid_quartet_on_a_random_movie():
 
 def assert_valid_quartets(events, edges, cells):
     """Every event is a neighbour exchange in a quartet, checked directly on the contacts."""
-    con = contact_table(edges, cells)
+    con = track_contacts(edges, cells)
     keys = set(zip(con["frame"], con["a"], con["b"]))
     frames = np.unique(cells["frame"])
     nbrs = {}
@@ -188,5 +200,5 @@ def test_bad_input():
         detect_t1(edges.drop(columns="length"), cells)
     with pytest.raises(InputError, match="'x'"):
         detect_t1(edges, cells.drop(columns="x"))
-    empty = classify_t1(find_t1(contact_table(edges.iloc[:0]), cells.rename(columns={"cell": "track"})), 1)
+    empty = classify_t1(find_t1(track_contacts(edges.iloc[:0]), cells.rename(columns={"cell": "track"})), 1)
     assert empty.empty and "kind" in empty.columns

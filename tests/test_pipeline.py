@@ -86,8 +86,8 @@ def test_run_objects_skip_tracking_unless_forced():
     orig = np.array([maps[f][c] for f, c in zip(mv.cells["frame"], mv.cells["cell"])])
     assert len(set(zip(mv.cells["track"], orig))) == len(np.unique(orig)) == mv.cells["track"].nunique()
     # a label stack can be trusted too
-    mv = analyze_movie(relabelled, box=run.box, track=False, n_workers=1, progress=False)
-    assert (mv.cells["track"] == mv.cells["cell"]).all()
+    mv = analyze_movie(relabelled, box=True, track=False, n_workers=1, progress=False)
+    assert (mv.cells["track"] == mv.cells["cell"]).all() and mv.box == run.box
 
 
 def test_inputs_and_writing(tmp_path):
@@ -165,3 +165,32 @@ def test_itasc_events_are_valid_quartets_and_stable_under_relabelling(real_data,
     canon = lambda df: sorted((r.kind, r.frame_start, r.frame_gain, tuple(sorted((r.cell_a, r.cell_b))),
                                tuple(sorted((r.cell_c, r.cell_d)))) for r in df.itertuples())
     assert canon(got) == canon(ev)
+
+
+class _FailingStack:
+    """A lazily indexed stack whose frame ``fail_at`` cannot be read (a crash mid-run)."""
+
+    def __init__(self, stack, fail_at):
+        self.stack, self.fail_at, self.shape = stack, fail_at, stack.shape
+
+    def __getitem__(self, t):
+        if t == self.fail_at:
+            raise RuntimeError("simulated crash")
+        return self.stack[t]
+
+
+def test_checkpoint_resume_gives_the_uninterrupted_result(tmp_path):
+    mov = voronoi_movie(25, (70, 90), 7, periodic=False, amplitude=0.5, seed=8)
+    stack = relabel_movie(np.stack([mov[t] for t in range(7)]), seed=2)[0]
+    full = analyze_movie(stack, n_workers=1, progress=False)
+    with pytest.raises(RuntimeError, match="simulated crash"):
+        analyze_movie(_FailingStack(stack, 5), n_workers=1, checkpoint=tmp_path, checkpoint_every=2,
+                      progress=False)
+    assert sorted(p.name for p in tmp_path.glob("cells_*.parquet")) == ["cells_00000002.parquet",
+                                                                         "cells_00000004.parquet"]
+    resumed = analyze_movie(_FailingStack(stack, 1), n_workers=1, checkpoint=tmp_path, checkpoint_every=2,
+                            progress=False)  # frames 0-3 come from the checkpoint and are not read again
+    for name, table in full.tables().items():
+        pd.testing.assert_frame_equal(resumed.tables()[name], table)
+    with pytest.raises(InputError, match="other options"):
+        analyze_movie(stack, n_workers=1, checkpoint=tmp_path, max_gap=3, progress=False)

@@ -159,3 +159,18 @@ def test_epicure_curated_ids_recovered_after_relabelling(real_data):
     tracks0, _ = track_labels(labels, max_gap=4)
     expected = tracks0["cell"].map(lambda c: EPICURE_ID_SWITCHES.get(c, c))
     assert (tracks0["track"] == expected).all()
+
+
+def test_neighbour_taking_over_a_cell_is_not_a_division(real_data):
+    tifffile = pytest.importorskip("tifffile")
+    path = real_subdir(real_data, "itasc_micropattern") / "pos00" / "cell_labels.tif"
+    if not path.exists():
+        pytest.skip("pos00/cell_labels.tif is absent")
+    lab = tifffile.imread(path).astype(np.int64)  # AGPL: read in place only
+    # t = 8 -> 9: cell 76 grows into most of cell 78 (226 of its 389 px) while 78 shrinks to 140 px;
+    # both pieces lie mostly inside 78, but 78 at t = 9 is the best successor of 76: no division
+    ov = frame_overlaps(lab[8], lab[9]).set_index(["cell_prev", "cell_next"])
+    assert ov.loc[(78, 76), "overlap"] >= 0.6 * ov.loc[(78, 76), "area_next"]
+    assert ov.loc[(78, 78), "overlap"] >= 0.6 * ov.loc[(78, 78), "area_next"]
+    _, divisions = match_frames(lab[8], lab[9])
+    assert 78 not in divisions["mother"].tolist()
