@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from hexatissue import Box, InputError
-from hexatissue.defects import find_defects
+from hexatissue.defects import defect_events, find_defects, track_defects
 from hexatissue.order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius
 
 from .conftest import real_subdir
@@ -490,3 +490,40 @@ def test_fft_disk_correlation_matches_direct_correlation():
     off = np.arange(-4, 5)
     disk = ((off[None, :] ** 2 + off[:, None] ** 2) <= 16).astype(float)
     np.testing.assert_allclose(_valid_correlation(mask, disk), correlate(mask, disk, "valid"), atol=1e-9)
+
+
+# ---------------------------------------------------------------------------- movies: fields -> defects -> tracks
+
+
+def test_pair_annihilation_movie_from_cells():
+    # a +-1/6 pair approaching (l = 30 -> 2 px) then gone (uniform field in the last frame)
+    xy, box = hex_lattice(seed=0)
+    centre = box.lengths / 2
+    ells = [30, 26, 22, 18, 14, 10, 6, 2, 0]
+    frames = [cells_table(xy, pair(xy, centre, ell) if ell else np.ones(len(xy), complex)).assign(frame=f)
+              for f, ell in enumerate(ells)]
+    grid = coarse_grain(pd.concat(frames, ignore_index=True), box=box)
+    h = grid["spacing"].iloc[0]
+    defects = find_defects(grid, box=box)
+    assert defects.groupby("frame").size().tolist() == [2] * 8  # none in the uniform last frame
+    tracked = track_defects(defects, max_distance=3 * h, box=box)
+    assert tracked["track"].nunique() == 2
+    assert defect_events(tracked, pair_distance=4 * h, box=box).empty  # last defect frame = last frame seen
+    events = defect_events(tracked, pair_distance=4 * h, box=box, frames=range(len(ells)))
+    assert events["kind"].tolist() == ["annihilation"] and events["frame"].tolist() == [7]
+    assert np.hypot(*(events[["x", "y"]].to_numpy()[0] - centre)) < 1.5 * h
+
+
+def test_translating_quadrupole_keeps_four_tracks():
+    xy, box = hex_lattice(seed=1)
+    frames = [cells_table(xy, quadrupole(xy, box.lengths / 2 + [4.0 * f, 0.0], 30.0)).assign(frame=f)
+              for f in range(8)]
+    grid = coarse_grain(pd.concat(frames, ignore_index=True), box=box)
+    h = grid["spacing"].iloc[0]
+    tracked = track_defects(find_defects(grid, box=box), max_distance=3 * h, box=box)
+    assert tracked["track"].nunique() == 4
+    assert (tracked.groupby("track")["charge"].nunique() == 1).all()
+    # each track moves with the quadrupole: +4 px per frame along x (up to the position noise)
+    drift = tracked.groupby("track").apply(lambda t: np.polyfit(t["frame"], t["x"], 1)[0], include_groups=False)
+    np.testing.assert_allclose(drift, 4.0, atol=1.0)
+    assert defect_events(tracked, 4 * h, box=box, include_unpaired=True, frames=range(8)).empty
