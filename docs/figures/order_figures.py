@@ -4,8 +4,9 @@
 
 Uses the published MDCK polygons (Armengol-Collado et al. 2023, not copied into
 the repository) when the real-data folder is there, and synthetic tissues
-otherwise.  Writes docs/figures/order_*.png and order_vs_radius.csv.  With --mpf the
-stress figures come from a small multiphase-field run (several minutes).
+otherwise.  Writes docs/figures/order_*.png and order_vs_radius.csv.  The stress figures
+order_stress{2,6}.png come from a small multiphase-field run with --mpf (several minutes);
+without it, order_stress{2,6}_voronoi.png use smoothed Voronoi indicators as phase fields.
 """
 from __future__ import annotations
 
@@ -124,7 +125,7 @@ def stress_figures():
         plot.plot_stars(cells, p=p, ax=ax, color="k")
         ax.set_title(f"$\\sigma_\\parallel^{{({p})}}$ ($k_\\phi = 1$) and Arg$(\\gamma_{p})/{p}$; "
                      "smoothed-Voronoi phase fields")
-        plot.save_figure(fig, HERE / f"order_stress{p}.png")
+        plot.save_figure(fig, HERE / f"order_stress{p}_voronoi.png")
 
 
 def mpf_stress_figures(steps=3000, seed=1):
@@ -161,7 +162,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--real", type=Path, default=HERE.parents[2] / "shared" / "data" / "real")
     parser.add_argument("--mpf", action="store_true",
-                        help="stress figures from a small MPF run (minutes) instead of smoothed Voronoi fields")
+                        help="stress figures from a small MPF run (minutes); else from smoothed Voronoi fields")
     args = parser.parse_args(argv)
     folder = args.real / "hexanematic_mdck"
     if folder.is_dir():
