@@ -12,7 +12,8 @@ from .frame import Frame, Movie
 from .graph import contact_table, neighbor_graph
 from .io import read_labels, read_table, write_table, write_tables
 from .mesh import mesh_from_labels
-from .order import shape_function
+from .defects import defect_density, defect_events, find_defects, track_defects
+from .order import cell_radius, cell_stress, cells_from_polygons, coarse_grain, order_vs_radius, shape_function
 
 try:
     __version__ = _version("hexatissue")
@@ -30,6 +31,15 @@ __all__ = [
     "write_table",
     "write_tables",
     "shape_function",
+    "cells_from_polygons",
+    "coarse_grain",
+    "cell_radius",
+    "order_vs_radius",
+    "cell_stress",
+    "find_defects",
+    "track_defects",
+    "defect_events",
+    "defect_density",
     "mesh_from_labels",
     "neighbor_graph",
     "contact_table",

@@ -20,6 +20,15 @@ __all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_p
 LABEL_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz")
 
 
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _current_umask()
+
+
 def _collapse_rgb(arr: np.ndarray, path) -> np.ndarray:
     """RGB(A) images whose colour channels are equal (skeletons saved as RGB) become one channel."""
     if arr.ndim >= 3 and arr.shape[-1] in (3, 4):
@@ -104,6 +113,7 @@ def atomic_path(path):
         target.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
         os.close(fd)
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600 files; results are ordinary files
         try:
             yield Path(tmp)
             os.replace(tmp, target)

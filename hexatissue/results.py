@@ -160,31 +160,27 @@ def _write_json(obj, path):
 
 
 def save_figures(result, tables, labels, folder, order_p=(6,)):
-    """PNG figures of the first and last frame: polygons, six-legged stars, Gamma_p field with defects."""
-    from . import plot
+    """PNG figures of the first and last frame: polygons, p-legged stars, Gamma_p field with defects.
 
-    folder = Path(folder)
+    See :func:`hexatissue.plot.save_analysis_figures`; one set per order in ``order_p``.
+    """
+    from .plot import save_analysis_figures
+
     frames = [None] if isinstance(result, Frame) else sorted({int(result.frames[0]), int(result.frames[-1])})
     written = []
     for t in frames:
         frame = result if t is None else result.frame(t)
         image = _frame_labels(labels, t)
-        polygons = frame.polygons()
-        tag = "" if t is None else f"_frame{t:04d}"
-        path = folder / f"polygons{tag}.png"
-        plot.plot_labels(labels=image, polygons=polygons, cells=frame.cells, path=path)
-        written.append(path)
-        path = folder / f"stars6{tag}.png"
-        plot.plot_stars(frame.cells, p=6, polygons=polygons, path=path)
-        written.append(path)
-        if "grid" in tables:
-            for q in order_p:
-                grid, defects = _at_frame(tables["grid"], t), _at_frame(tables["defects"], t)
+        prefix = "" if t is None else f"frame{t:04d}_"
+        for q in order_p:
+            grid = defects = None
+            if "grid" in tables:
+                grid = _at_frame(tables["grid"], t)
+                defects = _at_frame(tables["defects"], t)
                 defects = defects[defects["p"] == q]
-                path = folder / f"order{q}{tag}.png"
-                plot.plot_order_field(grid, defects, p=q, polygons=polygons, box=frame.box, path=path)
-                written.append(path)
-    return written
+            written += save_analysis_figures(frame, folder, labels=image, grid=grid, defects=defects, p=q,
+                                             prefix=prefix)
+    return sorted(set(written))
 
 
 def _frame_labels(labels, t):

@@ -78,6 +78,12 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "Gamma{p}_re": ("f", "", "real part of the coarse-grained shape parameter"),
         "Gamma{p}_im": ("f", "", "imaginary part of the coarse-grained shape parameter"),
         "n_cells": ("i", "", "number of cells averaged"),
+        "row": ("i", "", "node index along y"),
+        "col": ("i", "", "node index along x"),
+        "coverage": ("f", "", "fraction of the disk on interior cells (1 in a periodic box)"),
+        "valid": ("b", "", "node used for statistics and defects"),
+        "radius": ("f", "px", "coarse-graining disk radius"),
+        "spacing": ("f", "px", "requested grid spacing"),
     },
     "defects": {
         "frame": ("i", "frame", "time point (movies only)"),
@@ -89,7 +95,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     },
 }
 
-_OPTIONAL = {"frame", "track"}
+_OPTIONAL = {"frame", "track", "n_cycles", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 
 

@@ -51,7 +51,7 @@ def test_analyze_figures(tmp_path):
     np.save(path, labels)
     assert main(["analyze", str(path), "--out", str(tmp_path / "out"), "--figures", "--order-p", "6"]) == 0
     pngs = sorted(p.name for p in (tmp_path / "out" / "figures").glob("*.png"))
-    assert pngs == ["order6.png", "polygons.png", "stars6.png"]
+    assert pngs == ["gamma6_defects.png", "polygons.png", "stars6.png"]
     assert all((tmp_path / "out" / "figures" / name).stat().st_size > 10_000 for name in pngs)
 
 

@@ -314,6 +314,28 @@ def test_background_marks_border_cells():
     assert f.vertices["is_border"].any()
 
 
+def test_small_holes_in_touching_labels_are_filled():
+    """Gaps of a few px at triple junctions (segmented phase fields, Cellpose) do not make border cells."""
+    box = Box.from_shape(SHAPE)
+    labels = voronoi_labels(jittered_seeds(SHAPE, 16, seed=9), SHAPE, periodic=True)
+    ref = mesh_from_labels(labels, box=box)
+    holed = labels.copy()
+    rows, cols = np.round(ref.vertices[["y", "x"]].to_numpy()).astype(int).T % [[SHAPE[0]], [SHAPE[1]]]
+    holed[rows, cols] = 0
+    holed[(rows + 1) % SHAPE[0], cols] = 0
+    f = mesh_from_labels(holed, box=box, kind="touching")
+    assert not f.cells["is_border"].any()
+    assert long_pairs(ref) <= pairs_of(f) and len(f.vertices) - len(f.edges) + len(f.cells) == 0
+    # a large background region is not a hole
+    open_labels = labels.copy()
+    open_labels[:, :40] = 0
+    assert mesh_from_labels(open_labels, kind="touching").cells["is_border"].any()
+
+
+def long_pairs(frame, min_length=3.0):
+    return set(zip(*frame.edges.loc[frame.edges["length"] >= min_length, ["cell_a", "cell_b"]].to_numpy().T))
+
+
 def test_float_labels_with_integer_values_are_accepted():
     labels = square_labels(3, 3, 8)
     a = mesh_from_labels(labels)

@@ -4,7 +4,9 @@ Three conventions are accepted (``kind``):
 
 ``"touching"``
     Cells share borders directly (Cellpose masks, watershed output); 0 is
-    background outside the tissue.
+    background outside the tissue.  0-valued pockets smaller than
+    ``POCKET_AREA`` px (holes, gaps at triple junctions of segmented phase
+    fields) are filled from their neighbours.
 ``"membrane"``
     Cells are separated by 0-valued junction lines 1-2 px wide (Tissue
     Analyzer, EpySeg, EpiCure).  Zero pixels within ``membrane_width`` px of
@@ -33,6 +35,8 @@ from ._kernels import fill_gaps
 
 KINDS = ("auto", "touching", "membrane", "skeleton")
 SKELETON_MIN_AREA = 4  # px: smaller regions enclosed by skeleton lines are specks, not cells
+POCKET_AREA = 16  # px: smaller 0-valued pockets in touching labels are holes (e.g. at triple junctions)
+POCKET_PASSES = 4  # fill passes: enough to close any pocket of fewer than POCKET_AREA px
 
 
 def validate_labels(labels, name="labels") -> np.ndarray:
@@ -143,9 +147,25 @@ def normalize_labels(labels, kind="auto", periodic=False, membrane_width=3, min_
         if small.any():
             lab = np.where(small[lab], 0, lab)
     membrane = np.zeros(lab.shape, bool)
-    if kind in ("membrane", "skeleton") and membrane_width > 0 and (lab == 0).any():
-        dtype = np.int32 if lab.max() < 2**31 else np.int64
-        filled = fill_gaps(np.ascontiguousarray(lab, dtype=dtype), int(membrane_width), bool(periodic))
-        membrane = (lab == 0) & (filled != 0)
-        lab = filled
-    return lab, membrane
+    zero = lab == 0
+    if not zero.any():
+        return lab, membrane
+    dtype = np.int32 if lab.max() < 2**31 else np.int64
+    lab = np.ascontiguousarray(lab, dtype=dtype)
+    if kind in ("membrane", "skeleton") and membrane_width > 0:
+        filled = fill_gaps(lab, int(membrane_width), bool(periodic))
+        membrane = zero & (filled != 0)
+        return filled, membrane
+    return _fill_pockets(lab, zero, periodic), membrane
+
+
+def _fill_pockets(lab, zero, periodic):
+    """Fill 0-valued pockets smaller than ``POCKET_AREA`` px (holes in touching labels); keep real background."""
+    pockets, n = ndimage.label(zero)
+    small = np.bincount(pockets.ravel()) < POCKET_AREA
+    small[0] = False
+    if not small.any():
+        return lab
+    filled = fill_gaps(lab, POCKET_PASSES, bool(periodic))
+    filled[zero & ~small[pockets]] = 0
+    return filled
