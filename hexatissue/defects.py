@@ -450,7 +450,7 @@ def _pair_ends(ends, pair_distance, box):
     return pos.index.to_numpy()[ia], neg.index.to_numpy()[ib]
 
 
-def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False):
+def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False, frames=None):
     """Creation and annihilation of +- defect pairs from tracked defects.
 
     A track that starts after the first frame of the movie is a birth and one
@@ -476,6 +476,12 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         Column giving the time point.
     include_unpaired : bool
         Also report unpaired births and deaths.
+    frames : array_like, optional
+        Every time point of the movie.  Only its first and last entries
+        matter: tracks starting at the first or ending at the last frame are
+        not events.  Default: the first and last frames present in
+        ``tracked`` (so a pair annihilating just before a final frame without
+        any defect would be missed; pass ``frames`` to catch it).
 
     Returns
     -------
@@ -499,7 +505,10 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
     columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
     if len(tracked) == 0:
         return _empty_events(columns, time_column)
-    t_first, t_last = tracked[time_column].min(), tracked[time_column].max()
+    span = tracked[time_column].to_numpy() if frames is None else np.asarray(frames)
+    if len(span) == 0:
+        raise InputError("frames must list at least one time point")
+    t_first, t_last = span.min(), span.max()
     rows = []
     for first, kind, lone in ((True, "creation", "appearance"), (False, "annihilation", "disappearance")):
         ends = _track_ends(tracked, time_column, first).reset_index(drop=True)

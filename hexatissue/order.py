@@ -311,8 +311,6 @@ def _coverage(gx, gy, radius, spacing, all_xy, interior, reach, r_cell):
     centroid is an interior cell within that cell's ``reach``.  The disk sums are one FFT
     correlation of the mask with the disk, read off at the nodes.
     """
-    from scipy.signal import fftconvolve
-
     k = max(1, int(np.ceil(4.0 * spacing / r_cell)))
     step = spacing / k
     pad = int(np.ceil(radius / step))
@@ -323,8 +321,20 @@ def _coverage(gx, gy, radius, spacing, all_xy, interior, reach, r_cell):
     mask = (interior[nearest] & (dist <= reach[nearest])).reshape(px.shape)
     off = np.arange(-pad, pad + 1) * step
     disk = (off[None, :] ** 2 + off[:, None] ** 2) <= radius**2
-    inside = np.rint(fftconvolve(mask.astype(float), disk.astype(float), mode="valid"))
-    return (inside[::k, ::k] / disk.sum()).ravel()
+    inside = _valid_correlation(mask.astype(float), disk.astype(float))
+    return (np.rint(inside[::k, ::k]) / disk.sum()).ravel()
+
+
+def _valid_correlation(image, kernel):
+    """``scipy.signal.correlate(image, kernel, "valid")`` by FFT (kernel point-symmetric, so = convolution).
+
+    Uses scipy.fft directly: importing scipy.signal costs seconds.
+    """
+    from scipy import fft
+
+    shape = [fft.next_fast_len(m + q - 1, real=True) for m, q in zip(image.shape, kernel.shape)]
+    full = fft.irfft2(fft.rfft2(image, shape) * fft.rfft2(kernel, shape), shape)
+    return full[kernel.shape[0] - 1: image.shape[0], kernel.shape[1] - 1: image.shape[1]]
 
 
 def _coarse_grain_frame(cells, p, radius, spacing, box, min_coverage):

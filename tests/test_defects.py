@@ -135,6 +135,8 @@ def test_tracking_bad_input():
         track_defects(table, max_distance=1, frames=[0, 1])
     with pytest.raises(InputError, match="pair_distance"):
         defect_events(track_defects(table, 2.0), pair_distance=-1)
+    with pytest.raises(InputError, match="frames"):
+        defect_events(track_defects(table, 2.0), pair_distance=1.0, frames=[])
 
 
 def test_empty_tables():

@@ -4,7 +4,9 @@
 
 Uses the published MDCK polygons (Armengol-Collado et al. 2023, not copied into
 the repository) when the real-data folder is there, and synthetic tissues
-otherwise.  Writes docs/figures/order_*.png and order_vs_radius.csv.
+otherwise.  Writes docs/figures/order_*.png and order_vs_radius.csv.  The stress figures
+order_stress{2,6}.png come from a small multiphase-field run with --mpf (several minutes);
+without it, order_stress{2,6}_voronoi.png use smoothed Voronoi indicators as phase fields.
 """
 from __future__ import annotations
 
@@ -118,18 +120,49 @@ def stress_figures():
     for p in (2, 6):
         theta = np.angle(cells[f"gamma{p}_re"] + 1j * cells[f"gamma{p}_im"]) / p
         cells[f"sigma{p}"] = cell_stress(phi, theta, k_phi=1.0, p=p)
-        fig = plot.plot_stress(cells, f"sigma{p}", polys, path=HERE / f"order_stress{p}.png")
+        fig = plot.plot_stress(cells, f"sigma{p}", polys)
         ax = fig.axes[0]
-        ax.set_title(f"longitudinal stress $\\sigma_\\parallel^{{({p})}}$ ($k_\\phi = 1$), synthetic phase fields")
         plot.plot_stars(cells, p=p, ax=ax, color="k")
         ax.set_title(f"$\\sigma_\\parallel^{{({p})}}$ ($k_\\phi = 1$) and Arg$(\\gamma_{p})/{p}$; "
                      "smoothed-Voronoi phase fields")
+        plot.save_figure(fig, HERE / f"order_stress{p}_voronoi.png")
+
+
+def mpf_stress_figures(steps=3000, seed=1):
+    """sigma_par of a small passively relaxed MPF tissue (64 cells, periodic 150 x 152 px)."""
+    from hexatissue import mesh_from_labels
+    from hexatissue.simulate.model import initial_state
+    from hexatissue.simulate.params import Params
+
+    params = Params(n_cells=64, Lx=150, Ly=152, dtype="float64")
+    sim = initial_state(params, seed=seed)
+    sim.advance(steps, active=False)
+    vmax, imax = sim.max_field()
+    labels = np.where(vmax > params.phi0 / 2, imax + 1, 0)
+    # argmax segmentation: the small gaps at triple junctions (max phi < phi0/2) go to the nearest cell
+    nearest = ndimage.distance_transform_edt(labels == 0, return_distances=False, return_indices=True)
+    labels = labels[tuple(nearest)]
+    box = Box(params.Lx, params.Ly)
+    frame = mesh_from_labels(labels, box=box)
+    cells = frame.cells
+    polys = frame.polygons()
+    patches = sim.phi[cells["cell"].to_numpy() - 1]  # label c is patch c - 1
+    for p in (2, 6):
+        theta = np.angle(cells[f"gamma{p}_re"] + 1j * cells[f"gamma{p}_im"]) / p
+        cells[f"sigma{p}"] = cell_stress(patches, theta, k_phi=params.k_phi, p=p)
+        fig = plot.plot_stress(cells, f"sigma{p}", polys, box=box)
+        plot.plot_stars(cells, p=p, ax=fig.axes[0], color="k", box=box)
+        fig.axes[0].set_title(f"MPF, 64 cells, {steps} passive steps: $\\sigma_\\parallel^{{({p})}}$ "
+                              f"and Arg$(\\gamma_{p})/{p}$")
         plot.save_figure(fig, HERE / f"order_stress{p}.png")
+        print(f"MPF sigma_par p={p}: mean {cells[f'sigma{p}'].mean():.4f}, s.d. {cells[f'sigma{p}'].std():.4f}")
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--real", type=Path, default=HERE.parents[2] / "shared" / "data" / "real")
+    parser.add_argument("--mpf", action="store_true",
+                        help="stress figures from a small MPF run (minutes); else from smoothed Voronoi fields")
     args = parser.parse_args(argv)
     folder = args.real / "hexanematic_mdck"
     if folder.is_dir():
@@ -137,7 +170,10 @@ def main(argv=None):
     else:
         print(f"{folder} not found: skipping the MDCK figures")
     quadrupole_figure()
-    stress_figures()
+    if args.mpf:
+        mpf_stress_figures()
+    else:
+        stress_figures()
 
 
 if __name__ == "__main__":
