@@ -194,3 +194,24 @@ def test_checkpoint_resume_gives_the_uninterrupted_result(tmp_path):
         pd.testing.assert_frame_equal(resumed.tables()[name], table)
     with pytest.raises(InputError, match="other options"):
         analyze_movie(stack, n_workers=1, checkpoint=tmp_path, max_gap=3, progress=False)
+
+
+def test_short_mpf_run_end_to_end(tmp_path):
+    simulate = pytest.importorskip("hexatissue.simulate")
+    if not hasattr(simulate, "read_run"):
+        pytest.skip("hexatissue.simulate.read_run is not available")
+    params = simulate.Params(n_cells=6, Lx=48, Ly=44, D_r=1e-3, v0=0.01)
+    path = tmp_path / "run.zarr"
+    simulate.run_simulation(path, params, steps=60, save_every=10, relax=30, seed=5, progress=False)
+    run = simulate.read_run(path)
+    mv = analyze_movie(path, n_workers=1, progress=False)  # a run store path: read with read_run
+    assert mv.box == run.box and len(mv) == run.labels.shape[0]
+    assert (mv.cells["track"] == mv.cells["cell"]).all()  # MPF ids are consistent: no tracking
+    # every simulated cell is found, at its phase-field centre (minimum image)
+    both = mv.cells.merge(run.cells, on=["frame", "cell"], suffixes=("", "_run"), validate="one_to_one")
+    assert len(both) == len(run.cells)
+    d = run.box.min_image(both[["x", "y"]].to_numpy() - both[["x_run", "y_run"]].to_numpy())
+    assert np.abs(d).max() < 2.0
+    lin = mv.extra["lineage"]
+    assert len(lin) == params.n_cells and (lin["begin"] == "movie_start").all()
+    assert_valid_quartets(mv.extra["events"], mv.edges, mv.cells)
