@@ -14,6 +14,9 @@ from .io import read_labels, read_table, write_table, write_tables
 from .mesh import mesh_from_labels
 from .defects import defect_density, defect_events, find_defects, track_defects
 from .order import cell_radius, cell_stress, cells_from_polygons, coarse_grain, order_vs_radius, shape_function
+from .events import cell_event_stats, detect_t1, intercalation_intervals
+from .pipeline import analyze_movie
+from .track import Tracker, lineage_table, track_labels
 
 try:
     __version__ = _version("hexatissue")
@@ -40,6 +43,13 @@ __all__ = [
     "track_defects",
     "defect_events",
     "defect_density",
+    "analyze_movie",
+    "Tracker",
+    "track_labels",
+    "lineage_table",
+    "detect_t1",
+    "cell_event_stats",
+    "intercalation_intervals",
     "mesh_from_labels",
     "neighbor_graph",
     "contact_table",

@@ -53,6 +53,10 @@ def _analyze_parser(sub):
                    help="contacts shorter than this (px) count as four-fold vertices in T1 detection (default: 0)")
     p.add_argument("--censor", type=int, default=10,
                    help="T1s within this many frames of the end are 'unresolved' (default: 10)")
+    p.add_argument("--max-gap", type=int, default=0,
+                   help="tracking: link cells missing for up to this many frames (default: 0)")
+    p.add_argument("--checkpoint", metavar="DIR",
+                   help="movies: save progress to DIR and resume from it when run again")
     p.add_argument("--workers", type=int, help="local processes for movies (default: all cores)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="dask.distributed scheduler address for movies")
     p.add_argument("--figures", action="store_true", help="also write PNG figures to OUT/figures")
@@ -76,7 +80,7 @@ def _run_analyze(args) -> int:
             args.input, args.out, periodic=args.periodic, p=tuple(args.p), order_p=tuple(args.order_p),
             radius=args.radius, spacing=args.spacing, formats=tuple(args.format), figures=args.figures,
             client=client, n_workers=args.workers, track=args.track, min_length=args.min_length,
-            censor=args.censor, kind=args.kind, merge_distance=args.merge_distance,
+            censor=args.censor, max_gap=args.max_gap, checkpoint=args.checkpoint, kind=args.kind, merge_distance=args.merge_distance,
             membrane_width=args.membrane_width, center=args.center, pixel_size=args.pixel_size, units=args.units,
         )
     finally:

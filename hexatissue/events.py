@@ -421,4 +421,4 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     iv = intercalation_intervals(events).groupby("track")["interval"]
     out["n_intervals"] = iv.size().reindex(tracks).fillna(0).to_numpy(np.int64)
     out["mean_intercalation_interval"] = iv.mean().reindex(tracks).to_numpy(float)
-    return out
+    return validate(out, "cell_events")

@@ -61,7 +61,7 @@ def _source(path, periodic):
 
 def analyze_to_folder(source, out, *, periodic=False, p=(2, 6), order_p=(6, 2), radius=None, spacing=None,
                       formats=("parquet",), figures=False, client=None, n_workers=None, track=None,
-                      min_length=0.0, censor=10, **mesh_options) -> dict:
+                      min_length=0.0, censor=10, max_gap=0, checkpoint=None, **mesh_options) -> dict:
     """Analyse a label image, stack or MPF run and write every table to ``out``.
 
     Parameters
@@ -82,7 +82,7 @@ def analyze_to_folder(source, out, *, periodic=False, p=(2, 6), order_p=(6, 2), 
         Orders for which Gamma_p and defects are computed (each must be in ``p``).
     radius, spacing : float, optional
         Coarse-graining disk radius and grid spacing, px (default 1.5 R_cell and R_cell).
-    client, n_workers, track, min_length, censor
+    client, n_workers, track, min_length, censor, max_gap, checkpoint
         Movie options of :func:`hexatissue.analyze_movie`.
     **mesh_options
         Passed to :func:`hexatissue.mesh_from_labels`.
@@ -106,7 +106,8 @@ def analyze_to_folder(source, out, *, periodic=False, p=(2, 6), order_p=(6, 2), 
         n_frames = 1
     else:
         result = analyze_movie(data, box=box, track=track, client=client, n_workers=n_workers,
-                               min_length=min_length, censor=censor, **mesh_options)
+                               min_length=min_length, censor=censor, max_gap=max_gap, checkpoint=checkpoint,
+                               **mesh_options)
         box = result.box
         n_frames = len(result)
     tables = result.tables()

@@ -69,6 +69,28 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "cell_d": ("i", "", "second cell gaining a contact"),
         "x": ("f", "px", "centre of the quartet, column"),
         "y": ("f", "px", "centre of the quartet, row"),
+        "frame_gain": ("i", "frame", "first frame with the c-d contact (> frame_start: a four-fold vertex persisted)"),
+        "frame_undo": ("f", "frame", "first frame without the c-d contact again (cycles), else NaN"),
+        "is_border": ("b", "", "a quartet cell touches the image edge or background"),
+    },
+    "lineage": {
+        "track": ("i", "", "track id"),
+        "frame_start": ("i", "frame", "first frame of the track"),
+        "frame_end": ("i", "frame", "last frame of the track"),
+        "n_frames": ("i", "frame", "frames in which the track is present"),
+        "parent": ("i", "", "track id of the mother cell for daughters of a division, else 0"),
+        "begin": ("O", "", "movie_start, division, border or appearance"),
+        "end": ("O", "", "movie_end, division, border or extrusion"),
+    },
+    "cell_events": {
+        "track": ("i", "", "track id"),
+        "n_frames": ("i", "frame", "frames in which the track is present"),
+        "n_cycles": ("i", "", "T1 cycles the cell took part in"),
+        "n_intercalations": ("i", "", "intercalations the cell took part in"),
+        "n_unresolved": ("i", "", "right-censored T1s the cell took part in"),
+        "mean_cycle_period": ("f", "frame", "mean duration of its T1 cycles"),
+        "n_intervals": ("i", "", "intervals between consecutive intercalations"),
+        "mean_intercalation_interval": ("f", "frame", "mean time between consecutive intercalations"),
     },
     "grid": {
         "frame": ("i", "frame", "time point (movies only)"),
@@ -95,7 +117,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     },
 }
 
-_OPTIONAL = {"frame", "track", "n_cycles", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing"}
+_OPTIONAL = {"frame", "track", "n_cycles", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
+             "frame_gain", "frame_undo", "is_border"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 
 

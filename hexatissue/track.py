@@ -26,6 +26,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .errors import InputError
 from .mesh.labels import validate_labels
+from .schema import validate
 
 __all__ = ["Tracker", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
 
@@ -404,7 +405,7 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
     end[out["frame_end"].to_numpy() == t1] = "movie_end"
     out["begin"] = pd.array(begin, dtype="string")
     out["end"] = pd.array(end, dtype="string")
-    return out.reset_index(drop=True)
+    return validate(out.reset_index(drop=True), "lineage")
 
 
 def edge_touching(labels: np.ndarray, margin: int = 2) -> np.ndarray:

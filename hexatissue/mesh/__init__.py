@@ -1,5 +1,5 @@
 """Label images -> junction network (vertices, junctions, ordered polygons)."""
 from .labels import KINDS, detect_kind, label_skeleton, normalize_labels
-from .network import mesh_from_labels
+from .network import mesh_from_labels, warm_up
 
-__all__ = ["mesh_from_labels", "normalize_labels", "detect_kind", "label_skeleton", "KINDS"]
+__all__ = ["mesh_from_labels", "warm_up", "normalize_labels", "detect_kind", "label_skeleton", "KINDS"]

@@ -16,7 +16,7 @@ from ..schema import validate
 from . import _kernels as K
 from .labels import normalize_labels
 
-__all__ = ["mesh_from_labels"]
+__all__ = ["mesh_from_labels", "warm_up"]
 
 ARM_REACH = 8  # cracks per arm in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
@@ -443,3 +443,16 @@ def _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts):
         }
     )
     return vertices, edges, cell_vertices
+
+
+def warm_up() -> None:
+    """Compile every mesh kernel once (or load it from numba's cache), on a tiny image.
+
+    Call it in a parent process before forking workers, so that they inherit
+    the compiled code instead of each compiling it again.
+    """
+    labels = np.ones((12, 12), np.int32)
+    labels[:, 6:] = 2
+    labels[4:8, 2:4] = 3  # a cell inside another: a boundary with no vertex
+    labels[0, 7] = 0  # a one-pixel hole: the pocket fill
+    mesh_from_labels(labels)
