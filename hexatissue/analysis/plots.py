@@ -28,7 +28,7 @@ def _figure(ncols, figsize):
 
 def _finish(fig, path):
     if path is not None:
-        save_figure(fig, path)
+        save_figure(fig, path, dpi=110)
     return fig
 
 
@@ -122,9 +122,11 @@ def plot_migration(populations, path=None, figsize=(10, 4)):
             x = np.linspace(logd.min() - 0.3, logd.max() + 0.3, 300)
             m = populations.mixture
             comps = np.exp(m.log_densities(x))
-            ax2.plot(x, comps[:, 0], color=SLOW_COLOR, label="slow")
-            ax2.plot(x, comps[:, 1], color=FAST_COLOR, label="fast")
-            ax2.plot(x, comps.sum(axis=1), color="k", lw=1, label="mixture")
+            ax2.plot(x, comps.sum(axis=1), color="k", lw=1, ls="--", label="mixture")
+            ax2.plot(x, comps[:, 0], color=SLOW_COLOR, lw=2, alpha=0.8, label="slow component")
+            ax2.plot(x, comps[:, 1], color=FAST_COLOR, lw=2, alpha=0.8, label="fast component")
+            if np.isfinite(populations.threshold):
+                ax2.axvline(np.log10(populations.threshold), color="0.3", ls=":", lw=0.8)
             ax2.set_title(f"delta BIC (1 vs 2 components) = {populations.delta_bic:.1f}", fontsize=9)
             ax2.legend(frameon=False)
     else:
@@ -157,7 +159,7 @@ def plot_timing(runs, path=None, unit="frames", param="D_r", figsize=None):
             pos.append(3 * k + j)
             colors.append(color)
         p = timing_test(table)["pvalue"]
-        labels.append(("" if value is None else f"{param}={value:g}\n") + f"p={p:.2g}")
+        labels.append(("" if value is None else f"{param}={value:g}\n") + (f"p={p:.2g}" if np.isfinite(p) else "p: n/a"))
     nonempty = [i for i, d in enumerate(data) if len(d)]
     if nonempty:
         bp = ax.boxplot([data[i] for i in nonempty], positions=[pos[i] for i in nonempty], widths=0.8,
