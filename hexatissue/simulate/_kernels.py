@@ -301,8 +301,8 @@ def advance(phi, phis, k1, S1, S2, ox, oy, gx, gy, ptr, cells, theta, noise, coe
 
 
 @njit(cache=True, parallel=True)
-def max_field(phi, oy, gx, ptr, cells, vmax, imax):
-    """Per lattice node the largest field value ``vmax`` and its cell ``imax`` (-1 where none).
+def max_field(phi, oy, gx, ptr, cells, vmax, imax, vsum):
+    """Per lattice node the largest field ``vmax``, its cell ``imax`` (-1 where none) and the total ``vsum``.
 
     Ties go to the lower cell index (cells are visited in ascending order).
     """
@@ -313,6 +313,7 @@ def max_field(phi, oy, gx, ptr, cells, vmax, imax):
         r0 = b * CHUNK_ROWS
         r1 = min(r0 + CHUNK_ROWS, Ly)
         vmax[r0:r1, :] = 0
+        vsum[r0:r1, :] = 0
         imax[r0:r1, :] = -1
         for k in range(ptr[b], ptr[b + 1]):
             c = cells[k]
@@ -323,6 +324,7 @@ def max_field(phi, oy, gx, ptr, cells, vmax, imax):
                 for j in range(1, P - 1):
                     q = gx[c, j]
                     v = np.float64(phi[c, i, j])
+                    vsum[r, q] += v
                     if v > vmax[r, q]:
                         vmax[r, q] = v
                         imax[r, q] = c

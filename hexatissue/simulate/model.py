@@ -16,7 +16,7 @@ from ..errors import HexatissueWarning, InputError
 from . import _kernels as K
 from .params import Params
 
-__all__ = ["Simulation", "initial_state", "select_threading_layer", "set_threads"]
+__all__ = ["Simulation", "initial_state", "select_threading_layer", "set_threads", "auto_threads"]
 
 LEAK_LIMIT = 1e-3  # fraction of int phi^2 allowed on the two rings next to a patch's zero ring
 RECENTRE_THRESHOLD = 1.0  # px of centroid drift before a patch is shifted
@@ -40,15 +40,34 @@ def select_threading_layer() -> str:
         from numba.np.ufunc import omppool  # noqa: F401  (fails when libgomp is missing)
     except Exception:
         return "default"
+    # Spinning OpenMP threads collapse on a shared, oversubscribed machine (measured 15-60x slower at
+    # load 13 on 2 cores); sleeping ones cost a few % when idle.  The user's setting wins.
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     numba.config.THREADING_LAYER = "omp"
     return "omp"
 
 
-def set_threads(n: int | None) -> int:
-    """Set numba's thread count (``None`` keeps the current one); returns the count in use."""
+def auto_threads() -> int:
+    """Threads worth using now: the cores left idle by the current load (1-minute average), at least 1."""
+    import numba
+
+    try:
+        idle = (os.cpu_count() or 1) - os.getloadavg()[0]
+    except OSError:  # no load average on this platform
+        idle = os.cpu_count() or 1
+    return int(max(1, min(numba.config.NUMBA_NUM_THREADS, round(idle))))
+
+
+def set_threads(n: int | str | None) -> int:
+    """Set numba's thread count (``None`` keeps the current one, ``"auto"`` uses :func:`auto_threads`).
+
+    Returns the count in use.  Results do not depend on it.
+    """
     import numba
 
     select_threading_layer()
+    if isinstance(n, str) and n == "auto":
+        n = auto_threads()
     if n is not None:
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= numba.config.NUMBA_NUM_THREADS:
             raise InputError(f"threads must be an integer in 1..{numba.config.NUMBA_NUM_THREADS}; got {n!r}")
@@ -189,11 +208,12 @@ class Simulation:
         return out
 
     def max_field(self):
-        """Lattice arrays ``(vmax, imax)``: largest field and its cell index (-1 where no patch)."""
+        """Lattice arrays ``(vmax, imax, vsum)``: largest field, its cell index (-1 where none), total field."""
         vmax = np.empty(self.params.shape)
+        vsum = np.empty(self.params.shape)
         imax = np.empty(self.params.shape, dtype=np.int64)
-        K.max_field(self.phi, self.oy, self._gx, self._ptr, self._cells, vmax, imax)
-        return vmax, imax
+        K.max_field(self.phi, self.oy, self._gx, self._ptr, self._cells, vmax, imax, vsum)
+        return vmax, imax, vsum
 
     def full_fields(self) -> np.ndarray:
         """Every cell's field on the whole lattice, ``(N, Ly, Lx)`` (memory heavy: tests and small systems)."""
