@@ -12,6 +12,7 @@ Positions are in px with x = column, y = row, origin at the centre of pixel (0, 
 """
 from .migration import (DEFAULT_DL, PAPER_WINDOW_ITERATIONS, MigrationPopulations, cell_displacements, cell_steps,
                         frames_per_window, migration_populations, migration_table)
+from .sweep import sweep
 from .mixture import GaussianMixture1D, fit_gaussian_mixture
 from .plots import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
                     plot_timing_vs_parameter)
@@ -23,7 +24,7 @@ __all__ = [
     "nearest_defect", "t1_defect_distances", "random_cell_distances", "t1_defect_proximity", "ProximityResult",
     "frames_per_window", "cell_steps", "cell_displacements", "migration_table", "migration_populations",
     "MigrationPopulations", "DEFAULT_DL", "PAPER_WINDOW_ITERATIONS",
-    "GaussianMixture1D", "fit_gaussian_mixture",
+    "GaussianMixture1D", "fit_gaussian_mixture", "sweep",
     "cell_timing", "timing_summary", "timing_test", "timing_across_runs",
     "plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter", "plot_event_overview",
 ]

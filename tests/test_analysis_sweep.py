@@ -1,0 +1,79 @@
+"""MPF parameter sweeps: runs, analyses, resume and skip."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue.analysis import sweep
+from hexatissue.errors import InputError
+from hexatissue.simulate import Params, read_run, run_simulation
+
+BASE = Params(n_cells=6, Lx=48, Ly=44, v0=0.01)
+RUN = dict(steps=60, save_every=10, relax=30, seed=5)
+ANALYZE = {"censor": 2}
+
+
+def test_sweep_runs_analyses_and_skips_finished_runs(tmp_path):
+    out = tmp_path / "sw"
+    table = sweep("dr", [1e-3, 1e-2], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    assert table["status"].tolist() == ["new", "new"]
+    assert table["value"].tolist() == [1e-3, 1e-2] and set(table["param"]) == {"D_r"}
+    for value, path, results in table[["value", "path", "results"]].itertuples(index=False):
+        run = read_run(path)
+        assert run.params.D_r == value and len(run) == 7 and run.params.n_cells == 6
+        cells = pd.read_parquet(f"{results}/cells.parquet")
+        assert sorted(cells["frame"].unique()) == list(range(7))
+        assert json.loads(open(f"{results}/metadata.json").read())["periodic"] is True
+    assert (out / "D_r=0.001" / "done.json").exists()
+    stamp = (out / "D_r=0.001" / "done.json").stat().st_mtime_ns
+    again = sweep("D_r", [1e-3, 1e-2], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    assert again["status"].tolist() == ["skipped", "skipped"]
+    assert (out / "D_r=0.001" / "done.json").stat().st_mtime_ns == stamp
+    assert again["n_frames"].tolist() == [7, 7]
+
+
+def test_sweep_resumes_a_partial_run_exactly(tmp_path):
+    out = tmp_path / "sw"
+    part = out / "D_r=0.001" / "run.zarr"
+    part.parent.mkdir(parents=True)
+    run_simulation(part, BASE.replace(D_r=1e-3), steps=30, save_every=10, relax=30, seed=5, progress=False)
+    assert len(read_run(part)) == 4
+    table = sweep("dr", [1e-3], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    assert table["status"].tolist() == ["resumed"] and table["n_frames"].tolist() == [7]
+    full = tmp_path / "full.zarr"
+    run_simulation(full, BASE.replace(D_r=1e-3), progress=False, **RUN)
+    np.testing.assert_array_equal(np.asarray(read_run(part).labels), np.asarray(read_run(full).labels))
+
+
+def test_sweep_refuses_to_mix_settings(tmp_path):
+    out = tmp_path / "sw"
+    sweep("dr", [1e-3], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    (out / "D_r=0.001" / "done.json").unlink()
+    with pytest.raises(InputError, match="seed"):
+        sweep("dr", [1e-3], out, params=BASE, n_workers=1, progress=False, **{**RUN, "seed": 6})
+
+
+def test_sweep_bad_input(tmp_path):
+    with pytest.raises(InputError, match="Params field"):
+        sweep("speed", [1.0], tmp_path, params=BASE)
+    with pytest.raises(InputError, match="at least one"):
+        sweep("dr", [], tmp_path, params=BASE)
+    with pytest.raises(InputError, match="duplicate"):
+        sweep("dr", [1e-3, 0.001], tmp_path, params=BASE)
+
+
+@pytest.mark.slow
+def test_sweep_in_local_processes_and_on_dask(tmp_path):
+    from distributed import Client, LocalCluster
+
+    local = sweep("dr", [1e-3, 1e-2], tmp_path / "local", params=BASE, n_workers=2, progress=False,
+                  analyze_options=ANALYZE, **RUN)
+    assert local["status"].tolist() == ["new", "new"]
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        remote = sweep("dr", [1e-3, 1e-2], tmp_path / "dask", params=BASE, client=client, progress=False,
+                       analyze_options=ANALYZE, **RUN)
+    assert remote["status"].tolist() == ["new", "new"]
+    for a, b in zip(local["path"], remote["path"]):
+        np.testing.assert_array_equal(np.asarray(read_run(a).labels), np.asarray(read_run(b).labels))
