@@ -77,3 +77,35 @@ def test_sweep_in_local_processes_and_on_dask(tmp_path):
     assert remote["status"].tolist() == ["new", "new"]
     for a, b in zip(local["path"], remote["path"]):
         np.testing.assert_array_equal(np.asarray(read_run(a).labels), np.asarray(read_run(b).labels))
+
+
+def test_figure3_from_a_sweep(tmp_path):
+    from scipy import stats
+
+    from hexatissue.analysis import figure3
+
+    table = sweep("dr", [1e-3, 1e-2], tmp_path / "sw", params=BASE.replace(n_cells=8, Lx=56, Ly=50), n_workers=1,
+                  progress=False, analyze_options=ANALYZE, **RUN)
+    summary = figure3(table, tmp_path / "fig", dt=2, dl=20.0, frame_interval=10, time_unit="iterations")
+    fig = tmp_path / "fig"
+    for name in ("fig3e.png", "fig3f.png", "fig3g_box.png", "fig3g_vs_param.png", "summary.json"):
+        assert (fig / name).exists()
+    ev, ctrl = pd.read_csv(fig / "fig3e_distances.csv"), pd.read_csv(fig / "fig3e_control.csv")
+    assert set(ev["D_r"]) <= {1e-3, 1e-2} and len(ctrl) == 5 * len(ev)
+    pooled = summary["fig3e"]["pooled"]
+    if len(ev):
+        assert pooled["ks_pvalue"] == pytest.approx(stats.ks_2samp(ev["dr"], ctrl["dr"]).pvalue)
+    mig = pd.read_csv(fig / "fig3f_migration.csv")
+    assert set(mig["D_r"]) == {1e-3, 1e-2} and set(mig["frame_end"] - mig["frame_start"]) == {2}
+    across = pd.read_csv(fig / "fig3g_summary.csv")
+    assert sorted(across["D_r"].unique()) == [1e-3, 1e-2] and len(across) == 4
+    assert json.loads((fig / "summary.json").read_text())["values"] == [1e-3, 1e-2]
+
+
+def test_loglog_slope_is_exact_on_a_power_law():
+    from hexatissue.analysis import loglog_slope
+
+    x = np.array([1e-6, 1e-5, 4e-5, 8e-5])
+    assert loglog_slope(x, 3.0 * x**-0.5) == pytest.approx(-0.5)
+    assert loglog_slope(x, np.full(4, 7.0)) == pytest.approx(0.0)
+    assert np.isnan(loglog_slope([1.0], [2.0]))

@@ -198,7 +198,7 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, unit="frames", fig
             ax.errorbar(x, s["mean"], yerr=[s["mean"] - s["q25"], s["q75"] - s["mean"]], color=color, marker="o",
                         capsize=3, label=label)
     values = summary[param].to_numpy(float)
-    if len(values) and (values > 0).all() and values.max() / values.min() > 10:
+    if len(values) and (values > 0).all() and values.max() / values.min() >= 3:
         ax.set_xscale("log")
     ax.set_xlabel(param)
     ax.set_ylabel(f"time ({unit})")

@@ -23,7 +23,7 @@ from .migration import DEFAULT_DL, migration_populations, migration_table
 from .proximity import t1_defect_proximity
 from .timing import cell_timing, timing_summary, timing_test
 
-__all__ = ["report", "load_results", "box_from_grid"]
+__all__ = ["report", "load_results", "box_from_grid", "results_box", "default_window"]
 
 TABLES = ("cells", "vertices", "edges", "cell_vertices", "grid", "defects", "events", "lineage", "cell_events")
 
@@ -68,7 +68,8 @@ def box_from_grid(grid):
     return Box(float(np.round(lengths[0], 6)), float(np.round(lengths[1], 6)))
 
 
-def _box(tables, metadata):
+def results_box(tables, metadata):
+    """The periodic box of an analysis folder (None for open images)."""
     if not metadata.get("periodic", False):
         return None
     if "box" in metadata:  # [Lx, Ly], when the writer records it
@@ -76,6 +77,36 @@ def _box(tables, metadata):
     if "grid" in tables:
         return box_from_grid(tables["grid"])
     raise InputError("the results are periodic but neither metadata.json nor a grid table gives the box")
+
+
+def _mpf_save_every(metadata):
+    """``save_every`` of the MPF run the results came from (None when the input is not a readable run)."""
+    source = str(metadata.get("input", ""))
+    if not source.endswith(".zarr") or not Path(source).exists():
+        return None
+    try:
+        from ..simulate.store import RunStore
+
+        return int(RunStore.open(source, mode="r").attrs["save_every"])
+    except Exception:  # a moved or foreign store only loses the default window
+        return None
+
+
+def default_window(metadata, n_frames):
+    """Migration window in frames: the paper's 25,000 iterations for MPF runs, else a quarter of the movie.
+
+    For results of an MPF run whose store is still at ``metadata["input"]``,
+    ``25_000 / save_every`` frames when that fits in the movie; otherwise
+    ``max(1, n_frames // 4)``.
+    """
+    from .migration import PAPER_WINDOW_ITERATIONS
+
+    save_every = _mpf_save_every(metadata)
+    if save_every and PAPER_WINDOW_ITERATIONS % save_every == 0:
+        dt = PAPER_WINDOW_ITERATIONS // save_every
+        if dt < n_frames:
+            return dt
+    return max(1, n_frames // 4)
 
 
 def _frame_of(tables, t, box):
@@ -177,8 +208,8 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
     dl : float
         Migration subregion side, px.
     dt : int, optional
-        Migration window, frames.  Default: ``metadata["window_frames"]`` when
-        present, else a quarter of the movie (at least 1 frame).
+        Migration window, frames.  Default: :func:`default_window` (the
+        paper's 25,000 iterations for MPF runs, else a quarter of the movie).
     n_control : int
         Random cells per T1 event in the proximity control.
     seed : int or numpy.random.Generator
@@ -195,7 +226,7 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
     tables, metadata = load_results(results_dir)
     out = Path(results_dir) / "report" if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    box = _box(tables, metadata)
+    box = results_box(tables, metadata)
     order_p = tuple(order_p if order_p is not None else metadata.get("order_p", (6,)))
     cells = tables["cells"]
     frames = np.unique(cells["frame"].to_numpy(np.int64)) if "frame" in cells.columns else np.array([])
@@ -258,7 +289,7 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
 
     # Fig. 3f
     if dt is None:
-        dt = int(metadata.get("window_frames", max(1, len(frames) // 4)))
+        dt = default_window(metadata, len(frames))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
         table = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=events)

@@ -4,6 +4,7 @@ Layout of a sweep folder ``OUT``::
 
     OUT/D_r=1e-05/run.zarr        the MPF run (hexatissue.simulate.run_simulation)
     OUT/D_r=1e-05/results/        its analysis (hexatissue.results.analyze_to_folder)
+    OUT/D_r=1e-05/analysis.log    the analysis' progress bar and warnings
     OUT/D_r=1e-05/done.json       written last: the run's settings and summary
 
 **Resuming.** A run whose ``done.json`` matches the requested settings is not
@@ -23,6 +24,7 @@ the sweep folder (shared file system).
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
@@ -108,7 +110,9 @@ def _run_one(run_dir, settings, threads, analyze_options):
                        relax=settings["relax"], seed=settings["seed"], overwrite=state == "broken", **common)
     sim_seconds = time.perf_counter() - t0
     t0 = time.perf_counter()
-    summary = analyze_to_folder(store, run_dir / "results", n_workers=1, **analyze_options)
+    # the per-frame progress bar and warnings of a worker would garble the sweep's output: keep them per run
+    with open(run_dir / "analysis.log", "a") as log, contextlib.redirect_stderr(log):
+        summary = analyze_to_folder(store, run_dir / "results", n_workers=1, **analyze_options)
     out = dict(settings, status={"absent": "new", "broken": "new", "partial": "resumed"}.get(state, "analysed"),
                path=str(store), results=str(run_dir / "results"), n_frames=int(summary["frames"]),
                sim_seconds=round(sim_seconds, 2), analysis_seconds=round(time.perf_counter() - t0, 2),
