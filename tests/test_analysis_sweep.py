@@ -100,6 +100,13 @@ def test_figure3_from_a_sweep(tmp_path):
     across = pd.read_csv(fig / "fig3g_summary.csv")
     assert sorted(across["D_r"].unique()) == [1e-3, 1e-2] and len(across) == 4
     assert json.loads((fig / "summary.json").read_text())["values"] == [1e-3, 1e-2]
+    # the report's default migration window is the paper's 25,000 iterations when the movie spans it
+    from hexatissue.analysis.report import default_window, load_results
+
+    meta = load_results(table["results"][0])[1]
+    assert default_window(meta, 10_000) == 25_000 // RUN["save_every"]
+    assert default_window(meta, 7) == 1
+    assert default_window({"input": "labels.tif"}, 40) == 10
 
 
 def test_loglog_slope_is_exact_on_a_power_law():
