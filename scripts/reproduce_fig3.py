@@ -57,7 +57,8 @@ def parse(argv=None):
     group.add_argument("--tiny", action="store_true", help="a smoke test of a few minutes")
     ap.add_argument("--values", type=float, nargs="+", help="D_r values (override the preset)")
     ap.add_argument("--steps", type=int, help="active steps per run (override the preset)")
-    ap.add_argument("--workers", type=int, default=None, help="local processes (default: one per run, at most the cores)")
+    ap.add_argument("--workers", type=int, default=None,
+                    help="local processes (default: one per run, at most the cores)")
     ap.add_argument("--scheduler", help="dask.distributed scheduler address (instead of local processes)")
     ap.add_argument("--threads", default=1, type=int, help="numba threads per simulation (default 1)")
     ap.add_argument("--seed", type=int, default=0)
@@ -104,8 +105,9 @@ def main(argv=None):
           f"(one-sided, T1s closer: {e['ks_pvalue_closer']:.3g})")
     print(f"Fig. 3f: {f['n_subregion_windows']} subregion-windows; delta BIC (two vs one population) "
           f"{f['delta_bic']:.3g}; Spearman rho(displacement, defect density) = {f['spearman_rho']:.3g}")
-    print(f"Fig. 3g: log-log slope vs D_r of the intercalation interval {trends['intercalation_interval_loglog_slope']:.3g}, "
-          f"of the T1-cycle period {trends['cycle_period_loglog_slope']:.3g}")
+    print(f"Fig. 3g: log-log slope vs D_r of the intercalation interval "
+          f"{trends['intercalation_interval_loglog_slope']:.3g}, of the T1-cycle period "
+          f"{trends['cycle_period_loglog_slope']:.3g}")
     print(json.dumps(summary["fig3g"], indent=1, default=float))
     return 0
 

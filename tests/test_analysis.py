@@ -313,7 +313,8 @@ def test_timing_summary_test_and_runs():
     test = timing_test(t)
     ref = stats.ttest_ind(t["mean_intercalation_interval"].dropna(), cyc, equal_var=False)
     assert test["pvalue"] == pytest.approx(ref.pvalue) and test["t_statistic"] == pytest.approx(ref.statistic)
-    runs = timing_across_runs({1e-5: t, 1e-6: t.assign(mean_intercalation_interval=t["mean_intercalation_interval"] * 2)})
+    slower = t.assign(mean_intercalation_interval=t["mean_intercalation_interval"] * 2)
+    runs = timing_across_runs({1e-5: t, 1e-6: slower})
     assert runs["D_r"].tolist() == [1e-6, 1e-6, 1e-5, 1e-5]
     ic = runs[runs["quantity"] == "intercalation_interval"].set_index("D_r")
     assert ic.loc[1e-6, "mean"] == 10.0 and ic.loc[1e-5, "mean"] == 5.0

@@ -114,13 +114,15 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     written = []
     events_all, control_all = pd.concat(ev_parts, ignore_index=True), pd.concat(ctrl_parts, ignore_index=True)
     pooled = ProximityResult(events_all, control_all, *_pooled_ks(events_all, control_all))
-    written += [write_table(events_all, out / "fig3e_distances.csv"), write_table(control_all, out / "fig3e_control.csv"),
+    written += [write_table(events_all, out / "fig3e_distances.csv"),
+                write_table(control_all, out / "fig3e_control.csv"),
                 write_table(pd.DataFrame(ks_rows), out / "fig3e_ks.csv")]
     plot_t1_defect_distances(pooled, path=out / "fig3e.png")
     written.append(out / "fig3e.png")
 
     pops = migration_populations(pd.concat(mig_parts, ignore_index=True), seed=seed)
-    written += [write_table(pops.table, out / "fig3f_migration.csv"), write_table(pops.summary, out / "fig3f_populations.csv")]
+    written += [write_table(pops.table, out / "fig3f_migration.csv"),
+                write_table(pops.summary, out / "fig3f_populations.csv")]
     plot_migration(pops, path=out / "fig3f.png")
     written.append(out / "fig3f.png")
 

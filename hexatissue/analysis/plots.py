@@ -87,6 +87,15 @@ def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(1
     return _finish(fig, path)
 
 
+def _verdict(delta_bic):
+    """Reading of BIC(1) - BIC(2) (Kass & Raftery's scale: > 10 very strong)."""
+    if not np.isfinite(delta_bic):
+        return "no fit"
+    if delta_bic > 10:
+        return "two populations"
+    return "weak evidence for two" if delta_bic > 0 else "one population suffices"
+
+
 def plot_migration(populations, path=None, figsize=(10, 4)):
     """Normalised displacement against defect density, slow and fast populations (Fig. 3f).
 
@@ -127,7 +136,8 @@ def plot_migration(populations, path=None, figsize=(10, 4)):
             ax2.plot(x, comps[:, 1], color=FAST_COLOR, lw=2, alpha=0.8, label="fast component")
             if np.isfinite(populations.threshold):
                 ax2.axvline(np.log10(populations.threshold), color="0.3", ls=":", lw=0.8)
-            ax2.set_title(f"delta BIC (1 vs 2 components) = {populations.delta_bic:.1f}", fontsize=9)
+            ax2.set_title(f"delta BIC (1 vs 2 components) = {populations.delta_bic:.1f}: "
+                          f"{_verdict(populations.delta_bic)}", fontsize=9)
             ax2.legend(frameon=False)
     else:
         _empty(ax2, "no data")
@@ -159,7 +169,8 @@ def plot_timing(runs, path=None, unit="frames", param="D_r", figsize=None):
             pos.append(3 * k + j)
             colors.append(color)
         p = timing_test(table)["pvalue"]
-        labels.append(("" if value is None else f"{param}={value:g}\n") + (f"p={p:.2g}" if np.isfinite(p) else "p: n/a"))
+        head = "" if value is None else f"{param}={value:g}\n"
+        labels.append(head + (f"p={p:.2g}" if np.isfinite(p) else "p: n/a"))
     nonempty = [i for i, d in enumerate(data) if len(d)]
     if nonempty:
         bp = ax.boxplot([data[i] for i in nonempty], positions=[pos[i] for i in nonempty], widths=0.8,
