@@ -320,3 +320,37 @@ def test_timing_summary_test_and_runs():
     assert ic.loc[1e-6, "mean"] == 10.0 and ic.loc[1e-5, "mean"] == 5.0
     with pytest.raises(InputError):
         timing_across_runs({})
+
+
+# ----------------------------------------------------------------------------
+# Figures: full and empty inputs render and are written atomically as PNG
+# ----------------------------------------------------------------------------
+
+def test_figures_render_with_data_and_when_empty(tmp_path):
+    from hexatissue.analysis import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
+                                     plot_timing_vs_parameter)
+
+    rng = np.random.default_rng(1)
+    d_rows = [(t, *rng.uniform(0, 100, 2), SIXTH if k else -SIXTH) for t in range(5) for k in range(2)]
+    e_rows = [("cycle", t, 2.0, 1, 2, 3, 4, *rng.uniform(0, 100, 2)) for t in range(5)]
+    cells = pd.DataFrame({"frame": np.repeat(np.arange(5), 10), "cell": np.tile(np.arange(1, 11), 5),
+                          "x": rng.uniform(0, 100, 50), "y": rng.uniform(0, 100, 50)})
+    full = t1_defect_proximity(_events(e_rows), cells, _defects(d_rows), box=Box(100.0, 100.0))
+    empty = t1_defect_proximity(_events(e_rows).iloc[:0], cells, _defects(d_rows))
+    table = pd.DataFrame({"displacement": 10 ** np.r_[rng.normal(-3, 0.1, 30), rng.normal(-1, 0.1, 20)],
+                          "msd": np.ones(50), "defect_density": rng.uniform(0, 1e-3, 50), "n_cells": np.ones(50)})
+    pops, no_pops = migration_populations(table), migration_populations(table.iloc[:0])
+    timing = cell_timing(_timing_events())
+    across = timing_across_runs({1e-5: timing, 4e-5: timing})
+    figs = {"prox": lambda p: plot_t1_defect_distances(full, path=p),
+            "prox_empty": lambda p: plot_t1_defect_distances(empty, path=p),
+            "mig": lambda p: plot_migration(pops, path=p), "mig_empty": lambda p: plot_migration(no_pops, path=p),
+            "timing": lambda p: plot_timing({1e-5: timing, 4e-5: timing}, path=p),
+            "timing_empty": lambda p: plot_timing(timing.iloc[:0], path=p),
+            "vs": lambda p: plot_timing_vs_parameter(across, path=p),
+            "events": lambda p: plot_event_overview(_timing_events(), path=p),
+            "events_empty": lambda p: plot_event_overview(_timing_events().iloc[:0], path=p)}
+    for name, draw in figs.items():
+        fig = draw(tmp_path / f"{name}.png")
+        assert fig.axes and (tmp_path / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
+    assert not list(tmp_path.glob(".*.tmp"))

@@ -150,3 +150,14 @@ def test_report_on_a_real_microscopy_movie(real_data, tmp_path):
     assert numbers["migration"]["n_subregion_windows"] > 0
     for name in ("t1_defects.png", "migration.png", "timing.png", "events.png"):
         assert _png_ok(res / "report" / name)
+
+
+def test_report_through_the_hexatissue_command(movie_results, tmp_path, monkeypatch):
+    """The wiring the lead adds: 'hexatissue.analysis.command' in cli.SUBCOMMAND_MODULES."""
+    from hexatissue import cli
+
+    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", cli.SUBCOMMAND_MODULES + ("hexatissue.analysis.command",))
+    out = tmp_path / "via_cli"
+    assert cli.main(["report", str(movie_results), "--out", str(out), "--dt", "7"]) == 0
+    assert set(pd.read_csv(out / "migration.csv")["frame_start"]) == {0, 7}  # frames 0..7 and 7..14 of 0..15
+    assert cli.main(["report", str(tmp_path / "nothing")]) == 2  # InputError -> exit code 2

@@ -54,6 +54,15 @@ def test_sweep_refuses_to_mix_settings(tmp_path):
         sweep("dr", [1e-3], out, params=BASE, n_workers=1, progress=False, **{**RUN, "seed": 6})
 
 
+def test_sweep_never_overwrites_a_foreign_folder(tmp_path):
+    foreign = tmp_path / "sw" / "D_r=0.001" / "run.zarr"
+    foreign.mkdir(parents=True)
+    (foreign / "precious.txt").write_text("keep me")
+    with pytest.raises(InputError, match="not an MPF run store"):
+        sweep("dr", [1e-3], tmp_path / "sw", params=BASE, n_workers=1, progress=False, **RUN)
+    assert (foreign / "precious.txt").read_text() == "keep me"
+
+
 def test_sweep_bad_input(tmp_path):
     with pytest.raises(InputError, match="Params field"):
         sweep("speed", [1.0], tmp_path, params=BASE)

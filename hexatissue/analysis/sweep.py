@@ -66,15 +66,17 @@ def _settings(name, value, params, steps, save_every, relax, seed):
 
 
 def _store_state(path, settings):
-    """``"absent"``, ``"partial"`` or ``"finished"`` for the run store at ``path``; raises on a settings mismatch."""
+    """State of the run store at ``path``: ``"absent"``, ``"broken"`` (created, never checkpointed),
+    ``"partial"`` or ``"finished"``; raises on a settings mismatch or a foreign folder."""
     from ..simulate.store import RunStore
 
     if not path.exists():
         return "absent"
     try:
         attrs = dict(RunStore.open(path, mode="r").attrs)
-    except InputError:
-        return "broken"
+    except InputError as exc:  # never overwrite something that is not one of our run stores
+        raise InputError(f"{path} exists but is not an MPF run store ({exc}); move it away or use another out "
+                         f"folder") from exc
     stored = {"params": dict(attrs["params"]), "save_every": int(attrs["save_every"]), "relax": int(attrs["relax"]),
               "seed": int(attrs["seed"])}
     for key, have in stored.items():
