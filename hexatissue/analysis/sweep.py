@@ -134,11 +134,6 @@ class _LocalPool:
     def submit(self, *args):
         return self.pool.submit(_run_one, *args)
 
-    def as_completed(self, futures):
-        from concurrent.futures import as_completed
-
-        return as_completed(futures)
-
     def shutdown(self):
         self.pool.shutdown(wait=True, cancel_futures=True)
 
@@ -146,18 +141,23 @@ class _LocalPool:
 class _InProcess:
     """n_workers=1: run the jobs one after the other in this process."""
 
-    class _Done:
-        def __init__(self, fn):
-            self.fn = fn
+    class _Job:
+        """Runs when first asked whether it is done (so the progress loop drives the jobs in order)."""
+
+        def __init__(self, args):
+            self.args, self.value = args, None
+
+        def done(self):
+            if self.value is None:
+                self.value = _run_one(*self.args)
+            return True
 
         def result(self):
-            return self.fn()
+            self.done()
+            return self.value
 
     def submit(self, *args):
-        return self._Done(lambda: _run_one(*args))
-
-    def as_completed(self, futures):
-        return iter(futures)
+        return self._Job(args)
 
     def shutdown(self):
         pass
@@ -170,13 +170,38 @@ class _DaskPool:
     def submit(self, *args):
         return self.client.submit(_run_one, *args, pure=False)
 
-    def as_completed(self, futures):
-        from distributed import as_completed
-
-        return as_completed(futures)
-
     def shutdown(self):
         pass
+
+
+def _final_frames(settings):
+    return settings["steps"] // settings["save_every"] + 1
+
+
+def _frames_written(run_dir):
+    """Frames committed to a run's store so far (0 while it does not exist or is being created)."""
+    from ..simulate.store import RunStore
+
+    try:
+        return int(RunStore.open(Path(run_dir) / "run.zarr", mode="r").attrs["n_frames"])
+    except Exception:  # absent, or half-created by a worker right now
+        return 0
+
+
+def _watch(futures, jobs, pbar, poll=2.0):
+    """Collect the jobs' results while a progress bar follows the frames simulated by all runs."""
+    results, pending = {}, dict(futures)
+    with pbar:
+        while pending:
+            finished = [f for f in list(pending) if f.done()]
+            for f in finished:
+                results[pending.pop(f)] = f.result()
+            frames = sum(min(_frames_written(d), _final_frames(s)) for d, s in jobs)
+            pbar.update(frames - pbar.n)
+            pbar.set_postfix(runs=f"{len(results)}/{len(jobs)} done", refresh=False)
+            if pending and not finished:
+                time.sleep(poll)
+    return results
 
 
 def sweep(param="dr", values=(), out="sweep", *, params=None, steps=20_000, save_every=500, relax=10_000, seed=0,
@@ -209,7 +234,8 @@ def sweep(param="dr", values=(), out="sweep", *, params=None, steps=20_000, save
         Keyword arguments of :func:`hexatissue.results.analyze_to_folder`
         (e.g. ``min_length``, ``censor``, ``order_p``).
     progress : bool
-        A progress bar over finished runs.
+        A progress bar of the frames simulated by all runs (polled from
+        their stores every 2 s), with the number of finished runs.
 
     Returns
     -------
@@ -246,15 +272,10 @@ def sweep(param="dr", values=(), out="sweep", *, params=None, steps=20_000, save
         if n < 1:
             raise InputError(f"n_workers must be a positive integer; got {n_workers!r}")
         pool = _InProcess() if n == 1 else _LocalPool(n)
-    results = {}
     try:
-        futures = {}
-        for run_dir, settings in jobs:
-            futures[pool.submit(run_dir, settings, threads, analyze_options)] = run_dir
-        quiet = {} if progress else {"disable": True}
-        for fut in bar(pool.as_completed(list(futures)), total=len(futures), desc=f"{name} sweep", unit="run",
-                       **quiet):
-            results[futures[fut]] = fut.result()
+        futures = {pool.submit(run_dir, settings, threads, analyze_options): run_dir for run_dir, settings in jobs}
+        results = _watch(futures, jobs, bar(total=sum(_final_frames(s) for _, s in jobs), unit="frame",
+                                            desc=f"{name} sweep", **({} if progress else {"disable": True})))
     finally:
         pool.shutdown()
     rows = [results[run_dir] for run_dir, _ in jobs]
