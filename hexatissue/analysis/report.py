@@ -85,9 +85,9 @@ def _mpf_save_every(metadata):
     if not source.endswith(".zarr") or not Path(source).exists():
         return None
     try:
-        from ..simulate.store import RunStore
+        from ..simulate import read_run
 
-        return int(RunStore.open(source, mode="r").attrs["save_every"])
+        return int(read_run(source).attrs["save_every"])
     except Exception:  # a moved or foreign store only loses the default window
         return None
 

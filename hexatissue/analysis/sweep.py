@@ -68,12 +68,12 @@ def _settings(name, value, params, steps, save_every, relax, seed):
 def _store_state(path, settings):
     """State of the run store at ``path``: ``"absent"``, ``"broken"`` (created, never checkpointed),
     ``"partial"`` or ``"finished"``; raises on a settings mismatch or a foreign folder."""
-    from ..simulate.store import RunStore
+    from ..simulate import read_run
 
     if not path.exists():
         return "absent"
     try:
-        attrs = dict(RunStore.open(path, mode="r").attrs)
+        attrs = read_run(path).attrs
     except InputError as exc:  # never overwrite something that is not one of our run stores
         raise InputError(f"{path} exists but is not an MPF run store ({exc}); move it away or use another out "
                          f"folder") from exc
@@ -180,10 +180,10 @@ def _final_frames(settings):
 
 def _frames_written(run_dir):
     """Frames committed to a run's store so far (0 while it does not exist or is being created)."""
-    from ..simulate.store import RunStore
+    from ..simulate import read_run
 
     try:
-        return int(RunStore.open(Path(run_dir) / "run.zarr", mode="r").attrs["n_frames"])
+        return len(read_run(Path(run_dir) / "run.zarr"))
     except Exception:  # absent, or half-created by a worker right now
         return 0
 
