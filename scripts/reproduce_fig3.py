@@ -64,6 +64,8 @@ def parse(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--min-length", type=float, default=0.0,
                     help="contacts shorter than this (px) count as four-fold vertices in T1 detection")
+    ap.add_argument("--include-border", action="store_true",
+                    help="keep cells next to unassigned gaps (flagged is_border) in the Fig. 3e/3f statistics")
     ap.add_argument("--censor", type=int, default=None,
                     help="right-censoring window for T1s, frames (default: one migration window)")
     return ap.parse_args(argv)
@@ -97,7 +99,7 @@ def main(argv=None):
                   analyze_options={"min_length": args.min_length, "censor": censor})
     table.to_csv(f"{args.out}/sweep.csv", index=False)
     summary = figure3(table, args.out, param="D_r", dt=window, frame_interval=cfg["save_every"],
-                      time_unit="iterations", seed=args.seed)
+                      time_unit="iterations", seed=args.seed, include_border=args.include_border)
     e, f, trends = summary["fig3e"]["pooled"], summary["fig3f"], summary["trends"]
     print(f"done in {time.perf_counter() - start:.0f} s; statuses {table['status'].value_counts().to_dict()}")
     print(f"Fig. 3e: {e['n_events']} T1s, median distance to a defect {e['median_dr_events']:.3g} px vs "

@@ -103,10 +103,11 @@ def test_report_command_passes_its_options(monkeypatch, tmp_path, capsys):
     parser = argparse.ArgumentParser()
     command.add_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["report", "RES", "--out", "OUT", "--dt", "5", "--dl", "30", "--seed", "2",
-                              "--n-control", "3", "--frame-interval", "500", "--time-unit", "iterations"])
+                              "--n-control", "3", "--frame-interval", "500", "--time-unit", "iterations",
+                              "--include-border"])
     assert args.func(args) == 0
     assert seen == {"results": "RES", "out": "OUT", "p": 6, "dl": 30.0, "dt": 5, "n_control": 3, "seed": 2,
-                    "frame_interval": 500.0, "time_unit": "iterations"}
+                    "frame_interval": 500.0, "time_unit": "iterations", "include_border": True}
     assert "report written" in capsys.readouterr().out
 
 

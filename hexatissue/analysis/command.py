@@ -27,6 +27,8 @@ def add_parser(subparsers):
     p.add_argument("--seed", type=int, default=0, help="seed of the control draw and mixture fit (default 0)")
     p.add_argument("--frame-interval", type=float, default=1.0, help="time per frame for event timing (default 1)")
     p.add_argument("--time-unit", default="frames", help="unit of --frame-interval (default: frames)")
+    p.add_argument("--include-border", action="store_true",
+                   help="keep border cells and the T1s touching them in the proximity and migration analyses")
     p.set_defaults(func=_run)
     return p
 
@@ -35,7 +37,8 @@ def _run(args) -> int:
     from .report import report
 
     numbers = report(args.results, args.out, p=args.p, dl=args.dl, dt=args.dt, n_control=args.n_control,
-                     seed=args.seed, frame_interval=args.frame_interval, time_unit=args.time_unit)
+                     seed=args.seed, frame_interval=args.frame_interval, time_unit=args.time_unit,
+                     include_border=args.include_border)
     md = next(w for w in numbers["written"] if w.endswith("report.md"))
     print(f"report written: {md} ({len(numbers['written'])} files)")
     return 0

@@ -57,7 +57,7 @@ def _pooled_ks(events, control):
 
 
 def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval=1.0, time_unit="frames",
-            n_control=5, seed=0) -> dict:
+            n_control=5, seed=0, include_border=False) -> dict:
     """Fig. 3e (T1–defect distances), 3f (migration vs defect density) and 3g (event timing) of a sweep.
 
     Parameters
@@ -82,6 +82,8 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
         Random cells per T1 event in the proximity control.
     seed : int
         Seeds the control draws (``seed + run index``) and the mixture fit.
+    include_border : bool
+        Keep border cells and events touching them (see :func:`~hexatissue.analysis.report.report`).
 
     Returns
     -------
@@ -102,13 +104,15 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
         defects = tables.get("defects")
         if events is None or defects is None:
             raise InputError(f"{folder}: needs events and defects tables (a movie analysed with order_p including {p})")
-        prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed + k)
+        prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed + k,
+                                   include_border=include_border)
         ev_parts.append(prox.events.assign(**{param: value}))
         ctrl_parts.append(prox.control.assign(**{param: value}))
         ks_rows.append({param: value, **prox.summary()})
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", HexatissueWarning)
-            mig = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=events)
+            mig = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=events,
+                                  include_border=include_border)
         mig_parts.append(mig.assign(**{param: value}))
         timing[value] = cell_timing(events, cells, frame_interval=frame_interval)
     written = []
@@ -137,7 +141,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     cy = across[across["quantity"] == "cycle_period"]
     summary = {
         "param": param, "values": list(runs), "p": p, "dl": dl, "dt": dt, "frame_interval": frame_interval,
-        "time_unit": time_unit,
+        "time_unit": time_unit, "include_border": include_border,
         "fig3e": {"pooled": pooled.summary(), "per_run": ks_rows},
         "fig3f": {"n_subregion_windows": len(pops.table), "threshold": pops.threshold, "delta_bic": pops.delta_bic,
                   "spearman_rho": pops.spearman_rho, "spearman_pvalue": pops.spearman_pvalue,

@@ -192,7 +192,7 @@ def _figure_line(path, out, caption):
 
 
 def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_control=5, seed=0,
-           frame_interval=1.0, time_unit="frames") -> dict:
+           frame_interval=1.0, time_unit="frames", include_border=False) -> dict:
     """Render the figures that apply to an analysis folder and a Markdown summary.
 
     Parameters
@@ -217,6 +217,9 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
     frame_interval : float
         Time per frame for the timing analysis, in ``time_unit``.
     time_unit : str
+    include_border : bool
+        Keep border cells and events touching them in the proximity and
+        migration analyses (e.g. MPF runs whose unassigned gaps mark cells as border).
 
     Returns
     -------
@@ -241,7 +244,8 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
         lines += _figure_line(path, out, path.stem)
     if is_movie:
         lines += _movie_sections(tables, metadata, box, frames, out, written, numbers, p=p, dl=dl, dt=dt,
-                                 n_control=n_control, seed=seed, frame_interval=frame_interval, time_unit=time_unit)
+                                 n_control=n_control, seed=seed, frame_interval=frame_interval, time_unit=time_unit,
+                                 include_border=include_border)
     md = out / "report.md"
     with atomic_path(md) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -251,7 +255,7 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
 
 
 def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, dl, dt, n_control, seed,
-                    frame_interval, time_unit):
+                    frame_interval, time_unit, include_border):
     from .plots import _verdict, plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing
 
     cells, events = tables["cells"], tables.get("events")
@@ -271,7 +275,8 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
     lines += _figure_line(path, out, "T1 events")
 
     # Fig. 3e
-    prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed)
+    prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed,
+                               include_border=include_border)
     s = prox.summary()
     numbers["proximity"] = s
     path = out / "t1_defects.png"
@@ -292,7 +297,8 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
         dt = default_window(metadata, len(frames))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
-        table = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=events)
+        table = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=events,
+                                include_border=include_border)
     pops = migration_populations(table, seed=seed)
     numbers["migration"] = {"dl": dl, "dt": dt, "n_subregion_windows": len(table), "threshold": pops.threshold,
                             "delta_bic": pops.delta_bic, "spearman_rho": pops.spearman_rho,
