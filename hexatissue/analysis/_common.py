@@ -1,0 +1,72 @@
+"""Small helpers shared by the analyses: input checks, track ids, seeded generators."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..box import Box
+from ..errors import InputError
+
+
+def check_table(table, columns, name):
+    """Raise :class:`InputError` unless ``table`` is a DataFrame holding ``columns``."""
+    if not isinstance(table, pd.DataFrame):
+        raise InputError(f"{name} must be a pandas DataFrame; got {type(table).__name__}")
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise InputError(f"{name} is missing column(s) {missing}; expected at least {list(columns)}")
+    return table
+
+
+def check_box(box):
+    """The box when periodic, else None (open images); raise on anything that is not a Box."""
+    if box is None:
+        return None
+    if not isinstance(box, Box):
+        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
+    return box if box.periodic else None
+
+
+def check_positive(value, name, integer=False):
+    ok = not isinstance(value, bool) and np.isscalar(value) and np.isfinite(value) and value > 0
+    if ok and integer:
+        ok = float(value) == int(value)
+    if not ok:
+        kind = "a positive integer" if integer else "a positive finite number"
+        raise InputError(f"{name} must be {kind}; got {value!r}")
+    return int(value) if integer else float(value)
+
+
+def check_p(p):
+    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
+        raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
+    return int(p)
+
+
+def track_ids(cells):
+    """Track id of every row of a cells table: ``track`` when present, else the label ``cell``."""
+    column = "track" if "track" in cells.columns else "cell"
+    if column not in cells.columns:
+        raise InputError("cells needs a 'track' or 'cell' column")
+    return cells[column].to_numpy(np.int64)
+
+
+def interior(cells):
+    """Mask of the rows that are not border cells (all rows when there is no ``is_border``)."""
+    if "is_border" in cells.columns:
+        return ~cells["is_border"].to_numpy(bool)
+    return np.ones(len(cells), bool)
+
+
+def rng(seed):
+    """A numpy Generator from an int seed or a Generator (never the global RNG)."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise InputError(f"seed must be an int or a numpy.random.Generator; got {seed!r}")
+    return np.random.default_rng(int(seed))
+
+
+def charge_mask(charge, p):
+    """Defects of elementary charge ``±1/p``."""
+    return np.isclose(np.abs(np.asarray(charge, float)), 1.0 / p)

@@ -1,0 +1,243 @@
+"""Figures of the tissue-scale analyses (Fig. 3e–g style), without pyplot.
+
+Every function returns a matplotlib :class:`~matplotlib.figure.Figure` and
+writes a PNG atomically when ``path`` is given (same conventions as
+:mod:`hexatissue.plot`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
+
+__all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
+           "plot_event_overview"]
+
+EVENT_COLOR = "#2a7f62"
+CONTROL_COLOR = "#7f7f7f"
+SLOW_COLOR = "#1f77b4"
+FAST_COLOR = "#ff7f0e"
+
+
+def _figure(ncols, figsize):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, dpi=100, layout="constrained")
+    return fig, [fig.add_subplot(1, ncols, k + 1) for k in range(ncols)]
+
+
+def _finish(fig, path):
+    if path is not None:
+        save_figure(fig, path, dpi=110)
+    return fig
+
+
+def _empty(ax, text):
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
+
+
+def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(10, 4)):
+    """Distance from T1s and from random cells to the nearest defect (Fig. 3e).
+
+    Left: histograms (probability density) of ``|dr|`` for T1 events and the
+    random-cell control, with the KS p-value.  Right: the displacement
+    ``(dx, dy)`` from each event to its nearest defect, coloured by that
+    defect's charge (red +, blue -).
+
+    Parameters
+    ----------
+    result : ProximityResult
+    scale : float
+        Distances are divided by it (e.g. the cell radius, with ``unit="R_cell"``).
+    """
+    fig, (ax, ax2) = _figure(2, figsize)
+    e, c = result.events["dr"].to_numpy(float) / scale, result.control["dr"].to_numpy(float) / scale
+    if len(e) or len(c):
+        top = np.nanmax(np.r_[e, c]) if len(np.r_[e, c]) else 1.0
+        bins = np.linspace(0, top * 1.0001 + 1e-12, 21)
+        if len(c):
+            ax.hist(c, bins=bins, density=True, histtype="stepfilled", color=CONTROL_COLOR, alpha=0.45,
+                    label=f"random cells (n={len(c)})")
+        if len(e):
+            ax.hist(e, bins=bins, density=True, histtype="step", color=EVENT_COLOR, linewidth=2,
+                    label=f"T1 events (n={len(e)})")
+        ax.legend(frameon=False)
+        ax.set_title(f"KS p = {result.ks_pvalue:.2g} (two-sided), {result.ks_pvalue_closer:.2g} (T1s closer)",
+                     fontsize=9)
+    else:
+        _empty(ax, "no T1 event with a defect in its frame")
+    ax.set_xlabel(f"distance to nearest defect ({unit})")
+    ax.set_ylabel("probability density")
+    if len(e):
+        plus = result.events["charge"].to_numpy(float) > 0
+        dx, dy = result.events["dx"].to_numpy(float) / scale, result.events["dy"].to_numpy(float) / scale
+        ax2.scatter(dx[plus], dy[plus], s=12, color=PLUS_COLOR, label="+1/6")
+        ax2.scatter(dx[~plus], dy[~plus], s=12, color=MINUS_COLOR, label="-1/6")
+        lim = 1.05 * max(np.nanmax(np.abs(np.r_[dx, dy])), 1e-9)
+        ax2.set_xlim(-lim, lim)
+        ax2.set_ylim(lim, -lim)  # image orientation: y grows downwards
+        ax2.axhline(0, color="0.8", lw=0.8)
+        ax2.axvline(0, color="0.8", lw=0.8)
+        ax2.legend(frameon=False, title="nearest defect", fontsize=8)
+    else:
+        _empty(ax2, "no events")
+    ax2.set_aspect("equal")
+    ax2.set_xlabel(f"dx = x_defect - x_T1 ({unit})")
+    ax2.set_ylabel(f"dy ({unit})")
+    return _finish(fig, path)
+
+
+def _verdict(delta_bic):
+    """Reading of BIC(1) - BIC(2) (Kass & Raftery's scale: > 10 very strong)."""
+    if not np.isfinite(delta_bic):
+        return "no fit"
+    if delta_bic > 10:
+        return "two populations"
+    return "weak evidence for two" if delta_bic > 0 else "one population suffices"
+
+
+def plot_migration(populations, path=None, figsize=(10, 4)):
+    """Normalised displacement against defect density, slow and fast populations (Fig. 3f).
+
+    Left: per subregion and window, displacement (log scale) against the mean
+    defect density, coloured by population.  Right: histogram of
+    log10(displacement) with the fitted two-component mixture.
+    """
+    fig, (ax, ax2) = _figure(2, figsize)
+    t = populations.table
+    moved = t["displacement"].to_numpy(float) > 0
+    if moved.any():
+        for name, color in (("slow", SLOW_COLOR), ("fast", FAST_COLOR), ("", "0.5")):
+            part = t[moved & (t["population"] == name).to_numpy(bool)]
+            if len(part):
+                ax.scatter(part["defect_density"] * 1e4, part["displacement"], s=10, color=color, alpha=0.7,
+                           label=name or "unclassified")
+        ax.set_yscale("log")
+        ax.legend(frameon=False)
+        title = f"Spearman rho = {populations.spearman_rho:.2f}"
+        if np.isfinite(populations.threshold):
+            ax.axhline(populations.threshold, color="0.3", ls="--", lw=0.8)
+            title += f"; slow/fast split at {populations.threshold:.3g}"
+        ax.set_title(title, fontsize=9)
+    else:
+        _empty(ax, "no complete window")
+    ax.set_xlabel(r"defect density ($10^{-4}$ px$^{-2}$)")
+    ax.set_ylabel(r"$\sum_t |\Delta r|^2 / \Delta\ell^2$")
+    logd = t["log_displacement"].to_numpy(float)
+    logd = logd[np.isfinite(logd)]
+    if len(logd):
+        ax2.hist(logd, bins=max(5, min(40, len(logd) // 3)), density=True, color="0.75")
+        if populations.mixture is not None:
+            x = np.linspace(logd.min() - 0.3, logd.max() + 0.3, 300)
+            m = populations.mixture
+            comps = np.exp(m.log_densities(x))
+            ax2.plot(x, comps.sum(axis=1), color="k", lw=1, ls="--", label="mixture")
+            ax2.plot(x, comps[:, 0], color=SLOW_COLOR, lw=2, alpha=0.8, label="slow component")
+            ax2.plot(x, comps[:, 1], color=FAST_COLOR, lw=2, alpha=0.8, label="fast component")
+            if np.isfinite(populations.threshold):
+                ax2.axvline(np.log10(populations.threshold), color="0.3", ls=":", lw=0.8)
+            ax2.set_title(f"delta BIC (1 vs 2 components) = {populations.delta_bic:.1f}: "
+                          f"{_verdict(populations.delta_bic)}", fontsize=9)
+            ax2.legend(frameon=False)
+    else:
+        _empty(ax2, "no data")
+    ax2.set_xlabel(r"$\log_{10}$ normalised displacement")
+    ax2.set_ylabel("probability density")
+    return _finish(fig, path)
+
+
+def plot_timing(runs, path=None, unit="frames", param="D_r", figsize=None):
+    """Box plots of the per-cell intercalation interval and T1-cycle period (Fig. 3g).
+
+    Parameters
+    ----------
+    runs : pandas.DataFrame or mapping
+        One per-cell table (:func:`~hexatissue.analysis.cell_timing`), or
+        ``{parameter value: table}`` for one pair of boxes per run.
+    """
+    from .timing import timing_test
+
+    if not isinstance(runs, dict):
+        runs = {None: runs}
+    fig, (ax,) = _figure(1, figsize or (max(4.5, 1.6 * len(runs) + 2), 4))
+    data, pos, colors, labels = [], [], [], []
+    for k, (value, table) in enumerate(runs.items()):
+        for j, (col, color) in enumerate((("mean_intercalation_interval", SLOW_COLOR),
+                                          ("mean_cycle_period", FAST_COLOR))):
+            v = table[col].to_numpy(float)
+            data.append(v[np.isfinite(v)])
+            pos.append(3 * k + j)
+            colors.append(color)
+        p = timing_test(table)["pvalue"]
+        head = "" if value is None else f"{param}={value:g}\n"
+        labels.append(head + (f"p={p:.2g}" if np.isfinite(p) else "p: n/a"))
+    nonempty = [i for i, d in enumerate(data) if len(d)]
+    if nonempty:
+        bp = ax.boxplot([data[i] for i in nonempty], positions=[pos[i] for i in nonempty], widths=0.8,
+                        patch_artist=True, showmeans=True)
+        for patch, i in zip(bp["boxes"], nonempty):
+            patch.set_facecolor(colors[i])
+            patch.set_alpha(0.6)
+    else:
+        _empty(ax, "no intercalation interval or cycle period")
+    ax.set_xticks([3 * k + 0.5 for k in range(len(runs))], labels)
+    ax.set_xlim(-1, 3 * len(runs) - 1)
+    ax.set_ylabel(f"time ({unit})")
+    from matplotlib.patches import Patch
+
+    ax.legend(handles=[Patch(color=SLOW_COLOR, alpha=0.6, label="between intercalations"),
+                       Patch(color=FAST_COLOR, alpha=0.6, label="T1-cycle period")], frameon=False, fontsize=8)
+    ax.set_title("per-cell means; Welch t-test p", fontsize=9)
+    return _finish(fig, path)
+
+
+def plot_timing_vs_parameter(summary, param="D_r", path=None, unit="frames", figsize=(5, 4)):
+    """Mean (markers) and quartiles (bars) of both per-cell quantities against a sweep parameter.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        :func:`~hexatissue.analysis.timing_across_runs` output.
+    """
+    fig, (ax,) = _figure(1, figsize)
+    for name, color, label in (("intercalation_interval", SLOW_COLOR, "between intercalations"),
+                               ("cycle_period", FAST_COLOR, "T1-cycle period")):
+        s = summary[summary["quantity"] == name].sort_values(param)
+        s = s[np.isfinite(s["mean"].to_numpy(float))]
+        if len(s):
+            x = s[param].to_numpy(float)
+            ax.errorbar(x, s["mean"], yerr=[s["mean"] - s["q25"], s["q75"] - s["mean"]], color=color, marker="o",
+                        capsize=3, label=label)
+    values = summary[param].to_numpy(float)
+    if len(values) and (values > 0).all() and values.max() / values.min() >= 3:
+        ax.set_xscale("log")
+    ax.set_xlabel(param)
+    ax.set_ylabel(f"time ({unit})")
+    ax.legend(frameon=False)
+    return _finish(fig, path)
+
+
+def plot_event_overview(events, n_frames=None, path=None, unit="frames", figsize=(10, 3.8)):
+    """T1 events per frame by kind (left) and the distribution of T1-cycle durations (right)."""
+    fig, (ax, ax2) = _figure(2, figsize)
+    kinds = (("cycle", FAST_COLOR), ("intercalation", SLOW_COLOR), ("unresolved", "0.6"))
+    if len(events):
+        last = int(events["frame_start"].max()) if n_frames is None else n_frames - 1
+        frames = np.arange(last + 1)
+        for kind, color in kinds:
+            f = events.loc[events["kind"] == kind, "frame_start"].to_numpy(np.int64)
+            ax.plot(frames, np.bincount(f, minlength=last + 1)[:last + 1], color=color, label=f"{kind} ({len(f)})")
+        ax.legend(frameon=False, fontsize=8)
+    else:
+        _empty(ax, "no T1 events")
+    ax.set_xlabel("frame")
+    ax.set_ylabel("T1 events starting")
+    d = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float) if len(events) else np.zeros(0)
+    d = d[np.isfinite(d)]
+    if len(d):
+        ax2.hist(d, bins=np.arange(0.5, d.max() + 1.5, max(1, int(np.ceil(d.max() / 30)))), color=FAST_COLOR)
+    else:
+        _empty(ax2, "no T1 cycles")
+    ax2.set_xlabel(f"T1-cycle duration ({unit})")
+    ax2.set_ylabel("cycles")
+    return _finish(fig, path)

@@ -1,0 +1,118 @@
+"""Reproduce the paper's Fig. 3e–g: an MPF sweep over the rotational diffusion D_r, analysed end to end.
+
+Usage::
+
+    python scripts/reproduce_fig3.py --out fig3              # reduced settings (about an hour, 2 cores)
+    python scripts/reproduce_fig3.py --out fig3 --paper      # the paper's settings (days; use a cluster)
+    python scripts/reproduce_fig3.py --out fig3 --tiny       # smoke test (a few minutes)
+    python scripts/reproduce_fig3.py --out fig3 --scheduler tcp://host:8786   # runs on a dask cluster
+
+Every stage resumes: run the same command again after an interruption.
+Outputs in OUT: one folder per D_r value (run.zarr, results/, done.json),
+sweep.csv, and from :func:`hexatissue.analysis.figure3` the Fig. 3e/3f/3g
+PNGs, their tables (CSV) and summary.json.
+
+Settings (``--paper`` / default reduced / ``--tiny``):
+
+=================  ==========================  ==========================  ===================
+setting            paper                       reduced (default)           tiny (smoke test)
+=================  ==========================  ==========================  ===================
+cells, box (px)    440, 384 x 403              100, 183 x 192              16, 74 x 77
+D_r                1e-6 2e-6 5e-6 1e-5 2e-5    1e-5 2e-5 4e-5 8e-5         2e-5 8e-5
+                   4e-5 8e-5
+relax, steps       10,000, 2,000,000           10,000, 300,000             1,000, 6,000
+save_every         1,000 (window = 25 frames)  500 (window = 50 frames)    100 (window = 10 frames)
+=================  ==========================  ==========================  ===================
+
+The reduced box keeps the paper's area per cell (384 * 403 / 440 = 352 px^2)
+and aspect ratio.  The migration window is the paper's 25,000 iterations in
+every preset except ``--tiny`` (1,000 iterations).  Time estimate of the
+reduced preset: 100 cells run at about 250 steps/s on one core of the
+development machine (under load), so each 310,000-step run takes about 20
+minutes and the four runs, two at a time, about 45 minutes, plus a few
+minutes of analysis.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+PRESETS = {
+    "paper": dict(n_cells=440, Lx=384, Ly=403, values=[1e-6, 2e-6, 5e-6, 1e-5, 2e-5, 4e-5, 8e-5], relax=10_000,
+                  steps=2_000_000, save_every=1_000, window_iterations=25_000),
+    "reduced": dict(n_cells=100, Lx=183, Ly=192, values=[1e-5, 2e-5, 4e-5, 8e-5], relax=10_000, steps=300_000,
+                    save_every=500, window_iterations=25_000),
+    "tiny": dict(n_cells=16, Lx=74, Ly=77, values=[2e-5, 8e-5], relax=1_000, steps=6_000, save_every=100,
+                 window_iterations=1_000),
+}
+
+
+def parse(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", required=True, help="sweep and figure folder")
+    group = ap.add_mutually_exclusive_group()
+    group.add_argument("--paper", action="store_true", help="the paper's settings (440 cells, 384 x 403, 7 D_r values)")
+    group.add_argument("--tiny", action="store_true", help="a smoke test of a few minutes")
+    ap.add_argument("--values", type=float, nargs="+", help="D_r values (override the preset)")
+    ap.add_argument("--steps", type=int, help="active steps per run (override the preset)")
+    ap.add_argument("--workers", type=int, default=None,
+                    help="local processes (default: one per run, at most the cores)")
+    ap.add_argument("--scheduler", help="dask.distributed scheduler address (instead of local processes)")
+    ap.add_argument("--threads", default=1, type=int, help="numba threads per simulation (default 1)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--min-length", type=float, default=0.0,
+                    help="contacts shorter than this (px) count as four-fold vertices in T1 detection")
+    ap.add_argument("--include-border", action="store_true",
+                    help="keep cells next to unassigned gaps (flagged is_border) in the Fig. 3e/3f statistics")
+    ap.add_argument("--censor", type=int, default=None,
+                    help="right-censoring window for T1s, frames (default: one migration window)")
+    return ap.parse_args(argv)
+
+
+def main(argv=None):
+    from hexatissue.analysis import figure3, frames_per_window, sweep
+    from hexatissue.simulate import Params
+
+    args = parse(argv)
+    name = "paper" if args.paper else "tiny" if args.tiny else "reduced"
+    cfg = dict(PRESETS[name])
+    if args.values:
+        cfg["values"] = args.values
+    if args.steps:
+        cfg["steps"] = args.steps
+    window = frames_per_window(cfg["window_iterations"], cfg["save_every"])
+    censor = window if args.censor is None else args.censor
+    base = Params(n_cells=cfg["n_cells"], Lx=cfg["Lx"], Ly=cfg["Ly"])
+    client = None
+    if args.scheduler:
+        from distributed import Client
+
+        client = Client(args.scheduler)
+    print(f"preset {name}: {cfg['n_cells']} cells in {cfg['Lx']} x {cfg['Ly']} px, D_r = {cfg['values']}, "
+          f"relax {cfg['relax']}, {cfg['steps']} steps, a frame every {cfg['save_every']} steps, "
+          f"window {window} frames", flush=True)
+    start = time.perf_counter()
+    table = sweep("dr", cfg["values"], args.out, params=base, steps=cfg["steps"], save_every=cfg["save_every"],
+                  relax=cfg["relax"], seed=args.seed, client=client, n_workers=args.workers, threads=args.threads,
+                  analyze_options={"min_length": args.min_length, "censor": censor})
+    table.to_csv(f"{args.out}/sweep.csv", index=False)
+    summary = figure3(table, args.out, param="D_r", dt=window, frame_interval=cfg["save_every"],
+                      time_unit="iterations", seed=args.seed, include_border=args.include_border)
+    e, f, trends = summary["fig3e"]["pooled"], summary["fig3f"], summary["trends"]
+    print(f"done in {time.perf_counter() - start:.0f} s; statuses {table['status'].value_counts().to_dict()}")
+    print(f"Fig. 3e: {e['n_events']} T1s, median distance to a defect {e['median_dr_events']:.3g} px vs "
+          f"{e['median_dr_control']:.3g} px for random cells; KS p = {e['ks_pvalue']:.3g} "
+          f"(one-sided, T1s closer: {e['ks_pvalue_closer']:.3g})")
+    print(f"Fig. 3f: {f['n_subregion_windows']} subregion-windows; delta BIC (two vs one population) "
+          f"{f['delta_bic']:.3g}; Spearman rho(displacement, defect density) = {f['spearman_rho']:.3g}")
+    print(f"Fig. 3g: log-log slope vs D_r of the intercalation interval "
+          f"{trends['intercalation_interval_loglog_slope']:.3g}, of the T1-cycle period "
+          f"{trends['cycle_period_loglog_slope']:.3g}")
+    print(json.dumps(summary["fig3g"], indent=1, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

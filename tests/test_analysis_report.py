@@ -1,0 +1,158 @@
+"""``hexatissue report`` on analysis folders: a synthetic periodic movie, a single frame, real movies."""
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue.analysis import command
+from hexatissue.analysis.report import box_from_grid, load_results, report
+from hexatissue.box import Box
+from hexatissue.errors import InputError
+from hexatissue.results import analyze_to_folder
+from hexatissue.synthetic import voronoi_movie
+
+from .conftest import real_subdir
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+
+
+@pytest.fixture(scope="module")
+def movie_results(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("movie")
+    m = voronoi_movie(40, (90, 100), 16, periodic=True, amplitude=0.5, seed=1)
+    np.save(tmp / "movie.npy", np.stack([m[t] for t in range(len(m))]))
+    analyze_to_folder(tmp / "movie.npy", tmp / "results", periodic=True, n_workers=1, censor=3)
+    return tmp / "results"
+
+
+def _png_ok(path):
+    data = Path(path).read_bytes()
+    return data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+def test_box_is_recovered_from_the_grid(movie_results):
+    tables, meta = load_results(movie_results)
+    assert meta["periodic"] is True
+    assert box_from_grid(tables["grid"]) == Box(100.0, 90.0)
+
+
+@pytest.fixture(scope="module")
+def movie_report(movie_results, tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    return out, report(movie_results, out, dl=25.0, dt=4, seed=3, order_p=(6,))
+
+
+def test_report_on_a_periodic_movie(movie_results, movie_report):
+    out, numbers = movie_report
+    names = {Path(w).name for w in numbers["written"]}
+    for name in ("order6_frame0000.png", "order6_frame0015.png", "events.png", "t1_defects.png", "migration.png",
+                 "timing.png", "report.md", "t1_defect_distances.csv", "migration.csv", "cell_timing.csv"):
+        assert name in names
+    assert all(_png_ok(out / n) for n in names if n.endswith(".png"))
+    events = pd.read_parquet(movie_results / "events.parquet")
+    assert numbers["events"] == events["kind"].astype(str).value_counts().to_dict()
+    text = (out / "report.md").read_text()
+    for heading in ("## Tissue", "## T1 events", "(Fig. 3e)", "(Fig. 3f)", "(Fig. 3g)"):
+        assert heading in text
+    for link in ("t1_defects.png", "migration.png", "timing.png"):
+        assert f"]({link})" in text
+
+
+def test_report_tables_use_the_box_and_the_window(movie_report):
+    out, numbers = movie_report
+    prox = pd.read_csv(out / "t1_defect_distances.csv")
+    assert numbers["proximity"]["n_events"] == len(prox) > 0
+    # minimum image in the recovered box: no offset exceeds half the box
+    assert (prox["dx"].abs() <= 50.0 + 1e-9).all() and (prox["dy"].abs() <= 45.0 + 1e-9).all()
+    assert len(pd.read_csv(out / "control_distances.csv")) == 5 * len(prox)
+    mig = pd.read_csv(out / "migration.csv")
+    assert set(mig["frame_end"] - mig["frame_start"]) == {4} and set(mig["frame_start"]) == {0, 4, 8}
+    assert numbers["migration"]["n_subregion_windows"] == len(mig)
+    timing = pd.read_csv(out / "cell_timing.csv")
+    assert numbers["timing"]["n_intercalation_cells"] == timing["mean_intercalation_interval"].notna().sum()
+
+
+def test_report_on_a_single_frame(movie_results, tmp_path):
+    m = voronoi_movie(40, (90, 100), 1, periodic=True, seed=1)
+    np.save(tmp_path / "frame.npy", m[0])
+    analyze_to_folder(tmp_path / "frame.npy", tmp_path / "res", periodic=True)
+    numbers = report(tmp_path / "res")
+    out = tmp_path / "res" / "report"
+    pngs = sorted(p.name for p in out.glob("*.png"))
+    assert pngs == ["order2.png", "order6.png"]
+    assert all(_png_ok(out / n) for n in pngs)
+    assert numbers["frames"] == 1 and "proximity" not in numbers
+    text = (out / "report.md").read_text()
+    assert "single image" in text and "Fig. 3e" not in text
+
+
+def test_report_command_passes_its_options(monkeypatch, tmp_path, capsys):
+    import argparse
+
+    import hexatissue.analysis.report as report_module
+
+    seen = {}
+
+    def fake(results, out, **kw):
+        seen.update(kw, results=results, out=out)
+        return {"written": [str(tmp_path / "report.md")]}
+
+    monkeypatch.setattr(report_module, "report", fake)
+    parser = argparse.ArgumentParser()
+    command.add_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["report", "RES", "--out", "OUT", "--dt", "5", "--dl", "30", "--seed", "2",
+                              "--n-control", "3", "--frame-interval", "500", "--time-unit", "iterations",
+                              "--include-border"])
+    assert args.func(args) == 0
+    assert seen == {"results": "RES", "out": "OUT", "p": 6, "dl": 30.0, "dt": 5, "n_control": 3, "seed": 2,
+                    "frame_interval": 500.0, "time_unit": "iterations", "include_border": True}
+    assert "report written" in capsys.readouterr().out
+
+
+def test_report_bad_folder(tmp_path):
+    with pytest.raises(InputError, match="not a folder"):
+        report(tmp_path / "missing")
+    with pytest.raises(InputError, match="no cells table"):
+        report(tmp_path)
+
+
+@pytest.mark.slow
+def test_report_on_the_bundled_epicure_sample(tmp_path):
+    res = tmp_path / "epicure"
+    analyze_to_folder(SAMPLE, res, n_workers=1)
+    numbers = report(res, dt=3)
+    out = res / "report"
+    assert numbers["frames"] == 11
+    for name in ("order6_frame0000.png", "order6_frame0010.png", "events.png", "t1_defects.png", "migration.png",
+                 "timing.png"):
+        assert _png_ok(out / name)
+    assert numbers["migration"]["n_subregion_windows"] > 0
+    assert "## T1 events" in (out / "report.md").read_text()
+
+
+def test_report_on_a_real_microscopy_movie(real_data, tmp_path):
+    path = real_subdir(real_data, "itasc_micropattern") / "pos00" / "cell_labels.tif"
+    res = tmp_path / "itasc"
+    analyze_to_folder(path, res, n_workers=1, censor=3, order_p=(6,))
+    numbers = report(res, dt=3)
+    events = pd.read_parquet(res / "events.parquet")
+    assert len(events) > 0 and numbers["proximity"]["n_events"] > 0
+    assert np.isfinite(numbers["proximity"]["ks_pvalue"])
+    assert numbers["migration"]["n_subregion_windows"] > 0
+    for name in ("t1_defects.png", "migration.png", "timing.png", "events.png"):
+        assert _png_ok(res / "report" / name)
+
+
+def test_report_through_the_hexatissue_command(tmp_path, monkeypatch):
+    """The wiring the lead adds: 'hexatissue.analysis.command' in cli.SUBCOMMAND_MODULES."""
+    from hexatissue import cli
+
+    m = voronoi_movie(30, (70, 80), 1, periodic=False, seed=2)
+    np.save(tmp_path / "frame.npy", m[0])
+    analyze_to_folder(tmp_path / "frame.npy", tmp_path / "res", order_p=(6,))
+    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", cli.SUBCOMMAND_MODULES + ("hexatissue.analysis.command",))
+    assert cli.main(["report", str(tmp_path / "res"), "--out", str(tmp_path / "cli")]) == 0
+    assert (tmp_path / "cli" / "report.md").exists() and _png_ok(tmp_path / "cli" / "order6.png")
+    assert cli.main(["report", str(tmp_path / "nothing")]) == 2  # InputError -> exit code 2
