@@ -16,7 +16,7 @@ from .errors import InputError
 __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
-SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command")
+SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.analysis.command")
 
 
 def _analyze_parser(sub):

@@ -61,7 +61,8 @@ def _source(path, periodic):
 
 def analyze_to_folder(source, out, *, periodic=False, p=(2, 6), order_p=(6, 2), radius=None, spacing=None,
                       formats=("parquet",), figures=False, client=None, n_workers=None, track=None,
-                      min_length=0.0, censor=10, max_gap=0, checkpoint=None, **mesh_options) -> dict:
+                      min_length=0.0, censor=10, max_gap=0, checkpoint=None, progress=True,
+                      **mesh_options) -> dict:
     """Analyse a label image, stack or MPF run and write every table to ``out``.
 
     Parameters
@@ -82,7 +83,7 @@ def analyze_to_folder(source, out, *, periodic=False, p=(2, 6), order_p=(6, 2), 
         Orders for which Gamma_p and defects are computed (each must be in ``p``).
     radius, spacing : float, optional
         Coarse-graining disk radius and grid spacing, px (default 1.5 R_cell and R_cell).
-    client, n_workers, track, min_length, censor, max_gap, checkpoint
+    client, n_workers, track, min_length, censor, max_gap, checkpoint, progress
         Movie options of :func:`hexatissue.analyze_movie`.
     **mesh_options
         Passed to :func:`hexatissue.mesh_from_labels`.
@@ -107,7 +108,7 @@ def analyze_to_folder(source, out, *, periodic=False, p=(2, 6), order_p=(6, 2), 
     else:
         result = analyze_movie(data, box=box, track=track, client=client, n_workers=n_workers,
                                min_length=min_length, censor=censor, max_gap=max_gap, checkpoint=checkpoint,
-                               **mesh_options)
+                               progress=progress, **mesh_options)
         box = result.box
         n_frames = len(result)
     tables = result.tables()
@@ -120,7 +121,8 @@ def analyze_to_folder(source, out, *, periodic=False, p=(2, 6), order_p=(6, 2), 
         written += [str(p_) for p_ in save_figures(result, tables, data, out / "figures", order_p)]
     summary = _summary(source, result, tables, n_frames, time.perf_counter() - start)
     meta = dict(summary, options={k: (list(v) if isinstance(v, tuple) else v) for k, v in mesh_options.items()},
-                periodic=box is not None, order_p=list(order_p), radius=radius, spacing=spacing)
+                periodic=box is not None, box=None if box is None else [box.Lx, box.Ly],
+                shape=list(result.shape), order_p=list(order_p), radius=radius, spacing=spacing)
     _write_json(meta, out / "metadata.json")
     summary["written"] = written
     return summary

@@ -145,14 +145,13 @@ def test_report_on_a_real_microscopy_movie(real_data, tmp_path):
         assert _png_ok(res / "report" / name)
 
 
-def test_report_through_the_hexatissue_command(tmp_path, monkeypatch):
-    """The wiring the lead adds: 'hexatissue.analysis.command' in cli.SUBCOMMAND_MODULES."""
+def test_report_through_the_hexatissue_command(tmp_path):
+    """'hexatissue report' is wired in cli.SUBCOMMAND_MODULES."""
     from hexatissue import cli
 
     m = voronoi_movie(30, (70, 80), 1, periodic=False, seed=2)
     np.save(tmp_path / "frame.npy", m[0])
     analyze_to_folder(tmp_path / "frame.npy", tmp_path / "res", order_p=(6,))
-    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", cli.SUBCOMMAND_MODULES + ("hexatissue.analysis.command",))
     assert cli.main(["report", str(tmp_path / "res"), "--out", str(tmp_path / "cli")]) == 0
     assert (tmp_path / "cli" / "report.md").exists() and _png_ok(tmp_path / "cli" / "order6.png")
     assert cli.main(["report", str(tmp_path / "nothing")]) == 2  # InputError -> exit code 2
