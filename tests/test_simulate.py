@@ -429,3 +429,23 @@ def test_command_line(tmp_path, capsys):
     args = parser.parse_args(base + ["--dt", "2", "--overwrite"])
     assert args.func(args) == 2
     assert "unstable" in capsys.readouterr().err
+
+
+def test_initial_state_from_a_label_image():
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    p = Params(**SMALL)
+    seeds = jittered_seeds((75, 75), 18.75, seed=3)[: p.n_cells]
+    labels = voronoi_labels(seeds, (75, 75), periodic=True)
+    sim = initial_state(p, labels=labels)
+    # the smoothed step profile reproduces the input segmentation almost everywhere
+    assert (segment(sim) == labels).mean() > 0.97
+    sim.advance(300, active=False)
+    relaxed = segment(sim)
+    assert (relaxed == labels).mean() > 0.85
+    for c in range(p.n_cells):
+        assert np.sum((relaxed == c + 1) & (labels == c + 1)) > 0.7 * np.sum(labels == c + 1)
+    with pytest.raises(InputError, match="n_cells"):
+        initial_state(p.replace(n_cells=15), labels=labels)
+    with pytest.raises(InputError, match="shape"):
+        initial_state(p, labels=labels[:70])
