@@ -449,3 +449,17 @@ def test_initial_state_from_a_label_image():
         initial_state(p.replace(n_cells=15), labels=labels)
     with pytest.raises(InputError, match="shape"):
         initial_state(p, labels=labels[:70])
+
+
+@pytest.mark.slow
+def test_paper_system_relaxes_confluent():
+    p = Params()
+    sim = initial_state(p, seed=0)
+    sim.advance(4000, active=False)
+    vmax, imax, vsum = sim.max_field()
+    assert vsum.min() > 0.8 * p.phi0
+    assert (vmax <= 0.5 * p.phi0).mean() < 0.03
+    labels = segment(sim)
+    assert (labels == 0).sum() == 0 and len(np.unique(labels)) == p.n_cells
+    assert np.all(np.abs(sim.moments()[:, 0] / (math.pi * p.R**2) - 1) < 0.02)
+    assert sim.leak.max() < 1e-3
