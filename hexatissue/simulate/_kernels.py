@@ -284,7 +284,7 @@ def set_velocity(theta, v0, vx, vy):
         vy[c] = v0 * np.sin(theta[c])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
 def advance(phi, phis, k1, S1, S2, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
             par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold):
     """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).
