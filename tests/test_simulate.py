@@ -429,3 +429,38 @@ def test_command_line(tmp_path, capsys):
     args = parser.parse_args(base + ["--dt", "2", "--overwrite"])
     assert args.func(args) == 2
     assert "unstable" in capsys.readouterr().err
+
+
+def test_initial_state_from_a_label_image():
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    p = Params(**SMALL)
+    seeds = jittered_seeds((75, 75), 18.75, seed=3)[: p.n_cells]
+    labels = voronoi_labels(seeds, (75, 75), periodic=True)
+    sim = initial_state(p, labels=labels)
+    # the smoothed step profile reproduces the input segmentation almost everywhere
+    assert (segment(sim) == labels).mean() > 0.97
+    sim.advance(300, active=False)
+    relaxed = segment(sim)
+    assert (relaxed == labels).mean() > 0.85
+    for c in range(p.n_cells):
+        assert np.sum((relaxed == c + 1) & (labels == c + 1)) > 0.7 * np.sum(labels == c + 1)
+    with pytest.raises(InputError, match="n_cells"):
+        initial_state(p.replace(n_cells=15), labels=labels)
+    with pytest.raises(InputError, match="shape"):
+        initial_state(p, labels=labels[:70])
+
+
+@pytest.mark.slow
+def test_paper_system_relaxes_confluent():
+    p = Params()
+    sim = initial_state(p, seed=0)
+    sim.advance(4000, active=False)
+    vmax, imax, vsum = sim.max_field()
+    assert (vsum < 0.5 * p.phi0).mean() == 0  # confluent: no holes at all
+    assert vsum.min() > 0.7 * p.phi0
+    assert (vmax <= 0.5 * p.phi0).mean() < 0.03
+    labels = segment(sim)
+    assert (labels == 0).sum() == 0 and len(np.unique(labels)) == p.n_cells
+    assert np.all(np.abs(sim.moments()[:, 0] / (math.pi * p.R**2) - 1) < 0.02)
+    assert sim.leak.max() < 1e-3

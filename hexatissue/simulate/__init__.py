@@ -3,30 +3,43 @@
 Quick use::
 
     from hexatissue.simulate import Params, run_simulation, read_run
-    run_simulation("run.zarr", Params(n_cells=60, Lx=140, Ly=150), steps=20_000, save_every=100, relax=5_000)
+    run_simulation("run.zarr", Params(n_cells=60, Lx=140, Ly=151), steps=20_000, save_every=100, relax=5_000)
     run = read_run("run.zarr")
     run.labels[0], run.cells, run.box
 
-See ``params.py`` for the model and ../docs/simulate.md for the design.
+See ``params.py`` for the model and docs/simulate.md for the design.  Names
+are imported lazily so that ``read_run`` does not import numba.
 """
-from .model import Simulation, initial_state, select_threading_layer, set_threads
-from .params import Params, stability_limit
-from .runner import RunSummary, run_simulation
-from .segment import labels_from_fields, labels_from_max, segment
-from .store import MPFRun, read_run
+from importlib import import_module
 
-__all__ = [
-    "Params",
-    "stability_limit",
-    "Simulation",
-    "initial_state",
-    "set_threads",
-    "select_threading_layer",
-    "segment",
-    "labels_from_fields",
-    "labels_from_max",
-    "run_simulation",
-    "RunSummary",
-    "read_run",
-    "MPFRun",
-]
+# eager (numpy only): binding the function after importing the submodule of the same name
+# keeps ``hexatissue.simulate.segment`` the function
+from .segment import labels_from_fields, labels_from_max, segment  # noqa: E402
+
+_EXPORTS = {
+    "Params": "params",
+    "stability_limit": "params",
+    "Simulation": "model",
+    "initial_state": "model",
+    "set_threads": "model",
+    "auto_threads": "model",
+    "select_threading_layer": "model",
+    "run_simulation": "runner",
+    "RunSummary": "runner",
+    "read_run": "store",
+    "MPFRun": "store",
+}
+
+__all__ = sorted(list(_EXPORTS) + ["segment", "labels_from_fields", "labels_from_max"])
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        value = getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -86,7 +86,7 @@ def build_bands(oy, Ly, P, ptr, cells):
 @njit(cache=True, parallel=True, fastmath=True)
 def lattice_sums(phi, oy, gx, ptr, cells, S1, S2):
     """``S1 = sum_c phi_c``, ``S2 = sum_c phi_c^2`` on the lattice, gathered band by band."""
-    Ly = S1.shape[0]
+    Ly, Lx = S1.shape[0], S1.shape[1]
     P = phi.shape[1]
     nb = ptr.shape[0] - 1
     for b in prange(nb):
@@ -96,15 +96,23 @@ def lattice_sums(phi, oy, gx, ptr, cells, S1, S2):
         S2[r0:r1, :] = 0
         for k in range(ptr[b], ptr[b + 1]):
             c = cells[k]
+            q0 = gx[c, 0]
+            straight = q0 + P <= Lx
             for r in range(r0, r1):
                 i = (r - oy[c]) % Ly
                 if i < 1 or i > P - 2:
                     continue
-                for j in range(1, P - 1):
-                    q = gx[c, j]
-                    v = phi[c, i, j]
-                    S1[r, q] += v
-                    S2[r, q] += v * v
+                if straight:
+                    for j in range(1, P - 1):
+                        v = phi[c, i, j]
+                        S1[r, q0 + j] += v
+                        S2[r, q0 + j] += v * v
+                else:
+                    for j in range(1, P - 1):
+                        q = gx[c, j]
+                        v = phi[c, i, j]
+                        S1[r, q] += v
+                        S2[r, q] += v * v
 
 
 @njit(cache=True, fastmath=True)
@@ -152,6 +160,7 @@ def heun_stage(phi_eval, phi, k1, out, S1, S2, gx, gy, coef, vx, vy, area, par, 
     ``phi_eval``.  ``area[c]`` receives ``int phi_eval_c^2 dA`` (float64).
     """
     N, P = phi.shape[0], phi.shape[1]
+    Lx = S1.shape[1]
     dt = par[DT]
     half_dt = par[HALF] * dt
     for c in prange(N):
@@ -162,14 +171,22 @@ def heun_stage(phi_eval, phi, k1, out, S1, S2, gx, gy, coef, vx, vy, area, par, 
         ca = coef[c]
         cvx = vx[c]
         cvy = vy[c]
+        q0 = gx[c, 0]
+        # patches not cut by the box edge (most of them) index the lattice directly
+        straight = q0 + P <= Lx
         for i in range(1, P - 1):
             r = gy[c, i]
             rm = gy[c, i - 1]
             rp = gy[c, i + 1]
             for j in range(1, P - 1):
-                q = gx[c, j]
-                qm = gx[c, j - 1]
-                qp = gx[c, j + 1]
+                if straight:
+                    q = q0 + j
+                    qm = q - 1
+                    qp = q + 1
+                else:
+                    q = gx[c, j]
+                    qm = gx[c, j - 1]
+                    qp = gx[c, j + 1]
                 k = _rhs_node(phi_eval, c, i, j, r, rm, rp, q, qm, qp, S1, S2, par, ca, cvx, cvy)
                 if second:
                     out[c, i, j] = phi[c, i, j] + half_dt * (k1[c, i, j] + k)
@@ -267,7 +284,7 @@ def set_velocity(theta, v0, vx, vy):
         vy[c] = v0 * np.sin(theta[c])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
 def advance(phi, phis, k1, S1, S2, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
             par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold):
     """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).

@@ -171,9 +171,9 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
         steps = _check_int("steps", 10_000 if steps is None else steps, 0)
         relax = _check_int("relax", relax, 0)
         patches_every = _check_int("patches_every", patches_every, 0)
+        seed = _check_int("seed", seed, 0)
         sim = initial_state(params, seed=seed, labels=labels)
         sim.step = -relax
-        seed = _check_int("seed", seed, 0)
         store = RunStore.create(out, params, seed, relax, steps, save_every, patches_every, overwrite=overwrite)
         if labels is not None:
             store.g.create_array("init_labels", data=np.asarray(labels))
@@ -188,12 +188,15 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
         bar = tqdm(total=relax + steps, initial=sim.step + relax, unit="step", dynamic_ncols=True,
                    desc=f"MPF {sim.params.n_cells} cells")
     done, seconds, last_ckpt, interrupted = 0, 0.0, time.monotonic(), False
+    n_saved = int(store.attrs["n_frames"])
+    writer = _Writer()
     try:
         with _CtrlC() as ctrl:
             while True:
                 s = sim.step
-                if s >= 0 and s % save_every == 0 and int(store.attrs["n_frames"]) == s // save_every:
-                    _save_frame(store, sim, s // save_every, patches_every)
+                if s >= 0 and s % save_every == 0 and n_saved == s // save_every:
+                    _save_frame(writer, store, sim, n_saved, patches_every)
+                    n_saved += 1
                     if callback is not None:
                         callback(s // save_every, sim)
                 if s >= steps:
@@ -202,6 +205,7 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
                     interrupted = True
                     break
                 if time.monotonic() - last_ckpt >= checkpoint_seconds:
+                    writer.drain()
                     store.write_checkpoint(sim)
                     last_ckpt = time.monotonic()
                 n = min(save_every, -s) if s < 0 else min(save_every - s % save_every, steps - s)
@@ -212,6 +216,7 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
                 if bar is not None:
                     bar.update(n)
     finally:
+        writer.close()
         if bar is not None:
             bar.close()
     # not in `finally`: a second Ctrl-C may land between a kernel call and the step counter update
@@ -226,7 +231,39 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
     return summary
 
 
-def _save_frame(store: RunStore, sim, frame: int, patches_every: int):
-    store.append_frame(segment(sim), sim.step, sim.moments(), sim.theta)
+class _Writer:
+    """One background thread that appends frames to the store in order while the kernels run (they release the GIL).
+
+    At most ``depth`` frames wait in memory; errors surface in the main thread
+    at the next submit or drain.
+    """
+
+    def __init__(self, depth=2):
+        from collections import deque
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mpf-writer")
+        self._pending = deque()
+        self._depth = depth
+
+    def submit(self, fn, *args):
+        self._pending.append(self._pool.submit(fn, *args))
+        while len(self._pending) > self._depth:
+            self._pending.popleft().result()
+
+    def drain(self):
+        while self._pending:
+            self._pending.popleft().result()
+
+    def close(self):
+        try:
+            self.drain()
+        finally:
+            self._pool.shutdown(wait=True)
+
+
+def _save_frame(writer: _Writer, store: RunStore, sim, frame: int, patches_every: int):
+    # everything taken from the state is computed or copied now; only the store I/O is deferred
+    writer.submit(store.append_frame, segment(sim), sim.step, sim.moments(), sim.theta.copy())
     if patches_every and frame % patches_every == 0:
-        store.append_patches(frame, sim.phi, sim.ox, sim.oy)
+        writer.submit(store.append_patches, frame, sim.phi.copy(), sim.ox.copy(), sim.oy.copy())
