@@ -269,3 +269,15 @@ def test_float32_tracks_float64():
         fields[dtype] = solver.psi(state)
     # high-k symbols (D^6 ~ k^6) amplify float32 round-off: ~3e-4 after 40 steps
     assert np.abs(fields["float32"] - fields["float64"]).max() < 1e-3
+
+
+def test_hermitian_partner_and_real_part():
+    ops = Solver(12).ops
+    rng = np.random.default_rng(5)
+    a = rng.normal(size=(12, 12)) + 1j * rng.normal(size=(12, 12))
+    want = np.array([[np.conj(a[(-i) % 12, (-j) % 12]) for j in range(12)] for i in range(12)])
+    np.testing.assert_array_equal(ops.partner(a), want)
+    field = rng.normal(size=(12, 12)) + 1j * rng.normal(size=(12, 12))
+    hat = np.fft.fft2(field)
+    np.testing.assert_allclose(np.fft.ifft2(ops.re_part(hat)), field.real, atol=1e-13)
+    np.testing.assert_allclose(np.fft.ifft2(ops.im_part(hat)), field.imag, atol=1e-13)

@@ -91,7 +91,9 @@ class Operators:
 
     def partner(self, a_hat):
         """``conj(a_hat[-k])``: the transform of ``conj(a)``."""
-        return np.conj(a_hat[self.neg][:, self.neg])
+        # index -k = (n - k) % n: reverse both axes, then shift by one (one copy, no fancy indexing)
+        out = np.roll(a_hat[::-1, ::-1], 1, axis=(0, 1))
+        return np.conjugate(out, out=out)
 
     def im_part(self, a_hat):
         """Transform of ``Im(a)`` from the transform of a complex field ``a``."""
