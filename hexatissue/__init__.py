@@ -9,7 +9,9 @@ from importlib.metadata import PackageNotFoundError, version as _version
 from .box import Box
 from .errors import HexatissueWarning, InputError
 from .frame import Frame, Movie
+from .graph import contact_table, neighbor_graph
 from .io import read_labels, read_table, write_table, write_tables
+from .mesh import mesh_from_labels
 from .order import shape_function
 
 try:
@@ -28,5 +30,8 @@ __all__ = [
     "write_table",
     "write_tables",
     "shape_function",
+    "mesh_from_labels",
+    "neighbor_graph",
+    "contact_table",
     "__version__",
 ]

@@ -16,10 +16,14 @@ from scipy.optimize import linear_sum_assignment
 
 from .box import Box
 from .errors import InputError
+from .order import _check_p
+from .schema import validate
 
 __all__ = [
     "plaquette_charges",
     "defects_from_field",
+    "find_defects",
+    "defect_density",
     "track_defects",
     "defect_events",
 ]
@@ -113,6 +117,190 @@ def defects_from_field(field, p, x0=0.0, y0=0.0, spacing=1.0, periodic=False, bo
             "p": np.full(len(i), int(p), dtype=np.int64),
         }
     )
+
+
+# ----------------------------------------------------------------------------
+# Defects of a coarse-grained grid table
+# ----------------------------------------------------------------------------
+
+def _grid_arrays(grid, p):
+    """Field ``Gamma_p`` (NaN at invalid nodes) and node positions as ``[row, col]`` arrays."""
+    row, col = grid["row"].to_numpy(np.int64), grid["col"].to_numpy(np.int64)
+    shape = (int(row.max()) + 1, int(col.max()) + 1)
+    if len(grid) != shape[0] * shape[1] or len(np.unique(row * shape[1] + col)) != len(grid):
+        raise InputError(f"grid must hold every node of a {shape[0]} x {shape[1]} grid exactly once per frame")
+    if min(shape) < 2:
+        raise InputError(f"grid must have at least 2 x 2 nodes; got {shape[0]} x {shape[1]}")
+    gamma = grid[f"Gamma{p}_re"].to_numpy(float) + 1j * grid[f"Gamma{p}_im"].to_numpy(float)
+    if "valid" in grid.columns:
+        gamma = np.where(grid["valid"].to_numpy(bool), gamma, np.nan)
+    field = np.full(shape, np.nan, complex)
+    x, y = np.full(shape, np.nan), np.full(shape, np.nan)
+    field[row, col] = gamma
+    x[row, col], y[row, col] = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
+    return field, x, y
+
+
+def _find_defects_frame(grid, p, box):
+    field, x, y = _grid_arrays(grid, p)
+    periodic = box is not None
+    charges = plaquette_charges(field, p, periodic=periodic)
+    i, j = np.nonzero(np.nan_to_num(charges) != 0)
+    # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
+    dx = (x[0, -1] - x[0, 0]) / (x.shape[1] - 1)
+    dy = (y[-1, 0] - y[0, 0]) / (y.shape[0] - 1)
+    if periodic and not np.allclose([dx * x.shape[1], dy * y.shape[0]], box.lengths, rtol=1e-9):
+        raise InputError(f"grid does not tile the periodic box {box}: build it with coarse_grain(..., box=box) "
+                         "or pass box=None for an open image")
+    xy = np.c_[x[i, j] + dx / 2, y[i, j] + dy / 2]
+    if periodic:
+        xy = box.wrap(xy)
+    return pd.DataFrame(
+        {
+            "defect": np.arange(len(i), dtype=np.int64),
+            "x": xy[:, 0],
+            "y": xy[:, 1],
+            "charge": charges[i, j],
+            "p": np.full(len(i), p, dtype=np.int64),
+        }
+    )
+
+
+def find_defects(grid, p=6, box=None):
+    """Topological defects of a coarse-grained p-atic field.
+
+    The charge of every grid plaquette is the winding number of
+    ``theta = Arg(Gamma_p) / p`` around it, ``s = (1/2 pi) sum dtheta`` with
+    each ``dtheta`` wrapped into ``(-pi/p, pi/p]`` (:func:`plaquette_charges`);
+    plaquettes with nonzero ``s`` are defects.  Plaquettes touching an
+    invalid node (``valid`` False, e.g. near the edge of an open image) are
+    skipped.  In a periodic box the grid wraps around and the charges of a
+    fully valid grid sum to zero.
+
+    Parameters
+    ----------
+    grid : pandas.DataFrame
+        Grid table from :func:`hexatissue.coarse_grain` (columns ``row``,
+        ``col``, ``x``, ``y``, ``Gamma{p}_re``, ``Gamma{p}_im``; optional
+        ``valid`` and ``frame``).
+    p : int
+        Symmetry order.
+    box : Box, optional
+        The periodic box the grid was built in (None for open images).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Defects table, one row per defect: ``frame`` (movies only),
+        ``defect`` (id, 0-based per frame), ``x``, ``y`` (plaquette centre,
+        px; x = column, y = row, origin at the centre of pixel (0, 0)),
+        ``charge`` (a nonzero multiple of ``1/p``), ``p``.
+    """
+    p = _check_p(p)
+    _check_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
+    if len(grid) == 0:
+        raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
+    _check_box(box)
+    box = box if box is not None and box.periodic else None
+    if "frame" not in grid.columns:
+        return validate(_find_defects_frame(grid, p, box), "defects")
+    parts = []
+    for frame, group in grid.groupby("frame", sort=True):
+        found = _find_defects_frame(group, p, box)
+        found.insert(0, "frame", np.full(len(found), frame, dtype=grid["frame"].dtype))
+        parts.append(found)
+    if not parts:
+        return validate(_empty_defects(p, grid["frame"].dtype), "defects")
+    return validate(pd.concat(parts, ignore_index=True), "defects")
+
+
+def _empty_defects(p, frame_dtype):
+    return pd.DataFrame(
+        {
+            "frame": pd.Series(dtype=frame_dtype),
+            "defect": pd.Series(dtype=np.int64),
+            "x": pd.Series(dtype=float),
+            "y": pd.Series(dtype=float),
+            "charge": pd.Series(dtype=float),
+            "p": pd.Series(dtype=np.int64),
+        }
+    )
+
+
+def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
+    """Number and charge density of defects on a square-ish grid of bins, per frame.
+
+    Parameters
+    ----------
+    defects : pandas.DataFrame
+        Defects table (``x``, ``y``, ``charge``; ``time_column`` for movies).
+    extent : Box or (rows, cols)
+        A box spans ``[0, Lx) x [0, Ly)`` (positions are wrapped into it when
+        periodic); an image shape spans ``[-0.5, cols - 0.5) x [-0.5, rows - 0.5)``
+        (pixel centres at integer x = column, y = row).
+    bin_size : float
+        Requested bin side, px; the extent is cut into ``round(L / bin_size)``
+        equal bins per axis (at least one).
+    time_column : str
+        Column giving the frame; when absent from ``defects`` the table is one frame.
+    frames : array_like, optional
+        Frames to report (frames without defects get zero density).  Default:
+        the frames present in ``defects``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per bin and frame: ``frame`` (when ``time_column`` exists or
+        ``frames`` is given), ``row``, ``col`` (bin index along y and x),
+        ``x``, ``y`` (bin centre, px), ``n_plus``, ``n_minus`` (defects of
+        positive and negative charge), ``density`` (``(n_plus + n_minus) /
+        bin area``, 1/px^2), ``charge_density`` (sum of charges / bin area,
+        1/px^2).  Defects outside the extent are ignored.
+    """
+    _check_columns(defects, ("x", "y", "charge"), "defects")
+    if isinstance(extent, Box):
+        lo, size = np.zeros(2), extent.lengths
+        wrap = extent.wrap if extent.periodic else (lambda xy: xy)
+    else:
+        if len(extent) != 2 or min(extent) <= 0:
+            raise InputError(f"extent must be a Box or an image shape (rows, cols); got {extent!r}")
+        lo, size, wrap = np.array([-0.5, -0.5]), np.array([extent[1], extent[0]], float), (lambda xy: xy)
+    if isinstance(bin_size, bool) or not np.isfinite(bin_size) or bin_size <= 0:
+        raise InputError(f"bin_size must be a positive finite length in px; got {bin_size!r}")
+    nbins = np.maximum(1, np.round(size / bin_size)).astype(int)
+    step = size / nbins
+    has_time = time_column in defects.columns
+    times = defects[time_column].to_numpy() if has_time else np.zeros(len(defects), np.int64)
+    with_frame = has_time or frames is not None
+    frames = np.unique(times if frames is None else np.asarray(frames)) if with_frame else np.zeros(1, np.int64)
+    xy = wrap(defects[["x", "y"]].to_numpy(float))
+    ij = np.floor((xy - lo) / step).astype(np.int64)
+    inside = ((ij >= 0) & (ij < nbins)).all(axis=1) & np.isin(times, frames)
+    frame_index = np.searchsorted(frames, times)
+    charge = defects["charge"].to_numpy(float)
+    shape = (len(frames), nbins[1], nbins[0])
+    n_plus, n_minus, q = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    at = (frame_index[inside], ij[inside, 1], ij[inside, 0])
+    np.add.at(n_plus, at, charge[inside] > 0)
+    np.add.at(n_minus, at, charge[inside] < 0)
+    np.add.at(q, at, charge[inside])
+    f, r, c = np.meshgrid(frames, np.arange(nbins[1]), np.arange(nbins[0]), indexing="ij")
+    area = step[0] * step[1]
+    out = pd.DataFrame(
+        {
+            "row": r.ravel().astype(np.int64),
+            "col": c.ravel().astype(np.int64),
+            "x": lo[0] + (c.ravel() + 0.5) * step[0],
+            "y": lo[1] + (r.ravel() + 0.5) * step[1],
+            "n_plus": n_plus.ravel().astype(np.int64),
+            "n_minus": n_minus.ravel().astype(np.int64),
+            "density": (n_plus + n_minus).ravel() / area,
+            "charge_density": q.ravel() / area,
+        }
+    )
+    if with_frame:
+        out.insert(0, "frame", f.ravel())
+    return out
 
 
 # ----------------------------------------------------------------------------
@@ -262,7 +450,7 @@ def _pair_ends(ends, pair_distance, box):
     return pos.index.to_numpy()[ia], neg.index.to_numpy()[ib]
 
 
-def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False):
+def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False, frames=None):
     """Creation and annihilation of +- defect pairs from tracked defects.
 
     A track that starts after the first frame of the movie is a birth and one
@@ -288,6 +476,12 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         Column giving the time point.
     include_unpaired : bool
         Also report unpaired births and deaths.
+    frames : array_like, optional
+        Every time point of the movie.  Only its first and last entries
+        matter: tracks starting at the first or ending at the last frame are
+        not events.  Default: the first and last frames present in
+        ``tracked`` (so a pair annihilating just before a final frame without
+        any defect would be missed; pass ``frames`` to catch it).
 
     Returns
     -------
@@ -311,7 +505,10 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
     columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
     if len(tracked) == 0:
         return _empty_events(columns, time_column)
-    t_first, t_last = tracked[time_column].min(), tracked[time_column].max()
+    span = tracked[time_column].to_numpy() if frames is None else np.asarray(frames)
+    if len(span) == 0:
+        raise InputError("frames must list at least one time point")
+    t_first, t_last = span.min(), span.max()
     rows = []
     for first, kind, lone in ((True, "creation", "appearance"), (False, "annihilation", "disappearance")):
         ends = _track_ends(tracked, time_column, first).reset_index(drop=True)

@@ -11,10 +11,23 @@ argument divided by ``p`` is the cell's p-fold orientation.
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
+from scipy.spatial import cKDTree
 
+from .box import Box
 from .errors import InputError
+from .schema import validate
 
-__all__ = ["shape_function", "shape_function_flat", "polygon_area_centroid"]
+__all__ = [
+    "shape_function",
+    "shape_function_flat",
+    "polygon_area_centroid",
+    "cells_from_polygons",
+    "cell_radius",
+    "coarse_grain",
+    "order_vs_radius",
+    "cell_stress",
+]
 
 CENTERS = ("vertex_mean", "area_centroid")
 
@@ -22,8 +35,10 @@ CENTERS = ("vertex_mean", "area_centroid")
 def _segment_sum(values, starts, n):
     """Sum of ``values`` over the consecutive segments beginning at ``starts`` (empty segments give 0)."""
     out = np.zeros((n,) + values.shape[1:], dtype=values.dtype)
+    if n == 0 or len(values) == 0:
+        return out
     nonempty = np.r_[starts[1:], len(values)] > starts
-    if len(values):
+    if nonempty.any():
         out[nonempty] = np.add.reduceat(values, starts[nonempty], axis=0)
     return out
 
@@ -134,3 +149,407 @@ def shape_function(polygons, p=6, center="vertex_mean"):
         return np.zeros(0, dtype=complex)
     starts = np.cumsum([0] + [len(a) for a in arrays[:-1]])
     return shape_function_flat(np.concatenate(arrays), starts, p=p, center=center)
+
+
+def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center="vertex_mean"):
+    """Cells table from cell polygons (e.g. published polygon data, or another segmentation tool).
+
+    Parameters
+    ----------
+    polygons : dict or sequence
+        ``{cell: (n, 2) array of (x, y)}`` or a sequence (cells numbered from
+        1); x = column, y = row, origin at the centre of pixel (0, 0).  A
+        repeated closing vertex is dropped.
+    p : int or sequence of int
+        Symmetry orders of the shape functions to compute.
+    centers : (N, 2) array, optional
+        Cell positions ``x``, ``y`` (e.g. the published centres of mass);
+        default the polygons' area centroids.
+    is_border : (N,) bool array, optional
+        Border flags; default all False (interior cells).
+    center : str or (N, 2) array
+        Centre used by :func:`shape_function`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Cells table: ``cell``, ``x``, ``y`` (px), ``area`` and
+        ``polygon_area`` (both the polygon's area, px^2), ``perimeter`` (px),
+        ``n_sides``, ``n_cycles`` (1: one polygon per cell), ``is_border``,
+        ``gamma{p}_re``, ``gamma{p}_im``.
+    """
+    if isinstance(polygons, dict):
+        ids, polys = list(polygons), list(polygons.values())
+    else:
+        polys = list(polygons)
+        ids = list(range(1, len(polys) + 1))
+    arrays = []
+    for k, poly in zip(ids, polys):
+        a = np.asarray(poly, dtype=float)
+        if a.ndim != 2 or a.shape[1] != 2 or len(a) < 3:
+            raise InputError(f"polygon of cell {k} must be an (n >= 3, 2) array of (x, y); got shape {a.shape}")
+        arrays.append(a[:-1] if np.array_equal(a[0], a[-1]) else a)
+    orders = [p] if np.isscalar(p) else list(p)
+    xy = np.concatenate(arrays) if arrays else np.zeros((0, 2))
+    lengths = np.array([len(a) for a in arrays], np.int64)
+    starts = np.r_[0, np.cumsum(lengths)[:-1]].astype(np.int64) if arrays else np.zeros(0, np.int64)
+    area, centroid = polygon_area_centroid(xy, starts)
+    pos = centroid if centers is None else np.asarray(centers, float)
+    if pos.shape != (len(arrays), 2):
+        raise InputError(f"centers must have shape ({len(arrays)}, 2); got {pos.shape}")
+    border = np.zeros(len(arrays), bool) if is_border is None else np.asarray(is_border, bool)
+    if border.shape != (len(arrays),):
+        raise InputError(f"is_border must have shape ({len(arrays)},); got {border.shape}")
+    perimeter = np.array([np.hypot(*np.diff(np.vstack([a, a[:1]]), axis=0).T).sum() for a in arrays])
+    table = {"cell": np.asarray(ids, np.int64), "x": pos[:, 0], "y": pos[:, 1], "area": np.abs(area),
+             "polygon_area": np.abs(area), "perimeter": perimeter, "n_sides": lengths,
+             "n_cycles": np.ones(len(arrays), np.int64), "is_border": border}
+    for order in orders:
+        gamma = shape_function_flat(xy, starts, p=_check_p(order), center=center)
+        table[f"gamma{order}_re"], table[f"gamma{order}_im"] = gamma.real, gamma.imag
+    return validate(pd.DataFrame(table), "cells")
+
+
+# ----------------------------------------------------------------------------
+# Coarse-grained shape parameter Gamma_p on a grid
+# ----------------------------------------------------------------------------
+
+#: Default disk radius and grid spacing in units of R_cell (Armengol-Collado et al. 2023, Methods).
+RADIUS_FACTOR = 1.5
+SPACING_FACTOR = 1.0
+#: On open images a disk sample point counts as tissue when its nearest cell centroid is an
+#: interior cell c closer than COVER_FACTOR * max(sqrt(area_c / pi), R_cell) (a regular hexagon's
+#: corners are 1.1 sqrt(area / pi) from its centre).
+COVER_FACTOR = 1.5
+
+
+def _check_p(p):
+    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
+        raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
+    return int(p)
+
+
+def _check_length(value, name):
+    if value is None:
+        return None
+    if isinstance(value, bool) or not np.isscalar(value) or not np.isfinite(value) or value <= 0:
+        raise InputError(f"{name} must be a positive finite length in px (or None for the default); got {value!r}")
+    return float(value)
+
+
+def _interior(cells):
+    """Boolean mask of the cells that enter averages: not on the border (when the column exists)."""
+    if "is_border" in cells.columns:
+        return ~cells["is_border"].to_numpy(bool)
+    return np.ones(len(cells), bool)
+
+
+def cell_radius(cells):
+    """R_cell = sqrt(mean cell area / pi), px, over the interior (non-border) cells.
+
+    Uses the ``area`` column (``polygon_area`` if ``area`` is absent).
+    """
+    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
+    if column is None:
+        raise InputError("cells needs an 'area' (or 'polygon_area') column, px^2, to compute R_cell")
+    area = cells[column].to_numpy(float)[_interior(cells)]
+    area = area[np.isfinite(area)]
+    if len(area) == 0 or not area.mean() > 0:
+        raise InputError("cells has no interior cell with a positive finite area to compute R_cell")
+    return float(np.sqrt(area.mean() / np.pi))
+
+
+def _grid_axes(cells_xy, spacing, box):
+    """Node coordinates along x and y: tiling the periodic box, or centred on the cells' extent."""
+    if box is not None:
+        nx = max(2, int(round(box.Lx / spacing)))
+        ny = max(2, int(round(box.Ly / spacing)))
+        return (np.arange(nx) + 0.5) * box.Lx / nx, (np.arange(ny) + 0.5) * box.Ly / ny
+    lo, hi = cells_xy.min(axis=0), cells_xy.max(axis=0)
+    axes = []
+    for k in range(2):
+        n = int(np.floor((hi[k] - lo[k]) / spacing)) + 1
+        start = lo[k] + 0.5 * ((hi[k] - lo[k]) - (n - 1) * spacing)
+        axes.append(start + spacing * np.arange(max(n, 1)))
+    return axes[0], axes[1]
+
+
+def _disk_means(nodes, xy, gamma, radius, box):
+    """Mean of ``gamma`` over the points of ``xy`` within ``radius`` of each node, and their count."""
+    if box is not None:
+        tree = cKDTree(box.wrap(xy), boxsize=box.lengths)
+    else:
+        tree = cKDTree(xy)
+    members = tree.query_ball_point(nodes, r=radius)
+    counts = np.fromiter((len(m) for m in members), np.int64, len(members))
+    index = np.concatenate([np.asarray(m, np.int64) for m in members]) if counts.sum() else np.zeros(0, np.int64)
+    owner = np.repeat(np.arange(len(nodes)), counts)
+    total = np.bincount(owner, gamma.real[index], len(nodes)) + 1j * np.bincount(owner, gamma.imag[index], len(nodes))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return total / counts, counts
+
+
+def _reach(cells, r_cell):
+    """Largest distance from each centroid still counted as inside the cell, px.
+
+    ``COVER_FACTOR * max(sqrt(area / pi), R_cell)``: large cells reach further, and
+    small cells next to large ones do not punch holes into the coverage.
+    """
+    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
+    r = np.full(len(cells), r_cell)
+    if column is not None:
+        own = np.sqrt(np.abs(cells[column].to_numpy(float)) / np.pi)
+        r = np.fmax(r, own)  # fmax ignores NaN areas
+    return COVER_FACTOR * r
+
+
+def _coverage(gx, gy, radius, spacing, all_xy, interior, reach, r_cell):
+    """Fraction of each node's disk lying on interior cells (open images, see :func:`coarse_grain`).
+
+    The tissue mask is sampled on a raster of pitch ``spacing / k <= R_cell / 4`` aligned with
+    the grid (every node is a raster point); a raster point is on the tissue when its nearest
+    centroid is an interior cell within that cell's ``reach``.  The disk sums are one FFT
+    correlation of the mask with the disk, read off at the nodes.
+    """
+    k = max(1, int(np.ceil(4.0 * spacing / r_cell)))
+    step = spacing / k
+    pad = int(np.ceil(radius / step))
+    rx = gx[0] + step * np.arange(-pad, (len(gx) - 1) * k + pad + 1)
+    ry = gy[0] + step * np.arange(-pad, (len(gy) - 1) * k + pad + 1)
+    px, py = np.meshgrid(rx, ry)
+    dist, nearest = cKDTree(all_xy).query(np.c_[px.ravel(), py.ravel()])
+    mask = (interior[nearest] & (dist <= reach[nearest])).reshape(px.shape)
+    off = np.arange(-pad, pad + 1) * step
+    disk = (off[None, :] ** 2 + off[:, None] ** 2) <= radius**2
+    inside = _valid_correlation(mask.astype(float), disk.astype(float))
+    return (np.rint(inside[::k, ::k]) / disk.sum()).ravel()
+
+
+def _valid_correlation(image, kernel):
+    """``scipy.signal.correlate(image, kernel, "valid")`` by FFT (kernel point-symmetric, so = convolution).
+
+    Uses scipy.fft directly: importing scipy.signal costs seconds.
+    """
+    from scipy import fft
+
+    shape = [fft.next_fast_len(m + q - 1, real=True) for m, q in zip(image.shape, kernel.shape)]
+    full = fft.irfft2(fft.rfft2(image, shape) * fft.rfft2(kernel, shape), shape)
+    return full[kernel.shape[0] - 1: image.shape[0], kernel.shape[1] - 1: image.shape[1]]
+
+
+def _coarse_grain_frame(cells, p, radius, spacing, box, min_coverage):
+    """Grid table (without ``frame``) of one frame's cells."""
+    xy_all = cells[["x", "y"]].to_numpy(float)
+    gamma = cells[f"gamma{p}_re"].to_numpy(float) + 1j * cells[f"gamma{p}_im"].to_numpy(float)
+    use = _interior(cells) & np.isfinite(gamma) & np.isfinite(xy_all).all(axis=1)
+    if not use.any():
+        raise InputError("cells has no interior cell with finite x, y and gamma to coarse-grain")
+    need_rcell = radius is None or spacing is None or box is None
+    r_cell = cell_radius(cells) if need_rcell else np.nan
+    radius = RADIUS_FACTOR * r_cell if radius is None else radius
+    spacing = SPACING_FACTOR * r_cell if spacing is None else spacing
+    gx, gy = _grid_axes(xy_all[use], spacing, box)
+    col, row = np.meshgrid(np.arange(len(gx)), np.arange(len(gy)))
+    nodes = np.c_[gx[col.ravel()], gy[row.ravel()]]
+    mean, counts = _disk_means(nodes, xy_all[use], gamma[use], radius, box)
+    if box is None:
+        finite = np.isfinite(xy_all).all(axis=1)
+        reach = _reach(cells, r_cell)
+        coverage = _coverage(gx, gy, radius, spacing, xy_all[finite], use[finite], reach[finite], r_cell)
+    else:
+        coverage = np.ones(len(nodes))
+    return pd.DataFrame(
+        {
+            "node": np.arange(len(nodes), dtype=np.int64),
+            "row": row.ravel().astype(np.int64),
+            "col": col.ravel().astype(np.int64),
+            "x": nodes[:, 0],
+            "y": nodes[:, 1],
+            f"Gamma{p}_re": mean.real,
+            f"Gamma{p}_im": mean.imag,
+            "n_cells": counts,
+            "coverage": coverage,
+            "valid": (counts > 0) & (coverage >= min_coverage),
+            "radius": np.full(len(nodes), radius),
+            "spacing": np.full(len(nodes), spacing),
+        }
+    )
+
+
+def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1.0):
+    """Coarse-grained shape parameter Gamma_p on a square grid.
+
+    ``Gamma_p(r)`` is the mean of the cells' ``gamma_p`` over the cells whose
+    centroid lies within a disk of radius ``R`` centred at the node ``r``
+    (Armengol-Collado et al. 2023, Methods).  Border cells (``is_border``)
+    never enter the mean.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table: ``x``, ``y`` (centroid, px; x = column, y = row, origin
+        at the centre of pixel (0, 0)), ``gamma{p}_re``, ``gamma{p}_im``;
+        optionally ``is_border`` (default: no border cells), ``area`` or
+        ``polygon_area`` (px^2; needed for the defaults and on open images)
+        and ``frame`` (a movie: each frame is coarse-grained on its own and
+        ``frame`` is passed through).
+    p : int
+        Symmetry order (2 nematic, 6 hexatic).
+    radius : float, optional
+        Disk radius R, px.  Default ``1.5 R_cell`` with
+        ``R_cell = sqrt(mean area / pi)`` of the frame's interior cells
+        (:func:`cell_radius`).
+    spacing : float, optional
+        Grid spacing, px.  Default ``R_cell``.  In a periodic box the grid
+        tiles the box exactly (``round(L / spacing)`` nodes per side, so the
+        actual spacing along x and y is ``Lx / nx`` and ``Ly / ny``).
+    box : Box, optional
+        Periodic box: distances are minimum-image and every node with at
+        least one cell in its disk is valid.  ``None`` (or a non-periodic box)
+        means an open image.
+    min_coverage : float
+        Open images only: a node is ``valid`` when at least this fraction of
+        its disk lies on interior cells.  The fraction is measured on a raster
+        of pitch at most ``R_cell / 4`` aligned with the grid (the disk's
+        raster points); a point lies on an interior cell when its nearest
+        cell centroid (border cells included) belongs to an interior cell c and
+        is closer than ``1.5 max(sqrt(area_c / pi), R_cell)`` (a regular
+        hexagon's corners are ``1.1 sqrt(area / pi)`` from its centre).  The default 1.0 keeps only disks that
+        lie wholly inside the tissue, so the tissue edge, the border cells and
+        holes do not bias Gamma_p.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Grid table, one row per node (row-major), per frame:
+        ``frame`` (movies only), ``node`` (id, 0-based per frame), ``row``,
+        ``col`` (node index along y and x), ``x``, ``y`` (node position, px),
+        ``Gamma{p}_re``, ``Gamma{p}_im`` (dimensionless; NaN when the disk is
+        empty), ``n_cells`` (cells in the disk), ``coverage`` (fraction of the
+        disk on interior cells; 1 in a periodic box), ``valid`` (bool: used
+        for statistics and defects), ``radius`` (R, px) and ``spacing``
+        (requested grid spacing, px).
+    """
+    p = _check_p(p)
+    radius, spacing = _check_length(radius, "radius"), _check_length(spacing, "spacing")
+    if box is not None and not isinstance(box, Box):
+        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
+    box = box if box is not None and box.periodic else None
+    if not 0.0 <= min_coverage <= 1.0:
+        raise InputError(f"min_coverage must be a fraction in [0, 1]; got {min_coverage!r}")
+    if not isinstance(cells, pd.DataFrame):
+        raise InputError(f"cells must be a pandas DataFrame; got {type(cells).__name__}")
+    needed = ["x", "y", f"gamma{p}_re", f"gamma{p}_im"]
+    missing = [c for c in needed if c not in cells.columns]
+    if missing:
+        raise InputError(f"cells is missing column(s) {missing}; expected {needed} (compute gamma with p={p})")
+    if len(cells) == 0:
+        raise InputError("cells is empty; expected at least one interior cell to coarse-grain")
+    if "frame" not in cells.columns:
+        return validate(_coarse_grain_frame(cells, p, radius, spacing, box, min_coverage), "grid")
+    parts = []
+    for frame, group in cells.groupby("frame", sort=True):
+        grid = _coarse_grain_frame(group, p, radius, spacing, box, min_coverage)
+        grid.insert(0, "frame", np.full(len(grid), frame, dtype=cells["frame"].dtype))
+        parts.append(grid)
+    return validate(pd.concat(parts, ignore_index=True), "grid")
+
+
+def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box=None, min_coverage=1.0):
+    """Mean ``|Gamma_p|`` over the valid grid nodes as a function of the coarse-graining radius.
+
+    For each factor, every frame is coarse-grained (:func:`coarse_grain`)
+    with ``R = factor * R_cell`` (R_cell of that frame, grid spacing R_cell)
+    and ``|Gamma_p|`` is averaged over its valid nodes.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table as for :func:`coarse_grain` (``area`` needed).
+    p : int
+        Symmetry order.
+    factors : sequence of float
+        Radii in units of R_cell.
+    box, min_coverage
+        As for :func:`coarse_grain`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per frame and factor: ``frame`` (movies only), ``p``,
+        ``factor`` (R / R_cell), ``radius`` (R, px), ``abs_Gamma`` (mean
+        ``|Gamma_p|`` over valid nodes, dimensionless; NaN when none is
+        valid), ``n_nodes`` (valid nodes).
+    """
+    p = _check_p(p)
+    groups = cells.groupby("frame", sort=True) if "frame" in cells.columns else [(None, cells)]
+    rows = []
+    for frame, group in groups:
+        r_cell = cell_radius(group)
+        for factor in factors:
+            grid = coarse_grain(group, p=p, radius=float(factor) * r_cell, spacing=r_cell, box=box,
+                                min_coverage=min_coverage)
+            valid = grid[grid["valid"]]
+            size = np.hypot(valid[f"Gamma{p}_re"], valid[f"Gamma{p}_im"]).to_numpy()
+            rows.append((frame, p, float(factor), float(factor) * r_cell,
+                         size.mean() if len(size) else np.nan, len(size)))
+    out = pd.DataFrame(rows, columns=["frame", "p", "factor", "radius", "abs_Gamma", "n_nodes"])
+    return out.drop(columns="frame") if "frame" not in cells.columns else out
+
+
+# ----------------------------------------------------------------------------
+# Longitudinal p-atic stress of multiphase-field cells
+# ----------------------------------------------------------------------------
+
+def cell_stress(phi, theta, k_phi, p, dx=1.0):
+    """Longitudinal p-atic stress of every cell of a multiphase-field (MPF) configuration.
+
+    sigma_par = -k_phi sum_r |grad phi_c|^p cos(p (alpha(r) - theta_c)),
+
+    with ``alpha`` the direction of ``grad phi_c`` at lattice site ``r`` and
+    ``theta_c`` the cell's p-fold orientation.  This is the complex form of
+    ``-k_phi sum_r (grad phi_c)^{(x)p} : n_c^{(x)p}`` with both tensors
+    reduced to their symmetric traceless part and rescaled by ``2^(p-1)``
+    (the full contraction of the traceless parts is ``2^(1-p)`` times this
+    value).  For p = 2 and a cell elongated along ``theta_c`` it is positive:
+    the interface gradients are steepest across the long axis.
+
+    Parameters
+    ----------
+    phi : (n_cells, P, P) float array
+        Per-cell phase-field patches, indexed ``[cell, row, col]`` (row = y,
+        col = x), as saved by the MPF simulator: each patch holds one cell's
+        field ``phi_c`` on a P x P window of the lattice (any origin; the
+        result does not depend on it) that contains the whole cell, with
+        ``phi_c -> 0`` at the patch edge.  Gradients are second-order central
+        differences (one-sided at the patch edge).
+    theta : (n_cells,) float array
+        Orientation ``theta_c`` of each cell, rad, measured from +x towards
+        +y (e.g. ``np.angle(gamma_p) / p``).
+    k_phi : float
+        Interface stiffness ``k_phi`` of the MPF free energy.
+    p : int
+        Symmetry order (2 nematic, 6 hexatic).
+    dx : float
+        Lattice spacing (gradients are per unit ``dx``).
+
+    Returns
+    -------
+    (n_cells,) float array
+        ``sigma_par`` per cell, in units of ``k_phi * [phi]^p / dx^p`` (a sum
+        over lattice sites, not an average).
+    """
+    p = _check_p(p)
+    phi = np.asarray(phi, dtype=float)
+    theta = np.asarray(theta, dtype=float)
+    if phi.ndim != 3 or phi.shape[1] < 3 or phi.shape[2] < 3:
+        raise InputError(f"phi must be an (n_cells, P, P) array of patches with P >= 3; got shape {phi.shape}")
+    if theta.shape != (phi.shape[0],):
+        raise InputError(f"theta must hold one angle per cell, shape ({phi.shape[0]},); got {theta.shape}")
+    if not np.isfinite(k_phi):
+        raise InputError(f"k_phi must be a finite number; got {k_phi!r}")
+    _check_length(dx, "dx")
+    grad_y, grad_x = np.gradient(phi, dx, axis=(1, 2))
+    # |grad phi|^p cos(p (alpha - theta)) = Re[(phi_x + i phi_y)^p e^{-i p theta}]
+    moment = ((grad_x + 1j * grad_y) ** p).sum(axis=(1, 2))
+    return -k_phi * np.real(moment * np.exp(-1j * p * theta))

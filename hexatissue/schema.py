@@ -28,6 +28,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "polygon_area": ("f", "px^2", "area of the vertex polygon"),
         "perimeter": ("f", "px", "perimeter of the vertex polygon"),
         "n_sides": ("i", "", "number of polygon vertices (= junctions around the cell)"),
+        "n_cycles": ("i", "", "boundary cycles of the cell (> 1: holes, pieces or pinches)"),
         "is_border": ("b", "", "touches the image edge or the background (0)"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
@@ -37,7 +38,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "vertex": ("i", "", "vertex id"),
         "x": ("f", "px", "column"),
         "y": ("f", "px", "row"),
-        "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 only on a vertex-less loop)"),
+        "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 at a corner of an open "
+                   "image or on a closed boundary with no vertex)"),
         "is_border": ("b", "", "touches the background (cell 0)"),
     },
     "edges": {

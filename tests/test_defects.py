@@ -135,6 +135,8 @@ def test_tracking_bad_input():
         track_defects(table, max_distance=1, frames=[0, 1])
     with pytest.raises(InputError, match="pair_distance"):
         defect_events(track_defects(table, 2.0), pair_distance=-1)
+    with pytest.raises(InputError, match="frames"):
+        defect_events(track_defects(table, 2.0), pair_distance=1.0, frames=[])
 
 
 def test_empty_tables():
@@ -142,3 +144,64 @@ def test_empty_tables():
     tracked = track_defects(empty, max_distance=1.0)
     assert len(tracked) == 0 and "track" in tracked
     assert defect_events(tracked, 1.0).empty
+
+
+# ---------------------------------------------------------------------------- winding numbers and density
+
+from hexatissue.defects import defect_density, defects_from_field, plaquette_charges  # noqa: E402
+
+
+@pytest.mark.parametrize("p", [1, 2, 6])
+@pytest.mark.parametrize("k", [-1, 1])  # |k| >= 2 needs steps >= pi/p: unresolvable on one plaquette
+def test_plaquette_charges_of_a_vortex(p, k):
+    # theta = k phi / p around (x, y) = (10.3, 7.6): charge k/p in the plaquette holding the core
+    y, x = np.mgrid[0:16, 0:22].astype(float)
+    field = np.exp(1j * k * np.arctan2(y - 7.6, x - 10.3))
+    charges = plaquette_charges(field, p)
+    assert charges.shape == (15, 21)
+    assert charges[7, 10] == pytest.approx(k / p)
+    assert np.count_nonzero(charges) == 1
+    table = defects_from_field(field, p)
+    assert (table["x"].iloc[0], table["y"].iloc[0]) == (10.5, 7.5)
+
+
+def test_plaquette_charges_sum_to_zero_on_a_torus():
+    rng = np.random.default_rng(2)
+    field = rng.normal(size=(12, 17)) + 1j * rng.normal(size=(12, 17))
+    charges = plaquette_charges(field, 6, periodic=True)
+    assert np.count_nonzero(charges) > 10 and charges.sum() == pytest.approx(0.0, abs=1e-12)
+
+
+def test_defect_density_counts_per_bin_and_frame():
+    box = Box(40.0, 20.0)
+    table = pd.DataFrame({
+        "frame": [0, 0, 0, 2, 2],
+        "x": [1.0, 2.0, 39.0, 41.0, 15.0],  # 41 wraps to 1
+        "y": [1.0, 3.0, 19.0, 2.0, 15.0],
+        "charge": [1 / 6, -1 / 6, 1 / 6, -1 / 6, 1 / 6],
+    })
+    dens = defect_density(table, box, bin_size=10.0, frames=[0, 1, 2])
+    assert len(dens) == 3 * 2 * 4
+    assert list(dens.columns) == ["frame", "row", "col", "x", "y", "n_plus", "n_minus", "density", "charge_density"]
+    one = dens.set_index(["frame", "row", "col"])
+    assert (one.loc[(0, 0, 0), "n_plus"], one.loc[(0, 0, 0), "n_minus"]) == (1, 1)
+    assert one.loc[(0, 1, 3), "n_plus"] == 1
+    assert one.loc[(2, 0, 0), "n_minus"] == 1 and one.loc[(2, 1, 1), "n_plus"] == 1
+    assert one.loc[1, "density"].sum() == 0
+    assert one.loc[(0, 0, 0), "density"] == pytest.approx(2 / 100)
+    assert one.loc[(0, 0, 0), "charge_density"] == pytest.approx(0.0)
+    # number of defects is conserved: sum(density * bin area) = rows
+    assert (dens["density"] * 100).sum() == pytest.approx(len(table))
+    # bin centres
+    assert one.loc[(0, 1, 3), "x"] == 35.0 and one.loc[(0, 1, 3), "y"] == 15.0
+
+
+def test_defect_density_on_an_image_shape_without_frames():
+    table = pd.DataFrame({"x": [-0.4, 99.4, 50.0], "y": [0.0, 59.0, 200.0], "charge": [0.5, -0.5, 0.5]})
+    dens = defect_density(table, (60, 100), bin_size=50.0)
+    assert "frame" not in dens.columns and len(dens) == 2  # round(60 / 50) = 1 row, 2 columns
+    assert dens["n_plus"].tolist() == [1, 0] and dens["n_minus"].tolist() == [0, 1]  # y = 200 is outside
+    with pytest.raises(InputError, match="bin_size"):
+        defect_density(table, (60, 100), bin_size=0)
+    with pytest.raises(InputError, match="extent"):
+        defect_density(table, (60,), bin_size=5)

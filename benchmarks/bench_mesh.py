@@ -1,0 +1,103 @@
+"""Benchmark: junction network + gamma6 of a 2048 x 2048 periodic Voronoi label image (~10,000 cells).
+
+Compares, in the same run and on one core, hexatissue.mesh_from_labels with the per-cell
+scikit-image route people use today (regionprops, then find_contours and approximate_polygon per
+cell, then gamma6 of that polygon).  Peak memory is the peak resident set size of a fresh process
+running each route once, minus its size just before (numba allocations are invisible to
+tracemalloc); the label image itself (16 MB as int32) is not included.
+
+Run:  python benchmarks/bench_mesh.py [--size 2048] [--spacing 20.5] [--repeats 5]
+"""
+import argparse
+import json
+import os
+import platform
+import resource
+import subprocess
+import tempfile
+import sys
+import time
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+
+
+def make_labels(size, spacing):
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    seeds = jittered_seeds((size, size), spacing, seed=0)
+    return voronoi_labels(seeds, (size, size), periodic=True)
+
+
+def hexatissue_route(labels):
+    from hexatissue import Box, mesh_from_labels
+
+    frame = mesh_from_labels(labels, box=Box.from_shape(labels.shape), p=(6,))
+    return frame.cells["gamma6_re"].to_numpy() + 1j * frame.cells["gamma6_im"].to_numpy()
+
+
+def skimage_route(labels):
+    from skimage.measure import approximate_polygon, find_contours, regionprops
+
+    from hexatissue import shape_function
+
+    polygons = []
+    for region in regionprops(labels):
+        contour = find_contours(np.pad(region.image, 1).astype(float), 0.5)[0]
+        polygons.append(approximate_polygon(contour, tolerance=1.0)[:-1, ::-1])  # (row, col) -> (x, y)
+    return shape_function(polygons, p=6)
+
+
+def peak_rss_mb(route, labels_path):
+    """Run one route in a fresh process: peak RSS minus the RSS before the run (MB)."""
+    code = (
+        "import sys, resource, numpy as np, psutil; sys.path.insert(0, %r);"
+        "import bench_mesh as b; labels = np.load(%r);"
+        "b.%s(np.ascontiguousarray(labels[:256, :256]));"
+        "base = psutil.Process().memory_info().rss; b.%s(labels);"
+        "print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - base) / 2**20)"
+    ) % (os.path.dirname(os.path.abspath(__file__)), str(labels_path), route, route)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=2048)
+    parser.add_argument("--spacing", type=float, default=20.5, help="seed lattice pitch, px (20.5 -> ~10,000 cells)")
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args()
+
+    labels = make_labels(args.size, args.spacing)
+    labels_path = os.path.join(tempfile.mkdtemp(), "labels.npy")
+    np.save(labels_path, labels)
+    hexatissue_route(make_labels(256, args.spacing))  # compile / load the numba cache
+    times = []
+    for _ in range(args.repeats):
+        t = time.perf_counter()
+        g6 = hexatissue_route(labels)
+        times.append(time.perf_counter() - t)
+    t = time.perf_counter()
+    g6_sk = skimage_route(labels)
+    t_sk = time.perf_counter() - t
+    result = {
+        "date": time.strftime("%Y-%m-%d"),
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}",
+        "load_1min": os.getloadavg()[0],
+        "image": f"{args.size}x{args.size} periodic Voronoi, {labels.max()} cells",
+        "hexatissue_s_median": float(np.median(times)),
+        "hexatissue_s_min": float(np.min(times)),
+        "skimage_per_cell_s": t_sk,
+        "speedup_vs_median": t_sk / float(np.median(times)),
+        "hexatissue_peak_rss_mb": peak_rss_mb("hexatissue_route", labels_path),
+        "skimage_peak_rss_mb": peak_rss_mb("skimage_route", labels_path),
+        "mean_abs_gamma6": [float(np.nanmean(np.abs(g6))), float(np.nanmean(np.abs(g6_sk)))],
+    }
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":
+    main()

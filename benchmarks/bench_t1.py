@@ -1,0 +1,197 @@
+"""Benchmark: label movie -> junction networks -> tracks -> classified T1 events.
+
+A smoothly moving periodic Voronoi movie (default 1000 frames x 440 cells in a
+384 x 403 px box, ``hexatissue.synthetic.VoronoiMovie``) is rendered once to a
+memory-mapped ``.npy`` (uint16) in ``--cache`` and read lazily from there.
+
+Stages, each in its own forked process so that its peak resident memory
+(``ru_maxrss``) is its own:
+
+- ``track``: overlap tracking of every frame (:class:`hexatissue.track.Tracker`);
+- ``mesh``: ``mesh_from_labels`` of every frame, one process;
+- ``events``: ``detect_t1`` + lineage + per-cell statistics on the mesh tables;
+- ``analyze_movie``: everything end to end with ``--workers`` processes, for
+  several movie lengths (cost per frame should not grow with length).
+
+Times are medians over ``--repeats``; the machine load (``uptime``) is
+printed with the results.  Usage::
+
+    python benchmarks/bench_t1.py [--frames 1000] [--workers 2] [--repeats 3]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import time
+import warnings
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from hexatissue.box import Box  # noqa: E402
+from hexatissue.errors import HexatissueWarning  # noqa: E402
+
+warnings.simplefilter("ignore", HexatissueWarning)
+
+
+def render(path: Path, n_frames, n_cells, shape, seed=0):
+    """The benchmark movie as a uint16 .npy memmap (rendered once, then reused)."""
+    from tqdm import tqdm
+
+    from hexatissue.synthetic import voronoi_movie
+
+    if path.exists():
+        stack = np.load(path, mmap_mode="r")
+        if stack.shape == (n_frames, *shape):
+            return stack
+    path.parent.mkdir(parents=True, exist_ok=True)
+    movie = voronoi_movie(n_cells, shape, n_frames, periodic=True, amplitude=0.3, seed=seed)
+    tmp = path.with_suffix(".tmp.npy")
+    out = np.lib.format.open_memmap(tmp, mode="w+", dtype=np.uint16, shape=(n_frames, *shape))
+    for t in tqdm(range(n_frames), desc="rendering benchmark movie"):
+        out[t] = movie[t]
+    out.flush()
+    del out
+    os.replace(tmp, path)
+    return np.load(path, mmap_mode="r")
+
+
+def _maxrss_mb(who=resource.RUSAGE_SELF):
+    return resource.getrusage(who).ru_maxrss / 1024.0  # Linux: KiB
+
+
+def _rss_mb():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def stage_track(path, n_frames):
+    from hexatissue.track import Tracker
+
+    stack = np.load(path, mmap_mode="r")
+    tracker = Tracker()
+    t0 = time.perf_counter()
+    for t in range(n_frames):
+        tracker.add(np.asarray(stack[t]), t)
+    tracker.tracks()
+    return time.perf_counter() - t0
+
+
+def stage_mesh(path, n_frames, box, tables_dir):
+    import pandas as pd
+
+    from hexatissue.pipeline import _mesh_job
+
+    stack = np.load(path, mmap_mode="r")
+    parts = {"cells": [], "edges": []}
+    t0 = time.perf_counter()
+    for t in range(n_frames):
+        out = _mesh_job(np.asarray(stack[t]), t, box, {})
+        parts["cells"].append(out["cells"])
+        parts["edges"].append(out["edges"])
+    elapsed = time.perf_counter() - t0
+    for name, p in parts.items():
+        pd.concat(p, ignore_index=True).to_parquet(Path(tables_dir) / f"{name}.parquet")
+    return elapsed
+
+
+def stage_events(tables_dir, box):
+    import pandas as pd
+
+    from hexatissue.events import cell_event_stats, detect_t1
+    from hexatissue.track import lineage_table
+
+    cells = pd.read_parquet(Path(tables_dir) / "cells.parquet")
+    edges = pd.read_parquet(Path(tables_dir) / "edges.parquet")
+    cells["track"] = cells["cell"]
+    t0 = time.perf_counter()
+    events = detect_t1(edges, cells, box=box)
+    lineage_table(cells[["frame", "track"]], {}, cells["is_border"].to_numpy())
+    cell_event_stats(events, cells)
+    elapsed = time.perf_counter() - t0
+    return elapsed, len(events), events["kind"].value_counts().to_dict()
+
+
+def stage_analyze(path, n_frames, box, workers):
+    from hexatissue.pipeline import analyze_movie
+
+    stack = np.load(path, mmap_mode="r")[:n_frames]
+    t0 = time.perf_counter()
+    movie = analyze_movie(stack, box=box, n_workers=workers, progress=False)
+    elapsed = time.perf_counter() - t0
+    return elapsed, len(movie.extra["events"])
+
+
+def _child(fn, args, conn):
+    base = _rss_mb()
+    result = fn(*args)
+    conn.send((result, base, _maxrss_mb(), _maxrss_mb(resource.RUSAGE_CHILDREN)))
+    conn.close()
+
+
+def run_isolated(fn, *args):
+    """Run ``fn(*args)`` in a forked process; returns (result, rss at start, peak rss, peak of its children) MB."""
+    ctx = get_context("fork")
+    parent, child = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=_child, args=(fn, args, child))
+    proc.start()
+    out = parent.recv()
+    proc.join()
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=1000)
+    ap.add_argument("--cells", type=int, default=440)
+    ap.add_argument("--shape", type=int, nargs=2, default=(384, 403), metavar=("ROWS", "COLS"))
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--cache", default="/tmp/hexatissue_bench")
+    args = ap.parse_args(argv)
+    cache = Path(args.cache)
+    path = cache / f"voronoi_{args.frames}x{args.cells}_{args.shape[0]}x{args.shape[1]}.npy"
+    render(path, args.frames, args.cells, tuple(args.shape))
+    box = Box(float(args.shape[1]), float(args.shape[0]))
+    n = args.frames
+    print(f"# bench_t1: {n} frames x {args.cells} cells, {args.shape[0]} x {args.shape[1]} px periodic")
+    print(f"uptime before: {subprocess.run(['uptime'], capture_output=True, text=True).stdout.strip()}")
+    print(f"cpus: {os.cpu_count()}, workers: {args.workers}")
+    # warm the numba cache in this process's children (not timed)
+    run_isolated(stage_analyze, path, 2, box, 1)
+
+    rows = []
+    med = lambda xs: float(np.median(xs))
+    res = [run_isolated(stage_track, path, n) for _ in range(args.repeats)]
+    rows.append(("track (1 process)", n, med([r[0] for r in res]), max(r[2] - r[1] for r in res), None))
+    tables = cache / "tables"
+    tables.mkdir(exist_ok=True)
+    res = [run_isolated(stage_mesh, path, n, box, str(tables)) for _ in range(args.repeats)]
+    rows.append(("mesh_from_labels (1 process)", n, med([r[0] for r in res]), max(r[2] - r[1] for r in res), None))
+    res = [run_isolated(stage_events, str(tables), box) for _ in range(args.repeats)]
+    rows.append(("events + lineage + stats", n, med([r[0][0] for r in res]), max(r[2] - r[1] for r in res), None))
+    n_events, kinds = res[0][0][1], res[0][0][2]
+    for frames in sorted({max(1, n // 4), max(1, n // 2), n}):
+        reps = args.repeats if frames == n else 1
+        res = [run_isolated(stage_analyze, path, frames, box, args.workers) for _ in range(reps)]
+        rows.append((f"analyze_movie ({args.workers} workers)", frames, med([r[0][0] for r in res]),
+                     max(r[2] - r[1] for r in res), max(r[3] for r in res)))
+
+    print()
+    print("| stage | frames | time (s, median) | ms / frame | peak RSS increase, main (MB) | peak RSS, largest worker (MB) |")
+    print("|---|---|---|---|---|---|")
+    for name, frames, sec, mem, worker in rows:
+        w = "" if worker is None else f"{worker:.0f}"
+        print(f"| {name} | {frames} | {sec:.1f} | {1000 * sec / frames:.1f} | {mem:.0f} | {w} |")
+    print(f"\nevents in the {n}-frame movie: {n_events} {kinds}")
+    print(f"uptime after: {subprocess.run(['uptime'], capture_output=True, text=True).stdout.strip()}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,427 @@
+"""T1 events from neighbour-graph changes, classified as cycles, intercalations or unresolved.
+
+A **T1** is a neighbour exchange in a quartet of cells: cells ``a`` and
+``b`` lose their shared junction and cells ``c`` and ``d`` gain one, where
+``c`` and ``d`` were common neighbours of ``a`` and ``b`` before and ``a``
+and ``b`` are common neighbours of ``c`` and ``d`` after.  The intermediate
+four-fold vertex may persist: a-b is lost at frame ``t1`` and c-d gained at
+``t2 >= t1``, with neither contact present in between.
+
+Classification per quartet, in time order:
+
+- ``cycle``: the T1 is later undone by the inverse T1 on the same quartet
+  (c-d lost, a-b regained); ``frame_end`` is the first frame a-b touch again
+  and ``duration = frame_end - frame_start``.
+- ``intercalation``: never undone before the end of the movie.
+- ``unresolved``: not undone, but it started fewer than ``censor`` frames
+  before the last frame, so the movie is too short to tell (right-censored).
+  Leave these out of rate and lifetime statistics.
+
+Contacts that appear or disappear because a cell enters, leaves, divides or
+dies (a cell absent in one of the two frames) are not T1s; contacts with
+cell 0 (outside the tissue) are not cell contacts.  Cell ids are track ids.
+Positions follow the package convention: ``x`` = column, ``y`` = row, px,
+origin at the centre of pixel (0, 0).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .box import Box
+from .errors import InputError
+from .graph import contact_table as graph_contacts
+from .schema import validate
+
+__all__ = ["detect_t1", "classify_t1", "find_t1", "contact_table", "cell_event_stats",
+           "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
+
+# Columns of the events table beyond the schema's.
+EVENT_EXTRA_COLUMNS = {
+    "frame_gain": "first frame c-d are in contact (= frame_start unless a four-fold vertex persisted), frame",
+    "frame_undo": "first frame c-d are no longer in contact in the inverse T1 (NaN unless cycle), frame",
+    "is_border": "one of the four cells is a border cell at frame_start",
+}
+
+CELL_EVENT_COLUMNS = {
+    "track": "track id",
+    "n_frames": "frames the cell is present",
+    "n_cycles": "T1 cycles the cell takes part in (as a, b, c or d)",
+    "n_intercalations": "intercalations the cell takes part in",
+    "n_unresolved": "right-censored T1s the cell takes part in",
+    "mean_cycle_period": "mean duration of its cycles, frames (NaN if none)",
+    "n_intervals": "number of intervals between consecutive intercalations of the cell",
+    "mean_intercalation_interval": "mean frames between consecutive intercalations of the cell (NaN if < 2)",
+}
+
+
+def _ids(table, name):
+    """Track ids of a cells/edges id column: ``track`` when a mapping exists, else the label."""
+    if name not in table.columns:
+        raise InputError(f"table is missing column {name!r}")
+    return table[name].to_numpy(np.int64)
+
+
+def contact_table(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
+    """Cell-cell contacts per frame, in track ids.
+
+    Parameters
+    ----------
+    edges : pandas.DataFrame
+        ``frame``, ``cell_a``, ``cell_b``, ``length`` (px); several junctions
+        between the same two cells are summed.
+    cells : pandas.DataFrame, optional
+        ``frame``, ``cell`` and ``track``: label ids are translated to track ids.
+        Without it (or without ``track``) label ids are track ids.
+    min_length : float
+        A contact whose total junction length is below ``min_length`` px is
+        treated as a four-fold vertex, i.e. not a contact.  0 keeps every junction.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame``, ``a`` < ``b`` (track ids, both > 0), ``length`` (px), sorted.
+    """
+    for col in ("frame", "cell_a", "cell_b", "length"):
+        if col not in edges.columns:
+            raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
+    if not np.isfinite(min_length) or min_length < 0:
+        raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
+    pairs = graph_contacts(edges[["frame", "cell_a", "cell_b", "length"]])
+    frame = pairs["frame"].to_numpy(np.int64)
+    a, b = pairs["cell_a"].to_numpy(np.int64), pairs["cell_b"].to_numpy(np.int64)
+    length = pairs["length"].to_numpy(float)
+    if cells is not None and "track" in cells.columns:
+        lut = pd.Series(cells["track"].to_numpy(np.int64),
+                        index=pd.MultiIndex.from_arrays([cells["frame"].to_numpy(np.int64),
+                                                         cells["cell"].to_numpy(np.int64)]))
+        a = lut.reindex(pd.MultiIndex.from_arrays([frame, a])).to_numpy()
+        b = lut.reindex(pd.MultiIndex.from_arrays([frame, b])).to_numpy()
+        if np.isnan(a.astype(float)).any() or np.isnan(b.astype(float)).any():
+            raise InputError("edges refer to (frame, cell) pairs missing from the cells table")
+        a, b = a.astype(np.int64), b.astype(np.int64)
+    df = pd.DataFrame({"frame": frame, "a": np.minimum(a, b), "b": np.maximum(a, b), "length": length})
+    if min_length > 0:
+        df = df[df["length"] >= min_length]
+    return df.sort_values(["frame", "a", "b"], ignore_index=True)
+
+
+def _expand(lo, hi):
+    """Concatenated ranges ``lo[k]..hi[k]-1`` and the query index of each element."""
+    count = hi - lo
+    owner = np.repeat(np.arange(len(lo)), count)
+    start = np.repeat(lo - np.r_[0, np.cumsum(count)[:-1]], count)
+    return np.arange(count.sum()) + start, owner
+
+
+class _Graph:
+    """Contacts and presence of every frame as sorted int64 keys (frame positions, compact ids)."""
+
+    def __init__(self, frame, a, b, pres_frame, pres_id, n_ids):
+        self.K = np.int64(n_ids + 1)
+        self.pair_key = np.sort((frame * self.K + a) * self.K + b)
+        # directed adjacency sorted by (frame, u)
+        u, v, f = np.r_[a, b], np.r_[b, a], np.r_[frame, frame]
+        order = np.lexsort((v, u, f))
+        self.adj_key, self.adj_v = (f * self.K + u)[order], v[order]
+        self.present = np.sort(pres_frame * self.K + pres_id)
+
+    def has_pair(self, frame, a, b):
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        key = (frame * self.K + lo) * self.K + hi
+        pos = np.searchsorted(self.pair_key, key)
+        pos = np.minimum(pos, len(self.pair_key) - 1)
+        return (self.pair_key[pos] == key) if len(self.pair_key) else np.zeros(len(key), bool)
+
+    def is_present(self, frame, cell):
+        key = frame * self.K + cell
+        pos = np.minimum(np.searchsorted(self.present, key), max(len(self.present) - 1, 0))
+        return (self.present[pos] == key) if len(self.present) else np.zeros(len(key), bool)
+
+    def common_neighbours(self, frame, a, b):
+        """Rows ``(query index, v)`` for every common neighbour v of a and b at ``frame``."""
+        key = frame * self.K + a
+        lo, hi = np.searchsorted(self.adj_key, key, "left"), np.searchsorted(self.adj_key, key, "right")
+        idx, owner = _expand(lo, hi)
+        v = self.adj_v[idx]
+        keep = (v != b[owner]) & self.has_pair(frame[owner], b[owner], v)
+        return owner[keep], v[keep]
+
+
+def _quartets(owner, v, n_queries):
+    """Every pair (c < d) of common neighbours per query: arrays (query, c, d)."""
+    df = pd.DataFrame({"q": owner, "v": v})
+    pairs = df.merge(df, on="q")
+    pairs = pairs[pairs["v_x"] < pairs["v_y"]]
+    return pairs["q"].to_numpy(np.int64), pairs["v_x"].to_numpy(np.int64), pairs["v_y"].to_numpy(np.int64)
+
+
+def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
+    """Raw T1s (one per neighbour exchange) from contacts and cell presence.
+
+    Parameters
+    ----------
+    contacts : pandas.DataFrame
+        ``frame``, ``a`` < ``b`` (track ids), e.g. from :func:`contact_table`.
+    presence : pandas.DataFrame
+        ``frame``, ``track``: which cells exist in which frame.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame_lost`` (first frame without a-b), ``frame_gain`` (first frame
+        with c-d), ``cell_a`` < ``cell_b`` (lose contact), ``cell_c`` <
+        ``cell_d`` (gain contact), sorted by ``frame_lost``.  Frames are those
+        of the input; consecutive means consecutive in the sorted list of
+        frames present in ``presence``.
+    """
+    frames = np.unique(presence["frame"].to_numpy(np.int64))
+    ids, inv = np.unique(np.r_[presence["track"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64),
+                               contacts["b"].to_numpy(np.int64)], return_inverse=True)
+    n_p, n_c = len(presence), len(contacts)
+    p_id, a, b = inv[:n_p], inv[n_p:n_p + n_c], inv[n_p + n_c:]
+    p_fr = np.searchsorted(frames, presence["frame"].to_numpy(np.int64))
+    c_fr = np.searchsorted(frames, contacts["frame"].to_numpy(np.int64))
+    empty = pd.DataFrame({c: np.empty(0, np.int64) for c in
+                          ("frame_lost", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d")})
+    if n_c == 0 or len(frames) < 2:
+        return empty
+    g = _Graph(c_fr, a, b, p_fr, p_id, len(ids))
+    # Runs of consecutive frames of each contact: interval starts are gains, ends are losses.
+    pair = a * g.K + b
+    order = np.lexsort((c_fr, pair))
+    pair, fr = pair[order], c_fr[order]
+    brk = np.r_[True, (pair[1:] != pair[:-1]) | (fr[1:] != fr[:-1] + 1)]
+    starts = np.flatnonzero(brk)
+    ends = np.r_[starts[1:], len(pair)] - 1
+    i_pair, i_start, i_stop = pair[starts], fr[starts], fr[ends] + 1
+    same_next = np.r_[i_pair[1:] == i_pair[:-1], False]
+    i_next = np.where(same_next, np.r_[i_start[1:], 0], np.iinfo(np.int64).max)
+    ia, ib = np.divmod(i_pair, g.K)
+    T = len(frames)
+    # losses: a-b present at stop-1, absent at stop, both cells present at stop
+    lost = (i_stop < T)
+    lost &= g.is_present(np.minimum(i_stop, T - 1), ia) & g.is_present(np.minimum(i_stop, T - 1), ib)
+    L = np.flatnonzero(lost)
+    # gains: c-d present at start, absent at start-1, both cells present at start-1
+    gain = i_start > 0
+    gain &= g.is_present(np.maximum(i_start - 1, 0), ia) & g.is_present(np.maximum(i_start - 1, 0), ib)
+    G = np.flatnonzero(gain)
+    # Quartet of a loss: common neighbours of a, b just before; of a gain: of c, d just after.
+    q, v = g.common_neighbours(i_stop[L] - 1, ia[L], ib[L])
+    lq, lc, ld = _quartets(q, v, len(L))
+    q, v = g.common_neighbours(i_start[G], ia[G], ib[G])
+    gq, ga, gb = _quartets(q, v, len(G))
+    losses = pd.DataFrame({"ab": i_pair[L][lq], "cd": lc * g.K + ld, "frame_lost": i_stop[L][lq],
+                           "next_ab": i_next[L][lq]}).sort_values("frame_lost")
+    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq]})
+    gains = gains.sort_values("frame_gain")
+    if losses.empty or gains.empty:
+        return empty
+    # Each gain pairs with the latest loss of the same quartet at or before it ...
+    m = pd.merge_asof(gains, losses, left_on="frame_gain", right_on="frame_lost", by=["ab", "cd"],
+                      direction="backward").dropna(subset=["frame_lost"])
+    # ... provided a-b did not touch again in between; the first such gain completes the T1.
+    m = m[m["next_ab"] > m["frame_gain"]]
+    m = m.sort_values("frame_gain").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
+    ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
+    out = pd.DataFrame({
+        "frame_lost": frames[m["frame_lost"].to_numpy(np.int64)],
+        "frame_gain": frames[m["frame_gain"].to_numpy(np.int64)],
+        "cell_a": ids[ab // g.K], "cell_b": ids[ab % g.K], "cell_c": ids[cd // g.K], "cell_d": ids[cd % g.K],
+    })
+    return out.sort_values(["frame_lost", "cell_a", "cell_b"], ignore_index=True)
+
+
+def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataFrame:
+    """Pair each T1 with its inverse on the same quartet: cycles, intercalations, unresolved.
+
+    Parameters
+    ----------
+    t1 : pandas.DataFrame
+        Output of :func:`find_t1`.
+    last_frame : int
+        Last frame of the movie.
+    censor : int
+        A T1 not undone whose ``frame_start`` is fewer than ``censor`` frames
+        before ``last_frame`` is ``unresolved`` instead of ``intercalation``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``kind``, ``frame_start``, ``frame_end``, ``duration``, ``cell_a``..``cell_d``,
+        ``frame_gain``, ``frame_undo`` (see :data:`EVENT_EXTRA_COLUMNS`).
+    """
+    if int(censor) != censor or censor < 0:
+        raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
+    df = t1.copy()
+    K = np.int64(max([int(df[c].max()) if len(df) else 0 for c in ("cell_a", "cell_b", "cell_c", "cell_d")]) + 1)
+    ab = df["cell_a"].to_numpy(np.int64) * K + df["cell_b"].to_numpy(np.int64)
+    cd = df["cell_c"].to_numpy(np.int64) * K + df["cell_d"].to_numpy(np.int64)
+    # the unordered quartet {a-b, c-d} is the key pairing a T1 with its inverse
+    df["q_lo"], df["q_hi"] = np.minimum(ab, cd), np.maximum(ab, cd)
+    df = df.sort_values(["q_lo", "q_hi", "frame_lost"], kind="stable").reset_index(drop=True)
+    rows = []
+    recs = df.to_dict("records")
+    k = 0
+    while k < len(recs):
+        r = recs[k]
+        nxt = recs[k + 1] if k + 1 < len(recs) else None
+        same = nxt is not None and nxt["q_lo"] == r["q_lo"] and nxt["q_hi"] == r["q_hi"]
+        undo = same and nxt["cell_a"] == r["cell_c"] and nxt["cell_b"] == r["cell_d"]
+        if undo:
+            kind, end, undo_at = "cycle", float(nxt["frame_gain"]), float(nxt["frame_lost"])
+            k += 2
+        else:
+            kind = "unresolved" if last_frame - r["frame_lost"] < censor else "intercalation"
+            end = undo_at = np.nan
+            k += 1
+        rows.append((kind, r["frame_lost"], end, end - r["frame_lost"], r["cell_a"], r["cell_b"], r["cell_c"],
+                     r["cell_d"], r["frame_gain"], undo_at))
+    cols = ["kind", "frame_start", "frame_end", "duration", "cell_a", "cell_b", "cell_c", "cell_d",
+            "frame_gain", "frame_undo"]
+    out = pd.DataFrame(rows, columns=cols)
+    out = out.astype({"frame_start": np.int64, "frame_end": float, "duration": float, "cell_a": np.int64,
+                      "cell_b": np.int64, "cell_c": np.int64, "cell_d": np.int64, "frame_gain": np.int64,
+                      "frame_undo": float})
+    out["kind"] = out["kind"].astype("string")
+    return out.sort_values(["frame_start", "cell_a", "cell_b"], ignore_index=True)
+
+
+def _positions(events, cells, box):
+    """Quartet centre (x, y) and border flag at frame_start, from the cells table."""
+    if events.empty:
+        return np.empty(0), np.empty(0), np.empty(0, bool)
+    tid = cells["track"] if "track" in cells.columns else cells["cell"]
+    border = cells["is_border"].to_numpy(bool) if "is_border" in cells.columns else np.zeros(len(cells), bool)
+    lut = pd.DataFrame({"x": cells["x"].to_numpy(float), "y": cells["y"].to_numpy(float), "border": border},
+                       index=pd.MultiIndex.from_arrays([cells["frame"].to_numpy(np.int64), tid.to_numpy(np.int64)]))
+    lut = lut[~lut.index.duplicated()]
+    frame = events["frame_start"].to_numpy(np.int64)
+    xy, flag = [], np.zeros(len(events), bool)
+    for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
+        rows = lut.reindex(pd.MultiIndex.from_arrays([frame, events[col].to_numpy(np.int64)]))
+        xy.append(rows[["x", "y"]].to_numpy(float))
+        flag |= rows["border"].fillna(False).to_numpy(bool)
+    xy = np.stack(xy, axis=1)
+    if box is not None and box.periodic:
+        xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
+        centre = box.wrap(np.nanmean(xy, axis=1))
+    else:
+        centre = np.nanmean(xy, axis=1)
+    return centre[:, 0], centre[:, 1], flag
+
+
+def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10,
+              box: Box | None = None) -> pd.DataFrame:
+    """T1 events of a movie, classified as ``cycle``, ``intercalation`` or ``unresolved``.
+
+    Parameters
+    ----------
+    edges : pandas.DataFrame
+        Junctions of every frame: ``frame``, ``cell_a``, ``cell_b`` (label
+        ids, 0 = outside), ``length`` (px).
+    cells : pandas.DataFrame
+        ``frame``, ``cell``, ``x``, ``y`` (px), optionally ``track`` (label
+        ids are translated to track ids) and ``is_border``.  A cell absent
+        from a frame is absent from the tissue (entered, left, divided or died).
+    min_length : float
+        Junctions shorter than ``min_length`` px are treated as four-fold
+        vertices (no contact).  Use it to suppress T1s flickering across a
+        noisy, nearly four-fold vertex; 0 (default) uses the raw network.
+    censor : int
+        Right-censoring window, frames (see :func:`classify_t1`).
+    box : Box, optional
+        Periodic box: quartet centres use minimum-image displacements.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The ``events`` table: ``event`` (id), ``kind``, ``frame_start`` (first
+        frame without the a-b contact), ``frame_end`` (first frame a-b touch
+        again, cycles only, else NaN), ``duration`` (frames, cycles only),
+        ``cell_a``, ``cell_b`` (lose the contact), ``cell_c``, ``cell_d``
+        (gain it; all track ids), ``x``, ``y`` (quartet centre at
+        ``frame_start``, px; x = column, y = row), ``frame_gain``,
+        ``frame_undo``, ``is_border`` (see :data:`EVENT_EXTRA_COLUMNS`).
+    """
+    for col in ("frame", "cell", "x", "y"):
+        if col not in cells.columns:
+            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+    tid = cells["track"] if "track" in cells.columns else cells["cell"]
+    presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": tid.to_numpy(np.int64)})
+    contacts = contact_table(edges, cells, min_length)
+    raw = find_t1(contacts, presence)
+    last = int(presence["frame"].max()) if len(presence) else 0
+    events = classify_t1(raw, last, censor)
+    x, y, border = _positions(events, cells, box)
+    events.insert(8, "x", x)
+    events.insert(9, "y", y)
+    events["is_border"] = border
+    events.insert(0, "event", np.arange(len(events), dtype=np.int64))
+    return validate(events, "events")
+
+
+def intercalation_intervals(events: pd.DataFrame) -> pd.DataFrame:
+    """Frames between consecutive intercalations of each cell.
+
+    Only ``intercalation`` events count (cycles are undone; unresolved ones
+    are censored).  The time of an intercalation is its ``frame_start``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``track``, ``frame_prev``, ``frame_next`` (frames), ``interval`` (frames).
+    """
+    ic = events[events["kind"] == "intercalation"]
+    long = pd.DataFrame({
+        "track": np.concatenate([ic[c].to_numpy(np.int64) for c in ("cell_a", "cell_b", "cell_c", "cell_d")]),
+        "frame": np.tile(ic["frame_start"].to_numpy(np.int64), 4)}).sort_values(["track", "frame"])
+    same = long["track"].to_numpy()[1:] == long["track"].to_numpy()[:-1]
+    prev, nxt = long.iloc[:-1][same], long.iloc[1:][same]
+    return pd.DataFrame({"track": prev["track"].to_numpy(np.int64), "frame_prev": prev["frame"].to_numpy(np.int64),
+                         "frame_next": nxt["frame"].to_numpy(np.int64),
+                         "interval": nxt["frame"].to_numpy(np.int64) - prev["frame"].to_numpy(np.int64)})
+
+
+def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Per-cell T1 statistics (see :data:`CELL_EVENT_COLUMNS`).
+
+    Parameters
+    ----------
+    events : pandas.DataFrame
+        The events table.
+    cells : pandas.DataFrame, optional
+        With ``frame`` and ``track`` (or ``cell``): every cell gets a row,
+        also those without events, and ``n_frames`` is filled.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``track``, ``n_frames``, ``n_cycles``, ``n_intercalations``,
+        ``n_unresolved``, ``mean_cycle_period`` (frames), ``n_intervals``,
+        ``mean_intercalation_interval`` (frames).
+    """
+    long = pd.concat([pd.DataFrame({"track": events[c].to_numpy(np.int64), "kind": events["kind"].to_numpy(),
+                                    "duration": events["duration"].to_numpy(float)})
+                      for c in ("cell_a", "cell_b", "cell_c", "cell_d")], ignore_index=True)
+    counts = pd.crosstab(long["track"], long["kind"]) if len(long) else pd.DataFrame()
+    if cells is not None:
+        tid = cells["track"] if "track" in cells.columns else cells["cell"]
+        n_frames = tid.value_counts().sort_index()
+        tracks = n_frames.index.to_numpy(np.int64)
+    else:
+        tracks = np.unique(long["track"].to_numpy(np.int64))
+        n_frames = None
+    out = pd.DataFrame({"track": tracks})
+    out["n_frames"] = (n_frames.reindex(tracks).to_numpy(np.int64) if n_frames is not None
+                       else np.zeros(len(tracks), np.int64))
+    for kind, col in (("cycle", "n_cycles"), ("intercalation", "n_intercalations"), ("unresolved", "n_unresolved")):
+        src = counts[kind] if kind in counts.columns else pd.Series(dtype=np.int64)
+        out[col] = src.reindex(tracks).fillna(0).to_numpy(np.int64)
+    cyc = long[long["kind"] == "cycle"].groupby("track")["duration"].mean()
+    out["mean_cycle_period"] = cyc.reindex(tracks).to_numpy(float)
+    iv = intercalation_intervals(events).groupby("track")["interval"]
+    out["n_intervals"] = iv.size().reindex(tracks).fillna(0).to_numpy(np.int64)
+    out["mean_intercalation_interval"] = iv.mean().reindex(tracks).to_numpy(float)
+    return out

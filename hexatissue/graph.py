@@ -1,0 +1,60 @@
+"""The neighbour graph of a frame (networkx), built from its edges table."""
+from __future__ import annotations
+
+import networkx as nx
+import pandas as pd
+
+from .errors import InputError
+from .frame import Frame
+
+__all__ = ["neighbor_graph", "contact_table"]
+
+
+def neighbor_graph(frame: Frame, include_outside: bool = False) -> nx.Graph:
+    """Cells as nodes, shared junctions as edges.
+
+    Parameters
+    ----------
+    frame : Frame
+        A junction network (e.g. from :func:`hexatissue.mesh_from_labels`).
+    include_outside : bool
+        Keep node 0 (the outside of the tissue) and its edges.
+
+    Returns
+    -------
+    networkx.Graph
+        Node ids are cell ids; node attributes are the columns of
+        ``frame.cells`` (x, y in px with x = column, y = row, area in px^2,
+        ...).  Edge attributes: ``length`` (total length of the junctions
+        the two cells share, px) and ``n_junctions``.
+    """
+    if not isinstance(frame, Frame):
+        raise InputError(f"frame must be a hexatissue.Frame; got {type(frame).__name__}")
+    graph = nx.Graph()
+    cells = frame.cells
+    graph.add_nodes_from((int(c), attrs) for c, attrs in zip(cells["cell"], cells.drop(columns="cell").to_dict("records")))
+    pairs = contact_table(frame.edges, include_outside)
+    if include_outside and (pairs["cell_a"] == 0).any():
+        graph.add_node(0)
+    graph.add_edges_from(
+        (int(a), int(b), {"length": float(s), "n_junctions": int(n)})
+        for a, b, s, n in pairs[["cell_a", "cell_b", "length", "n_junctions"]].itertuples(index=False, name=None)
+    )
+    return graph
+
+
+def contact_table(edges: pd.DataFrame, include_outside: bool = False) -> pd.DataFrame:
+    """Cell-cell contacts from an edges table (per frame when it has a ``frame`` column).
+
+    Returns
+    -------
+    pandas.DataFrame
+        [frame,] cell_a < cell_b, length (total length of their junctions,
+        px), n_junctions.  Contacts with the outside (cell 0) only when
+        ``include_outside``.
+    """
+    if not include_outside:
+        edges = edges[edges["cell_a"] != 0]
+    keys = (["frame"] if "frame" in edges.columns else []) + ["cell_a", "cell_b"]
+    out = edges.groupby(keys, sort=True)["length"].agg(length="sum", n_junctions="size")
+    return out.reset_index()

@@ -1,0 +1,518 @@
+"""numba kernels of the junction-network extraction.
+
+The boundaries between labels run along pixel edges ("cracks").  They form a
+graph on the lattice of pixel corners: corner ``(ci, cj)`` lies at
+``x = cj - 0.5``, ``y = ci - 0.5`` and is surrounded, in the padded label
+array ``pad``, by TL = ``pad[ci, cj]``, TR = ``pad[ci, cj + 1]``,
+BL = ``pad[ci + 1, cj]`` and BR = ``pad[ci + 1, cj + 1]``.  From a corner a
+crack "arm" leaves in direction 0 (+x), 1 (+y), 2 (-x) or 3 (-y) when the two
+pixels it separates differ.
+
+Corner types: 0 no arm; 2 a boundary passes; 3 three-fold vertex; 4 four-fold
+vertex (four distinct labels); 5 and 6 two boundaries touching diagonally
+(pairs of arms {3, 0}, {1, 2} for type 5, where TL == BR is the connected
+label; {3, 2}, {0, 1} for type 6, where TR == BL is connected).
+
+Each kernel has a plain-Python twin (``py_func``) used as reference in tests.
+"""
+import numpy as np
+from numba import njit
+
+# direction -> (d row, d col) on the corner lattice
+DI = np.array([0, 1, 0, -1], dtype=np.int64)
+DJ = np.array([1, 0, -1, 0], dtype=np.int64)
+
+
+@njit(cache=True)
+def corner_types(pad, nci, ncj, image_corners):
+    """Arm bit masks (bit d = arm in direction d) and type codes of all corners.
+
+    Also returns the vertices (corners of type 3 and 4, and when
+    ``image_corners`` the four corners of an open image where a boundary
+    turns) as row and column arrays in raster order, the map ``vid`` from
+    corners to vertex ids (-1 elsewhere) and the total number of cracks.
+    """
+    arms = np.zeros((nci, ncj), dtype=np.uint8)
+    kind = np.zeros((nci, ncj), dtype=np.uint8)
+    vid = np.full((nci, ncj), -1, dtype=np.int32)
+    n_vertices = 0
+    n_arms = 0
+    for ci in range(nci):
+        for cj in range(ncj):
+            tl = pad[ci, cj]
+            tr = pad[ci, cj + 1]
+            bl = pad[ci + 1, cj]
+            br = pad[ci + 1, cj + 1]
+            m = 0
+            if tr != br:
+                m |= 1
+            if bl != br:
+                m |= 2
+            if tl != bl:
+                m |= 4
+            if tl != tr:
+                m |= 8
+            arms[ci, cj] = m
+            n = (m & 1) + ((m >> 1) & 1) + ((m >> 2) & 1) + ((m >> 3) & 1)
+            n_arms += n
+            if n == 0:
+                continue
+            if n == 2:
+                kind[ci, cj] = 2
+            elif n == 3:
+                kind[ci, cj] = 3
+            else:  # n == 4
+                if tl == br and tr == bl:
+                    # two labels in a checkerboard: the smaller id is taken as connected
+                    kind[ci, cj] = 5 if tl < tr else 6
+                elif tl == br:
+                    kind[ci, cj] = 5
+                elif tr == bl:
+                    kind[ci, cj] = 6
+                else:
+                    kind[ci, cj] = 4
+            corner = image_corners and (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1)
+            if kind[ci, cj] == 3 or kind[ci, cj] == 4 or corner:
+                vid[ci, cj] = n_vertices
+                n_vertices += 1
+    vi = np.empty(n_vertices, np.int64)
+    vj = np.empty(n_vertices, np.int64)
+    for ci in range(nci):
+        for cj in range(ncj):
+            v = vid[ci, cj]
+            if v >= 0:
+                vi[v] = ci
+                vj[v] = cj
+    return arms, kind, vid, vi, vj, n_arms // 2
+
+
+@njit(cache=True)
+def _next_dir(kind, arms, d_in):
+    """Direction leaving a pass-through corner entered moving in direction ``d_in``."""
+    back = (d_in + 2) % 4
+    if kind == 2:
+        for d in range(4):
+            if d != back and (arms >> d) & 1:
+                return d
+        return -1
+    if kind == 5:  # pairs {3, 0} and {1, 2}
+        if back == 3:
+            return 0
+        if back == 0:
+            return 3
+        if back == 1:
+            return 2
+        return 1
+    # kind == 6: pairs {3, 2} and {0, 1}
+    if back == 3:
+        return 2
+    if back == 2:
+        return 3
+    if back == 0:
+        return 1
+    return 0
+
+
+@njit(cache=True)
+def _sides(pad, ci, cj, d):
+    """Labels on the left and right of the crack leaving corner (ci, cj) in direction d (left in x-y axes)."""
+    if d == 0:
+        return pad[ci + 1, cj + 1], pad[ci, cj + 1]
+    if d == 1:
+        return pad[ci + 1, cj], pad[ci + 1, cj + 1]
+    if d == 2:
+        return pad[ci, cj], pad[ci + 1, cj]
+    return pad[ci, cj + 1], pad[ci, cj]
+
+
+@njit(cache=True)
+def _step(ci, cj, d, nci, ncj):
+    """The corner next to (ci, cj) in direction d, wrapping around the lattice."""
+    ci += DI[d]
+    cj += DJ[d]
+    if ci < 0:
+        ci += nci
+    elif ci >= nci:
+        ci -= nci
+    if cj < 0:
+        cj += ncj
+    elif cj >= ncj:
+        cj -= ncj
+    return ci, cj
+
+
+@njit(cache=True)
+def _crack_index(ci, cj, d, nci, ncj):
+    """(array 0 = horizontal / 1 = vertical, row, col) of the crack leaving (ci, cj) in direction d."""
+    if d == 0:
+        return 0, ci, cj
+    if d == 1:
+        return 1, ci, cj
+    if d == 2:
+        return 0, ci, cj - 1 if cj > 0 else ncj - 1
+    return 1, ci - 1 if ci > 0 else nci - 1, cj
+
+
+@njit(cache=True)
+def _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj):
+    """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
+
+    Returns (end corner row, end corner col, dx, dy, number of cracks, last direction).
+    """
+    dx = 0
+    dy = 0
+    n = 0
+    while True:
+        a, r, c = _crack_index(ci, cj, d, nci, ncj)
+        visited[a, r, c] = True
+        dx += DJ[d]
+        dy += DI[d]
+        n += 1
+        ci, cj = _step(ci, cj, d, nci, ncj)
+        if vid[ci, cj] >= 0:
+            return ci, cj, dx, dy, n, d
+        d = _next_dir(kind[ci, cj], arms[ci, cj], d)
+
+
+@njit(cache=True)
+def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
+    """Trace every boundary between the vertices ``(vi, vj)`` (``vid`` maps corners to vertex ids).
+
+    Returns arrays over junctions: start vertex, end vertex, the arm
+    directions by which the junction leaves its start and enters its end
+    vertex, left label, right label, dx, dy (exact displacement start -> end,
+    px), number of cracks; and the ``visited`` crack flags (2, nci, ncj).
+    """
+    nci, ncj = arms.shape
+    visited = np.zeros((2, nci, ncj), dtype=np.bool_)
+    start = np.empty(n_max, np.int64)
+    end = np.empty(n_max, np.int64)
+    left = np.empty(n_max, pad.dtype)
+    right = np.empty(n_max, pad.dtype)
+    ddx = np.empty(n_max, np.int64)
+    ddy = np.empty(n_max, np.int64)
+    start_arm = np.empty(n_max, np.int64)
+    end_arm = np.empty(n_max, np.int64)
+    ncrack = np.empty(n_max, np.int64)
+    k = 0
+    for v in range(len(vi)):
+        ci = vi[v]
+        cj = vj[v]
+        for d in range(4):
+            if not (arms[ci, cj] >> d) & 1:
+                continue
+            a, r, c = _crack_index(ci, cj, d, nci, ncj)
+            if visited[a, r, c]:
+                continue
+            lab_l, lab_r = _sides(pad, ci, cj, d)
+            ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj)
+            start[k] = v
+            end[k] = vid[ei, ej]
+            start_arm[k] = d
+            end_arm[k] = (d_last + 2) % 4
+            left[k] = lab_l
+            right[k] = lab_r
+            ddx[k] = dx
+            ddy[k] = dy
+            ncrack[k] = n
+            k += 1
+    return (start[:k], end[:k], start_arm[:k], end_arm[:k], left[:k], right[:k], ddx[:k], ddy[:k], ncrack[:k],
+            visited)
+
+
+@njit(cache=True)
+def trace_loops(pad, arms, kind, visited):
+    """Boundaries left unvisited by :func:`trace_junctions`: closed loops with no vertex.
+
+    Returns, per loop, the start corner (row, col), left and right labels,
+    dx, dy (the loop's net displacement: nonzero only for loops winding
+    around a torus) and crack count.
+    """
+    nci, ncj = arms.shape
+    rows = []
+    cols = []
+    lefts = []
+    rights = []
+    dxs = []
+    dys = []
+    ns = []
+    for ci in range(nci):
+        for cj in range(ncj):
+            for d in range(2):
+                if not (arms[ci, cj] >> d) & 1 or visited[d, ci, cj]:
+                    continue
+                lab_l, lab_r = _sides(pad, ci, cj, d)
+                dx = 0
+                dy = 0
+                n = 0
+                i, j, dd = ci, cj, d
+                while True:
+                    a, r, c = _crack_index(i, j, dd, nci, ncj)
+                    if visited[a, r, c]:
+                        break
+                    visited[a, r, c] = True
+                    dx += DJ[dd]
+                    dy += DI[dd]
+                    n += 1
+                    i, j = _step(i, j, dd, nci, ncj)
+                    dd = _next_dir(kind[i, j], arms[i, j], dd)
+                rows.append(ci)
+                cols.append(cj)
+                lefts.append(lab_l)
+                rights.append(lab_r)
+                dxs.append(dx)
+                dys.append(dy)
+                ns.append(n)
+    return (np.array(rows, np.int64), np.array(cols, np.int64), np.array(lefts, np.int64),
+            np.array(rights, np.int64), np.array(dxs, np.int64), np.array(dys, np.int64), np.array(ns, np.int64))
+
+
+@njit(cache=True)
+def cell_moments(labels, n_labels, periodic):
+    """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
+
+    Returns count (n,), sum_x (n,), sum_y (n,) as float64 with centroids
+    ``sum / count`` in pixel coordinates (x = column, y = row); on a torus the
+    sums are of positions unwrapped around the first pixel met of each label.
+    """
+    h, w = labels.shape
+    count = np.zeros(n_labels, np.float64)
+    sx = np.zeros(n_labels, np.float64)
+    sy = np.zeros(n_labels, np.float64)
+    ref_x = np.zeros(n_labels, np.float64)
+    ref_y = np.zeros(n_labels, np.float64)
+    for i in range(h):
+        for j in range(w):
+            lab = labels[i, j]
+            x = float(j)
+            y = float(i)
+            if periodic:
+                if count[lab] == 0:
+                    ref_x[lab] = x
+                    ref_y[lab] = y
+                # the image of the pixel nearest the label's first pixel
+                if x - ref_x[lab] > 0.5 * w:
+                    x -= w
+                elif x - ref_x[lab] < -0.5 * w:
+                    x += w
+                if y - ref_y[lab] > 0.5 * h:
+                    y -= h
+                elif y - ref_y[lab] < -0.5 * h:
+                    y += h
+            count[lab] += 1
+            sx[lab] += x
+            sy[lab] += y
+    return count, sx, sy
+
+
+@njit(cache=True)
+def fill_gaps(labels, passes, periodic):
+    """Give 0-valued pixels the majority label of their 4 neighbours, ``passes`` times.
+
+    Only pixels within ``passes`` steps of a cell are filled (membranes and
+    skeleton lines); larger background stays 0.  Ties are broken by a
+    neighbour order that rotates with the pixel's position, so boundaries are
+    not biased towards larger or smaller ids.
+    """
+    h, w = labels.shape
+    cur = labels.copy()
+    di = np.array([-1, 0, 1, 0])
+    dj = np.array([0, -1, 0, 1])
+    cand = np.zeros(4, labels.dtype)
+    for _ in range(passes):
+        prev = cur.copy()
+        changed = False
+        for i in range(h):
+            for j in range(w):
+                if prev[i, j] != 0:
+                    continue
+                start = (i + j) % 4
+                nc = 0
+                for s in range(4):
+                    k = (start + s) % 4
+                    ii = i + di[k]
+                    jj = j + dj[k]
+                    if periodic:
+                        ii %= h
+                        jj %= w
+                    elif ii < 0 or ii >= h or jj < 0 or jj >= w:
+                        continue
+                    lab = prev[ii, jj]
+                    if lab != 0:
+                        cand[nc] = lab
+                        nc += 1
+                if nc == 0:
+                    continue
+                best = cand[0]
+                best_n = 0
+                for a in range(nc):
+                    m = 0
+                    for b in range(nc):
+                        if cand[b] == cand[a]:
+                            m += 1
+                    if m > best_n:
+                        best_n = m
+                        best = cand[a]
+                cur[i, j] = best
+                changed = True
+        if not changed:
+            break
+    return cur
+
+
+@njit(cache=True)
+def chain_cycles(cell, frm, to):
+    """Boundary cycles of every cell from its half-edges.
+
+    Half-edges must be sorted by (cell, frm).  Returns ``cycle`` (cycle id of
+    each half-edge) and ``order`` (the half-edge indices cycle after cycle,
+    each cycle in traversal order), and the cycle start offsets in ``order``.
+    A vertex visited twice by one cell (a pinched cell) is resolved by taking
+    the first unused half-edge.
+    """
+    nh = len(cell)
+    used = np.zeros(nh, np.bool_)
+    cycle = -np.ones(nh, np.int64)
+    order = np.empty(nh, np.int64)
+    starts = np.empty(nh + 1, np.int64)
+    n_cycles = 0
+    pos = 0
+    s = 0
+    while s < nh:
+        e = s
+        while e < nh and cell[e] == cell[s]:
+            e += 1
+        for h in range(s, e):
+            if used[h]:
+                continue
+            starts[n_cycles] = pos
+            cur = h
+            while True:
+                used[cur] = True
+                cycle[cur] = n_cycles
+                order[pos] = cur
+                pos += 1
+                target = to[cur]
+                # binary search for the first half-edge of this cell leaving `target`
+                lo = s
+                hi = e
+                while lo < hi:
+                    mid = (lo + hi) // 2
+                    if frm[mid] < target:
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                nxt = -1
+                while lo < e and frm[lo] == target:
+                    if not used[lo]:
+                        nxt = lo
+                        break
+                    lo += 1
+                if nxt < 0:
+                    break
+                cur = nxt
+            n_cycles += 1
+        s = e
+    starts[n_cycles] = pos
+    return cycle, order, starts[: n_cycles + 1]
+
+
+@njit(cache=True)
+def _crack_point(membrane, ci, cj, d):
+    """Point representing the crack leaving corner (ci, cj) in direction d, relative to the corner.
+
+    The mean centre of the membrane pixels on either side of the crack, or
+    the crack midpoint when neither side was membrane.
+    """
+    # padded indices of the two pixels beside the crack
+    if d == 0:
+        r1, c1, r2, c2 = ci, cj + 1, ci + 1, cj + 1
+    elif d == 1:
+        r1, c1, r2, c2 = ci + 1, cj, ci + 1, cj + 1
+    elif d == 2:
+        r1, c1, r2, c2 = ci, cj, ci + 1, cj
+    else:
+        r1, c1, r2, c2 = ci, cj, ci, cj + 1
+    sx = 0.0
+    sy = 0.0
+    n = 0
+    if membrane[r1, c1]:
+        sx += c1 - cj - 0.5
+        sy += r1 - ci - 0.5
+        n += 1
+    if membrane[r2, c2]:
+        sx += c2 - cj - 0.5
+        sy += r2 - ci - 0.5
+        n += 1
+    if n == 0:
+        return 0.5 * DJ[d], 0.5 * DI[d]
+    return sx / n, sy / n
+
+
+@njit(cache=True)
+def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
+    """Local straight-line fit of every arm of every vertex, for sub-pixel vertex positions.
+
+    Walks at most ``reach[v, d]`` cracks along arm d of vertex v (half its
+    junction, so the far end does not bend the fit) and fits a line to one point per crack: the mean centre of the
+    pixels beside it that were membrane (``membrane``, padded like the
+    labels, True where the input had a 0-valued junction pixel), else the
+    crack midpoint.  So the fit follows the membrane centreline where the
+    image has membranes.  Returns, per (vertex,
+    arm direction): number of cracks used (0 = no arm), the midpoints' mean
+    (dx, dy) relative to the vertex corner, and the unit direction of the
+    principal axis (the arm direction when fewer than 2 cracks).
+    """
+    nci, ncj = arms.shape
+    nv = len(vi)
+    count = np.zeros((nv, 4), np.int64)
+    mean = np.zeros((nv, 4, 2), np.float64)
+    direction = np.zeros((nv, 4, 2), np.float64)
+    for v in range(nv):
+        for d0 in range(4):
+            if not (arms[vi[v], vj[v]] >> d0) & 1 or reach[v, d0] == 0:
+                continue
+            ci = vi[v]
+            cj = vj[v]
+            d = d0
+            px = 0.0
+            py = 0.0
+            sx = 0.0
+            sy = 0.0
+            sxx = 0.0
+            sxy = 0.0
+            syy = 0.0
+            n = 0
+            while n < reach[v, d0]:
+                mx, my = _crack_point(membrane, ci, cj, d)
+                mx += px
+                my += py
+                sx += mx
+                sy += my
+                sxx += mx * mx
+                sxy += mx * my
+                syy += my * my
+                n += 1
+                px += DJ[d]
+                py += DI[d]
+                ci, cj = _step(ci, cj, d, nci, ncj)
+                if vid[ci, cj] >= 0:
+                    break
+                d = _next_dir(kind[ci, cj], arms[ci, cj], d)
+            count[v, d0] = n
+            mx = sx / n
+            my = sy / n
+            mean[v, d0, 0] = mx
+            mean[v, d0, 1] = my
+            cxx = sxx / n - mx * mx
+            cxy = sxy / n - mx * my
+            cyy = syy / n - my * my
+            if n < 2 or cxx + cyy < 1e-12:
+                direction[v, d0, 0] = DJ[d0]
+                direction[v, d0, 1] = DI[d0]
+            else:
+                # principal axis of the 2x2 covariance
+                theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)
+                direction[v, d0, 0] = np.cos(theta)
+                direction[v, d0, 1] = np.sin(theta)
+    return count, mean, direction

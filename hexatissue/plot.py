@@ -1,0 +1,467 @@
+"""Figures of tissues, p-atic order, defects and stresses (matplotlib, imported lazily).
+
+Every function draws into ``ax`` when given (else a new figure), returns the
+matplotlib :class:`~matplotlib.figure.Figure`, and writes a PNG atomically
+when ``path`` is given.  Figures are built without pyplot (no global state,
+no GUI backend), so they work in scripts, threads and headless servers.
+Positions follow the package convention: x = column, y = row, origin at the
+centre of pixel (0, 0); images are drawn with row 0 at the top, so axes are
+in image orientation (y grows downwards).
+
+Polygons are given as ``{cell: (n, 2) array of (x, y)}``, e.g.
+:meth:`hexatissue.Frame.polygons`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = [
+    "plot_labels",
+    "plot_stars",
+    "plot_order_field",
+    "plot_stress",
+    "plot_order_vs_radius",
+    "save_figure",
+    "save_analysis_figures",
+]
+
+#: Colours of positive and negative defects (the paper's Fig. 3: red +, blue -).
+PLUS_COLOR = "#d62728"
+MINUS_COLOR = "#1f4fd6"
+
+
+def _new_axes(ax, figsize):
+    if ax is not None:
+        return ax.figure, ax
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, dpi=100, layout="constrained")
+    return fig, fig.add_subplot()
+
+
+def save_figure(fig, path, dpi=150):
+    """Write ``fig`` to ``path`` as PNG atomically; returns the path."""
+    from .io import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=dpi)
+    return path
+
+
+def _finish(fig, path):
+    if path is not None:
+        save_figure(fig, path)
+    return fig
+
+
+def _image_axes(ax, extent):
+    """Equal aspect, image orientation (row 0 at the top), limits ``(x0, x1, y0, y1)`` if given."""
+    ax.set_aspect("equal")
+    if extent is not None:
+        ax.set_xlim(extent[0], extent[1])
+        ax.set_ylim(extent[3], extent[2])
+    elif not ax.yaxis_inverted():
+        ax.invert_yaxis()
+    ax.set_xlabel("x (px)")
+    ax.set_ylabel("y (px)")
+
+
+def _polygon_list(polygons, box=None):
+    """``(ids, polygons)``; in a periodic box each polygon is moved so its vertex mean lies in the box,
+    and the periodic copies that overlap the box are appended (with repeated ids)."""
+    if polygons is None:
+        return [], []
+    if not isinstance(polygons, dict):
+        raise InputError(f"polygons must be a dict {{cell: (n, 2) array}}; got {type(polygons).__name__}")
+    ids = list(polygons)
+    polys = [np.asarray(polygons[c], float) for c in ids]
+    if box is None or not box.periodic:
+        return ids, polys
+    L = box.lengths
+    out_ids, out = [], []
+    for c, poly in zip(ids, polys):
+        poly = poly - L * np.floor(poly.mean(axis=0) / L)
+        for shift in np.array([(i, j) for i in (0, -1, 1) for j in (0, -1, 1)]) * L:
+            moved = poly + shift
+            if (moved.max(axis=0) > 0).all() and (moved.min(axis=0) < L).all():
+                out_ids.append(c)
+                out.append(moved)
+    return out_ids, out
+
+
+def _draw_polygons(ax, polygons, color="k", linewidth=0.6, box=None):
+    from matplotlib.collections import PolyCollection
+
+    polys = _polygon_list(polygons, box)[1]
+    if polys:
+        ax.add_collection(PolyCollection(polys, closed=True, edgecolors=color, linewidths=linewidth,
+                                         facecolors="none"))
+
+
+def _periodic(box):
+    return box if box is not None and box.periodic else None
+
+
+def _extent_of(labels=None, polygons=None, xy=None, box=None):
+    """Plot limits (x0, x1, y0, y1) from the first available source."""
+    if box is not None:
+        return (0.0, box.Lx, 0.0, box.Ly)
+    if labels is not None:
+        rows, cols = np.shape(labels)[:2]
+        return (-0.5, cols - 0.5, -0.5, rows - 0.5)
+    pts = [np.concatenate(_polygon_list(polygons)[1])] if polygons else []
+    if xy is not None and len(xy):
+        pts.append(np.asarray(xy, float))
+    if not pts:
+        return None
+    allxy = np.concatenate(pts)
+    lo, hi = np.nanmin(allxy, axis=0), np.nanmax(allxy, axis=0)
+    pad = 0.02 * max(hi - lo)
+    return (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad)
+
+
+def _label_colors(labels, seed=0):
+    """An RGB image of ``labels`` with a random pastel colour per label (0 = white)."""
+    labels = np.asarray(labels)
+    if labels.ndim != 2:
+        raise InputError(f"labels must be a 2-D label image; got shape {labels.shape}")
+    uniq, inverse = np.unique(labels, return_inverse=True)
+    rng = np.random.default_rng(seed)
+    palette = 0.55 + 0.4 * rng.random((len(uniq), 3))
+    palette[uniq == 0] = 1.0
+    return palette[inverse.reshape(labels.shape)]
+
+
+def _draw_background(ax, labels=None, image=None, alpha=1.0):
+    """Label image (random colours) or grey-level image underneath, in pixel coordinates."""
+    if image is not None:
+        img = np.asarray(image, float)
+        if img.ndim != 2:
+            raise InputError(f"image must be a 2-D grey-level image; got shape {img.shape}")
+        lo, hi = np.percentile(img, [1, 99.5])
+        ax.imshow(img, cmap="gray", vmin=lo, vmax=hi, origin="upper", interpolation="nearest", alpha=alpha,
+                  extent=(-0.5, img.shape[1] - 0.5, img.shape[0] - 0.5, -0.5))
+        return img
+    if labels is not None:
+        rgb = _label_colors(labels)
+        ax.imshow(rgb, origin="upper", interpolation="nearest", alpha=alpha,
+                  extent=(-0.5, rgb.shape[1] - 0.5, rgb.shape[0] - 0.5, -0.5))
+        return labels
+    return None
+
+
+def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show_ids=False, image=None,
+                box=None, figsize=(6, 6)):
+    """Label image with the cells' polygons (and optionally their ids).
+
+    Parameters
+    ----------
+    labels : (rows, cols) int array, optional
+        Label image (0 = background/membrane), drawn with a random colour per label.
+    polygons : dict, optional
+        ``{cell: (n, 2) array of (x, y)}``, drawn as outlines.
+    image : (rows, cols) array, optional
+        Grey-level micrograph drawn instead of ``labels``.
+    box : Box, optional
+        Periodic box: polygons are drawn with their periodic copies, clipped to the box.
+    cells : pandas.DataFrame, optional
+        Cells table (``cell``, ``x``, ``y``; ``is_border``): border cells'
+        centres are marked with a grey cross, and ids are written when
+        ``show_ids``.
+    ax : matplotlib Axes, optional
+    path : str or Path, optional
+        Where to write the PNG.
+    show_ids : bool
+        Write every cell's id at its centre.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if labels is None and polygons is None and image is None:
+        raise InputError("plot_labels needs labels, image and/or polygons")
+    fig, ax = _new_axes(ax, figsize)
+    background = _draw_background(ax, labels, image)
+    _draw_polygons(ax, polygons, color="k" if image is None else "#ffd700", linewidth=0.8, box=box)
+    if cells is not None:
+        if "is_border" in cells.columns:
+            border = cells[cells["is_border"].to_numpy(bool)]
+            ax.plot(border["x"], border["y"], "x", color="0.4", ms=3, lw=0)
+        if show_ids:
+            for _, c in cells.iterrows():
+                ax.text(c["x"], c["y"], str(int(c["cell"])), fontsize=5, ha="center", va="center")
+    xy = None if cells is None else cells[["x", "y"]].to_numpy()
+    _image_axes(ax, _extent_of(background, polygons, xy, _periodic(box)))
+    ax.set_title("cells and polygons")
+    return _finish(fig, path)
+
+
+def _star_segments(xy, angle, length, p):
+    """``p`` legs per point: segments from each centre at ``angle + 2 pi k / p``."""
+    k = np.arange(p)
+    a = angle[:, None] + 2 * np.pi * k[None, :] / p
+    ends = xy[:, None, :] + length[:, None, None] * np.stack([np.cos(a), np.sin(a)], axis=-1)
+    starts = np.broadcast_to(xy[:, None, :], ends.shape)
+    return np.stack([starts, ends], axis=2).reshape(-1, 2, 2)
+
+
+def _gamma(table, name, p):
+    re, im = f"{name}{p}_re", f"{name}{p}_im"
+    if re not in table.columns or im not in table.columns:
+        raise InputError(f"table is missing columns {re!r}, {im!r} (p = {p})")
+    return table[re].to_numpy(float) + 1j * table[im].to_numpy(float)
+
+
+def _typical_spacing(xy):
+    """Median nearest-neighbour distance of points ``xy`` (1 if fewer than two)."""
+    from scipy.spatial import cKDTree
+
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if len(xy) < 2:
+        return 1.0
+    d, _ = cKDTree(xy).query(xy, k=2)
+    return float(np.median(d[:, 1]))
+
+
+def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale=0.45, color="#b0006e",
+               image=None, box=None, figsize=(6, 6)):
+    """p-legged stars at the cell centres showing each cell's p-fold orientation Arg(gamma_p)/p.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with ``x``, ``y`` (px) and ``gamma{p}_re``, ``gamma{p}_im``.
+    p : int
+        Symmetry order (6: six-legged stars; 2: nematic bars).
+    polygons, labels, image, box : optional
+        Drawn underneath (see :func:`plot_labels`).
+    scale : float
+        Leg length for ``|gamma_p| = 1`` in units of the typical cell spacing;
+        legs are proportional to ``|gamma_p|``.
+    color : str
+        Colour of the stars.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, ax = _new_axes(ax, figsize)
+    xy = cells[["x", "y"]].to_numpy(float)
+    gamma = _gamma(cells, "gamma", p)
+    ok = np.isfinite(gamma) & np.isfinite(xy).all(axis=1)
+    background = _draw_background(ax, labels, image, alpha=0.5)
+    _draw_polygons(ax, polygons, color="0.35", linewidth=0.6, box=box)
+    _add_stars(ax, xy[ok], gamma[ok], p, scale * _typical_spacing(xy[ok]), color, linewidth=1.1)
+    _image_axes(ax, _extent_of(background, polygons, xy[ok], _periodic(box)))
+    ax.set_title(f"cell orientation Arg($\\gamma_{p}$)/{p}")
+    return _finish(fig, path)
+
+
+def _add_stars(ax, xy, value, p, unit_length, color, linewidth):
+    from matplotlib.collections import LineCollection
+
+    segments = _star_segments(xy, np.angle(value) / p, np.abs(value) * unit_length, p)
+    ax.add_collection(LineCollection(segments, colors=color, linewidths=linewidth, capstyle="round"))
+
+
+def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=None, path=None, box=None,
+                     show_magnitude=True, image=None, figsize=(6.4, 6)):
+    """Coarse-grained orientation field of Gamma_p with its +-1/p defects (the paper's Fig. 3c, d).
+
+    Valid grid nodes carry p-legged stars of orientation Arg(Gamma_p)/p and
+    length proportional to ``|Gamma_p|``; the background shows ``|Gamma_p|``.
+    Positive defects are red discs, negative ones blue triangles.
+
+    Parameters
+    ----------
+    grid : pandas.DataFrame
+        Grid table from :func:`hexatissue.coarse_grain` (one frame).
+    defects : pandas.DataFrame, optional
+        Defects table from :func:`hexatissue.find_defects` (one frame).
+    p : int
+        Symmetry order.
+    polygons, labels, image : optional
+        Cell outlines / label image / grey-level image drawn underneath.
+    box : Box, optional
+        Periodic box: sets the plot limits; polygons are drawn with their periodic copies.
+    show_magnitude : bool
+        Shade the valid nodes by ``|Gamma_p|``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    for name, table in (("grid", grid), ("defects", defects)):
+        if table is not None and "frame" in table.columns and table["frame"].nunique() > 1:
+            raise InputError(f"{name} holds several frames; select one frame to plot")
+    fig, ax = _new_axes(ax, figsize)
+    gamma = _gamma(grid, "Gamma", p)
+    valid = np.isfinite(gamma)
+    if "valid" in grid.columns:
+        valid = valid & grid["valid"].to_numpy(bool)
+    xy = grid[["x", "y"]].to_numpy(float)
+    background = _draw_background(ax, labels, image, alpha=0.35)
+    if show_magnitude and valid.any():
+        _shade_magnitude(fig, ax, grid, gamma, valid, p)
+    _draw_polygons(ax, polygons, color="0.55", linewidth=0.5, box=_periodic(box))
+    spacing = _grid_spacing(grid)
+    # the longest star spans 0.8 grid spacings, so neighbouring stars never touch
+    largest = np.abs(gamma[valid]).max() if valid.any() else 1.0
+    _add_stars(ax, xy[valid], gamma[valid] / max(largest, 1e-12), p, 0.4 * spacing, "k", linewidth=0.8)
+    if defects is not None and len(defects):
+        _draw_defects(ax, defects, p, size=8)
+    _image_axes(ax, _extent_of(background, polygons, xy, _periodic(box)))
+    ax.set_title(f"$\\Gamma_{p}$ orientation and $\\pm 1/{p}$ defects")
+    return _finish(fig, path)
+
+
+def _grid_spacing(grid):
+    if "spacing" in grid.columns and len(grid):
+        return float(grid["spacing"].iloc[0])
+    return _typical_spacing(grid[["x", "y"]].to_numpy(float))
+
+
+def _shade_magnitude(fig, ax, grid, gamma, valid, p):
+    """|Gamma_p| as cells of a pcolormesh over the node lattice (invalid nodes blank)."""
+    row, col = grid["row"].to_numpy(int), grid["col"].to_numpy(int)
+    shape = (row.max() + 1, col.max() + 1)
+    mag = np.full(shape, np.nan)
+    mag[row[valid], col[valid]] = np.abs(gamma[valid])
+    x = np.full(shape, np.nan)
+    y = np.full(shape, np.nan)
+    x[row, col], y[row, col] = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
+    mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(mag), cmap="Greens", vmin=0, vmax=1, shading="nearest",
+                         alpha=0.6)
+    fig.colorbar(mesh, ax=ax, shrink=0.7, label=f"$|\\Gamma_{p}|$")
+
+
+def _draw_defects(ax, defects, p, size):
+    """Positive defects as red discs, negative ones as blue triangles; ``size`` in points."""
+    charge = defects["charge"].to_numpy(float)
+    for sel, color, marker, sign in ((charge > 0, PLUS_COLOR, "o", "+"), (charge < 0, MINUS_COLOR, "^", "-")):
+        if sel.any():
+            units = np.unique(np.rint(np.abs(charge[sel]) * p).astype(int))
+            label = f"${sign}1/{p}$" if list(units) == [1] else f"${sign}$ ({', '.join(f'{u}/{p}' for u in units)})"
+            ax.plot(defects["x"].to_numpy()[sel], defects["y"].to_numpy()[sel], marker, color=color, ms=size,
+                    mec="k", mew=0.6, lw=0, label=label, zorder=5)
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+
+
+def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", title=None, box=None,
+                figsize=(6.4, 6)):
+    """Cells filled with a colour by a per-cell value, e.g. the stress (the paper's Fig. 3a, b).
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with ``cell`` and the column ``column`` (e.g. the output
+        of :func:`hexatissue.order.cell_stress` stored as ``sigma6``).
+    column : str
+        Column to colour by; the colour scale is symmetric about zero.
+    polygons : dict
+        ``{cell: (n, 2) array of (x, y)}``; cells without a polygon are not drawn.
+    cmap : str
+        Diverging colour map.
+    box : Box, optional
+        Periodic box: polygons are drawn with their periodic copies, clipped to the box.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.collections import PolyCollection
+    from matplotlib.colors import Normalize
+
+    if column not in cells.columns:
+        raise InputError(f"cells has no column {column!r} to colour by")
+    ids, polys = _polygon_list(polygons, box)
+    if not polys:
+        raise InputError("plot_stress needs the cells' polygons")
+    value = cells.set_index("cell")[column].reindex(ids).to_numpy(float)
+    finite = np.isfinite(value)
+    vmax = float(np.abs(value[finite]).max()) if finite.any() else 0.0
+    vmax = vmax if vmax > 0 else 1.0
+    fig, ax = _new_axes(ax, figsize)
+    coll = PolyCollection([q for q, f in zip(polys, finite) if f], closed=True, edgecolors="k", linewidths=0.4,
+                          cmap=cmap, norm=Normalize(-vmax, vmax))
+    coll.set_array(value[finite])
+    ax.add_collection(coll)
+    fig.colorbar(coll, ax=ax, shrink=0.7, label=column)
+    _image_axes(ax, _extent_of(None, polygons, None, _periodic(box)))
+    ax.set_title(title or f"cells coloured by {column}")
+    return _finish(fig, path)
+
+
+def plot_order_vs_radius(curve, ax=None, path=None, figsize=(5, 3.6)):
+    """``|Gamma_p|`` against ``R / R_cell``, one line per ``p`` (mean and s.d. over frames).
+
+    Parameters
+    ----------
+    curve : pandas.DataFrame
+        Output of :func:`hexatissue.order.order_vs_radius` (columns ``p``,
+        ``factor``, ``abs_Gamma``; several frames and values of p may be
+        concatenated).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, ax = _new_axes(ax, figsize)
+    colors = {2: "#1f77b4", 6: "#d62728"}
+    for p, group in curve.groupby("p"):
+        stats = group.groupby("factor")["abs_Gamma"].agg(["mean", "std"]).reset_index()
+        color = colors.get(int(p))
+        ax.errorbar(stats["factor"], stats["mean"], yerr=stats["std"].fillna(0), marker="o", ms=4, capsize=2,
+                    color=color, label=f"$p = {int(p)}$")
+    ax.set_xlabel("$R / R_{cell}$")
+    ax.set_ylabel("$\\langle|\\Gamma_p|\\rangle$")
+    ax.set_ylim(bottom=0)
+    ax.legend()
+    return _finish(fig, path)
+
+
+def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None, p=6, prefix=""):
+    """Write the standard figures of one frame: polygons, p-legged stars, Gamma_p field with defects.
+
+    Parameters
+    ----------
+    frame : hexatissue.Frame
+        One time point (``frame.cells`` with ``gamma{p}``, ``frame.box``, polygons).
+    directory : str or Path
+        Output folder (created if needed).
+    labels : (rows, cols) int array, optional
+        The label image, drawn underneath.
+    grid, defects : pandas.DataFrame, optional
+        This frame's grid and defects tables; computed with the defaults of
+        :func:`hexatissue.coarse_grain` and :func:`hexatissue.find_defects`
+        when not given.
+    p : int
+        Symmetry order of the stars and the field.
+    prefix : str
+        Prepended to the file names (e.g. ``"frame0003_"``).
+
+    Returns
+    -------
+    list of pathlib.Path
+        ``{prefix}polygons.png``, ``{prefix}stars{p}.png``, ``{prefix}gamma{p}_defects.png``.
+    """
+    from pathlib import Path
+
+    from .defects import find_defects
+    from .order import coarse_grain
+
+    directory = Path(directory)
+    box = frame.box if frame.box is not None and frame.box.periodic else None
+    if grid is None:
+        grid = coarse_grain(frame.cells, p=p, box=box)
+    if defects is None:
+        defects = find_defects(grid, p=p, box=box)
+    polygons = frame.polygons()
+    paths = [directory / f"{prefix}polygons.png", directory / f"{prefix}stars{p}.png",
+             directory / f"{prefix}gamma{p}_defects.png"]
+    plot_labels(labels, polygons, frame.cells, path=paths[0], box=box)
+    plot_stars(frame.cells, p=p, polygons=polygons, labels=labels, path=paths[1], box=box)
+    plot_order_field(grid, defects, p=p, polygons=polygons, labels=labels, box=box, path=paths[2])
+    return paths

@@ -1,0 +1,328 @@
+"""numba kernels of the multiphase-field model (patch representation).
+
+Data layout (see ../shared/mpf.md):
+
+- ``phi[N, P, P]``: each cell's field on a P x P patch whose node ``(i, j)``
+  sits on lattice row ``gy[c, i] = (oy[c] + i) mod Ly`` and column
+  ``gx[c, j] = (ox[c] + j) mod Lx``.  ``ox, oy`` are *unwrapped* integer
+  origins (they follow the cell across the periodic box).  The outer ring of
+  every patch is held at 0 (Dirichlet), so only the interior nodes
+  ``1..P-2`` evolve.
+- ``S1 = sum_c phi_c`` and ``S2 = sum_c phi_c^2`` on the full lattice; the
+  "other cells" terms are ``S2 - phi_c^2`` and ``lap(S1) - lap(phi_c)``.
+
+Determinism: the lattice sums are *gathered* per band of ``CHUNK_ROWS``
+lattice rows (a ``prange`` over bands; each band adds its cells in ascending
+cell order), and every per-cell kernel writes only its own patch.  There are
+no races and no atomics, and each lattice node is summed in the same order
+whatever the number of threads, so results are bit-identical for any thread
+count.  (Per-thread scatter buffers reduced at the end would be race-free
+too, but their rounding would depend on how cells are split among threads.)
+
+Every kernel here has a plain-numpy counterpart in ``reference.py``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+CHUNK_ROWS = 8  # lattice rows per band of the lattice sums (fixed: results must not depend on threads)
+
+# indices into the per-dtype constant vector ``par`` (kept in the field dtype so float32 runs stay float32)
+HALF_ALPHA, K_PHI, TWO_EPS, K_AD, MOB, DT, PHI0, FOUR, HALF = range(9)
+N_PAR = 9
+
+
+def pack_params(p, dtype) -> np.ndarray:
+    """Constant vector ``par`` of the kernels, in the field dtype."""
+    par = np.empty(N_PAR, dtype=dtype)
+    par[HALF_ALPHA] = 0.5 * p.alpha
+    par[K_PHI] = p.k_phi
+    par[TWO_EPS] = 2.0 * p.eps
+    par[K_AD] = p.k_ad
+    par[MOB] = p.M
+    par[DT] = p.dt
+    par[PHI0] = p.phi0
+    par[FOUR] = 4.0
+    par[HALF] = 0.5
+    return par
+
+
+@njit(cache=True)
+def index_rows(origin, L, P, out):
+    """``out[c, i] = (origin[c] + i) mod L`` (wrapped lattice index of patch node i)."""
+    for c in range(origin.shape[0]):
+        for i in range(P):
+            out[c, i] = (origin[c] + i) % L
+
+
+@njit(cache=True)
+def build_bands(oy, Ly, P, ptr, cells):
+    """CSR lists band -> cells whose patch interior covers a row of the band (ascending cell order)."""
+    nb = ptr.shape[0] - 1
+    last = np.full(nb, -1, dtype=np.int64)
+    count = np.zeros(nb, dtype=np.int64)
+    N = oy.shape[0]
+    for c in range(N):
+        for i in range(1, P - 1):
+            b = ((oy[c] + i) % Ly) // CHUNK_ROWS
+            if last[b] != c:
+                last[b] = c
+                count[b] += 1
+    ptr[0] = 0
+    for b in range(nb):
+        ptr[b + 1] = ptr[b] + count[b]
+    last[:] = -1
+    pos = ptr[:-1].copy()
+    for c in range(N):
+        for i in range(1, P - 1):
+            b = ((oy[c] + i) % Ly) // CHUNK_ROWS
+            if last[b] != c:
+                last[b] = c
+                cells[pos[b]] = c
+                pos[b] += 1
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def lattice_sums(phi, oy, gx, ptr, cells, S1, S2):
+    """``S1 = sum_c phi_c``, ``S2 = sum_c phi_c^2`` on the lattice, gathered band by band."""
+    Ly = S1.shape[0]
+    P = phi.shape[1]
+    nb = ptr.shape[0] - 1
+    for b in prange(nb):
+        r0 = b * CHUNK_ROWS
+        r1 = min(r0 + CHUNK_ROWS, Ly)
+        S1[r0:r1, :] = 0
+        S2[r0:r1, :] = 0
+        for k in range(ptr[b], ptr[b + 1]):
+            c = cells[k]
+            for r in range(r0, r1):
+                i = (r - oy[c]) % Ly
+                if i < 1 or i > P - 2:
+                    continue
+                for j in range(1, P - 1):
+                    q = gx[c, j]
+                    v = phi[c, i, j]
+                    S1[r, q] += v
+                    S2[r, q] += v * v
+
+
+@njit(cache=True, fastmath=True)
+def _area(phi, c):
+    """``int phi_c^2 dA`` in float64."""
+    P = phi.shape[1]
+    a = 0.0
+    for i in range(1, P - 1):
+        for j in range(1, P - 1):
+            v = np.float64(phi[c, i, j])
+            a += v * v
+    return a
+
+
+@njit(cache=True, fastmath=True)
+def _rhs_node(phi, c, i, j, r, rm, rp, q, qm, qp, S1, S2, par, ca, vx, vy):
+    """``d phi_c / dt`` at patch node (i, j) = lattice node (r, q)."""
+    v = phi[c, i, j]
+    vn = phi[c, i - 1, j]
+    vs = phi[c, i + 1, j]
+    vw = phi[c, i, j - 1]
+    ve = phi[c, i, j + 1]
+    lap = (vn + vs + vw + ve) - par[FOUR] * v
+    lap_s1 = (S1[rm, q] + S1[rp, q] + S1[r, qm] + S1[r, qp]) - par[FOUR] * S1[r, q]
+    phi0 = par[PHI0]
+    mu = (
+        par[HALF_ALPHA] * v * (v - phi0) * ((v + v) - phi0)
+        - par[K_PHI] * lap
+        + par[TWO_EPS] * v * (S2[r, q] - v * v)
+        - par[K_AD] * (lap_s1 - lap)
+        - ca * v
+    )
+    adv = par[HALF] * (vx * (ve - vw) + vy * (vs - vn))
+    return -par[MOB] * mu - adv
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def heun_stage(phi_eval, phi, k1, out, S1, S2, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second):
+    """One Heun stage for every cell (prange over cells; each writes only its own patch).
+
+    First stage (``second=False``): ``k1 = f(phi)``, ``out = phi + dt k1``.
+    Second stage (``second=True``): ``out = phi + dt/2 (k1 + f(phi_eval))``
+    (``out`` may be ``phi``: each node reads only ``phi_eval`` around it).
+    ``f`` is evaluated on ``phi_eval`` with the lattice sums ``S1, S2`` of
+    ``phi_eval``.  ``area[c]`` receives ``int phi_eval_c^2 dA`` (float64).
+    """
+    N, P = phi.shape[0], phi.shape[1]
+    dt = par[DT]
+    half_dt = par[HALF] * dt
+    for c in prange(N):
+        a = _area(phi_eval, c)
+        area[c] = a
+        # dF/dphi of lam (1 - A/A0)^2 is -4 lam/A0 (1 - A/A0) phi; coef keeps it in the field dtype
+        coef[c] = lam4 * inv_a0 * (1.0 - a * inv_a0)
+        ca = coef[c]
+        cvx = vx[c]
+        cvy = vy[c]
+        for i in range(1, P - 1):
+            r = gy[c, i]
+            rm = gy[c, i - 1]
+            rp = gy[c, i + 1]
+            for j in range(1, P - 1):
+                q = gx[c, j]
+                qm = gx[c, j - 1]
+                qp = gx[c, j + 1]
+                k = _rhs_node(phi_eval, c, i, j, r, rm, rp, q, qm, qp, S1, S2, par, ca, cvx, cvy)
+                if second:
+                    out[c, i, j] = phi[c, i, j] + half_dt * (k1[c, i, j] + k)
+                else:
+                    k1[c, i, j] = k
+                    out[c, i, j] = phi[c, i, j] + dt * k
+
+
+@njit(cache=True, parallel=True)
+def moments(phi, ox, oy, out):
+    """Per cell ``out[c] = (area, x, y)``: ``int phi^2 dA`` and the phi^2-weighted centroid (float64).
+
+    x = column, y = row, unwrapped (``ox + j``, ``oy + i``), origin at the
+    centre of lattice node (0, 0).
+    """
+    N, P = phi.shape[0], phi.shape[1]
+    for c in prange(N):
+        a = 0.0
+        mx = 0.0
+        my = 0.0
+        for i in range(1, P - 1):
+            for j in range(1, P - 1):
+                v = np.float64(phi[c, i, j])
+                w = v * v
+                a += w
+                mx += w * j
+                my += w * i
+        out[c, 0] = a
+        if a > 0:
+            out[c, 1] = ox[c] + mx / a
+            out[c, 2] = oy[c] + my / a
+        else:
+            out[c, 1] = ox[c] + 0.5 * (P - 1)
+            out[c, 2] = oy[c] + 0.5 * (P - 1)
+
+
+@njit(cache=True, parallel=True)
+def recentre(phi, scratch, ox, oy, leak, threshold):
+    """Shift each patch by whole nodes so that its phi^2 centroid is within ``threshold`` of the centre.
+
+    Updates ``phi`` (nodes shifted out of the patch are dropped, new nodes are
+    0), ``ox, oy``; ``leak[c]`` becomes the max of itself and the fraction of
+    ``int phi^2`` on the two interior rings next to the fixed zero ring.
+    Returns the number of patches moved.
+    """
+    N, P = phi.shape[0], phi.shape[1]
+    centre = 0.5 * (P - 1)
+    moved = np.zeros(N, dtype=np.int64)
+    for c in prange(N):
+        a = 0.0
+        mx = 0.0
+        my = 0.0
+        rim = 0.0
+        for i in range(1, P - 1):
+            for j in range(1, P - 1):
+                v = np.float64(phi[c, i, j])
+                w = v * v
+                a += w
+                mx += w * j
+                my += w * i
+                if i <= 2 or j <= 2 or i >= P - 3 or j >= P - 3:
+                    rim += w
+        if a <= 0:
+            continue
+        leak[c] = max(leak[c], rim / a)
+        dx = mx / a - centre
+        dy = my / a - centre
+        if abs(dx) < threshold and abs(dy) < threshold:
+            continue
+        sx = int(np.round(dx))
+        sy = int(np.round(dy))
+        if sx == 0 and sy == 0:
+            continue
+        for i in range(P):
+            for j in range(P):
+                scratch[c, i, j] = phi[c, i, j]
+        for i in range(P):
+            for j in range(P):
+                si = i + sy
+                sj = j + sx
+                if 1 <= i <= P - 2 and 1 <= j <= P - 2 and 1 <= si <= P - 2 and 1 <= sj <= P - 2:
+                    phi[c, i, j] = scratch[c, si, sj]
+                else:
+                    phi[c, i, j] = 0
+        ox[c] += sx
+        oy[c] += sy
+        moved[c] = 1
+    return moved.sum()
+
+
+@njit(cache=True)
+def set_velocity(theta, v0, vx, vy):
+    for c in range(theta.shape[0]):
+        vx[c] = v0 * np.cos(theta[c])
+        vy[c] = v0 * np.sin(theta[c])
+
+
+@njit(cache=True)
+def advance(phi, phis, k1, S1, S2, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
+            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold):
+    """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).
+
+    Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
+    (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
+    for passive steps).  After every step whose global index ``step0 + s + 1``
+    is a multiple of ``recentre_every`` the patches are re-centred.  Returns
+    the number of patch moves.
+    """
+    Lx, Ly = S1.shape[1], S1.shape[0]
+    P = phi.shape[1]
+    moves = 0
+    for s in range(nsteps):
+        set_velocity(theta, v0, vx, vy)
+        lattice_sums(phi, oy, gx, ptr, cells, S1, S2)
+        heun_stage(phi, phi, k1, phis, S1, S2, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False)
+        lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
+        heun_stage(phis, phi, k1, phi, S1, S2, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True)
+        if sigma > 0:
+            for c in range(theta.shape[0]):
+                theta[c] += sigma * noise[s, c]
+        if (step0 + s + 1) % recentre_every == 0:
+            n = recentre(phi, k1, ox, oy, leak, threshold)
+            if n > 0:
+                moves += n
+                index_rows(ox, Lx, P, gx)
+                index_rows(oy, Ly, P, gy)
+                build_bands(oy, Ly, P, ptr, cells)
+    return moves
+
+
+@njit(cache=True, parallel=True)
+def max_field(phi, oy, gx, ptr, cells, vmax, imax):
+    """Per lattice node the largest field value ``vmax`` and its cell ``imax`` (-1 where none).
+
+    Ties go to the lower cell index (cells are visited in ascending order).
+    """
+    Ly = vmax.shape[0]
+    P = phi.shape[1]
+    nb = ptr.shape[0] - 1
+    for b in prange(nb):
+        r0 = b * CHUNK_ROWS
+        r1 = min(r0 + CHUNK_ROWS, Ly)
+        vmax[r0:r1, :] = 0
+        imax[r0:r1, :] = -1
+        for k in range(ptr[b], ptr[b + 1]):
+            c = cells[k]
+            for r in range(r0, r1):
+                i = (r - oy[c]) % Ly
+                if i < 1 or i > P - 2:
+                    continue
+                for j in range(1, P - 1):
+                    q = gx[c, j]
+                    v = np.float64(phi[c, i, j])
+                    if v > vmax[r, q]:
+                        vmax[r, q] = v
+                        imax[r, q] = c

@@ -1,0 +1,465 @@
+"""Link cells across the frames of a label movie by overlap.
+
+Cells in consecutive frames are linked by their intersection over union
+(IoU) with an optimal one-to-one assignment
+(:func:`scipy.optimize.linear_sum_assignment`).  The overlaps come from a
+sparse contingency table of the two label images (one ``bincount`` over the
+pixels, no per-cell loops).  Divisions (one cell -> two) are detected before
+the assignment; cells that are not linked start or end a track, classified as
+border crossings or interior appearances/disappearances.
+
+The tracker is incremental (:class:`Tracker`): it keeps one frame in memory,
+so movies of any length are tracked frame by frame.
+
+Conventions: label images are indexed ``[row, col]``, 0 = background or
+membrane; track ids are positive integers.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import linear_sum_assignment
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from .errors import InputError
+
+__all__ = ["Tracker", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
+
+# Largest dense IoU matrix handed to linear_sum_assignment in one piece
+# (larger problems are split into connected components of the overlap graph).
+_DENSE_LIMIT = 4_000_000
+# Largest label id compacted with a lookup table (larger ids use np.unique).
+_LUT_LIMIT = 50_000_000
+
+LINEAGE_COLUMNS = {
+    "track": "track id",
+    "frame_start": "first frame the track is present",
+    "frame_end": "last frame the track is present (inclusive)",
+    "n_frames": "number of frames the track is present (fewer than the span when gaps were closed)",
+    "parent": "track id of the mother cell for daughters of a division, else 0",
+    "begin": "how the track starts: movie_start, division, border (enters the field of view) or appearance (interior)",
+    "end": "how the track ends: movie_end, division, border (leaves the field of view) or extrusion (interior)",
+}
+
+
+def as_label_image(labels, name="labels") -> np.ndarray:
+    """A 2-D integer label array from ``labels`` (integer-valued floats accepted).
+
+    Raises :class:`InputError` for other shapes, non-integer or negative values.
+    """
+    arr = np.asarray(labels)
+    if arr.ndim != 2:
+        raise InputError(f"{name} must be a 2-D label image [row, col]; got an array of shape {arr.shape}")
+    if arr.dtype.kind == "f":
+        if not np.all(np.isfinite(arr)) or not np.array_equal(arr, np.round(arr)):
+            raise InputError(f"{name} must hold integer label ids; got non-integer float values")
+        arr = arr.astype(np.int64)
+    elif arr.dtype.kind == "b":
+        arr = arr.astype(np.int64)
+    elif arr.dtype.kind not in "iu":
+        raise InputError(f"{name} must be an integer label image; got dtype {arr.dtype}")
+    if arr.size and arr.min() < 0:
+        raise InputError(f"{name} must hold non-negative label ids (0 = background); got minimum {arr.min()}")
+    return arr
+
+
+@dataclass
+class _Compact:
+    """A label image as compact indices 0..n-1 (-1 = background) plus ids and areas."""
+
+    index: np.ndarray  # int32 per pixel, -1 for background
+    ids: np.ndarray  # label id of each index
+    area: np.ndarray  # pixels per index
+
+
+def _compact(labels: np.ndarray) -> _Compact:
+    flat = labels.ravel()
+    top = int(flat.max()) if flat.size else 0
+    if top < _LUT_LIMIT:
+        counts = np.bincount(flat, minlength=1)
+        ids = np.flatnonzero(counts)
+        ids = ids[ids > 0]
+        lut = np.full(top + 1, -1, dtype=np.int32)
+        lut[ids] = np.arange(len(ids), dtype=np.int32)
+        return _Compact(lut[flat], ids.astype(np.int64), counts[ids].astype(np.int64))
+    ids, inverse, counts = np.unique(flat, return_inverse=True, return_counts=True)
+    index = inverse.astype(np.int32) - (1 if ids[0] == 0 else 0)
+    keep = ids > 0
+    return _Compact(index, ids[keep].astype(np.int64), counts[keep].astype(np.int64))
+
+
+def _contingency(a: _Compact, b: _Compact):
+    """Sparse overlap counts ``(i, j, n)`` between the cells of two compact frames."""
+    na, nb = len(a.ids), len(b.ids)
+    if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
+        # background (-1) wraps to the last row/column: one bincount, no masking
+        ia = np.where(a.index < 0, na, a.index).astype(np.int64)
+        counts = np.bincount(ia * (nb + 1) + np.where(b.index < 0, nb, b.index), minlength=(na + 1) * (nb + 1))
+        counts = counts.reshape(na + 1, nb + 1)[:na, :nb]
+        i, j = np.nonzero(counts)
+        return i.astype(np.int64), j.astype(np.int64), counts[i, j].astype(np.int64)
+    both = (a.index >= 0) & (b.index >= 0)
+    key, n = np.unique(a.index[both].astype(np.int64) * nb + b.index[both], return_counts=True)
+    i, j = np.divmod(key, nb)
+    return i, j, n.astype(np.int64)
+
+
+def frame_overlaps(prev, cur) -> pd.DataFrame:
+    """Pixel overlaps between the cells of two label images of the same shape.
+
+    Parameters
+    ----------
+    prev, cur : (rows, cols) int arrays
+        Label images indexed ``[row, col]``; 0 = background (ignored).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per overlapping pair: ``cell_prev``, ``cell_next`` (label ids),
+        ``overlap`` (px), ``area_prev``, ``area_next`` (px), ``iou``
+        (overlap / union, dimensionless).
+    """
+    prev, cur = as_label_image(prev, "prev"), as_label_image(cur, "cur")
+    if prev.shape != cur.shape:
+        raise InputError(f"prev and cur must have the same shape; got {prev.shape} and {cur.shape}")
+    a, b = _compact(prev), _compact(cur)
+    i, j, n = _contingency(a, b)
+    union = a.area[i] + b.area[j] - n
+    return pd.DataFrame(
+        {"cell_prev": a.ids[i], "cell_next": b.ids[j], "overlap": n, "area_prev": a.area[i],
+         "area_next": b.area[j], "iou": n / union}
+    )
+
+
+def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction):
+    """Mother index -> two daughter indices, from overlaps.
+
+    A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
+    ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
+    it (``n_ij >= mother_fraction * area_i``).  A mother with two or more
+    candidates divided; its two largest overlaps are the daughters.
+    """
+    cand = (n >= child_fraction * area_b[j]) & (n >= mother_fraction * area_a[i])
+    ci, cj, cn = i[cand], j[cand], n[cand]
+    if len(ci) < 2:
+        return np.empty(0, np.int64), np.empty((0, 2), np.int64)
+    order = np.lexsort((-cn, ci))
+    ci, cj = ci[order], cj[order]
+    first = np.r_[True, ci[1:] != ci[:-1]]
+    starts = np.flatnonzero(first)
+    counts = np.diff(np.r_[starts, len(ci)])
+    mothers = starts[counts >= 2]
+    return ci[mothers], np.c_[cj[mothers], cj[mothers + 1]]
+
+
+def _assign(i, j, iou):
+    """Links maximising the summed IoU over the candidate pairs ``(i, j, iou)``; returns (i, j, iou) linked.
+
+    Candidates that are the only option of both their row and their column
+    are linked directly; the rest is solved with linear_sum_assignment, per
+    connected component when it is large.
+    """
+    empty = (np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0))
+    if len(i) == 0:
+        return empty
+    row_deg = np.bincount(i)[i]
+    col_deg = np.bincount(j)[j]
+    alone = (row_deg == 1) & (col_deg == 1)
+    out = [(i[alone], j[alone], iou[alone])]
+    i, j, iou = i[~alone], j[~alone], iou[~alone]
+    if len(i):
+        rows, ri = np.unique(i, return_inverse=True)
+        cols, cj = np.unique(j, return_inverse=True)
+        if len(rows) * len(cols) <= _DENSE_LIMIT:
+            groups = [np.arange(len(i))]
+        else:  # large problem: the candidate graph splits into independent components
+            graph = coo_matrix((np.ones(len(i)), (ri, len(rows) + cj)), shape=(len(rows) + len(cols),) * 2)
+            comp = connected_components(graph, directed=False)[1][ri]
+            order = np.argsort(comp, kind="stable")
+            groups = np.split(order, np.flatnonzero(np.diff(comp[order])) + 1)
+        for sel in groups:
+            sr, sri = np.unique(ri[sel], return_inverse=True)
+            sc, sci = np.unique(cj[sel], return_inverse=True)
+            dense = np.zeros((len(sr), len(sc)))
+            dense[sri, sci] = iou[sel]
+            r, c = linear_sum_assignment(dense, maximize=True)
+            value = dense[r, c]
+            keep = value > 0
+            out.append((rows[sr[r[keep]]], cols[sc[c[keep]]], value[keep]))
+    return tuple(np.concatenate(parts) for parts in zip(*out))
+
+
+def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
+    i, j, n = _contingency(a, b)
+    mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction)
+    # Mothers and daughters leave the one-to-one assignment.
+    free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
+    i, j, n = i[free], j[free], n[free]
+    iou = n / (a.area[i] + b.area[j] - n)
+    cand = iou >= min_iou
+    r, c, _ = _assign(i[cand], j[cand], iou[cand])
+    return r, c, mothers, daughters
+
+
+def match_frames(prev, cur, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2):
+    """Links between the cells of two consecutive label images.
+
+    Parameters
+    ----------
+    prev, cur : (rows, cols) int arrays
+        Label images indexed ``[row, col]``; 0 = background.
+    min_iou : float
+        Smallest IoU of a candidate link; among the candidates the links
+        maximise the summed IoU (one-to-one).
+    child_fraction, mother_fraction : float
+        Division rule: a cell of ``cur`` is a daughter of a cell of ``prev``
+        when at least ``child_fraction`` of the daughter and at least
+        ``mother_fraction`` of the mother overlap; a cell with two or more
+        daughters divided (its two largest overlaps are kept).
+
+    Returns
+    -------
+    links : pandas.DataFrame
+        ``cell_prev``, ``cell_next`` (label ids) of the one-to-one links.
+    divisions : pandas.DataFrame
+        ``mother`` (id in ``prev``), ``daughter_a``, ``daughter_b`` (ids in ``cur``).
+    """
+    a, b = _compact(as_label_image(prev, "prev")), _compact(as_label_image(cur, "cur"))
+    if a.index.shape != b.index.shape:
+        raise InputError(f"prev and cur must have the same shape; got {np.shape(prev)} and {np.shape(cur)}")
+    r, c, mothers, daughters = _match(a, b, min_iou, child_fraction, mother_fraction)
+    links = pd.DataFrame({"cell_prev": a.ids[r], "cell_next": b.ids[c]})
+    divisions = pd.DataFrame(
+        {"mother": a.ids[mothers], "daughter_a": b.ids[daughters[:, 0]], "daughter_b": b.ids[daughters[:, 1]]}
+    )
+    return links, divisions
+
+
+class Tracker:
+    """Incremental overlap tracker: feed label images in time order with :meth:`add`.
+
+    Track ids reproduce the labels when they are already consistent: a cell
+    starting a track takes its own label as track id unless that id was used
+    before, else the next unused id above every id used so far.
+
+    Parameters
+    ----------
+    min_iou, child_fraction, mother_fraction : float
+        See :func:`match_frames`.
+    max_gap : int
+        Gap closing: a track whose cell is missing for up to ``max_gap``
+        frames (a segmentation gap) is continued by a new cell overlapping its
+        last mask with IoU >= ``min_iou``.  0 disables gap closing.  The masks
+        of ended tracks are kept for ``max_gap`` frames only.
+    """
+
+    def __init__(self, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0):
+        for name, value in (("min_iou", min_iou), ("child_fraction", child_fraction),
+                            ("mother_fraction", mother_fraction)):
+            if not 0 < value <= 1:
+                raise InputError(f"{name} must be in (0, 1]; got {value!r}")
+        if int(max_gap) != max_gap or max_gap < 0:
+            raise InputError(f"max_gap must be a non-negative integer number of frames; got {max_gap!r}")
+        self.min_iou, self.child_fraction, self.mother_fraction = min_iou, child_fraction, mother_fraction
+        self.max_gap = int(max_gap)
+        self._prev: _Compact | None = None
+        self._prev_tracks = None
+        self._prev_frame = None
+        self._shape = None
+        self._used: set[int] = set()
+        self._max_used = 0
+        self._frames, self._cells, self._tracks = [], [], []
+        self._parent: dict[int, int] = {}
+        # ended tracks that gap closing may continue: (track, last frame, flat pixel indices)
+        self._dormant: list[tuple[int, int, np.ndarray]] = []
+        self._n = 0
+
+    def _new_ids(self, labels: np.ndarray) -> np.ndarray:
+        out = np.empty(len(labels), np.int64)
+        for k, lab in enumerate(labels.tolist()):
+            tid = lab if lab not in self._used else self._max_used + 1
+            self._used.add(tid)
+            self._max_used = max(self._max_used, tid)
+            out[k] = tid
+        return out
+
+    def _close_gaps(self, cur: _Compact, frame: int, tracks: np.ndarray, new: np.ndarray):
+        """Link cells of ``cur`` that start no track yet to dormant tracks (gap closing)."""
+        self._dormant = [d for d in self._dormant if frame - d[1] - 1 <= self.max_gap]
+        if not self._dormant or not new.any():
+            return
+        owner = np.concatenate([np.full(len(p), k) for k, (_, _, p) in enumerate(self._dormant)])
+        hit = cur.index[np.concatenate([p for _, _, p in self._dormant])]
+        ok = hit >= 0
+        owner, hit = owner[ok], hit[ok]
+        ok = new[hit]
+        key, n = np.unique(owner[ok].astype(np.int64) * len(cur.ids) + hit[ok], return_counts=True)
+        i, j = np.divmod(key, len(cur.ids))
+        area_d = np.array([len(p) for _, _, p in self._dormant])
+        iou = n / (area_d[i] + cur.area[j] - n)
+        cand = iou >= self.min_iou
+        r, c, _ = _assign(i[cand], j[cand], iou[cand])
+        tracks[c] = [self._dormant[k][0] for k in r.tolist()]
+        new[c] = False
+        self._dormant = [d for k, d in enumerate(self._dormant) if k not in set(r.tolist())]
+
+    def _add_dormant(self, ended: np.ndarray):
+        """Remember the masks of the tracks of ``self._prev`` listed in ``ended`` (indices)."""
+        if self.max_gap == 0 or len(ended) == 0:
+            return
+        flat = self._prev.index
+        want = np.isin(flat, ended)
+        pix = np.flatnonzero(want)
+        lab = flat[pix]
+        order = np.argsort(lab, kind="stable")
+        pix, lab = pix[order], lab[order]
+        bounds = np.flatnonzero(np.diff(lab)) + 1
+        for part in np.split(pix, bounds):
+            k = int(flat[part[0]])
+            self._dormant.append((int(self._prev_tracks[k]), self._prev_frame, part))
+
+    def add(self, labels, frame=None) -> np.ndarray:
+        """Track one more frame; returns the track id of each cell of ``labels`` (sorted by label id).
+
+        ``frame`` defaults to the number of frames added so far.
+        """
+        labels = as_label_image(labels)
+        frame = self._n if frame is None else int(frame)
+        if self._shape is not None and labels.shape != self._shape:
+            raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
+        self._shape = labels.shape
+        cur = _compact(labels)
+        tracks = np.zeros(len(cur.ids), np.int64)
+        new = np.ones(len(cur.ids), bool)
+        if self._prev is not None:
+            r, c, mothers, daughters = _match(self._prev, cur, self.min_iou, self.child_fraction,
+                                              self.mother_fraction)
+            tracks[c] = self._prev_tracks[r]
+            new[c] = False
+            ended = np.setdiff1d(np.arange(len(self._prev.ids)), np.r_[r, mothers])
+            if self.max_gap:
+                # cells starting at this frame (not daughters) may continue a track seen before t-1
+                starting = new.copy()
+                starting[daughters.ravel()] = False
+                self._close_gaps(cur, frame, tracks, starting)
+                new &= starting | np.isin(np.arange(len(cur.ids)), daughters.ravel())
+            self._add_dormant(ended)
+        tracks[new] = self._new_ids(cur.ids[new])
+        if self._prev is not None:
+            for m, (da, db) in zip(mothers.tolist(), daughters.tolist()):
+                self._parent[int(tracks[da])] = self._parent[int(tracks[db])] = int(self._prev_tracks[m])
+        self._frames.append(np.full(len(cur.ids), frame, np.int64))
+        self._cells.append(cur.ids)
+        self._tracks.append(tracks)
+        self._prev, self._prev_tracks, self._prev_frame = cur, tracks, frame
+        self._n += 1
+        return tracks
+
+    def tracks(self) -> pd.DataFrame:
+        """``frame``, ``cell`` (label id), ``track`` of every cell added so far."""
+        if not self._frames:
+            return pd.DataFrame({"frame": np.empty(0, np.int64), "cell": np.empty(0, np.int64),
+                                 "track": np.empty(0, np.int64)})
+        return pd.DataFrame({"frame": np.concatenate(self._frames), "cell": np.concatenate(self._cells),
+                             "track": np.concatenate(self._tracks)})
+
+    @property
+    def parents(self) -> dict:
+        """``{daughter track: mother track}`` of the divisions found."""
+        return dict(self._parent)
+
+
+def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.DataFrame:
+    """One row per track: its frame span and how it begins and ends.
+
+    Parameters
+    ----------
+    tracks : pandas.DataFrame
+        Columns ``frame``, ``track`` (plus anything else).
+    parents : dict, optional
+        ``{daughter track: mother track}``.
+    is_border : array of bool, optional
+        Aligned with ``tracks``: the cell touches the image edge or the
+        background.  Tracks starting (ending) on a border cell begin (end) as
+        ``border``; otherwise ``appearance`` (``extrusion``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns described in :data:`LINEAGE_COLUMNS`: ``track``,
+        ``frame_start``, ``frame_end`` (frames), ``n_frames``, ``parent``
+        (0 = none), ``begin``, ``end``.
+    """
+    parents = parents or {}
+    df = pd.DataFrame({"frame": tracks["frame"].to_numpy(np.int64), "track": tracks["track"].to_numpy(np.int64)})
+    df["is_border"] = False if is_border is None else np.asarray(is_border, bool)
+    df = df.sort_values(["track", "frame"], kind="stable")
+    g = df.groupby("track", sort=True)
+    first, last = g.first(), g.last()
+    out = pd.DataFrame({"track": first.index.to_numpy(np.int64),
+                        "frame_start": first["frame"].to_numpy(np.int64),
+                        "frame_end": last["frame"].to_numpy(np.int64)})
+    out["n_frames"] = g.size().to_numpy(np.int64)
+    out["parent"] = out["track"].map(parents).fillna(0).astype(np.int64)
+    t0, t1 = df["frame"].min(), df["frame"].max()
+    mothers = set(parents.values())
+    begin = np.where(first["is_border"].to_numpy(bool), "border", "appearance").astype(object)
+    begin[out["parent"].to_numpy() > 0] = "division"
+    begin[out["frame_start"].to_numpy() == t0] = "movie_start"
+    end = np.where(last["is_border"].to_numpy(bool), "border", "extrusion").astype(object)
+    end[out["track"].isin(mothers).to_numpy()] = "division"
+    end[out["frame_end"].to_numpy() == t1] = "movie_end"
+    out["begin"] = pd.array(begin, dtype="string")
+    out["end"] = pd.array(end, dtype="string")
+    return out.reset_index(drop=True)
+
+
+def edge_touching(labels: np.ndarray, margin: int = 2) -> np.ndarray:
+    """Sorted ids of the cells with a pixel within ``margin`` px of the image edge.
+
+    A margin of 2 px also catches cells separated from the edge by a 1-px membrane line.
+    """
+    m = max(1, int(margin))
+    rim = np.concatenate([labels[:m].ravel(), labels[-m:].ravel(), labels[:, :m].ravel(), labels[:, -m:].ravel()])
+    ids = np.unique(rim)
+    return ids[ids > 0]
+
+
+def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0, progress=False):
+    """Track the cells of a label movie by overlap.
+
+    Parameters
+    ----------
+    stack : T x rows x cols array-like or sequence of 2-D label images
+        Frames are read one at a time (``stack[t]``), so lazily indexed
+        arrays (zarr, dask, memory maps) are never loaded whole.
+    min_iou, child_fraction, mother_fraction : float
+        See :func:`match_frames`.
+    max_gap : int
+        Frames a cell may be missing and still continue its track (see :class:`Tracker`).
+    progress : bool
+        Show a tqdm progress bar.
+
+    Returns
+    -------
+    tracks : pandas.DataFrame
+        ``frame``, ``cell`` (label id), ``track`` (track id).
+    lineage : pandas.DataFrame
+        See :func:`lineage_table`; a cell within 2 px of the image edge counts
+        as a border cell.
+    """
+    from tqdm.auto import tqdm
+
+    n = len(stack)
+    tracker = Tracker(min_iou, child_fraction, mother_fraction, max_gap)
+    border = []
+    for t in tqdm(range(n), desc="tracking", disable=not progress):
+        labels = as_label_image(stack[t], f"stack[{t}]")
+        tracker.add(labels, t)
+        border.append(np.isin(tracker._cells[-1], edge_touching(labels)))
+    tracks = tracker.tracks()
+    lineage = lineage_table(tracks, tracker.parents, np.concatenate(border) if border else None)
+    return tracks, lineage

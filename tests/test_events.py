@@ -1,0 +1,192 @@
+"""T1 detection and classification against exact Voronoi truth and hand-made networks."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue.errors import InputError
+from hexatissue.events import (cell_event_stats, classify_t1, contact_table, detect_t1, find_t1,
+                               intercalation_intervals)
+from hexatissue.synthetic import movie_contacts, t1_movie, voronoi_movie
+
+KEY = ["kind", "frame_start", "frame_end", "duration", "cell_a", "cell_b", "cell_c", "cell_d", "frame_gain"]
+
+
+@pytest.fixture(scope="module", params=[True, False], ids=["periodic", "open"])
+def movie(request):
+    return t1_movie(periodic=request.param, seed=1)
+
+
+def test_truth_contains_every_kind(movie):
+    kinds = movie.events["kind"].tolist()
+    assert kinds.count("cycle") == 2 and kinds.count("intercalation") == 2 and kinds.count("unresolved") == 1
+    fourfold = movie.events[movie.events["frame_gain"] > movie.events["frame_start"]]
+    assert (fourfold["frame_gain"] - fourfold["frame_start"]).min() >= 3  # a persistent four-fold vertex
+
+
+def test_events_equal_exact_voronoi_truth(movie):
+    ev = detect_t1(movie.edges, movie.cells, min_length=movie.min_length, censor=movie.censor, box=movie.box)
+    pd.testing.assert_frame_equal(ev[KEY].astype({"kind": object}), movie.events[KEY].astype({"kind": object}))
+    np.testing.assert_allclose(ev[["x", "y"]], movie.events[["x", "y"]], atol=1e-9)
+    assert ev["event"].tolist() == list(range(len(ev)))
+
+
+def test_raw_network_without_zero_ridges_gives_same_events(movie):
+    edges = movie.edges[movie.edges["length"] > 1e-6]
+    ev = detect_t1(edges, movie.cells, min_length=0.0, censor=movie.censor, box=movie.box)
+    assert ev[KEY[:-1]].astype(str).equals(movie.events[KEY[:-1]].astype(str))
+
+
+def test_censor_window(movie):
+    late = movie.events[movie.events["kind"] == "unresolved"]
+    n_last = int(movie.cells["frame"].max()) - int(late["frame_start"].iloc[0])
+    ev = detect_t1(movie.edges, movie.cells, min_length=movie.min_length, censor=n_last, box=movie.box)
+    assert (ev["kind"] == "unresolved").sum() == 0 and (ev["kind"] == "intercalation").sum() == 3
+    ev = detect_t1(movie.edges, movie.cells, min_length=movie.min_length, censor=100, box=movie.box)
+    assert (ev["kind"] == "intercalation").sum() == 0 and (ev["kind"] == "cycle").sum() == 2
+
+
+def test_permuted_track_ids_give_permuted_events(movie):
+    rng = np.random.default_rng(4)
+    perm = rng.permutation(np.arange(1, 2000))[: movie.cells["cell"].max() + 1]
+    cells = movie.cells.assign(track=perm[movie.cells["cell"]], cell=movie.cells["cell"] + 1000)
+    edges = movie.edges.assign(cell_a=movie.edges["cell_a"] + 1000, cell_b=movie.edges["cell_b"] + 1000)
+    ev = detect_t1(edges, cells, min_length=movie.min_length, censor=movie.censor, box=movie.box)
+    back = dict(zip(perm.tolist(), range(len(perm))))
+    got = {(r.kind, r.frame_start, frozenset({back[r.cell_a], back[r.cell_b]}),
+            frozenset({back[r.cell_c], back[r.cell_d]})) for r in ev.itertuples()}
+    want = {(r.kind, r.frame_start, frozenset({r.cell_a, r.cell_b}), frozenset({r.cell_c, r.cell_d}))
+            for r in movie.events.itertuples()}
+    assert got == want
+
+
+# Hand-made network: a quartet a=1, b=2, c=3, d=4 surrounded by nothing else.
+def _quartet_tables(states, lengths=None, absent=()):
+    """Frames with 'ab' (1-2 touch), 'cd' (3-4 touch) or '4' (four-fold); cells 1-4 always present
+    except (frame, cell) pairs in ``absent``."""
+    rows = []
+    for t, s in enumerate(states):
+        length = 5.0 if lengths is None else lengths[t]
+        for a, b in ((1, 3), (1, 4), (2, 3), (2, 4)):
+            rows.append((t, a, b, 10.0))
+        if s == "ab":
+            rows.append((t, 1, 2, length))
+        elif s == "cd":
+            rows.append((t, 3, 4, length))
+        rows.append((t, 0, 1, 3.0))  # contacts with the outside are ignored
+    edges = pd.DataFrame(rows, columns=["frame", "cell_a", "cell_b", "length"])
+    cells = pd.DataFrame([(t, c, float(c), 0.0) for t in range(len(states)) for c in (1, 2, 3, 4)
+                          if (t, c) not in absent], columns=["frame", "cell", "x", "y"])
+    keep = [not ((t, a) in absent or (t, b) in absent) for t, a, b in zip(edges["frame"], edges["cell_a"],
+                                                                          edges["cell_b"])]
+    return edges[keep], cells
+
+
+def test_oscillating_t1s_are_cycles_and_min_length_suppresses_them():
+    # tyssue #239: a nearly four-fold vertex flickering between a-b and c-d
+    states = ["ab"] * 3 + ["cd", "ab"] * 3 + ["ab"] * 3
+    lengths = [5.0] * 3 + [0.5] * 6 + [5.0] * 3
+    edges, cells = _quartet_tables(states, lengths)
+    ev = detect_t1(edges, cells, censor=2)
+    assert ev["kind"].tolist() == ["cycle"] * 3
+    assert ev["frame_start"].tolist() == [3, 5, 7] and ev["duration"].tolist() == [1.0, 1.0, 1.0]
+    assert ev[["cell_a", "cell_b", "cell_c", "cell_d"]].drop_duplicates().values.tolist() == [[1, 2, 3, 4]]
+    assert detect_t1(edges, cells, min_length=1.0, censor=2).empty
+
+
+def test_persistent_fourfold_vertex_then_reversal():
+    states = ["ab"] * 3 + ["4"] * 4 + ["cd"] * 3 + ["4"] * 2 + ["ab"] * 2 + ["4"] * 2 + ["ab"] * 4
+    ev = detect_t1(*_quartet_tables(states), censor=2)
+    assert len(ev) == 1
+    r = ev.iloc[0]
+    assert (r["kind"], r["frame_start"], r["frame_gain"], r["frame_undo"], r["frame_end"]) == \
+           ("cycle", 3, 7, 10.0, 12.0)
+    assert r["duration"] == 9.0
+
+
+def test_failed_t1_and_repeated_gain_are_not_events():
+    # a-b lost to a four-fold vertex and regained: no exchange
+    assert detect_t1(*_quartet_tables(["ab"] * 3 + ["4"] * 3 + ["ab"] * 3)).empty
+    # one T1 whose c-d junction flickers through a four-fold vertex: one intercalation
+    states = ["ab"] * 3 + ["cd"] * 3 + ["4"] + ["cd"] * 10
+    ev = detect_t1(*_quartet_tables(states), censor=3)
+    assert ev["kind"].tolist() == ["intercalation"] and ev["frame_start"].tolist() == [3]
+
+
+def test_contacts_of_cells_entering_or_leaving_are_not_t1s():
+    states = ["ab"] * 3 + ["cd"] * 5
+    # cell 1 is absent at frame 3: the loss of a-b is explained by it leaving
+    edges, cells = _quartet_tables(states, absent={(3, 1)})
+    assert detect_t1(edges, cells).empty
+    # cell 3 appears at frame 3 (absent before): the c-d gain is explained by it entering
+    edges, cells = _quartet_tables(states, absent={(t, 3) for t in range(3)})
+    assert detect_t1(edges, cells).empty
+    edges, cells = _quartet_tables(states)
+    assert detect_t1(edges, cells, censor=0)["kind"].tolist() == ["intercalation"]
+
+
+def test_every_event_is_a_valid_quartet_on_a_random_movie():
+    mov = voronoi_movie(60, (110, 150), 40, periodic=True, amplitude=0.4, seed=2)
+    seeds = np.stack([mov.seeds(t) for t in range(len(mov))])
+    edges = movie_contacts(seeds, mov.shape[1:], True)
+    cells = pd.DataFrame({"frame": np.repeat(np.arange(len(mov)), len(mov.base)),
+                          "cell": np.tile(np.arange(1, len(mov.base) + 1), len(mov)),
+                          "x": seeds[..., 0].ravel(), "y": seeds[..., 1].ravel()})
+    ev = detect_t1(edges, cells, censor=3, box=mov.box)
+    assert len(ev) >= 5
+    assert_valid_quartets(ev, edges, cells)
+    assert set(ev["kind"]) <= {"cycle", "intercalation", "unresolved"}
+
+
+def assert_valid_quartets(events, edges, cells):
+    """Every event is a neighbour exchange in a quartet, checked directly on the contacts."""
+    con = contact_table(edges, cells)
+    keys = set(zip(con["frame"], con["a"], con["b"]))
+    frames = np.unique(cells["frame"])
+    nbrs = {}
+    for f, a, b in keys:
+        nbrs.setdefault((f, a), set()).add(b)
+        nbrs.setdefault((f, b), set()).add(a)
+    touch = lambda f, u, v: (f, min(u, v), max(u, v)) in keys
+    for r in events.itertuples():
+        before = frames[np.searchsorted(frames, r.frame_start) - 1]
+        after = r.frame_gain
+        assert touch(before, r.cell_a, r.cell_b) and not touch(r.frame_start, r.cell_a, r.cell_b)
+        assert {r.cell_c, r.cell_d} <= nbrs[(before, r.cell_a)] & nbrs[(before, r.cell_b)]
+        assert touch(after, r.cell_c, r.cell_d)
+        assert {r.cell_a, r.cell_b} <= nbrs[(after, r.cell_c)] & nbrs[(after, r.cell_d)]
+        between = frames[(frames >= r.frame_start) & (frames < after)]
+        assert not any(touch(f, r.cell_a, r.cell_b) or touch(f, r.cell_c, r.cell_d) for f in between)
+        if r.kind == "cycle":
+            assert touch(r.frame_end, r.cell_a, r.cell_b) and not touch(r.frame_end, r.cell_c, r.cell_d)
+
+
+def test_cell_statistics():
+    events = pd.DataFrame({
+        "kind": ["intercalation", "cycle", "intercalation", "cycle", "unresolved"],
+        "frame_start": [2, 4, 10, 12, 30], "duration": [np.nan, 3.0, np.nan, 5.0, np.nan],
+        "cell_a": [1, 1, 1, 7, 1], "cell_b": [2, 5, 6, 8, 9], "cell_c": [3, 3, 3, 3, 10],
+        "cell_d": [4, 4, 11, 4, 12]})
+    iv = intercalation_intervals(events)
+    assert iv[iv["track"] == 1][["frame_prev", "frame_next", "interval"]].values.tolist() == [[2, 10, 8]]
+    assert set(iv["track"]) == {1, 3}
+    stats = cell_event_stats(events, pd.DataFrame({"frame": [0, 1, 0], "cell": [1, 1, 99]})).set_index("track")
+    assert stats.loc[1, ["n_cycles", "n_intercalations", "n_unresolved", "n_intervals", "n_frames"]].tolist() == \
+           [1, 2, 1, 1, 2]
+    assert stats.loc[1, "mean_cycle_period"] == 3.0 and stats.loc[1, "mean_intercalation_interval"] == 8.0
+    assert stats.loc[99, "n_cycles"] == 0 and np.isnan(stats.loc[99, "mean_cycle_period"])
+    s3 = cell_event_stats(events).set_index("track").loc[3]
+    assert s3["mean_cycle_period"] == 4.0 and s3["n_intercalations"] == 2
+
+
+def test_bad_input():
+    edges, cells = _quartet_tables(["ab", "cd"])
+    with pytest.raises(InputError, match="min_length"):
+        detect_t1(edges, cells, min_length=-1)
+    with pytest.raises(InputError, match="censor"):
+        detect_t1(edges, cells, censor=-2)
+    with pytest.raises(InputError, match="length"):
+        detect_t1(edges.drop(columns="length"), cells)
+    with pytest.raises(InputError, match="'x'"):
+        detect_t1(edges, cells.drop(columns="x"))
+    empty = classify_t1(find_t1(contact_table(edges.iloc[:0]), cells.rename(columns={"cell": "track"})), 1)
+    assert empty.empty and "kind" in empty.columns

@@ -1,0 +1,67 @@
+import numpy as np
+import pandas as pd
+import pytest
+import tifffile
+
+from hexatissue import InputError, read_labels, read_table, write_table, write_tables
+from hexatissue.io import atomic_path
+
+
+@pytest.mark.parametrize("suffix", [".tif", ".npy", ".npz", ".png", "_seg.npy"])
+def test_read_labels_formats(tmp_path, suffix):
+    labels = (np.arange(48).reshape(6, 8) % 5).astype(np.uint16)
+    path = tmp_path / f"labels{suffix}"
+    if suffix == ".tif":
+        tifffile.imwrite(path, labels)
+    elif suffix == ".npy":
+        np.save(path, labels)
+    elif suffix == ".npz":
+        np.savez(path, labels=labels)
+    elif suffix == ".png":
+        import imageio.v3 as iio
+
+        iio.imwrite(path, labels.astype(np.uint8))
+    else:  # Cellpose saves a dict with the masks
+        np.save(path, {"masks": labels, "outlines": labels * 0}, allow_pickle=True)
+    np.testing.assert_array_equal(read_labels(path), labels)
+
+
+def test_rgb_skeleton_collapses_to_one_channel(tmp_path):
+    skeleton = np.zeros((5, 6, 3), np.uint8)
+    skeleton[2] = 255
+    path = tmp_path / "skel.tif"
+    tifffile.imwrite(path, skeleton)
+    assert read_labels(path).shape == (5, 6)
+
+
+def test_read_labels_errors(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        read_labels(tmp_path / "nope.tif")
+    bad = tmp_path / "bad.tif"
+    bad.write_bytes(b"not a tiff")
+    with pytest.raises(InputError, match="could not read"):
+        read_labels(bad)
+    other = tmp_path / "labels.txt"
+    other.write_text("1 2")
+    with pytest.raises(InputError, match="suffix"):
+        read_labels(other)
+
+
+def test_tables_round_trip_atomically(tmp_path):
+    df = pd.DataFrame({"cell": [1, 2], "x": [0.5, 1.5], "is_border": [True, False]})
+    for name in ("t.parquet", "t.csv"):
+        write_table(df, tmp_path / name)
+        pd.testing.assert_frame_equal(read_table(tmp_path / name), df)
+    paths = write_tables({"cells": df}, tmp_path / "sub", formats=("parquet", "csv"))
+    assert sorted(p.name for p in paths) == ["cells.csv", "cells.parquet"]
+    with pytest.raises(InputError):
+        write_table(df, tmp_path / "t.xlsx")
+
+
+def test_atomic_path_leaves_nothing_on_error(tmp_path):
+    target = tmp_path / "result.txt"
+    with pytest.raises(RuntimeError):
+        with atomic_path(target) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("interrupted")
+    assert not target.exists() and list(tmp_path.iterdir()) == []

@@ -1,0 +1,167 @@
+"""analyze_movie end to end: rasterised synthetic movies with exact truth, executors, inputs, real data."""
+import warnings
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue.box import Box
+from hexatissue.errors import HexatissueWarning, InputError
+from hexatissue.pipeline import analyze_movie
+from hexatissue.synthetic import relabel_movie, t1_movie, voronoi_movie
+from tests.conftest import real_subdir
+from tests.test_events import assert_valid_quartets
+
+KEY = ["kind", "frame_start", "frame_end", "duration", "cell_a", "cell_b", "cell_c", "cell_d", "frame_gain"]
+
+
+@pytest.fixture(scope="module", params=[True, False], ids=["periodic", "open"])
+def movie(request):
+    return t1_movie(periodic=request.param, seed=2)
+
+
+def _events_by_truth_ids(events, cells, maps):
+    """Events with track ids replaced by the original labels (via the relabelling maps)."""
+    to_orig = {}
+    for f, c, t in zip(cells["frame"], cells["cell"], cells["track"]):
+        to_orig.setdefault(t, set()).add(maps[f][c])
+    assert all(len(v) == 1 for v in to_orig.values()), "a track mixes several original cells"
+    to_orig = {t: v.pop() for t, v in to_orig.items()}
+    out = events.copy()
+    for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
+        out[col] = out[col].map(to_orig)
+    # the original ids may order a pair differently
+    for x, y in (("cell_a", "cell_b"), ("cell_c", "cell_d")):
+        lo, hi = np.minimum(out[x], out[y]), np.maximum(out[x], out[y])
+        out[x], out[y] = lo, hi
+    return out.sort_values(["frame_start", "cell_a", "cell_b"], ignore_index=True)
+
+
+def test_rasterised_movie_events_equal_truth(movie):
+    mv = analyze_movie(movie.labels, box=movie.box, n_workers=1, min_length=movie.min_length,
+                       censor=movie.censor, progress=False)
+    ev = mv.extra["events"]
+    pd.testing.assert_frame_equal(ev[KEY].astype({"kind": object}), movie.events[KEY].astype({"kind": object}))
+    # quartet centre from pixel centroids vs from the seeds
+    np.testing.assert_allclose(ev[["x", "y"]], movie.events[["x", "y"]], atol=1.5)
+    assert (mv.cells["track"] == mv.cells["cell"]).all()
+    lin = mv.extra["lineage"]
+    assert len(lin) == movie.labels.max() and (lin["begin"] == "movie_start").all()
+    stats = mv.extra["cell_events"].set_index("track")
+    assert stats["n_cycles"].sum() == 4 * 2 and stats["n_intercalations"].sum() == 4 * 2
+    cyc = movie.events[movie.events["kind"] == "cycle"].iloc[0]
+    assert stats.loc[cyc["cell_a"], "mean_cycle_period"] == cyc["duration"]
+
+
+def test_relabelled_movie_gives_same_events_with_a_process_pool(movie):
+    relabelled, maps = relabel_movie(movie.labels, seed=7)
+    mv = analyze_movie(relabelled, box=movie.box, n_workers=2, min_length=movie.min_length,
+                       censor=movie.censor, progress=False)
+    got = _events_by_truth_ids(mv.extra["events"], mv.cells, maps)
+    pd.testing.assert_frame_equal(got[KEY].astype({"kind": object}), movie.events[KEY].astype({"kind": object}))
+
+
+def test_dask_client_gives_the_serial_result():
+    distributed = pytest.importorskip("distributed")
+    stack = voronoi_movie(30, (80, 110), 6, periodic=True, amplitude=0.5, seed=4)
+    box = Box(110, 80)
+    serial = analyze_movie(stack, box=box, n_workers=1, progress=False)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        parallel = analyze_movie(stack, box=box, client=client, progress=False)
+    for name, table in serial.tables().items():
+        pd.testing.assert_frame_equal(parallel.tables()[name], table)
+
+
+def test_run_objects_skip_tracking_unless_forced():
+    stack = voronoi_movie(30, (80, 110), 4, periodic=True, seed=1)
+    labels = np.stack([stack[t] for t in range(4)])
+    relabelled, maps = relabel_movie(labels, seed=3)
+    run = SimpleNamespace(labels=relabelled, box=Box(110, 80), cells=None, params=None)
+    mv = analyze_movie(run, n_workers=1, progress=False)
+    assert mv.box == run.box
+    assert (mv.cells["track"] == mv.cells["cell"]).all()  # identity trusted
+    mv = analyze_movie(run, track=True, n_workers=1, progress=False)
+    orig = np.array([maps[f][c] for f, c in zip(mv.cells["frame"], mv.cells["cell"])])
+    assert len(set(zip(mv.cells["track"], orig))) == len(np.unique(orig)) == mv.cells["track"].nunique()
+    # a label stack can be trusted too
+    mv = analyze_movie(relabelled, box=run.box, track=False, n_workers=1, progress=False)
+    assert (mv.cells["track"] == mv.cells["cell"]).all()
+
+
+def test_inputs_and_writing(tmp_path):
+    stack = voronoi_movie(20, (60, 90), 3, periodic=False, seed=0)
+    from_lazy = analyze_movie(stack, n_workers=1, progress=False)
+    from_list = analyze_movie([stack[t] for t in range(3)], n_workers=1, progress=False)
+    pd.testing.assert_frame_equal(from_lazy.cells, from_list.cells)
+    assert sorted(from_lazy.frames.tolist()) == [0, 1, 2]
+    paths = from_lazy.write(tmp_path)
+    names = {p.name for p in paths}
+    assert {"events.parquet", "lineage.parquet", "cell_events.parquet", "cells.parquet"} <= names
+    back = pd.read_parquet(tmp_path / "lineage.parquet")
+    assert list(back.columns) == list(from_lazy.extra["lineage"].columns)
+    # a saved stack file is read too
+    np.save(tmp_path / "stack.npy", np.stack([stack[t] for t in range(3)]))
+    from_file = analyze_movie(tmp_path / "stack.npy", n_workers=1, progress=False)
+    pd.testing.assert_frame_equal(from_file.cells, from_lazy.cells)
+
+
+def test_bad_input():
+    with pytest.raises(InputError, match="T x rows x cols"):
+        analyze_movie(np.ones((5, 5), int), progress=False)
+    with pytest.raises(InputError, match="empty"):
+        analyze_movie([], progress=False)
+    with pytest.raises(InputError, match="does not match"):
+        analyze_movie(np.ones((2, 5, 6), int), box=Box(5, 6), n_workers=1, progress=False)
+    with pytest.raises(InputError, match="n_workers"):
+        analyze_movie(np.ones((2, 5, 6), int), n_workers=0, progress=False)
+    with pytest.raises(InputError, match="stack_or_run"):
+        analyze_movie(42, progress=False)
+
+
+def test_epicure_division_through_the_pipeline(real_data):
+    path = real_subdir(real_data, "epicure_notum") / "013_crop_labels_copy.npz"
+    if not path.exists():
+        pytest.skip("013_crop_labels_copy.npz is absent")
+    labels = np.load(path)["labels"]
+    relabelled, maps = relabel_movie(labels.astype(np.int64), seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        mv = analyze_movie(relabelled, n_workers=1, max_gap=4, progress=False)
+    cells = mv.cells.assign(curated=[maps[f][c] for f, c in zip(mv.cells["frame"], mv.cells["cell"])])
+    track_of = cells.drop_duplicates("curated").set_index("curated")["track"]
+    lin = mv.extra["lineage"].set_index("track")
+    assert lin.loc[track_of[73], "end"] == "division"
+    assert lin.loc[track_of[477], "parent"] == lin.loc[track_of[490], "parent"] == track_of[73]
+    assert_valid_quartets(mv.extra["events"], mv.edges, mv.cells)
+
+
+@pytest.mark.parametrize("pos", ["pos00", "pos01", "pos02"])
+def test_itasc_events_are_valid_quartets_and_stable_under_relabelling(real_data, pos):
+    tifffile = pytest.importorskip("tifffile")
+    path = real_subdir(real_data, "itasc_micropattern") / pos / "cell_labels.tif"
+    if not path.exists():
+        pytest.skip(f"{pos}/cell_labels.tif is absent")
+    labels = tifffile.imread(path).astype(np.int64)  # AGPL data: read in place, never copied
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        mv = analyze_movie(labels, n_workers=1, censor=3, progress=False)
+        relabelled, maps = relabel_movie(labels, seed=5)
+        mv2 = analyze_movie(relabelled, n_workers=1, censor=3, progress=False)
+    ev = mv.extra["events"]
+    assert len(ev) > 0
+    assert_valid_quartets(ev, mv.edges, mv.cells)
+    # same events once the relabelled run's tracks are mapped back to the original tracks
+    orig_track = {(f, c): t for f, c, t in zip(mv.cells["frame"], mv.cells["cell"], mv.cells["track"])}
+    to_first = {}
+    for f, c, t in zip(mv2.cells["frame"], mv2.cells["cell"], mv2.cells["track"]):
+        to_first.setdefault(t, set()).add(orig_track[(f, maps[f][c])])
+    assert all(len(v) == 1 for v in to_first.values())
+    maps_back = {t: v.pop() for t, v in to_first.items()}
+    got = mv2.extra["events"].copy()
+    for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
+        got[col] = got[col].map(maps_back)
+    canon = lambda df: sorted((r.kind, r.frame_start, r.frame_gain, tuple(sorted((r.cell_a, r.cell_b))),
+                               tuple(sorted((r.cell_c, r.cell_d)))) for r in df.itertuples())
+    assert canon(got) == canon(ev)
