@@ -58,3 +58,47 @@ def pointwise(psi, psi_x, psi_y, lap, vel, omega, domega, L6, A6, B6):
     real = psi.real.dtype.type
     _pointwise(psi, psi_x, psi_y, lap, vel, omega, domega, real(L6), real(A6), real(B6), *out)
     return tuple(out)
+
+
+def implicit_solve_numpy(r_psi, r_om, u, a, visc, c1, c2, tau):
+    """Plain-numpy reference of :func:`implicit_solve` (``Solver.solve_implicit`` documents the block)."""
+    ny, nx = r_psi.shape
+    q = np.conj(r_psi[(-np.arange(ny)) % ny][:, (-np.arange(nx)) % nx])
+    ub = np.conj(u)
+    s = (ub * r_psi + u * q) / (1 + tau * a)
+    re = ub * r_psi - u * q
+    a11 = 1 + tau * a
+    a22 = 1 + tau * visc
+    det = a11 * a22 + tau**2 * c1 * c2
+    e = (a22 * re - 1j * tau * c1 * r_om) / det
+    w = (a11 * r_om - 1j * tau * c2 * re) / det
+    return u * (s + e) / 2, w
+
+
+@numba.njit(cache=True)
+def _implicit_solve(r_psi, r_om, u, a, visc, c1, c2, tau, out_psi, out_om):
+    ny, nx = r_psi.shape
+    for i in range(ny):
+        ii = (ny - i) % ny
+        for j in range(nx):
+            jj = (nx - j) % nx
+            p = r_psi[i, j]
+            q = np.conj(r_psi[ii, jj])
+            uu = u[i, j]
+            ub = np.conj(uu)
+            a11 = 1 + tau * a[i, j]
+            a22 = 1 + tau * visc[i, j]
+            s = (ub * p + uu * q) / a11
+            re = ub * p - uu * q
+            det = a11 * a22 + tau * tau * c1[i, j] * c2[i, j]
+            e = (a22 * re - 1j * tau * c1[i, j] * r_om[i, j]) / det
+            out_om[i, j] = (a11 * r_om[i, j] - 1j * tau * c2[i, j] * re) / det
+            out_psi[i, j] = uu * (s + e) / 2
+
+
+def implicit_solve(r_psi, r_om, u, a, visc, c1, c2, tau):
+    """Solve the per-wavevector 3 x 3 implicit block (numba; same as :func:`implicit_solve_numpy`)."""
+    out_psi = np.empty_like(r_psi)
+    out_om = np.empty_like(r_om)
+    _implicit_solve(r_psi, r_om, u, a, visc, c1, c2, r_psi.real.dtype.type(tau), out_psi, out_om)
+    return out_psi, out_om

@@ -15,7 +15,11 @@ INTEGRATORS = ("sbdf2", "rk4")
 
 @dataclass(frozen=True)
 class HydroParams:
-    """Model and numerical parameters (defaults: the paper's values).
+    """Model and numerical parameters (defaults: the paper's model values; production numerics).
+
+    Production numerics: ``scheme="spectral", integrator="sbdf2", dt=0.05``.  The
+    paper's scheme is ``scheme="fd", integrator="rk4", dt=0.1`` (stable up to dt
+    0.2); ``fd`` with ``sbdf2`` needs dt <= 0.05 (docs/hydro.md).
 
     Parameters
     ----------
@@ -55,8 +59,8 @@ class HydroParams:
     lambda6: float = 1.11
     alpha6: float = 0.0
     dx: float = 1.0
-    dt: float = 0.1
-    scheme: str = "fd"
+    dt: float = 0.05
+    scheme: str = "spectral"
     integrator: str = "sbdf2"
     dtype: str = "float64"
 

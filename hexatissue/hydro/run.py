@@ -232,6 +232,10 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
     bar = tqdm(total=last_step, initial=state.step, disable=not progress, unit="step", leave=False)
     pending = []
     done = False
+    if frame > 0 and stop is not None:  # resumed: the run may already have met its stop condition
+        last = {k: v[-1] for k, v in mem.scal.items()}
+        d = pd.concat(mem.defects, ignore_index=True) if mem.defects else pd.DataFrame(columns=list(DEFECT_COLS))
+        done = bool(stop(last, d[d["frame"] == frame - 1]))
     if frame == 0:
         done = _record(solver, state, mem, store, pending, 0, field_every, stop, last=False)
         frame = 1
