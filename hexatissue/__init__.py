@@ -17,6 +17,7 @@ from .order import cell_radius, cell_stress, cells_from_polygons, coarse_grain, 
 from .events import cell_event_stats, detect_t1, intercalation_intervals
 from .pipeline import analyze_movie
 from .track import Tracker, lineage_table, track_labels
+from .theory import active_force, ell6, quadrupole_flow, quadrupole_psi
 
 try:
     __version__ = _version("hexatissue")
@@ -50,8 +51,34 @@ __all__ = [
     "detect_t1",
     "cell_event_stats",
     "intercalation_intervals",
+    "MPFParams",
+    "run_simulation",
+    "read_run",
+    "HydroParams",
+    "run_dipole",
+    "run_quadrupole",
+    "quadrupole_psi",
+    "active_force",
+    "quadrupole_flow",
+    "ell6",
     "mesh_from_labels",
     "neighbor_graph",
     "contact_table",
     "__version__",
 ]
+
+
+# the simulators (numba + zarr) are imported on first use, not with the package
+_LAZY = {"MPFParams": ("hexatissue.simulate", "Params"), "read_run": ("hexatissue.simulate", "read_run"),
+         "run_simulation": ("hexatissue.simulate", "run_simulation"),
+         "HydroParams": ("hexatissue.hydro", "HydroParams"), "run_dipole": ("hexatissue.hydro", "run_dipole"),
+         "run_quadrupole": ("hexatissue.hydro", "run_quadrupole")}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        from importlib import import_module
+
+        module, attr = _LAZY[name]
+        return getattr(import_module(module), attr)
+    raise AttributeError(f"module 'hexatissue' has no attribute {name!r}")

@@ -195,7 +195,7 @@ def _check_box(box, shape):
 
 def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store, progress):
     """Per-frame mesh tables (in frame order), tracking and the checked box, with bounded frames in flight."""
-    from tqdm.auto import tqdm
+    from .progress import progress as progress_bar
 
     parts = {name: [] for name in MESH_TABLES}
     start, shape = 0, None
@@ -222,7 +222,8 @@ def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, st
                 new_parts[name] = []
 
     try:
-        for t in tqdm(range(start, n_frames), desc="frames", disable=not progress, initial=start, total=n_frames):
+        for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
+                              total=n_frames):
             labels = validate_labels(frames[t], f"frame {t}")
             if shape is None:
                 shape = labels.shape

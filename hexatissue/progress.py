@@ -13,11 +13,13 @@ from tqdm.auto import tqdm
 __all__ = ["progress"]
 
 
-def progress(iterable=None, **kwargs):
-    """``tqdm(iterable, **kwargs)``, disabled when stderr is not a terminal (unless forced)."""
+def progress(iterable=None, enabled=True, **kwargs):
+    """``tqdm(iterable, **kwargs)``; off when ``enabled`` is False, else shown on a terminal (or when forced)."""
     setting = os.environ.get("HEXATISSUE_PROGRESS", "")
-    if setting in ("0", "1"):
-        kwargs.setdefault("disable", setting == "0")
+    if not enabled:
+        kwargs["disable"] = True
+    elif setting in ("0", "1"):
+        kwargs["disable"] = setting == "0"
     else:
-        kwargs.setdefault("disable", not sys.stderr.isatty())
+        kwargs["disable"] = not sys.stderr.isatty()
     return tqdm(iterable, **kwargs)

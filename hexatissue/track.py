@@ -442,12 +442,12 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
         See :func:`lineage_table`; a cell within 2 px of the image edge counts
         as a border cell.
     """
-    from tqdm.auto import tqdm
+    from .progress import progress as progress_bar
 
     n = len(stack)
     tracker = Tracker(min_iou, child_fraction, mother_fraction, max_gap)
     border = []
-    for t in tqdm(range(n), desc="tracking", disable=not progress):
+    for t in progress_bar(range(n), enabled=progress, desc="tracking"):
         labels = validate_labels(stack[t], f"stack[{t}]")
         tracker.add(labels, t)
         border.append(np.isin(tracker._cells[-1], edge_touching(labels)))

@@ -207,11 +207,15 @@ def test_short_mpf_run_end_to_end(tmp_path):
     mv = analyze_movie(path, n_workers=1, progress=False)  # a run store path: read with read_run
     assert mv.box == run.box and len(mv) == run.labels.shape[0]
     assert (mv.cells["track"] == mv.cells["cell"]).all()  # MPF ids are consistent: no tracking
-    # every simulated cell is found, at its phase-field centre (minimum image)
+    # every simulated cell is found, and its phase-field centre lies inside its own label region
+    # (pixel centroids may differ by a few px: holes between unrelaxed cells go to their neighbours)
     both = mv.cells.merge(run.cells, on=["frame", "cell"], suffixes=("", "_run"), validate="one_to_one")
     assert len(both) == len(run.cells)
+    centre = np.round(both[["x_run", "y_run"]].to_numpy()).astype(int) % [int(run.box.Lx), int(run.box.Ly)]
+    owner = [np.asarray(run.labels[t])[y, x] for t, (x, y) in zip(both["frame"], centre)]
+    assert (np.array(owner) == both["cell"].to_numpy()).all()
     d = run.box.min_image(both[["x", "y"]].to_numpy() - both[["x_run", "y_run"]].to_numpy())
-    assert np.abs(d).max() < 2.0
+    assert np.abs(d).max() < 6.0
     lin = mv.extra["lineage"]
     assert len(lin) == params.n_cells and (lin["begin"] == "movie_start").all()
     assert_valid_quartets(mv.extra["events"], mv.edges, mv.cells)

@@ -231,7 +231,7 @@ def test_relaxed_tissue_is_confluent_keeps_identity_and_area(relaxed16):
 
 def test_segment_kernel_equals_reference(relaxed16):
     sim = relaxed16
-    expected = labels_from_fields(sim.full_fields(), sim.params.phi0)
+    expected = labels_from_fields(sim.full_fields(), sim.params.phi0, max_hole=np.pi * sim.params.R**2)
     assert np.array_equal(segment(sim), expected)
 
 
@@ -464,3 +464,25 @@ def test_paper_system_relaxes_confluent():
     assert (labels == 0).sum() == 0 and len(np.unique(labels)) == p.n_cells
     assert np.all(np.abs(sim.moments()[:, 0] / (math.pi * p.R**2) - 1) < 0.02)
     assert sim.leak.max() < 1e-3
+
+
+def test_holes_smaller_than_a_cell_are_filled_larger_space_is_background():
+    """Gap regions below max_hole px go to the surrounding cells; a large empty region stays 0."""
+    from hexatissue.simulate.segment import labels_from_max
+
+    shape = (40, 60)
+    imax = np.where(np.arange(60)[None, :] < 30, 0, 1) * np.ones(shape, int)
+    vmax = np.ones(shape)
+    vmax[10:14, 28:33] = 0.1  # a 20 px hole where no field reaches phi0 / 2 (total field low too)
+    vmax[25:40, 40:60] = 0.0  # a 300 px empty region
+    vsum = vmax.copy()
+    imax[vmax < 0.5] = -1
+    # a thin gap line covered by overlapping interfaces (total field > phi0 / 2) joins the hole to the
+    # empty region: it is filled first, so the hole still counts as small
+    vmax[14:25, 30] = 0.3
+    vsum[14:25, 30] = 0.8
+    imax[14:25, 30] = -1
+    labels = labels_from_max(vmax, imax, vsum, 1.0, max_hole=100)
+    assert (labels[10:14, 28:33] > 0).all() and (labels[14:25, 30] > 0).all()
+    assert (labels[25:40, 40:60] == 0).all()
+    assert (labels_from_max(vmax, imax, vsum, 1.0)[10:14, 28:33] == 0).all()  # no filling without max_hole

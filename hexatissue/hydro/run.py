@@ -215,7 +215,7 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
     -------
     HydroResult (``defects`` untracked: ``defect`` is the per-frame index)
     """
-    from tqdm.auto import tqdm
+    from ..progress import progress as progress_bar
 
     if steps is None and max_time is None:
         raise InputError("give steps or max_time (a safety cap when running until a stop condition)")
@@ -229,7 +229,7 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
     else:
         state = state.copy()
         mem, frame = _Memory(), 0
-    bar = tqdm(total=last_step, initial=state.step, disable=not progress, unit="step", leave=False)
+    bar = progress_bar(total=last_step, initial=state.step, enabled=progress, unit="step", leave=False)
     pending = []
     done = False
     if frame > 0 and stop is not None:  # resumed: the run may already have met its stop condition

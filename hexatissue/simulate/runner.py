@@ -183,10 +183,10 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
 
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from ..progress import progress as progress_bar
 
-        bar = tqdm(total=relax + steps, initial=sim.step + relax, unit="step", dynamic_ncols=True,
-                   desc=f"MPF {sim.params.n_cells} cells")
+        bar = progress_bar(total=relax + steps, initial=sim.step + relax, unit="step", dynamic_ncols=True,
+                           desc=f"MPF {sim.params.n_cells} cells")
     done, seconds, last_ckpt, interrupted = 0, 0.0, time.monotonic(), False
     n_saved = int(store.attrs["n_frames"])
     writer = _Writer()
