@@ -4,11 +4,11 @@ Random-walk cells in the paper's 384 x 403 periodic box, 12 defects and 10 T1 ev
 Prints the median of ``--repeats`` wall times per analysis.  Run: ``python benchmarks/bench_analysis.py``.
 """
 import argparse
-import time
 
 import numpy as np
 import pandas as pd
 
+from _timing import median_time  # benchmarks/_timing.py (the script's own folder is on sys.path)
 from hexatissue.analysis import cell_timing, migration_populations, migration_table, t1_defect_proximity
 from hexatissue.box import Box
 
@@ -35,13 +35,6 @@ def tables(n_cells=440, n_frames=2001, n_defects=12, n_events=10, seed=0):
     return cells, defects, events, box
 
 
-def timed(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def main():
@@ -59,7 +52,7 @@ def main():
         "cell_timing": lambda: cell_timing(events, cells),
     }
     for name, fn in runs.items():
-        print(f"{name}: {timed(fn, args.repeats):.2f} s (median of {args.repeats})")
+        print(f"{name}: {median_time(fn, args.repeats):.2f} s (median of {args.repeats})")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,6 @@ from __future__ import annotations
 import os
 import platform
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -18,18 +17,12 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _timing import median_time  # noqa: E402  (benchmarks/_timing.py)
 from hexatissue import Box  # noqa: E402
 from hexatissue.defects import defect_events, find_defects, track_defects  # noqa: E402
 from hexatissue.order import cell_stress, coarse_grain  # noqa: E402
 
 
-def median_time(fn, repeats=5):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
 
 
 def random_cells(n_side, a=10.0, seed=0):

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
-from pathlib import Path
 
 from importlib import import_module
 

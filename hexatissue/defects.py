@@ -17,7 +17,7 @@ from scipy.optimize import linear_sum_assignment
 from .box import Box
 from .errors import InputError
 from .order import _check_p
-from .schema import validate
+from .schema import require_columns, validate
 
 __all__ = [
     "plaquette_charges",
@@ -197,7 +197,7 @@ def find_defects(grid, p=6, box=None):
         ``charge`` (a nonzero multiple of ``1/p``), ``p``.
     """
     p = _check_p(p)
-    _check_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
+    require_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
     if len(grid) == 0:
         raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
     _check_box(box)
@@ -257,7 +257,7 @@ def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
         bin area``, 1/px^2), ``charge_density`` (sum of charges / bin area,
         1/px^2).  Defects outside the extent are ignored.
     """
-    _check_columns(defects, ("x", "y", "charge"), "defects")
+    require_columns(defects, ("x", "y", "charge"), "defects")
     if isinstance(extent, Box):
         lo, size = np.zeros(2), extent.lengths
         wrap = extent.wrap if extent.periodic else (lambda xy: xy)
@@ -311,14 +311,6 @@ def _check_box(box):
     if box is not None and not isinstance(box, Box):
         raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
     return box
-
-
-def _check_columns(table, columns, name):
-    if not isinstance(table, pd.DataFrame):
-        raise InputError(f"{name} must be a pandas DataFrame; got {type(table).__name__}")
-    missing = [c for c in columns if c not in table.columns]
-    if missing:
-        raise InputError(f"{name} is missing column(s) {missing}; expected at least {list(columns)}")
 
 
 def _pair_distances(a, b, box):
@@ -400,7 +392,7 @@ def track_defects(defects, max_distance, box=None, time_column="frame", frames=N
         column (int64): tracks are numbered from 0 in order of their first
         frame, then of row order.
     """
-    _check_columns(defects, (time_column, "x", "y", "charge"), "defects")
+    require_columns(defects, (time_column, "x", "y", "charge"), "defects")
     _check_box(box)
     if not np.isfinite(max_distance) or max_distance <= 0:
         raise InputError(f"max_distance must be a positive finite distance in px; got {max_distance!r}")
@@ -496,7 +488,7 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         negative partners; -1 when absent), ``separation`` (px, distance
         between the partners; NaN when unpaired).
     """
-    _check_columns(tracked, (time_column, "x", "y", "charge", "track"), "tracked")
+    require_columns(tracked, (time_column, "x", "y", "charge", "track"), "tracked")
     _check_box(box)
     if not np.isfinite(pair_distance) or pair_distance <= 0:
         raise InputError(f"pair_distance must be a positive finite distance in px; got {pair_distance!r}")

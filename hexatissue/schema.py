@@ -14,7 +14,7 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["TABLES", "validate", "describe"]
+__all__ = ["TABLES", "validate", "describe", "require_columns"]
 
 # column -> (dtype kind: i integer, f float, b bool, O string/object, unit, meaning)
 TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
@@ -161,3 +161,17 @@ def validate(df: pd.DataFrame, table: str) -> pd.DataFrame:
             if dkind not in _KIND_OK[kind] and not (kind == "O" and pd.api.types.is_string_dtype(df[c])):
                 raise InputError(f"{table} table column {c!r} has dtype {df[c].dtype}; expected kind {kind!r}")
     return df
+
+
+def require_columns(table, columns, name):
+    """Raise :class:`InputError` unless ``table`` is a DataFrame holding ``columns``; return it.
+
+    For functions that need only some columns of a table (or tables that
+    have no schema).
+    """
+    if not isinstance(table, pd.DataFrame):
+        raise InputError(f"{name} must be a pandas DataFrame; got {type(table).__name__}")
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise InputError(f"{name} is missing column(s) {missing}; expected at least {list(columns)}")
+    return table

@@ -330,7 +330,7 @@ def _truth_events(contacts, quartets, n_frames, min_length, censor, seeds, box):
                 raise AssertionError(f"quartet {q.name}: a-b and c-d in contact at frame {t}")
             state.append("ab" if has_ab else "cd" if has_cd else "4")
         # Each T1 = the last 'ab' run ends and 'cd' follows (possibly after a four-fold '4' run).
-        t1s, last, lost_at = [], state[0], None  # (frame lost, frame gained, direction)
+        t1s, lost_at = [], None  # (frame lost, frame gained, direction)
         for t in range(1, n_frames):
             if state[t] == state[t - 1]:
                 continue

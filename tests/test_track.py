@@ -1,6 +1,5 @@
 """Overlap tracking: exact overlaps, identity recovery, divisions, gaps, lineage, real curated data."""
 import numpy as np
-import pandas as pd
 import pytest
 
 from hexatissue import track as trk

@@ -2,20 +2,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from ..box import Box
 from ..errors import InputError
 
 
-def check_table(table, columns, name):
-    """Raise :class:`InputError` unless ``table`` is a DataFrame holding ``columns``."""
-    if not isinstance(table, pd.DataFrame):
-        raise InputError(f"{name} must be a pandas DataFrame; got {type(table).__name__}")
-    missing = [c for c in columns if c not in table.columns]
-    if missing:
-        raise InputError(f"{name} is missing column(s) {missing}; expected at least {list(columns)}")
-    return table
 
 
 def check_box(box):

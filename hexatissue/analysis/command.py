@@ -1,6 +1,4 @@
 """``hexatissue report RESULTS_DIR [--out DIR]``: figures and report.md of a ``hexatissue analyze`` folder.
-
-Wire with ``hexatissue.analysis.command.add_parser(subparsers)`` in the main CLI.
 """
 from __future__ import annotations
 

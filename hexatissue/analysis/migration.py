@@ -35,7 +35,8 @@ from scipy import stats
 from ..box import Box
 from ..defects import defect_density
 from ..errors import HexatissueWarning, InputError
-from ._common import charge_mask, check_box, check_p, check_positive, check_table, interior, track_ids
+from ._common import charge_mask, check_box, check_p, check_positive, interior, track_ids
+from ..schema import require_columns
 from .mixture import GaussianMixture1D, fit_gaussian_mixture
 
 __all__ = ["frames_per_window", "cell_steps", "cell_displacements", "migration_table", "migration_populations",
@@ -81,7 +82,7 @@ def cell_steps(cells, box=None, include_border=False):
         ``track``, ``frame`` (= t), ``x_prev``, ``y_prev`` (position at
         ``t - 1``, px), ``dx``, ``dy`` (step, px).
     """
-    check_table(cells, ("frame", "x", "y"), "cells")
+    require_columns(cells, ("frame", "x", "y"), "cells")
     box = check_box(box)
     df = pd.DataFrame({"track": track_ids(cells), "frame": cells["frame"].to_numpy(np.int64),
                        "x": cells["x"].to_numpy(float), "y": cells["y"].to_numpy(float),
@@ -251,7 +252,7 @@ def migration_table(cells, defects, dl=DEFAULT_DL, dt=25, box=None, extent=None,
         (mean participations per cell in the window).
     """
     p = check_p(p)
-    check_table(defects, ("x", "y", "charge"), "defects")
+    require_columns(defects, ("x", "y", "charge"), "defects")
     box = check_box(box)
     extent = _check_extent(extent, box, cells)
     per_cell = cell_displacements(cells, dl, dt, box, extent, events, include_border)
@@ -342,7 +343,7 @@ def migration_populations(table, seed=0) -> MigrationPopulations:
     -------
     MigrationPopulations
     """
-    check_table(table, ("displacement", "defect_density"), "table")
+    require_columns(table, ("displacement", "defect_density"), "table")
     out = table.copy()
     disp = out["displacement"].to_numpy(float)
     moved = disp > 0

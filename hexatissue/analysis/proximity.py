@@ -23,7 +23,8 @@ from scipy import stats
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
-from ._common import charge_mask, check_box, check_p, check_positive, check_table, interior, rng, track_ids
+from ._common import charge_mask, check_box, check_p, check_positive, interior, rng, track_ids
+from ..schema import require_columns
 
 __all__ = ["nearest_defect", "t1_defect_distances", "random_cell_distances", "t1_defect_proximity",
            "ProximityResult", "DISTANCE_COLUMNS"]
@@ -64,7 +65,7 @@ def nearest_defect(frames, xy, defects, p=6, box=None):
     """
     p = check_p(p)
     box = check_box(box)
-    check_table(defects, ("x", "y", "charge", "defect"), "defects")
+    require_columns(defects, ("x", "y", "charge", "defect"), "defects")
     xy = np.asarray(xy, float).reshape(-1, 2)
     frames = np.asarray(frames, np.int64).reshape(-1)
     if len(frames) != len(xy):
@@ -125,7 +126,7 @@ def t1_defect_distances(events, defects, p=6, box=None, kinds=("cycle", "interca
         ``event``, ``kind``, ``frame`` (= ``frame_start``), ``x``, ``y``
         (event position, px), then :data:`DISTANCE_COLUMNS`.
     """
-    check_table(events, ("event", "kind", "frame_start", "x", "y"), "events")
+    require_columns(events, ("event", "kind", "frame_start", "x", "y"), "events")
     use = events["kind"].isin(list(kinds)).to_numpy(bool) & np.isfinite(events[["x", "y"]].to_numpy(float)).all(axis=1)
     if not include_border and "is_border" in events.columns:
         use = use & ~events["is_border"].to_numpy(bool)
@@ -165,7 +166,7 @@ def random_cell_distances(cells, frames, defects, p=6, box=None, n_per_frame=1, 
         ``frame``, ``track`` (of the drawn cell), ``x``, ``y`` (px), then
         :data:`DISTANCE_COLUMNS`.
     """
-    check_table(cells, ("frame", "x", "y"), "cells")
+    require_columns(cells, ("frame", "x", "y"), "cells")
     n_per_frame = check_positive(n_per_frame, "n_per_frame", integer=True)
     gen = rng(seed)
     use = np.isfinite(cells[["x", "y"]].to_numpy(float)).all(axis=1)

@@ -19,7 +19,8 @@ from scipy import stats
 
 from ..errors import InputError
 from ..events import cell_event_stats
-from ._common import check_positive, check_table
+from ._common import check_positive
+from ..schema import require_columns
 
 __all__ = ["cell_timing", "timing_test", "timing_summary", "timing_across_runs", "TIMING_QUANTITIES"]
 
@@ -48,7 +49,7 @@ def cell_timing(events, cells=None, frame_interval=1.0):
         ``mean_intercalation_interval``), the two means in units of
         ``frame_interval`` (frames by default).
     """
-    check_table(events, ("kind", "frame_start", "duration", "cell_a", "cell_b", "cell_c", "cell_d"), "events")
+    require_columns(events, ("kind", "frame_start", "duration", "cell_a", "cell_b", "cell_c", "cell_d"), "events")
     frame_interval = check_positive(frame_interval, "frame_interval")
     out = cell_event_stats(events, cells)
     for col in TIMING_QUANTITIES:
@@ -71,7 +72,7 @@ def timing_summary(stats_table):
         ``quantity``, ``n_cells``, ``mean``, ``q25``, ``median``, ``q75``
         (time units of the input; NaN when no cell has a value).
     """
-    check_table(stats_table, tuple(TIMING_QUANTITIES), "stats_table")
+    require_columns(stats_table, tuple(TIMING_QUANTITIES), "stats_table")
     rows = []
     for col, name in TIMING_QUANTITIES.items():
         v = _values(stats_table, col)
@@ -90,7 +91,7 @@ def timing_test(stats_table):
         ``t_statistic``, ``pvalue`` (NaN unless both populations have at
         least two cells), ``n_intercalation_cells``, ``n_cycle_cells``.
     """
-    check_table(stats_table, tuple(TIMING_QUANTITIES), "stats_table")
+    require_columns(stats_table, tuple(TIMING_QUANTITIES), "stats_table")
     a, b = _values(stats_table, "mean_intercalation_interval"), _values(stats_table, "mean_cycle_period")
     if len(a) >= 2 and len(b) >= 2:
         res = stats.ttest_ind(a, b, equal_var=False)

@@ -1,6 +1,4 @@
 """``hexatissue hydro dipole|quadrupole --alpha A [--n 256] [--steps N] --out RUN.zarr``.
-
-Wire with ``hexatissue.hydro.command.add_parser(subparsers)`` in the main CLI.
 """
 from __future__ import annotations
 

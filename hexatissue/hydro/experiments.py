@@ -5,7 +5,6 @@ Positions are x = column * dx, y = row * dx (origin at node [0, 0]).
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from ..box import Box
 from ..defects import track_defects

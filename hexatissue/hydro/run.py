@@ -16,7 +16,6 @@ Store layout (zarr group ``RUN.zarr``):
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,7 +27,7 @@ from ..defects import defects_from_field
 from ..errors import InputError
 from ..io import atomic_path
 from .params import HydroParams
-from .solver import Solver, State
+from .solver import State
 
 __all__ = ["HydroResult", "integrate", "open_run"]
 

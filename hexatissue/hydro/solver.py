@@ -244,8 +244,7 @@ class Solver:
         ``e = conj(u) p - u q`` pairs with ``w``:
         ``de/dt = -a e - i c1 w``, ``dw/dt = -i c2 e - nu k2 w``.
         """
-        o, p = self.ops, self.params
-        stream = omega_hat * o.inv_k2
+        o = self.ops
         # (lambda6/4) D^6 / k2 = (c1/2) u: the same coefficients as solve_implicit
         lpsi = -o.a * psi_hat - 0.5j * o.c1 * o.u * omega_hat
         lom = -o.visc * omega_hat - 1j * o.c2 * (np.conj(o.u) * psi_hat - o.u * o.partner(psi_hat))
