@@ -244,7 +244,7 @@ def test_bad_input():
 
 
 def test_command_line_runs_and_resumes(tmp_path, capsys):
-    from hexatissue.hydro.command import main
+    from hexatissue.cli import main
 
     out = tmp_path / "run.zarr"
     args = ["hydro", "dipole", "--alpha", "0", "--n", "32", "--distance", "8", "--steps", "20", "--dt", "0.1", "--out", str(out),

@@ -2,7 +2,6 @@
 """
 from __future__ import annotations
 
-import argparse
 
 __all__ = ["add_parser"]
 
@@ -41,13 +40,3 @@ def _run(args) -> int:
     print(f"report written: {md} ({len(numbers['written'])} files)")
     return 0
 
-
-def main(argv=None):  # for `python -m hexatissue.analysis.command`
-    parser = argparse.ArgumentParser(prog="hexatissue")
-    add_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    return args.func(args)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -2,7 +2,6 @@
 """
 from __future__ import annotations
 
-import argparse
 
 __all__ = ["add_parser"]
 
@@ -51,13 +50,3 @@ def _run(args) -> int:
           + f"; output {args.out}")
     return 0
 
-
-def main(argv=None):  # for `python -m hexatissue.hydro.command`
-    parser = argparse.ArgumentParser(prog="hexatissue")
-    add_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    return args.func(args)
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
