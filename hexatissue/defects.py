@@ -108,13 +108,18 @@ def defects_from_field(field, p, x0=0.0, y0=0.0, spacing=1.0, periodic=False, bo
     xy = np.c_[x0 + (j + 0.5) * spacing, y0 + (i + 0.5) * spacing]
     if box is not None and box.periodic:
         xy = box.wrap(xy)
+    return _defect_table(xy, charges[i, j], p)
+
+
+def _defect_table(xy, charge, p):
+    """Defects table from plaquette-centre positions (x, y) and their charges."""
     return pd.DataFrame(
         {
-            "defect": np.arange(len(i), dtype=np.int64),
+            "defect": np.arange(len(charge), dtype=np.int64),
             "x": xy[:, 0],
             "y": xy[:, 1],
-            "charge": charges[i, j],
-            "p": np.full(len(i), int(p), dtype=np.int64),
+            "charge": charge,
+            "p": np.full(len(charge), int(p), dtype=np.int64),
         }
     )
 
@@ -155,15 +160,7 @@ def _find_defects_frame(grid, p, box):
     xy = np.c_[x[i, j] + dx / 2, y[i, j] + dy / 2]
     if periodic:
         xy = box.wrap(xy)
-    return pd.DataFrame(
-        {
-            "defect": np.arange(len(i), dtype=np.int64),
-            "x": xy[:, 0],
-            "y": xy[:, 1],
-            "charge": charges[i, j],
-            "p": np.full(len(i), p, dtype=np.int64),
-        }
-    )
+    return _defect_table(xy, charges[i, j], p)
 
 
 def find_defects(grid, p=6, box=None):
