@@ -13,7 +13,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["Box"]
+__all__ = ["Box", "check_box", "periodic_or_none"]
 
 
 @dataclass(frozen=True)
@@ -83,3 +83,16 @@ class Box:
         steps = self.min_image(np.diff(v, axis=0))
         start = v[0] if reference is None else np.asarray(reference, float) + self.min_image(v[0] - reference)
         return np.vstack([start, start + np.cumsum(steps, axis=0)])
+
+
+def check_box(box):
+    """``box`` if it is a :class:`Box` or None; else :class:`InputError`."""
+    if box is not None and not isinstance(box, Box):
+        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
+    return box
+
+
+def periodic_or_none(box):
+    """``box`` when it is a periodic :class:`Box`, None for None or an open box; else :class:`InputError`."""
+    check_box(box)
+    return box if box is not None and box.periodic else None

@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
-from .box import Box
-from .errors import InputError
+from .box import Box, periodic_or_none
+from .errors import InputError, check_positive
 from .order import _check_p
 from .schema import require_columns, validate
 
@@ -197,8 +197,7 @@ def find_defects(grid, p=6, box=None):
     require_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
     if len(grid) == 0:
         raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
-    _check_box(box)
-    box = box if box is not None and box.periodic else None
+    box = periodic_or_none(box)
     if "frame" not in grid.columns:
         return validate(_find_defects_frame(grid, p, box), "defects")
     parts = []
@@ -262,8 +261,7 @@ def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
         if len(extent) != 2 or min(extent) <= 0:
             raise InputError(f"extent must be a Box or an image shape (rows, cols); got {extent!r}")
         lo, size, wrap = np.array([-0.5, -0.5]), np.array([extent[1], extent[0]], float), (lambda xy: xy)
-    if isinstance(bin_size, bool) or not np.isfinite(bin_size) or bin_size <= 0:
-        raise InputError(f"bin_size must be a positive finite length in px; got {bin_size!r}")
+    check_positive(bin_size, "bin_size", unit="px")
     nbins = np.maximum(1, np.round(size / bin_size)).astype(int)
     step = size / nbins
     has_time = time_column in defects.columns
@@ -303,11 +301,6 @@ def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
 # ----------------------------------------------------------------------------
 # Tracking defects across frames
 # ----------------------------------------------------------------------------
-
-def _check_box(box):
-    if box is not None and not isinstance(box, Box):
-        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
-    return box
 
 
 def _pair_distances(a, b, box):
@@ -390,11 +383,8 @@ def track_defects(defects, max_distance, box=None, time_column="frame", frames=N
         frame, then of row order.
     """
     require_columns(defects, (time_column, "x", "y", "charge"), "defects")
-    _check_box(box)
-    if not np.isfinite(max_distance) or max_distance <= 0:
-        raise InputError(f"max_distance must be a positive finite distance in px; got {max_distance!r}")
-    if box is not None and not box.periodic:
-        box = None
+    box = periodic_or_none(box)
+    check_positive(max_distance, "max_distance", unit="px")
     times = defects[time_column].to_numpy()
     xy = defects[["x", "y"]].to_numpy(float)
     keys = _charge_keys(defects["charge"].to_numpy(float))
@@ -486,11 +476,8 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         between the partners; NaN when unpaired).
     """
     require_columns(tracked, (time_column, "x", "y", "charge", "track"), "tracked")
-    _check_box(box)
-    if not np.isfinite(pair_distance) or pair_distance <= 0:
-        raise InputError(f"pair_distance must be a positive finite distance in px; got {pair_distance!r}")
-    if box is not None and not box.periodic:
-        box = None
+    box = periodic_or_none(box)
+    check_positive(pair_distance, "pair_distance", unit="px")
     columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
     if len(tracked) == 0:
         return _empty_events(columns, time_column)

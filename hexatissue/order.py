@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import cKDTree
 
-from .box import Box
+from .box import periodic_or_none
 from .errors import InputError
 from .schema import validate
 
@@ -432,9 +432,7 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
     """
     p = _check_p(p)
     radius, spacing = _check_length(radius, "radius"), _check_length(spacing, "spacing")
-    if box is not None and not isinstance(box, Box):
-        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
-    box = box if box is not None and box.periodic else None
+    box = periodic_or_none(box)
     if not 0.0 <= min_coverage <= 1.0:
         raise InputError(f"min_coverage must be a fraction in [0, 1]; got {min_coverage!r}")
     if not isinstance(cells, pd.DataFrame):

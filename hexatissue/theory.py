@@ -17,7 +17,7 @@ from math import comb
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, check_positive
 
 __all__ = [
     "quadrupole_psi",
@@ -37,10 +37,6 @@ def _positions(x, y):
         raise InputError(f"x and y must be real arrays of positions with broadcastable shapes; {exc}") from exc
     return z
 
-
-def _check_positive(name, value):
-    if not np.isfinite(value) or value <= 0:
-        raise InputError(f"{name} must be a positive finite number; got {value!r}")
 
 
 def quadrupole_phase(x, y, ell, terms=None):
@@ -63,7 +59,7 @@ def quadrupole_phase(x, y, ell, terms=None):
         theta, radians.
     """
     z = _positions(x, y)
-    _check_positive("ell", ell)
+    check_positive(ell, "ell")
     if terms is None:
         return np.angle(quadrupole_psi(x, y, ell)) / 6.0
     if int(terms) != terms or terms < 1:
@@ -95,7 +91,7 @@ def quadrupole_psi(x, y, ell, terms=None):
         Psi6 (1 at infinity; undefined, NaN, exactly at the four cores).
     """
     z = _positions(x, y)
-    _check_positive("ell", ell)
+    check_positive(ell, "ell")
     if terms is not None:
         return np.exp(6j * quadrupole_phase(x, y, ell, terms))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -143,7 +139,7 @@ def active_force(x, y, ell, alpha, exact=True):
         Force density components (units of alpha6 / length^5).
     """
     z = _positions(x, y)
-    _check_positive("ell", ell)
+    check_positive(ell, "ell")
     if exact:
         poles = np.array([1j * ell, -1j * ell, ell, -ell])
         signs = np.array([1.0, 1.0, -1.0, -1.0])
@@ -186,8 +182,8 @@ def quadrupole_flow(x, y, ell, alpha, eta=1.0):
         Velocity components (units of alpha6 / (eta length^3)).
     """
     z = _positions(x, y)
-    _check_positive("ell", ell)
-    _check_positive("eta", eta)
+    check_positive(ell, "ell")
+    check_positive(eta, "eta")
     r = np.abs(z)
     ei = np.exp(1j * np.angle(z))
     l2 = ell**2
@@ -222,5 +218,5 @@ def ell6(alpha, L6):
     -------
     float
     """
-    _check_positive("L6", L6)
+    check_positive(L6, "L6")
     return float(np.sqrt(np.abs(alpha) / L6))

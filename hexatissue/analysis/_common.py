@@ -3,29 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..box import Box
-from ..errors import InputError
+from ..box import periodic_or_none as check_box  # noqa: F401  (the analyses work on periodic boxes or None)
+from ..errors import InputError, check_positive  # noqa: F401  (re-exported)
 
-
-
-
-def check_box(box):
-    """The box when periodic, else None (open images); raise on anything that is not a Box."""
-    if box is None:
-        return None
-    if not isinstance(box, Box):
-        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
-    return box if box.periodic else None
-
-
-def check_positive(value, name, integer=False):
-    ok = not isinstance(value, bool) and np.isscalar(value) and np.isfinite(value) and value > 0
-    if ok and integer:
-        ok = float(value) == int(value)
-    if not ok:
-        kind = "a positive integer" if integer else "a positive finite number"
-        raise InputError(f"{name} must be {kind}; got {value!r}")
-    return int(value) if integer else float(value)
 
 
 def check_p(p):
