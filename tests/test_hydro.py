@@ -215,6 +215,19 @@ def test_dipole_annihilates_without_activity():
     assert r.diagnostics["n_defects"].iloc[-1] == 0
 
 
+def test_orientation_turns_the_initial_field():
+    """theta_inf multiplies Psi6 by exp(6 i theta_inf); model-A relaxation is odd in Psi, so it commutes."""
+    from hexatissue.hydro.initial import dipole_initial, quadrupole_initial
+
+    for make, kw in ((dipole_initial, dict(n=32, distance=8, disk=2.0)), (quadrupole_initial, dict(n=48, ell=4, disk=10.0))):
+        base, _ = make(**kw)
+        for angle, factor in ((np.pi / 6, -1), (np.pi / 12, 1j)):
+            turned, _ = make(**kw, orientation=angle)
+            np.testing.assert_allclose(turned, factor * base, atol=1e-9)
+    with pytest.raises(InputError, match="orientation"):
+        dipole_initial(n=32, distance=8, disk=2.0, orientation=float("nan"))
+
+
 def test_resume_equals_uninterrupted(tmp_path):
     n = 32
     solver = Solver(n, HydroParams(alpha6=-0.1))
@@ -248,10 +261,11 @@ def test_command_line_runs_and_resumes(tmp_path, capsys):
 
     out = tmp_path / "run.zarr"
     args = ["hydro", "dipole", "--alpha", "0", "--n", "32", "--distance", "8", "--steps", "20", "--dt", "0.1", "--out", str(out),
-            "--defects", str(tmp_path / "d.csv")]
+            "--orientation-deg", "30", "--defects", str(tmp_path / "d.csv")]
     assert main(args) == 0
     assert "dipole alpha6=+0" in capsys.readouterr().out
     diag, defects, fields, attrs = open_run(out)
+    assert attrs["meta"]["orientation"] == pytest.approx(np.pi / 6)
     assert attrs["params"]["alpha6"] == 0.0 and len(diag) == 3 and (tmp_path / "d.csv").exists()
     assert main(args[:-2] + ["--resume"]) == 0
 

@@ -21,6 +21,9 @@ def add_parser(subparsers):
     p.add_argument("--distance", type=float, default=64.0, help="dipole: initial separation")
     p.add_argument("--ell", type=float, default=7.0, help="quadrupole: half-distance of like defects")
     p.add_argument("--max-time", type=float, default=None, help="safety cap on the simulated time")
+    p.add_argument("--orientation-deg", type=float, default=0.0,
+                   help="far-field bond angle in degrees (0: a bond along the dipole axis; 30 reverses the "
+                        "active force)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", required=True, help="output zarr store (RUN.zarr)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
@@ -30,11 +33,13 @@ def add_parser(subparsers):
 
 
 def _run(args) -> int:
+    import numpy as np
+
     from ..io import write_table
     from .experiments import run_dipole, run_quadrupole
 
     common = dict(n=args.n, steps=args.steps, dt=args.dt, seed=args.seed, out=args.out, resume=args.resume,
-                  progress=True)
+                  progress=True, orientation=float(np.deg2rad(args.orientation_deg)))
     if args.max_time is not None:
         common["max_time"] = args.max_time
     if args.experiment == "dipole":

@@ -67,7 +67,7 @@ def _run(kind, psi_fn, alpha, n, steps, dt, seed, out, params, max_time, save_ev
 
 
 def run_dipole(alpha, n=256, distance=64.0, steps=None, dt=None, seed=0, out=None, params=None, disk=5.0,
-               max_time=None, save_every=None, field_every=20, resume=False, progress=True):
+               max_time=None, save_every=None, field_every=20, resume=False, progress=True, orientation=0.0):
     """Annihilation of a +1/6 / -1/6 pair (the paper's SI Fig. 2).
 
     Parameters
@@ -96,6 +96,10 @@ def run_dipole(alpha, n=256, distance=64.0, steps=None, dt=None, seed=0, out=Non
         Steps between diagnostics (default: every unit of time).
     field_every : int
         Diagnostics between stored fields.
+    orientation : float
+        Far-field bond angle theta_inf in radians (Psi6 -> exp(6 i theta_inf)
+        at infinity); 0: a bond direction along the pair axis.  The sign of
+        the activity effect depends on it (docs/hydro.md).
 
     Returns
     -------
@@ -108,18 +112,19 @@ def run_dipole(alpha, n=256, distance=64.0, steps=None, dt=None, seed=0, out=Non
         max_time = 4.0 * distance**2
 
     def psi_fn(p):
-        return dipole_initial(n, distance, disk, p, seed)
+        return dipole_initial(n, distance, disk, p, seed, orientation=orientation)
 
     def stop(scal, d):
         return scal["n_defects"] == 0
 
     return _run("dipole", psi_fn, alpha, n, steps, dt, seed, out, params, max_time, save_every, field_every,
-                resume, progress, stop, {"distance": distance, "disk": disk, "seed": str(seed)})
+                resume, progress, stop,
+                {"distance": distance, "disk": disk, "seed": str(seed), "orientation": float(orientation)})
 
 
 def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None, params=None, disk=28.0,
                    max_time=2000.0, split_distance=None, save_every=None, field_every=20, resume=False,
-                   progress=True):
+                   progress=True, orientation=0.0):
     """Fate of a +-1/6 defect quadrupole (the continuum T1): annihilation or unbinding into two dipoles.
 
     -1/6 defects start at ``(c +- ell, c)``, +1/6 at ``(c, c +- ell)``,
@@ -139,7 +144,7 @@ def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None,
     split = 6.0 * ell if split_distance is None else float(split_distance)
 
     def psi_fn(p):
-        return quadrupole_initial(n, ell, disk, p, seed)
+        return quadrupole_initial(n, ell, disk, p, seed, orientation=orientation)
 
     def stop(scal, d):
         if scal["n_defects"] == 0:
@@ -147,7 +152,8 @@ def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None,
         return bool(len(d)) and float(np.hypot(d["x"] - c, d["y"] - c).max()) > split
 
     return _run("quadrupole", psi_fn, alpha, n, steps, dt, seed, out, params, max_time, save_every,
-                field_every, resume, progress, stop, {"ell": ell, "disk": disk, "seed": str(seed)})
+                field_every, resume, progress, stop,
+                {"ell": ell, "disk": disk, "seed": str(seed), "orientation": float(orientation)})
 
 
 def departure_angle(defects, centre, min_distance):

@@ -94,7 +94,15 @@ def _random_outside(psi, fixed, params, seed, noise):
 NOISE = np.pi / 3
 
 
-def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, noise=NOISE, thermalise_kw=None):
+def _check_orientation(orientation):
+    if isinstance(orientation, bool) or not isinstance(orientation, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(orientation):
+        raise InputError(f"orientation must be a finite angle in radians; got {orientation!r}")
+    return np.exp(6j * float(orientation))
+
+
+def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, noise=NOISE, thermalise_kw=None,
+                       orientation=0.0):
     """Quadrupole of +-1/6 defects (Psi6 = W/|W|, exact) fixed in a disk, random outside, relaxed.
 
     -1/6 defects at ``(cx +- ell, cy)``, +1/6 at ``(cx, cy +- ell)``, with
@@ -102,6 +110,10 @@ def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, noise=NOI
     phase of Psi6 is the analytic one plus uniform noise in ``(-noise,
     noise)``; ``noise=None`` takes fully random phases (the paper's wording),
     which leaves stray defects, some trapped at the edge of the fixed disk.
+    ``orientation`` is the far-field bond angle theta_inf (radians, from +x):
+    the field is multiplied by ``exp(6 i theta_inf)``, which keeps the defects
+    where they are but turns the hexatic relative to their axes (the active
+    force is linear in Psi6, so theta_inf = pi/6 reverses it).
 
     Returns
     -------
@@ -113,7 +125,7 @@ def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, noise=NOI
     _check(n, ell, disk, params)
     X, Y = _grid(n, params.dx)
     c = (n / 2 - 0.5) * params.dx
-    psi = quadrupole_psi(X - c, Y - c, ell) * params.psi0
+    psi = quadrupole_psi(X - c, Y - c, ell) * params.psi0 * _check_orientation(orientation)
     for zc in (c + ell + 1j * c, c - ell + 1j * c, c + 1j * (c + ell), c + 1j * (c - ell)):
         psi = psi * core_profile(np.abs(X + 1j * Y - zc), params)
     fixed = np.hypot(X - c, Y - c) <= disk
@@ -122,8 +134,12 @@ def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, noise=NOI
     return psi, {"centre": (c, c), "thermalise_time": t}
 
 
-def dipole_initial(n=256, distance=64.0, disk=5.0, params=None, seed=0, noise=NOISE, thermalise_kw=None):
+def dipole_initial(n=256, distance=64.0, disk=5.0, params=None, seed=0, noise=NOISE, thermalise_kw=None,
+                   orientation=0.0):
     """+1/6 defect at ``(cx - d/2, cy)`` and -1/6 at ``(cx + d/2, cy)``, phase fixed in disks, relaxed.
+
+    ``orientation``: far-field bond angle theta_inf (radians), as in
+    :func:`quadrupole_initial`; 0 puts a bond direction along the pair axis.
 
     Returns
     -------
@@ -137,7 +153,7 @@ def dipole_initial(n=256, distance=64.0, disk=5.0, params=None, seed=0, noise=NO
     c = (n / 2 - 0.5) * params.dx
     z = X + 1j * Y
     zp, zm = c - distance / 2 + 1j * c, c + distance / 2 + 1j * c
-    psi = params.psi0 * np.exp(1j * (np.angle(z - zp) - np.angle(z - zm)))
+    psi = params.psi0 * np.exp(1j * (np.angle(z - zp) - np.angle(z - zm))) * _check_orientation(orientation)
     psi = psi * core_profile(np.abs(z - zp), params) * core_profile(np.abs(z - zm), params)
     fixed = (np.abs(z - zp) <= disk) | (np.abs(z - zm) <= disk)
     psi = _random_outside(psi, fixed, params, seed, noise)
