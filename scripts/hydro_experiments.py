@@ -3,6 +3,8 @@
     python scripts/hydro_experiments.py dipole [--n 128 --distance 32]
     python scripts/hydro_experiments.py quadrupole [--n 128] [--alphas 0 -0.1 ...]
 
+``--orientation-deg`` sets the far-field bond angle (default 0; 30 reverses the active force).
+
 Outputs go to docs/figures/ (PNG, JSON summaries) and runs/ (zarr stores; not committed).
 """
 import argparse
@@ -25,7 +27,7 @@ def dipole(a):
         # diagnostics every 0.1 time units: the activity effect on t_a is small
         r = run_dipole(alpha, n=a.n, distance=a.distance, out=out, seed=a.seed, resume=True, progress=False,
                        save_every=2 if a.scheme == "spectral" else 1, field_every=100 * (a.n // 128) ** 2,
-                       params=_params(a, alpha))
+                       params=_params(a, alpha), orientation=np.deg2rad(a.orientation_deg))
         results[alpha] = r
         print(f"dipole alpha={alpha:+g}: annihilation time {r.annihilation_time}", flush=True)
     tag = f"n{a.n}_d{a.distance:g}{_scheme_tag(a)}" + (f"_{a.tag}" if a.tag else "")
@@ -43,7 +45,8 @@ def dipole(a):
 
 
 def _scheme_tag(a):
-    return ("" if a.scheme == "spectral" else "_fd") + ("_f32" if a.dtype == "float32" else "")
+    return (("" if a.scheme == "spectral" else "_fd") + ("_f32" if a.dtype == "float32" else "")
+            + (f"_o{a.orientation_deg:g}" if a.orientation_deg else ""))
 
 
 def _params(a, alpha):
@@ -74,7 +77,8 @@ def quadrupole(a):
         out = RUNS / f"quad_n{a.n}_a{alpha:+g}{_scheme_tag(a)}.zarr"
         try:
             r = run_quadrupole(alpha, n=a.n, ell=a.ell, out=out, seed=a.seed, resume=True, max_time=a.max_time,
-                               field_every=5, progress=False, params=_params(a, alpha))
+                               field_every=5, progress=False, params=_params(a, alpha),
+                               orientation=np.deg2rad(a.orientation_deg))
         except FloatingPointError as exc:
             summary[str(alpha)] = {"fate": "numerically unstable", "error": str(exc)}
             print(f"quadrupole alpha={alpha:+g}: {exc}", flush=True)
@@ -126,6 +130,7 @@ def main():
     ap.add_argument("--tag", default="", help="suffix of the output figure names")
     ap.add_argument("--scheme", choices=["spectral", "fd"], default="spectral")
     ap.add_argument("--dtype", choices=["float64", "float32"], default="float64")
+    ap.add_argument("--orientation-deg", type=float, default=0.0, help="far-field bond angle (degrees)")
     a = ap.parse_args()
     FIG.mkdir(parents=True, exist_ok=True)
     RUNS.mkdir(exist_ok=True)
