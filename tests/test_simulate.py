@@ -136,6 +136,8 @@ def test_lattice_sums_and_moments_equal_reference():
     K.lattice_sums(sim.phi, sim.oy, sim._gx, sim._ptr, sim._cells, sim._S1, sim._S2)
     np.testing.assert_allclose(sim._S1, fields.sum(0), rtol=0, atol=1e-13)
     np.testing.assert_allclose(sim._S2, (fields**2).sum(0), rtol=0, atol=1e-13)
+    K.lattice_laplacian(sim._S1, sim._ptr, sim._L)
+    np.testing.assert_allclose(sim._L, ref._lap(fields.sum(0)), rtol=0, atol=1e-13)
     m = sim.moments()
     np.testing.assert_allclose(m[:, 0], (fields**2).sum((1, 2)) / p.phi0**2, rtol=1e-13)
     # centroid: unwrapped patch coordinates, compared through the periodic images
@@ -169,7 +171,7 @@ def test_recentring_moves_patch_without_changing_the_field():
     sim._zero_ring()
     before = sim.full_fields()
     m0 = sim.moments()
-    moved = K.recentre(sim.phi, sim._k1, sim.ox, sim.oy, sim.leak, 1.0)
+    moved = K.recentre(sim.phi, sim._phis, sim.ox, sim.oy, sim.leak, 1.0)
     sim.refresh_geometry()
     assert moved == 1
     # every node still inside the moved patch keeps its exact value; nodes left behind are dropped

@@ -127,21 +127,35 @@ def _area(phi, c):
     return a
 
 
+@njit(cache=True, parallel=True, fastmath=True)
+def lattice_laplacian(S1, ptr, L):
+    """``L = lap(S1)`` (5-point, periodic), band by band (the adhesion term of every cell reads it)."""
+    Ly, Lx = S1.shape[0], S1.shape[1]
+    nb = ptr.shape[0] - 1
+    for b in prange(nb):
+        for r in range(b * CHUNK_ROWS, min((b + 1) * CHUNK_ROWS, Ly)):
+            rm = r - 1 if r > 0 else Ly - 1
+            rp = r + 1 if r < Ly - 1 else 0
+            L[r, 0] = S1[rm, 0] + S1[rp, 0] + S1[r, Lx - 1] + S1[r, 1] - 4 * S1[r, 0]
+            for q in range(1, Lx - 1):
+                L[r, q] = S1[rm, q] + S1[rp, q] + S1[r, q - 1] + S1[r, q + 1] - 4 * S1[r, q]
+            L[r, Lx - 1] = S1[rm, Lx - 1] + S1[rp, Lx - 1] + S1[r, Lx - 2] + S1[r, 0] - 4 * S1[r, Lx - 1]
+
+
 @njit(cache=True, fastmath=True)
-def _rhs_node(phi, c, i, j, r, rm, rp, q, qm, qp, S1, S2, par, ca, vx, vy):
-    """``d phi_c / dt`` at patch node (i, j) = lattice node (r, q)."""
+def _rhs_node(phi, c, i, j, s2, lap_s1, par, ca, vx, vy):
+    """``d phi_c / dt`` at patch node (i, j), given ``S2`` and ``lap S1`` at its lattice node."""
     v = phi[c, i, j]
     vn = phi[c, i - 1, j]
     vs = phi[c, i + 1, j]
     vw = phi[c, i, j - 1]
     ve = phi[c, i, j + 1]
     lap = (vn + vs + vw + ve) - par[FOUR] * v
-    lap_s1 = (S1[rm, q] + S1[rp, q] + S1[r, qm] + S1[r, qp]) - par[FOUR] * S1[r, q]
     phi0 = par[PHI0]
     mu = (
         par[HALF_ALPHA] * v * (v - phi0) * ((v + v) - phi0)
         - par[K_PHI] * lap
-        + par[TWO_EPS] * v * (S2[r, q] - v * v)
+        + par[TWO_EPS] * v * (s2 - v * v)
         - par[K_AD] * (lap_s1 - lap)
         - ca * v
     )
@@ -150,19 +164,22 @@ def _rhs_node(phi, c, i, j, r, rm, rp, q, qm, qp, S1, S2, par, ca, vx, vy):
 
 
 @njit(cache=True, parallel=True, fastmath=True)
-def heun_stage(phi_eval, phi, k1, out, S1, S2, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second):
+def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second):
     """One Heun stage for every cell (prange over cells; each writes only its own patch).
 
-    First stage (``second=False``): ``k1 = f(phi)``, ``out = phi + dt k1``.
-    Second stage (``second=True``): ``out = phi + dt/2 (k1 + f(phi_eval))``
-    (``out`` may be ``phi``: each node reads only ``phi_eval`` around it).
-    ``f`` is evaluated on ``phi_eval`` with the lattice sums ``S1, S2`` of
-    ``phi_eval``.  ``area[c]`` receives ``int phi_eval_c^2 dA`` (float64).
+    First stage (``second=False``): ``out = phi + dt f(phi)`` (``phi_eval`` is ``phi``).
+    Second stage (``second=True``), with ``phi_eval = phi + dt k1`` from the
+    first: ``out = phi + dt/2 (k1 + f(phi_eval)) = (phi + phi_eval)/2 + dt/2 f(phi_eval)``,
+    so ``k1`` is never stored (``out`` may be ``phi``: each node reads only
+    ``phi_eval`` around it and ``phi`` at itself).  ``f`` is evaluated with
+    ``S2`` and ``L = lap S1`` of ``phi_eval``.  ``area[c]`` receives
+    ``int phi_eval_c^2 dA`` (float64).
     """
     N, P = phi.shape[0], phi.shape[1]
-    Lx = S1.shape[1]
+    Lx = S2.shape[1]
     dt = par[DT]
-    half_dt = par[HALF] * dt
+    half = par[HALF]
+    half_dt = half * dt
     for c in prange(N):
         a = _area(phi_eval, c)
         area[c] = a
@@ -176,22 +193,12 @@ def heun_stage(phi_eval, phi, k1, out, S1, S2, gx, gy, coef, vx, vy, area, par, 
         straight = q0 + P <= Lx
         for i in range(1, P - 1):
             r = gy[c, i]
-            rm = gy[c, i - 1]
-            rp = gy[c, i + 1]
             for j in range(1, P - 1):
-                if straight:
-                    q = q0 + j
-                    qm = q - 1
-                    qp = q + 1
-                else:
-                    q = gx[c, j]
-                    qm = gx[c, j - 1]
-                    qp = gx[c, j + 1]
-                k = _rhs_node(phi_eval, c, i, j, r, rm, rp, q, qm, qp, S1, S2, par, ca, cvx, cvy)
+                q = q0 + j if straight else gx[c, j]
+                k = _rhs_node(phi_eval, c, i, j, S2[r, q], L[r, q], par, ca, cvx, cvy)
                 if second:
-                    out[c, i, j] = phi[c, i, j] + half_dt * (k1[c, i, j] + k)
+                    out[c, i, j] = half * (phi[c, i, j] + phi_eval[c, i, j]) + half_dt * k
                 else:
-                    k1[c, i, j] = k
                     out[c, i, j] = phi[c, i, j] + dt * k
 
 
@@ -285,15 +292,15 @@ def set_velocity(theta, v0, vx, vy):
 
 
 @njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
-def advance(phi, phis, k1, S1, S2, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
+def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
             par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold):
     """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).
 
     Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
     (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
     for passive steps).  After every step whose global index ``step0 + s + 1``
-    is a multiple of ``recentre_every`` the patches are re-centred.  Returns
-    the number of patch moves.
+    is a multiple of ``recentre_every`` the patches are re-centred (``phis``
+    is their scratch space).  Returns the number of patch moves.
     """
     Lx, Ly = S1.shape[1], S1.shape[0]
     P = phi.shape[1]
@@ -301,14 +308,16 @@ def advance(phi, phis, k1, S1, S2, ox, oy, gx, gy, ptr, cells, theta, noise, coe
     for s in range(nsteps):
         set_velocity(theta, v0, vx, vy)
         lattice_sums(phi, oy, gx, ptr, cells, S1, S2)
-        heun_stage(phi, phi, k1, phis, S1, S2, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False)
+        lattice_laplacian(S1, ptr, L)
+        heun_stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False)
         lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
-        heun_stage(phis, phi, k1, phi, S1, S2, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True)
+        lattice_laplacian(S1, ptr, L)
+        heun_stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True)
         if sigma > 0:
             for c in range(theta.shape[0]):
                 theta[c] += sigma * noise[s, c]
         if (step0 + s + 1) % recentre_every == 0:
-            n = recentre(phi, k1, ox, oy, leak, threshold)
+            n = recentre(phi, phis, ox, oy, leak, threshold)
             if n > 0:
                 moves += n
                 index_rows(ox, Lx, P, gx)

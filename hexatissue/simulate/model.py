@@ -132,9 +132,9 @@ class Simulation:
         p, dt = self.params, self.params.np_dtype
         N, P = p.n_cells, p.patch
         self._phis = np.zeros_like(self.phi)
-        self._k1 = np.zeros_like(self.phi)
         self._S1 = np.zeros(p.shape, dtype=dt)
         self._S2 = np.zeros(p.shape, dtype=dt)
+        self._L = np.zeros(p.shape, dtype=dt)  # lap S1
         self._gx = np.empty((N, P), dtype=np.int32)
         self._gy = np.empty((N, P), dtype=np.int32)
         nb = -(-p.Ly // K.CHUNK_ROWS)
@@ -178,7 +178,7 @@ class Simulation:
             noise = np.zeros((0, p.n_cells))
         v0 = p.v0 if active else 0.0
         moves = K.advance(
-            self.phi, self._phis, self._k1, self._S1, self._S2, self.ox, self.oy, self._gx, self._gy,
+            self.phi, self._phis, self._S1, self._S2, self._L, self.ox, self.oy, self._gx, self._gy,
             self._ptr, self._cells, self.theta, noise, self._coef, self._vx, self._vy, self._area, self.leak,
             self._par, 1.0 / p.target_area, 4.0 * p.lam, v0, sigma, self.step, nsteps,
             p.recentre_every, RECENTRE_THRESHOLD,
