@@ -107,7 +107,7 @@ def main(argv=None):
           f"{e['median_dr_control']:.3g} px for random cells; KS p = {e['ks_pvalue']:.3g} "
           f"(one-sided, T1s closer: {e['ks_pvalue_closer']:.3g})")
     print(f"Fig. 3f: {f['n_subregion_windows']} subregion-windows; delta BIC (two vs one population) "
-          f"{f['delta_bic']:.3g}; Spearman rho(displacement, defect density) = {f['spearman_rho']:.3g}")
+          f"{f['delta_bic']:.3g} ({f['verdict']}); Spearman rho(displacement, defect density) = {f['spearman_rho']:.3g}")
     print(f"Fig. 3g: log-log slope vs D_r of the intercalation interval "
           f"{trends['intercalation_interval_loglog_slope']:.3g}, of the T1-cycle period "
           f"{trends['cycle_period_loglog_slope']:.3g}")

@@ -9,7 +9,7 @@ from hexatissue.analysis import (cell_displacements, cell_steps, cell_timing, fi
                                  random_cell_distances, t1_defect_distances, t1_defect_proximity,
                                  timing_across_runs, timing_summary, timing_test)
 from hexatissue.box import Box
-from hexatissue.errors import InputError
+from hexatissue.errors import HexatissueWarning, InputError
 from hexatissue.events import cell_event_stats
 
 SIXTH = 1.0 / 6.0
@@ -275,6 +275,19 @@ def test_migration_populations_split_slow_and_fast():
     assert s.loc["slow", "cycle_fraction"] == pytest.approx(0.5)
     assert s.loc["fast", "intercalations_per_cell"] == pytest.approx(1.5)
     assert pops.spearman_rho > 0.5
+    assert pops.verdict == "two populations"
+
+
+def test_nested_mixture_components_are_one_population():
+    """A narrow core inside wide tails: two components fit better, but they never cross -> no split."""
+    rng = np.random.default_rng(3)
+    logd = np.r_[rng.normal(-1.5, 0.05, 600), rng.normal(-1.5, 0.3, 400)]
+    table = pd.DataFrame({"displacement": 10**logd, "defect_density": rng.uniform(1e-4, 2e-4, len(logd))})
+    with pytest.warns(HexatissueWarning, match="do not cross"):
+        pops = migration_populations(table, seed=0)
+    assert pops.delta_bic > 10 and np.isnan(pops.threshold)
+    assert pops.verdict == "nested components: one population"
+    assert (pops.table["population"] == "").all()
 
 
 # ----------------------------------------------------------------------------

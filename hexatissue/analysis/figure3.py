@@ -144,7 +144,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
         "time_unit": time_unit, "include_border": include_border,
         "fig3e": {"pooled": pooled.summary(), "per_run": ks_rows},
         "fig3f": {"n_subregion_windows": len(pops.table), "threshold": pops.threshold, "delta_bic": pops.delta_bic,
-                  "spearman_rho": pops.spearman_rho, "spearman_pvalue": pops.spearman_pvalue,
+                  "verdict": pops.verdict, "spearman_rho": pops.spearman_rho, "spearman_pvalue": pops.spearman_pvalue,
                   "populations": pops.summary.to_dict("records")},
         "fig3g": across.to_dict("records"),
         "trends": {"intercalation_interval_loglog_slope": loglog_slope(ic[param], ic["mean"]),

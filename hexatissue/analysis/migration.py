@@ -313,10 +313,24 @@ class MigrationPopulations:
 
     @property
     def delta_bic(self) -> float:
-        """BIC(1 component) - BIC(2 components): > 10 is strong evidence for two populations."""
+        """BIC(1 component) - BIC(2 components): > 10 is strong evidence for two components."""
         if self.mixture is None or self.single is None:
             return float("nan")
         return float(self.single.bic - self.mixture.bic)
+
+    @property
+    def verdict(self) -> str:
+        """Reading of the fit (Kass & Raftery's scale for delta BIC: > 10 very strong).
+
+        Two components are two *populations* only if they cross between their
+        means; a narrow component inside a wide one (a heavy-tailed, unimodal
+        distribution) is reported as ``"nested components: one population"``.
+        """
+        if not np.isfinite(self.delta_bic):
+            return "no fit"
+        if self.delta_bic > 10:
+            return "two populations" if np.isfinite(self.threshold) else "nested components: one population"
+        return "weak evidence for two" if self.delta_bic > 0 else "one population suffices"
 
 
 def migration_populations(table, seed=0) -> MigrationPopulations:
@@ -363,8 +377,8 @@ def migration_populations(table, seed=0) -> MigrationPopulations:
             threshold = float(10**b)
             out.loc[moved, "population"] = np.where(logd[moved] > b, "fast", "slow")
         else:
-            warnings.warn("the two mixture components do not cross between their means; no slow/fast split",
-                          HexatissueWarning, stacklevel=2)
+            warnings.warn("the two mixture components do not cross between their means (a narrow one inside a "
+                          "wide one: one heavy-tailed population); no slow/fast split", HexatissueWarning, stacklevel=2)
     ok = np.isfinite(disp) & np.isfinite(out["defect_density"].to_numpy(float))
     if ok.sum() >= 3 and np.ptp(disp[ok]) > 0 and np.ptp(out["defect_density"].to_numpy(float)[ok]) > 0:
         rho, pval = stats.spearmanr(disp[ok], out["defect_density"].to_numpy(float)[ok])

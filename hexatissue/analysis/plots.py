@@ -71,8 +71,14 @@ def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(1
     if len(e):
         plus = result.events["charge"].to_numpy(float) > 0
         dx, dy = result.events["dx"].to_numpy(float) / scale, result.events["dy"].to_numpy(float) / scale
-        ax2.scatter(dx[plus], dy[plus], s=12, color=PLUS_COLOR, label="+1/6")
-        ax2.scatter(dx[~plus], dy[~plus], s=12, color=MINUS_COLOR, label="-1/6")
+        # thousands of events: small translucent points, drawn in a shuffled order so neither charge hides the other
+        n = len(dx)
+        order = np.random.default_rng(0).permutation(n)
+        colors = np.where(plus, PLUS_COLOR, MINUS_COLOR)[order]
+        ax2.scatter(dx[order], dy[order], s=12 if n < 500 else 3, c=colors, alpha=min(1.0, max(0.1, 300 / n)),
+                    linewidths=0)
+        for color, label in ((PLUS_COLOR, "+1/6"), (MINUS_COLOR, "-1/6")):
+            ax2.scatter([], [], s=12, color=color, label=label)
         lim = 1.05 * max(np.nanmax(np.abs(np.r_[dx, dy])), 1e-9)
         ax2.set_xlim(-lim, lim)
         ax2.set_ylim(lim, -lim)  # image orientation: y grows downwards
@@ -85,15 +91,6 @@ def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(1
     ax2.set_xlabel(f"dx = x_defect - x_T1 ({unit})")
     ax2.set_ylabel(f"dy ({unit})")
     return _finish(fig, path)
-
-
-def _verdict(delta_bic):
-    """Reading of BIC(1) - BIC(2) (Kass & Raftery's scale: > 10 very strong)."""
-    if not np.isfinite(delta_bic):
-        return "no fit"
-    if delta_bic > 10:
-        return "two populations"
-    return "weak evidence for two" if delta_bic > 0 else "one population suffices"
 
 
 def plot_migration(populations, path=None, figsize=(10, 4)):
@@ -137,7 +134,7 @@ def plot_migration(populations, path=None, figsize=(10, 4)):
             if np.isfinite(populations.threshold):
                 ax2.axvline(np.log10(populations.threshold), color="0.3", ls=":", lw=0.8)
             ax2.set_title(f"delta BIC (1 vs 2 components) = {populations.delta_bic:.1f}: "
-                          f"{_verdict(populations.delta_bic)}", fontsize=9)
+                          f"{populations.verdict}", fontsize=9)
             ax2.legend(frameon=False)
     else:
         _empty(ax2, "no data")
@@ -211,6 +208,12 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, unit="frames", fig
     values = summary[param].to_numpy(float)
     if len(values) and (values > 0).all() and values.max() / values.min() >= 3:
         ax.set_xscale("log")
+        from matplotlib.ticker import NullFormatter
+
+        # label exactly the swept values (the default minor labels of a short log axis overlap)
+        ticks = np.unique(values)
+        ax.set_xticks(ticks, [f"{v:g}" for v in ticks])
+        ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(param)
     ax.set_ylabel(f"time ({unit})")
     ax.legend(frameon=False)

@@ -256,7 +256,7 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
 
 def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, dl, dt, n_control, seed,
                     frame_interval, time_unit, include_border):
-    from .plots import _verdict, plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing
+    from .plots import plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing
 
     cells, events = tables["cells"], tables.get("events")
     defects = tables.get("defects", pd.DataFrame(columns=["frame", "defect", "x", "y", "charge", "p"]))
@@ -311,7 +311,7 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
               f"- Spearman rank correlation of displacement and defect density: rho = {pops.spearman_rho:.3g} "
               f"(p = {pops.spearman_pvalue:.3g})",
               f"- two-component mixture in log10(displacement): split at {pops.threshold:.3g}, "
-              f"delta BIC (1 vs 2 components) = {pops.delta_bic:.3g} ({_verdict(pops.delta_bic)}; "
+              f"delta BIC (1 vs 2 components) = {pops.delta_bic:.3g} ({pops.verdict}; "
               f"> 10 is strong evidence for two populations)", "",
               _md_table(pops.summary), ""]
     lines += _figure_line(path, out, "migration")
