@@ -2,7 +2,8 @@
 
 Usage::
 
-    python scripts/reproduce_fig3.py --out fig3              # reduced settings (about an hour, 2 cores)
+    python scripts/reproduce_fig3.py --out fig3              # reduced settings (~30 min, 2 cores)
+    python scripts/reproduce_fig3.py --out fig3 --param v0=0.0015   # any simulation parameter changed
     python scripts/reproduce_fig3.py --out fig3 --paper      # the paper's settings (days; use a cluster)
     python scripts/reproduce_fig3.py --out fig3 --tiny       # smoke test (a few minutes)
     python scripts/reproduce_fig3.py --out fig3 --scheduler tcp://host:8786   # runs on a dask cluster
@@ -62,6 +63,8 @@ def parse(argv=None):
     ap.add_argument("--scheduler", help="dask.distributed scheduler address (instead of local processes)")
     ap.add_argument("--threads", default=1, type=int, help="numba threads per simulation (default 1)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                    help="override a simulation parameter of the preset, e.g. --param v0=0.0015 (repeatable)")
     ap.add_argument("--min-length", type=float, default=0.0,
                     help="contacts shorter than this (px) count as four-fold vertices in T1 detection")
     ap.add_argument("--include-border", action="store_true",
@@ -69,6 +72,20 @@ def parse(argv=None):
     ap.add_argument("--censor", type=int, default=None,
                     help="right-censoring window for T1s, frames (default: one migration window)")
     return ap.parse_args(argv)
+
+
+def parse_overrides(items):
+    """``["v0=0.0015", "M=0.5"]`` -> ``{"v0": 0.0015, "M": 0.5}`` (numbers as int or float)."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise SystemExit(f"--param expects NAME=VALUE, got {item!r}")
+        try:
+            out[name.strip()] = int(value) if value.strip().lstrip("-").isdigit() else float(value)
+        except ValueError:
+            out[name.strip()] = value.strip()  # e.g. dtype=float64
+    return out
 
 
 def main(argv=None):
@@ -85,12 +102,14 @@ def main(argv=None):
     window = frames_per_window(cfg["window_iterations"], cfg["save_every"])
     censor = window if args.censor is None else args.censor
     # long active runs stretch cells: 41 px patches leak >10 % of a field at their rim; 55 px do not
-    base = Params(n_cells=cfg["n_cells"], Lx=cfg["Lx"], Ly=cfg["Ly"], patch=cfg["patch"])
+    base = Params.from_dict({"n_cells": cfg["n_cells"], "Lx": cfg["Lx"], "Ly": cfg["Ly"], "patch": cfg["patch"],
+                             **parse_overrides(args.param)})
     client = None
     if args.scheduler:
         from distributed import Client
 
         client = Client(args.scheduler)
+    print(f"parameters: {base.to_dict()}", flush=True)
     print(f"preset {name}: {cfg['n_cells']} cells in {cfg['Lx']} x {cfg['Ly']} px, D_r = {cfg['values']}, "
           f"relax {cfg['relax']}, {cfg['steps']} steps, a frame every {cfg['save_every']} steps, "
           f"window {window} frames", flush=True)
@@ -116,4 +135,9 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from hexatissue.errors import InputError
+
+    try:
+        sys.exit(main())
+    except InputError as exc:
+        sys.exit(f"error: {exc}")
