@@ -202,6 +202,27 @@ def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a
                     out[c, i, j] = phi[c, i, j] + dt * k
 
 
+@njit(cache=True)
+def _patch_moments(phi, c):
+    """Float64 sums over cell c's patch interior: ``int phi^2``, ``sum phi^2 j``, ``sum phi^2 i`` and
+    ``int phi^2`` on the two interior rings next to the fixed zero ring (the leak measure)."""
+    P = phi.shape[1]
+    a = 0.0
+    mx = 0.0
+    my = 0.0
+    rim = 0.0
+    for i in range(1, P - 1):
+        for j in range(1, P - 1):
+            v = np.float64(phi[c, i, j])
+            w = v * v
+            a += w
+            mx += w * j
+            my += w * i
+            if i <= 2 or j <= 2 or i >= P - 3 or j >= P - 3:
+                rim += w
+    return a, mx, my, rim
+
+
 @njit(cache=True, parallel=True)
 def moments(phi, ox, oy, out):
     """Per cell ``out[c] = (area, x, y)``: ``int phi^2 dA`` and the phi^2-weighted centroid (float64).
@@ -211,16 +232,7 @@ def moments(phi, ox, oy, out):
     """
     N, P = phi.shape[0], phi.shape[1]
     for c in prange(N):
-        a = 0.0
-        mx = 0.0
-        my = 0.0
-        for i in range(1, P - 1):
-            for j in range(1, P - 1):
-                v = np.float64(phi[c, i, j])
-                w = v * v
-                a += w
-                mx += w * j
-                my += w * i
+        a, mx, my, _ = _patch_moments(phi, c)
         out[c, 0] = a
         if a > 0:
             out[c, 1] = ox[c] + mx / a
@@ -243,19 +255,7 @@ def recentre(phi, scratch, ox, oy, leak, threshold):
     centre = 0.5 * (P - 1)
     moved = np.zeros(N, dtype=np.int64)
     for c in prange(N):
-        a = 0.0
-        mx = 0.0
-        my = 0.0
-        rim = 0.0
-        for i in range(1, P - 1):
-            for j in range(1, P - 1):
-                v = np.float64(phi[c, i, j])
-                w = v * v
-                a += w
-                mx += w * j
-                my += w * i
-                if i <= 2 or j <= 2 or i >= P - 3 or j >= P - 3:
-                    rim += w
+        a, mx, my, rim = _patch_moments(phi, c)
         if a <= 0:
             continue
         leak[c] = max(leak[c], rim / a)
