@@ -58,6 +58,9 @@ def parse(argv=None):
     group.add_argument("--tiny", action="store_true", help="a smoke test of a few minutes")
     ap.add_argument("--values", type=float, nargs="+", help="D_r values (override the preset)")
     ap.add_argument("--steps", type=int, help="active steps per run (override the preset)")
+    ap.add_argument("--relax", type=int, help="passive relaxation steps (override the preset)")
+    ap.add_argument("--save-every", type=int, help="steps between saved frames (override the preset)")
+    ap.add_argument("--window", type=int, help="migration window in iterations (override the preset's 25,000)")
     ap.add_argument("--workers", type=int, default=None,
                     help="local processes (default: one per run, at most the cores)")
     ap.add_argument("--scheduler", help="dask.distributed scheduler address (instead of local processes)")
@@ -97,8 +100,10 @@ def main(argv=None):
     cfg = dict(PRESETS[name])
     if args.values:
         cfg["values"] = args.values
-    if args.steps:
-        cfg["steps"] = args.steps
+    for key, value in (("steps", args.steps), ("relax", args.relax), ("save_every", args.save_every),
+                       ("window_iterations", args.window)):
+        if value:
+            cfg[key] = value
     window = frames_per_window(cfg["window_iterations"], cfg["save_every"])
     censor = window if args.censor is None else args.censor
     # long active runs stretch cells: 41 px patches leak >10 % of a field at their rim; 55 px do not
