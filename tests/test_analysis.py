@@ -6,8 +6,8 @@ from scipy import stats
 
 from hexatissue.analysis import (cell_displacements, cell_steps, cell_timing, fit_gaussian_mixture,
                                  frames_per_window, migration_populations, migration_table, nearest_defect,
-                                 random_cell_distances, t1_defect_distances, t1_defect_proximity,
-                                 timing_across_runs, timing_summary, timing_test)
+                                 random_cell_distances, random_vertex_distances, t1_defect_distances,
+                                 t1_defect_proximity, timing_across_runs, timing_summary, timing_test)
 from hexatissue.box import Box
 from hexatissue.errors import HexatissueWarning, InputError
 from hexatissue.events import cell_event_stats
@@ -106,6 +106,23 @@ def test_random_control_is_seeded_and_draws_interior_cells_of_the_frame():
     f0 = a[a["frame"] == 0]
     assert f0["track"].is_unique  # without replacement while the frame has enough cells
     np.testing.assert_allclose(a["dr"], np.abs(a["x"]))
+
+
+def test_vertex_control_draws_interior_vertices_of_degree_three_or_more():
+    # vertices 1-3 sit on the defect (distance 0), 4 is an image corner (degree 2), 5 a border vertex
+    vertices = pd.DataFrame({"frame": 0, "vertex": [1, 2, 3, 4, 5], "x": [0.0, 0.0, 0.0, 9.0, 9.0],
+                             "y": 0.0, "degree": [3, 4, 3, 2, 3], "is_border": [False, False, False, False, True]})
+    defects = _defects([(0, 0.0, 0.0, SIXTH)])
+    d = random_vertex_distances(vertices, [0, 0], defects, n_per_frame=3, seed=0)
+    assert len(d) == 6 and set(d["vertex"]) == {1, 2, 3} and (d["dr"] == 0).all()
+    ev = _events([("cycle", 0, 1, 1, 2, 3, 4, 3.0, 4.0)])
+    res = t1_defect_proximity(ev, None, defects, control="vertices", vertices=vertices, n_control=2)
+    assert res.control_kind == "vertices" and res.events["dr"].iloc[0] == pytest.approx(5.0)
+    assert (res.control["dr"] == 0).all() and res.ks_pvalue_closer > 0.5  # the T1 is farther than the control
+    with pytest.raises(InputError, match="vertices table"):
+        t1_defect_proximity(ev, None, defects, control="vertices")
+    with pytest.raises(InputError, match="control"):
+        t1_defect_proximity(ev, None, defects, control="junctions")
 
 
 def test_proximity_detects_events_near_defects():

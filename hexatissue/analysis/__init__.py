@@ -19,12 +19,13 @@ from .sweep import sweep
 from .mixture import GaussianMixture1D, fit_gaussian_mixture
 from .plots import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
                     plot_timing_vs_parameter)
-from .proximity import (ProximityResult, nearest_defect, random_cell_distances, t1_defect_distances,
-                        t1_defect_proximity)
+from .proximity import (ProximityResult, compare_distances, nearest_defect, random_cell_distances,
+                        random_vertex_distances, t1_defect_distances, t1_defect_proximity)
 from .timing import cell_timing, timing_across_runs, timing_summary, timing_test
 
 __all__ = [
-    "nearest_defect", "t1_defect_distances", "random_cell_distances", "t1_defect_proximity", "ProximityResult",
+    "nearest_defect", "t1_defect_distances", "random_cell_distances", "random_vertex_distances",
+    "t1_defect_proximity", "compare_distances", "ProximityResult",
     "frames_per_window", "cell_steps", "cell_displacements", "migration_table", "migration_populations",
     "MigrationPopulations", "DEFAULT_DL", "PAPER_WINDOW_ITERATIONS",
     "GaussianMixture1D", "fit_gaussian_mixture", "sweep", "figure3", "loglog_slope",

@@ -15,13 +15,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from ..errors import HexatissueWarning, InputError
 from ..io import atomic_path, write_table
 from .migration import DEFAULT_DL, migration_populations, migration_table
 from .plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
-from .proximity import ProximityResult, t1_defect_proximity
+from .proximity import compare_distances, t1_defect_proximity
 from .report import load_results, results_box
 from .timing import cell_timing, timing_across_runs
 
@@ -48,16 +47,8 @@ def _runs(runs):
     return {float(v): Path(p) for v, p in sorted(runs.items())}
 
 
-def _pooled_ks(events, control):
-    if len(events) and len(control):
-        two = stats.ks_2samp(events["dr"], control["dr"])
-        one = stats.ks_2samp(events["dr"], control["dr"], alternative="greater")
-        return float(two.statistic), float(two.pvalue), float(one.pvalue)
-    return (float("nan"),) * 3
-
-
 def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval=1.0, time_unit="frames",
-            n_control=5, seed=0, include_border=False) -> dict:
+            n_control=5, seed=0, include_border=False, control="cells") -> dict:
     """Fig. 3e (T1–defect distances), 3f (migration vs defect density) and 3g (event timing) of a sweep.
 
     Parameters
@@ -79,11 +70,14 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     frame_interval : float
         Time per frame for the timing (e.g. ``save_every`` iterations), in ``time_unit``.
     n_control : int
-        Random cells per T1 event in the proximity control.
+        Random cells (or vertices) per T1 event in the proximity control.
     seed : int
         Seeds the control draws (``seed + run index``) and the mixture fit.
     include_border : bool
         Keep border cells and events touching them (see :func:`~hexatissue.analysis.report.report`).
+    control : {"cells", "vertices"}
+        Fig. 3e control: random cells (the paper's) or random vertices (needs
+        the ``vertices`` tables; see :func:`~hexatissue.analysis.t1_defect_proximity`).
 
     Returns
     -------
@@ -104,7 +98,10 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
         defects = tables.get("defects")
         if events is None or defects is None:
             raise InputError(f"{folder}: needs events and defects tables (a movie analysed with order_p including {p})")
+        if control == "vertices" and tables.get("vertices") is None:
+            raise InputError(f"{folder}: control='vertices' needs a vertices table")
         prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed + k,
+                                   control=control, vertices=tables.get("vertices"),
                                    include_border=include_border)
         ev_parts.append(prox.events.assign(**{param: value}))
         ctrl_parts.append(prox.control.assign(**{param: value}))
@@ -117,7 +114,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
         timing[value] = cell_timing(events, cells, frame_interval=frame_interval)
     written = []
     events_all, control_all = pd.concat(ev_parts, ignore_index=True), pd.concat(ctrl_parts, ignore_index=True)
-    pooled = ProximityResult(events_all, control_all, *_pooled_ks(events_all, control_all))
+    pooled = compare_distances(events_all, control_all, control)
     written += [write_table(events_all, out / "fig3e_distances.csv"),
                 write_table(control_all, out / "fig3e_control.csv"),
                 write_table(pd.DataFrame(ks_rows), out / "fig3e_ks.csv")]
@@ -141,7 +138,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     cy = across[across["quantity"] == "cycle_period"]
     summary = {
         "param": param, "values": list(runs), "p": p, "dl": dl, "dt": dt, "frame_interval": frame_interval,
-        "time_unit": time_unit, "include_border": include_border,
+        "time_unit": time_unit, "include_border": include_border, "control": control,
         "fig3e": {"pooled": pooled.summary(), "per_run": ks_rows},
         "fig3f": {"n_subregion_windows": len(pops.table), "threshold": pops.threshold, "delta_bic": pops.delta_bic,
                   "verdict": pops.verdict, "spearman_rho": pops.spearman_rho, "spearman_pvalue": pops.spearman_pvalue,

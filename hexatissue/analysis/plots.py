@@ -57,7 +57,7 @@ def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(1
         bins = np.linspace(0, top * 1.0001 + 1e-12, 21)
         if len(c):
             ax.hist(c, bins=bins, density=True, histtype="stepfilled", color=CONTROL_COLOR, alpha=0.45,
-                    label=f"random cells (n={len(c)})")
+                    label=f"random {result.control_kind} (n={len(c)})")
         if len(e):
             ax.hist(e, bins=bins, density=True, histtype="step", color=EVENT_COLOR, linewidth=2,
                     label=f"T1 events (n={len(e)})")

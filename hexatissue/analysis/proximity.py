@@ -26,8 +26,8 @@ from ..errors import InputError
 from ._common import charge_mask, check_box, check_p, check_positive, interior, rng, track_ids
 from ..schema import require_columns
 
-__all__ = ["nearest_defect", "t1_defect_distances", "random_cell_distances", "t1_defect_proximity",
-           "ProximityResult", "DISTANCE_COLUMNS"]
+__all__ = ["nearest_defect", "t1_defect_distances", "random_cell_distances", "random_vertex_distances",
+           "t1_defect_proximity", "compare_distances", "ProximityResult", "DISTANCE_COLUMNS"]
 
 DISTANCE_COLUMNS = {
     "defect": "id of the nearest defect in its frame (-1 when the frame has none)",
@@ -167,14 +167,48 @@ def random_cell_distances(cells, frames, defects, p=6, box=None, n_per_frame=1, 
         :data:`DISTANCE_COLUMNS`.
     """
     require_columns(cells, ("frame", "x", "y"), "cells")
+    use = interior(cells) if not include_border else np.ones(len(cells), bool)
+    return _random_point_distances(cells, track_ids(cells), "track", use, frames, defects, p, box, n_per_frame,
+                                   seed)
+
+
+def random_vertex_distances(vertices, frames, defects, p=6, box=None, n_per_frame=1, seed=0, include_border=False):
+    """Control at junction level: displacement from randomly drawn vertices to the nearest defect.
+
+    T1 events sit where four cells meet (their ``x, y`` is the quartet's
+    centre), random cells at cell centres; drawing vertices instead compares
+    like with like.  Only vertices with three or more junctions are drawn
+    (not the degree-2 image corners of open images).
+
+    Parameters
+    ----------
+    vertices : pandas.DataFrame
+        Vertices table: ``frame``, ``vertex``, ``x``, ``y`` (px), ``degree``;
+        optional ``is_border`` (not drawn unless ``include_border``).
+    frames, defects, p, box, n_per_frame, seed
+        As in :func:`random_cell_distances`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame``, ``vertex``, ``x``, ``y`` (px), then :data:`DISTANCE_COLUMNS`.
+    """
+    require_columns(vertices, ("frame", "vertex", "x", "y", "degree"), "vertices")
+    use = vertices["degree"].to_numpy(np.int64) >= 3
+    if not include_border:
+        use &= interior(vertices)
+    return _random_point_distances(vertices, vertices["vertex"].to_numpy(np.int64), "vertex", use, frames, defects,
+                                   p, box, n_per_frame, seed)
+
+
+def _random_point_distances(points, ids, id_name, use, frames, defects, p, box, n_per_frame, seed):
+    """Draw ``n_per_frame`` rows of ``points[use]`` per entry of ``frames`` and measure them."""
     n_per_frame = check_positive(n_per_frame, "n_per_frame", integer=True)
     gen = rng(seed)
-    use = np.isfinite(cells[["x", "y"]].to_numpy(float)).all(axis=1)
-    if not include_border:
-        use &= interior(cells)
-    c_frame = cells["frame"].to_numpy(np.int64)[use]
-    c_xy = cells[["x", "y"]].to_numpy(float)[use]
-    c_id = track_ids(cells)[use]
+    use = use & np.isfinite(points[["x", "y"]].to_numpy(float)).all(axis=1)
+    c_frame = points["frame"].to_numpy(np.int64)[use]
+    c_xy = points[["x", "y"]].to_numpy(float)[use]
+    c_id = ids[use]
     want, counts = np.unique(np.asarray(frames, np.int64), return_counts=True)
     picks = []
     for t, k in zip(want, counts * n_per_frame):
@@ -183,7 +217,7 @@ def random_cell_distances(cells, frames, defects, p=6, box=None, n_per_frame=1, 
             continue
         picks.append(gen.choice(pool, size=k, replace=k > len(pool)))
     idx = np.concatenate(picks) if picks else np.zeros(0, np.int64)
-    head = pd.DataFrame({"frame": c_frame[idx], "track": c_id[idx], "x": c_xy[idx, 0], "y": c_xy[idx, 1]})
+    head = pd.DataFrame({"frame": c_frame[idx], id_name: c_id[idx], "x": c_xy[idx, 0], "y": c_xy[idx, 1]})
     return pd.concat([head, nearest_defect(c_frame[idx], c_xy[idx], defects, p, box)], axis=1)
 
 
@@ -196,13 +230,15 @@ class ProximityResult:
     events : pandas.DataFrame
         :func:`t1_defect_distances` (rows without a defect in their frame dropped).
     control : pandas.DataFrame
-        :func:`random_cell_distances` (same).
+        :func:`random_cell_distances` or :func:`random_vertex_distances` (same).
     ks_statistic, ks_pvalue : float
         Two-sided two-sample Kolmogorov–Smirnov test of ``events.dr`` vs
         ``control.dr`` (NaN when either sample is empty).
     ks_pvalue_closer : float
         One-sided p-value of the alternative "T1s are closer to defects than
         random cells" (the events' distance CDF lies above the control's).
+    control_kind : str
+        ``"cells"`` or ``"vertices"``: what the control draws.
     """
 
     events: pd.DataFrame
@@ -210,6 +246,7 @@ class ProximityResult:
     ks_statistic: float
     ks_pvalue: float
     ks_pvalue_closer: float
+    control_kind: str = "cells"
 
     def summary(self) -> dict:
         """Key numbers: sample sizes, medians and means of ``dr`` (px) and the KS test."""
@@ -225,8 +262,8 @@ class ProximityResult:
 
 
 def t1_defect_proximity(events, cells, defects, p=6, box=None, kinds=("cycle", "intercalation", "unresolved"),
-                        n_control=5, seed=0, include_border=False) -> ProximityResult:
-    """T1–defect distances against a random-cell control, with a two-sample KS test (Fig. 3e).
+                        n_control=5, seed=0, include_border=False, control="cells", vertices=None) -> ProximityResult:
+    """T1–defect distances against a random-cell (or random-vertex) control, with a two-sample KS test (Fig. 3e).
 
     Parameters
     ----------
@@ -239,26 +276,41 @@ def t1_defect_proximity(events, cells, defects, p=6, box=None, kinds=("cycle", "
     kinds : sequence of str
         Event kinds included.
     n_control : int
-        Random cells drawn per event, from the event's frame.
+        Random cells (or vertices) drawn per event, from the event's frame.
     seed : int or numpy.random.Generator
         Seeds the control draw.
     include_border : bool
         Include border events and border cells (open images).
+    control : {"cells", "vertices"}
+        Draw random cells (the paper's control) or random vertices of degree
+        >= 3 from ``vertices`` (:func:`random_vertex_distances`).
+    vertices : pandas.DataFrame, optional
+        Vertices table; required for ``control="vertices"``.
 
     Returns
     -------
     ProximityResult
     """
+    if control not in ("cells", "vertices"):
+        raise InputError(f"control must be 'cells' or 'vertices'; got {control!r}")
+    if control == "vertices" and vertices is None:
+        raise InputError("control='vertices' needs the vertices table (vertices=...)")
     ev = t1_defect_distances(events, defects, p, box, kinds, include_border)
     ev = ev[ev["defect"] >= 0].reset_index(drop=True)
-    ctrl = random_cell_distances(cells, ev["frame"].to_numpy(np.int64), defects, p, box, n_control, seed,
-                                 include_border)
+    draw = random_cell_distances if control == "cells" else random_vertex_distances
+    ctrl = draw(cells if control == "cells" else vertices, ev["frame"].to_numpy(np.int64), defects, p, box,
+                n_control, seed, include_border)
     ctrl = ctrl[ctrl["defect"] >= 0].reset_index(drop=True)
-    if len(ev) and len(ctrl):
-        two = stats.ks_2samp(ev["dr"], ctrl["dr"])
+    return compare_distances(ev, ctrl, control)
+
+
+def compare_distances(events, control, control_kind="cells") -> ProximityResult:
+    """Two-sample KS tests of ``events.dr`` against ``control.dr`` (NaN when either is empty)."""
+    if len(events) and len(control):
+        two = stats.ks_2samp(events["dr"], control["dr"])
         # alternative="greater": the first sample's CDF lies above the second's, i.e. smaller distances
-        one = stats.ks_2samp(ev["dr"], ctrl["dr"], alternative="greater")
+        one = stats.ks_2samp(events["dr"], control["dr"], alternative="greater")
         values = float(two.statistic), float(two.pvalue), float(one.pvalue)
     else:
         values = (float("nan"),) * 3
-    return ProximityResult(ev, ctrl, *values)
+    return ProximityResult(events, control, *values, control_kind=control_kind)
