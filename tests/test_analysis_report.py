@@ -104,10 +104,11 @@ def test_report_command_passes_its_options(monkeypatch, tmp_path, capsys):
     command.add_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["report", "RES", "--out", "OUT", "--dt", "5", "--dl", "30", "--seed", "2",
                               "--n-control", "3", "--frame-interval", "500", "--time-unit", "iterations",
-                              "--include-border"])
+                              "--include-border", "--control", "vertices"])
     assert args.func(args) == 0
     assert seen == {"results": "RES", "out": "OUT", "p": 6, "dl": 30.0, "dt": 5, "n_control": 3, "seed": 2,
-                    "frame_interval": 500.0, "time_unit": "iterations", "include_border": True}
+                    "frame_interval": 500.0, "time_unit": "iterations", "include_border": True,
+                    "control": "vertices"}
     assert "report written" in capsys.readouterr().out
 
 
@@ -143,6 +144,9 @@ def test_report_on_a_real_microscopy_movie(real_data, tmp_path):
     assert numbers["migration"]["n_subregion_windows"] > 0
     for name in ("t1_defects.png", "migration.png", "timing.png", "events.png"):
         assert _png_ok(res / "report" / name)
+    # the junction-level control runs on the same real movie
+    numbers = report(res, tmp_path / "vertex_report", dt=3, control="vertices")
+    assert numbers["proximity"]["n_control"] > 0 and np.isfinite(numbers["proximity"]["ks_pvalue"])
 
 
 def test_report_through_the_hexatissue_command(tmp_path):

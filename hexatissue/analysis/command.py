@@ -21,6 +21,8 @@ def add_parser(subparsers):
                    help="migration window, frames (default: a quarter of the movie; for MPF runs use "
                         "25000 / save_every to match the paper)")
     p.add_argument("--n-control", type=int, default=5, help="random cells per T1 event in the control (default 5)")
+    p.add_argument("--control", choices=["cells", "vertices"], default="cells",
+                   help="T1-defect control: random cells (the paper's, default) or random vertices (junction level)")
     p.add_argument("--seed", type=int, default=0, help="seed of the control draw and mixture fit (default 0)")
     p.add_argument("--frame-interval", type=float, default=1.0, help="time per frame for event timing (default 1)")
     p.add_argument("--time-unit", default="frames", help="unit of --frame-interval (default: frames)")
@@ -35,7 +37,7 @@ def _run(args) -> int:
 
     numbers = report(args.results, args.out, p=args.p, dl=args.dl, dt=args.dt, n_control=args.n_control,
                      seed=args.seed, frame_interval=args.frame_interval, time_unit=args.time_unit,
-                     include_border=args.include_border)
+                     include_border=args.include_border, control=args.control)
     md = next(w for w in numbers["written"] if w.endswith("report.md"))
     print(f"report written: {md} ({len(numbers['written'])} files)")
     return 0

@@ -192,7 +192,7 @@ def _figure_line(path, out, caption):
 
 
 def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_control=5, seed=0,
-           frame_interval=1.0, time_unit="frames", include_border=False) -> dict:
+           frame_interval=1.0, time_unit="frames", include_border=False, control="cells") -> dict:
     """Render the figures that apply to an analysis folder and a Markdown summary.
 
     Parameters
@@ -211,7 +211,7 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
         Migration window, frames.  Default: :func:`default_window` (the
         paper's 25,000 iterations for MPF runs, else a quarter of the movie).
     n_control : int
-        Random cells per T1 event in the proximity control.
+        Random cells (or vertices) per T1 event in the proximity control.
     seed : int or numpy.random.Generator
         Seeds the control draw and the mixture fit.
     frame_interval : float
@@ -220,6 +220,9 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
     include_border : bool
         Keep border cells and events touching them in the proximity and
         migration analyses (e.g. MPF runs whose unassigned gaps mark cells as border).
+    control : {"cells", "vertices"}
+        Proximity control: random cells (the paper's) or random vertices
+        (junction level; see :func:`~hexatissue.analysis.t1_defect_proximity`).
 
     Returns
     -------
@@ -245,7 +248,7 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
     if is_movie:
         lines += _movie_sections(tables, metadata, box, frames, out, written, numbers, p=p, dl=dl, dt=dt,
                                  n_control=n_control, seed=seed, frame_interval=frame_interval, time_unit=time_unit,
-                                 include_border=include_border)
+                                 include_border=include_border, control=control)
     md = out / "report.md"
     with atomic_path(md) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -255,7 +258,7 @@ def report(results_dir, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, 
 
 
 def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, dl, dt, n_control, seed,
-                    frame_interval, time_unit, include_border):
+                    frame_interval, time_unit, include_border, control):
     from .plots import plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing
 
     cells, events = tables["cells"], tables.get("events")
@@ -276,7 +279,7 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
 
     # Fig. 3e
     prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed,
-                               include_border=include_border)
+                               include_border=include_border, control=control, vertices=tables.get("vertices"))
     s = prox.summary()
     numbers["proximity"] = s
     path = out / "t1_defects.png"
@@ -284,10 +287,10 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
     written += [path, write_table(prox.events, out / "t1_defect_distances.csv"),
                 write_table(prox.control, out / "control_distances.csv")]
     lines += [f"## T1 events and ±1/{p} defects (Fig. 3e)", "",
-              f"- events with a defect in their frame: {s['n_events']}; random cells: {s['n_control']} "
+              f"- events with a defect in their frame: {s['n_events']}; random {control}: {s['n_control']} "
               f"({n_control} per event, seed {seed})",
               f"- median distance to the nearest defect: T1s {s['median_dr_events']:.3g} px, "
-              f"random cells {s['median_dr_control']:.3g} px",
+              f"random {control} {s['median_dr_control']:.3g} px",
               f"- KS statistic {s['ks_statistic']:.3g}, p = {s['ks_pvalue']:.3g} (two-sided), "
               f"p = {s['ks_pvalue_closer']:.3g} (one-sided: T1s closer)", ""]
     lines += _figure_line(path, out, "T1-defect distances")
