@@ -1,0 +1,143 @@
+"""Physical calibration of a movie: pixel size, frame interval and their units.
+
+Tables stay in pixels and frames everywhere in hexatissue; a
+:class:`Calibration` travels with the :class:`~hexatissue.Movie` (and the
+:class:`~hexatissue.Source` it came from) so that figures, reports and
+analyses can show micrometres and minutes where the user has them.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, replace
+
+from .errors import InputError, check_positive
+
+__all__ = ["Calibration", "normalize_length_unit", "normalize_time_unit"]
+
+# spellings found in ImageJ / OME / zarr metadata -> one canonical ASCII name
+_LENGTH_ALIASES = {
+    "px": "px", "pixel": "px", "pixels": "px", "": "px",
+    "um": "um", "µm": "um", "μm": "um", "micron": "um", "microns": "um", "micrometer": "um",
+    "micrometre": "um", "micrometers": "um", "micrometres": "um", "\\u00b5m": "um", "u": "um",
+    "nm": "nm", "nanometer": "nm", "nanometre": "nm", "nanometers": "nm",
+    "mm": "mm", "millimeter": "mm", "millimetre": "mm",
+    "cm": "cm", "m": "m", "meter": "m", "metre": "m",
+}
+_TIME_ALIASES = {
+    "frame": "frame", "frames": "frame", "": "frame",
+    "ms": "ms", "millisecond": "ms", "milliseconds": "ms", "msec": "ms",
+    "s": "s", "sec": "s", "second": "s", "seconds": "s",
+    "min": "min", "minute": "min", "minutes": "min",
+    "h": "h", "hr": "h", "hour": "h", "hours": "h",
+    "iteration": "iteration", "iterations": "iteration", "step": "iteration", "steps": "iteration",
+}
+_LENGTH_LABELS = {"um": "µm"}
+
+
+def _normalize(unit, aliases, name):
+    if not isinstance(unit, str):
+        raise InputError(f"{name} must be a unit name (str); got {unit!r}")
+    key = unit.strip().lower()
+    if key not in aliases:
+        raise InputError(f"{name} {unit!r} is not a known unit; expected one of {sorted(set(aliases.values()))}")
+    return aliases[key]
+
+
+def normalize_length_unit(unit) -> str:
+    """Canonical name of a length unit (``"micron"``, ``"µm"`` -> ``"um"``; ``"pixel"`` -> ``"px"``)."""
+    return _normalize(unit, _LENGTH_ALIASES, "length unit")
+
+
+def normalize_time_unit(unit) -> str:
+    """Canonical name of a time unit (``"sec"`` -> ``"s"``, ``"minutes"`` -> ``"min"``, ``"frames"`` -> ``"frame"``)."""
+    return _normalize(unit, _TIME_ALIASES, "time unit")
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Size of a pixel and time between frames.
+
+    Parameters
+    ----------
+    pixel_size : float
+        Length of one pixel side in ``length_unit``.  Must be 1 when
+        ``length_unit`` is ``"px"`` (uncalibrated).
+    length_unit : str
+        ``"px"`` (uncalibrated) or a physical unit (``"um"``, ``"nm"``, ...;
+        common spellings such as ``"micron"`` or ``"µm"`` are accepted).
+    frame_interval : float
+        Time between consecutive frames in ``time_unit``.  Must be 1 when
+        ``time_unit`` is ``"frame"``.
+    time_unit : str
+        ``"frame"`` (uncalibrated), ``"s"``, ``"min"``, ``"h"``, ``"ms"`` or
+        ``"iteration"`` (simulation steps).
+    """
+
+    pixel_size: float = 1.0
+    length_unit: str = "px"
+    frame_interval: float = 1.0
+    time_unit: str = "frame"
+
+    def __post_init__(self):
+        object.__setattr__(self, "pixel_size", check_positive(self.pixel_size, "pixel_size"))
+        object.__setattr__(self, "frame_interval", check_positive(self.frame_interval, "frame_interval"))
+        object.__setattr__(self, "length_unit", normalize_length_unit(self.length_unit))
+        object.__setattr__(self, "time_unit", normalize_time_unit(self.time_unit))
+        if self.length_unit == "px" and self.pixel_size != 1.0:
+            raise InputError(f"pixel_size {self.pixel_size!r} needs a physical length_unit (e.g. 'um'); "
+                             f"with length_unit 'px' it must be 1")
+        if self.time_unit == "frame" and self.frame_interval != 1.0:
+            raise InputError(f"frame_interval {self.frame_interval!r} needs a time_unit (e.g. 's', 'min'); "
+                             f"with time_unit 'frame' it must be 1")
+
+    @property
+    def has_length(self) -> bool:
+        """True when lengths have a physical unit."""
+        return self.length_unit != "px"
+
+    @property
+    def has_time(self) -> bool:
+        """True when times have a unit other than frames."""
+        return self.time_unit != "frame"
+
+    @property
+    def length_label(self) -> str:
+        """The length unit as printed on figures (``"µm"`` for ``"um"``)."""
+        return _LENGTH_LABELS.get(self.length_unit, self.length_unit)
+
+    @property
+    def time_label(self) -> str:
+        """The time unit as printed on figures (``"frames"`` when uncalibrated)."""
+        return "frames" if self.time_unit == "frame" else self.time_unit
+
+    def length(self, px):
+        """A length (or array of lengths) in px converted to ``length_unit``."""
+        return px * self.pixel_size
+
+    def area(self, px2):
+        """An area in px^2 converted to ``length_unit``^2."""
+        return px2 * self.pixel_size**2
+
+    def time(self, frames):
+        """A duration in frames converted to ``time_unit``."""
+        return frames * self.frame_interval
+
+    def replace(self, *, pixel_size=None, length_unit=None, frame_interval=None, time_unit=None) -> "Calibration":
+        """A copy with the given fields changed (None keeps a field)."""
+        changes = dict(pixel_size=pixel_size, length_unit=length_unit, frame_interval=frame_interval,
+                       time_unit=time_unit)
+        return replace(self, **{k: v for k, v in changes.items() if v is not None})
+
+    def to_dict(self) -> dict:
+        """Plain dict (for ``metadata.json``)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data) -> "Calibration":
+        """Inverse of :meth:`to_dict`; unknown keys raise :class:`InputError`."""
+        if not isinstance(data, dict):
+            raise InputError(f"calibration must be a dict; got {type(data).__name__}")
+        known = {"pixel_size", "length_unit", "frame_interval", "time_unit"}
+        extra = set(data) - known
+        if extra:
+            raise InputError(f"calibration has unknown field(s) {sorted(extra)}; expected {sorted(known)}")
+        return cls(**data)
