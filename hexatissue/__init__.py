@@ -8,14 +8,16 @@ from importlib.metadata import PackageNotFoundError, version as _version
 
 from .box import Box
 from .errors import HexatissueWarning, InputError
-from .frame import Frame, Movie
+from .units import Calibration
+from .frame import Frame, Movie, read_results
+from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
 from .graph import contact_table, neighbor_graph
 from .io import read_labels, read_table, write_table, write_tables
 from .mesh import mesh_from_labels
 from .defects import defect_density, defect_events, find_defects, track_defects
-from .order import cell_radius, cell_stress, cells_from_polygons, coarse_grain, order_vs_radius, shape_function
+from .order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius, shape_function, shape_order
 from .events import cell_event_stats, detect_t1, intercalation_intervals
-from .pipeline import analyze_movie
+from .pipeline import analyze
 from .track import Tracker, lineage_table, track_labels
 from .theory import active_force, ell6, quadrupole_flow, quadrupole_psi
 
@@ -26,8 +28,16 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 
 __all__ = [
     "Box",
+    "Calibration",
     "Frame",
     "Movie",
+    "read_results",
+    "analyze",
+    "MeshOptions",
+    "OrderOptions",
+    "TrackOptions",
+    "EventOptions",
+    "shape_order",
     "InputError",
     "HexatissueWarning",
     "read_labels",
@@ -39,12 +49,10 @@ __all__ = [
     "coarse_grain",
     "cell_radius",
     "order_vs_radius",
-    "cell_stress",
     "find_defects",
     "track_defects",
     "defect_events",
     "defect_density",
-    "analyze_movie",
     "Tracker",
     "track_labels",
     "lineage_table",

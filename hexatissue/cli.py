@@ -6,15 +6,18 @@ from __future__ import annotations
 
 import argparse
 import sys
-
+import time
 from importlib import import_module
+from pathlib import Path
 
 from .errors import InputError
+from .mesh.labels import KINDS
+from .order import CENTERS
 
 __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
-SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.analysis.command")
+SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command")
 
 
 def _analyze_parser(sub):
@@ -23,79 +26,125 @@ def _analyze_parser(sub):
         help="junction network, shape order, defects (and, for movies, tracks and T1 events)",
         description="Extract vertices, junctions, ordered polygons and per-cell shape functions from a 2-D "
         "label image, a T x Y x X label stack or an MPF run; coarse-grain the shape order and find its "
-        "defects; for movies also track cells and classify T1 events. Writes tables to --out.",
+        "defects; for movies also track cells and classify T1 events. Writes every table and metadata.json "
+        "to --out (read it back with hexatissue.read_results). Lengths in the tables are px, times frames; "
+        "the pixel size and frame interval (from the file, or --pixel-size / --frame-interval) go to "
+        "metadata.json and to the figures.",
     )
-    p.add_argument("input", help="label image or stack (.tif/.tiff, .png, .npy, Cellpose _seg.npy, .npz) "
-                                 "or an MPF run (.zarr)")
+    p.add_argument("input", help="label image or stack (.tif/.tiff, .png, .npy, Cellpose _seg.npy, .npz, zarr / "
+                                 "OME-Zarr, a folder of frames) or an MPF run (.zarr)")
     p.add_argument("--out", required=True, help="output folder for the tables")
-    p.add_argument("--periodic", action="store_true", help="the images tile a periodic box (simulations)")
-    p.add_argument("--kind", default="auto", choices=["auto", "touching", "membrane", "skeleton"],
-                   help="label convention (default: detected)")
-    p.add_argument("--p", type=int, nargs="+", default=[2, 6], metavar="P",
-                   help="symmetry orders of the shape function columns (default: 2 6)")
-    p.add_argument("--order-p", type=int, nargs="*", default=[6, 2], metavar="P",
-                   help="orders of the coarse-grained field and defects (default: 6 2; none to skip)")
-    p.add_argument("--radius", type=float, help="coarse-graining radius, px (default 1.5 R_cell)")
-    p.add_argument("--spacing", type=float, help="coarse-graining grid spacing, px (default R_cell)")
-    p.add_argument("--merge-distance", type=float, default=2.0,
-                   help="junctions shorter than this (px) become four-fold vertices (default: 2)")
-    p.add_argument("--membrane-width", type=int, default=3,
-                   help="0-valued junction pixels within this many px of a cell are shared out (default: 3)")
-    p.add_argument("--center", default="vertex_mean", choices=["vertex_mean", "area_centroid"],
-                   help="cell centre of the shape function (default: vertex_mean)")
-    p.add_argument("--track", dest="track", action="store_true", default=None,
-                   help="link cells by overlap (default for label stacks)")
-    p.add_argument("--no-track", dest="track", action="store_false",
-                   help="trust the ids as consistent over time (default for MPF runs)")
-    p.add_argument("--min-length", type=float, default=0.0,
-                   help="contacts shorter than this (px) count as four-fold vertices in T1 detection (default: 0)")
-    p.add_argument("--censor", type=int, default=10,
-                   help="T1s within this many frames of the end are 'unresolved' (default: 10)")
-    p.add_argument("--max-gap", type=int, default=0,
-                   help="tracking: link cells missing for up to this many frames (default: 0)")
-    p.add_argument("--checkpoint", metavar="DIR",
-                   help="movies: save progress to DIR and resume from it when run again")
-    p.add_argument("--workers", type=int, help="local processes for movies (default: all cores)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="dask.distributed scheduler address for movies")
-    p.add_argument("--figures", action="store_true", help="also write PNG figures to OUT/figures")
-    p.add_argument("--format", nargs="+", default=["parquet"], choices=["parquet", "csv"],
-                   help="table formats to write (default: parquet)")
-    p.add_argument("--pixel-size", type=float, default=1.0, help="physical size of a pixel (metadata)")
-    p.add_argument("--units", default="px", help="unit of --pixel-size (metadata)")
+    src = p.add_argument_group("input")
+    src.add_argument("--key", help="array inside an .npz, zarr group or Cellpose _seg.npy file")
+    src.add_argument("--channel", type=int, help="channel of a multi-channel image (0-based)")
+    src.add_argument("--level", type=int, help="resolution level of an OME-Zarr image (default 0)")
+    src.add_argument("--periodic", action="store_true", help="the images tile a periodic box (simulations)")
+    src.add_argument("--pixel-size", type=float, help="physical size of a pixel (default: from the file)")
+    src.add_argument("--units", help="length unit of --pixel-size (default: from the file, else um)")
+    src.add_argument("--frame-interval", type=float, help="time between frames (default: from the file)")
+    src.add_argument("--time-unit", help="unit of --frame-interval, e.g. s, min, h (default: from the file, else min)")
+    mesh = p.add_argument_group("junction network")
+    mesh.add_argument("--kind", default="auto", choices=list(KINDS), help="label convention (default: detected)")
+    mesh.add_argument("--merge-distance", type=float, default=2.0,
+                      help="junctions shorter than this (px) become four-fold vertices (default: 2)")
+    mesh.add_argument("--membrane-width", type=int, default=3,
+                      help="0-valued junction pixels within this many px of a cell are shared out (default: 3)")
+    mesh.add_argument("--min-area", type=int, help="regions smaller than this (px) are membrane "
+                                                   "(default: 4 for skeletons, else 0)")
+    order = p.add_argument_group("shape order")
+    order.add_argument("--p", type=int, nargs="+", default=[6, 2], metavar="P",
+                       help="symmetry orders of gamma_p, Gamma_p and defects (default: 6 2)")
+    order.add_argument("--center", default="vertex_mean", choices=list(CENTERS),
+                       help="cell centre of the shape function (default: vertex_mean)")
+    order.add_argument("--no-fields", dest="fields", action="store_false",
+                       help="only gamma_p per cell: no coarse-grained field or defects")
+    order.add_argument("--radius", type=float, help="coarse-graining radius, px (default 1.5 R_cell)")
+    order.add_argument("--spacing", type=float, help="coarse-graining grid spacing, px (default R_cell)")
+    track = p.add_argument_group("tracking and T1 events")
+    track.add_argument("--track", dest="track", action="store_true", default=None,
+                       help="link cells by overlap (default for label stacks)")
+    track.add_argument("--no-track", dest="track", action="store_false",
+                       help="trust the ids as consistent over time (default for MPF runs)")
+    track.add_argument("--max-gap", type=int, default=0,
+                       help="tracking: link cells missing for up to this many frames (default: 0)")
+    track.add_argument("--min-length", type=float, default=0.0,
+                       help="contacts shorter than this (px) count as four-fold vertices in T1 detection (default: 0)")
+    track.add_argument("--censor", type=int, default=10,
+                       help="T1s within this many frames of the end are 'unresolved' (default: 10)")
+    run = p.add_argument_group("running")
+    run.add_argument("--checkpoint", metavar="DIR", help="movies: save progress to DIR and resume from it when run again")
+    run.add_argument("--workers", type=int, help="local processes for movies (default: all cores)")
+    run.add_argument("--scheduler", metavar="ADDRESS", help="dask.distributed scheduler address for movies")
+    run.add_argument("--figures", action="store_true", help="also write PNG figures to OUT/figures")
+    run.add_argument("--format", nargs="+", default=["parquet"], choices=["parquet", "csv"],
+                     help="table formats to write (default: parquet)")
     p.set_defaults(func=_run_analyze)
 
 
-def _run_analyze(args) -> int:
-    from .results import analyze_to_folder
+def open_cli_source(args):
+    """The :class:`~hexatissue.Source` named by the input options of ``hexatissue analyze``."""
+    from .source import open_source
 
+    units, time_unit = args.units, args.time_unit
+    source = open_source(args.input, key=args.key, channel=args.channel, level=args.level)
+    if args.pixel_size is not None and units is None and not source.calibration.has_length:
+        units = "um"  # a bare --pixel-size is almost always in micrometres
+    if args.frame_interval is not None and time_unit is None and not source.calibration.has_time:
+        time_unit = "min"
+    return source.with_calibration(pixel_size=args.pixel_size, length_unit=units,
+                                   frame_interval=args.frame_interval, time_unit=time_unit)
+
+
+def _run_analyze(args) -> int:
+    from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
+    from .pipeline import analyze
+
+    source = open_cli_source(args)
+    options = dict(
+        mesh=MeshOptions(kind=args.kind, merge_distance=args.merge_distance, membrane_width=args.membrane_width,
+                         min_area=args.min_area),
+        order=OrderOptions(p=tuple(args.p), center=args.center, fields=args.fields, radius=args.radius,
+                           spacing=args.spacing),
+        track=TrackOptions(enabled=args.track, max_gap=args.max_gap),
+        events=EventOptions(min_length=args.min_length, censor=args.censor),
+    )
     client = None
     if args.scheduler:
         from dask.distributed import Client
 
         client = Client(args.scheduler)
+    start = time.perf_counter()
     try:
-        summary = analyze_to_folder(
-            args.input, args.out, periodic=args.periodic, p=tuple(args.p), order_p=tuple(args.order_p),
-            radius=args.radius, spacing=args.spacing, formats=tuple(args.format), figures=args.figures,
-            client=client, n_workers=args.workers, track=args.track, min_length=args.min_length,
-            censor=args.censor, max_gap=args.max_gap, checkpoint=args.checkpoint, kind=args.kind, merge_distance=args.merge_distance,
-            membrane_width=args.membrane_width, center=args.center, pixel_size=args.pixel_size, units=args.units,
-        )
+        movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
+                        checkpoint=args.checkpoint, **options)
     finally:
         if client is not None:
             client.close()
-    parts = [
-        f"{summary['frames']} frame(s)",
-        f"{summary['cells_per_frame']:.0f} cells/frame ({summary['interior_cells_per_frame']:.0f} interior)",
-        f"{summary['vertices_per_frame']:.0f} vertices/frame",
-    ]
-    if "events" in summary:
-        parts.append("T1 events " + (", ".join(f"{k} {v}" for k, v in summary["events"].items()) or "none"))
-    if "defects" in summary:
-        parts.append("defects " + ", ".join(f"{k}: +{v['+']}/-{v['-']}" for k, v in summary["defects"].items()))
-    print(f"{args.input}: " + "; ".join(parts) + f"; {len(summary['written'])} files in {args.out} "
-          f"({summary['seconds']:.1f} s)")
+    written = movie.write(args.out, formats=tuple(args.format))
+    if args.figures:
+        from .workflows.figures import save_movie_figures
+
+        written += save_movie_figures(movie, Path(args.out) / "figures", source)
+    print(f"{args.input}: {summary_line(movie)}; {len(written)} files in {args.out} "
+          f"({time.perf_counter() - start:.1f} s)")
     return 0
+
+
+def summary_line(movie) -> str:
+    """One line of key numbers of an analysis (frames, cells, vertices, T1 events, defects)."""
+    n = max(len(movie), 1)
+    cells = movie.cells
+    parts = [f"{len(movie)} frame(s)",
+             f"{len(cells) / n:.0f} cells/frame ({int((~cells['is_border']).sum()) / n:.0f} interior)",
+             f"{len(movie.vertices) / n:.0f} vertices/frame"]
+    if len(movie) > 1 and movie.events is not None:
+        counts = movie.events["kind"].value_counts()
+        parts.append("T1 events " + (", ".join(f"{k} {v}" for k, v in counts.items()) or "none"))
+    if movie.defects is not None:
+        d = movie.defects
+        parts.append("defects " + ", ".join(f"p={q}: +{int((g['charge'] > 0).sum())}/-{int((g['charge'] < 0).sum())}"
+                                            for q, g in d.groupby("p")))
+    return "; ".join(parts)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -14,9 +14,8 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
-from .box import Box, periodic_or_none
-from .errors import InputError, check_positive
-from .order import _check_p
+from .box import Box, as_box
+from .errors import InputError, check_p, check_positive
 from .schema import require_columns, validate
 
 __all__ = [
@@ -26,7 +25,13 @@ __all__ = [
     "defect_density",
     "track_defects",
     "defect_events",
+    "charge_mask",
 ]
+
+
+def charge_mask(charge, p):
+    """Mask of the defects of elementary charge ``±1/p``."""
+    return np.isclose(np.abs(np.asarray(charge, float)), 1.0 / p)
 
 
 def _wrap_angle(d, p):
@@ -106,7 +111,7 @@ def defects_from_field(field, p, x0=0.0, y0=0.0, spacing=1.0, periodic=False, bo
     charges = plaquette_charges(field, p, periodic=periodic)
     i, j = np.nonzero(np.nan_to_num(charges) != 0)
     xy = np.c_[x0 + (j + 0.5) * spacing, y0 + (i + 0.5) * spacing]
-    if box is not None and box.periodic:
+    if box is not None:
         xy = box.wrap(xy)
     return _defect_table(xy, charges[i, j], p)
 
@@ -193,11 +198,11 @@ def find_defects(grid, p=6, box=None):
         px; x = column, y = row, origin at the centre of pixel (0, 0)),
         ``charge`` (a nonzero multiple of ``1/p``), ``p``.
     """
-    p = _check_p(p)
+    p = check_p(p)
     require_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
     if len(grid) == 0:
         raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
-    box = periodic_or_none(box)
+    box = as_box(box)
     if "frame" not in grid.columns:
         return validate(_find_defects_frame(grid, p, box), "defects")
     parts = []
@@ -231,8 +236,8 @@ def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
     defects : pandas.DataFrame
         Defects table (``x``, ``y``, ``charge``; ``time_column`` for movies).
     extent : Box or (rows, cols)
-        A box spans ``[0, Lx) x [0, Ly)`` (positions are wrapped into it when
-        periodic); an image shape spans ``[-0.5, cols - 0.5) x [-0.5, rows - 0.5)``
+        A periodic box spans ``[0, Lx) x [0, Ly)`` (positions are wrapped
+        into it); an open image's shape spans ``[-0.5, cols - 0.5) x [-0.5, rows - 0.5)``
         (pixel centres at integer x = column, y = row).
     bin_size : float
         Requested bin side, px; the extent is cut into ``round(L / bin_size)``
@@ -256,7 +261,7 @@ def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
     require_columns(defects, ("x", "y", "charge"), "defects")
     if isinstance(extent, Box):
         lo, size = np.zeros(2), extent.lengths
-        wrap = extent.wrap if extent.periodic else (lambda xy: xy)
+        wrap = extent.wrap
     else:
         if len(extent) != 2 or min(extent) <= 0:
             raise InputError(f"extent must be a Box or an image shape (rows, cols); got {extent!r}")
@@ -383,7 +388,7 @@ def track_defects(defects, max_distance, box=None, time_column="frame", frames=N
         frame, then of row order.
     """
     require_columns(defects, (time_column, "x", "y", "charge"), "defects")
-    box = periodic_or_none(box)
+    box = as_box(box)
     check_positive(max_distance, "max_distance", unit="px")
     times = defects[time_column].to_numpy()
     xy = defects[["x", "y"]].to_numpy(float)
@@ -476,7 +481,7 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         between the partners; NaN when unpaired).
     """
     require_columns(tracked, (time_column, "x", "y", "charge", "track"), "tracked")
-    box = periodic_or_none(box)
+    box = as_box(box)
     check_positive(pair_distance, "pair_distance", unit="px")
     columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
     if len(tracked) == 0:

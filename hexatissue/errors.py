@@ -1,8 +1,9 @@
-"""Exceptions raised on bad input.
+"""Exceptions raised on bad input, and the checks that raise them.
 
 Every error caused by what the user passed in is an :class:`InputError`, a
 ``ValueError`` subclass whose message names the argument, what was wrong and
-what is expected.
+what is expected.  The checks here are the only copies in the package: one
+positive-number check, one symmetry-order check, one seeded-generator helper.
 """
 import numpy as np
 
@@ -27,3 +28,30 @@ def check_positive(value, name, integer=False, unit=""):
         kind = "a positive integer" if integer else "a positive finite number"
         raise InputError(f"{name} must be {kind}{' in ' + unit if unit else ''}; got {value!r}")
     return int(value) if integer else float(value)
+
+
+def check_p(p, name="p"):
+    """``p`` as int if it is a positive integer symmetry order (2 nematic, 6 hexatic); else :class:`InputError`."""
+    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
+        raise InputError(f"{name} must be a positive integer symmetry order (e.g. 2 or 6); got {p!r}")
+    return int(p)
+
+
+def check_orders(p, name="p"):
+    """One or more symmetry orders as a tuple of distinct ints (a single int is accepted)."""
+    orders = (p,) if np.isscalar(p) else tuple(p)
+    if not orders:
+        raise InputError(f"{name} must list at least one symmetry order; got {p!r}")
+    orders = tuple(check_p(q, name) for q in orders)
+    if len(set(orders)) != len(orders):
+        raise InputError(f"{name} lists a symmetry order twice; got {p!r}")
+    return orders
+
+
+def as_generator(seed, name="seed"):
+    """A numpy Generator from a non-negative int seed or a Generator (never the global RNG)."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"{name} must be a non-negative int or a numpy.random.Generator; got {seed!r}")
+    return np.random.default_rng(int(seed))

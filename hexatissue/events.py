@@ -301,7 +301,7 @@ def _positions(events, cells, box):
         xy.append(rows[["x", "y"]].to_numpy(float))
         flag |= rows["border"].fillna(False).to_numpy(bool)
     xy = np.stack(xy, axis=1)
-    if box is not None and box.periodic:
+    if box is not None:
         xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
         centre = box.wrap(np.nanmean(xy, axis=1))
     else:

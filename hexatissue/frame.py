@@ -1,11 +1,17 @@
-"""Containers for one time point (:class:`Frame`) and many (:class:`Movie`).
+"""Containers for one time point (:class:`Frame`) and a whole analysis (:class:`Movie`).
 
-They hold tidy tables plus metadata and no algorithms.  Positions are in
-pixels, ``x`` = column and ``y`` = row, origin at the centre of pixel (0, 0).
+They hold tidy tables plus metadata and no algorithms.  Every table has a
+``frame`` column (0 for a single image).  Positions are in pixels, ``x`` =
+column and ``y`` = row, origin at the centre of pixel (0, 0); times in
+frames.  The physical units travel in :class:`~hexatissue.units.Calibration`.
+
+A results folder is a saved Movie: :meth:`Movie.write` and
+:func:`read_results` round-trip every table and ``metadata.json``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+import json
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -13,10 +19,22 @@ import pandas as pd
 
 from .box import Box
 from .errors import InputError
+from .geometry import table_polygons
+from .units import Calibration
 
-__all__ = ["Frame", "Movie", "MESH_TABLES"]
+__all__ = ["Frame", "Movie", "read_results", "MESH_TABLES", "TABLES"]
 
 MESH_TABLES = ("cells", "vertices", "edges", "cell_vertices")
+#: Every table of a Movie, in the order they are written.
+TABLES = MESH_TABLES + ("grid", "defects", "defect_events", "events", "lineage", "cell_events")
+FORMATS = ("parquet", "csv")
+METADATA = "metadata.json"
+
+
+def _polygons(network) -> dict[int, np.ndarray]:
+    keys, xy, starts = table_polygons(network.vertices, network.cell_vertices, network.box)
+    ends = np.r_[starts[1:], len(xy)]
+    return {int(c): xy[s:e] for c, s, e in zip(keys["cell"].to_numpy(), starts, ends)}
 
 
 @dataclass
@@ -26,28 +44,25 @@ class Frame:
     Attributes
     ----------
     cells, vertices, edges, cell_vertices : pandas.DataFrame
-        Tables described in :mod:`hexatissue.schema`.
-    frame : int or None
-        Time point, or None for a single image.
+        Tables described in :mod:`hexatissue.schema`, each with ``frame``.
+    frame : int
+        Time point (0 for a single image).
     box : Box or None
         The periodic box, or None for an open image.
     shape : tuple of int
         ``(rows, cols)`` of the source image.
-    pixel_size : float
-        Physical size of a pixel (``units`` per px); tables stay in pixels.
-    units : str
-        Physical unit of ``pixel_size``.
+    calibration : Calibration
+        Pixel size and frame interval (tables stay in px and frames).
     """
 
     cells: pd.DataFrame
     vertices: pd.DataFrame
     edges: pd.DataFrame
     cell_vertices: pd.DataFrame
-    frame: int | None = None
+    frame: int = 0
     box: Box | None = None
     shape: tuple = ()
-    pixel_size: float = 1.0
-    units: str = "px"
+    calibration: Calibration = field(default_factory=Calibration)
 
     def tables(self) -> dict[str, pd.DataFrame]:
         """The four tables by name."""
@@ -56,64 +71,81 @@ class Frame:
     def polygons(self) -> dict[int, np.ndarray]:
         """Ordered polygon of every cell: ``{cell: (n, 2) array of (x, y)}``, counter-clockwise in (x, y).
 
-        In a periodic box each polygon is unwrapped to be contiguous around
-        its cell (coordinates may then leave ``[0, L)``).
+        In a periodic box each polygon is unwrapped to be contiguous from its
+        first vertex (coordinates may then leave ``[0, L)``).
         """
-        cv = self.cell_vertices.sort_values(["cell", "rank"])
-        xy = self.vertices.set_index("vertex").loc[cv["vertex"], ["x", "y"]].to_numpy()
-        cells = cv["cell"].to_numpy()
-        starts = np.flatnonzero(np.r_[True, cells[1:] != cells[:-1]]) if len(cells) else np.array([], int)
-        out = {}
-        for s, e in zip(starts, np.r_[starts[1:], len(cells)]):
-            poly = xy[s:e]
-            out[int(cells[s])] = self.box.unwrap_polygon(poly) if self.box is not None else poly
-        return out
+        return _polygons(self)
 
-    def write(self, directory, formats=("parquet",)) -> list[Path]:
-        """Write every table to ``directory/<table>.<fmt>``; returns the paths written."""
-        from .io import write_tables
-
-        return write_tables(self.tables(), directory, formats=formats)
+    def replace(self, **changes) -> "Frame":
+        """A copy with some attributes replaced."""
+        return replace(self, **changes)
 
 
 @dataclass
 class Movie:
-    """Many frames: the per-frame tables concatenated with a ``frame`` column, plus metadata.
+    """Every table of an analysis, concatenated over frames, plus the metadata to read it.
 
-    Further tables produced by the time-lapse analysis (``events``,
-    ``lineage``, ...) live in :attr:`extra`.
+    Attributes
+    ----------
+    cells, vertices, edges, cell_vertices : pandas.DataFrame
+        Junction networks (see :func:`hexatissue.mesh_from_labels`); ``cells``
+        has ``track`` and ``gamma{p}`` columns after :func:`hexatissue.analyze`.
+    grid, defects, defect_events : pandas.DataFrame or None
+        Coarse-grained fields Gamma_p, their defects (with defect ``track``)
+        and defect pair creation / annihilation.
+    events, lineage, cell_events : pandas.DataFrame or None
+        T1 events, cell lineage and per-cell T1 statistics.
+    box : Box or None
+        Periodic box, or None for open images.
+    shape : tuple of int
+        ``(rows, cols)`` of the frames.
+    n_frames : int
+        Frames analysed (also those without cells).
+    calibration : Calibration
+        Pixel size and frame interval with their units.
+    options : dict
+        The options objects used, by stage name (``mesh``, ``order``, ``track``, ``events``).
+    source : dict
+        Description of the input (see :class:`hexatissue.Source`).
+    version : str
+        hexatissue version that produced the tables.
     """
 
     cells: pd.DataFrame
     vertices: pd.DataFrame
     edges: pd.DataFrame
     cell_vertices: pd.DataFrame
+    grid: pd.DataFrame | None = None
+    defects: pd.DataFrame | None = None
+    defect_events: pd.DataFrame | None = None
+    events: pd.DataFrame | None = None
+    lineage: pd.DataFrame | None = None
+    cell_events: pd.DataFrame | None = None
     box: Box | None = None
     shape: tuple = ()
-    pixel_size: float = 1.0
-    units: str = "px"
-    frame_interval: float = 1.0
-    extra: dict = field(default_factory=dict)
+    n_frames: int = 0
+    calibration: Calibration = field(default_factory=Calibration)
+    options: dict = field(default_factory=dict)
+    source: dict = field(default_factory=dict)
+    version: str = ""
+
+    def __post_init__(self):
+        if not self.n_frames:
+            self.n_frames = int(self.cells["frame"].max()) + 1 if len(self.cells) else 0
 
     @classmethod
-    def from_frames(cls, frames, **metadata) -> "Movie":
-        """Concatenate :class:`Frame` objects (their ``frame`` attribute, or their position, is the frame index)."""
+    def from_frames(cls, frames) -> "Movie":
+        """Concatenate :class:`Frame` objects (their ``frame`` attribute is the frame index)."""
         frames = list(frames)
         if not frames:
             raise InputError("frames must contain at least one Frame; got an empty sequence")
         tables = {}
         for name in MESH_TABLES:
-            parts = []
-            for i, f in enumerate(frames):
-                t = getattr(f, name)
-                t = t.drop(columns="frame", errors="ignore")
-                t.insert(0, "frame", i if f.frame is None else int(f.frame))
-                parts.append(t)
+            parts = [getattr(f, name).assign(frame=np.int64(f.frame)) for f in frames]
             tables[name] = pd.concat(parts, ignore_index=True)
         first = frames[0]
-        meta = dict(box=first.box, shape=first.shape, pixel_size=first.pixel_size, units=first.units)
-        meta.update(metadata)
-        return cls(**tables, **meta)
+        n = max(int(f.frame) for f in frames) + 1
+        return cls(**tables, box=first.box, shape=first.shape, n_frames=n, calibration=first.calibration)
 
     @property
     def frames(self) -> np.ndarray:
@@ -121,30 +153,110 @@ class Movie:
         return np.unique(self.cells["frame"].to_numpy())
 
     def __len__(self) -> int:
-        return len(self.frames)
+        return int(self.n_frames)
 
     def frame(self, t: int) -> Frame:
-        """The :class:`Frame` at time point ``t``."""
-        if t not in set(self.frames.tolist()):
-            raise InputError(f"frame {t} is not in this movie; it has frames {self.frames.min()}..{self.frames.max()}")
-        parts = {}
-        for name in MESH_TABLES:
-            table = getattr(self, name)
-            parts[name] = table[table["frame"] == t].reset_index(drop=True)
-        return Frame(**parts, frame=int(t), box=self.box, shape=self.shape, pixel_size=self.pixel_size, units=self.units)
+        """The :class:`Frame` at time point ``t`` (its four mesh tables; ``cells`` keeps every column)."""
+        if not 0 <= t < self.n_frames:
+            raise InputError(f"frame {t} is not in this movie; it has frames 0..{self.n_frames - 1}")
+        parts = {name: self.table_at(name, t) for name in MESH_TABLES}
+        return Frame(**parts, frame=int(t), box=self.box, shape=self.shape, calibration=self.calibration)
+
+    def table_at(self, name: str, t: int) -> pd.DataFrame:
+        """Rows of table ``name`` at frame ``t`` (index reset)."""
+        table = self.tables().get(name)
+        if table is None:
+            raise InputError(f"this movie has no {name!r} table; it has {sorted(self.tables())}")
+        return table[table["frame"].to_numpy() == t].reset_index(drop=True)
+
+    def polygons(self, t: int) -> dict[int, np.ndarray]:
+        """Cell polygons of frame ``t`` (see :meth:`Frame.polygons`)."""
+        return self.frame(t).polygons()
 
     def tables(self) -> dict[str, pd.DataFrame]:
-        """All tables by name (mesh tables first, then :attr:`extra`)."""
-        out = {name: getattr(self, name) for name in MESH_TABLES}
-        out.update(self.extra)
-        return out
-
-    def write(self, directory, formats=("parquet",)) -> list[Path]:
-        """Write every table to ``directory/<table>.<fmt>``; returns the paths written."""
-        from .io import write_tables
-
-        return write_tables(self.tables(), directory, formats=formats)
+        """Every table present, by name, in :data:`TABLES` order."""
+        return {name: getattr(self, name) for name in TABLES if getattr(self, name) is not None}
 
     def replace(self, **changes) -> "Movie":
         """A copy with some attributes replaced."""
         return replace(self, **changes)
+
+    def metadata(self) -> dict:
+        """What ``metadata.json`` holds: box, shape, frames, calibration, options, source, version."""
+        return {
+            "hexatissue_version": self.version,
+            "n_frames": int(self.n_frames),
+            "shape": [int(s) for s in self.shape],
+            "box": None if self.box is None else self.box.to_list(),
+            "calibration": self.calibration.to_dict(),
+            "options": {name: opts.to_dict() for name, opts in self.options.items()},
+            "source": self.source,
+            "tables": {name: int(len(table)) for name, table in self.tables().items()},
+        }
+
+    def write(self, directory, formats=("parquet",)) -> list[Path]:
+        """Write every table to ``directory/<table>.<fmt>`` and ``metadata.json`` (last); returns the paths.
+
+        Files are written to temporary names and renamed, so a folder is never
+        left with half a table; ``metadata.json`` is written last, so a folder
+        that has it is complete.
+        """
+        from .io import atomic_path, write_tables
+
+        bad = [f for f in formats if f not in FORMATS]
+        if bad or not formats:
+            raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
+        directory = Path(directory)
+        written = write_tables(self.tables(), directory, formats=formats)
+        meta = dict(self.metadata(), formats=list(formats))
+        with atomic_path(directory / METADATA) as tmp:
+            tmp.write_text(json.dumps(meta, indent=2))
+        return written + [directory / METADATA]
+
+
+def read_results(directory) -> Movie:
+    """A results folder (:meth:`Movie.write`, ``hexatissue analyze``) read back as a :class:`Movie`.
+
+    Parameters
+    ----------
+    directory : str or Path
+        Folder holding ``metadata.json`` and the tables (Parquet preferred
+        over CSV when both exist).
+
+    Returns
+    -------
+    Movie
+        Every table found, with box, shape, number of frames, calibration,
+        options, source and version from ``metadata.json``.
+    """
+    from .io import read_table
+    from .options import OPTION_CLASSES
+    from .schema import TABLES as SCHEMAS, coerce
+
+    folder = Path(directory)
+    if not folder.is_dir():
+        raise InputError(f"results folder {str(folder)!r} does not exist or is not a folder; expected the output "
+                         f"of hexatissue analyze")
+    meta_path = folder / METADATA
+    if not meta_path.exists():
+        raise InputError(f"results folder {str(folder)!r} has no {METADATA}: it is not a complete hexatissue "
+                         f"results folder (analyze writes metadata.json last)")
+    meta = json.loads(meta_path.read_text())
+    tables = {}
+    for name in TABLES:
+        for fmt in FORMATS:
+            path = folder / f"{name}.{fmt}"
+            if path.exists():
+                table = read_table(path)
+                tables[name] = coerce(table, name) if fmt == "csv" and name in SCHEMAS else table
+                break
+    missing = [name for name in MESH_TABLES if name not in tables]
+    if missing:
+        raise InputError(f"results folder {str(folder)!r} is missing table(s) {missing}")
+    options = {name: OPTION_CLASSES[name].from_dict(value) for name, value in meta.get("options", {}).items()}
+    known = {f.name for f in fields(Movie)}
+    return Movie(**{k: v for k, v in tables.items() if k in known},
+                 box=None if meta.get("box") is None else Box(*meta["box"]),
+                 shape=tuple(meta.get("shape", ())), n_frames=int(meta.get("n_frames", 0)),
+                 calibration=Calibration.from_dict(meta.get("calibration", {})), options=options,
+                 source=meta.get("source", {}), version=meta.get("hexatissue_version", ""))

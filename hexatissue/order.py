@@ -1,4 +1,4 @@
-"""p-atic shape order of cells.
+"""p-atic shape order of cells: the order stage.
 
 The shape function of a polygon with vertices ``r_v`` (relative to a cell
 centre, ``x`` = column, ``y`` = row) is
@@ -6,7 +6,9 @@ centre, ``x`` = column, ``y`` = row) is
     gamma_p = sum_v |r_v|^p exp(i p phi_v) / sum_v |r_v|^p,
 
 a complex number with ``|gamma_p| <= 1`` (1 for a regular p-gon) whose
-argument divided by ``p`` is the cell's p-fold orientation.
+argument divided by ``p`` is the cell's p-fold orientation.  The mesh stage
+gives geometry only; :func:`shape_order` adds the ``gamma{p}`` columns, and
+:func:`coarse_grain` turns them into the field ``Gamma_p`` on a grid.
 """
 from __future__ import annotations
 
@@ -14,66 +16,22 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import cKDTree
 
-from .box import periodic_or_none
-from .errors import InputError
-from .schema import validate
+from .box import as_box
+from .errors import InputError, check_orders, check_p
+from .geometry import pack_polygons, polygon_area_centroid, polygon_perimeter, segment_sum, table_polygons
+from .schema import interior_mask, validate
 
 __all__ = [
     "shape_function",
     "shape_function_flat",
-    "polygon_area_centroid",
+    "shape_order",
     "cells_from_polygons",
     "cell_radius",
     "coarse_grain",
     "order_vs_radius",
-    "cell_stress",
 ]
 
 CENTERS = ("vertex_mean", "area_centroid")
-
-
-def _segment_sum(values, starts, n):
-    """Sum of ``values`` over the consecutive segments beginning at ``starts`` (empty segments give 0)."""
-    out = np.zeros((n,) + values.shape[1:], dtype=values.dtype)
-    if n == 0 or len(values) == 0:
-        return out
-    nonempty = np.r_[starts[1:], len(values)] > starts
-    if nonempty.any():
-        out[nonempty] = np.add.reduceat(values, starts[nonempty], axis=0)
-    return out
-
-
-def polygon_area_centroid(xy, starts):
-    """Signed shoelace area and area centroid of polygons stored back to back.
-
-    Parameters
-    ----------
-    xy : (M, 2) float array
-        Vertices (x, y) of all polygons, each polygon contiguous (unwrapped), not closed.
-    starts : (N,) int array
-        Index in ``xy`` of each polygon's first vertex (ascending).
-
-    Returns
-    -------
-    area : (N,) array
-        Signed area, px^2 (positive = counter-clockwise in x, y).
-    centroid : (N, 2) array
-        Area centroid (x, y) in px; NaN for polygons of zero area.
-    """
-    n = len(starts)
-    lengths = np.diff(np.r_[starts, len(xy)])
-    nxt = np.arange(len(xy)) + 1
-    ends = starts + lengths
-    nxt[ends[lengths > 0] - 1] = starts[lengths > 0]  # close each polygon
-    x0, y0 = xy[:, 0], xy[:, 1]
-    x1, y1 = xy[nxt, 0], xy[nxt, 1]
-    cross = x0 * y1 - x1 * y0
-    area = 0.5 * _segment_sum(cross, starts, n)
-    cx = _segment_sum((x0 + x1) * cross, starts, n)
-    cy = _segment_sum((y0 + y1) * cross, starts, n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        centroid = np.stack([cx, cy], axis=1) / (6.0 * area[:, None])
-    return area, centroid
 
 
 def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
@@ -90,7 +48,7 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
     if isinstance(center, str):
         if center == "vertex_mean":
             with np.errstate(invalid="ignore", divide="ignore"):
-                c = _segment_sum(xy, starts, n) / lengths[:, None]
+                c = segment_sum(xy, starts, n) / lengths[:, None]
         elif center == "area_centroid":
             c = polygon_area_centroid(xy, starts)[1]
         else:
@@ -104,8 +62,8 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
     z = r[:, 0] + 1j * r[:, 1]
     weight = np.abs(z) ** p
     phase = np.exp(1j * p * np.angle(z))
-    num = _segment_sum(weight * phase, starts, n)
-    den = _segment_sum(weight, starts, n)
+    num = segment_sum(weight * phase, starts, n)
+    den = segment_sum(weight, starts, n)
     with np.errstate(invalid="ignore", divide="ignore"):
         gamma = num / den
     gamma[(lengths < 3) | ~(den > 0)] = np.nan
@@ -135,20 +93,57 @@ def shape_function(polygons, p=6, center="vertex_mean"):
         gamma_p per polygon (dimensionless, ``|gamma_p| <= 1``); NaN for
         polygons with fewer than three vertices.
     """
-    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
-        raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
-    arrays = []
-    for k, poly in enumerate(polygons):
-        a = np.asarray(poly, dtype=float)
-        if a.ndim != 2 or a.shape[1] != 2:
-            raise InputError(f"polygons[{k}] must be an (n, 2) array of (x, y) vertices; got shape {a.shape}")
-        if len(a) > 1 and np.array_equal(a[0], a[-1]):
-            a = a[:-1]
-        arrays.append(a)
-    if not arrays:
+    p = check_p(p)
+    xy, starts = pack_polygons(polygons)
+    if len(starts) == 0:
         return np.zeros(0, dtype=complex)
-    starts = np.cumsum([0] + [len(a) for a in arrays[:-1]])
-    return shape_function_flat(np.concatenate(arrays), starts, p=p, center=center)
+    return shape_function_flat(xy, starts, p=p, center=center)
+
+
+def gamma_columns(cells, vertices, cell_vertices, box=None, p=(6, 2), center="vertex_mean"):
+    """``cells`` (a copy) with ``gamma{p}_re`` / ``gamma{p}_im`` computed from the polygons of the tables.
+
+    The tables are those of :func:`hexatissue.mesh_from_labels` (one frame
+    or many, each with a ``frame`` column); cells without a polygon get NaN.
+    """
+    orders = check_orders(p)
+    keys, xy, starts = table_polygons(vertices, cell_vertices, box)
+    out = cells.drop(columns=[c for c in cells.columns if c.startswith("gamma")])
+    where = pd.MultiIndex.from_frame(keys)
+    rows = pd.MultiIndex.from_arrays([out["frame"].to_numpy(np.int64), out["cell"].to_numpy(np.int64)])
+    take = where.get_indexer(rows)
+    has = take >= 0
+    for q in orders:
+        g = shape_function_flat(xy, starts, p=q, center=center)
+        value = np.full(len(out), np.nan + 0j)
+        value[has] = g[take[has]]
+        out[f"gamma{q}_re"], out[f"gamma{q}_im"] = value.real, value.imag
+    return out
+
+
+def shape_order(network, p=(6, 2), center="vertex_mean"):
+    """The order stage on a junction network: its cells table gains the shape functions.
+
+    Parameters
+    ----------
+    network : Frame or Movie
+        From :func:`hexatissue.mesh_from_labels` (a Frame) or
+        :func:`hexatissue.analyze` (a Movie).
+    p : int or sequence of int
+        Symmetry orders (2 nematic, 6 hexatic).
+    center : {"vertex_mean", "area_centroid"}
+        Cell centre of the shape function (see :func:`shape_function`).
+
+    Returns
+    -------
+    Frame or Movie
+        A copy whose ``cells`` has ``gamma{p}_re``, ``gamma{p}_im``
+        (dimensionless; NaN for cells without a polygon) for every ``p``.
+    """
+    if center not in CENTERS:
+        raise InputError(f"center must be one of {CENTERS}; got {center!r}")
+    cells = gamma_columns(network.cells, network.vertices, network.cell_vertices, network.box, p, center)
+    return network.replace(cells=validate(cells, "cells"))
 
 
 def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center="vertex_mean"):
@@ -173,9 +168,9 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
     Returns
     -------
     pandas.DataFrame
-        Cells table: ``cell``, ``x``, ``y`` (px), ``area`` and
+        Cells table: ``frame`` (0), ``cell``, ``x``, ``y`` (px), ``area`` and
         ``polygon_area`` (both the polygon's area, px^2), ``perimeter`` (px),
-        ``n_sides``, ``n_cycles`` (1: one polygon per cell), ``is_border``,
+        ``n_sides``, ``n_boundaries`` (1: one polygon per cell), ``is_border``,
         ``gamma{p}_re``, ``gamma{p}_im``.
     """
     if isinstance(polygons, dict):
@@ -183,29 +178,24 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
     else:
         polys = list(polygons)
         ids = list(range(1, len(polys) + 1))
-    arrays = []
-    for k, poly in zip(ids, polys):
-        a = np.asarray(poly, dtype=float)
-        if a.ndim != 2 or a.shape[1] != 2 or len(a) < 3:
-            raise InputError(f"polygon of cell {k} must be an (n >= 3, 2) array of (x, y); got shape {a.shape}")
-        arrays.append(a[:-1] if np.array_equal(a[0], a[-1]) else a)
-    orders = [p] if np.isscalar(p) else list(p)
-    xy = np.concatenate(arrays) if arrays else np.zeros((0, 2))
-    lengths = np.array([len(a) for a in arrays], np.int64)
-    starts = np.r_[0, np.cumsum(lengths)[:-1]].astype(np.int64) if arrays else np.zeros(0, np.int64)
+    xy, starts = pack_polygons(polys, "polygons")
+    lengths = np.diff(np.r_[starts, len(xy)])
+    if (lengths < 3).any():
+        k = ids[int(np.flatnonzero(lengths < 3)[0])]
+        raise InputError(f"polygon of cell {k} must be an (n >= 3, 2) array of (x, y); it has fewer than 3 vertices")
     area, centroid = polygon_area_centroid(xy, starts)
     pos = centroid if centers is None else np.asarray(centers, float)
-    if pos.shape != (len(arrays), 2):
-        raise InputError(f"centers must have shape ({len(arrays)}, 2); got {pos.shape}")
-    border = np.zeros(len(arrays), bool) if is_border is None else np.asarray(is_border, bool)
-    if border.shape != (len(arrays),):
-        raise InputError(f"is_border must have shape ({len(arrays)},); got {border.shape}")
-    perimeter = np.array([np.hypot(*np.diff(np.vstack([a, a[:1]]), axis=0).T).sum() for a in arrays])
-    table = {"cell": np.asarray(ids, np.int64), "x": pos[:, 0], "y": pos[:, 1], "area": np.abs(area),
-             "polygon_area": np.abs(area), "perimeter": perimeter, "n_sides": lengths,
-             "n_cycles": np.ones(len(arrays), np.int64), "is_border": border}
-    for order in orders:
-        gamma = shape_function_flat(xy, starts, p=_check_p(order), center=center)
+    if pos.shape != (len(starts), 2):
+        raise InputError(f"centers must have shape ({len(starts)}, 2); got {pos.shape}")
+    border = np.zeros(len(starts), bool) if is_border is None else np.asarray(is_border, bool)
+    if border.shape != (len(starts),):
+        raise InputError(f"is_border must have shape ({len(starts)},); got {border.shape}")
+    table = {"frame": np.zeros(len(starts), np.int64), "cell": np.asarray(ids, np.int64), "x": pos[:, 0],
+             "y": pos[:, 1], "area": np.abs(area), "polygon_area": np.abs(area),
+             "perimeter": polygon_perimeter(xy, starts), "n_sides": lengths.astype(np.int64),
+             "n_boundaries": np.ones(len(starts), np.int64), "is_border": border}
+    for order in check_orders(p):
+        gamma = shape_function_flat(xy, starts, p=order, center=center)
         table[f"gamma{order}_re"], table[f"gamma{order}_im"] = gamma.real, gamma.imag
     return validate(pd.DataFrame(table), "cells")
 
@@ -223,25 +213,12 @@ SPACING_FACTOR = 1.0
 COVER_FACTOR = 1.5
 
 
-def _check_p(p):
-    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
-        raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
-    return int(p)
-
-
 def _check_length(value, name):
     if value is None:
         return None
     if isinstance(value, bool) or not np.isscalar(value) or not np.isfinite(value) or value <= 0:
         raise InputError(f"{name} must be a positive finite length in px (or None for the default); got {value!r}")
     return float(value)
-
-
-def _interior(cells):
-    """Boolean mask of the cells that enter averages: not on the border (when the column exists)."""
-    if "is_border" in cells.columns:
-        return ~cells["is_border"].to_numpy(bool)
-    return np.ones(len(cells), bool)
 
 
 def cell_radius(cells):
@@ -252,7 +229,7 @@ def cell_radius(cells):
     column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
     if column is None:
         raise InputError("cells needs an 'area' (or 'polygon_area') column, px^2, to compute R_cell")
-    area = cells[column].to_numpy(float)[_interior(cells)]
+    area = cells[column].to_numpy(float)[interior_mask(cells)]
     area = area[np.isfinite(area)]
     if len(area) == 0 or not area.mean() > 0:
         raise InputError("cells has no interior cell with a positive finite area to compute R_cell")
@@ -341,7 +318,7 @@ def _coarse_grain_frame(cells, p, radius, spacing, box, min_coverage):
     """Grid table (without ``frame``) of one frame's cells."""
     xy_all = cells[["x", "y"]].to_numpy(float)
     gamma = cells[f"gamma{p}_re"].to_numpy(float) + 1j * cells[f"gamma{p}_im"].to_numpy(float)
-    use = _interior(cells) & np.isfinite(gamma) & np.isfinite(xy_all).all(axis=1)
+    use = interior_mask(cells) & np.isfinite(gamma) & np.isfinite(xy_all).all(axis=1)
     if not use.any():
         raise InputError("cells has no interior cell with finite x, y and gamma to coarse-grain")
     need_rcell = radius is None or spacing is None or box is None
@@ -430,9 +407,9 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
         for statistics and defects), ``radius`` (R, px) and ``spacing``
         (requested grid spacing, px).
     """
-    p = _check_p(p)
+    p = check_p(p)
     radius, spacing = _check_length(radius, "radius"), _check_length(spacing, "spacing")
-    box = periodic_or_none(box)
+    box = as_box(box)
     if not 0.0 <= min_coverage <= 1.0:
         raise InputError(f"min_coverage must be a fraction in [0, 1]; got {min_coverage!r}")
     if not isinstance(cells, pd.DataFrame):
@@ -479,7 +456,7 @@ def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box
         ``|Gamma_p|`` over valid nodes, dimensionless; NaN when none is
         valid), ``n_nodes`` (valid nodes).
     """
-    p = _check_p(p)
+    p = check_p(p)
     groups = cells.groupby("frame", sort=True) if "frame" in cells.columns else [(None, cells)]
     rows = []
     for frame, group in groups:
@@ -493,61 +470,3 @@ def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box
                          size.mean() if len(size) else np.nan, len(size)))
     out = pd.DataFrame(rows, columns=["frame", "p", "factor", "radius", "abs_Gamma", "n_nodes"])
     return out.drop(columns="frame") if "frame" not in cells.columns else out
-
-
-# ----------------------------------------------------------------------------
-# Longitudinal p-atic stress of multiphase-field cells
-# ----------------------------------------------------------------------------
-
-def cell_stress(phi, theta, k_phi, p, dx=1.0):
-    """Longitudinal p-atic stress of every cell of a multiphase-field (MPF) configuration.
-
-    sigma_par = -k_phi sum_r |grad phi_c|^p cos(p (alpha(r) - theta_c)),
-
-    with ``alpha`` the direction of ``grad phi_c`` at lattice site ``r`` and
-    ``theta_c`` the cell's p-fold orientation.  This is the complex form of
-    ``-k_phi sum_r (grad phi_c)^{(x)p} : n_c^{(x)p}`` with both tensors
-    reduced to their symmetric traceless part and rescaled by ``2^(p-1)``
-    (the full contraction of the traceless parts is ``2^(1-p)`` times this
-    value).  For p = 2 and a cell elongated along ``theta_c`` it is positive:
-    the interface gradients are steepest across the long axis.
-
-    Parameters
-    ----------
-    phi : (n_cells, P, P) float array
-        Per-cell phase-field patches, indexed ``[cell, row, col]`` (row = y,
-        col = x), as saved by the MPF simulator: each patch holds one cell's
-        field ``phi_c`` on a P x P window of the lattice (any origin; the
-        result does not depend on it) that contains the whole cell, with
-        ``phi_c -> 0`` at the patch edge.  Gradients are second-order central
-        differences (one-sided at the patch edge).
-    theta : (n_cells,) float array
-        Orientation ``theta_c`` of each cell, rad, measured from +x towards
-        +y (e.g. ``np.angle(gamma_p) / p``).
-    k_phi : float
-        Interface stiffness ``k_phi`` of the MPF free energy.
-    p : int
-        Symmetry order (2 nematic, 6 hexatic).
-    dx : float
-        Lattice spacing (gradients are per unit ``dx``).
-
-    Returns
-    -------
-    (n_cells,) float array
-        ``sigma_par`` per cell, in units of ``k_phi * [phi]^p / dx^p`` (a sum
-        over lattice sites, not an average).
-    """
-    p = _check_p(p)
-    phi = np.asarray(phi, dtype=float)
-    theta = np.asarray(theta, dtype=float)
-    if phi.ndim != 3 or phi.shape[1] < 3 or phi.shape[2] < 3:
-        raise InputError(f"phi must be an (n_cells, P, P) array of patches with P >= 3; got shape {phi.shape}")
-    if theta.shape != (phi.shape[0],):
-        raise InputError(f"theta must hold one angle per cell, shape ({phi.shape[0]},); got {theta.shape}")
-    if not np.isfinite(k_phi):
-        raise InputError(f"k_phi must be a finite number; got {k_phi!r}")
-    _check_length(dx, "dx")
-    grad_y, grad_x = np.gradient(phi, dx, axis=(1, 2))
-    # |grad phi|^p cos(p (alpha - theta)) = Re[(phi_x + i phi_y)^p e^{-i p theta}]
-    moment = ((grad_x + 1j * grad_y) ** p).sum(axis=(1, 2))
-    return -k_phi * np.real(moment * np.exp(-1j * p * theta))

@@ -1,116 +1,229 @@
-"""Movie orchestration: label stack or MPF run -> junction networks, tracks, T1 events.
+"""The analysis spine: ``analyze(source) -> Movie``.
 
-:func:`analyze_movie` reads one frame at a time, tracks cells by overlap in
-the main process (only the previous frame is kept), and extracts each
-frame's junction network with :func:`hexatissue.mesh_from_labels` in
-parallel: a local process pool by default, or a dask.distributed cluster when
-a ``client`` is given.  At most a few frames are in flight at once, so the
-memory used does not grow with the movie's length beyond its output tables.
+One function strings every stage together, frame by frame:
 
-Conventions: label images are indexed ``[row, col]``; tables use ``x`` =
-column, ``y`` = row, in px, origin at the centre of pixel (0, 0).
+    open_source(...)  ->  per frame, in parallel: labels -> junction network (mesh)
+                                                  -> gamma_p, Gamma_p and defects (order)
+                      ->  in frame order, in this process: overlap tracking
+                      ->  over the movie: lineage, T1 events, per-cell statistics,
+                                          defect tracks and pair events
+                      ->  Movie  ->  Movie.write(folder)  <->  read_results(folder)
+
+Frames are read one at a time from the :class:`~hexatissue.Source`; at most
+a few are in flight, so memory does not grow with the movie's length beyond
+its output tables.  The per-frame work runs in a local process pool (default)
+or on a dask.distributed cluster (``client``).  Conventions: label images are
+indexed ``[row, col]``; tables use ``x`` = column, ``y`` = row, in px, origin
+at the centre of pixel (0, 0); times in frames.
 """
 from __future__ import annotations
 
+import json
 import os
 import pickle
+import warnings
 from collections import deque
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from .box import Box
-from .errors import InputError
+from .box import as_box
+from .errors import HexatissueWarning, InputError, check_positive
 from .events import cell_event_stats, detect_t1
 from .frame import MESH_TABLES, Movie
-from .mesh.labels import validate_labels
+from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
+from .schema import empty_table, interior_mask, validate
 from .track import Tracker, lineage_table
 
-__all__ = ["analyze_movie", "open_movie"]
+__all__ = ["analyze"]
+
+#: Tables produced frame by frame (and saved in checkpoints).
+FRAME_TABLES = MESH_TABLES + ("grid", "defects")
+DEFECT_SPACINGS = 1.5  # default largest defect displacement between frames, in grid spacings
 
 
-def _is_run(obj) -> bool:
-    return hasattr(obj, "labels") and hasattr(obj, "box")
-
-
-def open_movie(source):
-    """Frames, default box and whether ids are already consistent, from any supported source.
+def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track=TrackOptions(),
+            events=EventOptions(), client=None, workers=None, checkpoint=None, checkpoint_every=100,
+            progress=True) -> Movie:
+    """Every table of a label image, label movie or MPF run: networks, order, defects, tracks, T1 events.
 
     Parameters
     ----------
-    source : array-like, sequence, run object or path
-        A T x rows x cols array or lazily indexable array-like (numpy, memmap,
-        zarr, dask, ...), a sequence of 2-D label images, an MPF run (any
-        object with ``.labels`` and ``.box``), or a path: a label stack file
-        (see :func:`hexatissue.read_labels`) or an MPF run folder / ``.zarr``
-        store (read with ``hexatissue.simulate.read_run``).
+    source : Source or anything :func:`hexatissue.open_source` accepts
+        A path (label image or stack, MPF run, ...), an array, a list of
+        frames or an opened :class:`~hexatissue.Source`.  0 = background or
+        membrane.
+    box : Box, True, False or None
+        Periodic box of the frames (``True``: the box covering the frame
+        shape); ``False`` forces an open image; None (default): the source's
+        own box (MPF runs), else an open image.
+    mesh, order, track, events : MeshOptions, OrderOptions, TrackOptions, EventOptions
+        Options of each stage (see :mod:`hexatissue.options`).
+    client : dask.distributed.Client, optional
+        Run the per-frame work on this cluster.
+    workers : int, optional
+        Local processes when no client is given (default: all cores; 1 runs
+        in this process).
+    checkpoint : str or Path, optional
+        Folder for checkpoints: every ``checkpoint_every`` frames the tables
+        of the finished frames and the tracker state are saved there
+        (atomically); a later call with the same source and options resumes
+        after the last checkpoint.  The tracker state is a pickle: only
+        resume from folders you wrote yourself.
+    checkpoint_every : int
+        Frames per checkpoint.
+    progress : bool
+        Show a progress bar.
 
     Returns
     -------
-    frames : indexable
-        ``frames[t]`` is the label image of frame ``t``.
-    n_frames : int
-    box : Box or None
-        The run's box, else None.
-    is_run : bool
-        True for MPF runs (their ids are consistent: no tracking needed).
+    Movie
+        ``cells`` (mesh columns, ``track``, ``gamma{p}_re/_im``),
+        ``vertices``, ``edges``, ``cell_vertices``, ``grid`` (``Gamma{p}``
+        for every p, :func:`~hexatissue.coarse_grain`), ``defects`` (every
+        p, with defect ``track``), ``defect_events``, ``events`` (T1s,
+        :func:`~hexatissue.detect_t1`), ``lineage``
+        (:func:`~hexatissue.track.lineage_table`) and ``cell_events``
+        (:func:`~hexatissue.events.cell_event_stats`); every table has a
+        ``frame`` column except the per-event and per-track ones.  Columns
+        and units: :func:`hexatissue.schema.describe`.  The Movie carries the
+        box, shape, calibration (pixel size, frame interval), the options
+        used and the source's description.
     """
-    if isinstance(source, (str, Path)):
-        path = Path(source)
-        if path.is_dir() or path.suffix == ".zarr":
-            try:
-                from .simulate import read_run
-            except ImportError as exc:  # the simulator is an optional part of the package tree
-                raise InputError(f"source {str(path)!r} looks like an MPF run, but hexatissue.simulate.read_run "
-                                 f"is unavailable: {exc}") from exc
-            source = read_run(path)
-        else:
-            from .io import read_labels
+    from . import __version__
+    from .source import open_source
 
-            source = read_labels(path)
-    if _is_run(source):
-        frames = source.labels
-        return frames, _length(frames, "run.labels"), source.box, True
-    if isinstance(source, (list, tuple)):
-        if not source:
-            raise InputError("stack_or_run is an empty sequence; expected at least one label image")
-        return source, len(source), None, False
-    shape = getattr(source, "shape", None)
-    if shape is None or not hasattr(source, "__getitem__"):
-        raise InputError(f"stack_or_run must be a T x rows x cols label stack, a list of label images, an MPF "
-                         f"run or a path; got {type(source).__name__}")
-    if len(shape) != 3:
-        raise InputError(f"stack_or_run must be a T x rows x cols label stack; got shape {tuple(shape)} "
-                         f"(use hexatissue.mesh_from_labels for a single image)")
-    return source, int(shape[0]), None, False
-
-
-def _length(frames, name):
-    shape = getattr(frames, "shape", None)
-    n = int(shape[0]) if shape is not None else len(frames)
-    if n < 1:
-        raise InputError(f"{name} holds no frames; expected at least one")
-    return n
+    src = open_source(source)
+    for name, value in (("mesh", mesh), ("order", order), ("track", track), ("events", events)):
+        check_options(value, name)
+    box = src.box if box is None else as_box(box, src.shape)
+    do_track = (not src.ids_consistent) if track.enabled is None else track.enabled
+    tracker = (Tracker(track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap)
+               if do_track else None)
+    options = {"mesh": mesh, "order": order, "track": track.replace(enabled=do_track), "events": events}
+    store = None
+    if checkpoint is not None:
+        key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
+                   source=src.description, options={k: v.to_dict() for k, v in options.items()})
+        store = _Checkpoint(checkpoint, key, checkpoint_every)
+    parts, tracker = _extract(src, box, mesh, order, tracker, client, workers, store, progress)
+    tables = {name: _concat(parts[name], name, order.p) for name in FRAME_TABLES}
+    cells = _with_tracks(tables["cells"], tracker)
+    tables["cells"] = cells
+    parents = tracker.parents if tracker is not None else {}
+    tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
+    tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=events.censor,
+                                 box=box)
+    tables["cell_events"] = cell_event_stats(tables["events"], cells)
+    if order.fields:
+        _warn_frames_without_field(cells, tables["grid"], src.n_frames)
+        tables["defects"], tables["defect_events"] = _defect_tracks(tables["defects"], tables["grid"], order,
+                                                                    box, src.n_frames)
+    else:
+        del tables["grid"], tables["defects"]
+    return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
+                 options=options, source=src.description, version=__version__)
 
 
-def _mesh_job(labels, frame, box, mesh_options):
-    """Junction network of one frame: its four tables with a leading ``frame`` column."""
-    from . import mesh_from_labels
+def _concat(parts, name, orders):
+    if not parts:
+        return empty_table(name, orders)
+    return pd.concat(parts, ignore_index=True)
 
-    result = mesh_from_labels(labels, box=box, **mesh_options)
-    out = {}
-    for name in MESH_TABLES:
-        table = getattr(result, name)
-        if "frame" in table.columns:
-            table = table.drop(columns="frame")
-        table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
-        out[name] = table
+
+def _with_tracks(cells, tracker):
+    """``cells`` with a ``track`` column after ``cell``: the tracker's ids, or the labels themselves."""
+    if tracker is None:
+        track = cells["cell"].to_numpy(np.int64)
+    else:
+        ids = tracker.tracks()
+        merged = cells[["frame", "cell"]].merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
+        if merged["track"].isna().any():  # the tracker saw the mesh's own labels: this is a bug, not bad input
+            raise AssertionError("mesh cells missing from the tracker's labels")
+        track = merged["track"].to_numpy(np.int64)
+    cells = cells.drop(columns="track", errors="ignore")
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
+    return cells
+
+
+def _warn_frames_without_field(cells, grid, n_frames):
+    missing = n_frames - len(np.unique(grid["frame"].to_numpy())) if len(cells) else 0
+    if missing:
+        warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
+                      f"or defects there", HexatissueWarning, stacklevel=3)
+
+
+def _defect_tracks(defects, grid, order, box, n_frames):
+    """Defects linked over frames per p (``track``) and their pair creation / annihilation events."""
+    from .defects import defect_events, track_defects
+
+    tracked, pair_events = [], []
+    frames = np.arange(n_frames)
+    max_distance = order.defect_max_distance
+    if max_distance is None:
+        spacing = grid["spacing"].to_numpy(float)
+        max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
+    for q in order.p:
+        d = defects[defects["p"].to_numpy() == q].drop(columns="track", errors="ignore")
+        t = track_defects(d, max_distance, box=box, frames=frames)
+        e = defect_events(t, max_distance, box=box, frames=frames)
+        tracked.append(t)
+        pair_events.append(e.assign(p=np.int64(q)))
+    defects = pd.concat(tracked, ignore_index=True).sort_values(["frame", "p", "defect"], kind="stable")
+    pair_events = pd.concat(pair_events, ignore_index=True)
+    pair_events["kind"] = pair_events["kind"].astype("string")
+    return (validate(defects.reset_index(drop=True), "defects"),
+            validate(pair_events.astype({"frame": np.int64}), "defect_events"))
+
+
+# ----------------------------------------------------------------------------
+# One frame: mesh and order stages (runs in a worker)
+# ----------------------------------------------------------------------------
+
+def _frame_job(labels, t, box, mesh, order, want_labels):
+    """Tables of one frame, and its normalised labels when the tracker needs them."""
+    from .mesh.labels import normalize_valid
+    from .mesh.network import network_tables
+
+    lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area)
+    tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
+    tables.update(_order_tables(tables, box, order))
+    return tables, (lab if want_labels else None)
+
+
+def _order_tables(tables, box, order):
+    """The order stage of one frame: ``cells`` with gamma_p, and the grid and defects of every p."""
+    from .defects import find_defects
+    from .order import coarse_grain, gamma_columns
+
+    cells = gamma_columns(tables["cells"], tables["vertices"], tables["cell_vertices"], box, order.p, order.center)
+    out = {"cells": validate(cells, "cells")}
+    if not order.fields:
+        return out
+    first = order.p[0]
+    usable = interior_mask(cells) & np.isfinite(cells[f"gamma{first}_re"].to_numpy(float))
+    if not usable.any():
+        out["grid"], out["defects"] = empty_table("grid", order.p), empty_table("defects")
+        return out
+    grid, defects = None, []
+    for q in order.p:
+        g = coarse_grain(cells, p=q, radius=order.radius, spacing=order.spacing, box=box,
+                         min_coverage=order.min_coverage)
+        defects.append(find_defects(g, p=q, box=box))
+        field = [f"Gamma{q}_re", f"Gamma{q}_im"]
+        grid = g if grid is None else grid.join(g[field])  # the same nodes for every p
+    out["grid"] = grid
+    out["defects"] = pd.concat(defects, ignore_index=True)
     return out
 
 
+# ----------------------------------------------------------------------------
+# Executors and the frame loop
+# ----------------------------------------------------------------------------
+
 class _Serial:
-    """An executor running jobs in the calling process (n_workers=1)."""
+    """An executor running jobs in the calling process (workers=1)."""
 
     class _Done:
         def __init__(self, value):
@@ -166,123 +279,96 @@ class _Pool:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _executor(client, n_workers, n_frames):
+def _executor(client, workers, n_frames):
     if client is not None:
         threads = sum(client.nthreads().values()) if hasattr(client, "nthreads") else 1
         return _Dask(client), max(2, 2 * threads)
-    if n_workers is None:
-        n_workers = os.cpu_count() or 1
-    if int(n_workers) != n_workers or n_workers < 1:
-        raise InputError(f"n_workers must be a positive integer; got {n_workers!r}")
-    n_workers = min(int(n_workers), n_frames)
-    if n_workers == 1:
+    workers = (os.cpu_count() or 1) if workers is None else check_positive(workers, "workers", integer=True)
+    workers = min(workers, n_frames)
+    if workers == 1:
         return _Serial(), 1
-    return _Pool(n_workers), 2 * n_workers
+    return _Pool(workers), 2 * workers
 
 
-def _check_box(box, shape):
-    if box is None or box is False:
-        return None
-    if box is True:  # periodic box covering the frames
-        return Box.from_shape(shape)
-    if not isinstance(box, Box):
-        raise InputError(f"box must be a hexatissue.Box, True (periodic frames) or None; got {type(box).__name__}")
-    if (box.Ly, box.Lx) != (float(shape[0]), float(shape[1])):
-        raise InputError(f"box {box} does not match the frames' shape {tuple(shape)} (rows, cols); "
-                         f"expected Box(Lx={shape[1]}, Ly={shape[0]})")
-    return box
-
-
-def _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store, progress):
-    """Per-frame mesh tables (in frame order), tracking and the checked box, with bounded frames in flight."""
+def _extract(src, box, mesh, order, tracker, client, workers, store, progress):
+    """Per-frame tables (in frame order) and the tracker, with a bounded number of frames in flight."""
     from .progress import progress as progress_bar
 
-    parts = {name: [] for name in MESH_TABLES}
-    start, shape = 0, None
+    parts = {name: [] for name in FRAME_TABLES}
+    start = 0
     if store is not None:
-        start, loaded, saved_tracker, shape = store.load()
+        start, loaded, saved_tracker = store.load()
         if start:
             parts, tracker = loaded, saved_tracker
+    n_frames = src.n_frames
     if start >= n_frames:
-        return parts, shape, tracker, _check_box(box, shape)
-    executor, max_inflight = _executor(client, n_workers, n_frames - start)
+        return parts, tracker
+    executor, max_inflight = _executor(client, workers, n_frames - start)
     pending: deque = deque()
-    snapshots = {}  # frame -> pickled tracker state after that frame (for checkpoints)
     due = store.due(start, n_frames) if store is not None else set()
-    new_parts = {name: [] for name in MESH_TABLES}
+    new_parts = {name: [] for name in FRAME_TABLES}
 
     def collect(item):
         t, future = item
-        for name, table in future.result().items():
+        tables, labels = future.result()
+        if tracker is not None:
+            tracker.add_valid(labels, t)
+        for name, table in tables.items():
             parts[name].append(table)
             new_parts[name].append(table)
         if t + 1 in due:
-            store.save(t + 1, new_parts, snapshots.pop(t, None), shape)
+            store.save(t + 1, new_parts, pickle.dumps(tracker) if tracker is not None else None)
             for name in new_parts:
                 new_parts[name] = []
 
     try:
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
                               total=n_frames):
-            labels = validate_labels(frames[t], f"frame {t}")
-            if shape is None:
-                shape = labels.shape
-            if t == start:
-                box = _check_box(box, shape)
-            if tracker is not None:
-                tracker.add(labels, t)
-                if t + 1 in due:
-                    snapshots[t] = pickle.dumps(tracker)
-            pending.append((t, executor.submit(_mesh_job, labels, t, box, mesh_options)))
+            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, tracker is not None)
+            pending.append((t, job))
             while len(pending) >= max_inflight:
                 collect(pending.popleft())
         while pending:
             collect(pending.popleft())
     finally:
         executor.shutdown()
-    return parts, shape, tracker, box
+    return parts, tracker
 
 
 class _Checkpoint:
-    """Mesh tables and tracker state saved every ``every`` frames in ``directory``."""
+    """Frame tables and tracker state saved every ``every`` frames in ``directory``."""
 
-    def __init__(self, directory, options, every):
-        if int(every) != every or every < 1:
-            raise InputError(f"checkpoint_every must be a positive integer number of frames; got {every!r}")
+    def __init__(self, directory, key, every):
+        self.every = check_positive(every, "checkpoint_every", integer=True)
         self.dir = Path(directory)
-        self.options = options
-        self.every = int(every)
+        self.key = json.loads(json.dumps(key))  # as it reads back from JSON
         self.state_path = self.dir / "checkpoint.json"
 
     def due(self, start, n_frames):
         """Frame counts after which a checkpoint is written."""
         return set(range(start + self.every, n_frames + 1, self.every)) | {n_frames}
 
+    def _state(self):
+        return json.loads(self.state_path.read_text()) if self.state_path.exists() else None
+
     def load(self):
-        """(frames done, tables, tracker, shape) from the last checkpoint, or (0, None, None, None)."""
-        import json
+        """(frames done, tables, tracker) from the last checkpoint, or (0, None, None)."""
+        state = self._state()
+        if state is None:
+            return 0, None, None
+        if state["key"] != self.key:
+            raise InputError(f"checkpoint folder {str(self.dir)!r} holds another movie or other options; "
+                             f"use a new folder or delete it")
+        parts = {name: [pd.read_parquet(self.dir / f) for f in state["files"].get(name, [])]
+                 for name in FRAME_TABLES}
+        tracker = pickle.loads((self.dir / state["tracker"]).read_bytes()) if state["tracker"] else None
+        return int(state["done"]), parts, tracker
 
-        if not self.state_path.exists():
-            return 0, None, None, None
-        state = json.loads(self.state_path.read_text())
-        if state["options"] != self.options:
-            raise InputError(f"checkpoint folder {str(self.dir)!r} holds another movie or other options "
-                             f"({state['options']}); use a new folder or delete it")
-        parts = {name: [pd.read_parquet(self.dir / f) for f in state["files"][name]] for name in MESH_TABLES}
-        tracker = None
-        if state["tracker"]:
-            tracker = pickle.loads((self.dir / state["tracker"]).read_bytes())
-        return int(state["done"]), parts, tracker, tuple(state["shape"])
-
-    def save(self, done, new_parts, tracker_bytes, shape):
-        import json
-
+    def save(self, done, new_parts, tracker_bytes):
         from .io import atomic_path
 
-        state = {"options": self.options, "done": 0, "files": {name: [] for name in MESH_TABLES}, "tracker": None,
-                 "shape": list(shape)}
-        if self.state_path.exists():
-            state = json.loads(self.state_path.read_text())
+        state = self._state() or {"key": self.key, "done": 0, "files": {name: [] for name in FRAME_TABLES},
+                                  "tracker": None}
         for name, tables in new_parts.items():
             if not tables:
                 continue
@@ -301,87 +387,3 @@ class _Checkpoint:
         # the state file is written last: a crash before this line leaves the previous checkpoint valid
         with atomic_path(self.state_path) as tmp:
             tmp.write_text(json.dumps(state))
-
-
-def analyze_movie(stack_or_run, box=None, track=None, client=None, n_workers=None, *, min_length=0.0,
-                  censor=10, max_gap=0, min_iou=0.2, checkpoint=None, checkpoint_every=100, progress=True,
-                  **mesh_options) -> Movie:
-    """Junction networks, tracks, lineage and classified T1 events of a label movie or MPF run.
-
-    Parameters
-    ----------
-    stack_or_run : array-like, sequence, run object or path
-        See :func:`open_movie`: a T x rows x cols label stack (frames are read
-        one at a time with ``stack[t]``), a list of label images, an MPF run
-        (``.labels``, ``.box``) or a path to either.  0 = background/membrane.
-    box : Box or bool, optional
-        Periodic box of the frames (``Box(cols, rows)``; ``True`` builds it
-        from the frame shape); default: the run's box, else None (open images).
-    track : bool, optional
-        Link cells by overlap (:class:`hexatissue.track.Tracker`).  Default:
-        True for label stacks (consistent ids are reproduced), False for MPF
-        runs, whose ids are already consistent.
-    client : dask.distributed.Client, optional
-        Run the per-frame mesh extraction on this cluster.
-    n_workers : int, optional
-        Local processes for mesh extraction when no client is given (default:
-        all cores; 1 runs in this process).
-    min_length : float
-        Junctions shorter than this (px) count as four-fold vertices in T1
-        detection (:func:`hexatissue.events.detect_t1`); 0 = raw network.
-    censor : int
-        Right-censoring window for T1 classification, frames.
-    max_gap, min_iou : int, float
-        Tracking options (gap closing in frames; smallest IoU of a link).
-    checkpoint : str or Path, optional
-        Folder for checkpoints: every ``checkpoint_every`` frames the mesh
-        tables of the finished frames and the tracker state are saved there
-        (atomically); a later call with the same movie and options resumes
-        after the last checkpoint.  The tracker state is a pickle: only
-        resume from folders you wrote yourself.
-    checkpoint_every : int
-        Frames per checkpoint.
-    progress : bool
-        Show a tqdm progress bar.
-    **mesh_options
-        Passed to :func:`hexatissue.mesh_from_labels` (``kind``,
-        ``merge_distance``, ``p``, ``center``).
-
-    Returns
-    -------
-    Movie
-        Mesh tables (``cells`` with a ``track`` column, ``vertices``,
-        ``edges``, ``cell_vertices``, each with ``frame``) and in
-        ``movie.extra``: ``events`` (:func:`~hexatissue.events.detect_t1`),
-        ``lineage`` (:func:`~hexatissue.track.lineage_table`) and
-        ``cell_events`` (:func:`~hexatissue.events.cell_event_stats`).
-    """
-    frames, n_frames, run_box, is_run = open_movie(stack_or_run)
-    box = run_box if box is None else box
-    do_track = (not is_run) if track is None else bool(track)
-    tracker = Tracker(min_iou=min_iou, max_gap=max_gap) if do_track else None
-    store = None
-    if checkpoint is not None:
-        options = dict(n_frames=n_frames, box=repr(box), track=do_track, min_iou=min_iou, max_gap=max_gap,
-                       mesh=repr(sorted(mesh_options.items())))
-        store = _Checkpoint(checkpoint, options, checkpoint_every)
-    parts, shape, tracker, box = _extract(frames, n_frames, box, tracker, client, n_workers, mesh_options, store,
-                                     progress)
-    tables = {name: pd.concat(parts[name], ignore_index=True) for name in MESH_TABLES}
-    cells = tables["cells"]
-    if tracker is not None:
-        ids = tracker.tracks()
-        cells = cells.merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
-        if cells["track"].isna().any():
-            raise AssertionError("mesh cells missing from the tracker's labels")
-        cells["track"] = cells["track"].astype(np.int64)
-        parents = tracker.parents
-    else:
-        cells = cells.assign(track=cells["cell"].to_numpy(np.int64))
-        parents = {}
-    tables["cells"] = cells
-    border = cells["is_border"].to_numpy(bool) if "is_border" in cells.columns else None
-    lineage = lineage_table(cells[["frame", "track"]], parents, border)
-    events = detect_t1(tables["edges"], cells, min_length=min_length, censor=censor, box=box)
-    extra = {"events": events, "lineage": lineage, "cell_events": cell_event_stats(events, cells)}
-    return Movie(**tables, box=box, shape=tuple(shape), extra=extra)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .box import as_box
 from .errors import InputError
 
 __all__ = [
@@ -77,7 +78,7 @@ def _polygon_list(polygons, box=None):
         raise InputError(f"polygons must be a dict {{cell: (n, 2) array}}; got {type(polygons).__name__}")
     ids = list(polygons)
     polys = [np.asarray(polygons[c], float) for c in ids]
-    if box is None or not box.periodic:
+    if box is None:
         return ids, polys
     L = box.lengths
     out_ids, out = [], []
@@ -98,10 +99,6 @@ def _draw_polygons(ax, polygons, color="k", linewidth=0.6, box=None):
     if polys:
         ax.add_collection(PolyCollection(polys, closed=True, edgecolors=color, linewidths=linewidth,
                                          facecolors="none"))
-
-
-def _periodic(box):
-    return box if box is not None and box.periodic else None
 
 
 def _extent_of(labels=None, polygons=None, xy=None, box=None):
@@ -193,7 +190,7 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
             for _, c in cells.iterrows():
                 ax.text(c["x"], c["y"], str(int(c["cell"])), fontsize=5, ha="center", va="center")
     xy = None if cells is None else cells[["x", "y"]].to_numpy()
-    _image_axes(ax, _extent_of(background, polygons, xy, _periodic(box)))
+    _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)))
     ax.set_title("cells and polygons")
     return _finish(fig, path)
 
@@ -254,7 +251,7 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
     background = _draw_background(ax, labels, image, alpha=0.5)
     _draw_polygons(ax, polygons, color="0.35", linewidth=0.6, box=box)
     _add_stars(ax, xy[ok], gamma[ok], p, scale * _typical_spacing(xy[ok]), color, linewidth=1.1)
-    _image_axes(ax, _extent_of(background, polygons, xy[ok], _periodic(box)))
+    _image_axes(ax, _extent_of(background, polygons, xy[ok], as_box(box)))
     ax.set_title(f"cell orientation Arg($\\gamma_{p}$)/{p}")
     return _finish(fig, path)
 
@@ -305,14 +302,14 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
     background = _draw_background(ax, labels, image, alpha=0.35)
     if show_magnitude and valid.any():
         _shade_magnitude(fig, ax, grid, gamma, valid, p)
-    _draw_polygons(ax, polygons, color="0.55", linewidth=0.5, box=_periodic(box))
+    _draw_polygons(ax, polygons, color="0.55", linewidth=0.5, box=as_box(box))
     spacing = _grid_spacing(grid)
     # the longest star spans 0.8 grid spacings, so neighbouring stars never touch
     largest = np.abs(gamma[valid]).max() if valid.any() else 1.0
     _add_stars(ax, xy[valid], gamma[valid] / max(largest, 1e-12), p, 0.4 * spacing, "k", linewidth=0.8)
     if defects is not None and len(defects):
         _draw_defects(ax, defects, p, size=8)
-    _image_axes(ax, _extent_of(background, polygons, xy, _periodic(box)))
+    _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)))
     ax.set_title(f"$\\Gamma_{p}$ orientation and $\\pm 1/{p}$ defects")
     return _finish(fig, path)
 
@@ -389,7 +386,7 @@ def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", titl
     coll.set_array(value[finite])
     ax.add_collection(coll)
     fig.colorbar(coll, ax=ax, shrink=0.7, label=column)
-    _image_axes(ax, _extent_of(None, polygons, None, _periodic(box)))
+    _image_axes(ax, _extent_of(None, polygons, None, as_box(box)))
     ax.set_title(title or f"cells coloured by {column}")
     return _finish(fig, path)
 
@@ -453,7 +450,7 @@ def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None
     from .order import coarse_grain
 
     directory = Path(directory)
-    box = frame.box if frame.box is not None and frame.box.periodic else None
+    box = frame.box
     if grid is None:
         grid = coarse_grain(frame.cells, p=p, box=box)
     if defects is None:

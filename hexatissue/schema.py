@@ -10,16 +10,17 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
 import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["TABLES", "validate", "describe", "require_columns"]
+__all__ = ["TABLES", "validate", "describe", "require_columns", "empty_table", "track_ids", "interior_mask"]
 
 # column -> (dtype kind: i integer, f float, b bool, O string/object, unit, meaning)
 TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     "cells": {
-        "frame": ("i", "frame", "time point (movies only)"),
+        "frame": ("i", "frame", "time point (0 for a single image)"),
         "cell": ("i", "", "label id in the segmented image"),
         "track": ("i", "", "track id (equal to `cell` when ids are consistent over time)"),
         "x": ("f", "px", "pixel centroid, column"),
@@ -28,13 +29,13 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "polygon_area": ("f", "px^2", "area of the vertex polygon"),
         "perimeter": ("f", "px", "perimeter of the vertex polygon"),
         "n_sides": ("i", "", "number of polygon vertices (= junctions around the cell)"),
-        "n_cycles": ("i", "", "boundary cycles of the cell (> 1: holes, pieces or pinches)"),
+        "n_boundaries": ("i", "", "boundary cycles of the cell (> 1: holes, pieces or pinches)"),
         "is_border": ("b", "", "touches the image edge or the background (0)"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
     },
     "vertices": {
-        "frame": ("i", "frame", "time point (movies only)"),
+        "frame": ("i", "frame", "time point (0 for a single image)"),
         "vertex": ("i", "", "vertex id"),
         "x": ("f", "px", "column"),
         "y": ("f", "px", "row"),
@@ -43,7 +44,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "is_border": ("b", "", "touches the background (cell 0)"),
     },
     "edges": {
-        "frame": ("i", "frame", "time point (movies only)"),
+        "frame": ("i", "frame", "time point (0 for a single image)"),
         "edge": ("i", "", "junction id"),
         "vertex_a": ("i", "", "first end vertex"),
         "vertex_b": ("i", "", "second end vertex"),
@@ -52,7 +53,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "length": ("f", "px", "straight-line distance between the end vertices"),
     },
     "cell_vertices": {
-        "frame": ("i", "frame", "time point (movies only)"),
+        "frame": ("i", "frame", "time point (0 for a single image)"),
         "cell": ("i", "", "cell id"),
         "rank": ("i", "", "position of the vertex in the polygon (counter-clockwise in x, y)"),
         "vertex": ("i", "", "vertex id"),
@@ -93,7 +94,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "mean_intercalation_interval": ("f", "frame", "mean time between consecutive intercalations"),
     },
     "grid": {
-        "frame": ("i", "frame", "time point (movies only)"),
+        "frame": ("i", "frame", "time point (0 for a single image)"),
         "node": ("i", "", "grid node id"),
         "x": ("f", "px", "node position, column"),
         "y": ("f", "px", "node position, row"),
@@ -108,17 +109,30 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "spacing": ("f", "px", "requested grid spacing"),
     },
     "defects": {
-        "frame": ("i", "frame", "time point (movies only)"),
+        "frame": ("i", "frame", "time point (0 for a single image)"),
         "defect": ("i", "", "defect id"),
         "x": ("f", "px", "position, column"),
         "y": ("f", "px", "position, row"),
         "charge": ("f", "", "topological charge (multiple of 1/p)"),
         "p": ("i", "", "symmetry order"),
+        "track": ("i", "", "defect track id, per p (movies: linked across frames by hexatissue.track_defects)"),
+    },
+    "defect_events": {
+        "frame": ("i", "frame", "creation: first frame the pair exists; annihilation: last frame it exists"),
+        "kind": ("O", "", "creation or annihilation (appearance / disappearance for unpaired defects)"),
+        "x": ("f", "px", "pair midpoint, column"),
+        "y": ("f", "px", "pair midpoint, row"),
+        "track_plus": ("i", "", "defect track of the positive partner (-1 when absent)"),
+        "track_minus": ("i", "", "defect track of the negative partner (-1 when absent)"),
+        "separation": ("f", "px", "distance between the partners (NaN when unpaired)"),
+        "p": ("i", "", "symmetry order"),
     },
 }
 
-_OPTIONAL = {"frame", "track", "n_cycles", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
-             "frame_gain", "frame_undo", "is_border"}
+# columns a producer may leave out (every other schema column is required)
+_OPTIONAL = {"track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
+             "frame_gain", "frame_undo", "is_border", "p"}
+_DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 
 
@@ -137,8 +151,8 @@ def describe(table: str) -> pd.DataFrame:
 def validate(df: pd.DataFrame, table: str) -> pd.DataFrame:
     """Check that ``df`` has the columns of ``table`` with compatible dtypes; return it.
 
-    Required columns are every schema column except ``frame``, ``track`` and
-    the per-``p`` patterns; columns not in the schema are allowed (analyses
+    Required columns are every schema column except the optional ones
+    (``track``, ``polygon_area``, ... and the per-``p`` patterns); columns not in the schema are allowed (analyses
     add their own).  Raises :class:`~hexatissue.errors.InputError` naming the
     offending column.
     """
@@ -175,3 +189,45 @@ def require_columns(table, columns, name):
     if missing:
         raise InputError(f"{name} is missing column(s) {missing}; expected at least {list(columns)}")
     return table
+
+
+def empty_table(table: str, orders=()) -> pd.DataFrame:
+    """A table with no rows and the schema's columns and dtypes (``{p}`` columns for each of ``orders``)."""
+    if table not in TABLES:
+        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
+    columns = {}
+    for column, (kind, _, _) in TABLES[table].items():
+        names = [column.replace("{p}", str(q)) for q in orders] if "{p}" in column else [column]
+        for name in names:
+            columns[name] = pd.Series(dtype=_DTYPES[kind])
+    return pd.DataFrame(columns)
+
+
+def track_ids(cells) -> np.ndarray:
+    """Track id of every row of a cells table: ``track`` when present, else the label ``cell``."""
+    column = "track" if "track" in cells.columns else "cell"
+    if column not in cells.columns:
+        raise InputError("cells needs a 'track' or 'cell' column")
+    return cells[column].to_numpy(np.int64)
+
+
+def interior_mask(cells) -> np.ndarray:
+    """Rows that are not border cells (all rows when there is no ``is_border`` column)."""
+    if "is_border" in cells.columns:
+        return ~cells["is_border"].to_numpy(bool)
+    return np.ones(len(cells), bool)
+
+
+def coerce(df: pd.DataFrame, table: str) -> pd.DataFrame:
+    """``df`` with its schema columns cast to the schema's dtypes (for tables read back from CSV)."""
+    spec = TABLES[table]
+    out = df.copy()
+    for column, (kind, _, _) in spec.items():
+        names = [c for c in out.columns if _pattern(column).match(str(c))] if "{p}" in column else [column]
+        for name in names:
+            if name not in out.columns or str(out[name].dtype) == _DTYPES[kind]:
+                continue
+            if kind == "i" and out[name].isna().any():
+                continue  # an integer column with gaps stays float rather than fail
+            out[name] = out[name].astype(_DTYPES[kind])
+    return out

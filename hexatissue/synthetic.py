@@ -10,7 +10,7 @@ import numpy as np
 from scipy.spatial import Voronoi, cKDTree
 
 from .box import Box
-from .errors import InputError
+from .errors import InputError, as_generator
 
 __all__ = [
     "jittered_seeds",
@@ -22,17 +22,13 @@ __all__ = [
 ]
 
 
-def _rng(seed):
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-
-
 def jittered_seeds(shape, spacing, jitter=0.35, seed=0):
     """Seeds on a square lattice of pitch ``spacing`` px, each moved by up to ``jitter * spacing``.
 
     Returns an ``(n, 2)`` array of (x, y) inside an image of ``shape = (rows, cols)``.
     Jittered lattices avoid the tiny cells of Poisson seeds.
     """
-    rng = _rng(seed)
+    rng = as_generator(seed)
     ny, nx = int(shape[0] // spacing), int(shape[1] // spacing)
     if nx < 1 or ny < 1:
         raise InputError(f"spacing {spacing} is larger than the image shape {shape}")
@@ -409,7 +405,7 @@ def t1_movie(periodic=True, n_frames=36, nx=12, ny=10, min_length=4.0, censor=5,
     """
     if n_frames < 36 or nx < 12 or ny < 10 or ny % 2:
         raise InputError(f"t1_movie needs n_frames >= 36, nx >= 12 and an even ny >= 10; got {n_frames}, {nx}, {ny}")
-    rng = _rng(seed)
+    rng = as_generator(seed)
     base, box = hexagonal_seeds(nx, ny, spacing=30.0, row_spacing=26.0, offset=(7.25, 6.25))
     shape = (int(box.Ly), int(box.Lx))
     n = len(base)
@@ -486,7 +482,7 @@ def relabel_movie(labels, seed=0, max_id=None):
     Returns ``(relabelled, maps)`` where ``maps[t]`` is ``{new id: old id}`` of frame ``t``.
     ``max_id`` (default 4 x the largest id) bounds the new ids.
     """
-    rng = _rng(seed)
+    rng = as_generator(seed)
     labels = np.asarray(labels)
     top = int(labels.max())
     max_id = max_id or 4 * top + 10
@@ -517,7 +513,7 @@ class VoronoiMovie:
         rows, cols = int(shape[0]), int(shape[1])
         if n_cells < 2 or n_frames < 1:
             raise InputError(f"n_cells must be >= 2 and n_frames >= 1; got {n_cells}, {n_frames}")
-        rng = _rng(seed)
+        rng = as_generator(seed)
         spacing = np.sqrt(rows * cols / n_cells)
         # a lattice with at least n_cells sites, jittered, then random sites dropped: exactly n_cells seeds
         ny = max(1, int(round(rows / spacing)))

@@ -25,7 +25,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .errors import InputError
-from .mesh.labels import validate_labels
+from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
 __all__ = ["Tracker", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
@@ -33,8 +33,6 @@ __all__ = ["Tracker", "track_labels", "frame_overlaps", "match_frames", "LINEAGE
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
 _DENSE_LIMIT = 4_000_000
-# Largest label id compacted with a lookup table (larger ids use np.unique).
-_LUT_LIMIT = 50_000_000
 
 LINEAGE_COLUMNS = {
     "track": "track id",
@@ -57,19 +55,9 @@ class _Compact:
 
 
 def _compact(labels: np.ndarray) -> _Compact:
-    flat = labels.ravel()
-    top = int(flat.max()) if flat.size else 0
-    if top < _LUT_LIMIT:
-        counts = np.bincount(flat, minlength=1)
-        ids = np.flatnonzero(counts)
-        ids = ids[ids > 0]
-        lut = np.full(top + 1, -1, dtype=np.int32)
-        lut[ids] = np.arange(len(ids), dtype=np.int32)
-        return _Compact(lut[flat], ids.astype(np.int64), counts[ids].astype(np.int64))
-    ids, inverse, counts = np.unique(flat, return_inverse=True, return_counts=True)
-    index = inverse.astype(np.int32) - (1 if ids[0] == 0 else 0)
-    keep = ids > 0
-    return _Compact(index, ids[keep].astype(np.int64), counts[keep].astype(np.int64))
+    compact, ids = compact_labels(labels)
+    area = np.bincount(compact.ravel(), minlength=len(ids))
+    return _Compact((compact.ravel() - 1).astype(np.int32), ids[1:].astype(np.int64), area[1:].astype(np.int64))
 
 
 def _contingency(a: _Compact, b: _Compact):
@@ -317,7 +305,10 @@ class Tracker:
 
         ``frame`` defaults to the number of frames added so far.
         """
-        labels = validate_labels(labels)
+        return self.add_valid(validate_labels(labels), frame)
+
+    def add_valid(self, labels, frame=None) -> np.ndarray:
+        """:meth:`add` for labels already checked by :func:`~hexatissue.mesh.labels.validate_labels`."""
         frame = self._n if frame is None else int(frame)
         if self._shape is not None and labels.shape != self._shape:
             raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
@@ -408,17 +399,6 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
     return validate(out.reset_index(drop=True), "lineage")
 
 
-def edge_touching(labels: np.ndarray, margin: int = 2) -> np.ndarray:
-    """Sorted ids of the cells with a pixel within ``margin`` px of the image edge.
-
-    A margin of 2 px also catches cells separated from the edge by a 1-px membrane line.
-    """
-    m = max(1, int(margin))
-    rim = np.concatenate([labels[:m].ravel(), labels[-m:].ravel(), labels[:, :m].ravel(), labels[:, -m:].ravel()])
-    ids = np.unique(rim)
-    return ids[ids > 0]
-
-
 def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0, progress=False):
     """Track the cells of a label movie by overlap.
 
@@ -439,8 +419,10 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
     tracks : pandas.DataFrame
         ``frame``, ``cell`` (label id), ``track`` (track id).
     lineage : pandas.DataFrame
-        See :func:`lineage_table`; a cell within 2 px of the image edge counts
-        as a border cell.
+        See :func:`lineage_table`; a cell touching background 0 or the image
+        edge is a border cell (the mesh's ``is_border`` rule).  Give touching
+        labels (membrane images normalised first with
+        :func:`hexatissue.mesh.normalize_labels`), else every cell touches 0.
     """
     from .progress import progress as progress_bar
 
@@ -450,7 +432,7 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
     for t in progress_bar(range(n), enabled=progress, desc="tracking"):
         labels = validate_labels(stack[t], f"stack[{t}]")
         tracker.add(labels, t)
-        border.append(np.isin(tracker._cells[-1], edge_touching(labels)))
+        border.append(np.isin(tracker._cells[-1], touches_outside(labels)))
     tracks = tracker.tracks()
     lineage = lineage_table(tracks, tracker.parents, np.concatenate(border) if border else None)
     return tracks, lineage

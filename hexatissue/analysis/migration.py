@@ -35,7 +35,10 @@ from scipy import stats
 from ..box import Box
 from ..defects import defect_density
 from ..errors import HexatissueWarning, InputError
-from ._common import charge_mask, check_box, check_p, check_positive, interior, track_ids
+from ..box import as_box
+from ..defects import charge_mask
+from ..errors import check_p, check_positive
+from ..schema import interior_mask, track_ids
 from ..schema import require_columns
 from .mixture import GaussianMixture1D, fit_gaussian_mixture
 
@@ -83,10 +86,10 @@ def cell_steps(cells, box=None, include_border=False):
         ``t - 1``, px), ``dx``, ``dy`` (step, px).
     """
     require_columns(cells, ("frame", "x", "y"), "cells")
-    box = check_box(box)
+    box = as_box(box)
     df = pd.DataFrame({"track": track_ids(cells), "frame": cells["frame"].to_numpy(np.int64),
                        "x": cells["x"].to_numpy(float), "y": cells["y"].to_numpy(float),
-                       "ok": interior(cells) | include_border})
+                       "ok": interior_mask(cells) | include_border})
     df = df.sort_values(["track", "frame"], ignore_index=True)
     tr, fr = df["track"].to_numpy(), df["frame"].to_numpy()
     consecutive = (tr[1:] == tr[:-1]) & (fr[1:] == fr[:-1] + 1)
@@ -188,7 +191,7 @@ def cell_displacements(cells, dl=DEFAULT_DL, dt=25, box=None, extent=None, event
     """
     dl = check_positive(dl, "dl")
     dt = check_positive(dt, "dt", integer=True)
-    box = check_box(box)
+    box = as_box(box)
     extent = _check_extent(extent, box, cells)
     steps = cell_steps(cells, box, include_border)
     frames = np.unique(cells["frame"].to_numpy(np.int64))
@@ -253,7 +256,7 @@ def migration_table(cells, defects, dl=DEFAULT_DL, dt=25, box=None, extent=None,
     """
     p = check_p(p)
     require_columns(defects, ("x", "y", "charge"), "defects")
-    box = check_box(box)
+    box = as_box(box)
     extent = _check_extent(extent, box, cells)
     per_cell = cell_displacements(cells, dl, dt, box, extent, events, include_border)
     agg = dict(n_cells=("track", "size"), displacement=("displacement", "mean"), msd=("msd", "mean"))

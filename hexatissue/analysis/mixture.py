@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ._common import rng
+from ..errors import as_generator
 
 __all__ = ["GaussianMixture1D", "fit_gaussian_mixture"]
 
@@ -131,7 +131,7 @@ def fit_gaussian_mixture(x, n_components=2, seed=0, n_init=5, max_iter=500, tol=
     k = int(n_components)
     if k < 1 or len(x) < 2 * k:
         raise InputError(f"need n_components >= 1 and at least {2 * k} points; got {k} and {len(x)}")
-    gen = rng(seed)
+    gen = as_generator(seed)
     spread = float(np.std(x))
     if spread == 0:
         raise InputError("x has zero variance; a mixture cannot be fitted")

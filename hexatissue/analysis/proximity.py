@@ -23,7 +23,10 @@ from scipy import stats
 from scipy.spatial import cKDTree
 
 from ..errors import InputError
-from ._common import charge_mask, check_box, check_p, check_positive, interior, rng, track_ids
+from ..box import as_box
+from ..defects import charge_mask
+from ..errors import as_generator, check_p, check_positive
+from ..schema import interior_mask, track_ids
 from ..schema import require_columns
 
 __all__ = ["nearest_defect", "t1_defect_distances", "random_cell_distances", "random_vertex_distances",
@@ -64,7 +67,7 @@ def nearest_defect(frames, xy, defects, p=6, box=None):
         frames without any defect get ``defect = -1`` and NaN elsewhere.
     """
     p = check_p(p)
-    box = check_box(box)
+    box = as_box(box)
     require_columns(defects, ("x", "y", "charge", "defect"), "defects")
     xy = np.asarray(xy, float).reshape(-1, 2)
     frames = np.asarray(frames, np.int64).reshape(-1)
@@ -167,7 +170,7 @@ def random_cell_distances(cells, frames, defects, p=6, box=None, n_per_frame=1, 
         :data:`DISTANCE_COLUMNS`.
     """
     require_columns(cells, ("frame", "x", "y"), "cells")
-    use = interior(cells) if not include_border else np.ones(len(cells), bool)
+    use = interior_mask(cells) if not include_border else np.ones(len(cells), bool)
     return _random_point_distances(cells, track_ids(cells), "track", use, frames, defects, p, box, n_per_frame,
                                    seed)
 
@@ -196,7 +199,7 @@ def random_vertex_distances(vertices, frames, defects, p=6, box=None, n_per_fram
     require_columns(vertices, ("frame", "vertex", "x", "y", "degree"), "vertices")
     use = vertices["degree"].to_numpy(np.int64) >= 3
     if not include_border:
-        use &= interior(vertices)
+        use &= interior_mask(vertices)
     return _random_point_distances(vertices, vertices["vertex"].to_numpy(np.int64), "vertex", use, frames, defects,
                                    p, box, n_per_frame, seed)
 
@@ -204,7 +207,7 @@ def random_vertex_distances(vertices, frames, defects, p=6, box=None, n_per_fram
 def _random_point_distances(points, ids, id_name, use, frames, defects, p, box, n_per_frame, seed):
     """Draw ``n_per_frame`` rows of ``points[use]`` per entry of ``frames`` and measure them."""
     n_per_frame = check_positive(n_per_frame, "n_per_frame", integer=True)
-    gen = rng(seed)
+    gen = as_generator(seed)
     use = use & np.isfinite(points[["x", "y"]].to_numpy(float)).all(axis=1)
     c_frame = points["frame"].to_numpy(np.int64)[use]
     c_xy = points[["x", "y"]].to_numpy(float)[use]

@@ -19,7 +19,7 @@ from scipy import stats
 
 from ..errors import InputError
 from ..events import cell_event_stats
-from ._common import check_positive
+from ..errors import check_positive
 from ..schema import require_columns
 
 __all__ = ["cell_timing", "timing_test", "timing_summary", "timing_across_runs", "TIMING_QUANTITIES"]

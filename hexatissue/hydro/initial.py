@@ -12,16 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..defects import plaquette_charges
-from ..errors import InputError
+from ..errors import InputError, as_generator
 from ..theory import quadrupole_psi
 from .params import HydroParams
 from .solver import Solver, fft2, ifft2
 
 __all__ = ["quadrupole_initial", "dipole_initial", "thermalise", "core_profile"]
-
-
-def _rng(seed):
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
 
 def _grid(n, dx):
@@ -83,7 +79,7 @@ def _clean(psi, fixed):
 
 def _random_outside(psi, fixed, params, seed, noise):
     """Outside ``fixed``: random phases (``noise=None``) or the analytic phase plus uniform noise in (-noise, noise)."""
-    rng = _rng(seed)
+    rng = as_generator(seed)
     if noise is None:
         outside = params.psi0 * np.exp(1j * rng.uniform(0, 2 * np.pi, psi.shape))
     else:

@@ -127,11 +127,15 @@ def normalize_labels(labels, kind="auto", periodic=False, membrane_width=3, min_
     membrane : (rows, cols) bool array
         Pixels that were junction lines and were given to a cell.
     """
+    return normalize_valid(validate_labels(labels), kind, periodic, membrane_width, min_area)
+
+
+def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area=None):
+    """:func:`normalize_labels` of labels already checked by :func:`validate_labels`."""
     if kind not in KINDS:
         raise InputError(f"kind must be one of {KINDS}; got {kind!r}")
     if not (isinstance(membrane_width, (int, np.integer)) and membrane_width >= 0):
         raise InputError(f"membrane_width must be a non-negative whole number of px; got {membrane_width!r}")
-    lab = validate_labels(labels)
     if kind == "auto":
         kind = detect_kind(lab, periodic)
     if kind == "skeleton":
@@ -157,6 +161,53 @@ def normalize_labels(labels, kind="auto", periodic=False, membrane_width=3, min_
         membrane = zero & (filled != 0)
         return filled, membrane
     return _fill_pockets(lab, zero, periodic), membrane
+
+
+def compact_labels(lab):
+    """Labels renumbered 0..n in the order of their ids (0 stays 0 = background), as int32.
+
+    Returns
+    -------
+    compact : (rows, cols) int32 array
+    ids : (n + 1,) int array
+        Original id of each compact id; ``ids[0] == 0`` whether or not 0 occurs.
+    """
+    top = int(lab.max())
+    if top < 2**24 and top <= 4 * lab.size:
+        present = np.bincount(lab.ravel(), minlength=top + 1) > 0
+        present[0] = True
+        ids = np.flatnonzero(present)
+        if len(ids) == top + 1:
+            return lab.astype(np.int32, copy=False), ids
+        new = np.zeros(top + 1, np.int32)
+        new[ids] = np.arange(len(ids), dtype=np.int32)
+        return new[lab], ids
+    ids, inv = np.unique(np.r_[0, lab.ravel()], return_inverse=True)
+    return inv[1:].reshape(lab.shape).astype(np.int32), ids
+
+
+def touches_outside(lab, periodic=False):
+    """Sorted ids of the cells touching background 0 or, on an open image, the image edge.
+
+    The same border rule as the mesh's ``is_border`` (a junction with cell 0,
+    the edge of an open image counting as 0), for touching labels.
+    """
+    zero = lab == 0
+    near = np.zeros(lab.shape, bool)
+    if zero.any():
+        for axis in (0, 1):
+            for step in (1, -1):
+                shifted = np.roll(zero, step, axis=axis)
+                if not periodic:  # np.roll wraps; an open image has no neighbour across the edge
+                    edge = (0 if step == 1 else -1)
+                    index = [slice(None), slice(None)]
+                    index[axis] = edge
+                    shifted[tuple(index)] = False
+                near |= shifted
+    if not periodic:
+        near[0, :] = near[-1, :] = near[:, 0] = near[:, -1] = True
+    ids = np.unique(lab[near & ~zero])
+    return ids[ids > 0]
 
 
 def _fill_pockets(lab, zero, periodic):

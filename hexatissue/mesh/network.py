@@ -8,50 +8,19 @@ import pandas as pd
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..box import Box
+from ..box import as_box
 from ..errors import HexatissueWarning, InputError
 from ..frame import Frame
-from ..order import polygon_area_centroid, shape_function_flat
+from ..geometry import polygon_area_centroid, polygon_perimeter
 from ..schema import validate
 from . import _kernels as K
-from .labels import normalize_labels
+from .labels import compact_labels, normalize_valid, validate_labels
 
-__all__ = ["mesh_from_labels", "warm_up"]
+__all__ = ["mesh_from_labels", "network_tables", "warm_up"]
 
 ARM_REACH = 8  # cracks per arm in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
 MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practically never needed
-
-
-def _resolve_box(box, shape):
-    """(periodic?, Box or None) for an image of ``shape``; a periodic box must match the image."""
-    if box is None:
-        return False, None
-    if not isinstance(box, Box):
-        raise InputError(f"box must be a hexatissue.Box or None; got {type(box).__name__}")
-    if not box.periodic:
-        return False, None
-    if (box.Lx, box.Ly) != (float(shape[1]), float(shape[0])):
-        raise InputError(
-            f"box (Lx={box.Lx}, Ly={box.Ly}) must match the image: Lx = {shape[1]} columns, Ly = {shape[0]} rows"
-        )
-    return True, box
-
-
-def _compact(lab):
-    """Labels as int32 0..n (0 kept) and the original id of each compact id."""
-    top = int(lab.max())
-    if top < 2**24 and top <= 4 * lab.size:
-        present = np.bincount(lab.ravel(), minlength=top + 1) > 0
-        present[0] = True
-        ids = np.flatnonzero(present)
-        if len(ids) == top + 1:
-            return lab.astype(np.int32, copy=False), ids
-        new = np.zeros(top + 1, np.int32)
-        new[ids] = np.arange(len(ids), dtype=np.int32)
-        return new[lab], ids
-    ids, inv = np.unique(np.r_[0, lab.ravel()], return_inverse=True)
-    return inv[1:].reshape(lab.shape).astype(np.int32), ids
 
 
 def _trace(lab32, periodic, membrane):
@@ -233,11 +202,7 @@ def mesh_from_labels(
     merge_distance=2.0,
     membrane_width=3,
     min_area=None,
-    p=(2, 6),
-    center="vertex_mean",
-    frame=None,
-    pixel_size=1.0,
-    units="px",
+    frame=0,
 ) -> Frame:
     """Junction network of a 2-D label image: vertices, junctions, ordered polygons, cell table.
 
@@ -246,7 +211,9 @@ def mesh_from_labels(
     between two vertices is a junction.  Vertices closer than
     ``merge_distance`` along a junction are merged into one, so a four-fold
     vertex (a T1 intermediate), which rasterisation splits into two
-    three-fold corners a pixel apart, has degree 4.
+    three-fold corners a pixel apart, has degree 4.  This is geometry only:
+    the shape functions gamma_p are the order stage's
+    (:func:`hexatissue.shape_order`).
 
     Parameters
     ----------
@@ -267,27 +234,21 @@ def mesh_from_labels(
     min_area : int, optional
         Regions with fewer pixels are treated as membrane.  Default: 4 px for
         skeletons (specks enclosed by junction lines), else 0.
-    p : int or sequence of int
-        Symmetry orders of the shape function columns ``gamma{p}_re/_im``.
-    center : {"vertex_mean", "area_centroid"}
-        Cell centre for the shape function (see :func:`hexatissue.shape_function`).
-    frame : int, optional
-        Time point stored in the Frame.
-    pixel_size, units : float, str
-        Physical pixel size, stored as metadata (tables stay in px).
+    frame : int
+        Time point, stored in every table's ``frame`` column.
 
     Returns
     -------
     Frame
-        Tables (x = column, y = row, px, origin at the centre of pixel (0, 0)):
+        Tables (x = column, y = row, px, origin at the centre of pixel (0, 0)),
+        each with a leading ``frame`` column:
 
         ``cells``: cell (label id), x, y (pixel centroid, px), area (pixel
         count incl. the cell's share of membranes, px^2), polygon_area (area
         of the vertex polygon, px^2), perimeter (of the vertex polygon, px),
         n_sides (polygon vertices; 0 when the cell has no boundary polygon),
-        n_cycles (boundary cycles; > 1 for cells with holes or in pieces),
-        is_border (touches the image edge or background 0),
-        gamma{p}_re, gamma{p}_im (shape function, dimensionless; NaN without polygon).
+        n_boundaries (boundary cycles; > 1 for cells with holes or in pieces),
+        is_border (touches the image edge or background 0).
 
         ``vertices``: vertex, x, y (px), degree (number of junction ends; 2
         at the corners of an open image and for the single point placed on
@@ -313,39 +274,37 @@ def mesh_from_labels(
         boundary cycle is used), and when cells smaller than
         ``merge_distance`` collapse to a point.
     """
-    if np.isscalar(p):
-        p = (p,)
-    p = tuple(int(q) for q in p)
-    if not p or min(p) < 1:
-        raise InputError(f"p must be one or more positive integers; got {p!r}")
-    if not (np.isfinite(merge_distance) and merge_distance >= 0):
+    lab = validate_labels(labels)
+    box = as_box(box, lab.shape)
+    if not (np.isscalar(merge_distance) and np.isfinite(merge_distance) and merge_distance >= 0):
         raise InputError(f"merge_distance must be a non-negative length in px; got {merge_distance!r}")
-    shape = np.shape(labels)
-    periodic, box = _resolve_box(box, shape) if len(shape) == 2 else (False, None)
-    lab, membrane = normalize_labels(labels, kind, periodic, membrane_width, min_area)
-    lab32, ids = _compact(lab)
-    n_labels = len(ids)
+    normalized, membrane = normalize_valid(lab, kind, box is not None, membrane_width, min_area)
+    tables = network_tables(normalized, membrane, box, merge_distance, frame)
+    return Frame(**tables, frame=int(frame), box=box, shape=tuple(lab.shape))
 
+
+def network_tables(lab, membrane, box, merge_distance, frame=0) -> dict:
+    """The four network tables of touching labels (output of :func:`hexatissue.mesh.normalize_labels`).
+
+    The checked core of :func:`mesh_from_labels`, for callers that have
+    validated and normalised the labels already (the analysis pipeline).
+    """
+    periodic = box is not None
+    lab32, ids = compact_labels(lab)
+    n_labels = len(ids)
     pos, junctions, lines = _trace(lab32, periodic, membrane)
     centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
     poly_start, poly_len, verts, xy, n_cycles = _polygons(centre, kept, n_labels)
-
-    cells = _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, verts, xy, n_cycles, p, center)
+    cells = _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles)
     vertices, edges, cell_vertices = _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts)
-    return Frame(
-        cells=validate(cells, "cells"),
-        vertices=validate(vertices, "vertices"),
-        edges=validate(edges, "edges"),
-        cell_vertices=validate(cell_vertices, "cell_vertices"),
-        frame=frame,
-        box=box,
-        shape=tuple(shape),
-        pixel_size=pixel_size,
-        units=units,
-    )
+    out = {}
+    for name, table in (("cells", cells), ("vertices", vertices), ("edges", edges), ("cell_vertices", cell_vertices)):
+        table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
+        out[name] = validate(table, name)
+    return out
 
 
-def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, verts, xy, n_cycles, p, center):
+def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles):
     count, sx, sy = K.cell_moments(lab32, len(ids), periodic)
     present = np.flatnonzero(count > 0)
     present = present[present != 0]
@@ -365,10 +324,7 @@ def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, vert
     pxy = xy[take]
     pstart = (np.cumsum(lengths) - lengths).astype(np.int64)
     parea, _ = polygon_area_centroid(pxy, pstart)
-    nxt = np.arange(len(pxy)) + 1
-    nxt[pstart + lengths - 1] = pstart
-    seg = np.hypot(*(pxy[nxt] - pxy).T)
-    perim = np.add.reduceat(seg, pstart) if len(pstart) else np.zeros(0)
+    perim = polygon_perimeter(pxy, pstart)
 
     n = len(present)
     data = {
@@ -379,20 +335,16 @@ def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, vert
         "polygon_area": _scatter(n, has_poly, parea),
         "perimeter": _scatter(n, has_poly, perim),
         "n_sides": poly_len[present].astype(np.int64),
-        "n_cycles": n_cycles[present].astype(np.int64),
+        "n_boundaries": n_cycles[present].astype(np.int64),
         "is_border": border[present],
     }
     if (n_cycles[present] > 1).any():
         warnings.warn(
             "some cells have several boundary cycles (pieces, holes or pinches); their largest cycle is "
-            "used as polygon (see the n_cycles column)",
+            "used as polygon (see the n_boundaries column)",
             HexatissueWarning,
             stacklevel=3,
         )
-    for q in p:
-        g = shape_function_flat(pxy, pstart, p=q, center=center)
-        data[f"gamma{q}_re"] = _scatter(n, has_poly, g.real)
-        data[f"gamma{q}_im"] = _scatter(n, has_poly, g.imag)
     return pd.DataFrame(data)
 
 

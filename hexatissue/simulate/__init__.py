@@ -28,6 +28,7 @@ _EXPORTS = {
     "RunSummary": "runner",
     "read_run": "store",
     "MPFRun": "store",
+    "cell_stress": "stress",
 }
 
 __all__ = sorted(list(_EXPORTS) + ["segment", "labels_from_fields", "labels_from_max"])

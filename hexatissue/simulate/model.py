@@ -12,7 +12,7 @@ import warnings
 
 import numpy as np
 
-from ..errors import HexatissueWarning, InputError
+from ..errors import HexatissueWarning, InputError, as_generator
 from . import _kernels as K
 from .params import Params
 
@@ -73,14 +73,6 @@ def set_threads(n: int | str | None) -> int:
             raise InputError(f"threads must be an integer in 1..{numba.config.NUMBA_NUM_THREADS}; got {n!r}")
         numba.set_num_threads(int(n))
     return numba.get_num_threads()
-
-
-def _rng(seed):
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if isinstance(seed, (bool, float)) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"seed must be a non-negative integer or a numpy Generator; got {seed!r}")
-    return np.random.default_rng(int(seed))
 
 
 class Simulation:
@@ -352,7 +344,7 @@ def initial_state(params: Params, seed=0, labels=None, positions=None, radius=No
     """
     if not isinstance(params, Params):
         raise InputError(f"params must be a hexatissue.simulate.Params; got {type(params).__name__}")
-    rng = _rng(seed)
+    rng = as_generator(seed)
     p = params
     if labels is not None:
         phi, ox, oy = _patches_from_labels(p, labels)

@@ -1,0 +1,121 @@
+"""Polygon geometry shared by the mesh and the order stages.
+
+Polygons are stored back to back: one ``(M, 2)`` array of vertices (x, y)
+plus the index of each polygon's first vertex (``starts``, ascending).  Each
+polygon is contiguous (unwrapped in a periodic box) and not closed (the last
+vertex is not repeated).  x = column, y = row, px, origin at the centre of
+pixel (0, 0).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+
+__all__ = ["segment_sum", "pack_polygons", "polygon_area_centroid", "polygon_perimeter", "table_polygons"]
+
+
+def segment_sum(values, starts, n):
+    """Sum of ``values`` over the consecutive segments beginning at ``starts`` (empty segments give 0)."""
+    out = np.zeros((n,) + values.shape[1:], dtype=values.dtype)
+    if n == 0 or len(values) == 0:
+        return out
+    nonempty = np.r_[starts[1:], len(values)] > starts
+    if nonempty.any():
+        out[nonempty] = np.add.reduceat(values, starts[nonempty], axis=0)
+    return out
+
+
+def pack_polygons(polygons, name="polygons"):
+    """``(xy, starts)`` from a sequence of ``(n_i, 2)`` vertex arrays; a repeated closing vertex is dropped."""
+    arrays = []
+    for k, poly in enumerate(polygons):
+        a = np.asarray(poly, dtype=float)
+        if a.ndim != 2 or a.shape[1] != 2:
+            raise InputError(f"{name}[{k}] must be an (n, 2) array of (x, y) vertices; got shape {a.shape}")
+        arrays.append(a[:-1] if len(a) > 1 and np.array_equal(a[0], a[-1]) else a)
+    if not arrays:
+        return np.zeros((0, 2)), np.zeros(0, np.int64)
+    lengths = np.array([len(a) for a in arrays], np.int64)
+    return np.concatenate(arrays), (np.cumsum(lengths) - lengths).astype(np.int64)
+
+
+def _next_vertex(n_vertices, starts):
+    """Index of each vertex's successor around its polygon (the last one wraps to the first)."""
+    lengths = np.diff(np.r_[starts, n_vertices])
+    nxt = np.arange(n_vertices) + 1
+    closing = (starts + lengths)[lengths > 0] - 1
+    nxt[closing] = starts[lengths > 0]
+    return nxt
+
+
+def polygon_area_centroid(xy, starts):
+    """Signed shoelace area and area centroid of polygons stored back to back.
+
+    Returns
+    -------
+    area : (N,) array
+        Signed area, px^2 (positive = counter-clockwise in x, y).
+    centroid : (N, 2) array
+        Area centroid (x, y), px; NaN for polygons of zero area.
+    """
+    n = len(starts)
+    nxt = _next_vertex(len(xy), starts)
+    x0, y0 = xy[:, 0], xy[:, 1]
+    x1, y1 = xy[nxt, 0], xy[nxt, 1]
+    cross = x0 * y1 - x1 * y0
+    area = 0.5 * segment_sum(cross, starts, n)
+    cx = segment_sum((x0 + x1) * cross, starts, n)
+    cy = segment_sum((y0 + y1) * cross, starts, n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroid = np.stack([cx, cy], axis=1) / (6.0 * area[:, None])
+    return area, centroid
+
+
+def polygon_perimeter(xy, starts):
+    """Perimeter of each polygon stored back to back, px."""
+    nxt = _next_vertex(len(xy), starts)
+    return segment_sum(np.hypot(*(xy[nxt] - xy).T), starts, len(starts))
+
+
+def table_polygons(vertices, cell_vertices, box=None):
+    """Every cell polygon of a network's tables, back to back.
+
+    Parameters
+    ----------
+    vertices : pandas.DataFrame
+        ``frame``, ``vertex``, ``x``, ``y`` (px; x = column, y = row).
+    cell_vertices : pandas.DataFrame
+        ``frame``, ``cell``, ``rank``, ``vertex``.
+    box : Box, optional
+        Periodic box: each polygon is unwrapped to be contiguous from its
+        first vertex (minimum-image steps), so coordinates may leave ``[0, L)``.
+
+    Returns
+    -------
+    keys : pandas.DataFrame
+        ``frame``, ``cell`` of each polygon, in (frame, cell) order.
+    xy : (M, 2) float array
+        Vertices (x, y), px, polygon after polygon, in rank order.
+    starts : (N,) int array
+        First row in ``xy`` of each polygon.
+    """
+    cv = cell_vertices.sort_values(["frame", "cell", "rank"], kind="stable")
+    pos = vertices.set_index(["frame", "vertex"])[["x", "y"]]
+    index = pd.MultiIndex.from_arrays([cv["frame"].to_numpy(), cv["vertex"].to_numpy()])
+    xy = pos.reindex(index).to_numpy(float)
+    if np.isnan(xy).any():
+        raise InputError("cell_vertices names a vertex missing from the vertices table")
+    key = cv["frame"].to_numpy(np.int64) * (int(cv["cell"].max()) + 1 if len(cv) else 1) + cv["cell"].to_numpy()
+    first = np.r_[True, key[1:] != key[:-1]] if len(key) else np.zeros(0, bool)
+    starts = np.flatnonzero(first).astype(np.int64)
+    if box is not None and len(xy):
+        step = box.min_image(np.diff(xy, axis=0))
+        step = np.vstack([np.zeros((1, 2)), step])
+        step[starts] = 0.0
+        cum = np.cumsum(step, axis=0)
+        owner = np.cumsum(first) - 1
+        xy = xy[starts][owner] + cum - cum[starts][owner]
+    keys = pd.DataFrame({"frame": cv["frame"].to_numpy(np.int64)[starts], "cell": cv["cell"].to_numpy(np.int64)[starts]})
+    return keys, xy, starts

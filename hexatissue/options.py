@@ -1,0 +1,203 @@
+"""Options of the analysis stages, as frozen and validated dataclasses.
+
+Each stage of :func:`hexatissue.analyze` takes one options object; the field
+names are the keyword names of the stage's own function
+(:func:`hexatissue.mesh_from_labels`, :func:`hexatissue.coarse_grain`,
+:class:`hexatissue.Tracker`, :func:`hexatissue.detect_t1`).  An invalid field
+raises :class:`~hexatissue.InputError` naming it when the object is built,
+so nothing fails half-way through a movie.  Lengths are in px, times in
+frames.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+
+import numpy as np
+
+from .errors import InputError, check_orders
+from .mesh.labels import KINDS
+from .order import CENTERS
+
+__all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "OPTION_CLASSES"]
+
+
+def _fail(cls, name, value, expected):
+    raise InputError(f"{cls.__name__}.{name} must be {expected}; got {value!r}")
+
+
+def _is_number(value):
+    return not isinstance(value, bool) and np.isscalar(value) and isinstance(value, (int, float, np.number))
+
+
+class _Options:
+    """Shared behaviour: validation helpers, ``to_dict`` / ``from_dict`` for ``metadata.json``."""
+
+    def _number(self, name, low=0.0, allow_none=False, integer=False, strict=False, high=None):
+        value = getattr(self, name)
+        if value is None and allow_none:
+            return
+        ok = _is_number(value) and np.isfinite(value) and (value > low if strict else value >= low)
+        ok = ok and (high is None or value <= high) and (not integer or float(value) == int(value))
+        if not ok:
+            what = "an integer" if integer else "a finite number"
+            bound = f"> {low}" if strict else f">= {low}"
+            bound += f" and <= {high}" if high is not None else ""
+            _fail(type(self), name, value, f"{what} {bound}" + (" or None" if allow_none else ""))
+        object.__setattr__(self, name, int(value) if integer else float(value))
+
+    def to_dict(self) -> dict:
+        """Plain dict (tuples as lists) for JSON."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, data):
+        """Inverse of :meth:`to_dict`; unknown fields raise :class:`InputError`."""
+        if not isinstance(data, dict):
+            raise InputError(f"{cls.__name__} options must be a dict; got {type(data).__name__}")
+        known = {f.name for f in fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise InputError(f"{cls.__name__} has no field(s) {sorted(unknown)}; its fields are {sorted(known)}")
+        return cls(**data)
+
+    def replace(self, **changes):
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class MeshOptions(_Options):
+    """Junction network extraction (:func:`hexatissue.mesh_from_labels`).
+
+    Parameters
+    ----------
+    kind : {"auto", "touching", "membrane", "skeleton"}
+        Label convention (detected by default).
+    merge_distance : float
+        Junctions shorter than this (px) are contracted: four-fold vertices.
+    membrane_width : int
+        0-valued junction pixels within this many px of a cell are shared out.
+    min_area : int, optional
+        Regions with fewer pixels are membrane (default: 4 for skeletons, else 0).
+    """
+
+    kind: str = "auto"
+    merge_distance: float = 2.0
+    membrane_width: int = 3
+    min_area: int | None = None
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            _fail(type(self), "kind", self.kind, f"one of {KINDS}")
+        self._number("merge_distance")
+        self._number("membrane_width", integer=True)
+        self._number("min_area", integer=True, allow_none=True)
+
+
+@dataclass(frozen=True)
+class OrderOptions(_Options):
+    """Shape order: gamma_p per cell, the coarse-grained field Gamma_p and its defects.
+
+    Parameters
+    ----------
+    p : sequence of int
+        Symmetry orders (2 nematic, 6 hexatic); every one gets ``gamma{p}``
+        columns in ``cells``, a ``Gamma{p}`` field in ``grid`` and defects.
+    center : {"vertex_mean", "area_centroid"}
+        Cell centre of the shape function.
+    fields : bool
+        Compute the coarse-grained field and defects (False: gamma_p only).
+    radius, spacing : float, optional
+        Coarse-graining disk radius and grid spacing, px (default 1.5 R_cell
+        and R_cell of each frame, see :func:`hexatissue.coarse_grain`).
+    min_coverage : float
+        Open images: fraction of a node's disk that must lie on interior cells.
+    defect_max_distance : float, optional
+        Largest displacement of a defect between frames when defects are
+        tracked, px (default: 1.5 grid spacings).
+    """
+
+    p: tuple = (6, 2)
+    center: str = "vertex_mean"
+    fields: bool = True
+    radius: float | None = None
+    spacing: float | None = None
+    min_coverage: float = 1.0
+    defect_max_distance: float | None = None
+
+    def __post_init__(self):
+        try:
+            object.__setattr__(self, "p", check_orders(self.p, "OrderOptions.p"))
+        except TypeError:
+            _fail(type(self), "p", self.p, "one or more positive integer symmetry orders")
+        if self.center not in CENTERS:
+            _fail(type(self), "center", self.center, f"one of {CENTERS}")
+        if not isinstance(self.fields, bool):
+            _fail(type(self), "fields", self.fields, "True or False")
+        for name in ("radius", "spacing", "defect_max_distance"):
+            self._number(name, strict=True, allow_none=True)
+        self._number("min_coverage", high=1.0)
+
+
+@dataclass(frozen=True)
+class TrackOptions(_Options):
+    """Overlap tracking (:class:`hexatissue.Tracker`).
+
+    Parameters
+    ----------
+    enabled : bool, optional
+        Link cells by overlap.  None (default): unless the source says its
+        ids are consistent (MPF runs).
+    min_iou : float
+        Smallest intersection over union of a link, in (0, 1].
+    max_gap : int
+        Frames a cell may be missing and still continue its track.
+    child_fraction, mother_fraction : float
+        Division detection thresholds (see :func:`hexatissue.track.match_frames`).
+    """
+
+    enabled: bool | None = None
+    min_iou: float = 0.2
+    max_gap: int = 0
+    child_fraction: float = 0.6
+    mother_fraction: float = 0.2
+
+    def __post_init__(self):
+        if self.enabled is not None and not isinstance(self.enabled, bool):
+            _fail(type(self), "enabled", self.enabled, "True, False or None (automatic)")
+        for name in ("min_iou", "child_fraction", "mother_fraction"):
+            self._number(name, strict=True, high=1.0)
+        self._number("max_gap", integer=True)
+
+
+@dataclass(frozen=True)
+class EventOptions(_Options):
+    """T1 detection and classification (:func:`hexatissue.detect_t1`).
+
+    Parameters
+    ----------
+    min_length : float
+        Junctions shorter than this (px) count as four-fold vertices.
+    censor : int
+        T1s starting within this many frames of the end are ``unresolved``.
+    """
+
+    min_length: float = 0.0
+    censor: int = 10
+
+    def __post_init__(self):
+        self._number("min_length")
+        self._number("censor", integer=True)
+
+
+#: Options of each stage, by the name used in ``metadata.json`` and :func:`hexatissue.analyze`.
+OPTION_CLASSES = {"mesh": MeshOptions, "order": OrderOptions, "track": TrackOptions, "events": EventOptions}
+
+
+def check_options(value, name):
+    """``value`` if it is an instance of the options class of stage ``name``; else :class:`InputError`."""
+    cls = OPTION_CLASSES[name]
+    if not isinstance(value, cls):
+        raise InputError(f"{name} must be a hexatissue.{cls.__name__}; got {type(value).__name__}")
+    return value
+
