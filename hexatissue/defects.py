@@ -508,18 +508,16 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
 
 
 def _pair_rows(group, ip, ineg, t, kind, box, time_column):
-    rows = []
-    for a, b in zip(ip, ineg):
-        pa = group.loc[a, ["x", "y"]].to_numpy(float)
-        d = group.loc[b, ["x", "y"]].to_numpy(float) - pa
-        if box is not None:
-            d = box.min_image(d)
-        mid = pa + d / 2
-        if box is not None:
-            mid = box.wrap(mid)
-        rows.append((t, kind, mid[0], mid[1], int(group.loc[a, "track"]), int(group.loc[b, "track"]),
-                     float(np.hypot(*d))))
-    return rows
+    pa = group.loc[ip, ["x", "y"]].to_numpy(float)
+    d = group.loc[ineg, ["x", "y"]].to_numpy(float) - pa
+    if box is not None:
+        d = box.min_image(d)
+    mid = pa + d / 2
+    if box is not None:
+        mid = box.wrap(mid)
+    plus, minus = group.loc[ip, "track"].to_numpy(np.int64), group.loc[ineg, "track"].to_numpy(np.int64)
+    return [(t, kind, float(m[0]), float(m[1]), int(a), int(b), float(s))
+            for m, a, b, s in zip(mid, plus, minus, np.hypot(d[:, 0], d[:, 1]) if len(d) else [])]
 
 
 def _lone_rows(lonely, t, kind, time_column):

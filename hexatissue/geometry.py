@@ -13,7 +13,8 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["segment_sum", "pack_polygons", "polygon_area_centroid", "polygon_perimeter", "table_polygons"]
+__all__ = ["segment_sum", "pack_polygons", "polygon_area_centroid", "polygon_perimeter", "table_polygons",
+           "row_keys", "lookup"]
 
 
 def segment_sum(values, starts, n):
@@ -102,13 +103,11 @@ def table_polygons(vertices, cell_vertices, box=None):
         First row in ``xy`` of each polygon.
     """
     cv = cell_vertices.sort_values(["frame", "cell", "rank"], kind="stable")
-    pos = vertices.set_index(["frame", "vertex"])[["x", "y"]]
-    index = pd.MultiIndex.from_arrays([cv["frame"].to_numpy(), cv["vertex"].to_numpy()])
-    xy = pos.reindex(index).to_numpy(float)
-    if np.isnan(xy).any():
-        raise InputError("cell_vertices names a vertex missing from the vertices table")
-    key = cv["frame"].to_numpy(np.int64) * (int(cv["cell"].max()) + 1 if len(cv) else 1) + cv["cell"].to_numpy()
-    first = np.r_[True, key[1:] != key[:-1]] if len(key) else np.zeros(0, bool)
+    frame, cell = cv["frame"].to_numpy(np.int64), cv["cell"].to_numpy(np.int64)
+    vkey = row_keys(vertices["frame"].to_numpy(np.int64), vertices["vertex"].to_numpy(np.int64))
+    xy = lookup(vkey, vertices[["x", "y"]].to_numpy(float), row_keys(frame, cv["vertex"].to_numpy(np.int64)),
+                "cell_vertices names a vertex missing from the vertices table")
+    first = np.r_[True, (frame[1:] != frame[:-1]) | (cell[1:] != cell[:-1])] if len(cv) else np.zeros(0, bool)
     starts = np.flatnonzero(first).astype(np.int64)
     if box is not None and len(xy):
         step = box.min_image(np.diff(xy, axis=0))
@@ -117,5 +116,23 @@ def table_polygons(vertices, cell_vertices, box=None):
         cum = np.cumsum(step, axis=0)
         owner = np.cumsum(first) - 1
         xy = xy[starts][owner] + cum - cum[starts][owner]
-    keys = pd.DataFrame({"frame": cv["frame"].to_numpy(np.int64)[starts], "cell": cv["cell"].to_numpy(np.int64)[starts]})
+    keys = pd.DataFrame({"frame": frame[starts], "cell": cell[starts]})
     return keys, xy, starts
+
+
+def row_keys(frame, ident):
+    """One int64 key per (frame, id) pair, ordered like the pairs (ids below 2**40)."""
+    return np.asarray(frame, np.int64) * (1 << 40) + np.asarray(ident, np.int64)
+
+
+def lookup(keys, values, wanted, missing=None):
+    """``values`` at the rows whose key is ``wanted`` (keys unique); rows not found raise (``missing``) or give -1."""
+    order = np.argsort(keys, kind="stable")
+    pos = np.searchsorted(keys, wanted, sorter=order) if len(keys) else np.zeros(len(wanted), np.int64)
+    pos = np.minimum(pos, max(len(keys) - 1, 0))
+    found = (keys[order[pos]] == wanted) if len(keys) else np.zeros(len(wanted), bool)
+    if missing is not None:
+        if not found.all():
+            raise InputError(missing)
+        return values[order[pos]]
+    return np.where(found, order[pos], -1)

@@ -18,7 +18,8 @@ from scipy.spatial import cKDTree
 
 from .box import as_box
 from .errors import InputError, check_orders, check_p
-from .geometry import pack_polygons, polygon_area_centroid, polygon_perimeter, segment_sum, table_polygons
+from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_perimeter, row_keys, segment_sum,
+                       table_polygons)
 from .schema import interior_mask, validate
 
 __all__ = [
@@ -109,9 +110,8 @@ def gamma_columns(cells, vertices, cell_vertices, box=None, p=(6, 2), center="ve
     orders = check_orders(p)
     keys, xy, starts = table_polygons(vertices, cell_vertices, box)
     out = cells.drop(columns=[c for c in cells.columns if c.startswith("gamma")])
-    where = pd.MultiIndex.from_frame(keys)
-    rows = pd.MultiIndex.from_arrays([out["frame"].to_numpy(np.int64), out["cell"].to_numpy(np.int64)])
-    take = where.get_indexer(rows)
+    take = lookup(row_keys(keys["frame"], keys["cell"]), None,
+                  row_keys(out["frame"].to_numpy(np.int64), out["cell"].to_numpy(np.int64)))
     has = take >= 0
     for q in orders:
         g = shape_function_flat(xy, starts, p=q, center=center)

@@ -94,7 +94,9 @@ def parse_overrides(items):
 
 
 def main(argv=None):
-    from hexatissue.analysis import figure3, frames_per_window, sweep
+    from hexatissue import EventOptions
+    from hexatissue.analysis import frames_per_window
+    from hexatissue.workflows import figure3, sweep
     from hexatissue.simulate import Params
 
     args = parse(argv)
@@ -122,8 +124,8 @@ def main(argv=None):
           f"window {window} frames", flush=True)
     start = time.perf_counter()
     table = sweep("dr", cfg["values"], args.out, params=base, steps=cfg["steps"], save_every=cfg["save_every"],
-                  relax=cfg["relax"], seed=args.seed, client=client, n_workers=args.workers, threads=args.threads,
-                  analyze_options={"min_length": args.min_length, "censor": censor})
+                  relax=cfg["relax"], seed=args.seed, client=client, workers=args.workers, threads=args.threads,
+                  events=EventOptions(min_length=args.min_length, censor=censor))
     table.to_csv(f"{args.out}/sweep.csv", index=False)
     summary = figure3(table, args.out, param="D_r", dt=window, frame_interval=cfg["save_every"],
                       time_unit="iterations", seed=args.seed, include_border=args.include_border,

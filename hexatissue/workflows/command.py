@@ -24,8 +24,11 @@ def add_parser(subparsers):
     p.add_argument("--control", choices=["cells", "vertices"], default="cells",
                    help="T1-defect control: random cells (the paper's, default) or random vertices (junction level)")
     p.add_argument("--seed", type=int, default=0, help="seed of the control draw and mixture fit (default 0)")
-    p.add_argument("--frame-interval", type=float, default=1.0, help="time per frame for event timing (default 1)")
-    p.add_argument("--time-unit", default="frames", help="unit of --frame-interval (default: frames)")
+    p.add_argument("--frame-interval", type=float,
+                   help="time between frames (default: the one recorded by analyze)")
+    p.add_argument("--time-unit", help="unit of --frame-interval (default: the recorded one, else min)")
+    p.add_argument("--pixel-size", type=float, help="physical pixel size (default: the one recorded by analyze)")
+    p.add_argument("--units", help="length unit of --pixel-size (default: the recorded one, else um)")
     p.add_argument("--include-border", action="store_true",
                    help="keep border cells and the T1s touching them in the proximity and migration analyses")
     p.set_defaults(func=_run)
@@ -33,11 +36,20 @@ def add_parser(subparsers):
 
 
 def _run(args) -> int:
+    from pathlib import Path
+
+    from ..frame import read_results
     from .report import report
 
-    numbers = report(args.results, args.out, p=args.p, dl=args.dl, dt=args.dt, n_control=args.n_control,
-                     seed=args.seed, frame_interval=args.frame_interval, time_unit=args.time_unit,
-                     include_border=args.include_border, control=args.control)
+    movie = read_results(args.results)
+    cal = movie.calibration
+    units = args.units or (None if args.pixel_size is None or cal.has_length else "um")
+    time_unit = args.time_unit or (None if args.frame_interval is None or cal.has_time else "min")
+    movie = movie.replace(calibration=cal.replace(pixel_size=args.pixel_size, length_unit=units,
+                                                  frame_interval=args.frame_interval, time_unit=time_unit))
+    out = Path(args.results) / "report" if args.out is None else args.out
+    numbers = report(movie, out, p=args.p, dl=args.dl, dt=args.dt, n_control=args.n_control,
+                     seed=args.seed, include_border=args.include_border, control=args.control)
     md = next(w for w in numbers["written"] if w.endswith("report.md"))
     print(f"report written: {md} ({len(numbers['written'])} files)")
     return 0

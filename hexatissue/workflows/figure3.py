@@ -16,13 +16,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..analysis.migration import DEFAULT_DL, migration_populations, migration_table
+from ..analysis.plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
+from ..analysis.proximity import compare_distances, t1_defect_proximity
+from ..analysis.timing import cell_timing, timing_across_runs
 from ..errors import HexatissueWarning, InputError
+from ..frame import read_results
 from ..io import atomic_path, write_table
-from .migration import DEFAULT_DL, migration_populations, migration_table
-from .plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
-from .proximity import compare_distances, t1_defect_proximity
-from .report import load_results, results_box
-from .timing import cell_timing, timing_across_runs
 
 __all__ = ["figure3", "loglog_slope"]
 
@@ -37,10 +37,10 @@ def loglog_slope(x, y):
 
 
 def _runs(runs):
-    """``{value: results folder}`` from a mapping or a :func:`~hexatissue.analysis.sweep` table."""
+    """``{value: results folder}`` from a mapping or a :func:`~hexatissue.workflows.sweep` table."""
     if isinstance(runs, pd.DataFrame):
         if not {"value", "results"} <= set(runs.columns):
-            raise InputError("runs table needs columns 'value' and 'results' (the output of hexatissue.analysis.sweep)")
+            raise InputError("runs table needs columns 'value' and 'results' (the output of hexatissue.workflows.sweep)")
         runs = dict(zip(runs["value"], runs["results"]))
     if not isinstance(runs, Mapping) or not runs:
         raise InputError("runs must be a non-empty mapping {parameter value: analysis folder} or a sweep table")
@@ -55,7 +55,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     ----------
     runs : mapping or pandas.DataFrame
         ``{parameter value: analysis folder}``, or the table returned by
-        :func:`~hexatissue.analysis.sweep` (columns ``value``, ``results``).
+        :func:`~hexatissue.workflows.sweep` (columns ``value``, ``results``).
     out : path
         Folder for the figures (``fig3e.png``, ``fig3f.png``,
         ``fig3g_box.png``, ``fig3g_vs_param.png``), tables (CSV) and
@@ -92,17 +92,12 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     out.mkdir(parents=True, exist_ok=True)
     ev_parts, ctrl_parts, ks_rows, mig_parts, timing = [], [], [], [], {}
     for k, (value, folder) in enumerate(runs.items()):
-        tables, meta = load_results(folder)
-        box = results_box(tables, meta)
-        cells, events = tables["cells"], tables.get("events")
-        defects = tables.get("defects")
+        movie = read_results(folder)
+        box, cells, events, defects = movie.box, movie.cells, movie.events, movie.defects
         if events is None or defects is None:
-            raise InputError(f"{folder}: needs events and defects tables (a movie analysed with order_p including {p})")
-        if control == "vertices" and tables.get("vertices") is None:
-            raise InputError(f"{folder}: control='vertices' needs a vertices table")
+            raise InputError(f"{folder}: needs events and defects tables (a movie analysed with p including {p})")
         prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed + k,
-                                   control=control, vertices=tables.get("vertices"),
-                                   include_border=include_border)
+                                   control=control, vertices=movie.vertices, include_border=include_border)
         ev_parts.append(prox.events.assign(**{param: value}))
         ctrl_parts.append(prox.control.assign(**{param: value}))
         ks_rows.append({param: value, **prox.summary()})

@@ -3,7 +3,7 @@
 Layout of a sweep folder ``OUT``::
 
     OUT/D_r=1e-05/run.zarr        the MPF run (hexatissue.simulate.run_simulation)
-    OUT/D_r=1e-05/results/        its analysis (hexatissue.results.analyze_to_folder)
+    OUT/D_r=1e-05/results/        its analysis (hexatissue.analyze(...).write(...); read_results reads it)
     OUT/D_r=1e-05/analysis.log    the analysis' progress bar and warnings
     OUT/D_r=1e-05/done.json       written last: the run's settings and summary
 
@@ -36,6 +36,7 @@ import pandas as pd
 
 from ..errors import InputError
 from ..io import atomic_path
+from ..options import EventOptions, MeshOptions, OrderOptions, check_options
 
 __all__ = ["sweep", "run_dir_name", "PARAM_ALIASES"]
 
@@ -89,9 +90,9 @@ def _store_state(path, settings):
     return "finished" if int(attrs["n_frames"]) >= n_final and int(attrs["steps"]) == settings["steps"] else "partial"
 
 
-def _run_one(run_dir, settings, threads, analyze_options):
+def _run_one(run_dir, settings, threads, options):
     """Simulate (or resume) and analyse one run; returns its summary dict.  Runs in a worker process."""
-    from ..results import analyze_to_folder
+    from ..pipeline import analyze
     from ..simulate import Params, run_simulation
 
     run_dir = Path(run_dir)
@@ -114,22 +115,26 @@ def _run_one(run_dir, settings, threads, analyze_options):
     t0 = time.perf_counter()
     # the per-frame progress bar and warnings of a worker would garble the sweep's output: keep them per run
     with open(run_dir / "analysis.log", "a") as log, contextlib.redirect_stderr(log):
-        summary = analyze_to_folder(store, run_dir / "results", n_workers=1, **analyze_options)
+        movie = analyze(store, workers=1, **options)
+        movie.write(run_dir / "results")
+    defects = {} if movie.defects is None else {
+        f"p={q}": {"+": int((g["charge"] > 0).sum()), "-": int((g["charge"] < 0).sum())}
+        for q, g in movie.defects.groupby("p")}
     out = dict(settings, status={"absent": "new", "broken": "new", "partial": "resumed"}.get(state, "analysed"),
-               path=str(store), results=str(run_dir / "results"), n_frames=int(summary["frames"]),
+               path=str(store), results=str(run_dir / "results"), n_frames=len(movie),
                sim_seconds=round(sim_seconds, 2), analysis_seconds=round(time.perf_counter() - t0, 2),
-               events=summary.get("events", {}), defects=summary.get("defects", {}))
+               events={k: int(v) for k, v in movie.events["kind"].value_counts().items()}, defects=defects)
     with atomic_path(done) as tmp:
         tmp.write_text(json.dumps(out, indent=2, default=str))
     return out
 
 
 class _LocalPool:
-    def __init__(self, n_workers):
+    def __init__(self, workers):
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
-        self.pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=mp.get_context("spawn"))
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"))
 
     def submit(self, *args):
         return self.pool.submit(_run_one, *args)
@@ -139,7 +144,7 @@ class _LocalPool:
 
 
 class _InProcess:
-    """n_workers=1: run the jobs one after the other in this process."""
+    """workers=1: run the jobs one after the other in this process."""
 
     class _Job:
         """Runs when first asked whether it is done (so the progress loop drives the jobs in order)."""
@@ -205,7 +210,8 @@ def _watch(futures, jobs, pbar, poll=2.0):
 
 
 def sweep(param="dr", values=(), out="sweep", *, params=None, steps=20_000, save_every=500, relax=10_000, seed=0,
-          client=None, n_workers=None, threads=1, analyze_options=None, progress=True) -> pd.DataFrame:
+          client=None, workers=None, threads=1, mesh=MeshOptions(), order=OrderOptions(), events=EventOptions(),
+          progress=True) -> pd.DataFrame:
     """Run the MPF model for several values of one parameter and analyse each run.
 
     Parameters
@@ -225,14 +231,14 @@ def sweep(param="dr", values=(), out="sweep", *, params=None, steps=20_000, save
         differ only by the parameter.
     client : dask.distributed.Client, optional
         Run the jobs on this cluster instead of local processes.
-    n_workers : int, optional
+    workers : int, optional
         Local processes (default: ``min(len(values), os.cpu_count())``); 1
         runs everything in this process.
     threads : int or "auto"
         numba threads per simulation.
-    analyze_options : dict, optional
-        Keyword arguments of :func:`hexatissue.results.analyze_to_folder`
-        (e.g. ``min_length``, ``censor``, ``order_p``).
+    mesh, order, events : MeshOptions, OrderOptions, EventOptions
+        Options of the analysis of every run (:func:`hexatissue.analyze`;
+        MPF ids are consistent, so runs are not tracked).
     progress : bool
         A progress bar of the frames simulated by all runs (polled from
         their stores every 2 s), with the number of finished runs.
@@ -259,7 +265,8 @@ def sweep(param="dr", values=(), out="sweep", *, params=None, steps=20_000, save
     base = Params() if params is None else params
     if not isinstance(base, Params):
         raise InputError(f"params must be a hexatissue.simulate.Params; got {type(base).__name__}")
-    analyze_options = dict(analyze_options or {})
+    options = {"mesh": check_options(mesh, "mesh"), "order": check_options(order, "order"),
+               "events": check_options(events, "events")}
     jobs = []
     for v in values:
         p = base.replace(**{name: v})  # validates the value
@@ -268,12 +275,12 @@ def sweep(param="dr", values=(), out="sweep", *, params=None, steps=20_000, save
     if client is not None:
         pool = _DaskPool(client)
     else:
-        n = min(len(jobs), os.cpu_count() or 1) if n_workers is None else int(n_workers)
+        n = min(len(jobs), os.cpu_count() or 1) if workers is None else int(workers)
         if n < 1:
-            raise InputError(f"n_workers must be a positive integer; got {n_workers!r}")
+            raise InputError(f"workers must be a positive integer; got {workers!r}")
         pool = _InProcess() if n == 1 else _LocalPool(n)
     try:
-        futures = {pool.submit(run_dir, settings, threads, analyze_options): run_dir for run_dir, settings in jobs}
+        futures = {pool.submit(run_dir, settings, threads, options): run_dir for run_dir, settings in jobs}
         results = _watch(futures, jobs, bar(total=sum(_final_frames(s) for _, s in jobs), unit="frame",
                                             desc=f"{name} sweep", **({} if progress else {"disable": True})))
     finally:
