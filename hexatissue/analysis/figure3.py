@@ -18,6 +18,7 @@ import pandas as pd
 
 from ..errors import HexatissueWarning, InputError
 from ..io import atomic_path, write_table
+from ..units import Calibration
 from .migration import DEFAULT_DL, migration_populations, migration_table
 from .plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
 from .proximity import compare_distances, t1_defect_proximity
@@ -88,9 +89,10 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
         and of the mean T1-cycle period against the parameter.
     """
     runs = _runs(runs)
+    calibration = Calibration(frame_interval=frame_interval, time_unit=time_unit)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    ev_parts, ctrl_parts, ks_rows, mig_parts, timing = [], [], [], [], {}
+    ev_parts, ctrl_parts, ks_rows, mig_parts, timing, timing_frames = [], [], [], [], {}, {}
     for k, (value, folder) in enumerate(runs.items()):
         tables, meta = load_results(folder)
         box = results_box(tables, meta)
@@ -112,6 +114,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
                                   include_border=include_border)
         mig_parts.append(mig.assign(**{param: value}))
         timing[value] = cell_timing(events, cells, frame_interval=frame_interval)
+        timing_frames[value] = cell_timing(events, cells)  # the figures convert frames with the calibration
     written = []
     events_all, control_all = pd.concat(ev_parts, ignore_index=True), pd.concat(ctrl_parts, ignore_index=True)
     pooled = compare_distances(events_all, control_all, control)
@@ -130,8 +133,9 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     cells_all = pd.concat([t.assign(**{param: v}) for v, t in timing.items()], ignore_index=True)
     across = timing_across_runs(timing, param=param)
     written += [write_table(cells_all, out / "fig3g_cell_timing.csv"), write_table(across, out / "fig3g_summary.csv")]
-    plot_timing(timing, path=out / "fig3g_box.png", unit=time_unit, param=param)
-    plot_timing_vs_parameter(across, param=param, path=out / "fig3g_vs_param.png", unit=time_unit)
+    plot_timing(timing_frames, path=out / "fig3g_box.png", calibration=calibration, param=param)
+    plot_timing_vs_parameter(timing_across_runs(timing_frames, param=param), param=param,
+                             path=out / "fig3g_vs_param.png", calibration=calibration)
     written += [out / "fig3g_box.png", out / "fig3g_vs_param.png"]
 
     ic = across[across["quantity"] == "intercalation_interval"]

@@ -19,6 +19,7 @@ from ..box import Box
 from ..errors import HexatissueWarning, InputError
 from ..frame import Frame
 from ..io import atomic_path, read_table, write_table
+from ..units import Calibration
 from .migration import DEFAULT_DL, migration_populations, migration_table
 from .proximity import t1_defect_proximity
 from .timing import cell_timing, timing_summary, timing_test
@@ -261,6 +262,7 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
                     frame_interval, time_unit, include_border, control):
     from .plots import plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing
 
+    calibration = Calibration(frame_interval=frame_interval, time_unit=time_unit)
     cells, events = tables["cells"], tables.get("events")
     defects = tables.get("defects", pd.DataFrame(columns=["frame", "defect", "x", "y", "charge", "p"]))
     lines = []
@@ -270,7 +272,7 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
     cycles = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float)
     numbers["events"] = {k: int(v) for k, v in counts.items()}
     path = out / "events.png"
-    plot_event_overview(events, n_frames=int(frames.max()) + 1, path=path)
+    plot_event_overview(events, n_frames=int(frames.max()) + 1, path=path, calibration=calibration)
     written.append(path)
     lines += ["## T1 events", "",
               "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected"),
@@ -324,7 +326,7 @@ def _movie_sections(tables, metadata, box, frames, out, written, numbers, *, p, 
     summ, test = timing_summary(timing), timing_test(timing)
     numbers["timing"] = {"summary": summ.to_dict("records"), **test}
     path = out / "timing.png"
-    plot_timing(timing, path=path, unit=time_unit)
+    plot_timing(cell_timing(events, cells), path=path, calibration=calibration)  # in frames, converted on the figure
     written += [path, write_table(timing, out / "cell_timing.csv")]
     lines += ["## Event timing (Fig. 3g)", "", f"Per-cell means, in {time_unit}:", "", _md_table(summ), "",
               f"- Welch two-sided t-test: t = {test['t_statistic']:.3g}, p = {test['pvalue']:.3g}", ""]
