@@ -62,6 +62,7 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
     calibration : Calibration, optional
         Distances are shown in its length unit (px when None).
     figsize : tuple of float
+        Width and height in inches (histogram and displacement panels).
 
     Returns
     -------
@@ -130,14 +131,15 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
         Defect densities are shown per square length unit (px^-2 when None),
         scaled by the power of ten of their largest value.
     figsize : tuple of float
+        Width and height in inches (scatter and histogram panels).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
+    t = populations.table
     cal = _as_calibration(calibration)
     fig, (ax, ax2) = _figure(2, figsize)
-    t = populations.table
     moved = t["displacement"].to_numpy(float) > 0
     density = t["defect_density"].to_numpy(float) / cal.area(1.0)
     decade = _decade(density[moved])
@@ -255,6 +257,7 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
     calibration : Calibration, optional
         Times are shown in its time unit (frames when None).
     figsize : tuple of float
+        Width and height in inches.
 
     Returns
     -------
@@ -300,6 +303,7 @@ def plot_event_overview(events, n_frames=None, path=None, calibration=None, figs
         Times and durations are shown in its time unit (frames when None);
         the counts stay per frame.
     figsize : tuple of float
+        Width and height in inches (event counts and cycle durations).
 
     Returns
     -------
