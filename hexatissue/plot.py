@@ -146,7 +146,7 @@ def add_scale_bar(ax, calibration=None, extent=None, fraction=0.2):
                           fontproperties=FontProperties(size=9, weight="bold"))
     bar.patch.set_facecolor("black")
     bar.patch.set_edgecolor("none")
-    bar.patch.set_alpha(0.55)
+    bar.patch.set_alpha(0.65)
     bar.set_gid(SCALE_BAR_GID)
     bar.set_zorder(10)
     ax.add_artist(bar)
