@@ -8,6 +8,13 @@ Positions follow the package convention: x = column, y = row, origin at the
 centre of pixel (0, 0); images are drawn with row 0 at the top, so axes are
 in image orientation (y grows downwards).
 
+Figures of a tissue in image coordinates carry a scale bar (see
+:func:`add_scale_bar`) in the physical length unit of their
+:class:`~hexatissue.units.Calibration` (in px when there is none) and have
+no axis ticks: the data stay in pixels like the tables, so ticks would show
+either pixels or converted numbers that match no table, while a scale bar
+reads the same on a full image, a crop or a periodic box.
+
 Polygons are given as ``{cell: (n, 2) array of (x, y)}``, e.g.
 :meth:`hexatissue.Frame.polygons`.
 """
@@ -17,8 +24,11 @@ import numpy as np
 
 from .box import as_box
 from .errors import InputError
+from .units import Calibration
 
 __all__ = [
+    "add_scale_bar",
+    "scale_bar_length",
     "plot_labels",
     "plot_stars",
     "plot_order_field",
@@ -57,16 +67,105 @@ def _finish(fig, path):
     return fig
 
 
-def _image_axes(ax, extent):
-    """Equal aspect, image orientation (row 0 at the top), limits ``(x0, x1, y0, y1)`` if given."""
+def _as_calibration(calibration):
+    """``calibration``, or the uncalibrated :class:`Calibration` (px, frames) when None."""
+    if calibration is None:
+        return Calibration()
+    if not isinstance(calibration, Calibration):
+        raise InputError(f"calibration must be a hexatissue.units.Calibration or None; "
+                         f"got {type(calibration).__name__}")
+    return calibration
+
+
+def scale_bar_length(width, fraction=0.2):
+    """A round length for a scale bar: 1, 2 or 5 x 10^k nearest (on a log scale) to ``fraction * width``.
+
+    Parameters
+    ----------
+    width : float
+        Width of the image, in the unit the bar is labelled in.
+    fraction : float
+        Wanted length of the bar as a fraction of ``width``.
+
+    Returns
+    -------
+    float
+        The bar length in the unit of ``width``; it lies within a factor
+        sqrt(2.5) of ``fraction * width`` (12.6-32 % of the width for the default).
+    """
+    width, fraction = float(width), float(fraction)
+    if not (np.isfinite(width) and width > 0 and 0 < fraction <= 1):
+        raise InputError(f"scale bar needs a positive width and 0 < fraction <= 1; got {width!r}, {fraction!r}")
+    target = fraction * width
+    k = int(np.floor(np.log10(target)))
+    # "{m}e{k}" so that e.g. 0.2 is exactly the float 0.2, not 2 * 0.1
+    candidates = [float(f"{m}e{e}") for e in (k, k + 1) for m in (1, 2, 5)]
+    return min(candidates, key=lambda c: abs(np.log(c / target)))
+
+
+SCALE_BAR_GID = "scale_bar"
+
+
+def add_scale_bar(ax, calibration=None, extent=None, fraction=0.2):
+    """Draw a scale bar at the bottom right of an image axes (replacing one drawn before).
+
+    A white bar and label on a semi-transparent dark box, so that it shows
+    on white label images, dark micrographs and colour maps alike.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        Axes whose data coordinates are pixels.
+    calibration : Calibration, optional
+        Pixel size and length unit; None (or an uncalibrated one) gives a bar in px.
+    extent : tuple of float, optional
+        ``(x0, x1, y0, y1)`` of the image in px; the axes limits when None.
+    fraction : float
+        Wanted bar length as a fraction of the image width (see :func:`scale_bar_length`).
+
+    Returns
+    -------
+    mpl_toolkits.axes_grid1.anchored_artists.AnchoredSizeBar
+        The bar (gid ``"scale_bar"``); ``bar.size_bar`` holds the rectangle,
+        whose width is the length in px, ``bar.txt_label`` the label, e.g. ``"10 µm"``.
+    """
+    from matplotlib.font_manager import FontProperties
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    calibration = _as_calibration(calibration)
+    if extent is None:
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    else:
+        x0, x1, y0, y1 = extent
+    width_px, height_px = abs(x1 - x0), abs(y1 - y0)
+    length = scale_bar_length(calibration.length(width_px), fraction)
+    for old in [a for a in ax.artists if a.get_gid() == SCALE_BAR_GID]:
+        old.remove()
+    bar = AnchoredSizeBar(ax.transData, length / calibration.pixel_size, f"{length:g} {calibration.length_label}",
+                          "lower right", pad=0.35, borderpad=0.6, sep=3, color="white", frameon=True,
+                          size_vertical=0.012 * min(width_px, height_px),
+                          fontproperties=FontProperties(size=9, weight="bold"))
+    bar.patch.set_facecolor("black")
+    bar.patch.set_edgecolor("none")
+    bar.patch.set_alpha(0.65)
+    bar.set_gid(SCALE_BAR_GID)
+    bar.set_zorder(10)
+    ax.add_artist(bar)
+    return bar
+
+
+def _image_axes(ax, extent, calibration):
+    """Equal aspect, image orientation (row 0 at the top), limits ``(x0, x1, y0, y1)`` if given,
+    no ticks, and a scale bar."""
     ax.set_aspect("equal")
     if extent is not None:
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[3], extent[2])
     elif not ax.yaxis_inverted():
         ax.invert_yaxis()
-    ax.set_xlabel("x (px)")
-    ax.set_ylabel("y (px)")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    add_scale_bar(ax, calibration, extent)
 
 
 def _polygon_list(polygons, box=None):
@@ -150,7 +249,7 @@ def _draw_background(ax, labels=None, image=None, alpha=1.0):
 
 
 def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show_ids=False, image=None,
-                box=None, figsize=(6, 6)):
+                box=None, calibration=None, figsize=(6, 6)):
     """Label image with the cells' polygons (and optionally their ids).
 
     Parameters
@@ -172,6 +271,9 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
         Where to write the PNG.
     show_ids : bool
         Write every cell's id at its centre.
+    calibration : Calibration, optional
+        Pixel size and length unit of the scale bar (px when None); the axes
+        have no ticks (see the module docstring).
 
     Returns
     -------
@@ -190,7 +292,7 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
             for _, c in cells.iterrows():
                 ax.text(c["x"], c["y"], str(int(c["cell"])), fontsize=5, ha="center", va="center")
     xy = None if cells is None else cells[["x", "y"]].to_numpy()
-    _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)))
+    _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)), calibration)
     ax.set_title("cells and polygons")
     return _finish(fig, path)
 
@@ -223,7 +325,7 @@ def _typical_spacing(xy):
 
 
 def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale=0.45, color="#b0006e",
-               image=None, box=None, figsize=(6, 6)):
+               image=None, box=None, calibration=None, figsize=(6, 6)):
     """p-legged stars at the cell centres showing each cell's p-fold orientation Arg(gamma_p)/p.
 
     Parameters
@@ -239,6 +341,9 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
         legs are proportional to ``|gamma_p|``.
     color : str
         Colour of the stars.
+    calibration : Calibration, optional
+        Pixel size and length unit of the scale bar (px when None); the axes
+        have no ticks (see the module docstring).
 
     Returns
     -------
@@ -251,7 +356,7 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
     background = _draw_background(ax, labels, image, alpha=0.5)
     _draw_polygons(ax, polygons, color="0.35", linewidth=0.6, box=box)
     _add_stars(ax, xy[ok], gamma[ok], p, scale * _typical_spacing(xy[ok]), color, linewidth=1.1)
-    _image_axes(ax, _extent_of(background, polygons, xy[ok], as_box(box)))
+    _image_axes(ax, _extent_of(background, polygons, xy[ok], as_box(box)), calibration)
     ax.set_title(f"cell orientation Arg($\\gamma_{p}$)/{p}")
     return _finish(fig, path)
 
@@ -264,7 +369,7 @@ def _add_stars(ax, xy, value, p, unit_length, color, linewidth):
 
 
 def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=None, path=None, box=None,
-                     show_magnitude=True, image=None, figsize=(6.4, 6)):
+                     show_magnitude=True, image=None, calibration=None, figsize=(6.4, 6)):
     """Coarse-grained orientation field of Gamma_p with its +-1/p defects (the paper's Fig. 3c, d).
 
     Valid grid nodes carry p-legged stars of orientation Arg(Gamma_p)/p and
@@ -285,6 +390,9 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
         Periodic box: sets the plot limits; polygons are drawn with their periodic copies.
     show_magnitude : bool
         Shade the valid nodes by ``|Gamma_p|``.
+    calibration : Calibration, optional
+        Pixel size and length unit of the scale bar (px when None); the axes
+        have no ticks (see the module docstring).
 
     Returns
     -------
@@ -309,7 +417,7 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
     _add_stars(ax, xy[valid], gamma[valid] / max(largest, 1e-12), p, 0.4 * spacing, "k", linewidth=0.8)
     if defects is not None and len(defects):
         _draw_defects(ax, defects, p, size=8)
-    _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)))
+    _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)), calibration)
     ax.set_title(f"$\\Gamma_{p}$ orientation and $\\pm 1/{p}$ defects")
     return _finish(fig, path)
 
@@ -347,7 +455,7 @@ def _draw_defects(ax, defects, p, size):
 
 
 def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", title=None, box=None,
-                figsize=(6.4, 6)):
+                calibration=None, figsize=(6.4, 6)):
     """Cells filled with a colour by a per-cell value, e.g. the stress (the paper's Fig. 3a, b).
 
     Parameters
@@ -363,6 +471,9 @@ def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", titl
         Diverging colour map.
     box : Box, optional
         Periodic box: polygons are drawn with their periodic copies, clipped to the box.
+    calibration : Calibration, optional
+        Pixel size and length unit of the scale bar (px when None); the axes
+        have no ticks (see the module docstring).
 
     Returns
     -------
@@ -386,7 +497,7 @@ def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", titl
     coll.set_array(value[finite])
     ax.add_collection(coll)
     fig.colorbar(coll, ax=ax, shrink=0.7, label=column)
-    _image_axes(ax, _extent_of(None, polygons, None, as_box(box)))
+    _image_axes(ax, _extent_of(None, polygons, None, as_box(box)), calibration)
     ax.set_title(title or f"cells coloured by {column}")
     return _finish(fig, path)
 
@@ -419,7 +530,8 @@ def plot_order_vs_radius(curve, ax=None, path=None, figsize=(5, 3.6)):
     return _finish(fig, path)
 
 
-def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None, p=6, prefix=""):
+def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None, p=6, prefix="",
+                          calibration=None):
     """Write the standard figures of one frame: polygons, p-legged stars, Gamma_p field with defects.
 
     Parameters
@@ -438,6 +550,9 @@ def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None
         Symmetry order of the stars and the field.
     prefix : str
         Prepended to the file names (e.g. ``"frame0003_"``).
+    calibration : Calibration, optional
+        Pixel size and length unit of the scale bars; when None, the
+        frame's ``calibration`` attribute if it has one, else px.
 
     Returns
     -------
@@ -449,6 +564,9 @@ def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None
     from .defects import find_defects
     from .order import coarse_grain
 
+    if calibration is None:
+        calibration = getattr(frame, "calibration", None)
+    calibration = _as_calibration(calibration)
     directory = Path(directory)
     box = frame.box
     if grid is None:
@@ -458,7 +576,8 @@ def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None
     polygons = frame.polygons()
     paths = [directory / f"{prefix}polygons.png", directory / f"{prefix}stars{p}.png",
              directory / f"{prefix}gamma{p}_defects.png"]
-    plot_labels(labels, polygons, frame.cells, path=paths[0], box=box)
-    plot_stars(frame.cells, p=p, polygons=polygons, labels=labels, path=paths[1], box=box)
-    plot_order_field(grid, defects, p=p, polygons=polygons, labels=labels, box=box, path=paths[2])
+    plot_labels(labels, polygons, frame.cells, path=paths[0], box=box, calibration=calibration)
+    plot_stars(frame.cells, p=p, polygons=polygons, labels=labels, path=paths[1], box=box, calibration=calibration)
+    plot_order_field(grid, defects, p=p, polygons=polygons, labels=labels, box=box, path=paths[2],
+                     calibration=calibration)
     return paths

@@ -127,8 +127,7 @@ def main(argv=None):
                   relax=cfg["relax"], seed=args.seed, client=client, workers=args.workers, threads=args.threads,
                   events=EventOptions(min_length=args.min_length, censor=censor))
     table.to_csv(f"{args.out}/sweep.csv", index=False)
-    summary = figure3(table, args.out, param="D_r", dt=window, frame_interval=cfg["save_every"],
-                      time_unit="iterations", seed=args.seed, include_border=args.include_border,
+    summary = figure3(table, args.out, param="D_r", dt=window, seed=args.seed, include_border=args.include_border,
                       control=args.control)
     e, f, trends = summary["fig3e"]["pooled"], summary["fig3f"], summary["trends"]
     print(f"done in {time.perf_counter() - start:.0f} s; statuses {table['status'].value_counts().to_dict()}")

@@ -356,10 +356,8 @@ def test_timing_summary_test_and_runs():
 # Figures: full and empty inputs render and are written atomically as PNG
 # ----------------------------------------------------------------------------
 
-def test_figures_render_with_data_and_when_empty(tmp_path):
-    from hexatissue.analysis import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
-                                     plot_timing_vs_parameter)
-
+def _figure_inputs():
+    """(proximity result, empty one, migration populations, empty ones, per-cell timing in frames)."""
     rng = np.random.default_rng(1)
     d_rows = [(t, *rng.uniform(0, 100, 2), SIXTH if k else -SIXTH) for t in range(5) for k in range(2)]
     e_rows = [("cycle", t, 2.0, 1, 2, 3, 4, *rng.uniform(0, 100, 2)) for t in range(5)]
@@ -370,7 +368,14 @@ def test_figures_render_with_data_and_when_empty(tmp_path):
     table = pd.DataFrame({"displacement": 10 ** np.r_[rng.normal(-3, 0.1, 30), rng.normal(-1, 0.1, 20)],
                           "msd": np.ones(50), "defect_density": rng.uniform(0, 1e-3, 50), "n_cells": np.ones(50)})
     pops, no_pops = migration_populations(table), migration_populations(table.iloc[:0])
-    timing = cell_timing(_timing_events())
+    return full, empty, pops, no_pops, cell_timing(_timing_events())
+
+
+def test_figures_render_with_data_and_when_empty(tmp_path):
+    from hexatissue.analysis import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
+                                     plot_timing_vs_parameter)
+
+    full, empty, pops, no_pops, timing = _figure_inputs()
     across = timing_across_runs({1e-5: timing, 4e-5: timing})
     figs = {"prox": lambda p: plot_t1_defect_distances(full, path=p),
             "prox_empty": lambda p: plot_t1_defect_distances(empty, path=p),
@@ -384,3 +389,46 @@ def test_figures_render_with_data_and_when_empty(tmp_path):
         fig = draw(tmp_path / f"{name}.png")
         assert fig.axes and (tmp_path / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+@pytest.mark.parametrize("calibrated", [False, True])
+def test_figures_show_distances_and_times_in_the_calibration_units(calibrated):
+    from hexatissue.analysis import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
+                                     plot_timing_vs_parameter)
+    from hexatissue.units import Calibration
+
+    cal = Calibration(0.5, "um", 2.0, "min") if calibrated else None
+    um, px2um, fi = ("µm", 0.5, 2.0) if calibrated else ("px", 1.0, 1.0)
+    minutes = "min" if calibrated else "frames"
+    full, _, pops, _, timing = _figure_inputs()
+
+    ax, ax2 = plot_t1_defect_distances(full, calibration=cal).axes
+    assert ax.get_xlabel() == f"distance to nearest defect ({um})"
+    assert ax2.get_xlabel().endswith(f"({um})") and ax2.get_ylabel() == f"dy ({um})"
+    shown = np.concatenate([c.get_offsets() for c in ax2.collections if len(c.get_offsets())])
+    np.testing.assert_allclose(np.sort(shown[:, 0]), np.sort(full.events["dx"] * px2um))
+    np.testing.assert_allclose(np.sort(shown[:, 1]), np.sort(full.events["dy"] * px2um))
+
+    ax = plot_migration(pops, calibration=cal).axes[0]
+    density = pops.table["defect_density"].to_numpy() / px2um**2  # per µm^2: 4x the per-px^2 value
+    decade = int(np.floor(np.log10(density.max())))
+    assert decade == (-3 if calibrated else -4)
+    assert ax.get_xlabel() == f"defect density ($10^{{{decade}}}$ {um}$^{{-2}}$)"
+    shown = np.concatenate([c.get_offsets()[:, 0] for c in ax.collections])
+    np.testing.assert_allclose(np.sort(shown), np.sort(density) / 10.0**decade)
+
+    ax = plot_timing({1e-5: timing}, calibration=cal).axes[0]
+    assert ax.get_ylabel() == f"time ({minutes})"
+    ends = np.concatenate([ln.get_ydata() for ln in ax.lines])  # whisker ends: the extreme per-cell means
+    values = timing[["mean_intercalation_interval", "mean_cycle_period"]].to_numpy()
+    assert ends.min() == np.nanmin(values) * fi and ends.max() == np.nanmax(values) * fi
+    ax = plot_timing_vs_parameter(timing_across_runs({1e-5: timing, 4e-5: timing}), calibration=cal).axes[0]
+    assert ax.get_ylabel() == f"time ({minutes})"
+    means = sorted(ln.get_ydata()[0] for ln in ax.lines if ln.get_marker() == "o")
+    assert means == pytest.approx(sorted(np.nanmean(values, axis=0) * fi))
+
+    ax, ax2 = plot_event_overview(_timing_events(), calibration=cal).axes
+    assert ax.get_xlabel() == f"time ({minutes})" and ax2.get_xlabel() == f"T1-cycle duration ({minutes})"
+    assert ax.lines[0].get_xdata().max() == 40 * fi  # last event starts at frame 40
+    bars = [(b.get_x(), b.get_width(), b.get_height()) for b in ax2.patches if b.get_height() > 0]
+    assert bars == [((d - 0.5) * fi, fi, 1.0) for d in (2, 4, 6)]  # cycle durations 2, 4, 6 frames

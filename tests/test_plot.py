@@ -5,6 +5,7 @@ import pytest
 from scipy.spatial import Voronoi
 
 from hexatissue import Box, InputError
+from hexatissue.units import Calibration
 from hexatissue import plot
 from hexatissue.defects import find_defects
 from hexatissue.order import cells_from_polygons, coarse_grain
@@ -188,3 +189,117 @@ def test_periodic_polygons_are_drawn_with_their_copies(tmp_path):
         xy = path.vertices
         assert (xy.max(axis=0) > 0).all() and (xy.min(axis=0) < box.lengths).all()
     assert fig.axes[0].get_xlim() == (0.0, 50.0)
+
+
+# ----------------------------------------------------------------------------
+# Scale bars: physical units on every image figure
+# ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("width, length", [(51.4, 10), (100, 20), (257, 50), (30, 5), (170, 50), (160, 50),
+                                           (3.0, 0.5), (0.9, 0.2), (1e4, 2000), (12, 2)])
+def test_scale_bar_length_is_a_round_number_near_a_fifth_of_the_width(width, length):
+    chosen = plot.scale_bar_length(width)
+    assert chosen == length
+    assert 0.12 < chosen / width < 0.32
+
+
+def test_scale_bar_length_refuses_a_bad_width():
+    for width in (0, -3, np.nan):
+        with pytest.raises(InputError):
+            plot.scale_bar_length(width)
+
+
+def scale_bars(ax):
+    return [a for a in ax.artists if a.get_gid() == plot.SCALE_BAR_GID]
+
+
+def bar_length_and_label(ax):
+    """(length of the one scale bar in data coordinates = px, its label)."""
+    (bar,) = scale_bars(ax)
+    (rect,) = bar.size_bar.get_children()
+    return rect.get_width(), bar.txt_label.get_children()[0].get_text()
+
+
+@pytest.mark.parametrize("calibration, length_px, label", [
+    (None, 20.0, "20 px"),  # 150 px wide: 20 % is 30 px -> 20 px
+    (Calibration(0.2, "um"), 25.0, "5 µm"),  # 30 µm wide -> 5 µm = 25 px
+    (Calibration(0.65, "micron"), 20 / 0.65, "20 µm"),  # 97.5 µm wide -> 20 µm
+    (Calibration(130.0, "nm"), 5000 / 130, "5000 nm"),  # 19.5 µm wide -> 5000 nm
+])
+def test_scale_bar_length_in_pixels_is_the_physical_length_over_the_pixel_size(calibration, length_px, label):
+    labels = np.zeros((120, 150), np.int32)
+    labels[20:100, 30:120] = 1
+    ax = plot.plot_labels(labels, calibration=calibration).axes[0]
+    length, text = bar_length_and_label(ax)
+    assert length == pytest.approx(length_px) and text == label
+    assert ax.get_xticks().size == 0 and ax.get_yticks().size == 0  # no ticks: the bar carries the scale
+
+
+def test_every_image_figure_has_one_scale_bar_at_the_bottom_right():
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    cal = Calibration(0.5, "um")
+    polygons, cells = voronoi_tissue(2)  # about 220 px wide
+    cells["sigma"] = np.linspace(-1, 1, len(cells))
+    grid, defects, box = quadrupole_grid()  # 200 px = 100 µm -> 20 µm = 40 px
+    figs = [plot.plot_labels(polygons=polygons, calibration=cal), plot.plot_stars(cells, 6, calibration=cal),
+            plot.plot_stress(cells, "sigma", polygons, calibration=cal),
+            plot.plot_order_field(grid, defects, box=box, calibration=cal)]
+    for fig in figs:
+        ax = fig.axes[0]
+        width_um = 0.5 * np.ptp(ax.get_xlim())
+        length, text = bar_length_and_label(ax)
+        assert text == f"{plot.scale_bar_length(width_um):g} µm" and length == 2 * plot.scale_bar_length(width_um)
+        FigureCanvasAgg(fig).draw()
+        inside, frame = scale_bars(ax)[0].get_window_extent(), ax.get_window_extent()
+        assert inside.x0 > frame.x0 + 0.5 * frame.width and inside.x1 < frame.x1  # right half
+        assert inside.y0 > frame.y0 and inside.y1 < frame.y0 + 0.5 * frame.height  # bottom half
+    assert bar_length_and_label(figs[-1].axes[0]) == (40.0, "20 µm")
+    # drawing a second layer into the same axes replaces the bar instead of stacking one more
+    ax = figs[2].axes[0]
+    plot.plot_stars(cells, 6, ax=ax, calibration=cal)
+    assert len(scale_bars(ax)) == 1
+
+
+def test_scale_bar_on_a_given_axes_and_bad_calibration():
+    from matplotlib.figure import Figure
+
+    ax = Figure().add_subplot()
+    ax.set_xlim(0, 1000)
+    ax.set_ylim(500, 0)
+    bar = plot.add_scale_bar(ax, Calibration(0.1, "um"))  # 100 µm wide -> 20 µm = 200 px
+    assert bar.size_bar.get_children()[0].get_width() == pytest.approx(200.0)
+    _, cells = voronoi_tissue()
+    with pytest.raises(InputError, match="Calibration"):
+        plot.plot_stars(cells, 6, calibration=0.2)
+
+
+def test_save_analysis_figures_takes_the_frame_calibration(tmp_path, monkeypatch):
+    from hexatissue import mesh_from_labels
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    labels = voronoi_labels(jittered_seeds((90, 120), 15.0, seed=5), (90, 120))
+    frame = mesh_from_labels(labels)
+    used = []
+    original = plot.add_scale_bar
+
+    def recording(ax, calibration=None, extent=None, fraction=0.2):
+        used.append(calibration)
+        return original(ax, calibration, extent, fraction)
+
+    monkeypatch.setattr(plot, "add_scale_bar", recording)
+    plot.save_analysis_figures(frame, tmp_path, labels=labels)
+    assert used == [Calibration()] * 3
+
+    class CalibratedFrame:  # stands in for a Frame that carries its calibration
+        def __init__(self, frame, calibration):
+            self.cells, self.box, self.polygons, self.calibration = frame.cells, frame.box, frame.polygons, calibration
+
+    used.clear()
+    cal = Calibration(0.2, "um")
+    plot.save_analysis_figures(CalibratedFrame(frame, cal), tmp_path, labels=labels)
+    assert used == [cal] * 3
+    used.clear()
+    explicit = Calibration(0.1, "um")
+    plot.save_analysis_figures(CalibratedFrame(frame, cal), tmp_path, labels=labels, calibration=explicit)
+    assert used == [explicit] * 3

@@ -2,13 +2,16 @@
 
 Every function returns a matplotlib :class:`~matplotlib.figure.Figure` and
 writes a PNG atomically when ``path`` is given (same conventions as
-:mod:`hexatissue.plot`).
+:mod:`hexatissue.plot`).  Their input tables are in px and frames, like all
+hexatissue tables; a :class:`~hexatissue.units.Calibration` converts
+distances to its length unit and times to its time unit on the figure (px
+and frames when there is none).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
+from ..plot import MINUS_COLOR, PLUS_COLOR, _as_calibration, save_figure
 
 __all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
            "plot_event_overview"]
@@ -32,11 +35,17 @@ def _finish(fig, path):
     return fig
 
 
+def _decade(values):
+    """Power of ten of the largest finite positive value (0 when there is none)."""
+    values = values[np.isfinite(values) & (values > 0)]
+    return int(np.floor(np.log10(values.max()))) if len(values) else 0
+
+
 def _empty(ax, text):
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
 
 
-def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(10, 4)):
+def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4)):
     """Distance from T1s and from random cells to the nearest defect (Fig. 3e).
 
     Left: histograms (probability density) of ``|dr|`` for T1 events and the
@@ -47,11 +56,22 @@ def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(1
     Parameters
     ----------
     result : ProximityResult
-    scale : float
-        Distances are divided by it (e.g. the cell radius, with ``unit="R_cell"``).
+        Distances in px.
+    path : str or Path, optional
+        Where to write the PNG.
+    calibration : Calibration, optional
+        Distances are shown in its length unit (px when None).
+    figsize : tuple of float
+        Width and height in inches (histogram and displacement panels).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
+    cal = _as_calibration(calibration)
+    unit = cal.length_label
     fig, (ax, ax2) = _figure(2, figsize)
-    e, c = result.events["dr"].to_numpy(float) / scale, result.control["dr"].to_numpy(float) / scale
+    e, c = cal.length(result.events["dr"].to_numpy(float)), cal.length(result.control["dr"].to_numpy(float))
     if len(e) or len(c):
         top = np.nanmax(np.r_[e, c]) if len(np.r_[e, c]) else 1.0
         bins = np.linspace(0, top * 1.0001 + 1e-12, 21)
@@ -70,7 +90,7 @@ def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(1
     ax.set_ylabel("probability density")
     if len(e):
         plus = result.events["charge"].to_numpy(float) > 0
-        dx, dy = result.events["dx"].to_numpy(float) / scale, result.events["dy"].to_numpy(float) / scale
+        dx, dy = cal.length(result.events["dx"].to_numpy(float)), cal.length(result.events["dy"].to_numpy(float))
         # thousands of events: small translucent points, drawn in a shuffled order so neither charge hides the other
         n = len(dx)
         order = np.random.default_rng(0).permutation(n)
@@ -93,22 +113,42 @@ def plot_t1_defect_distances(result, path=None, unit="px", scale=1.0, figsize=(1
     return _finish(fig, path)
 
 
-def plot_migration(populations, path=None, figsize=(10, 4)):
+def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
     """Normalised displacement against defect density, slow and fast populations (Fig. 3f).
 
     Left: per subregion and window, displacement (log scale) against the mean
     defect density, coloured by population.  Right: histogram of
     log10(displacement) with the fitted two-component mixture.
+
+    Parameters
+    ----------
+    populations : MigrationPopulations
+        Defect densities in px^-2; the displacement is dimensionless
+        (normalised by the subregion size).
+    path : str or Path, optional
+        Where to write the PNG.
+    calibration : Calibration, optional
+        Defect densities are shown per square length unit (px^-2 when None),
+        scaled by the power of ten of their largest value.
+    figsize : tuple of float
+        Width and height in inches (scatter and histogram panels).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
-    fig, (ax, ax2) = _figure(2, figsize)
     t = populations.table
+    cal = _as_calibration(calibration)
+    fig, (ax, ax2) = _figure(2, figsize)
     moved = t["displacement"].to_numpy(float) > 0
+    density = t["defect_density"].to_numpy(float) / cal.area(1.0)
+    decade = _decade(density[moved])
     if moved.any():
         for name, color in (("slow", SLOW_COLOR), ("fast", FAST_COLOR), ("", "0.5")):
-            part = t[moved & (t["population"] == name).to_numpy(bool)]
-            if len(part):
-                ax.scatter(part["defect_density"] * 1e4, part["displacement"], s=10, color=color, alpha=0.7,
-                           label=name or "unclassified")
+            part = moved & (t["population"] == name).to_numpy(bool)
+            if part.any():
+                ax.scatter(density[part] / 10.0**decade, t["displacement"].to_numpy(float)[part], s=10, color=color,
+                           alpha=0.7, label=name or "unclassified")
         ax.set_yscale("log")
         ax.legend(frameon=False)
         title = f"Spearman rho = {populations.spearman_rho:.2f}"
@@ -118,7 +158,8 @@ def plot_migration(populations, path=None, figsize=(10, 4)):
         ax.set_title(title, fontsize=9)
     else:
         _empty(ax, "no complete window")
-    ax.set_xlabel(r"defect density ($10^{-4}$ px$^{-2}$)")
+    scale = f"$10^{{{decade}}}$ " if decade else ""
+    ax.set_xlabel(f"defect density ({scale}{cal.length_label}$^{{-2}}$)")
     ax.set_ylabel(r"$\sum_t |\Delta r|^2 / \Delta\ell^2$")
     logd = t["log_displacement"].to_numpy(float)
     logd = logd[np.isfinite(logd)]
@@ -143,17 +184,31 @@ def plot_migration(populations, path=None, figsize=(10, 4)):
     return _finish(fig, path)
 
 
-def plot_timing(runs, path=None, unit="frames", param="D_r", figsize=None):
+def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
     """Box plots of the per-cell intercalation interval and T1-cycle period (Fig. 3g).
 
     Parameters
     ----------
     runs : pandas.DataFrame or mapping
-        One per-cell table (:func:`~hexatissue.analysis.cell_timing`), or
+        One per-cell table (:func:`~hexatissue.analysis.cell_timing` with its
+        default ``frame_interval=1``, i.e. in frames), or
         ``{parameter value: table}`` for one pair of boxes per run.
+    path : str or Path, optional
+        Where to write the PNG.
+    calibration : Calibration, optional
+        Times are shown in its time unit (frames when None).
+    param : str
+        Name of the parameter the runs differ in (tick labels).
+    figsize : tuple of float, optional
+        Grows with the number of runs when None.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     from .timing import timing_test
 
+    cal = _as_calibration(calibration)
     if not isinstance(runs, dict):
         runs = {None: runs}
     fig, (ax,) = _figure(1, figsize or (max(4.5, 1.6 * len(runs) + 2), 4))
@@ -161,7 +216,7 @@ def plot_timing(runs, path=None, unit="frames", param="D_r", figsize=None):
     for k, (value, table) in enumerate(runs.items()):
         for j, (col, color) in enumerate((("mean_intercalation_interval", SLOW_COLOR),
                                           ("mean_cycle_period", FAST_COLOR))):
-            v = table[col].to_numpy(float)
+            v = cal.time(table[col].to_numpy(float))
             data.append(v[np.isfinite(v)])
             pos.append(3 * k + j)
             colors.append(color)
@@ -179,7 +234,7 @@ def plot_timing(runs, path=None, unit="frames", param="D_r", figsize=None):
         _empty(ax, "no intercalation interval or cycle period")
     ax.set_xticks([3 * k + 0.5 for k in range(len(runs))], labels)
     ax.set_xlim(-1, 3 * len(runs) - 1)
-    ax.set_ylabel(f"time ({unit})")
+    ax.set_ylabel(f"time ({cal.time_label})")
     from matplotlib.patches import Patch
 
     ax.legend(handles=[Patch(color=SLOW_COLOR, alpha=0.6, label="between intercalations"),
@@ -188,14 +243,27 @@ def plot_timing(runs, path=None, unit="frames", param="D_r", figsize=None):
     return _finish(fig, path)
 
 
-def plot_timing_vs_parameter(summary, param="D_r", path=None, unit="frames", figsize=(5, 4)):
+def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, figsize=(5, 4)):
     """Mean (markers) and quartiles (bars) of both per-cell quantities against a sweep parameter.
 
     Parameters
     ----------
     summary : pandas.DataFrame
-        :func:`~hexatissue.analysis.timing_across_runs` output.
+        :func:`~hexatissue.analysis.timing_across_runs` output of tables in frames.
+    param : str
+        The sweep parameter (a column of ``summary``).
+    path : str or Path, optional
+        Where to write the PNG.
+    calibration : Calibration, optional
+        Times are shown in its time unit (frames when None).
+    figsize : tuple of float
+        Width and height in inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
+    cal = _as_calibration(calibration)
     fig, (ax,) = _figure(1, figsize)
     for name, color, label in (("intercalation_interval", SLOW_COLOR, "between intercalations"),
                                ("cycle_period", FAST_COLOR, "T1-cycle period")):
@@ -203,8 +271,8 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, unit="frames", fig
         s = s[np.isfinite(s["mean"].to_numpy(float))]
         if len(s):
             x = s[param].to_numpy(float)
-            ax.errorbar(x, s["mean"], yerr=[s["mean"] - s["q25"], s["q75"] - s["mean"]], color=color, marker="o",
-                        capsize=3, label=label)
+            mean, q25, q75 = (cal.time(s[c].to_numpy(float)) for c in ("mean", "q25", "q75"))
+            ax.errorbar(x, mean, yerr=[mean - q25, q75 - mean], color=color, marker="o", capsize=3, label=label)
     values = summary[param].to_numpy(float)
     if len(values) and (values > 0).all() and values.max() / values.min() >= 3:
         ax.set_xscale("log")
@@ -215,13 +283,33 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, unit="frames", fig
         ax.set_xticks(ticks, [f"{v:g}" for v in ticks])
         ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(param)
-    ax.set_ylabel(f"time ({unit})")
+    ax.set_ylabel(f"time ({cal.time_label})")
     ax.legend(frameon=False)
     return _finish(fig, path)
 
 
-def plot_event_overview(events, n_frames=None, path=None, unit="frames", figsize=(10, 3.8)):
-    """T1 events per frame by kind (left) and the distribution of T1-cycle durations (right)."""
+def plot_event_overview(events, n_frames=None, path=None, calibration=None, figsize=(10, 3.8)):
+    """T1 events per frame by kind (left) and the distribution of T1-cycle durations (right).
+
+    Parameters
+    ----------
+    events : pandas.DataFrame
+        Events table (``kind``, ``frame_start``, ``duration`` in frames).
+    n_frames : int, optional
+        Number of frames of the movie (the last event's start frame when None).
+    path : str or Path, optional
+        Where to write the PNG.
+    calibration : Calibration, optional
+        Times and durations are shown in its time unit (frames when None);
+        the counts stay per frame.
+    figsize : tuple of float
+        Width and height in inches (event counts and cycle durations).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    cal = _as_calibration(calibration)
     fig, (ax, ax2) = _figure(2, figsize)
     kinds = (("cycle", FAST_COLOR), ("intercalation", SLOW_COLOR), ("unresolved", "0.6"))
     if len(events):
@@ -229,18 +317,20 @@ def plot_event_overview(events, n_frames=None, path=None, unit="frames", figsize
         frames = np.arange(last + 1)
         for kind, color in kinds:
             f = events.loc[events["kind"] == kind, "frame_start"].to_numpy(np.int64)
-            ax.plot(frames, np.bincount(f, minlength=last + 1)[:last + 1], color=color, label=f"{kind} ({len(f)})")
+            ax.plot(cal.time(frames), np.bincount(f, minlength=last + 1)[:last + 1], color=color,
+                    label=f"{kind} ({len(f)})")
         ax.legend(frameon=False, fontsize=8)
     else:
         _empty(ax, "no T1 events")
-    ax.set_xlabel("frame")
-    ax.set_ylabel("T1 events starting")
+    ax.set_xlabel(f"time ({cal.time_label})")
+    ax.set_ylabel("T1 events starting per frame")
     d = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float) if len(events) else np.zeros(0)
     d = d[np.isfinite(d)]
     if len(d):
-        ax2.hist(d, bins=np.arange(0.5, d.max() + 1.5, max(1, int(np.ceil(d.max() / 30)))), color=FAST_COLOR)
+        bins = np.arange(0.5, d.max() + 1.5, max(1, int(np.ceil(d.max() / 30))))
+        ax2.hist(cal.time(d), bins=cal.time(bins), color=FAST_COLOR)
     else:
         _empty(ax2, "no T1 cycles")
-    ax2.set_xlabel(f"T1-cycle duration ({unit})")
+    ax2.set_xlabel(f"T1-cycle duration ({cal.time_label})")
     ax2.set_ylabel("cycles")
     return _finish(fig, path)

@@ -47,8 +47,8 @@ def _runs(runs):
     return {float(v): Path(p) for v, p in sorted(runs.items())}
 
 
-def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval=1.0, time_unit="frames",
-            n_control=5, seed=0, include_border=False, control="cells") -> dict:
+def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, seed=0, include_border=False,
+            control="cells") -> dict:
     """Fig. 3e (T1–defect distances), 3f (migration vs defect density) and 3g (event timing) of a sweep.
 
     Parameters
@@ -67,14 +67,12 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     dl, dt : float, int
         Migration subregion side (px) and window (frames; 25,000 iterations
         are ``25_000 / save_every`` frames).
-    frame_interval : float
-        Time per frame for the timing (e.g. ``save_every`` iterations), in ``time_unit``.
     n_control : int
         Random cells (or vertices) per T1 event in the proximity control.
     seed : int
         Seeds the control draws (``seed + run index``) and the mixture fit.
     include_border : bool
-        Keep border cells and events touching them (see :func:`~hexatissue.analysis.report.report`).
+        Keep border cells and events touching them (see :func:`~hexatissue.workflows.report`).
     control : {"cells", "vertices"}
         Fig. 3e control: random cells (the paper's) or random vertices (needs
         the ``vertices`` tables; see :func:`~hexatissue.analysis.t1_defect_proximity`).
@@ -85,15 +83,22 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
         The contents of ``summary.json``: per-run and pooled KS tests, the
         migration populations (pooled over runs), the timing summary per run,
         and ``trends``: the log-log slopes of the mean intercalation interval
-        and of the mean T1-cycle period against the parameter.
+        and of the mean T1-cycle period against the parameter.  Times are in
+        the runs' calibrated unit (MPF runs: iterations), which must be the
+        same for every run.
     """
     runs = _runs(runs)
+    calibration = None
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    ev_parts, ctrl_parts, ks_rows, mig_parts, timing = [], [], [], [], {}
+    ev_parts, ctrl_parts, ks_rows, mig_parts, timing, timing_frames = [], [], [], [], {}, {}
     for k, (value, folder) in enumerate(runs.items()):
         movie = read_results(folder)
         box, cells, events, defects = movie.box, movie.cells, movie.events, movie.defects
+        if calibration is not None and movie.calibration != calibration:
+            raise InputError(f"{folder}: its calibration {movie.calibration} differs from the other runs' "
+                             f"{calibration}; Fig. 3g compares times across runs in one unit")
+        calibration = movie.calibration
         if events is None or defects is None:
             raise InputError(f"{folder}: needs events and defects tables (a movie analysed with p including {p})")
         prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed + k,
@@ -106,7 +111,8 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
             mig = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=events,
                                   include_border=include_border)
         mig_parts.append(mig.assign(**{param: value}))
-        timing[value] = cell_timing(events, cells, frame_interval=frame_interval)
+        timing[value] = cell_timing(events, cells, frame_interval=calibration.frame_interval)
+        timing_frames[value] = cell_timing(events, cells)  # the figures convert frames with the calibration
     written = []
     events_all, control_all = pd.concat(ev_parts, ignore_index=True), pd.concat(ctrl_parts, ignore_index=True)
     pooled = compare_distances(events_all, control_all, control)
@@ -125,15 +131,16 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, frame_interval
     cells_all = pd.concat([t.assign(**{param: v}) for v, t in timing.items()], ignore_index=True)
     across = timing_across_runs(timing, param=param)
     written += [write_table(cells_all, out / "fig3g_cell_timing.csv"), write_table(across, out / "fig3g_summary.csv")]
-    plot_timing(timing, path=out / "fig3g_box.png", unit=time_unit, param=param)
-    plot_timing_vs_parameter(across, param=param, path=out / "fig3g_vs_param.png", unit=time_unit)
+    plot_timing(timing_frames, path=out / "fig3g_box.png", calibration=calibration, param=param)
+    plot_timing_vs_parameter(timing_across_runs(timing_frames, param=param), param=param,
+                             path=out / "fig3g_vs_param.png", calibration=calibration)
     written += [out / "fig3g_box.png", out / "fig3g_vs_param.png"]
 
     ic = across[across["quantity"] == "intercalation_interval"]
     cy = across[across["quantity"] == "cycle_period"]
     summary = {
-        "param": param, "values": list(runs), "p": p, "dl": dl, "dt": dt, "frame_interval": frame_interval,
-        "time_unit": time_unit, "include_border": include_border, "control": control,
+        "param": param, "values": list(runs), "p": p, "dl": dl, "dt": dt, "frame_interval": calibration.frame_interval,
+        "time_unit": calibration.time_unit, "include_border": include_border, "control": control,
         "fig3e": {"pooled": pooled.summary(), "per_run": ks_rows},
         "fig3f": {"n_subregion_windows": len(pops.table), "threshold": pops.threshold, "delta_bic": pops.delta_bic,
                   "verdict": pops.verdict, "spearman_rho": pops.spearman_rho, "spearman_pvalue": pops.spearman_pvalue,

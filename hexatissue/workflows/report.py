@@ -61,7 +61,8 @@ def _order_figures(movie, frames, order_p, out):
             if f"Gamma{q}_re" not in grid.columns or len(grid) == 0:
                 continue
             path = out / f"order{q}{tag}.png"
-            plot.plot_order_field(grid, defects[defects["p"] == q], p=q, polygons=polygons, box=movie.box, path=path)
+            plot.plot_order_field(grid, defects[defects["p"] == q], p=q, polygons=polygons, box=movie.box, path=path,
+                                  calibration=movie.calibration)
             written.append(path)
     return written
 
@@ -198,7 +199,7 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     cycles = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float)
     numbers["events"] = {k: int(v) for k, v in counts.items()}
     path = out / "events.png"
-    plot_event_overview(events, n_frames=len(movie), path=path)
+    plot_event_overview(events, n_frames=len(movie), path=path, calibration=cal)
     written.append(path)
     lines += ["## T1 events", "",
               "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected"),
@@ -213,7 +214,7 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     s = prox.summary()
     numbers["proximity"] = s
     path = out / "t1_defects.png"
-    plot_t1_defect_distances(prox, path=path)
+    plot_t1_defect_distances(prox, path=path, calibration=cal)
     written += [path, write_table(prox.events, out / "t1_defect_distances.csv"),
                 write_table(prox.control, out / "control_distances.csv")]
     lines += [f"## T1 events and ±1/{p} defects (Fig. 3e)", "",
@@ -237,7 +238,7 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
                             "delta_bic": pops.delta_bic, "spearman_rho": pops.spearman_rho,
                             "spearman_pvalue": pops.spearman_pvalue}
     path = out / "migration.png"
-    plot_migration(pops, path=path)
+    plot_migration(pops, path=path, calibration=cal)
     written += [path, write_table(pops.table, out / "migration.csv")]
     lines += ["## Migration and defect density (Fig. 3f)", "",
               f"- subregions of {_length(cal, dl)}, windows of {dt} frames: {len(table)} subregion-windows",
@@ -254,7 +255,7 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     summ, test = timing_summary(timing), timing_test(timing)
     numbers["timing"] = {"summary": summ.to_dict("records"), **test}
     path = out / "timing.png"
-    plot_timing(timing, path=path, unit=time_unit)
+    plot_timing(cell_timing(events, cells), path=path, calibration=cal)  # figures convert frames
     written += [path, write_table(timing, out / "cell_timing.csv")]
     lines += ["## Event timing (Fig. 3g)", "", f"Per-cell means, in {time_unit}:", "", _md_table(summ), "",
               f"- Welch two-sided t-test: t = {test['t_statistic']:.3g}, p = {test['pvalue']:.3g}", ""]
