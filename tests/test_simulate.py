@@ -328,7 +328,7 @@ def test_run_store_contents(tmp_path):
     assert run.labels[0].shape == (44, 48) and run.labels[-1].shape == (44, 48)
     assert np.array_equal(run.step, np.arange(0, 61, 10))
     assert run.params == RUNP and run.seed == 5
-    assert (run.box.Lx, run.box.Ly, run.box.periodic) == (48.0, 44.0, True)
+    assert (run.box.Lx, run.box.Ly) == (48.0, 44.0)
     cells = run.cells
     assert list(cells.columns[:4]) == ["frame", "cell", "x", "y"]
     assert {"theta", "area", "x_unwrapped", "y_unwrapped"} <= set(cells.columns)

@@ -258,7 +258,7 @@ class MPFRun:
         self._g = g
         from ..box import Box
 
-        self.box = Box(float(self.params.Lx), float(self.params.Ly), periodic=True)
+        self.box = Box(float(self.params.Lx), float(self.params.Ly))
         self.step = np.asarray(g["step"][:T])
         self.time = self.step * self.params.dt
         self._cells = None
