@@ -13,7 +13,9 @@ vertex (four distinct labels); 5 and 6 two boundaries touching diagonally
 (pairs of arms {3, 0}, {1, 2} for type 5, where TL == BR is the connected
 label; {3, 2}, {0, 1} for type 6, where TR == BL is connected).
 
-Each kernel has a plain-Python twin (``py_func``) used as reference in tests.
+Each kernel has an independently written plain-Python reference of the same
+name and outputs in :mod:`._reference` (tests only; ``tests/test_mesh_kernels.py``
+compares them).  ``py_func`` runs the same code uncompiled and is no such check.
 """
 import numpy as np
 from numba import njit

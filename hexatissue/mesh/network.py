@@ -23,26 +23,43 @@ MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner i
 MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practically never needed
 
 
+def _corner_lattice(lab32, membrane, periodic):
+    """Labels and membrane flags padded by one pixel for the corner kernels, and the lattice shape (nci, ncj).
+
+    On a torus the padding wraps and the lattice has one corner per pixel;
+    on an open image the padding is 0 (outside) and the lattice is one
+    corner larger each way.
+    """
+    mode = "wrap" if periodic else "constant"
+    h, w = lab32.shape
+    shape = (h, w) if periodic else (h + 1, w + 1)
+    return np.pad(lab32, 1, mode=mode), np.pad(membrane, 1, mode=mode), shape
+
+
+def _arm_reach(n_vertices, start, end, start_arm, end_arm, ncrack):
+    """Cracks fitted on each (vertex, arm): half the junction, 1 to ``ARM_REACH``; 0 where no junction leaves."""
+    reach = np.zeros((n_vertices, 4), np.int64)
+    half = np.clip((ncrack + 1) // 2, 1, ARM_REACH)
+    reach[start, start_arm] = half
+    reach[end, end_arm] = half
+    return reach
+
+
 def _trace(lab32, periodic, membrane):
     """Vertices (corner rows/cols) and junctions of a compact label image, incl. vertex-less loops.
 
     ``membrane`` marks the pixels that were 0-valued junction lines in the input.
     """
-    mode = "wrap" if periodic else "constant"
-    pad = np.pad(lab32, 1, mode=mode)
+    pad, membrane_pad, (nci, ncj) = _corner_lattice(lab32, membrane, periodic)
     h, w = lab32.shape
-    nci, ncj = (h, w) if periodic else (h + 1, w + 1)
     # on an open image the image corners are vertices, so border polygons follow the image edge
     arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj, not periodic)
     n_max = 4 * len(vi) + 1
     start, end, sarm, earm, left, right, dx, dy, ncrack, visited = K.trace_junctions(
         pad, arms, ctype, vid, vi, vj, n_max
     )
-    reach = np.zeros((len(vi), 4), np.int64)
-    half = np.clip((ncrack + 1) // 2, 1, ARM_REACH)
-    reach[start, sarm] = half
-    reach[end, earm] = half
-    count, mean, direction = K.arm_lines(arms, ctype, vid, vi, vj, reach, np.pad(membrane, 1, mode=mode))
+    reach = _arm_reach(len(vi), start, end, sarm, earm, ncrack)
+    count, mean, direction = K.arm_lines(arms, ctype, vid, vi, vj, reach, membrane_pad)
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0

@@ -1,0 +1,285 @@
+"""Plain-Python references of the numba kernels in :mod:`hexatissue.mesh._kernels` -- for tests only.
+
+Each function here has the name, signature and outputs (values, dtypes and,
+where the kernel's order is a defined rule, order) of the kernel it checks.
+They are written from what the algorithm has to do, not from the kernels'
+code, so that a slip in one is unlikely to be repeated in the other:
+
+- the pixels beside a crack come from its geometry (crack midpoint plus or
+  minus half the left-hand normal), not from a table of cases;
+- a crack is named by the corner it leaves in +x or +y, found by stepping
+  along it, and the crack graph is walked by pairing the arms of each
+  pass-through corner;
+- a junction is kept when it is met from the first of its two ends
+  (vertex id, arm direction), with no "visited" flags; loops are closed
+  when the walk comes back to its first crack;
+- line fits use the covariance matrix's eigenvectors; chains of half-edges
+  are found by linear search.
+
+Everything is a Python loop over pixels, corners or half-edges: slow, and
+meant for the small images of ``tests/test_mesh_kernels.py``.  Conventions
+(corner lattice, directions, corner types) are those of ``_kernels``.
+"""
+import numpy as np
+
+# direction d -> unit step (x, y) = (column, row) on the corner lattice: +x, +y, -x, -y
+UNIT = ((1, 0), (0, 1), (-1, 0), (0, -1))
+# at a corner where two boundaries touch diagonally (types 5 and 6), the arms that form one boundary
+DIAGONAL_PAIRS = {5: ((3, 0), (1, 2)), 6: ((3, 2), (0, 1))}
+
+
+def _pixels_beside(ci, cj, d):
+    """Padded (row, col) of the pixels on the left and on the right of the crack from corner (ci, cj) along d.
+
+    Left and right in x-y axes: the left normal of the unit step (ex, ey) is
+    (-ey, ex).  Corner (ci, cj) is at x = cj - 0.5, y = ci - 0.5, the crack
+    midpoint half a step further, and each pixel centre half a normal to its
+    side; pixel (x, y) is ``pad[y + 1, x + 1]``.  Doubled coordinates keep it integer.
+    """
+    ex, ey = UNIT[d]
+    mid2x, mid2y = 2 * cj - 1 + ex, 2 * ci - 1 + ey
+    (lx, ly), (rx, ry) = ((mid2x - ey) // 2, (mid2y + ex) // 2), ((mid2x + ey) // 2, (mid2y - ex) // 2)
+    return (ly + 1, lx + 1), (ry + 1, rx + 1)
+
+
+def _labels_beside(pad, ci, cj, d):
+    left, right = _pixels_beside(ci, cj, d)
+    return pad[left], pad[right]
+
+
+def _neighbour(ci, cj, d, nci, ncj):
+    """The corner one crack away from (ci, cj) along d; the lattice is a torus (open images never leave it)."""
+    ex, ey = UNIT[d]
+    return (ci + ey) % nci, (cj + ex) % ncj
+
+
+def _crack_key(ci, cj, d, nci, ncj):
+    """(0 horizontal / 1 vertical, row, col): the crack named by the corner from which it runs along +x or +y."""
+    if d < 2:
+        return d, ci, cj
+    ei, ej = _neighbour(ci, cj, d, nci, ncj)
+    return d - 2, ei, ej
+
+
+def _arm_set(mask):
+    return [d for d in range(4) if (int(mask) >> d) & 1]
+
+
+def _partner(corner_kind, mask, arm):
+    """The arm continuing the boundary that reaches a pass-through corner (type 2, 5 or 6) by ``arm``."""
+    if corner_kind == 2:
+        (other,) = [d for d in _arm_set(mask) if d != arm]
+        return other
+    for a, b in DIAGONAL_PAIRS[corner_kind]:
+        if arm in (a, b):
+            return b if arm == a else a
+    raise ValueError(f"arm {arm} is not an arm of a corner of type {corner_kind}")
+
+
+def _walk(arms, kind, ci, cj, d):
+    """The cracks (corner row, corner col, direction) of the boundary leaving corner (ci, cj) along d, in order.
+
+    Endless: the caller stops before the walk would have to pass a vertex.
+    """
+    nci, ncj = arms.shape
+    while True:
+        yield ci, cj, d
+        ci, cj = _neighbour(ci, cj, d, nci, ncj)
+        d = _partner(kind[ci, cj], arms[ci, cj], (d + 2) % 4)
+
+
+def _corner_kind(tl, tr, bl, br, n_arms):
+    if n_arms < 4:
+        return n_arms  # 0 (inside a cell), 2 (a boundary passes) or 3 (three-fold vertex)
+    if len({tl, tr, bl, br}) == 4:
+        return 4
+    main, anti = tl == br, tr == bl  # which diagonal pair of pixels shares a label
+    if main and anti:  # a two-label checkerboard: the smaller label is the connected one
+        return 5 if tl < tr else 6
+    return 5 if main else 6
+
+
+def corner_types(pad, nci, ncj, image_corners):
+    """Reference of :func:`._kernels.corner_types`."""
+    arms = np.zeros((nci, ncj), np.uint8)
+    kind = np.zeros((nci, ncj), np.uint8)
+    vid = np.full((nci, ncj), -1, np.int32)
+    cracks = set()
+    vertices = []
+    for ci in range(nci):
+        for cj in range(ncj):
+            present = [d for d in range(4) if len(set(_labels_beside(pad, ci, cj, d))) == 2]
+            arms[ci, cj] = sum(1 << d for d in present)
+            cracks.update(_crack_key(ci, cj, d, nci, ncj) for d in present)
+            block = pad[ci, cj], pad[ci, cj + 1], pad[ci + 1, cj], pad[ci + 1, cj + 1]
+            kind[ci, cj] = _corner_kind(*block, len(present))
+            image_corner = image_corners and ci in (0, nci - 1) and cj in (0, ncj - 1)
+            if kind[ci, cj] in (3, 4) or (image_corner and present):
+                vertices.append((ci, cj))
+    for v, (ci, cj) in enumerate(vertices):
+        vid[ci, cj] = v
+    vi = np.array([c[0] for c in vertices], np.int64)
+    vj = np.array([c[1] for c in vertices], np.int64)
+    return arms, kind, vid, vi, vj, len(cracks)
+
+
+def _junction_cracks(arms, kind, vid, ci, cj, d):
+    """The cracks from vertex corner (ci, cj) along arm d to the next vertex, and that vertex's corner."""
+    nci, ncj = arms.shape
+    cracks = []
+    for crack in _walk(arms, kind, ci, cj, d):
+        cracks.append(crack)
+        end = _neighbour(*crack, nci, ncj)
+        if vid[end] >= 0:
+            return cracks, end
+
+
+def _displacement(cracks):
+    return sum(UNIT[d][0] for _, _, d in cracks), sum(UNIT[d][1] for _, _, d in cracks)
+
+
+def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
+    """Reference of :func:`._kernels.trace_junctions`.
+
+    A junction is listed once, traced from the first of its two ends in
+    (vertex id, arm direction) order; junctions come in the order of those ends.
+    """
+    nci, ncj = arms.shape
+    visited = np.zeros((2, nci, ncj), np.bool_)
+    rows = []
+    for v in range(len(vi)):
+        for d in _arm_set(arms[vi[v], vj[v]]):
+            cracks, end_corner = _junction_cracks(arms, kind, vid, vi[v], vj[v], d)
+            end, end_arm = int(vid[end_corner]), (cracks[-1][2] + 2) % 4
+            if (end, end_arm) < (v, d):
+                continue  # listed from its other end
+            for crack in cracks:
+                visited[_crack_key(*crack, nci, ncj)] = True
+            left, right = _labels_beside(pad, vi[v], vj[v], d)
+            rows.append((v, end, d, end_arm, left, right, *_displacement(cracks), len(cracks)))
+    if len(rows) > n_max:
+        raise ValueError(f"{len(rows)} junctions do not fit in n_max = {n_max}")
+    columns = list(zip(*rows)) if rows else [()] * 9
+    dtypes = [np.int64] * 4 + [pad.dtype] * 2 + [np.int64] * 3
+    return tuple(np.array(c, t) for c, t in zip(columns, dtypes)) + (visited,)
+
+
+def trace_loops(pad, arms, kind, visited):
+    """Reference of :func:`._kernels.trace_loops` (``visited`` is read, not changed).
+
+    Each loop starts at its first crack in (corner row, corner col,
+    direction) order, run along +x or +y, and ends when the walk is back on
+    that crack.
+    """
+    nci, ncj = arms.shape
+    left_over = [(ci, cj, d) for ci in range(nci) for cj in range(ncj) for d in _arm_set(arms[ci, cj])
+                 if d < 2 and not visited[d, ci, cj]]
+    done = set()
+    rows = []
+    for first in left_over:
+        if first in done:
+            continue
+        cracks = []
+        for crack in _walk(arms, kind, *first):
+            if cracks and crack == first:
+                break
+            if len(cracks) > len(left_over):
+                raise RuntimeError(f"the boundary from crack {first} does not close")
+            cracks.append(crack)
+        done.update((ci, cj, d) for d, ci, cj in (_crack_key(*c, nci, ncj) for c in cracks))
+        rows.append((first[0], first[1], *_labels_beside(pad, *first), *_displacement(cracks), len(cracks)))
+    columns = list(zip(*rows)) if rows else [()] * 7
+    return tuple(np.array(c, np.int64) for c in columns)
+
+
+def _crack_point(membrane, ci, cj, d):
+    """Fit point of a crack, relative to its corner: the centre of its membrane pixels, else its midpoint.
+
+    The pixel centres are the midpoint plus and minus half the left normal,
+    so one membrane pixel moves the point half a pixel to its side and two
+    (or none) leave it at the midpoint.
+    """
+    (ex, ey), left, right = UNIT[d], *_pixels_beside(ci, cj, d)
+    side = int(bool(membrane[left])) - int(bool(membrane[right]))
+    return np.array([0.5 * ex - 0.5 * ey * side, 0.5 * ey + 0.5 * ex * side])
+
+
+def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
+    """Reference of :func:`._kernels.arm_lines`.
+
+    ``direction`` is a line's axis, whose sign has no meaning; here it has
+    x >= 0 (y > 0 when x == 0).  Compare up to sign: the kernel's sign for
+    near-vertical lines follows rounding.  Points with an isotropic spread
+    (e.g. all four cracks around one pixel, when ``reach`` lets the walk go
+    round it) have no axis; there the kernel's choice, (1, 0) from
+    ``arctan2(0, 0) = 0``, is returned.
+    """
+    nv = len(vi)
+    count = np.zeros((nv, 4), np.int64)
+    mean = np.zeros((nv, 4, 2), np.float64)
+    direction = np.zeros((nv, 4, 2), np.float64)
+    for v in range(nv):
+        for d in _arm_set(arms[vi[v], vj[v]]):
+            if reach[v, d] == 0:
+                continue
+            cracks = _junction_cracks(arms, kind, vid, vi[v], vj[v], d)[0][: reach[v, d]]
+            # each point relative to the vertex corner: the corner it leaves, unwrapped, plus its point there
+            corner = np.cumsum([(0, 0)] + [UNIT[c[2]] for c in cracks[:-1]], axis=0)
+            points = corner + np.array([_crack_point(membrane, *c) for c in cracks])
+            count[v, d] = len(points)
+            mean[v, d] = points.mean(axis=0)
+            cov = np.cov(points.T, bias=True) if len(points) > 1 else np.zeros((2, 2))
+            if np.trace(cov) < 1e-12:
+                direction[v, d] = UNIT[d]
+                continue
+            values, vectors = np.linalg.eigh(cov)
+            if values[1] - values[0] < 1e-12:
+                direction[v, d] = (1.0, 0.0)
+                continue
+            axis = vectors[:, -1]  # largest variance
+            direction[v, d] = -axis if axis[0] < 0 or (axis[0] == 0 and axis[1] < 0) else axis
+    return count, mean, direction
+
+
+def cell_moments(labels, n_labels, periodic):
+    """Reference of :func:`._kernels.cell_moments`."""
+    h, w = labels.shape
+    count = np.zeros(n_labels, np.float64)
+    sx = np.zeros(n_labels, np.float64)
+    sy = np.zeros(n_labels, np.float64)
+    for lab in range(n_labels):
+        y, x = np.nonzero(labels == lab)  # raster order: the first pixel is the label's reference
+        if len(x) == 0:
+            continue
+        x, y = x.astype(float), y.astype(float)
+        if periodic:  # the image of each pixel within half a box of the first pixel (ties not moved)
+            x -= w * np.where(x - x[0] > w / 2, 1, np.where(x - x[0] < -w / 2, -1, 0))
+            y -= h * np.where(y - y[0] > h / 2, 1, np.where(y - y[0] < -h / 2, -1, 0))
+        count[lab], sx[lab], sy[lab] = len(x), x.sum(), y.sum()
+    return count, sx, sy
+
+
+def chain_cycles(cell, frm, to):
+    """Reference of :func:`._kernels.chain_cycles`.
+
+    A cycle starts at the lowest-index unused half-edge of a cell (cells in
+    the order they appear) and goes on along the lowest-index unused
+    half-edge of the same cell leaving the vertex reached, until there is none.
+    """
+    nh = len(cell)
+    cycle = np.full(nh, -1, np.int64)
+    order = []
+    starts = [0]
+    for c in dict.fromkeys(np.asarray(cell).tolist()):
+        mine = [h for h in range(nh) if cell[h] == c]
+        while True:
+            free = [h for h in mine if cycle[h] < 0]
+            if not free:
+                break
+            h = free[0]
+            while h is not None:
+                cycle[h] = len(starts) - 1
+                order.append(h)
+                h = next((k for k in mine if cycle[k] < 0 and frm[k] == to[h]), None)
+            starts.append(len(order))
+    return cycle, np.array(order, np.int64), np.array(starts, np.int64)

@@ -1,0 +1,442 @@
+"""The numba mesh kernels on small hand-made label images, against hand-written truth and the plain-Python reference.
+
+Every case asserts the kernels' outputs against values worked out by hand
+(docstrings say how) and that the reference in ``hexatissue.mesh._reference``
+gives exactly the same; a randomized test does the latter on jittered
+Voronoi tissues.  Corner (ci, cj) is at x = cj - 0.5, y = ci - 0.5;
+directions 0 +x, 1 +y, 2 -x, 3 -y; left and right in x-y axes (see
+``_kernels``).  Vertex ids are corners in raster order.
+"""
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from hexatissue.mesh import _kernels as K
+from hexatissue.mesh import _reference as R
+from hexatissue.mesh import network as N
+from hexatissue.mesh.labels import normalize_labels
+from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+JUNCTION_FIELDS = ("start", "end", "start_arm", "end_arm", "left", "right", "dx", "dy", "ncrack")
+LOOP_FIELDS = ("row", "col", "left", "right", "dx", "dy", "ncrack")
+
+
+def run(impl, labels, periodic=False, membrane=None, reach=None):
+    """corner_types -> trace_junctions -> trace_loops -> arm_lines of ``impl`` (kernels or reference).
+
+    Inputs are prepared by ``network``'s own helpers (padding, lattice shape,
+    arm reach), as ``network._trace`` does; ``reach`` overrides the arm reach.
+    """
+    lab = np.asarray(labels, np.int32)
+    membrane = np.zeros(lab.shape, bool) if membrane is None else membrane
+    pad, membrane_pad, (nci, ncj) = N._corner_lattice(lab, membrane, periodic)
+    arms, kind, vid, vi, vj, n_cracks = impl.corner_types(pad, nci, ncj, not periodic)
+    *junctions, visited = impl.trace_junctions(pad, arms, kind, vid, vi, vj, 4 * len(vi) + 1)
+    loops = impl.trace_loops(pad, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
+    if reach is None:
+        reach = N._arm_reach(len(vi), *junctions[:4], junctions[8])
+    count, mean, direction = impl.arm_lines(arms, kind, vid, vi, vj, reach, membrane_pad)
+    return SimpleNamespace(
+        arms=arms, kind=kind, vid=vid, vi=vi, vj=vj, n_cracks=n_cracks, visited=visited,
+        j=dict(zip(JUNCTION_FIELDS, junctions)), loops=dict(zip(LOOP_FIELDS, loops)),
+        count=count, mean=mean, direction=direction,
+    )
+
+
+def assert_same_axis(a, b):
+    """Unit line directions equal up to sign (the sign of a line's axis is an artefact)."""
+    np.testing.assert_allclose(np.linalg.norm(a, axis=-1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.abs(np.sum(a * b, axis=-1)), 1.0, atol=1e-9)
+
+
+def assert_kernels_match_reference(k, r):
+    for name in ("arms", "kind", "vid", "vi", "vj", "visited", "count"):
+        a, b = getattr(k, name), getattr(r, name)
+        assert a.dtype == b.dtype, name
+        np.testing.assert_array_equal(a, b, err_msg=name)
+    assert k.n_cracks == r.n_cracks
+    # junctions and loops come in a defined order (first end / first crack in raster order): compare as they are
+    for table in ("j", "loops"):
+        for name, a in getattr(k, table).items():
+            b = getattr(r, table)[name]
+            assert a.dtype == b.dtype, name
+            np.testing.assert_array_equal(a, b, err_msg=f"{table}.{name}")
+    np.testing.assert_allclose(k.mean, r.mean, rtol=0, atol=1e-12)
+    used = k.count > 0
+    assert_same_axis(k.direction[used], r.direction[used])
+    assert not k.direction[~used].any() and not k.mean[~used].any()
+
+
+def both(labels, periodic=False, membrane=None, reach=None):
+    """The kernels' outputs, after checking that the reference gives the same."""
+    k = run(K, labels, periodic, membrane, reach)
+    assert_kernels_match_reference(k, run(R, labels, periodic, membrane, reach))
+    return k
+
+
+def vertex(k, ci, cj):
+    v = int(k.vid[ci, cj])
+    assert v >= 0, f"corner ({ci}, {cj}) is not a vertex"
+    return v
+
+
+def junction_rows(k):
+    return [tuple(int(k.j[f][i]) for f in JUNCTION_FIELDS) for i in range(len(k.j["start"]))]
+
+
+def arms_seen_from(k, v):
+    """{arm: (other vertex, its arm, left, right, dx, dy, cracks)} of the junctions at vertex v, walked from v."""
+    out = {}
+    for s, e, sa, ea, left, right, dx, dy, n in junction_rows(k):
+        if s == v:
+            out[sa] = (e, ea, left, right, dx, dy, n)
+        if e == v:
+            out[ea] = (s, sa, right, left, -dx, -dy, n)
+    return out
+
+
+def loop_rows(k):
+    return [tuple(int(k.loops[f][i]) for f in LOOP_FIELDS) for i in range(len(k.loops["row"]))]
+
+
+# --- corner types and junctions -----------------------------------------------------------------
+
+def test_two_cells_side_by_side():
+    """3 x 4 image, cells 1 | 2: the boundary x = 1.5 runs down corner column 2 from (0, 2) to (3, 2).
+
+    Vertices: the two ends (three-fold: two cells and the outside) and the
+    four image corners.  Every junction worked out by walking the lattice.
+    """
+    labels = np.array([[1, 1, 2, 2]] * 3)
+    k = both(labels)
+    assert list(zip(k.vi, k.vj)) == [(0, 0), (0, 2), (0, 4), (3, 0), (3, 2), (3, 4)]
+    assert k.kind[0, 2] == k.kind[3, 2] == 3 and k.arms[0, 2] == 0b0111 and k.arms[3, 2] == 0b1101
+    assert k.kind[0, 0] == 2 and k.kind[1, 2] == k.kind[2, 2] == 2
+    assert junction_rows(k) == [
+        # start, end, start arm, end arm, left, right, dx, dy, cracks
+        (0, 1, 0, 2, 1, 0, 2, 0, 2),  # top edge of cell 1
+        (0, 3, 1, 3, 0, 1, 0, 3, 3),  # left edge
+        (1, 2, 0, 2, 2, 0, 2, 0, 2),  # top edge of cell 2
+        (1, 4, 1, 3, 1, 2, 0, 3, 3),  # the 1 | 2 junction: moving +y, cell 1 (x < 1.5) is on the left
+        (2, 5, 1, 3, 2, 0, 0, 3, 3),
+        (3, 4, 0, 2, 0, 1, 2, 0, 2),
+        (4, 5, 0, 2, 0, 2, 2, 0, 2),
+    ]
+    assert k.n_cracks == 2 * (3 + 4) + 3 and k.visited.sum() == k.n_cracks
+    assert loop_rows(k) == []
+
+
+def test_three_cell_t_junction():
+    """5 x 6 image: 1 (cols 0-1) and 2 (cols 2-5) over 3 (rows 3-4); the T corner is (3, 2).
+
+    Its block is TL 1, TR 2, BL 3, BR 3: arms 0 (2 | 3), 2 (1 | 3), 3 (1 | 2);
+    they reach the image edge after 4, 2 and 3 cracks.
+    """
+    labels = np.ones((5, 6), int)
+    labels[:3, 2:] = 2
+    labels[3:] = 3
+    k = both(labels)
+    t = vertex(k, 3, 2)
+    assert k.kind[3, 2] == 3 and k.arms[3, 2] == 0b1101
+    assert {(int(i), int(j)) for i, j in zip(*np.nonzero(k.kind == 3))} == {(0, 2), (3, 0), (3, 2), (3, 6)}
+    assert arms_seen_from(k, t) == {
+        0: (vertex(k, 3, 6), 2, 3, 2, 4, 0, 4),
+        2: (vertex(k, 3, 0), 0, 1, 3, -2, 0, 2),
+        3: (vertex(k, 0, 2), 1, 2, 1, 0, -3, 3),
+    }
+
+
+def test_four_fold_corner():
+    """4 x 4 image of four 2 x 2 quadrants 1 2 / 3 4: corner (2, 2) has four distinct labels, four arms of 2 cracks."""
+    labels = np.repeat(np.repeat([[1, 2], [3, 4]], 2, axis=0), 2, axis=1)
+    k = both(labels)
+    assert k.arms[2, 2] == 0b1111
+    assert list(zip(*np.nonzero(k.kind == 4))) == [(2, 2)]
+    assert arms_seen_from(k, vertex(k, 2, 2)) == {
+        0: (vertex(k, 2, 4), 2, 4, 2, 2, 0, 2),
+        1: (vertex(k, 4, 2), 3, 3, 4, 0, 2, 2),
+        2: (vertex(k, 2, 0), 0, 1, 3, -2, 0, 2),
+        3: (vertex(k, 0, 2), 1, 2, 1, 0, -2, 2),
+    }
+    assert k.n_cracks == 16 + 8
+
+
+def test_cell_inside_another_is_a_loop_without_vertex():
+    """6 x 6 image of 1 with a 2 x 2 cell 2 at rows/cols 2-3: its boundary (8 cracks) has no vertex.
+
+    Only the image edge is traced as junctions (4 x 6 cracks between the
+    image corners); the loop starts at its first crack, the top of pixel
+    (2, 2) leaving corner (2, 2) along +x, with cell 2 below it, on the left.
+    """
+    labels = np.ones((6, 6), int)
+    labels[2:4, 2:4] = 2
+    k = both(labels)
+    assert len(k.vi) == 4 and sorted(k.j["ncrack"]) == [6] * 4
+    assert k.n_cracks == 24 + 8 and k.visited.sum() == 24
+    assert loop_rows(k) == [(2, 2, 2, 1, 0, 0, 8)]
+
+
+@pytest.mark.parametrize(
+    "pixels, background, corner_kind, loops",
+    [
+        # 2 at (1, 1) and 3 at (2, 2): TR = BL = 1 is connected (type 6); two 4-crack loops
+        ({(1, 1): 2, (2, 2): 3}, 1, 6, [(1, 1, 2, 1, 0, 0, 4), (2, 2, 3, 1, 0, 0, 4)]),
+        # 2 at (1, 2) and 3 at (2, 1): TL = BR = 1 is connected (type 5)
+        ({(1, 2): 2, (2, 1): 3}, 1, 5, [(1, 2, 2, 1, 0, 0, 4), (2, 1, 3, 1, 0, 0, 4)]),
+        # two labels in a checkerboard, 2 on the diagonal, 1 off it: the smaller (1) is connected, so 2 is in two pieces
+        ({(1, 1): 2, (2, 2): 2}, 1, 6, [(1, 1, 2, 1, 0, 0, 4), (2, 2, 2, 1, 0, 0, 4)]),
+        # the same with 3 off the diagonal: now 2 is the smaller and connected: one loop of 8 cracks through (2, 2) twice
+        ({(1, 1): 2, (2, 2): 2}, 3, 5, [(1, 1, 2, 3, 0, 0, 8)]),
+    ],
+)
+def test_diagonal_contact_tie_rule(pixels, background, corner_kind, loops):
+    """Two pixels touching diagonally at corner (2, 2) in a 4 x 4 image: no vertex; the connected label decides the loops."""
+    labels = np.full((4, 4), background)
+    for (i, j), lab in pixels.items():
+        labels[i, j] = lab
+    k = both(labels)
+    assert k.arms[2, 2] == 0b1111 and k.kind[2, 2] == corner_kind and k.vid[2, 2] == -1
+    assert len(k.vi) == 4  # only the image corners
+    assert loop_rows(k) == loops
+
+
+def test_junctions_wrap_around_the_torus():
+    """6 x 8 torus: 1 in cols 0-3; 2 (rows 0-2) over 3 (rows 3-5) in cols 4-7.
+
+    Vertices (0, 0), (0, 4), (3, 0), (3, 4).  Boundaries run down corner
+    columns 0 and 4 and along corner rows 0 and 3; those at column 0 and
+    row 0 are between pixels on opposite image edges.  A junction leaving
+    (0, 0) along -x wraps to column 7 and ends at (0, 4) after 4 cracks:
+    its displacement is -4, where the corners' columns differ by +4.
+    """
+    labels = np.ones((6, 8), int)
+    labels[:3, 4:] = 2
+    labels[3:, 4:] = 3
+    k = both(labels, periodic=True)
+    assert list(zip(k.vi, k.vj)) == [(0, 0), (0, 4), (3, 0), (3, 4)]
+    assert (k.kind[k.vi, k.vj] == 3).all()
+    assert junction_rows(k) == [
+        (0, 2, 1, 3, 2, 1, 0, 3, 3),  # down column 0 (left: pixels of column 7, cell 2)
+        (0, 1, 2, 0, 3, 2, -4, 0, 4),  # along row 0 to the left, wrapping: between row 5 (3) and row 0 (2)
+        (0, 2, 3, 1, 1, 3, 0, -3, 3),  # up column 0, wrapping through row 5
+        (1, 3, 1, 3, 1, 2, 0, 3, 3),
+        (1, 3, 3, 1, 3, 1, 0, -3, 3),  # up column 4, wrapping
+        (2, 3, 2, 0, 2, 3, -4, 0, 4),  # along row 3 to the left, wrapping
+    ]
+    assert k.n_cracks == 6 + 6 + 4 + 4 and k.visited.sum() == k.n_cracks
+    assert loop_rows(k) == []
+
+
+def test_loops_around_the_torus():
+    """Bands on a torus: boundaries without vertices whose net displacement is a whole box length.
+
+    Horizontal bands (6 x 8): two loops of 8 cracks, dx = 8.  Width-2
+    diagonal bands on a 4 x 4 torus (label 1 where (row - col) mod 4 < 2):
+    staircases along (1, 1) that close after (4, 4); every corner has two arms.
+    """
+    labels = np.ones((6, 8), int)
+    labels[3:] = 2
+    k = both(labels, periodic=True)
+    assert len(k.vi) == 0 and len(k.j["start"]) == 0
+    # first crack: corner (0, 0) along +x, between row 5 (2, above) and row 0 (1, below: on the left)
+    assert loop_rows(k) == [(0, 0, 1, 2, 8, 0, 8), (3, 0, 2, 1, 8, 0, 8)]
+
+    i, j = np.indices((4, 4))
+    k = both(np.where((i - j) % 4 < 2, 1, 2), periodic=True)
+    assert (k.kind == 2).all() and len(k.vi) == 0
+    rows = loop_rows(k)
+    assert [r[4:] for r in rows] == [(4, 4, 8)] * 2
+    assert {r[2:4] for r in rows} == {(1, 2), (2, 1)}
+
+
+# --- arm line fits ------------------------------------------------------------------------------
+
+@pytest.fixture
+def straight():
+    """10 x 6 image, cells 1 | 2: the junction from (0, 3) down to (10, 3), 10 cracks, midpoints (0, k + 0.5)."""
+    labels = np.ones((10, 6), int)
+    labels[:, 3:] = 2
+    return labels
+
+
+def fit(k, ci, cj, d):
+    v = vertex(k, ci, cj)
+    return int(k.count[v, d]), tuple(k.mean[v, d]), k.direction[v, d]
+
+
+def test_arm_lines_on_a_straight_junction(straight):
+    k = both(straight)  # the network's reach: half the junction, 5 cracks
+    n, mean, direction = fit(k, 0, 3, 1)
+    assert (n, mean) == (5, (0.0, 2.5))
+    assert_same_axis(direction, np.array([0.0, 1.0]))
+    assert fit(k, 10, 3, 3)[:2] == (5, (0.0, -2.5))
+
+    v = vertex(k, 0, 3)
+    for r, expect in [(1, (1, (0.0, 0.5))), (4, (4, (0.0, 2.0))), (30, (10, (0.0, 5.0)))]:  # 30: stops at (10, 3)
+        reach = np.zeros((len(k.vi), 4), np.int64)
+        reach[v, 1] = r
+        kr = both(straight, reach=reach)
+        assert fit(kr, 0, 3, 1)[:2] == expect
+        assert kr.count.sum() == expect[0]  # no other arm fitted
+        assert_same_axis(fit(kr, 0, 3, 1)[2], np.array([0.0, 1.0]))
+        if r == 1:  # a single crack: exactly the arm direction
+            assert fit(kr, 0, 3, 1)[2].tolist() == [0.0, 1.0]
+
+
+def test_arm_lines_follow_membrane_pixels(straight):
+    """Membrane pixels beside a crack move its fit point to their centre: column 2 -> x = -0.5; both sides -> midpoint."""
+    k = both(straight)
+    reach = np.zeros((len(k.vi), 4), np.int64)
+    reach[vertex(k, 0, 3), 1] = 4
+    for cols, x in [((2,), -0.5), ((3,), 0.5), ((2, 3), 0.0)]:
+        membrane = np.zeros(straight.shape, bool)
+        membrane[:, list(cols)] = True
+        n, mean, direction = fit(both(straight, membrane=membrane, reach=reach), 0, 3, 1)
+        assert (n, mean) == (4, (x, 2.0))
+        assert_same_axis(direction, np.array([0.0, 1.0]))
+
+
+def test_arm_lines_on_a_bent_junction():
+    """8 x 8 image of 1 with cell 2 in the bottom-right 4 x 4: the junction (4, 8) -> (4, 4) -> (8, 4) bends 90 degrees.
+
+    From (4, 8) along -x the 8 midpoints are (-0.5 .. -3.5, 0) and
+    (-4, 0.5 .. 3.5): mean (-3, 1), symmetric about the bisector, so the
+    axis is (1, -1) / sqrt 2 (variance 1.625 each way, covariance -1).  From
+    (8, 4) along -y: mean (1, -3), same axis.  With the network's reach (4 =
+    half) each arm is straight.
+    """
+    labels = np.ones((8, 8), int)
+    labels[4:, 4:] = 2
+    k = both(labels)
+    assert k.kind[4, 4] == 2 and k.vid[4, 4] == -1
+    assert fit(k, 4, 8, 2)[:2] == (4, (-2.0, 0.0)) and fit(k, 8, 4, 3)[:2] == (4, (0.0, -2.0))
+    assert_same_axis(fit(k, 4, 8, 2)[2], np.array([1.0, 0.0]))
+
+    reach = np.zeros((len(k.vi), 4), np.int64)
+    reach[vertex(k, 4, 8), 2] = reach[vertex(k, 8, 4), 3] = 8
+    k = both(labels, reach=reach)
+    diagonal = np.array([1.0, -1.0]) / np.sqrt(2)
+    for corner, d, mean in [((4, 8), 2, (-3.0, 1.0)), ((8, 4), 3, (1.0, -3.0))]:
+        n, m, direction = fit(k, *corner, d)
+        assert (n, m) == (8, mean)
+        assert_same_axis(direction, diagonal)
+
+
+# --- chaining half-edges into cycles -----------------------------------------------------------
+
+def chain_both(cell, frm, to):
+    cell, frm, to = (np.asarray(a, np.int64) for a in (cell, frm, to))
+    out = K.chain_cycles(cell, frm, to)
+    for a, b in zip(out, R.chain_cycles(cell, frm, to)):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)
+    return [a.tolist() for a in out]
+
+
+def test_chain_two_adjacent_squares():
+    """Vertices 0 1 2 on y = 0 and 3 4 5 on y = 1: cell 1 = 0 1 4 3, cell 2 = 1 2 5 4 (counter-clockwise).
+
+    Half-edges sorted by (cell, from): cell 1: 0>1, 1>4, 3>0, 4>3; cell 2: 1>2, 2>5, 4>1, 5>4.
+    """
+    cycle, order, starts = chain_both([1, 1, 1, 1, 2, 2, 2, 2], [0, 1, 3, 4, 1, 2, 4, 5], [1, 4, 0, 3, 2, 5, 1, 4])
+    assert cycle == [0] * 4 + [1] * 4
+    assert order == [0, 1, 3, 2, 4, 5, 7, 6]
+    assert starts == [0, 4, 8]
+
+
+def test_chain_cell_with_a_hole():
+    """Cell 1: outer square 0 1 2 3 and the hole's boundary 4 7 6 5 (reversed); cell 2 fills the hole 4 5 6 7."""
+    cell = [1] * 8 + [2] * 4
+    frm = [0, 1, 2, 3, 4, 5, 6, 7, 4, 5, 6, 7]
+    to = [1, 2, 3, 0, 7, 4, 5, 6, 5, 6, 7, 4]
+    cycle, order, starts = chain_both(cell, frm, to)
+    assert cycle == [0] * 4 + [1] * 4 + [2] * 4
+    assert order == [0, 1, 2, 3, 4, 7, 6, 5, 8, 9, 10, 11]
+    assert starts == [0, 4, 8, 12]
+
+
+def test_chain_pinched_cell_and_empty_input():
+    """A figure-8 through vertex 0 (0 1 2 and 0 3 4): the first unused half-edge at 0 joins both loops in one cycle."""
+    cycle, order, starts = chain_both([1] * 6, [0, 0, 1, 2, 3, 4], [1, 3, 2, 0, 4, 0])
+    assert cycle == [0] * 6 and order == [0, 2, 3, 1, 4, 5] and starts == [0, 6]
+    assert chain_both([], [], []) == [[], [], [0]]
+
+
+# --- pixel moments ------------------------------------------------------------------------------
+
+def test_cell_moments_unwrap_on_the_torus():
+    """4 x 6 image: 1 in columns 0 and 5, 2 in columns 1-4.
+
+    On the torus each pixel is taken within half a box of its label's first
+    pixel (0, 0) or (0, 1): column 5 of cell 1 is column -1, and row 3 (3 > 4 / 2
+    below row 0) is row -1 for both cells.
+    """
+    labels = np.full((4, 6), 2, np.int32)
+    labels[:, [0, 5]] = 1
+    for periodic, sx1, rows in [(False, 4 * (0 + 5), 0 + 1 + 2 + 3), (True, 4 * (0 - 1), 0 + 1 + 2 - 1)]:
+        count, sx, sy = K.cell_moments(labels, 3, periodic)
+        for a, b in zip((count, sx, sy), R.cell_moments(labels, 3, periodic)):
+            assert a.dtype == b.dtype
+            np.testing.assert_array_equal(a, b)
+        assert count.tolist() == [0, 8, 16] and sx.tolist() == [0, sx1, 4 * 10] and sy.tolist() == [0, 2 * rows, 4 * rows]
+
+
+# --- randomized ---------------------------------------------------------------------------------
+
+def chain_traced(k):
+    """Chain the half-edges of every traced junction and loop point (its cell on the left), as network._polygons does."""
+    loop_v = len(k.vi) + np.arange(len(k.loops["row"]))
+    a, b = np.r_[k.j["start"], loop_v], np.r_[k.j["end"], loop_v]
+    cell = np.r_[k.j["left"], k.loops["left"], k.j["right"], k.loops["right"]].astype(np.int64)
+    frm, to = np.r_[a, b], np.r_[b, a]
+    inside = cell != 0
+    cell, frm, to = cell[inside], frm[inside], to[inside]
+    order = np.lexsort((frm, cell))
+    return chain_both(cell[order], frm[order], to[order]), cell
+
+
+def moments_both(labels, periodic):
+    pixels = np.asarray(labels, np.int32)
+    for a, b in zip(K.cell_moments(pixels, pixels.max() + 1, periodic), R.cell_moments(pixels, pixels.max() + 1, periodic)):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("periodic", [False, True], ids=["open", "periodic"])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_reference_equals_kernels_on_voronoi(periodic, seed):
+    """Jittered Voronoi images, touching and with 1-px membranes (for the arm fits): every output equal."""
+    shape = (22, 28)
+    seeds = jittered_seeds(shape, 6, seed=seed)
+    for membrane_width in (0, 1):
+        raw = voronoi_labels(seeds, shape, periodic, membrane=membrane_width)
+        labels, membrane = normalize_labels(raw, "membrane" if membrane_width else "touching", periodic)
+        assert membrane.any() == bool(membrane_width)
+        k = both(labels, periodic, membrane)
+        assert len(k.vi) > 10 and (k.count > 0).sum() == 2 * len(k.j["start"])
+        (_, _, starts), cell = chain_traced(k)
+        assert len(starts) - 1 == len(np.unique(cell))  # Voronoi cells are convex: one cycle each
+        moments_both(labels, periodic)
+
+
+def test_reference_equals_kernels_on_random_labels():
+    """Tiny images of random labels 0-4 (pixel noise and 2 x 2 blocks), open and periodic, random membranes and reach.
+
+    They are full of what Voronoi tissues rarely have: four-fold and
+    diagonal corners, loops, cells in pieces or pinched, background 0.
+    """
+    rng = np.random.default_rng(11)
+    seen = np.zeros(7, int)
+    for _ in range(40):
+        labels = rng.integers(0, rng.integers(1, 5) + 1, rng.integers(2, 7, 2))
+        if rng.random() < 0.5:
+            labels = np.repeat(np.repeat(labels, 2, axis=0), 2, axis=1)
+        periodic = bool(rng.random() < 0.5)
+        membrane = rng.random(labels.shape) < 0.3
+        k = both(labels, periodic, membrane)
+        both(labels, periodic, membrane, reach=rng.integers(0, 6, (len(k.vi), 4)))
+        chain_traced(k)
+        moments_both(labels, periodic)
+        seen += np.bincount(k.kind.ravel(), minlength=7)
+        seen[1] += len(k.loops["row"])  # (type 1 does not exist: count loops there)
+    assert (seen[[1, 3, 4, 5, 6]] > 0).all()
