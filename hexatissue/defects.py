@@ -193,7 +193,7 @@ def find_defects(grid, p=6, box=None):
     Returns
     -------
     pandas.DataFrame
-        Defects table, one row per defect: ``frame`` (movies only),
+        Defects table, one row per defect: ``frame`` (0 for a grid without one),
         ``defect`` (id, 0-based per frame), ``x``, ``y`` (plaquette centre,
         px; x = column, y = row, origin at the centre of pixel (0, 0)),
         ``charge`` (a nonzero multiple of ``1/p``), ``p``.
@@ -203,8 +203,8 @@ def find_defects(grid, p=6, box=None):
     if len(grid) == 0:
         raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
     box = as_box(box)
-    if "frame" not in grid.columns:
-        return validate(_find_defects_frame(grid, p, box), "defects")
+    if "frame" not in grid.columns:  # a grid built by hand: one image, frame 0
+        grid = grid.assign(frame=np.int64(0))
     parts = []
     for frame, group in grid.groupby("frame", sort=True):
         found = _find_defects_frame(group, p, box)

@@ -127,10 +127,13 @@ def row_keys(frame, ident):
 
 def lookup(keys, values, wanted, missing=None):
     """``values`` at the rows whose key is ``wanted`` (keys unique); rows not found raise (``missing``) or give -1."""
+    if len(keys) == 0:
+        if missing is not None and len(wanted):
+            raise InputError(missing)
+        return values[:0] if missing is not None else np.full(len(wanted), -1, np.int64)
     order = np.argsort(keys, kind="stable")
-    pos = np.searchsorted(keys, wanted, sorter=order) if len(keys) else np.zeros(len(wanted), np.int64)
-    pos = np.minimum(pos, max(len(keys) - 1, 0))
-    found = (keys[order[pos]] == wanted) if len(keys) else np.zeros(len(wanted), bool)
+    pos = np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)
+    found = keys[order[pos]] == wanted
     if missing is not None:
         if not found.all():
             raise InputError(missing)

@@ -399,7 +399,7 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
     -------
     pandas.DataFrame
         Grid table, one row per node (row-major), per frame:
-        ``frame`` (movies only), ``node`` (id, 0-based per frame), ``row``,
+        ``frame`` (0 for a table without one), ``node`` (id, 0-based per frame), ``row``,
         ``col`` (node index along y and x), ``x``, ``y`` (node position, px),
         ``Gamma{p}_re``, ``Gamma{p}_im`` (dimensionless; NaN when the disk is
         empty), ``n_cells`` (cells in the disk), ``coverage`` (fraction of the
@@ -420,8 +420,8 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
         raise InputError(f"cells is missing column(s) {missing}; expected {needed} (compute gamma with p={p})")
     if len(cells) == 0:
         raise InputError("cells is empty; expected at least one interior cell to coarse-grain")
-    if "frame" not in cells.columns:
-        return validate(_coarse_grain_frame(cells, p, radius, spacing, box, min_coverage), "grid")
+    if "frame" not in cells.columns:  # a table built by hand: one image, frame 0
+        cells = cells.assign(frame=np.int64(0))
     parts = []
     for frame, group in cells.groupby("frame", sort=True):
         grid = _coarse_grain_frame(group, p, radius, spacing, box, min_coverage)
@@ -451,13 +451,13 @@ def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box
     Returns
     -------
     pandas.DataFrame
-        One row per frame and factor: ``frame`` (movies only), ``p``,
+        One row per frame and factor: ``frame``, ``p``,
         ``factor`` (R / R_cell), ``radius`` (R, px), ``abs_Gamma`` (mean
         ``|Gamma_p|`` over valid nodes, dimensionless; NaN when none is
         valid), ``n_nodes`` (valid nodes).
     """
     p = check_p(p)
-    groups = cells.groupby("frame", sort=True) if "frame" in cells.columns else [(None, cells)]
+    groups = cells.groupby("frame", sort=True) if "frame" in cells.columns else [(0, cells)]
     rows = []
     for frame, group in groups:
         r_cell = cell_radius(group)
@@ -469,4 +469,4 @@ def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box
             rows.append((frame, p, float(factor), float(factor) * r_cell,
                          size.mean() if len(size) else np.nan, len(size)))
     out = pd.DataFrame(rows, columns=["frame", "p", "factor", "radius", "abs_Gamma", "n_nodes"])
-    return out.drop(columns="frame") if "frame" not in cells.columns else out
+    return out

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from hexatissue import Box, InputError
+from hexatissue.box import as_box
 
 
 def test_wrap_and_min_image():
@@ -11,10 +12,23 @@ def test_wrap_and_min_image():
     assert box.distance([0.5, 0.5], [9.5, 19.5]) == pytest.approx(np.sqrt(2))
 
 
-def test_open_box_is_identity():
-    box = Box(10.0, 20.0, periodic=False)
-    np.testing.assert_allclose(box.wrap([-1.0, 25.0]), [-1.0, 25.0])
-    np.testing.assert_allclose(box.min_image([6.0, -11.0]), [6.0, -11.0])
+def test_as_box_is_the_one_normaliser():
+    assert as_box(None) is None and as_box(False) is None  # open image
+    assert as_box(True, (30, 40)) == Box(40.0, 30.0)
+    box = Box(40, 30)
+    assert as_box(box, (30, 40)) is box and as_box(box) is box
+    with pytest.raises(InputError, match="does not match the image shape"):
+        as_box(box, (40, 30))
+    with pytest.raises(InputError, match="needs the image shape"):
+        as_box(True)
+    with pytest.raises(InputError, match="must be a hexatissue.Box"):
+        as_box((40, 30))
+
+
+def test_box_is_always_periodic():
+    with pytest.raises(TypeError):
+        Box(10.0, 20.0, periodic=False)
+    assert Box(10, 20).to_list() == [10.0, 20.0]
 
 
 def test_unwrap_polygon_across_the_edge():

@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 from scipy.spatial import cKDTree
 
-from hexatissue import Box, HexatissueWarning, InputError, mesh_from_labels, neighbor_graph
+from hexatissue import Box, HexatissueWarning, InputError, mesh_from_labels, neighbor_graph, shape_order
 from hexatissue.mesh import _kernels as K
 from hexatissue.mesh.labels import detect_kind
 from hexatissue.synthetic import (
@@ -20,6 +20,11 @@ from hexatissue.synthetic import (
 
 SHAPE = (203, 310)  # non-square on purpose
 
+
+
+def with_order(frame, p=(6, 2)):
+    """The mesh's geometry plus the order stage's shape functions (the mesh gives geometry only)."""
+    return shape_order(frame, p=p)
 
 def pairs_of(frame):
     e = frame.edges
@@ -111,7 +116,7 @@ def test_periodic_euler_characteristic(voronoi):
 def test_hexagonal_tiling():
     seeds, box = hexagonal_seeds(12, 10)
     labels = voronoi_labels(seeds, (int(box.Ly), int(box.Lx)), periodic=True)
-    f = mesh_from_labels(labels, box=box)
+    f = with_order(mesh_from_labels(labels, box=box))
     n = len(seeds)
     assert len(f.cells) == n and len(f.vertices) == 2 * n and len(f.edges) == 3 * n
     assert (f.cells["n_sides"] == 6).all() and (f.vertices["degree"] == 3).all()
@@ -125,7 +130,7 @@ def test_hexagonal_tiling():
 
 def test_square_tiling_has_four_fold_vertices():
     labels = square_labels(7, 5, 9)
-    f = mesh_from_labels(labels, box=Box.from_shape(labels.shape), p=(4,))
+    f = with_order(mesh_from_labels(labels, box=Box.from_shape(labels.shape)), p=4)
     assert len(f.vertices) == 35 and (f.vertices["degree"] == 4).all()
     assert len(f.edges) == 70
     g4 = f.cells["gamma4_re"] + 1j * f.cells["gamma4_im"]
@@ -192,8 +197,8 @@ def test_relabelling_changes_only_ids():
 def test_roll_on_the_torus_is_a_translation():
     box = Box.from_shape(SHAPE)
     labels = voronoi_labels(jittered_seeds(SHAPE, 18, seed=5), SHAPE, periodic=True)
-    a = mesh_from_labels(labels, box=box)
-    b = mesh_from_labels(np.roll(labels, (17, -40), axis=(0, 1)), box=box)
+    a = with_order(mesh_from_labels(labels, box=box))
+    b = with_order(mesh_from_labels(np.roll(labels, (17, -40), axis=(0, 1)), box=box))
     assert pairs_of(a) == pairs_of(b)
     ca, cb = a.cells.set_index("cell"), b.cells.set_index("cell").loc[a.cells["cell"]]
     shift = box.min_image(cb[["x", "y"]].to_numpy() - ca[["x", "y"]].to_numpy())
@@ -206,9 +211,9 @@ def test_roll_on_the_torus_is_a_translation():
 def test_rot90_multiplies_gamma_by_the_phase(k, quarter_turns):
     """np.rot90(labels, -1) maps (x, y) -> (-y, x) + const: a +90 degree rotation in (x, y)."""
     labels = voronoi_labels(jittered_seeds(SHAPE, 18, seed=6), SHAPE, periodic=True)
-    a = mesh_from_labels(labels, box=Box.from_shape(SHAPE))
+    a = with_order(mesh_from_labels(labels, box=Box.from_shape(SHAPE)))
     rotated = np.rot90(labels, k)
-    b = mesh_from_labels(rotated, box=Box.from_shape(rotated.shape))
+    b = with_order(mesh_from_labels(rotated, box=Box.from_shape(rotated.shape)))
     ca, cb = a.cells.set_index("cell"), b.cells.set_index("cell").loc[a.cells["cell"]]
     for p in (2, 6):
         ga = ca[f"gamma{p}_re"] + 1j * ca[f"gamma{p}_im"]
@@ -282,7 +287,7 @@ def test_single_cell():
 def test_two_cells_no_vertex():
     labels = np.ones((10, 12), np.int32)
     labels[:, 6:] = 2
-    f = mesh_from_labels(labels, box=Box(12, 10))  # two bands around the torus: boundaries without vertices
+    f = with_order(mesh_from_labels(labels, box=Box(12, 10)))  # two bands around the torus: no vertices
     assert set(f.cells["cell"]) == {1, 2} and pairs_of(f) == {(1, 2)}
     assert np.isnan(f.cells["gamma6_re"]).all()
 
@@ -293,7 +298,7 @@ def test_cell_in_two_pieces_warns():
     with pytest.warns(HexatissueWarning, match="several boundary cycles"):
         f = mesh_from_labels(labels)
     row = f.cells.set_index("cell").loc[1]
-    assert row["n_cycles"] == 2 and row["n_sides"] >= 3
+    assert row["n_boundaries"] == 2 and row["n_sides"] >= 3
 
 
 def test_border_polygons_follow_the_image_edge():
@@ -352,7 +357,7 @@ def test_float_labels_with_integer_values_are_accepted():
         (np.array([[1.0, np.nan], [1.0, 1.0]]), "NaN"),
         (-np.ones((8, 8), int), "negative"),
         (np.zeros((8, 8), int), "no cells"),
-        (np.ones((3, 8, 8), int), "analyze_movie"),
+        (np.ones((3, 8, 8), int), "hexatissue.analyze"),
         (np.ones(8, int), "2-D"),
         (np.array([["a", "b"], ["c", "d"]]), "integer"),
     ],
@@ -371,7 +376,9 @@ def test_bad_options():
     with pytest.raises(InputError, match="merge_distance"):
         mesh_from_labels(labels, merge_distance=-1)
     with pytest.raises(InputError, match="p must"):
-        mesh_from_labels(labels, p=0)
+        shape_order(mesh_from_labels(labels), p=0)
+    with pytest.raises(TypeError):  # gamma_p is the order stage's: the mesh has no p
+        mesh_from_labels(labels, p=6)
     assert issubclass(InputError, ValueError)
 
 

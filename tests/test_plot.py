@@ -146,11 +146,11 @@ def test_figures_draw_into_given_axes():
 
 
 def test_figures_from_a_label_image(tmp_path):
-    from hexatissue import mesh_from_labels
+    from hexatissue import mesh_from_labels, shape_order
     from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
     labels = voronoi_labels(jittered_seeds((120, 150), 15.0, seed=4), (120, 150))
-    frame = mesh_from_labels(labels)
+    frame = shape_order(mesh_from_labels(labels))
     polygons = frame.polygons()
     fig = plot.plot_labels(labels, polygons, frame.cells, path=tmp_path / "labels.png")
     png_pixels(tmp_path / "labels.png")
@@ -164,11 +164,11 @@ def test_figures_from_a_label_image(tmp_path):
 
 
 def test_save_analysis_figures_of_a_periodic_frame(tmp_path):
-    from hexatissue import mesh_from_labels
+    from hexatissue import mesh_from_labels, shape_order
     from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
     labels = voronoi_labels(jittered_seeds((90, 120), 15.0, seed=5), (90, 120), periodic=True)
-    frame = mesh_from_labels(labels, box=Box(120, 90))
+    frame = shape_order(mesh_from_labels(labels, box=Box(120, 90)))
     paths = plot.save_analysis_figures(frame, tmp_path / "figs", labels=labels, prefix="f0_")
     assert [p.name for p in paths] == ["f0_polygons.png", "f0_stars6.png", "f0_gamma6_defects.png"]
     for path in paths:
@@ -275,11 +275,11 @@ def test_scale_bar_on_a_given_axes_and_bad_calibration():
 
 
 def test_save_analysis_figures_takes_the_frame_calibration(tmp_path, monkeypatch):
-    from hexatissue import mesh_from_labels
+    from hexatissue import mesh_from_labels, shape_order
     from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
     labels = voronoi_labels(jittered_seeds((90, 120), 15.0, seed=5), (90, 120))
-    frame = mesh_from_labels(labels)
+    frame = shape_order(mesh_from_labels(labels))
     used = []
     original = plot.add_scale_bar
 

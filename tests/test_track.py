@@ -5,6 +5,7 @@ import pytest
 from hexatissue import track as trk
 from hexatissue.errors import InputError
 from hexatissue.synthetic import jittered_seeds, relabel_movie, voronoi_labels, voronoi_movie
+from hexatissue.mesh.labels import touches_outside
 from hexatissue.track import Tracker, frame_overlaps, match_frames, track_labels
 from tests.conftest import real_subdir
 
@@ -96,7 +97,7 @@ def test_division_in_lineage():
 def test_gap_closing_and_disappearance():
     stack = _movie(n_frames=6, periodic=False).copy()
     interior = 20
-    assert not np.isin(interior, trk.edge_touching(stack[0]))
+    assert not np.isin(interior, touches_outside(stack[0]))
     stack[2][stack[2] == interior] = 0  # a one-frame segmentation gap
     tracks, lineage = track_labels(stack, max_gap=0)
     lin = lineage.set_index("track")

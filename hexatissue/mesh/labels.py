@@ -43,7 +43,7 @@ def validate_labels(labels, name="labels") -> np.ndarray:
     """Check a 2-D label image and return it as a non-negative integer array."""
     arr = np.asarray(labels)
     if arr.ndim != 2:
-        hint = " (for a T x Y x X stack use analyze_movie)" if arr.ndim == 3 else ""
+        hint = " (for a T x Y x X stack use hexatissue.analyze)" if arr.ndim == 3 else ""
         raise InputError(f"{name} must be a 2-D image indexed [row, col]; got an array of shape {arr.shape}{hint}")
     if arr.size == 0 or min(arr.shape) < 2:
         raise InputError(f"{name} must be at least 2 x 2 pixels; got shape {arr.shape}")
