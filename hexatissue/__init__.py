@@ -16,6 +16,7 @@ from .defects import defect_density, defect_events, find_defects, track_defects
 from .order import cell_radius, cell_stress, cells_from_polygons, coarse_grain, order_vs_radius, shape_function
 from .events import cell_event_stats, detect_t1, intercalation_intervals
 from .pipeline import analyze_movie
+from .source import Source, open_source
 from .track import Tracker, lineage_table, track_labels
 from .theory import active_force, ell6, quadrupole_flow, quadrupole_psi
 
@@ -30,6 +31,8 @@ __all__ = [
     "Movie",
     "InputError",
     "HexatissueWarning",
+    "open_source",
+    "Source",
     "read_labels",
     "read_table",
     "write_table",
