@@ -283,7 +283,8 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
     and the axis units).  The resolution tags of plain TIFFs are not used
     (72 dpi defaults are common).  MPF runs: one frame every
     ``save_every`` iterations, lengths in px.  Values are rounded to 12
-    significant digits (``1.0000000000000002`` -> ``1.0``).
+    significant digits (``1.0000000000000002`` -> ``1.0``), pixel sizes
+    from ImageJ's resolution tags to 7 (what their 6 decimals hold).
     """
     for name, value in (("channel", channel), ("level", level)):
         if value is not None and (isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer))
@@ -307,7 +308,7 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
     elif hasattr(obj, "shape") and hasattr(obj, "__getitem__"):
         _refuse("an array", key=key, level=level)
         reader = _ArrayReader("array", "the array", array=obj, channel=channel)
-        source = _make(reader, {"kind": "array", "path": None})
+        source = _make(reader, {"kind": "array", "path": None, "channel": _int(channel)})
     else:
         raise InputError(f"obj must be a path, an array (rows x cols or T x rows x cols), a list of 2-D arrays, "
                          f"an MPF run or a Source; got {type(obj).__name__}")
@@ -338,6 +339,17 @@ def _make(reader, description, calibration=None, box=None, ids_consistent=False)
     desc = {"key": None, "channel": None, "level": None, **description, **reader.describe()}
     return Source(n_frames=int(reader.n_frames), shape=tuple(reader.shape), box=box, ids_consistent=ids_consistent,
                   calibration=calibration or Calibration(), description=desc, _reader=reader)
+
+
+def _stacklevel() -> int:
+    """The ``stacklevel`` pointing a warning at the first caller outside hexatissue."""
+    import sys
+
+    package = str(Path(__file__).resolve().parent)
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def _read_error(what, exc) -> InputError:
@@ -470,13 +482,15 @@ class _ArrayReader:
         idx = self.layout.index(t)
         try:
             if self._single:
-                arr = np.asarray(self.array[...])
+                arr = np.asarray(self.array)
             else:
                 arr = np.asarray(self.array[idx[0] if len(idx) == 1 else idx])
         except InputError:
             raise
         except Exception as exc:
             raise _read_error(f"{self.what} (frame {t})", exc) from exc
+        if not arr.flags.writeable:  # a read-only memory map: hand out an ordinary array
+            arr = arr.copy()
         return _collapse_rgb(arr) if self.rgb else arr
 
 
@@ -531,7 +545,8 @@ class _TiffReader:
             # ImageJ header promising more images than the file holds (e.g. re-saved compressed): read the IFDs
             n_ifd = len(tf.pages)
             warnings.warn(f"TIFF {self.what}: its ImageJ header says {n_pages} images but the file holds "
-                          f"{n_ifd} page(s); reading the pages that are there", HexatissueWarning, stacklevel=4)
+                          f"{n_ifd} page(s); reading the pages that are there", HexatissueWarning,
+                          stacklevel=_stacklevel())
             self.notes.append(f"ImageJ header says {n_pages} images (axes {self.axes!r}) but the file holds "
                               f"{n_ifd} page(s); each page is read as a frame")
             self.mode = "ifds"
@@ -562,7 +577,8 @@ class _TiffReader:
             tf.close()
 
     def describe(self) -> dict:
-        return {**_describe(self.axes, self.stored_shape, self.dtype, self.layout, self.notes), "tiff_reading": self.mode}
+        described = _describe(self.axes, self.stored_shape, self.dtype, self.layout, self.notes)
+        return {**described, "tiff_reading": self.mode}
 
     def read(self, t) -> np.ndarray:
         idx = self.layout.index(t)
@@ -717,7 +733,7 @@ def _file_unit(unit, normalize, kind, notes):
     except InputError:
         warnings.warn(f"unknown {kind} unit {unit!r} in the file's metadata; that calibration is ignored (pass "
                       f"{'length_unit' if kind == 'length' else 'time_unit'}= to set it)", HexatissueWarning,
-                      stacklevel=5)
+                      stacklevel=_stacklevel())
         notes.append(f"unknown {kind} unit {unit!r} in the metadata: ignored")
         return None
 
@@ -729,7 +745,7 @@ def _calibration(notes, size_x=None, size_y=None, length_unit=None, interval=Non
     if lu not in (None, "px") and size_x is not None and np.isfinite(size_x) and size_x > 0:
         fields.update(pixel_size=_clean(size_x), length_unit=lu)
         if size_y is not None and size_y > 0 and not np.isclose(size_x, size_y, rtol=1e-6):
-            warnings.warn(NON_SQUARE, HexatissueWarning, stacklevel=5)
+            warnings.warn(NON_SQUARE, HexatissueWarning, stacklevel=_stacklevel())
             notes.append(f"non-square pixels: x {_clean(size_x)} and y {_clean(size_y)} {lu}; "
                          f"the x size is used for all lengths")
     elif lu == "px" and size_x not in (None, 1, 1.0):
@@ -753,7 +769,9 @@ def _tiff_calibration(tf, notes) -> Calibration:
         if t is None:
             return None
         num, den = t.value if isinstance(t.value, tuple) else (t.value, 1)
-        return den / num if num else None  # pixel size = 1 / (pixels per unit)
+        # pixel size = 1 / (pixels per unit); ImageJ stores pixels per unit with 6 decimals, so 7
+        # significant digits of the pixel size are all it holds (0.275 um, not 0.275000048)
+        return float(f"{den / num:.7g}") if num else None
 
     unit = md.get("unit")
     size_x, size_y = per_pixel("XResolution"), per_pixel("YResolution")
@@ -789,8 +807,8 @@ def _ome_xml_calibration(xml, notes) -> Calibration:
 # ---------------------------------------------------------------------------------------------------------
 def _open_path(path: Path, key, channel, level) -> Source:
     if not path.exists():
-        raise InputError(f"path {str(path)!r} does not exist; expected a label image file ({', '.join(FILE_SUFFIXES)}), "
-                         f"a folder of images, a zarr store or an MPF run (.zarr)")
+        raise InputError(f"path {str(path)!r} does not exist; expected a label image file "
+                         f"({', '.join(FILE_SUFFIXES)}), a folder of images, a zarr store or an MPF run (.zarr)")
     try:
         if path.is_dir():
             if _is_zarr_dir(path):
