@@ -109,8 +109,9 @@ class Source:
         return t % self.n_frames
 
     def _raw(self, t) -> np.ndarray:
-        """Frame ``t`` as stored (RGB collapsed), not validated."""
-        return self._reader.read(self._index(t))
+        """Frame ``t`` as stored (RGB collapsed, native byte order), not validated."""
+        arr = self._reader.read(self._index(t))
+        return arr if arr.dtype.isnative else arr.astype(arr.dtype.newbyteorder("="))
 
     def frame(self, t) -> np.ndarray:
         """The label image of frame ``t``, read now (and only it).
@@ -133,7 +134,7 @@ class Source:
             not a valid label image.
         """
         t = self._index(t)
-        return validate_labels(self._reader.read(t), f"frame {t}")
+        return validate_labels(self._raw(t), f"frame {t}")
 
     def __len__(self) -> int:
         return self.n_frames
@@ -413,7 +414,8 @@ def _plan(axes, sizes, channel, what, full_axes=None) -> _Layout:
     else:
         frame = axes.find("T") if "T" in axes else None
     if frame is not None and axes[frame] != "T":
-        notes.append(f"the {axes[frame]} axis ({sizes[frame]}) is read as time: there is no T axis")
+        notes.append(f"the {axes[frame]} axis ({sizes[frame]}) is read as time: there is no T axis "
+                     f"{'longer than 1' if 'T' in axes else ''}".rstrip())
     return _Layout(axes, tuple(int(n) for n in sizes), frame, c if c >= 0 else None,
                    channel if c >= 0 else None, tuple(notes))
 
@@ -1021,7 +1023,9 @@ def _open_ome_zarr(group, ms, path, key, channel, level, where) -> Source:
         raise InputError(f"level={level} is out of range: OME-Zarr image {where} has {len(datasets)} level(s), "
                          f"0 to {len(datasets) - 1} (paths {[d.get('path') for d in datasets]})")
     dataset = datasets[level]
-    axes = [a if isinstance(a, dict) else {"name": a} for a in ms.get("axes") or []]
+    ndim = len(group[dataset["path"]].shape)
+    # NGFF 0.1/0.2 have no "axes": their images are (t, c, z, y, x); 0.3 names them with strings
+    axes = [a if isinstance(a, dict) else {"name": a} for a in ms.get("axes") or "tczyx"[5 - ndim:]]
     names = [str(a.get("name", "")).lower() for a in axes]
     if names[-2:] != ["y", "x"]:
         raise InputError(f"OME-Zarr image {where} has axes {names}; expected the last two to be 'y' and 'x'")

@@ -388,6 +388,22 @@ def test_rgb_tiff_pages_collapse(tmp_path):
     np.testing.assert_array_equal(s.frame(1), skeleton[1, ..., 0])
 
 
+def test_big_endian_and_one_bit_tiffs(tmp_path):
+    stack = movie(3, dtype=">u2")
+    tifffile.imwrite(tmp_path / "be.tif", stack, byteorder=">", photometric="minisblack")
+    s = open_source(tmp_path / "be.tif")
+    assert s.description["tiff_reading"] == "memmap"
+    assert_frames(s, stack)
+    assert s.frame(0).dtype == np.dtype("=u2")  # native byte order for the kernels
+    bits = np.zeros((3, 9, 10), bool)
+    bits[:, 2:5, 3:7] = True
+    bits[1, 0, 0] = True
+    tifffile.imwrite(tmp_path / "bits.tif", bits, photometric="minisblack")  # 1 bit per pixel: read page by page
+    s = open_source(tmp_path / "bits.tif")
+    assert_frames(s, bits.astype(np.uint8))
+    assert s.frame(1).dtype == np.uint8
+
+
 # -------------------------------------------------------------------------------------------------------------
 # OME-Zarr and MPF runs
 # -------------------------------------------------------------------------------------------------------------
