@@ -308,7 +308,7 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
         source = _from_list(obj, channel)
     elif hasattr(obj, "shape") and hasattr(obj, "__getitem__"):
         _refuse("an array", key=key, level=level)
-        reader = _ArrayReader("array", "the array", array=obj, channel=channel)
+        reader = _ArrayReader("the array", array=obj, channel=channel)
         source = _make(reader, {"kind": "array", "path": None, "channel": _int(channel)})
     else:
         raise InputError(f"obj must be a path, an array (rows x cols or T x rows x cols), a list of 2-D arrays, "
@@ -449,8 +449,8 @@ class _ArrayReader:
     opened on first use and not pickled.
     """
 
-    def __init__(self, kind, what, *, array=None, opener=None, axes=None, channel=None, rgb_allowed=True):
-        self.kind, self.what, self._opener = kind, what, opener
+    def __init__(self, what, *, array=None, opener=None, axes=None, channel=None, rgb_allowed=True):
+        self.what, self._opener = what, opener
         self._arr = array if array is not None else opener()
         shape = tuple(int(n) for n in self._arr.shape)
         self.axes = axes or _array_axes(shape, rgb_allowed)
@@ -519,10 +519,10 @@ class _TiffReader:
         except BaseException:
             tf.close()
             raise
-        if self.mode == "pages":
-            self._tf = tf
-        else:
+        if self.mode == "memmap":
             tf.close()
+        else:
+            self._tf = tf
 
     def _inspect(self, tf, channel):
         series = tf.series[0]
@@ -831,17 +831,16 @@ def _open_path(path: Path, key, channel, level) -> Source:
             _refuse("a .npy file", level=level)
             if path.name.endswith("_seg.npy"):
                 key = key or "masks"
-                reader = _ArrayReader("cellpose", repr(str(path)), opener=partial(_cellpose_entry, path, key),
-                                      channel=channel)
+                reader = _ArrayReader(repr(str(path)), opener=partial(_cellpose_entry, path, key), channel=channel)
                 return _make(reader, {"kind": "cellpose", "path": str(path), "key": key, "channel": _int(channel)})
             _refuse("a .npy file (it holds one array)", key=key)
-            reader = _ArrayReader("npy", repr(str(path)), opener=partial(np.load, path, mmap_mode="r",
-                                                                         allow_pickle=False), channel=channel)
+            opener = partial(np.load, path, mmap_mode="r", allow_pickle=False)
+            reader = _ArrayReader(repr(str(path)), opener=opener, channel=channel)
             return _make(reader, {"kind": "npy", "path": str(path), "channel": _int(channel)})
         if suffix == ".npz":
             _refuse("a .npz file", level=level)
             key = _npz_key(path, key)
-            reader = _ArrayReader("npz", repr(str(path)), opener=partial(_npz_entry, path, key), channel=channel)
+            reader = _ArrayReader(repr(str(path)), opener=partial(_npz_entry, path, key), channel=channel)
             return _make(reader, {"kind": "npz", "path": str(path), "key": key, "channel": _int(channel)})
     except InputError:
         raise
@@ -927,7 +926,7 @@ def _from_run(run, path=None) -> Source:
     n = int(labels.shape[0]) if hasattr(labels, "shape") else len(labels)
     if n < 1:
         raise InputError("the MPF run holds no frames yet; expected at least one")
-    reader = _ArrayReader("mpf_run", "the MPF run's labels", array=labels, axes="TYX", rgb_allowed=False)
+    reader = _ArrayReader("the MPF run's labels", array=labels, axes="TYX", rgb_allowed=False)
     save_every = attrs.get("save_every")
     calibration = Calibration(frame_interval=float(save_every), time_unit="iteration") if save_every else Calibration()
     run_path = getattr(run, "path", path)
@@ -961,7 +960,7 @@ def _open_zarr_path(path: Path, key, channel, level) -> Source:
     node = _zarr_node(path)
     if _is_zarr_array(node):
         _refuse("a zarr array", key=key, level=level)
-        reader = _ArrayReader("zarr", repr(str(path)), opener=partial(_zarr_node, path), channel=channel)
+        reader = _ArrayReader(repr(str(path)), opener=partial(_zarr_node, path), channel=channel)
         return _make(reader, {"kind": "zarr", "path": str(path), "channel": _int(channel)})
     return _open_zarr_group(node, path, key, channel, level)
 
@@ -993,7 +992,7 @@ def _open_zarr_group(group, path, key, channel, level) -> Source:
         if _is_zarr_array(node):
             _refuse("a zarr array", level=level)
             opener = partial(_zarr_node, path, key) if path is not None else None
-            reader = _ArrayReader("zarr", f"{where} key {key!r}", array=None if opener else node, opener=opener,
+            reader = _ArrayReader(f"{where} key {key!r}", array=None if opener else node, opener=opener,
                                   channel=channel)
             return _make(reader, {"kind": "zarr", "path": _str(path), "key": key, "channel": _int(channel)})
         attrs = dict(node.attrs)
@@ -1043,7 +1042,7 @@ def _open_ome_zarr(group, ms, path, key, channel, level, where) -> Source:
     array_key = dataset["path"] if key is None else f"{key}/{dataset['path']}"
     opener = partial(_zarr_node, path, array_key) if path is not None else None
     array = None if opener else group[dataset["path"]]
-    reader = _ArrayReader("ome-zarr", f"OME-Zarr image {where} level {level}", array=array, opener=opener,
+    reader = _ArrayReader(f"OME-Zarr image {where} level {level}", array=array, opener=opener,
                           axes=letters, channel=channel)
     scale = _ngff_scale(ms, dataset, len(axes))
     notes = []

@@ -61,6 +61,7 @@ def png_write(path, image):
 def test_2d_array_is_one_frame():
     image = movie(1)[0]
     s = open_source(image)
+    assert isinstance(s, Source)
     assert_frames(s, image[None])
     assert s.box is None and s.ids_consistent is False and s.calibration == Calibration()
     assert s.description["kind"] == "array" and s.description["frame_axis"] is None
