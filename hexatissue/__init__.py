@@ -18,6 +18,7 @@ from .defects import defect_density, defect_events, find_defects, track_defects
 from .order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius, shape_function, shape_order
 from .events import cell_event_stats, detect_t1, intercalation_intervals
 from .pipeline import analyze
+from .source import Source, open_source
 from .track import Tracker, lineage_table, track_labels
 from .theory import active_force, ell6, quadrupole_flow, quadrupole_psi
 
@@ -40,6 +41,8 @@ __all__ = [
     "shape_order",
     "InputError",
     "HexatissueWarning",
+    "open_source",
+    "Source",
     "read_labels",
     "read_table",
     "write_table",

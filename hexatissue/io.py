@@ -17,8 +17,6 @@ from .errors import InputError
 
 __all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path"]
 
-LABEL_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz")
-
 
 def _current_umask() -> int:
     mask = os.umask(0)
@@ -29,75 +27,51 @@ def _current_umask() -> int:
 _UMASK = _current_umask()
 
 
-def _collapse_rgb(arr: np.ndarray, path) -> np.ndarray:
-    """RGB(A) images whose colour channels are equal (skeletons saved as RGB) become one channel."""
-    if arr.ndim >= 3 and arr.shape[-1] in (3, 4):
-        rgb = arr[..., :3]
-        if np.array_equal(rgb[..., 0], rgb[..., 1]) and np.array_equal(rgb[..., 0], rgb[..., 2]):
-            return rgb[..., 0]
-        # distinct colours: encode each colour as one integer label
-        rgb = rgb.astype(np.int64)
-        return (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
-    return arr
+def read_labels(path, key: str | None = None, *, channel: int | None = None) -> np.ndarray:
+    """Read a 2-D label image or a T x Y x X label stack, whole (eager).
 
-
-def read_labels(path, key: str | None = None) -> np.ndarray:
-    """Read a 2-D label image or a T x Y x X label stack.
+    Built on the readers of :func:`hexatissue.open_source`, which reads the
+    same files lazily, one frame at a time, with their calibration.
 
     Parameters
     ----------
     path : str or Path
         ``.tif``/``.tiff`` (tifffile), ``.png``, ``.npy``, a Cellpose
-        ``*_seg.npy`` (its ``masks``), or ``.npz`` (array ``key``, by default
-        ``labels`` or the only array in the file).
+        ``*_seg.npy`` (its ``masks``), ``.npz`` (array ``key``, by default
+        ``labels`` or the only array in the file), or any other path
+        :func:`hexatissue.open_source` reads (zarr, OME-Zarr, a folder of
+        images, an MPF run store).
     key : str, optional
-        Array name inside an ``.npz`` or a Cellpose ``_seg.npy`` file.
+        Array name inside an ``.npz``, a Cellpose ``_seg.npy`` file or a zarr
+        group.
+    channel : int, optional
+        Index along the channel axis of a multi-channel file.
 
     Returns
     -------
     numpy.ndarray
-        Indexed ``[row, col]`` or ``[t, row, col]``.  RGB images with equal
-        channels (skeletons saved as RGB) are reduced to one channel.
+        Indexed ``[row, col]``, or ``[t, row, col]`` when the data have a
+        frame axis.  RGB images with equal channels (skeletons saved as RGB)
+        are reduced to one channel; distinct colours become one integer per
+        colour (``R << 16 | G << 8 | B``), decided frame by frame.  Values are
+        as stored (not validated).
 
     Raises
     ------
     InputError
-        The file is missing, has an unknown suffix or cannot be read.
+        The file is missing, has an unknown suffix or cannot be read, or has
+        several channels and no ``channel``.
     """
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"path {str(path)!r} does not exist; expected a label image file")
-    suffix = path.suffix.lower()
-    try:
-        if suffix in (".tif", ".tiff"):
-            import tifffile
+    from .source import open_source
 
-            arr = tifffile.imread(path)
-        elif suffix == ".png":
-            import imageio.v3 as iio
-
-            arr = iio.imread(path)
-        elif suffix == ".npy":
-            if path.name.endswith("_seg.npy"):
-                # Cellpose saves a pickled dict; only files of that name are unpickled.
-                arr = np.asarray(np.load(path, allow_pickle=True).item()[key or "masks"])
-            else:
-                arr = np.load(path, allow_pickle=False)
-        elif suffix == ".npz":
-            with np.load(path, allow_pickle=False) as data:
-                names = list(data.keys())
-                if key is None:
-                    key = "labels" if "labels" in names else (names[0] if len(names) == 1 else None)
-                if key not in names:
-                    raise InputError(f"{path.name}: choose an array with key=; it holds {names}")
-                arr = data[key]
-        else:
-            raise InputError(f"path {str(path)!r} has unknown suffix {suffix!r}; expected one of {LABEL_SUFFIXES}")
-    except InputError:
-        raise
-    except Exception as exc:  # any reader failure becomes a clear InputError
-        raise InputError(f"could not read label image {str(path)!r}: {type(exc).__name__}: {exc}") from exc
-    return _collapse_rgb(np.asarray(arr), path)
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"path must be a str or Path; got {type(path).__name__} (use hexatissue.open_source for "
+                         f"arrays)")
+    source = open_source(path, key=key, channel=channel)
+    frames = [source._raw(t) for t in range(source.n_frames)]
+    if source.description["frame_axis"] is None:
+        return frames[0]
+    return np.stack(frames)
 
 
 def atomic_path(path):
