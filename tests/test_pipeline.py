@@ -1,4 +1,4 @@
-"""analyze_movie end to end: rasterised synthetic movies with exact truth, executors, inputs, real data."""
+"""hexatissue.analyze end to end: rasterised synthetic movies with exact truth, executors, inputs, real data."""
 import warnings
 from types import SimpleNamespace
 
@@ -8,10 +8,18 @@ import pytest
 
 from hexatissue.box import Box
 from hexatissue.errors import HexatissueWarning, InputError
-from hexatissue.pipeline import analyze_movie
+from hexatissue import EventOptions, TrackOptions, analyze
 from hexatissue.synthetic import relabel_movie, t1_movie, voronoi_movie
 from tests.conftest import real_subdir
 from tests.test_events import assert_valid_quartets
+
+def analyze_movie(source, box=None, *, workers=1, min_length=0.0, censor=10, track=None, max_gap=0, client=None,
+                  checkpoint=None, checkpoint_every=100):
+    """analyze() with the event and tracking options of these tests, one process by default, no progress bar."""
+    return analyze(source, box=box, track=TrackOptions(enabled=track, max_gap=max_gap),
+                   events=EventOptions(min_length=min_length, censor=censor), workers=workers, client=client,
+                   checkpoint=checkpoint, checkpoint_every=checkpoint_every)
+
 
 KEY = ["kind", "frame_start", "frame_end", "duration", "cell_a", "cell_b", "cell_c", "cell_d", "frame_gain"]
 
@@ -39,16 +47,16 @@ def _events_by_truth_ids(events, cells, maps):
 
 
 def test_rasterised_movie_events_equal_truth(movie):
-    mv = analyze_movie(movie.labels, box=movie.box, n_workers=1, min_length=movie.min_length,
-                       censor=movie.censor, progress=False)
-    ev = mv.extra["events"]
+    mv = analyze_movie(movie.labels, box=movie.box, workers=1, min_length=movie.min_length,
+                       censor=movie.censor)
+    ev = mv.events
     pd.testing.assert_frame_equal(ev[KEY].astype({"kind": object}), movie.events[KEY].astype({"kind": object}))
     # quartet centre from pixel centroids vs from the seeds
     np.testing.assert_allclose(ev[["x", "y"]], movie.events[["x", "y"]], atol=1.5)
     assert (mv.cells["track"] == mv.cells["cell"]).all()
-    lin = mv.extra["lineage"]
+    lin = mv.lineage
     assert len(lin) == movie.labels.max() and (lin["begin"] == "movie_start").all()
-    stats = mv.extra["cell_events"].set_index("track")
+    stats = mv.cell_events.set_index("track")
     assert stats["n_cycles"].sum() == 4 * 2 and stats["n_intercalations"].sum() == 4 * 2
     cyc = movie.events[movie.events["kind"] == "cycle"].iloc[0]
     assert stats.loc[cyc["cell_a"], "mean_cycle_period"] == cyc["duration"]
@@ -56,9 +64,9 @@ def test_rasterised_movie_events_equal_truth(movie):
 
 def test_relabelled_movie_gives_same_events_with_a_process_pool(movie):
     relabelled, maps = relabel_movie(movie.labels, seed=7)
-    mv = analyze_movie(relabelled, box=movie.box, n_workers=2, min_length=movie.min_length,
-                       censor=movie.censor, progress=False)
-    got = _events_by_truth_ids(mv.extra["events"], mv.cells, maps)
+    mv = analyze_movie(relabelled, box=movie.box, workers=2, min_length=movie.min_length,
+                       censor=movie.censor)
+    got = _events_by_truth_ids(mv.events, mv.cells, maps)
     pd.testing.assert_frame_equal(got[KEY].astype({"kind": object}), movie.events[KEY].astype({"kind": object}))
 
 
@@ -66,10 +74,10 @@ def test_dask_client_gives_the_serial_result():
     distributed = pytest.importorskip("distributed")
     stack = voronoi_movie(30, (80, 110), 6, periodic=True, amplitude=0.5, seed=4)
     box = Box(110, 80)
-    serial = analyze_movie(stack, box=box, n_workers=1, progress=False)
+    serial = analyze_movie(stack, box=box, workers=1)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-        parallel = analyze_movie(stack, box=box, client=client, progress=False)
+        parallel = analyze_movie(stack, box=box, client=client)
     for name, table in serial.tables().items():
         pd.testing.assert_frame_equal(parallel.tables()[name], table)
 
@@ -79,45 +87,47 @@ def test_run_objects_skip_tracking_unless_forced():
     labels = np.stack([stack[t] for t in range(4)])
     relabelled, maps = relabel_movie(labels, seed=3)
     run = SimpleNamespace(labels=relabelled, box=Box(110, 80), cells=None, params=None)
-    mv = analyze_movie(run, n_workers=1, progress=False)
+    mv = analyze_movie(run, workers=1)
     assert mv.box == run.box
     assert (mv.cells["track"] == mv.cells["cell"]).all()  # identity trusted
-    mv = analyze_movie(run, track=True, n_workers=1, progress=False)
+    mv = analyze_movie(run, track=True, workers=1)
     orig = np.array([maps[f][c] for f, c in zip(mv.cells["frame"], mv.cells["cell"])])
     assert len(set(zip(mv.cells["track"], orig))) == len(np.unique(orig)) == mv.cells["track"].nunique()
     # a label stack can be trusted too
-    mv = analyze_movie(relabelled, box=True, track=False, n_workers=1, progress=False)
+    mv = analyze_movie(relabelled, box=True, track=False, workers=1)
     assert (mv.cells["track"] == mv.cells["cell"]).all() and mv.box == run.box
 
 
 def test_inputs_and_writing(tmp_path):
     stack = voronoi_movie(20, (60, 90), 3, periodic=False, seed=0)
-    from_lazy = analyze_movie(stack, n_workers=1, progress=False)
-    from_list = analyze_movie([stack[t] for t in range(3)], n_workers=1, progress=False)
+    from_lazy = analyze_movie(stack, workers=1)
+    from_list = analyze_movie([stack[t] for t in range(3)], workers=1)
     pd.testing.assert_frame_equal(from_lazy.cells, from_list.cells)
     assert sorted(from_lazy.frames.tolist()) == [0, 1, 2]
     paths = from_lazy.write(tmp_path)
     names = {p.name for p in paths}
     assert {"events.parquet", "lineage.parquet", "cell_events.parquet", "cells.parquet"} <= names
     back = pd.read_parquet(tmp_path / "lineage.parquet")
-    assert list(back.columns) == list(from_lazy.extra["lineage"].columns)
+    assert list(back.columns) == list(from_lazy.lineage.columns)
     # a saved stack file is read too
     np.save(tmp_path / "stack.npy", np.stack([stack[t] for t in range(3)]))
-    from_file = analyze_movie(tmp_path / "stack.npy", n_workers=1, progress=False)
+    from_file = analyze_movie(tmp_path / "stack.npy", workers=1)
     pd.testing.assert_frame_equal(from_file.cells, from_lazy.cells)
 
 
 def test_bad_input():
-    with pytest.raises(InputError, match="T x rows x cols"):
-        analyze_movie(np.ones((5, 5), int), progress=False)
     with pytest.raises(InputError, match="empty"):
-        analyze_movie([], progress=False)
+        analyze_movie([])
     with pytest.raises(InputError, match="does not match"):
-        analyze_movie(np.ones((2, 5, 6), int), box=Box(5, 6), n_workers=1, progress=False)
-    with pytest.raises(InputError, match="n_workers"):
-        analyze_movie(np.ones((2, 5, 6), int), n_workers=0, progress=False)
-    with pytest.raises(InputError, match="stack_or_run"):
-        analyze_movie(42, progress=False)
+        analyze_movie(np.ones((2, 5, 6), int), box=Box(5, 6), workers=1)
+    with pytest.raises(InputError, match="workers"):
+        analyze_movie(np.ones((2, 5, 6), int), workers=0)
+    with pytest.raises(InputError, match="must be a path, an array"):
+        analyze_movie(42)
+    with pytest.raises(InputError, match="mesh must be a hexatissue.MeshOptions"):
+        analyze(np.ones((2, 5, 6), int), mesh={"kind": "touching"})
+    with pytest.raises(InputError, match="EventOptions.censor"):
+        EventOptions(censor=-1)
 
 
 def test_epicure_division_through_the_pipeline(real_data):
@@ -128,13 +138,13 @@ def test_epicure_division_through_the_pipeline(real_data):
     relabelled, maps = relabel_movie(labels.astype(np.int64), seed=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
-        mv = analyze_movie(relabelled, n_workers=1, max_gap=4, progress=False)
+        mv = analyze_movie(relabelled, workers=1, max_gap=4)
     cells = mv.cells.assign(curated=[maps[f][c] for f, c in zip(mv.cells["frame"], mv.cells["cell"])])
     track_of = cells.drop_duplicates("curated").set_index("curated")["track"]
-    lin = mv.extra["lineage"].set_index("track")
+    lin = mv.lineage.set_index("track")
     assert lin.loc[track_of[73], "end"] == "division"
     assert lin.loc[track_of[477], "parent"] == lin.loc[track_of[490], "parent"] == track_of[73]
-    assert_valid_quartets(mv.extra["events"], mv.edges, mv.cells)
+    assert_valid_quartets(mv.events, mv.edges, mv.cells)
 
 
 @pytest.mark.parametrize("pos", ["pos00", "pos01", "pos02"])
@@ -146,10 +156,10 @@ def test_itasc_events_are_valid_quartets_and_stable_under_relabelling(real_data,
     labels = tifffile.imread(path).astype(np.int64)  # AGPL data: read in place, never copied
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
-        mv = analyze_movie(labels, n_workers=1, censor=3, progress=False)
+        mv = analyze_movie(labels, workers=1, censor=3)
         relabelled, maps = relabel_movie(labels, seed=5)
-        mv2 = analyze_movie(relabelled, n_workers=1, censor=3, progress=False)
-    ev = mv.extra["events"]
+        mv2 = analyze_movie(relabelled, workers=1, censor=3)
+    ev = mv.events
     assert len(ev) > 0
     assert_valid_quartets(ev, mv.edges, mv.cells)
     # same events once the relabelled run's tracks are mapped back to the original tracks
@@ -159,7 +169,7 @@ def test_itasc_events_are_valid_quartets_and_stable_under_relabelling(real_data,
         to_first.setdefault(t, set()).add(orig_track[(f, maps[f][c])])
     assert all(len(v) == 1 for v in to_first.values())
     maps_back = {t: v.pop() for t, v in to_first.items()}
-    got = mv2.extra["events"].copy()
+    got = mv2.events.copy()
     for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
         got[col] = got[col].map(maps_back)
     canon = lambda df: sorted((r.kind, r.frame_start, r.frame_gain, tuple(sorted((r.cell_a, r.cell_b))),
@@ -182,18 +192,16 @@ class _FailingStack:
 def test_checkpoint_resume_gives_the_uninterrupted_result(tmp_path):
     mov = voronoi_movie(25, (70, 90), 7, periodic=False, amplitude=0.5, seed=8)
     stack = relabel_movie(np.stack([mov[t] for t in range(7)]), seed=2)[0]
-    full = analyze_movie(stack, n_workers=1, progress=False)
+    full = analyze_movie(stack, workers=1)
     with pytest.raises(RuntimeError, match="simulated crash"):
-        analyze_movie(_FailingStack(stack, 5), n_workers=1, checkpoint=tmp_path, checkpoint_every=2,
-                      progress=False)
+        analyze_movie(_FailingStack(stack, 5), workers=1, checkpoint=tmp_path, checkpoint_every=2)
     assert sorted(p.name for p in tmp_path.glob("cells_*.parquet")) == ["cells_00000002.parquet",
                                                                          "cells_00000004.parquet"]
-    resumed = analyze_movie(_FailingStack(stack, 1), n_workers=1, checkpoint=tmp_path, checkpoint_every=2,
-                            progress=False)  # frames 0-3 come from the checkpoint and are not read again
+    resumed = analyze_movie(_FailingStack(stack, 1), workers=1, checkpoint=tmp_path, checkpoint_every=2)  # frames 0-3 come from the checkpoint and are not read again
     for name, table in full.tables().items():
         pd.testing.assert_frame_equal(resumed.tables()[name], table)
     with pytest.raises(InputError, match="other options"):
-        analyze_movie(stack, n_workers=1, checkpoint=tmp_path, max_gap=3, progress=False)
+        analyze_movie(stack, workers=1, checkpoint=tmp_path, max_gap=3)
 
 
 def test_short_mpf_run_end_to_end(tmp_path):
@@ -202,9 +210,9 @@ def test_short_mpf_run_end_to_end(tmp_path):
         pytest.skip("hexatissue.simulate.read_run is not available")
     params = simulate.Params(n_cells=6, Lx=48, Ly=44, D_r=1e-3, v0=0.01)
     path = tmp_path / "run.zarr"
-    simulate.run_simulation(path, params, steps=60, save_every=10, relax=30, seed=5, progress=False)
+    simulate.run_simulation(path, params, steps=60, save_every=10, relax=30, seed=5)
     run = simulate.read_run(path)
-    mv = analyze_movie(path, n_workers=1, progress=False)  # a run store path: read with read_run
+    mv = analyze_movie(path, workers=1)  # a run store path: read with read_run
     assert mv.box == run.box and len(mv) == run.labels.shape[0]
     assert (mv.cells["track"] == mv.cells["cell"]).all()  # MPF ids are consistent: no tracking
     # every simulated cell is found, and its phase-field centre lies inside its own label region
@@ -216,6 +224,6 @@ def test_short_mpf_run_end_to_end(tmp_path):
     assert (np.array(owner) == both["cell"].to_numpy()).all()
     d = run.box.min_image(both[["x", "y"]].to_numpy() - both[["x_run", "y_run"]].to_numpy())
     assert np.abs(d).max() < 6.0
-    lin = mv.extra["lineage"]
+    lin = mv.lineage
     assert len(lin) == params.n_cells and (lin["begin"] == "movie_start").all()
-    assert_valid_quartets(mv.extra["events"], mv.edges, mv.cells)
+    assert_valid_quartets(mv.events, mv.edges, mv.cells)
