@@ -1,12 +1,65 @@
+import json
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
 import tifffile
 
+import hexatissue as ht
 from hexatissue.cli import main
 from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
-SAMPLE = "sample_data/epicure_notum/013_crop_labels.tif"
+SAMPLE = str(Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif")
+
+
+def assert_same_results(cli_dir, api_dir):
+    """Two results folders hold identical tables and the same metadata (bar the source path)."""
+    a, b = ht.read_results(cli_dir), ht.read_results(api_dir)
+    assert set(a.tables()) == set(b.tables())
+    for name, table in a.tables().items():
+        pd.testing.assert_frame_equal(table, b.tables()[name], obj=name)
+    assert a.metadata() == b.metadata()
+
+
+def _cellpose_file(tmp_path):
+    labels = voronoi_labels(jittered_seeds((90, 120), 15, seed=3), (90, 120))
+    path = tmp_path / "img_seg.npy"
+    np.save(path, {"masks": labels.astype(np.uint16), "outlines": labels * 0}, allow_pickle=True)
+    return path
+
+
+def _mpf_run(tmp_path):
+    from hexatissue.simulate import Params, run_simulation
+
+    path = tmp_path / "run.zarr"
+    run_simulation(path, Params(n_cells=6, Lx=48, Ly=44, v0=0.01), steps=60, save_every=10, relax=30, seed=5,
+                   progress=False)
+    return path
+
+
+@pytest.mark.parametrize("make", ["sample", "mpf", "cellpose"])
+def test_cli_and_library_write_identical_results(tmp_path, make, capsys):
+    """hexatissue analyze X --out D == analyze(open_source(X)).write(D) for the bundled sample, an MPF run, Cellpose."""
+    path = {"sample": lambda: SAMPLE, "mpf": lambda: _mpf_run(tmp_path), "cellpose": lambda: _cellpose_file(tmp_path)}[make]()
+    assert main(["analyze", str(path), "--out", str(tmp_path / "cli"), "--workers", "1"]) == 0
+    ht.analyze(ht.open_source(path), workers=1, progress=False).write(tmp_path / "api")
+    assert_same_results(tmp_path / "cli", tmp_path / "api")
+    back = ht.read_results(tmp_path / "cli")
+    assert back.source["path"] == str(path)
+
+
+def test_epicure_calibration_comes_from_the_tiff_and_can_be_overridden(tmp_path):
+    assert main(["analyze", SAMPLE, "--out", str(tmp_path / "a"), "--workers", "1", "--no-fields"]) == 0
+    meta = json.loads((tmp_path / "a" / "metadata.json").read_text())
+    assert meta["calibration"]["pixel_size"] == 0.2 and meta["calibration"]["length_unit"] == "um"
+    assert main(["analyze", SAMPLE, "--out", str(tmp_path / "b"), "--workers", "1", "--no-fields",
+                 "--pixel-size", "0.1", "--frame-interval", "5"]) == 0
+    cal = ht.read_results(tmp_path / "b").calibration
+    assert cal == ht.Calibration(0.1, "um", 5.0, "min")
+    # the tables stay in px whatever the calibration
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "a" / "cells.parquet"),
+                                  pd.read_parquet(tmp_path / "b" / "cells.parquet"))
 
 
 def test_analyze_single_image(tmp_path, capsys):
@@ -23,11 +76,8 @@ def test_analyze_single_image(tmp_path, capsys):
 
 
 def test_analyze_stack_writes_frame_column(tmp_path):
-    from pathlib import Path
-
-    sample = Path(__file__).resolve().parents[1] / SAMPLE
     out = tmp_path / "out"
-    assert main(["analyze", str(sample), "--out", str(out), "--format", "parquet", "csv"]) == 0
+    assert main(["analyze", SAMPLE, "--out", str(out), "--format", "parquet", "csv"]) == 0
     cells = pd.read_csv(out / "cells.csv")
     assert sorted(cells["frame"].unique()) == list(range(11))
     per_frame = cells.groupby("frame").size()
@@ -49,7 +99,7 @@ def test_analyze_figures(tmp_path):
     labels = voronoi_labels(jittered_seeds((120, 150), 14, seed=1), (120, 150))
     path = tmp_path / "labels.npy"
     np.save(path, labels)
-    assert main(["analyze", str(path), "--out", str(tmp_path / "out"), "--figures", "--order-p", "6"]) == 0
+    assert main(["analyze", str(path), "--out", str(tmp_path / "out"), "--figures", "--p", "6"]) == 0
     pngs = sorted(p.name for p in (tmp_path / "out" / "figures").glob("*.png"))
     assert pngs == ["gamma6_defects.png", "polygons.png", "stars6.png"]
     assert all((tmp_path / "out" / "figures" / name).stat().st_size > 10_000 for name in pngs)

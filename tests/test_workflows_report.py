@@ -5,12 +5,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hexatissue.analysis import command
-from hexatissue.analysis.report import box_from_grid, load_results, report
+from hexatissue import Calibration, EventOptions, OrderOptions, analyze, read_results
 from hexatissue.box import Box
 from hexatissue.errors import InputError
-from hexatissue.results import analyze_to_folder
 from hexatissue.synthetic import voronoi_movie
+from hexatissue.workflows import command, report
 
 from .conftest import real_subdir
 
@@ -18,13 +17,20 @@ ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 
 
+def analyze_to(source, out, periodic=False, censor=10, p=(6, 2)):
+    """What ``hexatissue analyze SOURCE --out OUT`` does: analyze, then write the results folder."""
+    movie = analyze(source, box=True if periodic else None, events=EventOptions(censor=censor),
+                    order=OrderOptions(p=p), workers=1, progress=False)
+    movie.write(out)
+    return out
+
+
 @pytest.fixture(scope="module")
 def movie_results(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("movie")
     m = voronoi_movie(40, (90, 100), 16, periodic=True, amplitude=0.5, seed=1)
     np.save(tmp / "movie.npy", np.stack([m[t] for t in range(len(m))]))
-    analyze_to_folder(tmp / "movie.npy", tmp / "results", periodic=True, n_workers=1, censor=3)
-    return tmp / "results"
+    return analyze_to(tmp / "movie.npy", tmp / "results", periodic=True, censor=3)
 
 
 def _png_ok(path):
@@ -32,10 +38,8 @@ def _png_ok(path):
     return data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
 
 
-def test_box_is_recovered_from_the_grid(movie_results):
-    tables, meta = load_results(movie_results)
-    assert meta["periodic"] is True
-    assert box_from_grid(tables["grid"]) == Box(100.0, 90.0)
+def test_the_results_folder_is_read_back_with_its_box(movie_results):
+    assert read_results(movie_results).box == Box(100.0, 90.0)
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +81,7 @@ def test_report_tables_use_the_box_and_the_window(movie_report):
 def test_report_on_a_single_frame(movie_results, tmp_path):
     m = voronoi_movie(40, (90, 100), 1, periodic=True, seed=1)
     np.save(tmp_path / "frame.npy", m[0])
-    analyze_to_folder(tmp_path / "frame.npy", tmp_path / "res", periodic=True)
+    analyze_to(tmp_path / "frame.npy", tmp_path / "res", periodic=True)
     numbers = report(tmp_path / "res")
     out = tmp_path / "res" / "report"
     pngs = sorted(p.name for p in out.glob("*.png"))
@@ -91,38 +95,40 @@ def test_report_on_a_single_frame(movie_results, tmp_path):
 def test_report_command_passes_its_options(monkeypatch, tmp_path, capsys):
     import argparse
 
-    import hexatissue.analysis.report as report_module
+    import sys
+
+    report_module = sys.modules["hexatissue.workflows.report"]  # the package exports the function of that name
 
     seen = {}
 
     def fake(results, out, **kw):
-        seen.update(kw, results=results, out=out)
+        seen.update(kw, calibration=results.calibration, out=out)
         return {"written": [str(tmp_path / "report.md")]}
 
     monkeypatch.setattr(report_module, "report", fake)
+    res = analyze_to(voronoi_movie(20, (50, 60), 1, seed=0)[0], tmp_path / "res")
     parser = argparse.ArgumentParser()
     command.add_parser(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(["report", "RES", "--out", "OUT", "--dt", "5", "--dl", "30", "--seed", "2",
+    args = parser.parse_args(["report", str(res), "--out", "OUT", "--dt", "5", "--dl", "30", "--seed", "2",
                               "--n-control", "3", "--frame-interval", "500", "--time-unit", "iterations",
-                              "--include-border", "--control", "vertices"])
+                              "--include-border", "--control", "vertices", "--pixel-size", "0.25"])
     assert args.func(args) == 0
-    assert seen == {"results": "RES", "out": "OUT", "p": 6, "dl": 30.0, "dt": 5, "n_control": 3, "seed": 2,
-                    "frame_interval": 500.0, "time_unit": "iterations", "include_border": True,
-                    "control": "vertices"}
+    assert seen == {"out": "OUT", "p": 6, "dl": 30.0, "dt": 5, "n_control": 3, "seed": 2, "include_border": True,
+                    "control": "vertices", "calibration": Calibration(0.25, "um", 500.0, "iteration")}
     assert "report written" in capsys.readouterr().out
 
 
 def test_report_bad_folder(tmp_path):
-    with pytest.raises(InputError, match="not a folder"):
+    with pytest.raises(InputError, match="does not exist or is not a folder"):
         report(tmp_path / "missing")
-    with pytest.raises(InputError, match="no cells table"):
+    with pytest.raises(InputError, match="no metadata.json"):
         report(tmp_path)
 
 
 @pytest.mark.slow
 def test_report_on_the_bundled_epicure_sample(tmp_path):
     res = tmp_path / "epicure"
-    analyze_to_folder(SAMPLE, res, n_workers=1)
+    analyze_to(SAMPLE, res)
     numbers = report(res, dt=3)
     out = res / "report"
     assert numbers["frames"] == 11
@@ -136,7 +142,7 @@ def test_report_on_the_bundled_epicure_sample(tmp_path):
 def test_report_on_a_real_microscopy_movie(real_data, tmp_path):
     path = real_subdir(real_data, "itasc_micropattern") / "pos00" / "cell_labels.tif"
     res = tmp_path / "itasc"
-    analyze_to_folder(path, res, n_workers=1, censor=3, order_p=(6,))
+    analyze_to(path, res, censor=3, p=(6,))
     numbers = report(res, dt=3)
     events = pd.read_parquet(res / "events.parquet")
     assert len(events) > 0 and numbers["proximity"]["n_events"] > 0
@@ -155,7 +161,24 @@ def test_report_through_the_hexatissue_command(tmp_path):
 
     m = voronoi_movie(30, (70, 80), 1, periodic=False, seed=2)
     np.save(tmp_path / "frame.npy", m[0])
-    analyze_to_folder(tmp_path / "frame.npy", tmp_path / "res", order_p=(6,))
+    analyze_to(tmp_path / "frame.npy", tmp_path / "res", p=(6,))
     assert cli.main(["report", str(tmp_path / "res"), "--out", str(tmp_path / "cli")]) == 0
     assert (tmp_path / "cli" / "report.md").exists() and _png_ok(tmp_path / "cli" / "order6.png")
     assert cli.main(["report", str(tmp_path / "nothing")]) == 2  # InputError -> exit code 2
+
+
+def test_report_shows_physical_units_from_the_results(tmp_path):
+    """A calibrated movie reports micrometres; a different pixel size scales every length."""
+    m = voronoi_movie(30, (70, 80), 8, periodic=True, amplitude=0.5, seed=4)
+    stack = np.stack([m[t] for t in range(8)])
+    numbers = {}
+    for size in (0.2, 0.4):
+        movie = analyze(stack, box=True, events=EventOptions(censor=2), workers=1, progress=False)
+        movie = movie.replace(calibration=Calibration(size, "um", 5.0, "min"))
+        numbers[size] = report(movie, tmp_path / f"r{size}", dt=3)
+        text = (tmp_path / f"r{size}" / "report.md").read_text()
+        assert f"pixel size: {size:g} µm" in text and "frame interval: 5 min" in text
+    median = numbers[0.2]["proximity"]["median_dr_events"]
+    assert numbers[0.4]["proximity"]["median_dr_events"] == median  # tables stay in px
+    lines = [(tmp_path / f"r{s}" / "report.md").read_text() for s in (0.2, 0.4)]
+    assert f"({median * 0.2:.3g} µm)" in lines[0] and f"({median * 0.4:.3g} µm)" in lines[1]

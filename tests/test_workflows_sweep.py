@@ -5,18 +5,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hexatissue.analysis import sweep
+from hexatissue import Calibration, EventOptions, read_results
+from hexatissue.workflows import sweep
 from hexatissue.errors import InputError
 from hexatissue.simulate import Params, read_run, run_simulation
 
 BASE = Params(n_cells=6, Lx=48, Ly=44, v0=0.01)
 RUN = dict(steps=60, save_every=10, relax=30, seed=5)
-ANALYZE = {"censor": 2}
+ANALYZE = {"events": EventOptions(censor=2)}
 
 
 def test_sweep_runs_analyses_and_skips_finished_runs(tmp_path):
     out = tmp_path / "sw"
-    table = sweep("dr", [1e-3, 1e-2], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    table = sweep("dr", [1e-3, 1e-2], out, params=BASE, workers=1, progress=False, **ANALYZE, **RUN)
     assert table["status"].tolist() == ["new", "new"]
     assert table["value"].tolist() == [1e-3, 1e-2] and set(table["param"]) == {"D_r"}
     for value, path, results in table[["value", "path", "results"]].itertuples(index=False):
@@ -24,10 +25,10 @@ def test_sweep_runs_analyses_and_skips_finished_runs(tmp_path):
         assert run.params.D_r == value and len(run) == 7 and run.params.n_cells == 6
         cells = pd.read_parquet(f"{results}/cells.parquet")
         assert sorted(cells["frame"].unique()) == list(range(7))
-        assert json.loads(open(f"{results}/metadata.json").read())["periodic"] is True
+        assert json.loads(open(f"{results}/metadata.json").read())["box"] == [48.0, 44.0]
     assert (out / "D_r=0.001" / "done.json").exists()
     stamp = (out / "D_r=0.001" / "done.json").stat().st_mtime_ns
-    again = sweep("D_r", [1e-3, 1e-2], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    again = sweep("D_r", [1e-3, 1e-2], out, params=BASE, workers=1, progress=False, **ANALYZE, **RUN)
     assert again["status"].tolist() == ["skipped", "skipped"]
     assert (out / "D_r=0.001" / "done.json").stat().st_mtime_ns == stamp
     assert again["n_frames"].tolist() == [7, 7]
@@ -39,7 +40,7 @@ def test_sweep_resumes_a_partial_run_exactly(tmp_path):
     part.parent.mkdir(parents=True)
     run_simulation(part, BASE.replace(D_r=1e-3), steps=30, save_every=10, relax=30, seed=5, progress=False)
     assert len(read_run(part)) == 4
-    table = sweep("dr", [1e-3], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    table = sweep("dr", [1e-3], out, params=BASE, workers=1, progress=False, **ANALYZE, **RUN)
     assert table["status"].tolist() == ["resumed"] and table["n_frames"].tolist() == [7]
     full = tmp_path / "full.zarr"
     run_simulation(full, BASE.replace(D_r=1e-3), progress=False, **RUN)
@@ -48,10 +49,10 @@ def test_sweep_resumes_a_partial_run_exactly(tmp_path):
 
 def test_sweep_refuses_to_mix_settings(tmp_path):
     out = tmp_path / "sw"
-    sweep("dr", [1e-3], out, params=BASE, n_workers=1, progress=False, analyze_options=ANALYZE, **RUN)
+    sweep("dr", [1e-3], out, params=BASE, workers=1, progress=False, **ANALYZE, **RUN)
     (out / "D_r=0.001" / "done.json").unlink()
     with pytest.raises(InputError, match="seed"):
-        sweep("dr", [1e-3], out, params=BASE, n_workers=1, progress=False, **{**RUN, "seed": 6})
+        sweep("dr", [1e-3], out, params=BASE, workers=1, progress=False, **{**RUN, "seed": 6})
 
 
 def test_sweep_never_overwrites_a_foreign_folder(tmp_path):
@@ -59,7 +60,7 @@ def test_sweep_never_overwrites_a_foreign_folder(tmp_path):
     foreign.mkdir(parents=True)
     (foreign / "precious.txt").write_text("keep me")
     with pytest.raises(InputError, match="not an MPF run store"):
-        sweep("dr", [1e-3], tmp_path / "sw", params=BASE, n_workers=1, progress=False, **RUN)
+        sweep("dr", [1e-3], tmp_path / "sw", params=BASE, workers=1, progress=False, **RUN)
     assert (foreign / "precious.txt").read_text() == "keep me"
 
 
@@ -76,13 +77,13 @@ def test_sweep_bad_input(tmp_path):
 def test_sweep_in_local_processes_and_on_dask(tmp_path):
     from distributed import Client, LocalCluster
 
-    local = sweep("dr", [1e-3, 1e-2], tmp_path / "local", params=BASE, n_workers=2, progress=False,
-                  analyze_options=ANALYZE, **RUN)
+    local = sweep("dr", [1e-3, 1e-2], tmp_path / "local", params=BASE, workers=2, progress=False,
+                  **ANALYZE, **RUN)
     assert local["status"].tolist() == ["new", "new"]
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             Client(cluster) as client:
         remote = sweep("dr", [1e-3, 1e-2], tmp_path / "dask", params=BASE, client=client, progress=False,
-                       analyze_options=ANALYZE, **RUN)
+                       **ANALYZE, **RUN)
     assert remote["status"].tolist() == ["new", "new"]
     for a, b in zip(local["path"], remote["path"]):
         np.testing.assert_array_equal(np.asarray(read_run(a).labels), np.asarray(read_run(b).labels))
@@ -91,11 +92,11 @@ def test_sweep_in_local_processes_and_on_dask(tmp_path):
 def test_figure3_from_a_sweep(tmp_path):
     from scipy import stats
 
-    from hexatissue.analysis import figure3
+    from hexatissue.workflows import figure3
 
-    table = sweep("dr", [1e-3, 1e-2], tmp_path / "sw", params=BASE.replace(n_cells=8, Lx=56, Ly=50), n_workers=1,
-                  progress=False, analyze_options=ANALYZE, **RUN)
-    summary = figure3(table, tmp_path / "fig", dt=2, dl=20.0, frame_interval=10, time_unit="iterations")
+    table = sweep("dr", [1e-3, 1e-2], tmp_path / "sw", params=BASE.replace(n_cells=8, Lx=56, Ly=50), workers=1,
+                  progress=False, **ANALYZE, **RUN)
+    summary = figure3(table, tmp_path / "fig", dt=2, dl=20.0)
     fig = tmp_path / "fig"
     for name in ("fig3e.png", "fig3f.png", "fig3g_box.png", "fig3g_vs_param.png", "summary.json"):
         assert (fig / name).exists()
@@ -110,16 +111,18 @@ def test_figure3_from_a_sweep(tmp_path):
     assert sorted(across["D_r"].unique()) == [1e-3, 1e-2] and len(across) == 4
     assert json.loads((fig / "summary.json").read_text())["values"] == [1e-3, 1e-2]
     # the report's default migration window is the paper's 25,000 iterations when the movie spans it
-    from hexatissue.analysis.report import default_window, load_results
+    from hexatissue.workflows.report import default_window
 
-    meta = load_results(table["results"][0])[1]
-    assert default_window(meta, 10_000) == 25_000 // RUN["save_every"]
-    assert default_window(meta, 7) == 1
-    assert default_window({"input": "labels.tif"}, 40) == 10
+    movie = read_results(table["results"][0])
+    assert movie.calibration == Calibration(frame_interval=RUN["save_every"], time_unit="iteration")
+    assert summary["frame_interval"] == RUN["save_every"] and summary["time_unit"] == "iteration"
+    assert default_window(movie.replace(n_frames=10_000)) == 25_000 // RUN["save_every"]
+    assert default_window(movie) == 7 // 4  # the run is shorter than the paper's window
+    assert default_window(movie.replace(n_frames=40, calibration=Calibration())) == 10
 
 
 def test_loglog_slope_is_exact_on_a_power_law():
-    from hexatissue.analysis import loglog_slope
+    from hexatissue.workflows import loglog_slope
 
     x = np.array([1e-6, 1e-5, 4e-5, 8e-5])
     assert loglog_slope(x, 3.0 * x**-0.5) == pytest.approx(-0.5)

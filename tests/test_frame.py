@@ -1,0 +1,101 @@
+"""Frame and Movie containers: a results folder is a saved Movie, read back table for table."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue import (Box, Calibration, EventOptions, InputError, Movie, OrderOptions, analyze, mesh_from_labels,
+                        read_results)
+from hexatissue.frame import TABLES
+from hexatissue.synthetic import draw_membranes, jittered_seeds, voronoi_labels, voronoi_movie
+
+
+@pytest.fixture(scope="module")
+def movie():
+    stack = voronoi_movie(30, (70, 90), 5, periodic=True, amplitude=0.5, seed=3)
+    source = np.stack([stack[t] for t in range(5)])
+    return analyze(source, box=True, events=EventOptions(censor=2), workers=1, progress=False).replace(
+        calibration=Calibration(0.5, "um", 2.0, "min"))
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "csv"])
+def test_write_and_read_results_round_trip_every_table(movie, tmp_path, fmt):
+    written = movie.write(tmp_path, formats=(fmt,))
+    assert written[-1].name == "metadata.json"
+    back = read_results(tmp_path)
+    assert set(back.tables()) == set(movie.tables()) == set(TABLES)
+    for name, table in movie.tables().items():
+        pd.testing.assert_frame_equal(back.tables()[name], table, check_dtype=(fmt == "parquet"), obj=name)
+    assert back.metadata() == movie.metadata()
+    assert back.box == Box(90, 70) and back.shape == (70, 90) and len(back) == 5
+    assert back.calibration == Calibration(0.5, "um", 2.0, "min")
+    assert back.options["events"] == EventOptions(censor=2) and back.options["track"].enabled is True
+
+
+def test_metadata_json_records_box_units_options_and_source(movie, tmp_path):
+    movie.write(tmp_path)
+    meta = json.loads((tmp_path / "metadata.json").read_text())
+    assert meta["box"] == [90.0, 70.0] and meta["shape"] == [70, 90] and meta["n_frames"] == 5
+    assert meta["calibration"] == {"pixel_size": 0.5, "length_unit": "um", "frame_interval": 2.0, "time_unit": "min"}
+    assert meta["options"]["order"]["p"] == [6, 2]
+    assert meta["source"]["kind"] == "array"
+    assert meta["tables"]["cells"] == len(movie.cells)
+
+
+def test_every_table_has_a_frame_column_even_for_one_image():
+    labels = voronoi_labels(jittered_seeds((60, 80), 14, seed=1), (60, 80))
+    frame = mesh_from_labels(labels, frame=3)
+    for table in frame.tables().values():
+        assert (table["frame"] == 3).all()
+    single = analyze(labels, workers=1, progress=False)
+    assert len(single) == 1
+    for name in ("cells", "vertices", "edges", "cell_vertices", "grid", "defects"):
+        assert (single.tables()[name]["frame"] == 0).all(), name
+    assert single.events.empty and (single.lineage["begin"] == "movie_start").all()
+
+
+def test_movie_frame_and_polygons(movie):
+    f = movie.frame(2)
+    assert (f.cells["frame"] == 2).all() and f.box == movie.box and f.calibration == movie.calibration
+    polys = movie.polygons(2)
+    cells = f.cells.set_index("cell")
+    assert set(polys) == set(cells.index)
+    assert all(len(polys[c]) == cells.loc[c, "n_sides"] for c in polys)
+    with pytest.raises(InputError, match="frame 9 is not in this movie"):
+        movie.frame(9)
+
+
+def test_from_frames_concatenates_frames():
+    labels = voronoi_labels(jittered_seeds((60, 80), 14, seed=2), (60, 80))
+    frames = [mesh_from_labels(labels, frame=t) for t in range(3)]
+    m = Movie.from_frames(frames)
+    assert len(m) == 3 and m.cells["frame"].tolist() == sorted(m.cells["frame"].tolist())
+    pd.testing.assert_frame_equal(m.frame(1).cells, frames[1].cells)
+
+
+def test_read_results_errors(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        read_results(tmp_path / "nope")
+    with pytest.raises(InputError, match="no metadata.json"):
+        read_results(tmp_path)
+    (tmp_path / "metadata.json").write_text("{}")
+    with pytest.raises(InputError, match="missing table"):
+        read_results(tmp_path)
+    with pytest.raises(InputError, match="formats"):
+        Movie(*(pd.DataFrame({"frame": []}) for _ in range(4))).write(tmp_path, formats=("xlsx",))
+
+
+def test_membrane_and_skeleton_movies_are_tracked_on_the_mesh_labels():
+    """The tracker sees the labels the mesh used: skeletons (regions renumbered every frame) and membranes."""
+    stack = voronoi_movie(25, (70, 90), 4, periodic=False, amplitude=0.4, seed=5)
+    touching = np.stack([stack[t] for t in range(4)])
+    membranes = np.stack([draw_membranes(f, width=1) for f in touching])
+    skeleton = (membranes == 0).astype(np.uint8) * 255
+    ref = analyze(touching, workers=1, progress=False, order=OrderOptions(fields=False))
+    for labels in (membranes, skeleton):
+        got = analyze(labels, workers=1, progress=False, order=OrderOptions(fields=False))
+        # one track per true cell: every track keeps one true label over its frames
+        true = [touching[int(f)][int(round(y)), int(round(x))] for f, x, y in got.cells[["frame", "x", "y"]].to_numpy()]
+        pairs = set(zip(got.cells["track"], true))
+        assert len(pairs) == got.cells["track"].nunique() == ref.cells["track"].nunique()
