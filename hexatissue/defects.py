@@ -63,8 +63,7 @@ def plaquette_charges(field, p, periodic=False):
     field = np.asarray(field)
     if field.ndim != 2 or min(field.shape) < 2:
         raise InputError(f"field must be a 2-D grid of at least 2 x 2 nodes; got shape {field.shape}")
-    if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
-        raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
+    p = check_p(p)
     theta = np.angle(field) / p
     theta[~np.isfinite(field)] = np.nan
     if periodic:
@@ -503,8 +502,9 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
     if not rows:
         return _empty_events(columns, time_column)
     out = pd.DataFrame(rows, columns=columns)
-    out["kind"] = out["kind"].astype(object)
-    return out.sort_values([time_column, "kind", "x", "y"], kind="stable").reset_index(drop=True)
+    out["kind"] = out["kind"].astype("string")
+    out = out.sort_values([time_column, "kind", "x", "y"], kind="stable").reset_index(drop=True)
+    return validate(out, "defect_events") if time_column == "frame" else out
 
 
 def _pair_rows(group, ip, ineg, t, kind, box, time_column):
@@ -531,7 +531,7 @@ def _lone_rows(lonely, t, kind, time_column):
 
 def _empty_events(columns, time_column):
     out = pd.DataFrame({c: pd.Series(dtype=float) for c in columns})
-    out["kind"] = out["kind"].astype(object)
+    out["kind"] = out["kind"].astype("string")
     for c in ("track_plus", "track_minus"):
         out[c] = out[c].astype(np.int64)
     return out

@@ -31,7 +31,7 @@ import pandas as pd
 from .box import Box
 from .errors import InputError
 from .graph import contact_table as graph_contacts
-from .schema import validate
+from .schema import interior_mask, track_ids, validate
 
 __all__ = ["detect_t1", "classify_t1", "find_t1", "track_contacts", "cell_event_stats",
            "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
@@ -289,10 +289,9 @@ def _positions(events, cells, box):
     """Quartet centre (x, y) and border flag at frame_start, from the cells table."""
     if events.empty:
         return np.empty(0), np.empty(0), np.empty(0, bool)
-    tid = cells["track"] if "track" in cells.columns else cells["cell"]
-    border = cells["is_border"].to_numpy(bool) if "is_border" in cells.columns else np.zeros(len(cells), bool)
+    border = ~interior_mask(cells)
     lut = pd.DataFrame({"x": cells["x"].to_numpy(float), "y": cells["y"].to_numpy(float), "border": border},
-                       index=pd.MultiIndex.from_arrays([cells["frame"].to_numpy(np.int64), tid.to_numpy(np.int64)]))
+                       index=pd.MultiIndex.from_arrays([cells["frame"].to_numpy(np.int64), track_ids(cells)]))
     lut = lut[~lut.index.duplicated()]
     frame = events["frame_start"].to_numpy(np.int64)
     xy, flag = [], np.zeros(len(events), bool)
@@ -345,8 +344,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     for col in ("frame", "cell", "x", "y"):
         if col not in cells.columns:
             raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
-    tid = cells["track"] if "track" in cells.columns else cells["cell"]
-    presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": tid.to_numpy(np.int64)})
+    presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": track_ids(cells)})
     contacts = track_contacts(edges, cells, min_length)
     raw = find_t1(contacts, presence)
     last = int(presence["frame"].max()) if len(presence) else 0
@@ -404,8 +402,7 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
                       for c in ("cell_a", "cell_b", "cell_c", "cell_d")], ignore_index=True)
     counts = pd.crosstab(long["track"], long["kind"]) if len(long) else pd.DataFrame()
     if cells is not None:
-        tid = cells["track"] if "track" in cells.columns else cells["cell"]
-        n_frames = tid.value_counts().sort_index()
+        n_frames = pd.Series(track_ids(cells)).value_counts().sort_index()
         tracks = n_frames.index.to_numpy(np.int64)
     else:
         tracks = np.unique(long["track"].to_numpy(np.int64))

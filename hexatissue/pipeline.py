@@ -172,7 +172,6 @@ def _defect_tracks(defects, grid, order, box, n_frames):
         pair_events.append(e.assign(p=np.int64(q)))
     defects = pd.concat(tracked, ignore_index=True).sort_values(["frame", "p", "defect"], kind="stable")
     pair_events = pd.concat(pair_events, ignore_index=True)
-    pair_events["kind"] = pair_events["kind"].astype("string")
     return (validate(defects.reset_index(drop=True), "defects"),
             validate(pair_events.astype({"frame": np.int64}), "defect_events"))
 

@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from .box import as_box
-from .errors import InputError
-from .units import Calibration
+from .errors import InputError, as_generator
+from .units import as_calibration
 
 __all__ = [
     "add_scale_bar",
@@ -65,16 +65,6 @@ def _finish(fig, path):
     if path is not None:
         save_figure(fig, path)
     return fig
-
-
-def _as_calibration(calibration):
-    """``calibration``, or the uncalibrated :class:`Calibration` (px, frames) when None."""
-    if calibration is None:
-        return Calibration()
-    if not isinstance(calibration, Calibration):
-        raise InputError(f"calibration must be a hexatissue.units.Calibration or None; "
-                         f"got {type(calibration).__name__}")
-    return calibration
 
 
 def scale_bar_length(width, fraction=0.2):
@@ -132,7 +122,7 @@ def add_scale_bar(ax, calibration=None, extent=None, fraction=0.2):
     from matplotlib.font_manager import FontProperties
     from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
-    calibration = _as_calibration(calibration)
+    calibration = as_calibration(calibration)
     if extent is None:
         (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     else:
@@ -224,7 +214,7 @@ def _label_colors(labels, seed=0):
     if labels.ndim != 2:
         raise InputError(f"labels must be a 2-D label image; got shape {labels.shape}")
     uniq, inverse = np.unique(labels, return_inverse=True)
-    rng = np.random.default_rng(seed)
+    rng = as_generator(seed)
     palette = 0.55 + 0.4 * rng.random((len(uniq), 3))
     palette[uniq == 0] = 1.0
     return palette[inverse.reshape(labels.shape)]
@@ -566,7 +556,7 @@ def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None
 
     if calibration is None:
         calibration = getattr(frame, "calibration", None)
-    calibration = _as_calibration(calibration)
+    calibration = as_calibration(calibration)
     directory = Path(directory)
     box = frame.box
     if grid is None:

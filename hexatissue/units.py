@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, replace
 
 from .errors import InputError, check_positive
 
-__all__ = ["Calibration", "normalize_length_unit", "normalize_time_unit"]
+__all__ = ["Calibration", "as_calibration", "normalize_length_unit", "normalize_time_unit"]
 
 # spellings found in ImageJ / OME / zarr metadata -> one canonical ASCII name
 _LENGTH_ALIASES = {
@@ -141,3 +141,12 @@ class Calibration:
         if extra:
             raise InputError(f"calibration has unknown field(s) {sorted(extra)}; expected {sorted(known)}")
         return cls(**data)
+
+
+def as_calibration(calibration) -> Calibration:
+    """``calibration``, or the uncalibrated :class:`Calibration` (px, frames) when None."""
+    if calibration is None:
+        return Calibration()
+    if not isinstance(calibration, Calibration):
+        raise InputError(f"calibration must be a hexatissue.Calibration or None; got {type(calibration).__name__}")
+    return calibration

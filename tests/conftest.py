@@ -1,7 +1,8 @@
-"""Shared fixtures: the folder of real third-party data, skipped cleanly when absent."""
+"""Shared fixtures and helpers: the folder of real third-party data (skipped cleanly when absent), PNG writing."""
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -21,3 +22,14 @@ def real_subdir(real_data, name):
     if not path.is_dir():
         pytest.skip(f"real data set {name} is absent")
     return path
+
+
+def png_write(path, image):
+    """Write a 2-D (grey) or RGB image as PNG with OpenCV (the package's PNG reader)."""
+    import cv2
+
+    if image.ndim == 3:
+        image = image[..., ::-1]  # OpenCV writes BGR
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(image))
+    assert ok
+    Path(path).write_bytes(buf.tobytes())

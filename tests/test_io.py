@@ -6,6 +6,8 @@ import tifffile
 from hexatissue import InputError, read_labels, read_table, write_table, write_tables
 from hexatissue.io import atomic_path
 
+from .conftest import png_write
+
 
 @pytest.mark.parametrize("suffix", [".tif", ".npy", ".npz", ".png", "_seg.npy"])
 def test_read_labels_formats(tmp_path, suffix):
@@ -18,9 +20,7 @@ def test_read_labels_formats(tmp_path, suffix):
     elif suffix == ".npz":
         np.savez(path, labels=labels)
     elif suffix == ".png":
-        import imageio.v3 as iio
-
-        iio.imwrite(path, labels.astype(np.uint8))
+        png_write(path, labels.astype(np.uint8))
     else:  # Cellpose saves a dict with the masks
         np.save(path, {"masks": labels, "outlines": labels * 0}, allow_pickle=True)
     np.testing.assert_array_equal(read_labels(path), labels)

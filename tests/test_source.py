@@ -12,7 +12,7 @@ import tifffile
 from hexatissue import HexatissueWarning, InputError, Source, open_source, read_labels
 from hexatissue.units import Calibration
 
-from .conftest import ROOT, real_subdir
+from .conftest import ROOT, png_write, real_subdir
 
 SAMPLE_RUN = ROOT / "sample_data" / "mpf_small" / "run.zarr"
 SAMPLE_EPICURE = ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
@@ -43,16 +43,6 @@ def assert_reads_one_frame(source, t, stack):
     np.testing.assert_array_equal(frame, stack[t])
     assert peak < 4 * stack[0].nbytes < stack.nbytes / 5
     return frame
-
-
-def png_write(path, image):
-    import cv2
-
-    if image.ndim == 3:
-        image = image[..., ::-1]  # OpenCV writes BGR
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(image))
-    assert ok
-    Path(path).write_bytes(buf.tobytes())
 
 
 # -------------------------------------------------------------------------------------------------------------

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plot import MINUS_COLOR, PLUS_COLOR, _as_calibration, save_figure
+from ..errors import as_generator
+from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
+from ..units import as_calibration
 
 __all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
            "plot_event_overview"]
@@ -68,7 +70,7 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
     -------
     matplotlib.figure.Figure
     """
-    cal = _as_calibration(calibration)
+    cal = as_calibration(calibration)
     unit = cal.length_label
     fig, (ax, ax2) = _figure(2, figsize)
     e, c = cal.length(result.events["dr"].to_numpy(float)), cal.length(result.control["dr"].to_numpy(float))
@@ -93,7 +95,7 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
         dx, dy = cal.length(result.events["dx"].to_numpy(float)), cal.length(result.events["dy"].to_numpy(float))
         # thousands of events: small translucent points, drawn in a shuffled order so neither charge hides the other
         n = len(dx)
-        order = np.random.default_rng(0).permutation(n)
+        order = as_generator(0).permutation(n)
         colors = np.where(plus, PLUS_COLOR, MINUS_COLOR)[order]
         ax2.scatter(dx[order], dy[order], s=12 if n < 500 else 3, c=colors, alpha=min(1.0, max(0.1, 300 / n)),
                     linewidths=0)
@@ -138,7 +140,7 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
     matplotlib.figure.Figure
     """
     t = populations.table
-    cal = _as_calibration(calibration)
+    cal = as_calibration(calibration)
     fig, (ax, ax2) = _figure(2, figsize)
     moved = t["displacement"].to_numpy(float) > 0
     density = t["defect_density"].to_numpy(float) / cal.area(1.0)
@@ -208,7 +210,7 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
     """
     from .timing import timing_test
 
-    cal = _as_calibration(calibration)
+    cal = as_calibration(calibration)
     if not isinstance(runs, dict):
         runs = {None: runs}
     fig, (ax,) = _figure(1, figsize or (max(4.5, 1.6 * len(runs) + 2), 4))
@@ -263,7 +265,7 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
     -------
     matplotlib.figure.Figure
     """
-    cal = _as_calibration(calibration)
+    cal = as_calibration(calibration)
     fig, (ax,) = _figure(1, figsize)
     for name, color, label in (("intercalation_interval", SLOW_COLOR, "between intercalations"),
                                ("cycle_period", FAST_COLOR, "T1-cycle period")):
@@ -309,7 +311,7 @@ def plot_event_overview(events, n_frames=None, path=None, calibration=None, figs
     -------
     matplotlib.figure.Figure
     """
-    cal = _as_calibration(calibration)
+    cal = as_calibration(calibration)
     fig, (ax, ax2) = _figure(2, figsize)
     kinds = (("cycle", FAST_COLOR), ("intercalation", SLOW_COLOR), ("unresolved", "0.6"))
     if len(events):
