@@ -20,7 +20,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from _timing import median_time  # noqa: E402  (benchmarks/_timing.py)
 from hexatissue import Box  # noqa: E402
 from hexatissue.defects import defect_events, find_defects, track_defects  # noqa: E402
-from hexatissue.order import cell_stress, coarse_grain  # noqa: E402
+from hexatissue.order import coarse_grain  # noqa: E402
+from hexatissue.simulate.stress import cell_stress  # noqa: E402
 
 
 

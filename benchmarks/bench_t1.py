@@ -10,7 +10,7 @@ Stages, each in its own forked process so that its peak resident memory
 - ``track``: overlap tracking of every frame (:class:`hexatissue.track.Tracker`);
 - ``mesh``: ``mesh_from_labels`` of every frame, one process;
 - ``events``: ``detect_t1`` + lineage + per-cell statistics on the mesh tables;
-- ``analyze_movie``: everything end to end with ``--workers`` processes, for
+- ``analyze``: everything end to end with ``--workers`` processes, for
   several movie lengths (cost per frame should not grow with length).
 
 Times are medians over ``--repeats``; the machine load (``uptime``) is
@@ -113,13 +113,15 @@ def stage_track(path, n_frames):
 def stage_mesh(path, n_frames, box, tables_dir):
     import pandas as pd
 
-    from hexatissue.pipeline import _mesh_job
+    from hexatissue.options import MeshOptions, OrderOptions
+    from hexatissue.pipeline import _frame_job
 
     stack = RawStack(path)
     parts = {"cells": [], "edges": []}
+    mesh, order = MeshOptions(), OrderOptions(fields=False)  # mesh + gamma_p, as analyze does per frame
     t0 = time.perf_counter()
     for t in range(n_frames):
-        out = _mesh_job(np.asarray(stack[t]), t, box, {})
+        out, _ = _frame_job(np.asarray(stack[t]), t, box, mesh, order, False)
         parts["cells"].append(out["cells"])
         parts["edges"].append(out["edges"])
     elapsed = time.perf_counter() - t0
@@ -146,13 +148,14 @@ def stage_events(tables_dir, box):
 
 
 def stage_analyze(path, n_frames, box, workers):
-    from hexatissue.pipeline import analyze_movie
+    from hexatissue import OrderOptions, analyze
 
     stack = RawStack(path, n_frames)
     t0 = time.perf_counter()
-    movie = analyze_movie(stack, box=box, n_workers=workers, progress=False)
+    # networks, tracks and T1s (no Gamma_p fields: those are timed by bench_order.py)
+    movie = analyze(stack, box=box, order=OrderOptions(fields=False), workers=workers, progress=False)
     elapsed = time.perf_counter() - t0
-    return elapsed, len(movie.extra["events"])
+    return elapsed, len(movie.events)
 
 
 def _child(fn, args, conn):
@@ -207,7 +210,7 @@ def main(argv=None):
     for frames in sorted({max(1, n // 4), max(1, n // 2), n}):
         reps = args.repeats if frames == n else 1
         res = [run_isolated(stage_analyze, path, frames, box, args.workers) for _ in range(reps)]
-        rows.append((f"analyze_movie ({args.workers} workers)", frames, med([r[0][0] for r in res]),
+        rows.append((f"analyze ({args.workers} workers)", frames, med([r[0][0] for r in res]),
                      max(r[2] - r[1] for r in res), max(r[3] for r in res)))
 
     print()

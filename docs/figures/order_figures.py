@@ -25,7 +25,8 @@ sys.path.insert(0, str(HERE.parents[1]))
 from hexatissue import Box, plot  # noqa: E402
 from hexatissue.defects import find_defects  # noqa: E402
 from hexatissue.io import write_table  # noqa: E402
-from hexatissue.order import cell_stress, cells_from_polygons, coarse_grain, order_vs_radius  # noqa: E402
+from hexatissue.order import cells_from_polygons, coarse_grain, order_vs_radius  # noqa: E402
+from hexatissue.simulate.stress import cell_stress  # noqa: E402
 from hexatissue.synthetic import jittered_seeds, voronoi_labels  # noqa: E402
 
 
@@ -130,7 +131,7 @@ def stress_figures():
 
 def mpf_stress_figures(steps=3000, seed=1):
     """sigma_par of a small passively relaxed MPF tissue (64 cells, periodic 150 x 152 px)."""
-    from hexatissue import mesh_from_labels
+    from hexatissue import mesh_from_labels, shape_order
     from hexatissue.simulate.model import initial_state
     from hexatissue.simulate.params import Params
 
@@ -143,7 +144,7 @@ def mpf_stress_figures(steps=3000, seed=1):
     nearest = ndimage.distance_transform_edt(labels == 0, return_distances=False, return_indices=True)
     labels = labels[tuple(nearest)]
     box = Box(params.Lx, params.Ly)
-    frame = mesh_from_labels(labels, box=box)
+    frame = shape_order(mesh_from_labels(labels, box=box))
     cells = frame.cells
     polys = frame.polygons()
     patches = sim.phi[cells["cell"].to_numpy() - 1]  # label c is patch c - 1
