@@ -1,0 +1,55 @@
+"""Options objects: defaults equal the stage functions' keywords, validation names the field, JSON round trip."""
+import inspect
+
+import pytest
+
+from hexatissue import EventOptions, InputError, MeshOptions, OrderOptions, TrackOptions, detect_t1, mesh_from_labels
+from hexatissue.options import OPTION_CLASSES
+
+
+def test_field_names_and_defaults_match_the_stage_functions():
+    mesh = inspect.signature(mesh_from_labels).parameters
+    for name, value in MeshOptions().to_dict().items():
+        assert mesh[name].default == value, name
+    events = inspect.signature(detect_t1).parameters
+    assert EventOptions().min_length == events["min_length"].default
+    assert EventOptions().censor == events["censor"].default
+
+
+@pytest.mark.parametrize("cls", list(OPTION_CLASSES.values()))
+def test_round_trip_through_dicts(cls):
+    opts = cls()
+    assert cls.from_dict(opts.to_dict()) == opts
+    with pytest.raises(InputError, match="has no field"):
+        cls.from_dict({"nonsense": 1})
+
+
+@pytest.mark.parametrize("build, field", [
+    (lambda: MeshOptions(kind="cellpose"), "MeshOptions.kind"),
+    (lambda: MeshOptions(merge_distance=-1), "MeshOptions.merge_distance"),
+    (lambda: MeshOptions(merge_distance="2"), "MeshOptions.merge_distance"),
+    (lambda: MeshOptions(membrane_width=1.5), "MeshOptions.membrane_width"),
+    (lambda: OrderOptions(p=(6, 6)), "OrderOptions.p"),
+    (lambda: OrderOptions(p=1.5), "OrderOptions.p"),
+    (lambda: OrderOptions(p=True), "OrderOptions.p"),
+    (lambda: OrderOptions(p=None), "OrderOptions.p"),
+    (lambda: OrderOptions(center="middle"), "OrderOptions.center"),
+    (lambda: OrderOptions(radius=0), "OrderOptions.radius"),
+    (lambda: OrderOptions(min_coverage=1.5), "OrderOptions.min_coverage"),
+    (lambda: TrackOptions(min_iou=0), "TrackOptions.min_iou"),
+    (lambda: TrackOptions(max_gap=-1), "TrackOptions.max_gap"),
+    (lambda: TrackOptions(enabled="yes"), "TrackOptions.enabled"),
+    (lambda: EventOptions(censor=2.5), "EventOptions.censor"),
+    (lambda: EventOptions(min_length=float("nan")), "EventOptions.min_length"),
+])
+def test_an_invalid_field_is_named(build, field):
+    with pytest.raises(InputError, match=field.replace(".", r"\.")):
+        build()
+
+
+def test_options_are_frozen_and_normalised():
+    opts = OrderOptions(p=[2, 6], radius=10)
+    assert opts.p == (2, 6) and isinstance(opts.radius, float)
+    with pytest.raises(AttributeError):
+        opts.p = (6,)
+    assert opts.replace(center="area_centroid").center == "area_centroid"
