@@ -142,8 +142,8 @@ def summary_line(movie) -> str:
         parts.append("T1 events " + (", ".join(f"{k} {v}" for k, v in counts.items()) or "none"))
     if movie.defects is not None:
         d = movie.defects
-        parts.append("defects " + ", ".join(f"p={q}: +{int((g['charge'] > 0).sum())}/-{int((g['charge'] < 0).sum())}"
-                                            for q, g in d.groupby("p")))
+        parts.append("defects " + (", ".join(f"p={q}: +{int((g['charge'] > 0).sum())}/-{int((g['charge'] < 0).sum())}"
+                                             for q, g in d.groupby("p")) or "none"))
     return "; ".join(parts)
 
 

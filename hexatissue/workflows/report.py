@@ -160,9 +160,10 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     if isinstance(results, Movie):
         if out is None:
             raise InputError("out is required when results is a Movie (there is no results folder to write into)")
-        movie, name = results, "movie"
+        movie = results
     else:
-        movie, name = read_results(results), Path(results).name
+        movie = read_results(results)
+    name = Path(str(movie.source.get("path") or (results if not isinstance(results, Movie) else "movie"))).name
     out = Path(results) / "report" if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
     order = movie.options.get("order")
