@@ -391,7 +391,7 @@ def _plan(axes, sizes, channel, what, full_axes=None) -> _Layout:
     c = axes.find("C")
     if c >= 0 and sizes[c] > 1:
         if channel is None:
-            raise InputError(f"{what} has {sizes[c]} channels (axes {full_axes!r}); pass channel= with one of "
+            raise InputError(f"{what} has {sizes[c]} channels (axes {full_axes!r}); pass channel= (--channel on the command line) with one of "
                              f"{list(range(sizes[c]))}")
     elif channel is not None and c < 0:
         raise InputError(f"channel={channel!r} was given but {what} has no channel (C) axis (axes {full_axes!r}); "
@@ -870,7 +870,7 @@ def _npz_key(path, key):
     if key is None:
         key = "labels" if "labels" in names else (names[0] if len(names) == 1 else None)
         if key is None:
-            raise InputError(f"{path.name}: choose an array with key=; it holds {names}")
+            raise InputError(f"{path.name}: choose an array with key= (--key on the command line); it holds {names}")
     if key not in names:
         raise InputError(f"{path.name}: key={key!r} is not an array of this file; it holds {names}")
     return key
@@ -1006,7 +1006,7 @@ def _open_zarr_group(group, path, key, channel, level) -> Source:
     names = sorted(group.array_keys())
     chosen = "labels" if "labels" in names else (names[0] if len(names) == 1 else None)
     if chosen is None:
-        raise InputError(f"zarr group {where}: choose an array with key=; it holds arrays {names} and groups "
+        raise InputError(f"zarr group {where}: choose an array with key= (--key on the command line); it holds arrays {names} and groups "
                          f"{sorted(group.group_keys())}")
     return _open_zarr_group(group, path, chosen, channel, level)
 
