@@ -174,3 +174,17 @@ def test_neighbour_taking_over_a_cell_is_not_a_division(real_data):
     assert ov.loc[(78, 78), "overlap"] >= 0.6 * ov.loc[(78, 78), "area_next"]
     _, divisions = match_frames(lab[8], lab[9])
     assert 78 not in divisions["mother"].tolist()
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_one_border_rule_for_the_mesh_and_the_tracker(periodic):
+    """touches_outside (tracking, lineage) and the mesh's is_border agree on every cell."""
+    from hexatissue import Box, mesh_from_labels
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    labels = voronoi_labels(jittered_seeds((80, 100), 12, seed=4), (80, 100), periodic=periodic)
+    labels[30:50, 40:60] = 0  # a hole inside the tissue: its rim cells are border cells
+    frame = mesh_from_labels(labels, box=Box(100, 80) if periodic else None, kind="touching")
+    border = set(frame.cells.loc[frame.cells["is_border"], "cell"])
+    assert border == set(touches_outside(labels, periodic).tolist())
+    assert len(border) > 4
