@@ -106,8 +106,8 @@ class Calibration:
 
     @property
     def time_label(self) -> str:
-        """The time unit as printed on figures (``"frames"`` when uncalibrated)."""
-        return "frames" if self.time_unit == "frame" else self.time_unit
+        """The time unit as printed on figures (``"frames"`` when uncalibrated, ``"iterations"`` for simulations)."""
+        return {"frame": "frames", "iteration": "iterations"}.get(self.time_unit, self.time_unit)
 
     def length(self, px):
         """A length (or array of lengths) in px converted to ``length_unit``."""

@@ -393,3 +393,12 @@ def test_kind_detection():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert len(mesh_from_labels(one_blob).cells) == 1
+
+
+def test_a_raw_intensity_image_is_not_taken_for_labels():
+    rng = np.random.default_rng(0)
+    noisy = rng.poisson(100, (80, 90)).astype(np.uint16)  # photon counts: neighbours rarely equal
+    with pytest.raises(InputError, match="does not look like a label image"):
+        mesh_from_labels(noisy)
+    labels = voronoi_labels(jittered_seeds((80, 90), 12, seed=3), (80, 90))
+    assert len(mesh_from_labels(labels).cells) == labels.max()

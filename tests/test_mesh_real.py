@@ -170,3 +170,12 @@ def test_real_segmentations_give_valid_networks(real_data, name):
     inner_vertices = frame.vertices[~frame.vertices["is_border"]]
     assert (inner_vertices["degree"] >= 3).mean() > 0.99  # degree 2 only on loops (a cell inside another)
     assert (inner["polygon_area"] > 0).all()
+
+
+@pytest.mark.parametrize("name", ["013_crop.tif", "static_image.tif"])
+def test_raw_microscopy_images_are_refused_with_a_clear_error(real_data, name):
+    from hexatissue import InputError, open_source
+
+    path = real_subdir(real_data, "epicure_notum") / name
+    with pytest.raises(InputError, match="does not look like a label image.*raw microscopy"):
+        open_source(path).frame(0)
