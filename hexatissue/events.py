@@ -33,7 +33,7 @@ from .errors import InputError
 from .graph import contact_table as graph_contacts
 from .schema import interior_mask, track_ids, validate
 
-__all__ = ["detect_t1", "classify_t1", "find_t1", "track_contacts", "cell_event_stats",
+__all__ = ["detect_t1", "neighbour_events", "classify_t1", "find_t1", "track_contacts", "cell_event_stats",
            "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
 
 # Columns of the events table beyond the schema's.
@@ -357,21 +357,38 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     return validate(events, "events")
 
 
+def _participants(events: pd.DataFrame) -> pd.DataFrame:
+    """One row per (event, cell taking part): ``track``, ``kind``, ``duration``, ``frame``.
+
+    Quartet events (:func:`detect_t1`) have four cells, ``cell_a``..``cell_d``;
+    per-cell events (:func:`neighbour_events`) have one, ``track``.
+    """
+    columns = ("cell_a", "cell_b", "cell_c", "cell_d") if "cell_a" in events.columns else ("track",)
+    for col in columns + ("kind", "frame_start", "duration"):
+        if col not in events.columns:
+            raise InputError(f"events table is missing column {col!r}; expected the output of detect_t1 or "
+                             f"neighbour_events")
+    return pd.concat([pd.DataFrame({"track": events[c].to_numpy(np.int64), "kind": events["kind"].to_numpy(),
+                                    "duration": events["duration"].to_numpy(float),
+                                    "frame": events["frame_start"].to_numpy(np.int64)}) for c in columns],
+                     ignore_index=True)
+
+
 def intercalation_intervals(events: pd.DataFrame) -> pd.DataFrame:
     """Frames between consecutive intercalations of each cell.
 
     Only ``intercalation`` events count (cycles are undone; unresolved ones
     are censored).  The time of an intercalation is its ``frame_start``.
+    ``events`` may be quartet events (:func:`detect_t1`: all four cells take
+    part) or per-cell events (:func:`neighbour_events`).
 
     Returns
     -------
     pandas.DataFrame
         ``track``, ``frame_prev``, ``frame_next`` (frames), ``interval`` (frames).
     """
-    ic = events[events["kind"] == "intercalation"]
-    long = pd.DataFrame({
-        "track": np.concatenate([ic[c].to_numpy(np.int64) for c in ("cell_a", "cell_b", "cell_c", "cell_d")]),
-        "frame": np.tile(ic["frame_start"].to_numpy(np.int64), 4)}).sort_values(["track", "frame"])
+    long = _participants(events)
+    long = long[long["kind"] == "intercalation"].sort_values(["track", "frame"], kind="stable")
     same = long["track"].to_numpy()[1:] == long["track"].to_numpy()[:-1]
     prev, nxt = long.iloc[:-1][same], long.iloc[1:][same]
     return pd.DataFrame({"track": prev["track"].to_numpy(np.int64), "frame_prev": prev["frame"].to_numpy(np.int64),
@@ -385,7 +402,7 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     Parameters
     ----------
     events : pandas.DataFrame
-        The events table.
+        Quartet events (:func:`detect_t1`) or per-cell events (:func:`neighbour_events`).
     cells : pandas.DataFrame, optional
         With ``frame`` and ``track`` (or ``cell``): every cell gets a row,
         also those without events, and ``n_frames`` is filled.
@@ -397,9 +414,7 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
         ``n_unresolved``, ``mean_cycle_period`` (frames), ``n_intervals``,
         ``mean_intercalation_interval`` (frames).
     """
-    long = pd.concat([pd.DataFrame({"track": events[c].to_numpy(np.int64), "kind": events["kind"].to_numpy(),
-                                    "duration": events["duration"].to_numpy(float)})
-                      for c in ("cell_a", "cell_b", "cell_c", "cell_d")], ignore_index=True)
+    long = _participants(events)
     counts = pd.crosstab(long["track"], long["kind"]) if len(long) else pd.DataFrame()
     if cells is not None:
         n_frames = pd.Series(track_ids(cells)).value_counts().sort_index()
@@ -419,3 +434,125 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     out["n_intervals"] = iv.size().reindex(tracks).fillna(0).to_numpy(np.int64)
     out["mean_intercalation_interval"] = iv.mean().reindex(tracks).to_numpy(float)
     return validate(out, "cell_events")
+
+
+# ----------------------------------------------------------------------------
+# The paper's per-cell definition: changes of each cell's neighbour list
+# ----------------------------------------------------------------------------
+
+def _neighbour_sets(contacts, frames, tracks):
+    """``{track: {frame: frozenset of neighbour tracks}}`` and ``{frame: set of tracks present}``."""
+    present = {}
+    for f, t in zip(frames, tracks):
+        present.setdefault(int(f), set()).add(int(t))
+    pairs = {}
+    both = pd.DataFrame({"frame": np.r_[contacts["frame"], contacts["frame"]],
+                         "u": np.r_[contacts["a"], contacts["b"]], "v": np.r_[contacts["b"], contacts["a"]]})
+    for (u, f), group in both.groupby(["u", "frame"], sort=False):
+        pairs.setdefault(int(u), {})[int(f)] = frozenset(group["v"].tolist())
+    return pairs, present
+
+
+def _cell_changes(frames_of, sets, present, last, censor):
+    """Events of one cell: (frame_start, frame_end or None, kind, n_lost, n_gained)."""
+    empty = frozenset()
+    out = []
+    k = 1
+    while k < len(frames_of):
+        prev, f = frames_of[k - 1], frames_of[k]
+        if f != prev + 1:  # the cell was missing: nothing to compare across the gap
+            k += 1
+            continue
+        common = present[prev] & present[f]
+        before, after = sets.get(prev, empty), sets.get(f, empty)
+        if before & common == after & common:
+            k += 1
+            continue
+        n_lost, n_gained = len((before - after) & common), len((after - before) & common)
+        back = None  # first later frame whose list is the one left at `prev` (cells present at both compared)
+        for j in range(k + 1, len(frames_of)):
+            g = frames_of[j]
+            if sets.get(g, empty) & present[prev] == before & present[g]:
+                back = j
+                break
+        if back is not None:
+            out.append((f, frames_of[back], "cycle", n_lost, n_gained))
+            k = back + 1
+        else:
+            out.append((f, None, "unresolved" if last - f < censor else "intercalation", n_lost, n_gained))
+            k += 1
+    return out
+
+
+def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10
+                     ) -> pd.DataFrame:
+    """Neighbour exchanges by the paper's per-cell definition: changes of each cell's list of neighbours.
+
+    Armengol-Collado et al. identify rearrangements "by tracking changes in
+    the list of neighbours of each cell".  Here, for every cell and every
+    pair of consecutive frames in which it is present, its neighbour list
+    (restricted to the cells present in both frames, so cells entering,
+    leaving or dividing do not count) either stays or changes.  A change at
+    frame ``t`` starts an event; it is a **T1 cycle** of that cell when the
+    list returns to the one it had at ``t - 1`` at a later frame ``t + T``
+    (``duration = T``; changes in between belong to the same excursion), and
+    an **intercalation** when it never does (``unresolved`` when it started
+    fewer than ``censor`` frames before the last frame).  Compare
+    :func:`detect_t1`, which follows quartets of cells instead: a quartet T1
+    gives one event to each of its four cells here, but two quartet T1s that
+    share a cell merge into one excursion of that cell.
+
+    Parameters
+    ----------
+    edges, cells : pandas.DataFrame
+        As for :func:`detect_t1` (``cells`` with ``frame``, ``cell``, ``x``,
+        ``y``, optionally ``track`` and ``is_border``).
+    min_length : float
+        Contacts shorter than this (px) are not contacts (hysteresis against
+        flickering four-fold vertices), as in :func:`detect_t1`.
+    censor : int
+        Right-censoring window, frames.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The ``neighbour_events`` table, one row per event of a cell:
+        ``event`` (id), ``track``, ``kind`` (cycle, intercalation,
+        unresolved), ``frame_start`` (first frame with the changed list),
+        ``frame_end`` (first frame the list is back, cycles; else NaN),
+        ``duration`` (frames, cycles; else NaN), ``n_lost``, ``n_gained``
+        (neighbours lost and gained at ``frame_start``), ``x``, ``y`` (the
+        cell's centroid at ``frame_start``, px; x = column, y = row),
+        ``is_border`` (a border cell at ``frame_start``).
+    """
+    for col in ("frame", "cell", "x", "y"):
+        if col not in cells.columns:
+            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+    if int(censor) != censor or censor < 0:
+        raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
+    frames = cells["frame"].to_numpy(np.int64)
+    tracks = track_ids(cells)
+    contacts = track_contacts(edges, cells, min_length)
+    sets, present = _neighbour_sets(contacts, frames, tracks)
+    last = int(frames.max()) if len(frames) else 0
+    order = np.lexsort((frames, tracks))
+    rows = []
+    bounds = np.flatnonzero(np.r_[True, tracks[order][1:] != tracks[order][:-1], True])
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        track = int(tracks[order][lo])
+        frames_of = frames[order][lo:hi].tolist()
+        for start, end, kind, n_lost, n_gained in _cell_changes(frames_of, sets.get(track, {}), present, last,
+                                                                censor):
+            rows.append((track, kind, start, np.nan if end is None else float(end), n_lost, n_gained))
+    out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
+    out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,
+                      "n_gained": np.int64})
+    out.insert(4, "duration", out["frame_end"] - out["frame_start"])
+    out["kind"] = out["kind"].astype("string")
+    at = pd.DataFrame({"frame": frames, "track": tracks, "x": cells["x"].to_numpy(float),
+                       "y": cells["y"].to_numpy(float), "is_border": ~interior_mask(cells)})
+    at = at.drop_duplicates(["frame", "track"])
+    out = out.merge(at, left_on=["frame_start", "track"], right_on=["frame", "track"], how="left").drop(columns="frame")
+    out = out.sort_values(["frame_start", "track"], ignore_index=True)
+    out.insert(0, "event", np.arange(len(out), dtype=np.int64))
+    return validate(out, "neighbour_events")

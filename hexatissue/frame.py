@@ -26,7 +26,7 @@ __all__ = ["Frame", "Movie", "read_results", "MESH_TABLES", "TABLES"]
 
 MESH_TABLES = ("cells", "vertices", "edges", "cell_vertices")
 #: Every table of a Movie, in the order they are written.
-TABLES = MESH_TABLES + ("grid", "defects", "defect_events", "events", "lineage", "cell_events")
+TABLES = MESH_TABLES + ("grid", "defects", "defect_events", "events", "neighbour_events", "lineage", "cell_events")
 FORMATS = ("parquet", "csv")
 METADATA = "metadata.json"
 
@@ -93,8 +93,9 @@ class Movie:
     grid, defects, defect_events : pandas.DataFrame or None
         Coarse-grained fields Gamma_p, their defects (with defect ``track``)
         and defect pair creation / annihilation.
-    events, lineage, cell_events : pandas.DataFrame or None
-        T1 events, cell lineage and per-cell T1 statistics.
+    events, neighbour_events, lineage, cell_events : pandas.DataFrame or None
+        T1 events (quartets), neighbour-list changes of each cell (the
+        paper's per-cell definition), cell lineage and per-cell T1 statistics.
     box : Box or None
         Periodic box, or None for open images.
     shape : tuple of int
@@ -119,6 +120,7 @@ class Movie:
     defects: pd.DataFrame | None = None
     defect_events: pd.DataFrame | None = None
     events: pd.DataFrame | None = None
+    neighbour_events: pd.DataFrame | None = None
     lineage: pd.DataFrame | None = None
     cell_events: pd.DataFrame | None = None
     box: Box | None = None

@@ -30,7 +30,7 @@ import pandas as pd
 
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive
-from .events import cell_event_stats, detect_t1
+from .events import cell_event_stats, detect_t1, neighbour_events
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
 from .schema import empty_table, interior_mask, validate
@@ -83,7 +83,8 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         ``vertices``, ``edges``, ``cell_vertices``, ``grid`` (``Gamma{p}``
         for every p, :func:`~hexatissue.coarse_grain`), ``defects`` (every
         p, with defect ``track``), ``defect_events``, ``events`` (T1s,
-        :func:`~hexatissue.detect_t1`), ``lineage``
+        :func:`~hexatissue.detect_t1`), ``neighbour_events`` (the paper's
+        per-cell definition, :func:`~hexatissue.events.neighbour_events`), ``lineage``
         (:func:`~hexatissue.track.lineage_table`) and ``cell_events``
         (:func:`~hexatissue.events.cell_event_stats`); every table has a
         ``frame`` column except the per-event and per-track ones.  Columns
@@ -116,6 +117,8 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=events.censor,
                                  box=box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
+    tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length,
+                                                  censor=events.censor)
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
         tables["defects"], tables["defect_events"] = _defect_tracks(tables["defects"], tables["grid"], order,

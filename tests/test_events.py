@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from hexatissue.errors import InputError
-from hexatissue.events import (cell_event_stats, classify_t1, track_contacts, detect_t1, find_t1,
+from hexatissue.events import (cell_event_stats, classify_t1, neighbour_events, track_contacts, detect_t1, find_t1,
                                intercalation_intervals)
 from hexatissue.synthetic import movie_contacts, t1_movie, voronoi_movie
 
@@ -202,3 +202,106 @@ def test_bad_input():
         detect_t1(edges, cells.drop(columns="x"))
     empty = classify_t1(find_t1(track_contacts(edges.iloc[:0]), cells.rename(columns={"cell": "track"})), 1)
     assert empty.empty and "kind" in empty.columns
+
+
+# ---------------------------------------------------------------------------- the paper's per-cell definition
+
+def _hand_movie(contacts_of_frame, n_frames, n_cells=4):
+    """edges and cells tables of a movie given by its contacts per frame (cells 1..n_cells, all present)."""
+    rows = [(f, a, b, 5.0) for f in range(n_frames) for a, b in contacts_of_frame(f)]
+    edges = pd.DataFrame(rows, columns=["frame", "cell_a", "cell_b", "length"])
+    cells = pd.DataFrame([(f, c, 10.0 * c, 0.0) for f in range(n_frames) for c in range(1, n_cells + 1)],
+                         columns=["frame", "cell", "x", "y"])
+    return edges, cells
+
+
+RING = [(1, 3), (1, 4), (2, 3), (2, 4)]  # cells 3 and 4 are common neighbours of 1 and 2
+
+
+def test_a_fourfold_vertex_that_returns_is_a_cycle_of_two_cells_but_no_quartet_t1():
+    # 1-2 touch, lose contact at frame 3 (a four-fold vertex), touch again at 6; 3-4 never touch
+    edges, cells = _hand_movie(lambda f: RING + ([] if 3 <= f < 6 else [(1, 2)]), 10)
+    assert detect_t1(edges, cells, censor=2).empty
+    ev = neighbour_events(edges, cells, censor=2)
+    assert ev[["track", "kind", "frame_start", "frame_end", "duration", "n_lost", "n_gained"]].values.tolist() == \
+        [[1, "cycle", 3, 6.0, 3.0, 1, 0], [2, "cycle", 3, 6.0, 3.0, 1, 0]]
+
+
+def test_per_cell_periods_differ_from_the_quartet_duration():
+    """A T1 cycle through held four-fold vertices: 1-2 lost at 3, 3-4 gained at 5, lost at 8, 1-2 back at 9."""
+    def contacts(f):
+        return RING + ([(1, 2)] if f < 3 or f >= 9 else []) + ([(3, 4)] if 5 <= f < 8 else [])
+
+    edges, cells = _hand_movie(contacts, 12)
+    quartet = detect_t1(edges, cells, censor=2)
+    assert quartet[["kind", "frame_start", "duration"]].values.tolist() == [["cycle", 3, 6.0]]
+    per_cell = neighbour_events(edges, cells, censor=2).set_index("track")
+    assert per_cell.loc[[1, 2], "duration"].tolist() == [6.0, 6.0]  # a, b: frames 3 -> 9
+    assert per_cell.loc[[3, 4], "duration"].tolist() == [3.0, 3.0]  # c, d: frames 5 -> 8
+    # the per-cell statistics follow the definition of the table they are given
+    assert cell_event_stats(quartet, cells).set_index("track")["mean_cycle_period"].tolist() == [6.0] * 4
+    stats = cell_event_stats(per_cell.reset_index(), cells).set_index("track")
+    assert stats["mean_cycle_period"].tolist() == [6.0, 6.0, 3.0, 3.0] and (stats["n_cycles"] == 1).all()
+
+
+def test_two_overlapping_quartets_are_one_excursion_of_their_shared_cell():
+    """Cell 1 loses 2 at frame 2 and 5 at frame 4 (two quartets: 3-4 and 6-7 gain); both are undone at 7."""
+    base = RING + [(1, 6), (1, 7), (5, 6), (5, 7)]
+
+    def contacts(f):
+        out = list(base)
+        out += [(1, 2)] if not 2 <= f < 7 else [(3, 4)]
+        out += [(1, 5)] if not 4 <= f < 7 else [(6, 7)]
+        return out
+
+    edges, cells = _hand_movie(contacts, 10, n_cells=7)
+    quartet = detect_t1(edges, cells, censor=1)
+    assert sorted(quartet[["frame_start", "duration"]].values.tolist()) == [[2, 5.0], [4, 3.0]]
+    per_cell = neighbour_events(edges, cells, censor=1)
+    one = per_cell[per_cell["track"] == 1]
+    assert one[["kind", "frame_start", "frame_end"]].values.tolist() == [["cycle", 2, 7.0]]  # one excursion
+    assert len(per_cell) == 7  # every cell of the two quartets, cell 1 once
+
+
+def test_an_unreturned_change_is_an_intercalation_and_intervals_are_per_cell():
+    """Cell 1 loses 2 at frame 2 for good, then loses 5 at frame 6 for good: two intercalations, 4 frames apart."""
+    base = RING + [(1, 6), (1, 7), (5, 6), (5, 7)]
+
+    def contacts(f):
+        return base + ([(1, 2)] if f < 2 else [(3, 4)]) + ([(1, 5)] if f < 6 else [(6, 7)])
+
+    edges, cells = _hand_movie(contacts, 14, n_cells=7)
+    per_cell = neighbour_events(edges, cells, censor=3)
+    one = per_cell[per_cell["track"] == 1]
+    assert one[["kind", "frame_start"]].values.tolist() == [["intercalation", 2], ["intercalation", 6]]
+    intervals = intercalation_intervals(per_cell)
+    assert intervals[intervals["track"] == 1]["interval"].tolist() == [4]
+    late = neighbour_events(edges, cells, censor=10)  # 14 frames: a change at 6 is within 10 of the end
+    assert late[late["track"] == 1]["kind"].tolist() == ["intercalation", "unresolved"]
+
+
+@pytest.mark.parametrize("periodic", [True, False])
+def test_per_cell_events_of_the_scripted_t1_movie_follow_its_quartets(periodic):
+    """Each scripted quartet T1 is one event of each of its cells, a-b at frame_start, c-d at frame_gain."""
+    m = t1_movie(periodic=periodic, seed=2)
+    got = neighbour_events(m.edges, m.cells, min_length=m.min_length, censor=m.censor)
+
+    def touching(a, b):  # frames in which the truth has the a-b contact
+        e = m.edges[(m.edges["cell_a"] == min(a, b)) & (m.edges["cell_b"] == max(a, b))
+                    & (m.edges["length"] >= m.min_length)]
+        return set(e["frame"].tolist())
+
+    expected = []
+    for r in m.events.itertuples():
+        cd = touching(r.cell_c, r.cell_d)
+        undo = min((f for f in range(r.frame_gain, 36) if f not in cd), default=np.nan) if r.kind == "cycle" else np.nan
+        for cells_, start, end in (((r.cell_a, r.cell_b), r.frame_start, r.frame_end),
+                                   ((r.cell_c, r.cell_d), r.frame_gain, undo)):
+            expected += [(int(c), str(r.kind), int(start), float(end)) for c in cells_]
+    # the four-fold vertex that resolves back: no quartet T1, but its a-b pair leaves and regains contact
+    q = m.quartets.set_index("name").loc["fourfold_return"]
+    ab = sorted(touching(q.cell_a, q.cell_b))
+    gone = [f for f in range(ab[0], ab[-1]) if f not in ab]
+    expected += [(int(c), "cycle", gone[0], float(gone[-1] + 1)) for c in (q.cell_a, q.cell_b)]
+    key = lambda rows: sorted((t, k, s, -1.0 if np.isnan(e) else e) for t, k, s, e in rows)
+    assert key(got[["track", "kind", "frame_start", "frame_end"]].itertuples(index=False, name=None)) == key(expected)
