@@ -114,6 +114,12 @@ def test_pockets_on_the_image_edge_are_not_holes(tissue):
     labels[50:56, :4] = 0  # a notch open to the image edge
     lab, _ = normalize_labels(labels, fill_holes=1000)
     assert (lab[50:56, :4] == 0).all()
+    # on a torus a pocket across the box edge is one pocket (18 px): a hole only for fill_holes > 18
+    bands = np.ones((20, 20), np.int32)
+    bands[:, 10:] = 2
+    bands[5:8, :3] = bands[5:8, 17:] = 0
+    assert (normalize_labels(bands, periodic=True, fill_holes=18)[0] == 0).sum() == 18
+    assert normalize_labels(bands, periodic=True, fill_holes=19)[0].all()
 
 
 # --- masks -----------------------------------------------------------------------------------

@@ -124,7 +124,12 @@ def detect_kind(lab, periodic=False) -> str:
 
 def label_skeleton(skeleton, periodic=False) -> np.ndarray:
     """Number the 4-connected regions enclosed by the nonzero lines of ``skeleton`` 1..n."""
-    cells, n = ndimage.label(skeleton == 0)
+    return _regions(skeleton == 0, periodic).astype(np.int32)
+
+
+def _regions(foreground, periodic):
+    """4-connected regions of a bool image numbered 1..n (0 elsewhere); on a torus, across the box edges too."""
+    cells, n = ndimage.label(foreground)
     if periodic and n > 1:
         # regions touching across the box edges are one region
         a = np.r_[cells[:, 0], cells[0, :]]
@@ -135,7 +140,7 @@ def label_skeleton(skeleton, periodic=False) -> np.ndarray:
         new_id = np.zeros(n + 1, np.int64)
         new_id[1:] = np.unique(comp[1:], return_inverse=True)[1] + 1
         cells = new_id[cells]
-    return cells.astype(np.int32)
+    return cells
 
 
 def normalize_labels(labels, kind="auto", periodic=False, membrane_width=3, min_area=None, *, background=(),
@@ -318,7 +323,7 @@ def fill_pockets(lab, fill_holes=POCKET_AREA, periodic=False):
     zero = lab == 0
     if fill_holes <= 0 or not zero.any():
         return lab
-    pockets, n = ndimage.label(zero)
+    pockets = _regions(zero, periodic)
     small = np.bincount(pockets.ravel()) < fill_holes
     small[0] = False
     if not periodic:
