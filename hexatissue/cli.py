@@ -11,7 +11,7 @@ from importlib import import_module
 from pathlib import Path
 
 from .errors import InputError
-from .mesh.labels import KINDS
+from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA
 from .order import CENTERS
 
 __all__ = ["main"]
@@ -51,6 +51,16 @@ def _analyze_parser(sub):
                       help="0-valued junction pixels within this many px of a cell are shared out (default: 3)")
     mesh.add_argument("--min-area", type=int, help="regions smaller than this (px) are membrane "
                                                    "(default: 4 for skeletons, else 0)")
+    mesh.add_argument("--background", type=int, nargs="+", default=[], metavar="LABEL",
+                      help="label ids that are outside, like 0 (e.g. a rim label); their neighbours are border cells")
+    mesh.add_argument("--mask", metavar="FILE",
+                      help="region of interest: an image of the frames' shape, nonzero = inside; pixels outside are 0")
+    mesh.add_argument("--fill-holes", type=int, default=POCKET_AREA, metavar="AREA",
+                      help=f"0-valued pockets smaller than AREA px between cells are filled; 0 disables "
+                           f"(default: {POCKET_AREA})")
+    mesh.add_argument("--outside", default="auto", choices=list(OUTSIDE_RULES),
+                      help="auto: a skeleton region touching the image edge and > 20 x the median region area is "
+                           "outside, not a cell; none: keep it (default: auto)")
     order = p.add_argument_group("shape order")
     order.add_argument("--p", type=int, nargs="+", default=[6, 2], metavar="P",
                        help="symmetry orders of gamma_p, Gamma_p and defects (default: 6 2)")
@@ -102,7 +112,8 @@ def _run_analyze(args) -> int:
     source = open_cli_source(args)
     options = dict(
         mesh=MeshOptions(kind=args.kind, merge_distance=args.merge_distance, membrane_width=args.membrane_width,
-                         min_area=args.min_area),
+                         min_area=args.min_area, background=tuple(args.background), fill_holes=args.fill_holes,
+                         outside=args.outside),
         order=OrderOptions(p=tuple(args.p), center=args.center, fields=args.fields, radius=args.radius,
                            spacing=args.spacing),
         track=TrackOptions(enabled=args.track, max_gap=args.max_gap),
@@ -116,7 +127,7 @@ def _run_analyze(args) -> int:
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
-                        checkpoint=args.checkpoint, **options)
+                        checkpoint=args.checkpoint, mask=args.mask, **options)
     finally:
         if client is not None:
             client.close()

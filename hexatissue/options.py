@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, fields, replace
 import numpy as np
 
 from .errors import InputError, check_orders
-from .mesh.labels import KINDS
+from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from .order import CENTERS
 
 __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "OPTION_CLASSES"]
@@ -79,12 +79,25 @@ class MeshOptions(_Options):
         0-valued junction pixels within this many px of a cell are shared out.
     min_area : int, optional
         Regions with fewer pixels are membrane (default: 4 for skeletons, else 0).
+    background : tuple of int
+        Label ids that are outside (set to 0 first; cells touching them are border cells).
+    fill_holes : int
+        0-valued pockets smaller than this many px between cells are filled;
+        0 disables (default 16 px: gaps at triple junctions).
+    outside : {"auto", "none"}
+        ``"auto"``: a skeleton region touching the image edge and more than
+        20 x the median region area is outside; ``"none"``: it is a cell.
+
+    A region-of-interest mask is per image: ``hexatissue.analyze(..., mask=)``.
     """
 
     kind: str = "auto"
     merge_distance: float = 2.0
     membrane_width: int = 3
     min_area: int | None = None
+    background: tuple = ()
+    fill_holes: int = POCKET_AREA
+    outside: str = "auto"
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -92,6 +105,13 @@ class MeshOptions(_Options):
         self._number("merge_distance")
         self._number("membrane_width", integer=True)
         self._number("min_area", integer=True, allow_none=True)
+        self._number("fill_holes", integer=True)
+        if self.outside not in OUTSIDE_RULES:
+            _fail(type(self), "outside", self.outside, f"one of {OUTSIDE_RULES}")
+        try:
+            object.__setattr__(self, "background", check_background(self.background))
+        except InputError:
+            _fail(type(self), "background", self.background, "a sequence of non-negative integer label ids")
 
 
 @dataclass(frozen=True)

@@ -44,7 +44,7 @@ DEFECT_SPACINGS = 1.5  # default largest defect displacement between frames, in 
 
 
 def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track=TrackOptions(),
-            events=EventOptions(), client=None, workers=None, checkpoint=None, checkpoint_every=100,
+            events=EventOptions(), mask=None, client=None, workers=None, checkpoint=None, checkpoint_every=100,
             progress=True) -> Movie:
     """Every table of a label image, label movie or MPF run: networks, order, defects, tracks, T1 events.
 
@@ -60,6 +60,12 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         own box (MPF runs), else an open image.
     mesh, order, track, events : MeshOptions, OrderOptions, TrackOptions, EventOptions
         Options of each stage (see :mod:`hexatissue.options`).
+    mask : array or path, optional
+        Region of interest of every frame: a 2-D bool or integer image
+        (nonzero = inside) of the frames' shape, or a path to one (read with
+        :func:`hexatissue.open_source`, one frame).  Pixels outside it are 0,
+        so cells outside vanish and cells cut by its edge are border cells.
+        Recorded as ``source["mask"]`` in ``metadata.json``.
     client : dask.distributed.Client, optional
         Run the per-frame work on this cluster.
     workers : int, optional
@@ -99,6 +105,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     for name, value in (("mesh", mesh), ("order", order), ("track", track), ("events", events)):
         check_options(value, name)
     box = src.box if box is None else as_box(box, src.shape)
+    mask, mask_info = read_mask(mask, src.shape)
     do_track = (not src.ids_consistent) if track.enabled is None else track.enabled
     tracker = (Tracker(track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap)
                if do_track else None)
@@ -106,9 +113,9 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     store = None
     if checkpoint is not None:
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
-                   source=src.description, options={k: v.to_dict() for k, v in options.items()})
+                   source=src.description, options={k: v.to_dict() for k, v in options.items()}, mask=mask_info)
         store = _Checkpoint(checkpoint, key, checkpoint_every)
-    parts, tracker = _extract(src, box, mesh, order, tracker, client, workers, store, progress)
+    parts, tracker = _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress)
     tables = {name: _concat(parts[name], name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
@@ -126,7 +133,47 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     else:
         del tables["grid"], tables["defects"]
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
-                 options=options, source=src.description, version=__version__)
+                 options=options, source=_with_mask(src.description, mask_info), version=__version__)
+
+
+def read_mask(mask, shape):
+    """A region-of-interest mask as a bool array of ``shape`` and its description for ``metadata.json``.
+
+    Parameters
+    ----------
+    mask : None, array-like or path
+        2-D bool or integer image (nonzero = inside) or a path read with
+        :func:`hexatissue.open_source` (one frame).
+    shape : tuple of int
+        ``(rows, cols)`` of the frames.
+
+    Returns
+    -------
+    mask : (rows, cols) bool array or None
+    info : dict or None
+        ``path`` (None for an array), ``shape`` and ``inside`` (pixel count).
+    """
+    from .mesh.labels import check_mask
+    from .source import open_source
+
+    if mask is None:
+        return None, None
+    path = None
+    if isinstance(mask, (str, os.PathLike)):
+        path = str(mask)
+        try:
+            src = open_source(mask)
+            if src.n_frames != 1:
+                raise InputError(f"it must be one 2-D image; it has {src.n_frames} frames")
+            mask = src.frame(0)
+        except InputError as exc:
+            raise InputError(f"mask {path!r}: {exc}") from None
+    inside = check_mask(mask, shape)
+    return inside, {"path": path, "shape": list(inside.shape), "inside": int(inside.sum())}
+
+
+def _with_mask(description, mask_info):
+    return description if mask_info is None else {**description, "mask": mask_info}
 
 
 def _concat(parts, name, orders):
@@ -183,12 +230,14 @@ def _defect_tracks(defects, grid, order, box, n_frames):
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
 
-def _frame_job(labels, t, box, mesh, order, want_labels):
+def _frame_job(labels, t, box, mesh, order, want_labels, mask=None):
     """Tables of one frame, and its normalised labels when the tracker needs them."""
     from .mesh.labels import normalize_valid
     from .mesh.network import network_tables
 
-    lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area)
+    lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
+                                    background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside,
+                                    mask=mask)
     tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
     tables.update(_order_tables(tables, box, order))
     return tables, (lab if want_labels else None)
@@ -292,7 +341,7 @@ def _executor(client, workers, n_frames):
     return _Pool(workers), 2 * workers
 
 
-def _extract(src, box, mesh, order, tracker, client, workers, store, progress):
+def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress):
     """Per-frame tables (in frame order) and the tracker, with a bounded number of frames in flight."""
     from .progress import progress as progress_bar
 
@@ -326,7 +375,7 @@ def _extract(src, box, mesh, order, tracker, client, workers, store, progress):
     try:
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
                               total=n_frames):
-            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, tracker is not None)
+            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, tracker is not None, mask)
             pending.append((t, job))
             while len(pending) >= max_inflight:
                 collect(pending.popleft())

@@ -26,11 +26,13 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "x": ("f", "px", "pixel centroid, column"),
         "y": ("f", "px", "pixel centroid, row"),
         "area": ("f", "px^2", "number of pixels of the cell (membranes split between neighbours)"),
-        "polygon_area": ("f", "px^2", "area of the vertex polygon"),
-        "perimeter": ("f", "px", "perimeter of the vertex polygon"),
-        "n_sides": ("i", "", "number of polygon vertices (= junctions around the cell)"),
+        "polygon_area": ("f", "px^2", "area of the vertex polygon (NaN when n_sides is 0: no polygon)"),
+        "perimeter": ("f", "px", "perimeter of the vertex polygon (NaN when n_sides is 0)"),
+        "n_sides": ("i", "", "number of polygon vertices (= junctions around the cell; 0: fewer than 3 "
+                    "vertices on its boundary, no polygon)"),
         "n_boundaries": ("i", "", "boundary cycles of the cell (> 1: holes, pieces or pinches)"),
-        "is_border": ("b", "", "touches the image edge or the background (0)"),
+        "is_border": ("b", "", "touches the image edge or the background (0, background labels, the "
+                      "outside of a skeleton, outside the mask)"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
     },
@@ -40,7 +42,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "x": ("f", "px", "column"),
         "y": ("f", "px", "row"),
         "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 at a corner of an open "
-                   "image or on a closed boundary with no vertex)"),
+                   "image or on a boundary with no vertex winding around a periodic box)"),
         "is_border": ("b", "", "touches the background (cell 0)"),
     },
     "edges": {

@@ -335,6 +335,12 @@ class MigrationPopulations:
             return "two populations" if np.isfinite(self.threshold) else "nested components: one population"
         return "weak evidence for two" if self.delta_bic > 0 else "one population suffices"
 
+    @property
+    def two_populations(self) -> bool:
+        """Whether the slow/fast split holds (:attr:`verdict` is ``"two populations"``); figures and the
+        report show the split only then."""
+        return self.verdict == "two populations"
+
 
 def migration_populations(table, seed=0) -> MigrationPopulations:
     """Split subregions into slow and fast populations (data-driven rule).

@@ -116,11 +116,15 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
 
 
 def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
-    """Normalised displacement against defect density, slow and fast populations (Fig. 3f).
+    """Normalised displacement against defect density, with the slow and fast populations if there are two (Fig. 3f).
 
     Left: per subregion and window, displacement (log scale) against the mean
-    defect density, coloured by population.  Right: histogram of
-    log10(displacement) with the fitted two-component mixture.
+    defect density, coloured by population and with the split when
+    :attr:`~hexatissue.analysis.MigrationPopulations.two_populations` (its
+    ``verdict`` is ``"two populations"``); otherwise in one colour, with no
+    split.  Right: histogram of log10(displacement) with the fitted
+    two-component mixture (its components as slow and fast only when they
+    are two populations) and the verdict.
 
     Parameters
     ----------
@@ -145,18 +149,24 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
     moved = t["displacement"].to_numpy(float) > 0
     density = t["defect_density"].to_numpy(float) / cal.area(1.0)
     decade = _decade(density[moved])
+    split = populations.two_populations
     if moved.any():
-        for name, color in (("slow", SLOW_COLOR), ("fast", FAST_COLOR), ("", "0.5")):
-            part = moved & (t["population"] == name).to_numpy(bool)
+        groups = ((("slow", SLOW_COLOR), ("fast", FAST_COLOR), ("", "0.5")) if split else ((None, "0.35"),))
+        population = t["population"].to_numpy(str)
+        for name, color in groups:
+            part = moved & (population == name) if name is not None else moved
             if part.any():
+                label = (name or "unclassified") if name is not None else "subregion-windows"
                 ax.scatter(density[part] / 10.0**decade, t["displacement"].to_numpy(float)[part], s=10, color=color,
-                           alpha=0.7, label=name or "unclassified")
+                           alpha=0.7, label=label)
         ax.set_yscale("log")
         ax.legend(frameon=False)
         title = f"Spearman rho = {populations.spearman_rho:.2f}"
-        if np.isfinite(populations.threshold):
+        if split:
             ax.axhline(populations.threshold, color="0.3", ls="--", lw=0.8)
             title += f"; slow/fast split at {populations.threshold:.3g}"
+        else:
+            title += f"; {populations.verdict}: no split"
         ax.set_title(title, fontsize=9)
     else:
         _empty(ax, "no complete window")
@@ -171,11 +181,14 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
             x = np.linspace(logd.min() - 0.3, logd.max() + 0.3, 300)
             m = populations.mixture
             comps = np.exp(m.log_densities(x))
-            ax2.plot(x, comps.sum(axis=1), color="k", lw=1, ls="--", label="mixture")
-            ax2.plot(x, comps[:, 0], color=SLOW_COLOR, lw=2, alpha=0.8, label="slow component")
-            ax2.plot(x, comps[:, 1], color=FAST_COLOR, lw=2, alpha=0.8, label="fast component")
-            if np.isfinite(populations.threshold):
+            ax2.plot(x, comps.sum(axis=1), color="k", lw=1, ls="--", label="two-component mixture")
+            if split:
+                ax2.plot(x, comps[:, 0], color=SLOW_COLOR, lw=2, alpha=0.8, label="slow component")
+                ax2.plot(x, comps[:, 1], color=FAST_COLOR, lw=2, alpha=0.8, label="fast component")
                 ax2.axvline(np.log10(populations.threshold), color="0.3", ls=":", lw=0.8)
+            elif populations.single is not None:
+                ax2.plot(x, np.exp(populations.single.log_densities(x)).sum(axis=1), color="0.2", lw=2, alpha=0.8,
+                         label="one component")
             ax2.set_title(f"delta BIC (1 vs 2 components) = {populations.delta_bic:.1f}: "
                           f"{populations.verdict}", fontsize=9)
             ax2.legend(frameon=False)
@@ -214,7 +227,7 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
     if not isinstance(runs, dict):
         runs = {None: runs}
     fig, (ax,) = _figure(1, figsize or (max(4.5, 1.6 * len(runs) + 2), 4))
-    data, pos, colors, labels = [], [], [], []
+    data, pos, colors, groups, pvalues = [], [], [], [], []
     for k, (value, table) in enumerate(runs.items()):
         for j, (col, color) in enumerate((("mean_intercalation_interval", SLOW_COLOR),
                                           ("mean_cycle_period", FAST_COLOR))):
@@ -223,8 +236,9 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
             pos.append(3 * k + j)
             colors.append(color)
         p = timing_test(table)["pvalue"]
-        head = "" if value is None else f"{param}={value:g}\n"
-        labels.append(head + (f"p={p:.2g}" if np.isfinite(p) else "p: n/a"))
+        text = f"{p:.2g}" if np.isfinite(p) else "n/a"
+        groups.append(None if value is None else f"{param}={value:g}")
+        pvalues.append(text if value is None else f"{param}={value:g}: {text}")
     nonempty = [i for i, d in enumerate(data) if len(d)]
     if nonempty:
         bp = ax.boxplot([data[i] for i in nonempty], positions=[pos[i] for i in nonempty], widths=0.8,
@@ -234,14 +248,17 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
             patch.set_alpha(0.6)
     else:
         _empty(ax, "no intercalation interval or cycle period")
-    ax.set_xticks([3 * k + 0.5 for k in range(len(runs))], labels)
+    if len(runs) == 1 and groups[0] is None:  # one run: a tick per category
+        ax.set_xticks([0, 1], ["between\nintercalations", "T1-cycle\nperiod"])
+    else:  # a pair of boxes per run, ticked with its parameter value
+        ax.set_xticks([3 * k + 0.5 for k in range(len(runs))], groups)
     ax.set_xlim(-1, 3 * len(runs) - 1)
     ax.set_ylabel(f"time ({cal.time_label})")
     from matplotlib.patches import Patch
 
     ax.legend(handles=[Patch(color=SLOW_COLOR, alpha=0.6, label="between intercalations"),
                        Patch(color=FAST_COLOR, alpha=0.6, label="T1-cycle period")], frameon=False, fontsize=8)
-    ax.set_title("per-cell means; Welch t-test p", fontsize=9)
+    ax.set_title("per-cell means; Welch t-test p = " + ", ".join(pvalues), fontsize=9, wrap=True)
     return _finish(fig, path)
 
 
@@ -329,10 +346,26 @@ def plot_event_overview(events, n_frames=None, path=None, calibration=None, figs
     d = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float) if len(events) else np.zeros(0)
     d = d[np.isfinite(d)]
     if len(d):
-        bins = np.arange(0.5, d.max() + 1.5, max(1, int(np.ceil(d.max() / 30))))
+        bins = _duration_bins(d)
         ax2.hist(cal.time(d), bins=cal.time(bins), color=FAST_COLOR)
     else:
         _empty(ax2, "no T1 cycles")
     ax2.set_xlabel(f"T1-cycle duration ({cal.time_label})")
     ax2.set_ylabel("cycles")
     return _finish(fig, path)
+
+
+def _duration_bins(durations, max_bins=30):
+    """Bin edges for durations in whole frames: centred on whole frames, ``step`` frames wide, covering all.
+
+    ``step`` is the smallest whole number giving at most ``max_bins`` bins;
+    the last edge is at or above ``max + 0.5``, so the longest durations are
+    counted.
+    """
+    d = np.asarray(durations, float)
+    d = d[np.isfinite(d)]
+    lo = min(0.5, float(np.floor(d.min())) - 0.5) if len(d) else 0.5
+    hi = float(d.max()) if len(d) else 1.0
+    step = max(1, int(np.ceil((hi - lo) / max_bins)))
+    n = max(1, int(np.ceil((hi + 0.5 - lo) / step)))
+    return lo + step * np.arange(n + 1)

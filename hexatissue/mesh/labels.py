@@ -21,7 +21,28 @@ Three conventions are accepted (``kind``):
 ``"auto"`` picks ``"skeleton"`` for a binary image whose foreground is thin
 lines, ``"membrane"`` when more 0-pixels lie between two different cells (in
 a 1-2 px gap along a row or column) than there are direct cell-cell
-contacts, and ``"touching"`` otherwise.
+contacts, and ``"touching"`` otherwise.  The kind is detected on the input
+as given.
+
+Outside and background (all become 0, so the cells next to them are border
+cells, ``is_border``), in this order:
+
+1. ``background``: label ids that are outside (a rim label of hand-labelled
+   data).  For skeletons the ids are those of the enclosed regions (the cell
+   ids of the output).
+2. ``mask``: pixels outside a region of interest (a 2-D bool image).  They
+   are 0 in the final labels too: membranes are not shared out across the
+   mask's edge.
+3. ``min_area``: smaller regions are membrane.
+4. ``outside="auto"`` (skeletons on an open image): an enclosed region that
+   touches the image edge and is larger than ``OUTSIDE_FACTOR`` (20) times
+   the median region area (of the regions of at least ``min_area`` px) is
+   the outside of a masked skeleton.  ``"none"`` keeps it as a cell.
+5. Membranes are shared out (kinds ``"membrane"``, ``"skeleton"``).
+6. ``fill_holes``: 0-valued 4-connected pockets smaller than this many px
+   that do not touch the edge of an open image are holes between touching
+   cells and are filled from their neighbours (all kinds; 0 disables).
+   Default ``POCKET_AREA`` (16 px): gaps at triple junctions.
 """
 from __future__ import annotations
 
@@ -34,9 +55,10 @@ from ..errors import InputError
 from ._kernels import fill_gaps
 
 KINDS = ("auto", "touching", "membrane", "skeleton")
+OUTSIDE_RULES = ("auto", "none")
+OUTSIDE_FACTOR = 20  # a skeleton region touching the image edge and > 20 x the median region area is the outside
 SKELETON_MIN_AREA = 4  # px: smaller regions enclosed by skeleton lines are specks, not cells
 POCKET_AREA = 16  # px: smaller 0-valued pockets in touching labels are holes (e.g. at triple junctions)
-POCKET_PASSES = 4  # fill passes: enough to close any pocket of fewer than POCKET_AREA px
 
 
 def validate_labels(labels, name="labels") -> np.ndarray:
@@ -121,7 +143,12 @@ def detect_kind(lab, periodic=False) -> str:
 
 def label_skeleton(skeleton, periodic=False) -> np.ndarray:
     """Number the 4-connected regions enclosed by the nonzero lines of ``skeleton`` 1..n."""
-    cells, n = ndimage.label(skeleton == 0)
+    return _regions(skeleton == 0, periodic).astype(np.int32)
+
+
+def _regions(foreground, periodic):
+    """4-connected regions of a bool image numbered 1..n (0 elsewhere); on a torus, across the box edges too."""
+    cells, n = ndimage.label(foreground)
     if periodic and n > 1:
         # regions touching across the box edges are one region
         a = np.r_[cells[:, 0], cells[0, :]]
@@ -132,43 +159,93 @@ def label_skeleton(skeleton, periodic=False) -> np.ndarray:
         new_id = np.zeros(n + 1, np.int64)
         new_id[1:] = np.unique(comp[1:], return_inverse=True)[1] + 1
         cells = new_id[cells]
-    return cells.astype(np.int32)
+    return cells
 
 
-def normalize_labels(labels, kind="auto", periodic=False, membrane_width=3, min_area=None):
-    """Touching integer labels from any convention.
+def normalize_labels(labels, kind="auto", periodic=False, membrane_width=3, min_area=None, *, background=(),
+                     fill_holes=POCKET_AREA, outside="auto", mask=None):
+    """Touching integer labels from any convention (see the module docstring for the rules).
 
     Returns
     -------
     labels : (rows, cols) integer array
         Cells touch directly; 0 only where background is wider than
-        ``membrane_width``.
+        ``membrane_width``, outside the mask and for the outside regions.
     membrane : (rows, cols) bool array
         Pixels that were junction lines and were given to a cell.
     """
-    return normalize_valid(validate_labels(labels), kind, periodic, membrane_width, min_area)
+    lab = validate_labels(labels)
+    return normalize_valid(lab, kind, periodic, membrane_width, min_area, background=background,
+                           fill_holes=fill_holes, outside=outside, mask=check_mask(mask, lab.shape))
 
 
-def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area=None):
-    """:func:`normalize_labels` of labels already checked by :func:`validate_labels`."""
+def check_mask(mask, shape, name="mask"):
+    """A region-of-interest mask as a bool array of ``shape`` (None stays None); nonzero = inside."""
+    if mask is None:
+        return None
+    arr = np.asarray(mask)
+    if arr.dtype.kind not in "biuf":
+        raise InputError(f"{name} must be a 2-D bool or integer image (nonzero = inside); got dtype {arr.dtype}")
+    if arr.shape != tuple(shape):
+        raise InputError(f"{name} must have the shape of the labels {tuple(shape)}; got {arr.shape}")
+    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise InputError(f"{name} contains NaN or infinite values")
+    inside = arr != 0
+    if not inside.any():
+        raise InputError(f"{name} is all zeros: no pixel is inside the region of interest")
+    return inside
+
+
+def check_background(background, name="background"):
+    """Label ids that are outside, as a sorted tuple of non-negative ints."""
+    values = (background,) if np.isscalar(background) else background
+    try:
+        ids = tuple(values)
+    except TypeError:
+        raise InputError(f"{name} must be a sequence of label ids; got {background!r}") from None
+    for v in ids:
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 0:
+            raise InputError(f"{name} must hold non-negative integer label ids; got {v!r}")
+    return tuple(sorted({int(v) for v in ids}))
+
+
+def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area=None, *, background=(),
+                    fill_holes=POCKET_AREA, outside="auto", mask=None):
+    """:func:`normalize_labels` of labels already checked by :func:`validate_labels` (and ``mask`` by
+    :func:`check_mask`)."""
     if kind not in KINDS:
         raise InputError(f"kind must be one of {KINDS}; got {kind!r}")
+    if outside not in OUTSIDE_RULES:
+        raise InputError(f"outside must be one of {OUTSIDE_RULES}; got {outside!r}")
     if not (isinstance(membrane_width, (int, np.integer)) and membrane_width >= 0):
         raise InputError(f"membrane_width must be a non-negative whole number of px; got {membrane_width!r}")
+    if not (isinstance(fill_holes, (int, np.integer)) and not isinstance(fill_holes, bool) and fill_holes >= 0):
+        raise InputError(f"fill_holes must be a non-negative whole number of px; got {fill_holes!r}")
+    background = check_background(background)
     if kind == "auto":
         kind = detect_kind(lab, periodic)
     if kind == "skeleton":
         lab = label_skeleton(lab, periodic)
         if lab.max() == 0:
             raise InputError("labels: the skeleton encloses no region; expected junction lines around cells")
+    if background:
+        lab = np.where(np.isin(lab, background), 0, lab)
+    if mask is not None:
+        lab = np.where(mask, lab, 0)
     if min_area is None:
         min_area = SKELETON_MIN_AREA if kind == "skeleton" else 0
+    counts = np.bincount(lab.ravel())
     if min_area > 0:
-        counts = np.bincount(lab.ravel())
         small = counts < min_area
         small[0] = False
         if small.any():
             lab = np.where(small[lab], 0, lab)
+            counts[small] = 0
+    if kind == "skeleton" and outside == "auto" and not periodic:
+        lab = _drop_outer_regions(lab, counts)
+    if not lab.any():
+        raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
+                         "outside the mask")
     membrane = np.zeros(lab.shape, bool)
     zero = lab == 0
     if not zero.any():
@@ -176,10 +253,36 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
     dtype = np.int32 if lab.max() < 2**31 else np.int64
     lab = np.ascontiguousarray(lab, dtype=dtype)
     if kind in ("membrane", "skeleton") and membrane_width > 0:
-        filled = fill_gaps(lab, int(membrane_width), bool(periodic))
-        membrane = zero & (filled != 0)
-        return filled, membrane
-    return _fill_pockets(lab, zero, periodic), membrane
+        lab = fill_gaps(lab, int(membrane_width), bool(periodic))
+        if mask is not None:
+            lab[~mask] = 0
+        membrane = zero & (lab != 0)
+    lab = fill_pockets(lab, fill_holes, periodic)
+    if mask is not None:
+        lab[~mask] = 0
+    return lab, membrane
+
+
+def outer_regions(lab, counts=None):
+    """Ids of the regions touching the image edge with more than ``OUTSIDE_FACTOR`` x the median region area.
+
+    The rule for the outside of a masked skeleton (an open image): its one
+    large region around the tissue.  ``counts`` are the pixel counts per id
+    (``np.bincount(lab.ravel())``).
+    """
+    if counts is None:
+        counts = np.bincount(lab.ravel())
+    areas = counts[1:][counts[1:] > 0]
+    if len(areas) < 2:
+        return np.zeros(0, np.int64)
+    edge = np.unique(np.r_[lab[0], lab[-1], lab[:, 0], lab[:, -1]])
+    edge = edge[edge > 0]
+    return edge[counts[edge] > OUTSIDE_FACTOR * np.median(areas)]
+
+
+def _drop_outer_regions(lab, counts):
+    outer = outer_regions(lab, counts)
+    return np.where(np.isin(lab, outer), 0, lab) if len(outer) else lab
 
 
 def compact_labels(lab):
@@ -229,13 +332,26 @@ def touches_outside(lab, periodic=False):
     return ids[ids > 0]
 
 
-def _fill_pockets(lab, zero, periodic):
-    """Fill 0-valued pockets smaller than ``POCKET_AREA`` px (holes in touching labels); keep real background."""
-    pockets, n = ndimage.label(zero)
-    small = np.bincount(pockets.ravel()) < POCKET_AREA
+def fill_pockets(lab, fill_holes=POCKET_AREA, periodic=False):
+    """Labels with their 0-valued holes filled from the neighbouring cells (majority of 4 neighbours).
+
+    A hole is a 4-connected 0-region smaller than ``fill_holes`` px that does
+    not touch the edge of an open image; larger 0-regions are background and
+    stay 0.  ``fill_holes=0`` fills nothing.
+    """
+    zero = lab == 0
+    if fill_holes <= 0 or not zero.any():
+        return lab
+    pockets = _regions(zero, periodic)
+    small = np.bincount(pockets.ravel()) < fill_holes
     small[0] = False
+    if not periodic:
+        small[np.r_[pockets[0], pockets[-1], pockets[:, 0], pockets[:, -1]]] = False
     if not small.any():
         return lab
-    filled = fill_gaps(lab, POCKET_PASSES, bool(periodic))
-    filled[zero & ~small[pockets]] = 0
+    holes = small[pockets]
+    # one pass fills one layer: as many passes as the deepest hole pixel is far from a cell (4-connected)
+    passes = int(ndimage.distance_transform_cdt(holes, metric="taxicab").max())
+    filled = fill_gaps(np.ascontiguousarray(lab), passes, bool(periodic))
+    filled[zero & ~holes] = 0
     return filled

@@ -14,7 +14,7 @@ from ..frame import Frame
 from ..geometry import polygon_area_centroid, polygon_perimeter
 from ..schema import validate
 from . import _kernels as K
-from .labels import compact_labels, normalize_valid, validate_labels
+from .labels import POCKET_AREA, check_mask, compact_labels, normalize_valid, validate_labels
 
 __all__ = ["mesh_from_labels", "network_tables", "warm_up"]
 
@@ -219,6 +219,10 @@ def mesh_from_labels(
     merge_distance=2.0,
     membrane_width=3,
     min_area=None,
+    background=(),
+    fill_holes=POCKET_AREA,
+    outside="auto",
+    mask=None,
     frame=0,
 ) -> Frame:
     """Junction network of a 2-D label image: vertices, junctions, ordered polygons, cell table.
@@ -251,6 +255,25 @@ def mesh_from_labels(
     min_area : int, optional
         Regions with fewer pixels are treated as membrane.  Default: 4 px for
         skeletons (specks enclosed by junction lines), else 0.
+    background : sequence of int
+        Label ids that are outside (e.g. a rim label of hand-labelled data):
+        set to 0 before anything else (for skeletons: ids of the enclosed
+        regions, which are the output's cell ids).  Cells touching them are
+        border cells.
+    fill_holes : int
+        0-valued pockets smaller than this many px (4-connected, not touching
+        the edge of an open image) are holes between touching cells and are
+        filled from their neighbours; 0 disables.  The default, 16 px, closes
+        the gaps at triple junctions of segmented phase fields.
+    outside : {"auto", "none"}
+        ``"auto"``: for a skeleton on an open image, an enclosed region that
+        touches the image edge and is more than 20 x the median region area
+        is the outside of a masked skeleton (0), not a cell.  ``"none"``
+        keeps every enclosed region as a cell.
+    mask : (rows, cols) bool or integer array, optional
+        Region of interest (nonzero = inside): pixels outside it are 0 in the
+        normalised labels, so cells outside it vanish and cells cut by its
+        edge are border cells.
     frame : int
         Time point, stored in every table's ``frame`` column.
 
@@ -263,13 +286,23 @@ def mesh_from_labels(
         ``cells``: cell (label id), x, y (pixel centroid, px), area (pixel
         count incl. the cell's share of membranes, px^2), polygon_area (area
         of the vertex polygon, px^2), perimeter (of the vertex polygon, px),
-        n_sides (polygon vertices; 0 when the cell has no boundary polygon),
+        n_sides (polygon vertices; 0 when the cell has no vertex polygon:
+        its boundary has fewer than 3 vertices, e.g. a cell enclosed by one
+        other cell or by background (no vertex) or a lens between two cells
+        (2 vertices), so the straight-line polygon encloses no area; then
+        polygon_area and perimeter are NaN, and they are finite for every
+        cell with n_sides >= 3),
         n_boundaries (boundary cycles; > 1 for cells with holes or in pieces),
-        is_border (touches the image edge or background 0).
+        is_border (has a junction with cell 0: the image edge of an open
+        image, background 0, a ``background`` label, the outside of a
+        skeleton or the pixels outside ``mask``).
 
         ``vertices``: vertex, x, y (px), degree (number of junction ends; 2
         at the corners of an open image and for the single point placed on
-        a closed boundary with no vertex), is_border (touches cell 0).
+        a boundary with no vertex that winds around a periodic box),
+        is_border (touches cell 0).  A closed boundary with no vertex that
+        does not wind around the box (a cell enclosed by one other cell or
+        by background) is not a junction: it has no point and no edge.
 
         ``edges``: edge, vertex_a, vertex_b, cell_a < cell_b (0 = outside),
         length (straight distance between the vertices, px).
@@ -282,7 +315,8 @@ def mesh_from_labels(
     ------
     InputError
         For labels that are not a 2-D non-negative integer image with at least
-        one cell, or a box that does not match the image.
+        one cell, a box that does not match the image, or a mask that is
+        not an image of the labels' shape.
 
     Warns
     -----
@@ -295,7 +329,9 @@ def mesh_from_labels(
     box = as_box(box, lab.shape)
     if not (np.isscalar(merge_distance) and np.isfinite(merge_distance) and merge_distance >= 0):
         raise InputError(f"merge_distance must be a non-negative length in px; got {merge_distance!r}")
-    normalized, membrane = normalize_valid(lab, kind, box is not None, membrane_width, min_area)
+    normalized, membrane = normalize_valid(lab, kind, box is not None, membrane_width, min_area,
+                                           background=background, fill_holes=fill_holes, outside=outside,
+                                           mask=check_mask(mask, lab.shape))
     tables = network_tables(normalized, membrane, box, merge_distance, frame)
     return Frame(**tables, frame=int(frame), box=box, shape=tuple(lab.shape))
 
@@ -313,12 +349,34 @@ def network_tables(lab, membrane, box, merge_distance, frame=0) -> dict:
     centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
     poly_start, poly_len, verts, xy, n_cycles = _polygons(centre, kept, n_labels)
     cells = _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles)
+    centre, kept, verts = _drop_closed_loops(centre, kept, verts)
     vertices, edges, cell_vertices = _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts)
     out = {}
     for name, table in (("cells", cells), ("vertices", vertices), ("edges", edges), ("cell_vertices", cell_vertices)):
         table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
         out[name] = validate(table, name)
     return out
+
+
+def _drop_closed_loops(centre, kept, verts):
+    """Network without the contractible boundaries that have no vertex on them, and without their points.
+
+    Such a boundary (a cell enclosed by one other cell or by background) is
+    traced as a junction from a degree-2 point back to itself, of length 0:
+    it has no end points, so it is not a junction.  It still counts in the
+    cells' ``n_boundaries`` and ``is_border``.  A loop around a periodic box
+    (a band of cells) has a nonzero length and stays.
+    """
+    loop = (kept["a"] == kept["b"]) & (kept["vec"] == 0).all(axis=1)
+    if not loop.any():
+        return centre, kept, verts
+    kept = {k: v[~loop] for k, v in kept.items()}
+    used = np.zeros(len(centre), bool)
+    used[kept["a"]] = used[kept["b"]] = True
+    new = np.cumsum(used) - 1
+    kept["a"], kept["b"] = new[kept["a"]], new[kept["b"]]
+    # polygons never hold a loop point (a one-point cycle encloses no area), so every polygon vertex is kept
+    return centre[used], kept, new[verts]
 
 
 def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles):

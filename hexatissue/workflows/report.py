@@ -82,6 +82,7 @@ def _tissue_section(movie, order_p):
     cells, cal = movie.cells, movie.calibration
     n_frames = max(len(movie), 1)
     inner = cells[~cells["is_border"].to_numpy(bool)]
+    numbers = {"frames": len(movie), "cells_per_frame": len(cells) / n_frames}
     lines = ["## Tissue", "",
              f"- frames: {len(movie)}" + ("" if len(movie) > 1 else " (single image)"),
              f"- cells per frame: {len(cells) / n_frames:.1f} ({len(inner) / n_frames:.1f} interior)",
@@ -90,11 +91,18 @@ def _tissue_section(movie, order_p):
              f"- frame interval: " + (f"{cal.frame_interval:g} {cal.time_label}" if cal.has_time
                                      else "not calibrated (frames)")]
     if len(inner):
-        lines.append(f"- mean number of sides (interior cells): {inner['n_sides'].mean():.3f}")
+        polygons = inner["n_sides"].to_numpy() >= 3
+        left_out = int((~polygons).sum())
+        if polygons.any():
+            lines.append(f"- mean number of sides (interior cells with a polygon, n_sides >= 3): "
+                         f"{inner['n_sides'][polygons].mean():.3f}"
+                         + (f"; {left_out} interior fragment(s) with fewer than 3 vertices left out" if left_out
+                            else ""))
+        numbers["mean_sides"] = float(inner["n_sides"][polygons].mean()) if polygons.any() else float("nan")
+        numbers["fragments_left_out"] = left_out
         area = inner["area"].mean()
         lines.append(f"- mean cell area (interior): {area:.4g} px^2"
                      + (f" ({cal.area(area):.4g} {cal.length_label}^2)" if cal.has_length else ""))
-    numbers = {"frames": len(movie), "cells_per_frame": len(cells) / n_frames}
     for q in order_p:
         col = f"gamma{q}_re"
         if col in inner.columns and len(inner):
@@ -235,7 +243,9 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
         table = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=events,
                                 include_border=include_border)
     pops = migration_populations(table, seed=seed)
-    numbers["migration"] = {"dl": dl, "dt": dt, "n_subregion_windows": len(table), "threshold": pops.threshold,
+    split = pops.two_populations
+    numbers["migration"] = {"dl": dl, "dt": dt, "n_subregion_windows": len(table),
+                            "threshold": pops.threshold if split else float("nan"), "verdict": pops.verdict,
                             "delta_bic": pops.delta_bic, "spearman_rho": pops.spearman_rho,
                             "spearman_pvalue": pops.spearman_pvalue}
     path = out / "migration.png"
@@ -244,11 +254,17 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     lines += ["## Migration and defect density (Fig. 3f)", "",
               f"- subregions of {_length(cal, dl)}, windows of {dt} frames: {len(table)} subregion-windows",
               f"- Spearman rank correlation of displacement and defect density: rho = {pops.spearman_rho:.3g} "
-              f"(p = {pops.spearman_pvalue:.3g})",
-              f"- two-component mixture in log10(displacement): split at {pops.threshold:.3g}, "
-              f"delta BIC (1 vs 2 components) = {pops.delta_bic:.3g} ({pops.verdict}; "
-              f"> 10 is strong evidence for two populations)", "",
-              _md_table(pops.summary), ""]
+              f"(p = {pops.spearman_pvalue:.3g})"]
+    fit = (f"delta BIC (1 vs 2 components) = {pops.delta_bic:.3g} ({pops.verdict}; "
+           f"> 10 is strong evidence for two populations)")
+    if split:
+        lines += [f"- two-component mixture in log10(displacement): split at {pops.threshold:.3g}, {fit}", "",
+                  _md_table(pops.summary), ""]
+    else:
+        moved = pops.table["displacement"].to_numpy(float) > 0
+        median = float(np.median(pops.table["displacement"].to_numpy(float)[moved])) if moved.any() else np.nan
+        lines += [f"- mixture in log10(displacement): {fit}; no slow/fast split",
+                  f"- {int(moved.sum())} subregion-windows moved, median displacement {median:.3g}", ""]
     lines += _figure_line(path, out, "migration")
 
     # Fig. 3g
