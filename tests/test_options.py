@@ -1,4 +1,5 @@
 """Options objects: defaults equal the stage functions' keywords, validation names the field, JSON round trip."""
+import dataclasses
 import inspect
 
 import pytest
@@ -9,8 +10,8 @@ from hexatissue.options import OPTION_CLASSES
 
 def test_field_names_and_defaults_match_the_stage_functions():
     mesh = inspect.signature(mesh_from_labels).parameters
-    for name, value in MeshOptions().to_dict().items():
-        assert mesh[name].default == value, name
+    for f in dataclasses.fields(MeshOptions):
+        assert mesh[f.name].default == getattr(MeshOptions(), f.name), f.name
     events = inspect.signature(detect_t1).parameters
     assert EventOptions().min_length == events["min_length"].default
     assert EventOptions().censor == events["censor"].default
