@@ -30,11 +30,11 @@ import pandas as pd
 
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive
-from .events import cell_event_stats, detect_t1
+from .events import cell_event_stats, default_censor, detect_t1
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
 from .schema import empty_table, interior_mask, validate
-from .track import Tracker, lineage_table
+from .track import MovieTracker, lineage_table
 
 __all__ = ["analyze"]
 
@@ -89,7 +89,17 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         ``frame`` column except the per-event and per-track ones.  Columns
         and units: :func:`hexatissue.schema.describe`.  The Movie carries the
         box, shape, calibration (pixel size, frame interval), the options
-        used and the source's description.
+        used (``track.mode`` and ``events.censor`` resolved: see
+        :class:`~hexatissue.TrackOptions` and
+        :func:`~hexatissue.events.default_censor`), ``summary`` (what
+        tracking decided and changed, the censoring window and how many T1s
+        it left classifiable) and the source's description.
+
+    Warns
+    -----
+    HexatissueWarning
+        When every T1 event is ``unresolved`` (the censoring window covers
+        them all).
     """
     from . import __version__
     from .source import open_source
@@ -98,32 +108,35 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     for name, value in (("mesh", mesh), ("order", order), ("track", track), ("events", events)):
         check_options(value, name)
     box = src.box if box is None else as_box(box, src.shape)
-    do_track = (not src.ids_consistent) if track.enabled is None else track.enabled
-    tracker = (Tracker(track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap)
-               if do_track else None)
-    options = {"mesh": mesh, "order": order, "track": track.replace(enabled=do_track), "events": events}
+    tracker = MovieTracker(track.mode, track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap,
+                           ids_consistent=src.ids_consistent)
     store = None
     if checkpoint is not None:
+        requested = {"mesh": mesh, "order": order, "track": track, "events": events}
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
-                   source=src.description, options={k: v.to_dict() for k, v in options.items()})
+                   source=src.description, options={k: v.to_dict() for k, v in requested.items()})
         store = _Checkpoint(checkpoint, key, checkpoint_every)
     parts, tracker = _extract(src, box, mesh, order, tracker, client, workers, store, progress)
     tables = {name: _concat(parts[name], name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
-    parents = tracker.parents if tracker is not None else {}
+    parents = tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
-    tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=events.censor,
-                                 box=box)
+    censor = default_censor(src.n_frames) if events.censor is None else events.censor
+    tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
+    summary = {"tracking": _tracking_summary(tracker, cells, parents),
+               "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
         tables["defects"], tables["defect_events"] = _defect_tracks(tables["defects"], tables["grid"], order,
                                                                     box, src.n_frames)
     else:
         del tables["grid"], tables["defects"]
+    options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),
+               "events": events.replace(censor=censor)}
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
-                 options=options, source=src.description, version=__version__)
+                 options=options, source=src.description, version=__version__, summary=summary)
 
 
 def _concat(parts, name, orders):
@@ -133,18 +146,39 @@ def _concat(parts, name, orders):
 
 
 def _with_tracks(cells, tracker):
-    """``cells`` with a ``track`` column after ``cell``: the tracker's ids, or the labels themselves."""
-    if tracker is None:
-        track = cells["cell"].to_numpy(np.int64)
-    else:
-        ids = tracker.tracks()
-        merged = cells[["frame", "cell"]].merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
-        if merged["track"].isna().any():  # the tracker saw the mesh's own labels: this is a bug, not bad input
-            raise AssertionError("mesh cells missing from the tracker's labels")
-        track = merged["track"].to_numpy(np.int64)
+    """``cells`` with a ``track`` column after ``cell``, from the tracker's ``(frame, cell) -> track``."""
+    ids = tracker.tracks()
+    merged = cells[["frame", "cell"]].merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
+    if merged["track"].isna().any():  # the tracker saw the mesh's own labels: this is a bug, not bad input
+        raise AssertionError("mesh cells missing from the tracker's labels")
     cells = cells.drop(columns="track", errors="ignore")
-    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", merged["track"].to_numpy(np.int64))
     return cells
+
+
+def _tracking_summary(tracker, cells, parents):
+    """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
+    out = tracker.summary()
+    out.update(rows_track_not_cell=int((cells["track"].to_numpy() != cells["cell"].to_numpy()).sum()),
+               n_ids=int(cells["cell"].nunique()), n_tracks=int(cells["track"].nunique()),
+               n_divisions=len(set(parents.values())))
+    return out
+
+
+#: Warning when the censoring window leaves every T1 unresolved.
+ALL_UNRESOLVED = ("every T1 event is unresolved: they all start within the censoring window of the movie's end, so "
+                  "none is classified as cycle or intercalation (see EventOptions.censor and movie.summary)")
+
+
+def _events_summary(events, options, censor, n_frames):
+    """Censoring window used (and where it came from) and the number of events of each kind."""
+    counts = events["kind"].astype(str).value_counts()
+    n_unresolved = int(counts.get("unresolved", 0))
+    if len(events) and n_unresolved == len(events):
+        warnings.warn(ALL_UNRESOLVED, HexatissueWarning, stacklevel=3)
+    rule = "given" if options.censor is not None else "min(10, max(1, n_frames // 5))"
+    return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
+            "n_unresolved": n_unresolved, "n_classified": int(len(events)) - n_unresolved}
 
 
 def _warn_frames_without_field(cells, grid, n_frames):
@@ -180,15 +214,15 @@ def _defect_tracks(defects, grid, order, box, n_frames):
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
 
-def _frame_job(labels, t, box, mesh, order, want_labels):
-    """Tables of one frame, and its normalised labels when the tracker needs them."""
+def _frame_job(labels, t, box, mesh, order):
+    """Tables of one frame and its normalised labels (for the tracker)."""
     from .mesh.labels import normalize_valid
     from .mesh.network import network_tables
 
     lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area)
     tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
     tables.update(_order_tables(tables, box, order))
-    return tables, (lab if want_labels else None)
+    return tables, lab
 
 
 def _order_tables(tables, box, order):
@@ -310,20 +344,19 @@ def _extract(src, box, mesh, order, tracker, client, workers, store, progress):
     def collect(item):
         t, future = item
         tables, labels = future.result()
-        if tracker is not None:
-            tracker.add_valid(labels, t)
+        tracker.add_valid(labels, t)
         for name, table in tables.items():
             parts[name].append(table)
             new_parts[name].append(table)
         if t + 1 in due:
-            store.save(t + 1, new_parts, pickle.dumps(tracker) if tracker is not None else None)
+            store.save(t + 1, new_parts, pickle.dumps(tracker))
             for name in new_parts:
                 new_parts[name] = []
 
     try:
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
                               total=n_frames):
-            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, tracker is not None)
+            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order)
             pending.append((t, job))
             while len(pending) >= max_inflight:
                 collect(pending.popleft())
