@@ -98,8 +98,8 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     Warns
     -----
     HexatissueWarning
-        When every T1 event is ``unresolved`` (the censoring window covers
-        them all).
+        When no T1 event is an intercalation because every one that is not
+        undone is ``unresolved`` (the censoring window covers them all).
     """
     from . import __version__
     from .source import open_source
@@ -165,20 +165,22 @@ def _tracking_summary(tracker, cells, parents):
     return out
 
 
-#: Warning when the censoring window leaves every T1 unresolved.
-ALL_UNRESOLVED = ("every T1 event is unresolved: they all start within the censoring window of the movie's end, so "
-                  "none is classified as cycle or intercalation (see EventOptions.censor and movie.summary)")
+#: Warning when the censoring window leaves no T1 to count as an intercalation.
+NO_INTERCALATION = ("no T1 event is classified as an intercalation: every T1 that is not undone starts within the "
+                    "censoring window of the movie's end and is unresolved (see EventOptions.censor and "
+                    "movie.summary['events'])")
 
 
 def _events_summary(events, options, censor, n_frames):
     """Censoring window used (and where it came from) and the number of events of each kind."""
     counts = events["kind"].astype(str).value_counts()
-    n_unresolved = int(counts.get("unresolved", 0))
-    if len(events) and n_unresolved == len(events):
-        warnings.warn(ALL_UNRESOLVED, HexatissueWarning, stacklevel=3)
+    n = {kind: int(counts.get(kind, 0)) for kind in ("cycle", "intercalation", "unresolved")}
+    if n["unresolved"] and not n["intercalation"]:
+        warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=3)
     rule = "given" if options.censor is not None else "min(10, max(1, n_frames // 5))"
     return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
-            "n_unresolved": n_unresolved, "n_classified": int(len(events)) - n_unresolved}
+            "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
+            "n_classified": n["cycle"] + n["intercalation"]}
 
 
 def _warn_frames_without_field(cells, grid, n_frames):

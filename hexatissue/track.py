@@ -224,7 +224,26 @@ def _check_fractions(min_iou, child_fraction, mother_fraction):
             raise InputError(f"{name} must be in (0, 1]; got {value!r}")
 
 
-class Tracker:
+class _Feed:
+    """What the trackers share: frames added one at a time, all of one shape (``_n``, ``_shape``)."""
+
+    def add(self, labels, frame=None) -> np.ndarray:
+        """Track one more frame; returns the track id of each cell of ``labels`` (sorted by label id).
+
+        ``frame`` defaults to the number of frames added so far.
+        """
+        return self.add_valid(validate_labels(labels), frame)
+
+    def _next_frame(self, labels, frame):
+        """``(frame index, compact labels)`` of the frame being added; checks its shape."""
+        frame = self._n if frame is None else int(frame)
+        if self._shape is not None and labels.shape != self._shape:
+            raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
+        self._shape = labels.shape
+        return frame, _compact(labels)
+
+
+class Tracker(_Feed):
     """Incremental overlap tracker: feed label images in time order with :meth:`add`.
 
     Track ids reproduce the labels when they are already consistent: a cell
@@ -304,20 +323,9 @@ class Tracker:
             k = int(flat[part[0]])
             self._dormant.append((int(self._prev_tracks[k]), self._prev_frame, part))
 
-    def add(self, labels, frame=None) -> np.ndarray:
-        """Track one more frame; returns the track id of each cell of ``labels`` (sorted by label id).
-
-        ``frame`` defaults to the number of frames added so far.
-        """
-        return self.add_valid(validate_labels(labels), frame)
-
     def add_valid(self, labels, frame=None) -> np.ndarray:
         """:meth:`add` for labels already checked by :func:`~hexatissue.mesh.labels.validate_labels`."""
-        frame = self._n if frame is None else int(frame)
-        if self._shape is not None and labels.shape != self._shape:
-            raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
-        self._shape = labels.shape
-        cur = _compact(labels)
+        frame, cur = self._next_frame(labels, frame)
         tracks = np.zeros(len(cur.ids), np.int64)
         new = np.ones(len(cur.ids), bool)
         if self._prev is not None:
@@ -364,7 +372,7 @@ TRACK_MODES = ("auto", "always", "never")
 ID_CONSISTENCY = 0.9
 
 
-class IdTracker:
+class IdTracker(_Feed):
     """Trust the label ids: track id = label id; divisions read from the ids and overlaps.
 
     For consistently labelled movies (curated tracks, MPF runs).  A cell
@@ -394,17 +402,9 @@ class IdTracker:
         self.n_same = 0  # ... that overlap the cell with their own id with IoU >= min_iou
         self._n = 0
 
-    def add(self, labels, frame=None) -> np.ndarray:
-        """Add one more frame; returns the track id (= label id) of each cell of ``labels``, sorted by id."""
-        return self.add_valid(validate_labels(labels), frame)
-
     def add_valid(self, labels, frame=None) -> np.ndarray:
         """:meth:`add` for labels already checked by :func:`~hexatissue.mesh.labels.validate_labels`."""
-        frame = self._n if frame is None else int(frame)
-        if self._shape is not None and labels.shape != self._shape:
-            raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
-        self._shape = labels.shape
-        cur = _compact(labels)
+        frame, cur = self._next_frame(labels, frame)
         if self._prev is not None:
             a = self._prev
             i, j, n = _contingency(a, cur)

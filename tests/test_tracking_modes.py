@@ -134,7 +134,7 @@ def test_censor_comes_from_the_movie_and_is_recorded():
 def test_warning_when_the_censor_leaves_nothing_classified():
     movie = t1_movie(periodic=False, seed=2)
     first = movie.labels[:12]  # the scripted T1s have started, none is undone yet
-    with pytest.warns(HexatissueWarning, match="every T1 event is unresolved"):
+    with pytest.warns(HexatissueWarning, match="no T1 event is classified as an intercalation"):
         mv = analyze(first, events=EventOptions(min_length=movie.min_length, censor=12), workers=1,
                      progress=False)
     assert len(mv.events) == int((movie.events["frame_start"] < 11).sum()) > 0
@@ -173,7 +173,8 @@ def test_itasc_pos00_tracks_kept_and_events_classified(real_data):
     path = real_subdir(real_data, "itasc_micropattern") / "pos00" / "cell_labels.tif"
     if not path.exists():
         pytest.skip("pos00/cell_labels.tif is absent")
-    mv = _run(tifffile.imread(path).astype(np.int64))  # AGPL data: read in place, never copied
+    labels = tifffile.imread(path).astype(np.int64)  # AGPL data: read in place, never copied
+    mv = _run(labels)
     cells = mv.cells
     assert (cells["track"] == cells["cell"]).all() and cells["track"].nunique() == 125
     lin = mv.lineage
@@ -184,3 +185,25 @@ def test_itasc_pos00_tracks_kept_and_events_classified(real_data):
     unresolved = ev["kind"] == "unresolved"
     assert (ev.loc[unresolved, "frame_start"] > 9 - 2).all() and (ev.loc[~unresolved, "frame_start"] <= 7).all()
     assert (ev["kind"] == "intercalation").sum() > 0 and mv.summary["events"]["n_classified"] == (~unresolved).sum()
+    # the former fixed window of 10 frames leaves no intercalation in a 10-frame movie: a warning says so
+    with pytest.warns(HexatissueWarning, match="no T1 event is classified as an intercalation"):
+        ten = analyze(labels, events=EventOptions(censor=10), workers=1, progress=False)
+    assert ten.summary["events"]["n_intercalations"] == 0 and ten.summary["events"]["n_unresolved"] > 0
+
+
+def test_report_says_why_the_event_sections_are_empty(tmp_path):
+    from hexatissue.workflows import report
+
+    movie = t1_movie(periodic=False, seed=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        mv = analyze(movie.labels[:12], events=EventOptions(min_length=movie.min_length, censor=12), workers=1,
+                     progress=False)
+        report(mv, tmp_path, dl=60.0, seed=0)
+    text = (tmp_path / "report.md").read_text()
+    n = len(mv.events)
+    assert f"All {n} T1 events that are not undone are unresolved: each starts within censor = 12 frames" in text
+    assert "Too little to compare: 0 cell(s) with a cycle period, 0 with an intercalation interval. All" in text
+    assert "Intercalations per cell are all 0 here: All" in text
+    assert "- tracking: label ids kept as tracks (track='auto')" in text
+    assert f"- unresolved: {n} (censor 12 frames)" in text
