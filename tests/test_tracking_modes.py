@@ -207,3 +207,15 @@ def test_report_says_why_the_event_sections_are_empty(tmp_path):
     assert "Intercalations per cell are all 0 here: All" in text
     assert "- tracking: label ids kept as tracks (track='auto')" in text
     assert f"- unresolved: {n} (censor 12 frames)" in text
+
+
+def test_cli_track_choices():
+    from hexatissue.cli import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(["analyze", "in.tif", "--out", "o"])
+    assert args.track == "auto" and args.censor is None
+    assert parser.parse_args(["analyze", "in.tif", "--out", "o", "--track", "never"]).track == "never"
+    for bad in (["--track", "yes"], ["--no-track"]):
+        with pytest.raises(SystemExit):
+            parser.parse_args(["analyze", "in.tif", "--out", "o", *bad])
