@@ -71,16 +71,16 @@ def _analyze_parser(sub):
     order.add_argument("--radius", type=float, help="coarse-graining radius, px (default 1.5 R_cell)")
     order.add_argument("--spacing", type=float, help="coarse-graining grid spacing, px (default R_cell)")
     track = p.add_argument_group("tracking and T1 events")
-    track.add_argument("--track", dest="track", action="store_true", default=None,
-                       help="link cells by overlap (default for label stacks)")
-    track.add_argument("--no-track", dest="track", action="store_false",
-                       help="trust the ids as consistent over time (default for MPF runs)")
+    track.add_argument("--track", default="auto", choices=["auto", "always", "never"],
+                       help="never: the label ids are the tracks (divisions still read from them); always: link "
+                            "cells by overlap; auto (default): keep the ids when they are consistent over time")
     track.add_argument("--max-gap", type=int, default=0,
-                       help="tracking: link cells missing for up to this many frames (default: 0)")
+                       help="overlap tracking: link cells missing for up to this many frames (default: 0)")
     track.add_argument("--min-length", type=float, default=0.0,
                        help="contacts shorter than this (px) count as four-fold vertices in T1 detection (default: 0)")
-    track.add_argument("--censor", type=int, default=10,
-                       help="T1s within this many frames of the end are 'unresolved' (default: 10)")
+    track.add_argument("--censor", type=int,
+                       help="T1s within this many frames of the end are 'unresolved' "
+                            "(default: min(10, max(1, frames // 5)))")
     run = p.add_argument_group("running")
     run.add_argument("--checkpoint", metavar="DIR", help="movies: save progress to DIR and resume from it when run again")
     run.add_argument("--workers", type=int, help="local processes for movies (default: all cores)")
@@ -116,7 +116,7 @@ def _run_analyze(args) -> int:
                          outside=args.outside),
         order=OrderOptions(p=tuple(args.p), center=args.center, fields=args.fields, radius=args.radius,
                            spacing=args.spacing),
-        track=TrackOptions(enabled=args.track, max_gap=args.max_gap),
+        track=TrackOptions(mode=args.track, max_gap=args.max_gap),
         events=EventOptions(min_length=args.min_length, censor=args.censor),
     )
     client = None
@@ -148,9 +148,16 @@ def summary_line(movie) -> str:
     parts = [f"{len(movie)} frame(s)",
              f"{len(cells) / n:.0f} cells/frame ({int((~cells['is_border']).sum()) / n:.0f} interior)",
              f"{len(movie.vertices) / n:.0f} vertices/frame"]
+    tracking = movie.summary.get("tracking")
+    if len(movie) > 1 and tracking:
+        how = "ids kept" if tracking["resolved"] == "never" else "re-tracked by overlap"
+        parts.append(f"tracks: {how} ({tracking['rows_track_not_cell']} rows changed, "
+                     f"{tracking['n_divisions']} divisions)")
     if len(movie) > 1 and movie.events is not None:
         counts = movie.events["kind"].value_counts()
-        parts.append("T1 events " + (", ".join(f"{k} {v}" for k, v in counts.items()) or "none"))
+        censor = movie.summary.get("events", {}).get("censor")
+        parts.append("T1 events " + (", ".join(f"{k} {v}" for k, v in counts.items()) or "none")
+                     + (f" (censor {censor})" if censor is not None else ""))
     if movie.defects is not None:
         d = movie.defects
         parts.append("defects " + (", ".join(f"p={q}: +{int((g['charge'] > 0).sum())}/-{int((g['charge'] < 0).sum())}"

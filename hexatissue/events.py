@@ -15,7 +15,8 @@ Classification per quartet, in time order:
 - ``intercalation``: never undone before the end of the movie.
 - ``unresolved``: not undone, but it started fewer than ``censor`` frames
   before the last frame, so the movie is too short to tell (right-censored).
-  Leave these out of rate and lifetime statistics.
+  Leave these out of rate and lifetime statistics.  By default ``censor``
+  comes from the movie's length (:func:`default_censor`).
 
 Contacts that appear or disappear because a cell enters, leaves, divides or
 dies (a cell absent in one of the two frames) are not T1s; contacts with
@@ -33,8 +34,8 @@ from .errors import InputError
 from .graph import contact_table as graph_contacts
 from .schema import interior_mask, track_ids, validate
 
-__all__ = ["detect_t1", "neighbour_events", "classify_t1", "find_t1", "track_contacts", "cell_event_stats",
-           "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
+__all__ = ["detect_t1", "neighbour_events", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
+           "cell_event_stats", "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
 
 # Columns of the events table beyond the schema's.
 EVENT_EXTRA_COLUMNS = {
@@ -53,6 +54,34 @@ CELL_EVENT_COLUMNS = {
     "n_intervals": "number of intervals between consecutive intercalations of the cell",
     "mean_intercalation_interval": "mean frames between consecutive intercalations of the cell (NaN if < 2)",
 }
+
+
+#: Longest default censoring window, frames (enough for most T1 cycles of MPF runs, see docs/t1.md).
+CENSOR_MAX = 10
+#: The default censoring window is at most a fifth of the movie (``n_frames // CENSOR_DIVISOR``).
+CENSOR_DIVISOR = 5
+
+
+def default_censor(n_frames) -> int:
+    """Censoring window used when none is given: ``min(10, max(1, n_frames // 5))`` frames.
+
+    Long movies get :data:`CENSOR_MAX` (10) frames; a short one keeps four
+    fifths of its frames classifiable (11 frames -> 2, 10 -> 2, 301 -> 10),
+    and never less than 1: a T1 in the last frame cannot be classified.
+
+    Parameters
+    ----------
+    n_frames : int
+        Frames of the movie.
+
+    Returns
+    -------
+    int
+        Frames.
+    """
+    if isinstance(n_frames, bool) or int(n_frames) != n_frames or n_frames < 0:
+        raise InputError(f"n_frames must be a non-negative integer; got {n_frames!r}")
+    return min(CENSOR_MAX, max(1, int(n_frames) // CENSOR_DIVISOR))
 
 
 def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
@@ -308,7 +337,7 @@ def _positions(events, cells, box):
     return centre[:, 0], centre[:, 1], flag
 
 
-def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10,
+def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int | None = None,
               box: Box | None = None) -> pd.DataFrame:
     """T1 events of a movie, classified as ``cycle``, ``intercalation`` or ``unresolved``.
 
@@ -325,8 +354,9 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
         Junctions shorter than ``min_length`` px are treated as four-fold
         vertices (no contact).  Use it to suppress T1s flickering across a
         noisy, nearly four-fold vertex; 0 (default) uses the raw network.
-    censor : int
-        Right-censoring window, frames (see :func:`classify_t1`).
+    censor : int, optional
+        Right-censoring window, frames (see :func:`classify_t1`); default
+        :func:`default_censor` of the movie's frames (last frame + 1).
     box : Box, optional
         Periodic box: quartet centres use minimum-image displacements.
 
@@ -348,7 +378,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     contacts = track_contacts(edges, cells, min_length)
     raw = find_t1(contacts, presence)
     last = int(presence["frame"].max()) if len(presence) else 0
-    events = classify_t1(raw, last, censor)
+    events = classify_t1(raw, last, default_censor(last + 1) if censor is None else censor)
     x, y, border = _positions(events, cells, box)
     events.insert(8, "x", x)
     events.insert(9, "y", y)

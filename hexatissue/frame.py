@@ -110,6 +110,11 @@ class Movie:
         Description of the input (see :class:`hexatissue.Source`).
     version : str
         hexatissue version that produced the tables.
+    summary : dict
+        What :func:`hexatissue.analyze` decided from the data: ``tracking``
+        (mode requested and used, why, id consistency, rows whose track
+        differs from the cell id, divisions) and ``events`` (censoring
+        window used and its rule, events classified).
     """
 
     cells: pd.DataFrame
@@ -130,6 +135,7 @@ class Movie:
     options: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     version: str = ""
+    summary: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if not self.n_frames:
@@ -184,7 +190,7 @@ class Movie:
         return replace(self, **changes)
 
     def metadata(self) -> dict:
-        """What ``metadata.json`` holds: box, shape, frames, calibration, options, source, version."""
+        """What ``metadata.json`` holds: box, shape, frames, calibration, options, summary, source, version."""
         return {
             "hexatissue_version": self.version,
             "n_frames": int(self.n_frames),
@@ -192,6 +198,7 @@ class Movie:
             "box": None if self.box is None else self.box.to_list(),
             "calibration": self.calibration.to_dict(),
             "options": {name: opts.to_dict() for name, opts in self.options.items()},
+            "summary": self.summary,
             "source": self.source,
             "tables": {name: int(len(table)) for name, table in self.tables().items()},
         }
@@ -229,7 +236,7 @@ def read_results(directory) -> Movie:
     -------
     Movie
         Every table found, with box, shape, number of frames, calibration,
-        options, source and version from ``metadata.json``.
+        options, summary, source and version from ``metadata.json``.
     """
     from .io import read_table
     from .options import OPTION_CLASSES
@@ -261,4 +268,5 @@ def read_results(directory) -> Movie:
                  box=None if meta.get("box") is None else Box(*meta["box"]),
                  shape=tuple(meta.get("shape", ())), n_frames=int(meta.get("n_frames", 0)),
                  calibration=Calibration.from_dict(meta.get("calibration", {})), options=options,
-                 source=meta.get("source", {}), version=meta.get("hexatissue_version", ""))
+                 source=meta.get("source", {}), version=meta.get("hexatissue_version", ""),
+                 summary=meta.get("summary", {}))

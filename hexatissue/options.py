@@ -17,6 +17,7 @@ import numpy as np
 from .errors import InputError, check_orders
 from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from .order import CENTERS
+from .track import TRACK_MODES
 
 __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "OPTION_CLASSES"]
 
@@ -161,30 +162,37 @@ class OrderOptions(_Options):
 
 @dataclass(frozen=True)
 class TrackOptions(_Options):
-    """Overlap tracking (:class:`hexatissue.Tracker`).
+    """Cell tracking (:class:`hexatissue.track.MovieTracker`).
 
     Parameters
     ----------
-    enabled : bool, optional
-        Link cells by overlap.  None (default): unless the source says its
-        ids are consistent (MPF runs).
+    mode : {"auto", "always", "never"}
+        ``"never"``: the label ids are the tracks (``track == cell``, a cell
+        missing for some frames keeps its track); divisions are still read
+        from them (a mother id ending while two new ids appear inside it).
+        ``"always"``: link cells by overlap (:class:`hexatissue.Tracker`).
+        ``"auto"`` (default): ``"never"`` for sources with consistent ids
+        (MPF runs) and for movies whose ids are measured to be consistent
+        (at least :data:`hexatissue.track.ID_CONSISTENCY` of the cells that
+        overlap a cell of the next frame overlap their own id), else
+        ``"always"``.  :func:`hexatissue.analyze` records the resolved mode.
     min_iou : float
         Smallest intersection over union of a link, in (0, 1].
     max_gap : int
-        Frames a cell may be missing and still continue its track.
+        Overlap tracking: frames a cell may be missing and still continue its track.
     child_fraction, mother_fraction : float
         Division detection thresholds (see :func:`hexatissue.track.match_frames`).
     """
 
-    enabled: bool | None = None
+    mode: str = "auto"
     min_iou: float = 0.2
     max_gap: int = 0
     child_fraction: float = 0.6
     mother_fraction: float = 0.2
 
     def __post_init__(self):
-        if self.enabled is not None and not isinstance(self.enabled, bool):
-            _fail(type(self), "enabled", self.enabled, "True, False or None (automatic)")
+        if not isinstance(self.mode, str) or self.mode not in TRACK_MODES:
+            _fail(type(self), "mode", self.mode, f"one of {TRACK_MODES}")
         for name in ("min_iou", "child_fraction", "mother_fraction"):
             self._number(name, strict=True, high=1.0)
         self._number("max_gap", integer=True)
@@ -198,16 +206,19 @@ class EventOptions(_Options):
     ----------
     min_length : float
         Junctions shorter than this (px) count as four-fold vertices.
-    censor : int
+    censor : int, optional
         T1s starting within this many frames of the end are ``unresolved``.
+        None (default): from the movie, :func:`hexatissue.events.default_censor`
+        (``min(10, max(1, n_frames // 5))``); :func:`hexatissue.analyze`
+        records the value used.
     """
 
     min_length: float = 0.0
-    censor: int = 10
+    censor: int | None = None
 
     def __post_init__(self):
         self._number("min_length")
-        self._number("censor", integer=True)
+        self._number("censor", integer=True, allow_none=True)
 
 
 #: Options of each stage, by the name used in ``metadata.json`` and :func:`hexatissue.analyze`.

@@ -30,11 +30,11 @@ import pandas as pd
 
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive
-from .events import cell_event_stats, detect_t1, neighbour_events
+from .events import cell_event_stats, default_censor, detect_t1, neighbour_events
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
 from .schema import empty_table, interior_mask, validate
-from .track import Tracker, lineage_table
+from .track import MovieTracker, lineage_table
 
 __all__ = ["analyze"]
 
@@ -96,7 +96,17 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         ``frame`` column except the per-event and per-track ones.  Columns
         and units: :func:`hexatissue.schema.describe`.  The Movie carries the
         box, shape, calibration (pixel size, frame interval), the options
-        used and the source's description.
+        used (``track.mode`` and ``events.censor`` resolved: see
+        :class:`~hexatissue.TrackOptions` and
+        :func:`~hexatissue.events.default_censor`), ``summary`` (what
+        tracking decided and changed, the censoring window and how many T1s
+        it left classifiable) and the source's description.
+
+    Warns
+    -----
+    HexatissueWarning
+        When no T1 event is an intercalation because every one that is not
+        undone is ``unresolved`` (the censoring window covers them all).
     """
     from . import __version__
     from .source import open_source
@@ -106,34 +116,37 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         check_options(value, name)
     box = src.box if box is None else as_box(box, src.shape)
     mask, mask_info = read_mask(mask, src.shape)
-    do_track = (not src.ids_consistent) if track.enabled is None else track.enabled
-    tracker = (Tracker(track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap)
-               if do_track else None)
-    options = {"mesh": mesh, "order": order, "track": track.replace(enabled=do_track), "events": events}
+    tracker = MovieTracker(track.mode, track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap,
+                           ids_consistent=src.ids_consistent)
     store = None
     if checkpoint is not None:
+        requested = {"mesh": mesh, "order": order, "track": track, "events": events}
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
-                   source=src.description, options={k: v.to_dict() for k, v in options.items()}, mask=mask_info)
+                   source=src.description, options={k: v.to_dict() for k, v in requested.items()}, mask=mask_info)
         store = _Checkpoint(checkpoint, key, checkpoint_every)
     parts, tracker = _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress)
     tables = {name: _concat(parts[name], name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
-    parents = tracker.parents if tracker is not None else {}
+    parents = tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
-    tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=events.censor,
-                                 box=box)
+    censor = default_censor(src.n_frames) if events.censor is None else events.censor
+    tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
-    tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length,
-                                                  censor=events.censor)
+    tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
+    summary = {"tracking": _tracking_summary(tracker, cells, parents),
+               "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
         tables["defects"], tables["defect_events"] = _defect_tracks(tables["defects"], tables["grid"], order,
                                                                     box, src.n_frames)
     else:
         del tables["grid"], tables["defects"]
+    options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),
+               "events": events.replace(censor=censor)}
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
-                 options=options, source=_with_mask(src.description, mask_info), version=__version__)
+                 options=options, source=_with_mask(src.description, mask_info), version=__version__,
+                 summary=summary)
 
 
 def read_mask(mask, shape):
@@ -183,18 +196,41 @@ def _concat(parts, name, orders):
 
 
 def _with_tracks(cells, tracker):
-    """``cells`` with a ``track`` column after ``cell``: the tracker's ids, or the labels themselves."""
-    if tracker is None:
-        track = cells["cell"].to_numpy(np.int64)
-    else:
-        ids = tracker.tracks()
-        merged = cells[["frame", "cell"]].merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
-        if merged["track"].isna().any():  # the tracker saw the mesh's own labels: this is a bug, not bad input
-            raise AssertionError("mesh cells missing from the tracker's labels")
-        track = merged["track"].to_numpy(np.int64)
+    """``cells`` with a ``track`` column after ``cell``, from the tracker's ``(frame, cell) -> track``."""
+    ids = tracker.tracks()
+    merged = cells[["frame", "cell"]].merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
+    if merged["track"].isna().any():  # the tracker saw the mesh's own labels: this is a bug, not bad input
+        raise AssertionError("mesh cells missing from the tracker's labels")
     cells = cells.drop(columns="track", errors="ignore")
-    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", merged["track"].to_numpy(np.int64))
     return cells
+
+
+def _tracking_summary(tracker, cells, parents):
+    """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
+    out = tracker.summary()
+    out.update(rows_track_not_cell=int((cells["track"].to_numpy() != cells["cell"].to_numpy()).sum()),
+               n_ids=int(cells["cell"].nunique()), n_tracks=int(cells["track"].nunique()),
+               n_divisions=len(set(parents.values())))
+    return out
+
+
+#: Warning when the censoring window leaves no T1 to count as an intercalation.
+NO_INTERCALATION = ("no T1 event is classified as an intercalation: every T1 that is not undone starts within the "
+                    "censoring window of the movie's end and is unresolved (see EventOptions.censor and "
+                    "movie.summary['events'])")
+
+
+def _events_summary(events, options, censor, n_frames):
+    """Censoring window used (and where it came from) and the number of events of each kind."""
+    counts = events["kind"].astype(str).value_counts()
+    n = {kind: int(counts.get(kind, 0)) for kind in ("cycle", "intercalation", "unresolved")}
+    if n["unresolved"] and not n["intercalation"]:
+        warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=3)
+    rule = "given" if options.censor is not None else "min(10, max(1, n_frames // 5))"
+    return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
+            "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
+            "n_classified": n["cycle"] + n["intercalation"]}
 
 
 def _warn_frames_without_field(cells, grid, n_frames):
@@ -230,8 +266,8 @@ def _defect_tracks(defects, grid, order, box, n_frames):
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
 
-def _frame_job(labels, t, box, mesh, order, want_labels, mask=None):
-    """Tables of one frame, and its normalised labels when the tracker needs them."""
+def _frame_job(labels, t, box, mesh, order, mask=None):
+    """Tables of one frame and its normalised labels (for the tracker)."""
     from .mesh.labels import normalize_valid
     from .mesh.network import network_tables
 
@@ -240,7 +276,7 @@ def _frame_job(labels, t, box, mesh, order, want_labels, mask=None):
                                     mask=mask)
     tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
     tables.update(_order_tables(tables, box, order))
-    return tables, (lab if want_labels else None)
+    return tables, lab
 
 
 def _order_tables(tables, box, order):
@@ -362,20 +398,19 @@ def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progr
     def collect(item):
         t, future = item
         tables, labels = future.result()
-        if tracker is not None:
-            tracker.add_valid(labels, t)
+        tracker.add_valid(labels, t)
         for name, table in tables.items():
             parts[name].append(table)
             new_parts[name].append(table)
         if t + 1 in due:
-            store.save(t + 1, new_parts, pickle.dumps(tracker) if tracker is not None else None)
+            store.save(t + 1, new_parts, pickle.dumps(tracker))
             for name in new_parts:
                 new_parts[name] = []
 
     try:
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
                               total=n_frames):
-            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, tracker is not None, mask)
+            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, mask)
             pending.append((t, job))
             while len(pending) >= max_inflight:
                 collect(pending.popleft())

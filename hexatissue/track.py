@@ -28,7 +28,7 @@ from .errors import InputError
 from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
-__all__ = ["Tracker", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
+__all__ = ["Tracker", "IdTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -217,7 +217,33 @@ def match_frames(prev, cur, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2
     return links, divisions
 
 
-class Tracker:
+def _check_fractions(min_iou, child_fraction, mother_fraction):
+    for name, value in (("min_iou", min_iou), ("child_fraction", child_fraction),
+                        ("mother_fraction", mother_fraction)):
+        if not 0 < value <= 1:
+            raise InputError(f"{name} must be in (0, 1]; got {value!r}")
+
+
+class _Feed:
+    """What the trackers share: frames added one at a time, all of one shape (``_n``, ``_shape``)."""
+
+    def add(self, labels, frame=None) -> np.ndarray:
+        """Track one more frame; returns the track id of each cell of ``labels`` (sorted by label id).
+
+        ``frame`` defaults to the number of frames added so far.
+        """
+        return self.add_valid(validate_labels(labels), frame)
+
+    def _next_frame(self, labels, frame):
+        """``(frame index, compact labels)`` of the frame being added; checks its shape."""
+        frame = self._n if frame is None else int(frame)
+        if self._shape is not None and labels.shape != self._shape:
+            raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
+        self._shape = labels.shape
+        return frame, _compact(labels)
+
+
+class Tracker(_Feed):
     """Incremental overlap tracker: feed label images in time order with :meth:`add`.
 
     Track ids reproduce the labels when they are already consistent: a cell
@@ -236,10 +262,7 @@ class Tracker:
     """
 
     def __init__(self, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0):
-        for name, value in (("min_iou", min_iou), ("child_fraction", child_fraction),
-                            ("mother_fraction", mother_fraction)):
-            if not 0 < value <= 1:
-                raise InputError(f"{name} must be in (0, 1]; got {value!r}")
+        _check_fractions(min_iou, child_fraction, mother_fraction)
         if int(max_gap) != max_gap or max_gap < 0:
             raise InputError(f"max_gap must be a non-negative integer number of frames; got {max_gap!r}")
         self.min_iou, self.child_fraction, self.mother_fraction = min_iou, child_fraction, mother_fraction
@@ -300,20 +323,9 @@ class Tracker:
             k = int(flat[part[0]])
             self._dormant.append((int(self._prev_tracks[k]), self._prev_frame, part))
 
-    def add(self, labels, frame=None) -> np.ndarray:
-        """Track one more frame; returns the track id of each cell of ``labels`` (sorted by label id).
-
-        ``frame`` defaults to the number of frames added so far.
-        """
-        return self.add_valid(validate_labels(labels), frame)
-
     def add_valid(self, labels, frame=None) -> np.ndarray:
         """:meth:`add` for labels already checked by :func:`~hexatissue.mesh.labels.validate_labels`."""
-        frame = self._n if frame is None else int(frame)
-        if self._shape is not None and labels.shape != self._shape:
-            raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
-        self._shape = labels.shape
-        cur = _compact(labels)
+        frame, cur = self._next_frame(labels, frame)
         tracks = np.zeros(len(cur.ids), np.int64)
         new = np.ones(len(cur.ids), bool)
         if self._prev is not None:
@@ -352,6 +364,157 @@ class Tracker:
     def parents(self) -> dict:
         """``{daughter track: mother track}`` of the divisions found."""
         return dict(self._parent)
+
+
+#: Tracking modes of :class:`MovieTracker` and :class:`hexatissue.TrackOptions`.
+TRACK_MODES = ("auto", "always", "never")
+#: ``mode="auto"`` trusts the ids when at least this fraction of the linked cells keep their id (see :class:`MovieTracker`).
+ID_CONSISTENCY = 0.9
+
+
+class IdTracker(_Feed):
+    """Trust the label ids: track id = label id; divisions read from the ids and overlaps.
+
+    For consistently labelled movies (curated tracks, MPF runs).  A cell
+    missing for some frames keeps its id, so it stays one track across any
+    gap.  A division is a mother id that is absent from the next frame while
+    two ids never seen before appear there mostly inside its last mask (the
+    overlap rule of :func:`match_frames`, applied to those ids only); a
+    mother whose id comes back later was not a mother.  The tracker also
+    measures how consistent the ids are (:attr:`consistency`).
+
+    Parameters
+    ----------
+    min_iou, child_fraction, mother_fraction : float
+        See :func:`match_frames`.
+    """
+
+    def __init__(self, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2):
+        _check_fractions(min_iou, child_fraction, mother_fraction)
+        self.min_iou, self.child_fraction, self.mother_fraction = min_iou, child_fraction, mother_fraction
+        self._prev: _Compact | None = None
+        self._shape = None
+        self._seen = np.empty(0, np.int64)  # sorted ids seen so far
+        self._last: dict[int, int] = {}  # id -> last frame present
+        self._divisions: dict[int, tuple[int, int]] = {}  # daughter -> (mother, frame of the daughters)
+        self._frames, self._cells = [], []
+        self.n_linked = 0  # cells of frame t overlapping a cell of frame t+1 with IoU >= min_iou
+        self.n_same = 0  # ... that overlap the cell with their own id with IoU >= min_iou
+        self._n = 0
+
+    def add_valid(self, labels, frame=None) -> np.ndarray:
+        """:meth:`add` for labels already checked by :func:`~hexatissue.mesh.labels.validate_labels`."""
+        frame, cur = self._next_frame(labels, frame)
+        if self._prev is not None:
+            a = self._prev
+            i, j, n = _contingency(a, cur)
+            iou = n / (a.area[i] + cur.area[j] - n)
+            good = iou >= self.min_iou
+            self.n_linked += len(np.unique(i[good]))
+            self.n_same += int((good & (a.ids[i] == cur.ids[j])).sum())
+            ended = ~np.isin(a.ids, cur.ids)
+            new = ~np.isin(cur.ids, self._seen, assume_unique=True)
+            sel = ended[i] & new[j]
+            mothers, daughters = _divisions(i[sel], j[sel], n[sel], a.area, cur.area, self.child_fraction,
+                                            self.mother_fraction, self.min_iou)
+            for m, pair in zip(a.ids[mothers].tolist(), cur.ids[daughters].tolist()):
+                for d in pair:
+                    self._divisions[d] = (m, frame)
+        self._seen = np.union1d(self._seen, cur.ids)
+        self._last.update(dict.fromkeys(cur.ids.tolist(), frame))
+        self._frames.append(np.full(len(cur.ids), frame, np.int64))
+        self._cells.append(cur.ids)
+        self._prev = cur
+        self._n += 1
+        return cur.ids.copy()
+
+    @property
+    def consistency(self) -> float:
+        """Of the cells overlapping a cell of the next frame with IoU >= ``min_iou``, the fraction whose
+        own id is such a cell (NaN before two frames with cells)."""
+        return self.n_same / self.n_linked if self.n_linked else float("nan")
+
+    def tracks(self) -> pd.DataFrame:
+        """``frame``, ``cell`` (label id), ``track`` (= ``cell``) of every cell added so far."""
+        frames = np.concatenate(self._frames) if self._frames else np.empty(0, np.int64)
+        cells = np.concatenate(self._cells) if self._cells else np.empty(0, np.int64)
+        return pd.DataFrame({"frame": frames, "cell": cells, "track": cells.copy()})
+
+    @property
+    def parents(self) -> dict:
+        """``{daughter track: mother track}`` of the divisions found (mothers that never come back)."""
+        return {d: m for d, (m, t) in self._divisions.items() if self._last[m] < t}
+
+
+class MovieTracker:
+    """Tracking of a whole movie by mode: keep the ids, link by overlap, or decide from the data.
+
+    Parameters
+    ----------
+    mode : {"auto", "always", "never"}
+        ``"never"``: the ids are the tracks (:class:`IdTracker`: track =
+        cell, gap-tolerant, divisions read from the ids and overlaps).
+        ``"always"``: link cells by overlap (:class:`Tracker`).  ``"auto"``:
+        ``"never"`` when ``ids_consistent``; otherwise both run and the ids
+        are kept when :attr:`IdTracker.consistency` is at least
+        :data:`ID_CONSISTENCY` (or when no two frames could be compared),
+        else the overlap tracks are used.
+    min_iou, child_fraction, mother_fraction : float
+        See :func:`match_frames`.
+    max_gap : int
+        Gap closing of the overlap tracker (see :class:`Tracker`).
+    ids_consistent : bool
+        The source guarantees consistent ids (MPF runs).
+    """
+
+    def __init__(self, mode="auto", min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0,
+                 ids_consistent=False):
+        if mode not in TRACK_MODES:
+            raise InputError(f"mode must be one of {TRACK_MODES}; got {mode!r}")
+        self.mode, self.ids_consistent = mode, bool(ids_consistent)
+        self.ids = IdTracker(min_iou, child_fraction, mother_fraction)
+        overlap = mode == "always" or (mode == "auto" and not self.ids_consistent)
+        self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap) if overlap else None
+
+    def add_valid(self, labels, frame=None):
+        """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`)."""
+        self.ids.add_valid(labels, frame)
+        if self.overlap is not None:
+            self.overlap.add_valid(labels, frame)
+
+    def decision(self) -> tuple[str, str]:
+        """``(resolved mode, reason)``: ``"never"`` (ids kept) or ``"always"`` (overlap tracks), and why."""
+        c = self.ids.consistency
+        measured = (f"{c:.1%} of the cells overlapping a cell of the next frame (IoU >= {self.ids.min_iou:g}) "
+                    f"overlap their own id" if np.isfinite(c) else "no two frames with overlapping cells")
+        if self.mode != "auto":
+            return self.mode, f"track={self.mode!r} requested; {measured}"
+        if self.ids_consistent:
+            return "never", "the source's ids are consistent (MPF run): ids kept"
+        if not np.isfinite(c):
+            return "never", f"{measured}: ids kept"
+        if c >= ID_CONSISTENCY:
+            return "never", f"{measured} (>= {ID_CONSISTENCY:.0%}): ids kept"
+        return "always", f"{measured} (< {ID_CONSISTENCY:.0%}): cells re-tracked by overlap"
+
+    def _chosen(self):
+        return self.ids if self.decision()[0] == "never" else self.overlap
+
+    def tracks(self) -> pd.DataFrame:
+        """``frame``, ``cell``, ``track`` of the chosen tracking."""
+        return self._chosen().tracks()
+
+    @property
+    def parents(self) -> dict:
+        """``{daughter track: mother track}`` of the chosen tracking."""
+        return self._chosen().parents
+
+    def summary(self) -> dict:
+        """What was decided: ``mode`` requested, ``resolved``, ``reason``, ``id_consistency``, ``threshold``."""
+        resolved, reason = self.decision()
+        c = self.ids.consistency
+        return {"mode": self.mode, "resolved": resolved, "reason": reason,
+                "id_consistency": float(c) if np.isfinite(c) else None, "threshold": ID_CONSISTENCY}
 
 
 def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.DataFrame:

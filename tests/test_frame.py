@@ -30,7 +30,8 @@ def test_write_and_read_results_round_trip_every_table(movie, tmp_path, fmt):
     assert back.metadata() == movie.metadata()
     assert back.box == Box(90, 70) and back.shape == (70, 90) and len(back) == 5
     assert back.calibration == Calibration(0.5, "um", 2.0, "min")
-    assert back.options["events"] == EventOptions(censor=2) and back.options["track"].enabled is True
+    assert back.options["events"] == EventOptions(censor=2) and back.options["track"].mode == "never"
+    assert back.summary == movie.summary and back.summary["tracking"]["rows_track_not_cell"] == 0
 
 
 def test_metadata_json_records_box_units_options_and_source(movie, tmp_path):

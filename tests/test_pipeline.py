@@ -13,10 +13,10 @@ from hexatissue.synthetic import relabel_movie, t1_movie, voronoi_movie
 from tests.conftest import real_subdir
 from tests.test_events import assert_valid_quartets
 
-def analyze_movie(source, box=None, *, workers=1, min_length=0.0, censor=10, track=None, max_gap=0, client=None,
+def analyze_movie(source, box=None, *, workers=1, min_length=0.0, censor=10, track="auto", max_gap=0, client=None,
                   checkpoint=None, checkpoint_every=100):
     """analyze() with the event and tracking options of these tests, one process by default, no progress bar."""
-    return analyze(source, box=box, track=TrackOptions(enabled=track, max_gap=max_gap),
+    return analyze(source, box=box, track=TrackOptions(mode=track, max_gap=max_gap),
                    events=EventOptions(min_length=min_length, censor=censor), workers=workers, client=client,
                    checkpoint=checkpoint, checkpoint_every=checkpoint_every)
 
@@ -90,11 +90,11 @@ def test_run_objects_skip_tracking_unless_forced():
     mv = analyze_movie(run, workers=1)
     assert mv.box == run.box
     assert (mv.cells["track"] == mv.cells["cell"]).all()  # identity trusted
-    mv = analyze_movie(run, track=True, workers=1)
+    mv = analyze_movie(run, track="always", workers=1)
     orig = np.array([maps[f][c] for f, c in zip(mv.cells["frame"], mv.cells["cell"])])
     assert len(set(zip(mv.cells["track"], orig))) == len(np.unique(orig)) == mv.cells["track"].nunique()
     # a label stack can be trusted too
-    mv = analyze_movie(relabelled, box=True, track=False, workers=1)
+    mv = analyze_movie(relabelled, box=True, track="never", workers=1)
     assert (mv.cells["track"] == mv.cells["cell"]).all() and mv.box == run.box
 
 
@@ -156,7 +156,7 @@ def test_itasc_events_are_valid_quartets_and_stable_under_relabelling(real_data,
     labels = tifffile.imread(path).astype(np.int64)  # AGPL data: read in place, never copied
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
-        mv = analyze_movie(labels, workers=1, censor=3)
+        mv = analyze_movie(labels, workers=1, censor=3, track="always")  # overlap tracking, stable under relabelling
         relabelled, maps = relabel_movie(labels, seed=5)
         mv2 = analyze_movie(relabelled, workers=1, censor=3)
     ev = mv.events

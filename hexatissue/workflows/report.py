@@ -194,6 +194,40 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     return numbers
 
 
+def _censor_of(movie):
+    """The censoring window the events were classified with (None when the folder does not say)."""
+    events = movie.options.get("events")
+    return getattr(events, "censor", None) if events is not None else None
+
+
+def _events_note(movie, events):
+    """Why there is no intercalation to show, or None: no events, or every T1 not undone is unresolved."""
+    if len(events) == 0:
+        return (f"No T1 event was detected in the {len(movie)} frames: no neighbour exchange between cells "
+                f"present on both sides of it.")
+    kinds = events["kind"].astype(str)
+    n_unresolved = int((kinds == "unresolved").sum())
+    if n_unresolved and not (kinds == "intercalation").any():
+        censor = _censor_of(movie)
+        window = f"censor = {censor} frames" if censor is not None else "the censoring window"
+        return (f"All {n_unresolved} T1 events that are not undone are unresolved: each starts within {window} of "
+                f"the last frame, so the movie cannot tell intercalations from cycles still to close. Re-run "
+                f"`hexatissue analyze` with a smaller `--censor` to classify them (unfinished cycles may then count "
+                f"as intercalations).")
+    return None
+
+
+def _tracking_lines(movie):
+    """How the cells were tracked (from ``movie.summary``), as report lines."""
+    t = movie.summary.get("tracking")
+    if not t:
+        return []
+    how = "label ids kept as tracks" if t["resolved"] == "never" else "cells re-tracked by overlap"
+    return [f"- tracking: {how} (track={t['mode']!r}): {t['reason']}",
+            f"- tracks: {t['n_tracks']} for {t['n_ids']} label ids; {t['rows_track_not_cell']} rows with track != "
+            f"cell; {t['n_divisions']} division(s)"]
+
+
 def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed, include_border, control):
     from ..analysis.plots import plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing
     from ..schema import empty_table
@@ -204,17 +238,21 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     lines = []
     if events is None:
         return ["## Events", "", "No events table in the results folder.", ""]
+    note = _events_note(movie, events)
     counts = events["kind"].astype(str).value_counts().to_dict()
     cycles = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float)
     numbers["events"] = {k: int(v) for k, v in counts.items()}
     path = out / "events.png"
     plot_event_overview(events, n_frames=len(movie), path=path, calibration=cal)
     written.append(path)
-    lines += ["## T1 events", "",
-              "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected"),
+    censor = _censor_of(movie)
+    lines += ["## T1 events", "", *_tracking_lines(movie),
+              "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected")
+              + (f" (censor {censor} frames)" if censor is not None else ""),
               (f"- mean T1-cycle duration: {np.mean(cycles):.3g} frames"
                + (f" ({cal.time(np.mean(cycles)):.3g} {time_unit})" if cal.has_time else "")
                if len(cycles) else "- no T1 cycles"), ""]
+    lines += [note, ""] if note else []
     lines += _figure_line(path, out, "T1 events")
 
     # Fig. 3e
@@ -233,6 +271,15 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
               f"random {control} {_length(cal, s['median_dr_control'])}",
               f"- KS statistic {s['ks_statistic']:.3g}, p = {s['ks_pvalue']:.3g} (two-sided), "
               f"p = {s['ks_pvalue_closer']:.3g} (one-sided: T1s closer)", ""]
+    if s["n_events"] == 0:
+        if len(events) == 0:
+            why = "there are no T1 events"
+        elif not (defects["p"].to_numpy() == p).any():
+            why = f"no ±1/{p} defect was found in any frame"
+        else:
+            why = (f"no T1 event{'' if include_border else ' away from the border'} has a ±1/{p} defect in its "
+                   f"frame")
+        lines += [f"Nothing to compare: {why}.", ""]
     lines += _figure_line(path, out, "T1-defect distances")
 
     # Fig. 3f
@@ -265,6 +312,13 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
         median = float(np.median(pops.table["displacement"].to_numpy(float)[moved])) if moved.any() else np.nan
         lines += [f"- mixture in log10(displacement): {fit}; no slow/fast split",
                   f"- {int(moved.sum())} subregion-windows moved, median displacement {median:.3g}", ""]
+    if len(table) == 0:
+        why = (f"the movie has {len(movie)} frames, fewer than one window of {dt} frames plus one"
+               if len(movie) <= dt else f"no interior cell is present through a whole window of {dt} frames")
+        lines += [f"No subregion-window to show: {why} (default window: a quarter of the movie, "
+                  f"or 25,000 iterations for MPF runs; set it with --dt).", ""]
+    elif note:
+        lines += [f"Intercalations per cell are all 0 here: {note}", ""]
     lines += _figure_line(path, out, "migration")
 
     # Fig. 3g
@@ -276,5 +330,11 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     written += [path, write_table(timing, out / "cell_timing.csv")]
     lines += ["## Event timing (Fig. 3g)", "", f"Per-cell means, in {time_unit}:", "", _md_table(summ), "",
               f"- Welch two-sided t-test: t = {test['t_statistic']:.3g}, p = {test['pvalue']:.3g}", ""]
+    if test["n_intercalation_cells"] == 0 or test["n_cycle_cells"] == 0:
+        n_cyc, n_int = counts.get("cycle", 0), counts.get("intercalation", 0)
+        why = note or (f"a cycle period needs a T1 cycle and an intercalation interval two intercalations of the "
+                       f"same cell; the movie has {n_cyc} cycle(s) and {n_int} intercalation(s)")
+        lines += [f"Too little to compare: {test['n_cycle_cells']} cell(s) with a cycle period, "
+                  f"{test['n_intercalation_cells']} with an intercalation interval. {why}", ""]
     lines += _figure_line(path, out, "timing")
     return lines
