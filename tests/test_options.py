@@ -39,7 +39,8 @@ def test_round_trip_through_dicts(cls):
     (lambda: OrderOptions(min_coverage=1.5), "OrderOptions.min_coverage"),
     (lambda: TrackOptions(min_iou=0), "TrackOptions.min_iou"),
     (lambda: TrackOptions(max_gap=-1), "TrackOptions.max_gap"),
-    (lambda: TrackOptions(enabled="yes"), "TrackOptions.enabled"),
+    (lambda: TrackOptions(mode="yes"), "TrackOptions.mode"),
+    (lambda: TrackOptions(mode=True), "TrackOptions.mode"),
     (lambda: EventOptions(censor=2.5), "EventOptions.censor"),
     (lambda: EventOptions(min_length=float("nan")), "EventOptions.min_length"),
 ])
