@@ -26,6 +26,8 @@ origin at the centre of pixel (0, 0).
 """
 from __future__ import annotations
 
+import bisect
+
 import numpy as np
 import pandas as pd
 
@@ -475,36 +477,62 @@ def _neighbour_sets(contacts, frames, tracks):
     present = {}
     for f, t in zip(frames, tracks):
         present.setdefault(int(f), set()).add(int(t))
+    u = np.r_[contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)]
+    v = np.r_[contacts["b"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64)]
+    f = np.r_[contacts["frame"].to_numpy(np.int64), contacts["frame"].to_numpy(np.int64)]
+    order = np.lexsort((v, f, u))
+    u, v, f = u[order], v[order], f[order]
+    starts = np.flatnonzero(np.r_[True, (u[1:] != u[:-1]) | (f[1:] != f[:-1])]) if len(u) else np.zeros(0, int)
     pairs = {}
-    both = pd.DataFrame({"frame": np.r_[contacts["frame"], contacts["frame"]],
-                         "u": np.r_[contacts["a"], contacts["b"]], "v": np.r_[contacts["b"], contacts["a"]]})
-    for (u, f), group in both.groupby(["u", "frame"], sort=False):
-        pairs.setdefault(int(u), {})[int(f)] = frozenset(group["v"].tolist())
+    for lo, hi in zip(starts.tolist(), np.r_[starts[1:], len(u)].tolist()):
+        pairs.setdefault(int(u[lo]), {})[int(f[lo])] = frozenset(v[lo:hi].tolist())
     return pairs, present
 
 
-def _cell_changes(frames_of, sets, present, last, censor):
-    """Events of one cell: (frame_start, frame_end or None, kind, n_lost, n_gained)."""
+def _same_list(a, b, present_a, present_b):
+    """Neighbour lists ``a`` (at one frame) and ``b`` (at another) agree on the cells present in both frames."""
+    return a == b or all(c not in present_a or c not in present_b for c in a ^ b)
+
+
+def _first_return(k, frames_of, sets, present, before, prev, index):
+    """Position in ``frames_of`` after ``k`` of the first frame whose list is ``before`` (the list at ``prev``).
+
+    With a constant cell population (``index``: positions of each exact list) the lists must be equal and
+    the answer is looked up; otherwise every later frame is compared on the cells present at both.
+    """
+    if index is not None:
+        positions = index.get(before, ())
+        at = bisect.bisect_right(positions, k)
+        return positions[at] if at < len(positions) else None
     empty = frozenset()
+    for j in range(k + 1, len(frames_of)):
+        if _same_list(sets.get(frames_of[j], empty), before, present[frames_of[j]], present[prev]):
+            return j
+    return None
+
+
+def _cell_changes(frames_of, sets, present, last, censor, constant):
+    """Events of one cell: (frame_start, frame_end or None, kind, n_lost, n_gained).
+
+    ``constant``: every frame has the same cells (then lists are compared exactly, through an index).
+    """
+    empty = frozenset()
+    index = None
+    if constant:
+        index = {}
+        for j, g in enumerate(frames_of):
+            index.setdefault(sets.get(g, empty), []).append(j)
     out = []
     k = 1
     while k < len(frames_of):
         prev, f = frames_of[k - 1], frames_of[k]
-        if f != prev + 1:  # the cell was missing: nothing to compare across the gap
-            k += 1
-            continue
-        common = present[prev] & present[f]
         before, after = sets.get(prev, empty), sets.get(f, empty)
-        if before & common == after & common:
-            k += 1
+        if f != prev + 1 or _same_list(before, after, present[prev], present[f]):
+            k += 1  # unchanged, or the cell was missing: nothing to compare across the gap
             continue
-        n_lost, n_gained = len((before - after) & common), len((after - before) & common)
-        back = None  # first later frame whose list is the one left at `prev` (cells present at both compared)
-        for j in range(k + 1, len(frames_of)):
-            g = frames_of[j]
-            if sets.get(g, empty) & present[prev] == before & present[g]:
-                back = j
-                break
+        n_lost = sum(c in present[f] for c in before - after)
+        n_gained = sum(c in present[prev] for c in after - before)
+        back = _first_return(k, frames_of, sets, present, before, prev, index)
         if back is not None:
             out.append((f, frames_of[back], "cycle", n_lost, n_gained))
             k = back + 1
@@ -565,6 +593,8 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
     contacts = track_contacts(edges, cells, min_length)
     sets, present = _neighbour_sets(contacts, frames, tracks)
     last = int(frames.max()) if len(frames) else 0
+    population = list(present.values())
+    constant = all(p == population[0] for p in population)
     order = np.lexsort((frames, tracks))
     rows = []
     bounds = np.flatnonzero(np.r_[True, tracks[order][1:] != tracks[order][:-1], True])
@@ -572,7 +602,7 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
         track = int(tracks[order][lo])
         frames_of = frames[order][lo:hi].tolist()
         for start, end, kind, n_lost, n_gained in _cell_changes(frames_of, sets.get(track, {}), present, last,
-                                                                censor):
+                                                                censor, constant):
             rows.append((track, kind, start, np.nan if end is None else float(end), n_lost, n_gained))
     out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
     out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,

@@ -262,7 +262,12 @@ def read_results(directory) -> Movie:
     missing = [name for name in MESH_TABLES if name not in tables]
     if missing:
         raise InputError(f"results folder {str(folder)!r} is missing table(s) {missing}")
-    options = {name: OPTION_CLASSES[name].from_dict(value) for name, value in meta.get("options", {}).items()}
+    try:
+        options = {name: OPTION_CLASSES[name].from_dict(value) for name, value in meta.get("options", {}).items()}
+    except (InputError, KeyError) as exc:
+        raise InputError(f"results folder {str(folder)!r} was written by hexatissue "
+                         f"{meta.get('hexatissue_version', '?')} with options this version cannot read ({exc}); "
+                         f"analyse the data again") from None
     known = {f.name for f in fields(Movie)}
     return Movie(**{k: v for k, v in tables.items() if k in known},
                  box=None if meta.get("box") is None else Box(*meta["box"]),

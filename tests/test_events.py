@@ -305,3 +305,17 @@ def test_per_cell_events_of_the_scripted_t1_movie_follow_its_quartets(periodic):
     expected += [(int(c), "cycle", gone[0], float(gone[-1] + 1)) for c in (q.cell_a, q.cell_b)]
     key = lambda rows: sorted((t, k, s, -1.0 if np.isnan(e) else e) for t, k, s, e in rows)
     assert key(got[["track", "kind", "frame_start", "frame_end"]].itertuples(index=False, name=None)) == key(expected)
+
+
+def test_cells_entering_and_leaving_do_not_change_a_neighbour_list():
+    """A cell present in frames 4-6 only, touching cell 3: the events are those without it (presence path)."""
+    def contacts(f):
+        out = RING + ([(1, 2)] if f < 3 or f >= 9 else []) + ([(3, 4)] if 5 <= f < 8 else [])
+        return out + ([(3, 9)] if 4 <= f < 7 else [])
+
+    edges, cells = _hand_movie(contacts, 12)
+    visitor = pd.DataFrame([(f, 9, 50.0, 0.0) for f in range(4, 7)], columns=["frame", "cell", "x", "y"])
+    cells = pd.concat([cells, visitor], ignore_index=True)
+    got = neighbour_events(edges, cells, censor=2).set_index("track")
+    assert sorted(got.index) == [1, 2, 3, 4]
+    assert got["duration"].to_dict() == {1: 6.0, 2: 6.0, 3: 3.0, 4: 3.0}
