@@ -62,6 +62,12 @@ def test_report_on_a_periodic_movie(movie_results, movie_report):
         assert heading in text
     for link in ("t1_defects.png", "migration.png", "timing.png"):
         assert f"]({link})" in text
+    # Fig. 3g by both definitions: quartets and the paper's per-cell neighbour lists
+    per_cell = pd.read_csv(out / "cell_timing_neighbour_lists.csv")
+    movie = read_results(movie_results)
+    assert "per-cell definition" in text and len(per_cell) == movie.cells["track"].nunique()
+    assert numbers["timing_per_cell_definition"]["n_intercalation_cells"] == \
+        per_cell["mean_intercalation_interval"].notna().sum()
 
 
 def test_report_tables_use_the_box_and_the_window(movie_report):

@@ -34,7 +34,8 @@ def cell_timing(events, cells=None, frame_interval=1.0):
     Parameters
     ----------
     events : pandas.DataFrame
-        Events table.
+        Quartet events (:func:`~hexatissue.detect_t1`) or the paper's per-cell
+        events (:func:`~hexatissue.events.neighbour_events`).
     cells : pandas.DataFrame, optional
         Cells table (every cell gets a row; see :func:`~hexatissue.events.cell_event_stats`).
     frame_interval : float
@@ -49,7 +50,9 @@ def cell_timing(events, cells=None, frame_interval=1.0):
         ``mean_intercalation_interval``), the two means in units of
         ``frame_interval`` (frames by default).
     """
-    require_columns(events, ("kind", "frame_start", "duration", "cell_a", "cell_b", "cell_c", "cell_d"), "events")
+    per_cell = "track" in events.columns and "cell_a" not in events.columns  # neighbour_events
+    cells_of = ("track",) if per_cell else ("cell_a", "cell_b", "cell_c", "cell_d")
+    require_columns(events, ("kind", "frame_start", "duration") + cells_of, "events")
     frame_interval = check_positive(frame_interval, "frame_interval")
     out = cell_event_stats(events, cells)
     for col in TIMING_QUANTITIES:
