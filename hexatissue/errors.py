@@ -16,12 +16,18 @@ class HexatissueWarning(UserWarning):
     """Something valid but unusual was found in the input (documented per function)."""
 
 
+def is_real(value) -> bool:
+    """True for a finite real number (int, float or numpy number; not bool, str, None or an array)."""
+    return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+            and bool(np.isfinite(value)))
+
+
 def check_positive(value, name, integer=False, unit=""):
     """``value`` as float (int when ``integer``) if it is a positive finite number; else :class:`InputError`.
 
     ``unit`` (e.g. ``"px"``) is named in the message.
     """
-    ok = not isinstance(value, bool) and np.isscalar(value) and np.isfinite(value) and value > 0
+    ok = is_real(value) and value > 0
     if ok and integer:
         ok = float(value) == int(value)
     if not ok:
@@ -39,7 +45,13 @@ def check_p(p, name="p"):
 
 def check_orders(p, name="p"):
     """One or more symmetry orders as a tuple of distinct ints (a single int is accepted)."""
-    orders = (p,) if np.isscalar(p) else tuple(p)
+    if p is None or isinstance(p, (str, bytes, dict)):
+        raise InputError(f"{name} must be a positive integer symmetry order or a sequence of them; got {p!r}")
+    try:
+        orders = (p,) if np.isscalar(p) else tuple(p)
+    except TypeError:
+        raise InputError(f"{name} must be a positive integer symmetry order or a sequence of them; "
+                         f"got {p!r}") from None
     if not orders:
         raise InputError(f"{name} must list at least one symmetry order; got {p!r}")
     orders = tuple(check_p(q, name) for q in orders)

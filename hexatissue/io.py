@@ -53,7 +53,7 @@ def read_labels(path, key: str | None = None, *, channel: int | None = None) -> 
         Indexed ``[row, col]``, or ``[t, row, col]`` when the data have a
         frame axis.  RGB images with equal channels (skeletons saved as RGB)
         are reduced to one channel; distinct colours become one integer per
-        colour (``R << 16 | G << 8 | B``), decided frame by frame.  Values are
+        colour (``R << 16 | G << 8 | B``, 16-bit ``R << 32 | G << 16 | B``), decided frame by frame.  Values are
         as stored (not validated).
 
     Raises
