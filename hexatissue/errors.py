@@ -5,6 +5,8 @@ Every error caused by what the user passed in is an :class:`InputError`, a
 what is expected.  The checks here are the only copies in the package: one
 positive-number check, one symmetry-order check, one seeded-generator helper.
 """
+from pathlib import Path
+
 import numpy as np
 
 
@@ -67,3 +69,14 @@ def as_generator(seed, name="seed"):
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise InputError(f"{name} must be a non-negative int or a numpy.random.Generator; got {seed!r}")
     return np.random.default_rng(int(seed))
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` for ``warnings.warn`` that points at the first caller outside hexatissue."""
+    import sys
+
+    package = str(Path(__file__).resolve().parent)
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level

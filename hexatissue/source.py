@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .box import Box
-from .errors import HexatissueWarning, InputError
+from .errors import HexatissueWarning, InputError, user_stacklevel
 from .mesh.labels import validate_labels
 from .units import Calibration, normalize_length_unit, normalize_time_unit
 
@@ -344,17 +344,6 @@ def _make(reader, description, calibration=None, box=None, ids_consistent=False)
                   calibration=calibration or Calibration(), description=desc, _reader=reader)
 
 
-def _stacklevel() -> int:
-    """The ``stacklevel`` pointing a warning at the first caller outside hexatissue."""
-    import sys
-
-    package = str(Path(__file__).resolve().parent)
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_code.co_filename.startswith(package):
-        frame, level = frame.f_back, level + 1
-    return level
-
-
 def _read_error(what, exc) -> InputError:
     return InputError(f"could not read label image {what}: {type(exc).__name__}: {exc}")
 
@@ -453,7 +442,7 @@ def _array_axes(shape, rgb_allowed=True):
         # as likely a T x rows x cols stack of 3 or 4 px wide frames: say which reading was taken
         warnings.warn(f"an array of shape {tuple(shape)} is read as one RGB(A) image of {shape[0]} x {shape[1]} "
                       f"px (last axis = colour); to read it as {shape[0]} frames of {shape[1]} x {shape[2]} px, "
-                      f"pass list(array)", HexatissueWarning, stacklevel=_stacklevel())
+                      f"pass list(array)", HexatissueWarning, stacklevel=user_stacklevel())
     return ("", "T", "TC")[lead] + "YX" + ("S" if rgb else "")
 
 
@@ -566,7 +555,7 @@ class _TiffReader:
             n_ifd = len(tf.pages)
             warnings.warn(f"TIFF {self.what}: its ImageJ header says {n_pages} images but the file holds "
                           f"{n_ifd} page(s); reading the pages that are there", HexatissueWarning,
-                          stacklevel=_stacklevel())
+                          stacklevel=user_stacklevel())
             self.notes.append(f"ImageJ header says {n_pages} images (axes {self.axes!r}) but the file holds "
                               f"{n_ifd} page(s); each page is read as a frame")
             self.mode = "ifds"
@@ -753,7 +742,7 @@ def _file_unit(unit, normalize, kind, notes):
     except InputError:
         warnings.warn(f"unknown {kind} unit {unit!r} in the file's metadata; that calibration is ignored (pass "
                       f"{'length_unit' if kind == 'length' else 'time_unit'}= to set it)", HexatissueWarning,
-                      stacklevel=_stacklevel())
+                      stacklevel=user_stacklevel())
         notes.append(f"unknown {kind} unit {unit!r} in the metadata: ignored")
         return None
 
@@ -765,7 +754,7 @@ def _calibration(notes, size_x=None, size_y=None, length_unit=None, interval=Non
     if lu not in (None, "px") and size_x is not None and np.isfinite(size_x) and size_x > 0:
         fields.update(pixel_size=_clean(size_x), length_unit=lu)
         if size_y is not None and size_y > 0 and not np.isclose(size_x, size_y, rtol=1e-6):
-            warnings.warn(NON_SQUARE, HexatissueWarning, stacklevel=_stacklevel())
+            warnings.warn(NON_SQUARE, HexatissueWarning, stacklevel=user_stacklevel())
             notes.append(f"non-square pixels: x {_clean(size_x)} and y {_clean(size_y)} {lu}; "
                          f"the x size is used for all lengths")
     elif lu == "px" and size_x not in (None, 1, 1.0):
