@@ -169,7 +169,9 @@ def check_zarr_chunks(arr, n_rows, what) -> None:
     """InputError when a chunk of the first ``n_rows`` rows of the zarr array ``arr`` is missing from its store.
 
     zarr reads a missing chunk as its fill value (zeros), so a deleted chunk
-    would pass for data.  Stores this check cannot inspect are not checked.
+    would pass for data.  zarr also skips writing chunks that are all fill
+    value, so check only arrays whose chunks never are (label images, cell
+    areas, fields).  Stores this check cannot inspect are not checked.
     """
     import math
 

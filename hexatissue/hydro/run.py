@@ -153,8 +153,11 @@ class _Store:
         g = self.group
         what = f"cannot resume {str(self.path)!r}"
         try:
-            for k, rows in [(k, frames) for k in SCALARS] + [(f"defects/{k}", ndef) for k in DEFECT_COLS]:
+            # arrays never all zero in a chunk (zarr does not store such chunks): energies, defect charges
+            for k, rows in (("free_energy", frames), ("defects/charge", ndef)):
                 check_zarr_chunks(g[k], rows, what)
+            for k in list(SCALARS) + [f"defects/{c}" for c in DEFECT_COLS]:
+                g[k]  # noqa: B018 -- every array must be there
         except KeyError as exc:
             raise InputError(f"{what}: array {exc} is missing; the store is damaged: run it again") from None
         for k in SCALARS:
