@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, is_real
 
 __all__ = ["Box", "as_box"]
 
@@ -32,7 +32,7 @@ class Box:
     def __post_init__(self):
         for name in ("Lx", "Ly"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not np.isscalar(value) or not np.isfinite(value) or value <= 0:
+            if not is_real(value) or value <= 0:
                 raise InputError(f"Box.{name} must be a positive finite length in pixels; got {value!r}")
             object.__setattr__(self, name, float(value))
 

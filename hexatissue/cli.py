@@ -7,10 +7,11 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from importlib import import_module
 from pathlib import Path
 
-from .errors import InputError
+from .errors import HexatissueWarning, InputError
 from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA
 from .order import CENTERS
 
@@ -18,6 +19,7 @@ __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
 SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command")
+DEBUG_HELP = "on an error, show the Python traceback instead of one line"
 
 
 def _analyze_parser(sub):
@@ -106,6 +108,7 @@ def open_cli_source(args):
 
 
 def _run_analyze(args) -> int:
+    from .io import check_output_folder
     from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
     from .pipeline import analyze
 
@@ -119,11 +122,10 @@ def _run_analyze(args) -> int:
         track=TrackOptions(mode=args.track, max_gap=args.max_gap),
         events=EventOptions(min_length=args.min_length, censor=args.censor),
     )
-    client = None
-    if args.scheduler:
-        from dask.distributed import Client
-
-        client = Client(args.scheduler)
+    check_output_folder(args.out, "--out")  # now, not after the whole computation
+    if args.checkpoint is not None:
+        check_output_folder(args.checkpoint, "--checkpoint")
+    client = connect_scheduler(args.scheduler) if args.scheduler else None
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
@@ -139,6 +141,18 @@ def _run_analyze(args) -> int:
     print(f"{args.input}: {summary_line(movie)}; {len(written)} files in {args.out} "
           f"({time.perf_counter() - start:.1f} s)")
     return 0
+
+
+def connect_scheduler(address, name="--scheduler"):
+    """A dask.distributed Client connected to ``address``; InputError naming ``name`` when that fails."""
+    from dask.distributed import Client
+
+    try:
+        return Client(address)
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{name} {address!r}: no dask scheduler could be reached there ({detail}); expected the "
+                         f"address of a running dask.distributed scheduler, e.g. tcp://HOST:8786") from None
 
 
 def summary_line(movie) -> str:
@@ -173,25 +187,50 @@ def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
     parser.add_argument("--version", action="version", version=f"hexatissue {__version__}")
+    parser.add_argument("--debug", action="store_true", help=DEBUG_HELP)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _analyze_parser(sub)
     for module in SUBCOMMAND_MODULES:
         import_module(module).add_parser(sub)
+    for subparser in sub.choices.values():  # also accepted after the subcommand
+        subparser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
     return parser
+
+
+def _show_warning(command, translate):
+    """A ``warnings.showwarning`` printing hexatissue's own warnings as one line (no internal source line)."""
+    default = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, HexatissueWarning):
+            print(f"hexatissue {command}: warning: {translate(str(message))}", file=file or sys.stderr)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
 
 
 def main(argv=None) -> int:
     """Entry point of the ``hexatissue`` command; returns the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    translate = getattr(args, "cli_text", None) or (lambda text: text)
+    saved = warnings.showwarning
+    if not args.debug:
+        warnings.showwarning = _show_warning(args.command, translate)
     try:
         return int(args.func(args) or 0)
-    except InputError as exc:
-        print(f"hexatissue {args.command}: error: {exc}", file=sys.stderr)
+    except (InputError, OSError) as exc:
+        # bad input (and files that cannot be read or written) is one line; --debug shows the traceback
+        if args.debug:
+            raise
+        print(f"hexatissue {args.command}: error: {translate(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"hexatissue {args.command}: interrupted; files already written are complete", file=sys.stderr)
         return 130
+    finally:
+        warnings.showwarning = saved
 
 
 if __name__ == "__main__":

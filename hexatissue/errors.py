@@ -5,6 +5,8 @@ Every error caused by what the user passed in is an :class:`InputError`, a
 what is expected.  The checks here are the only copies in the package: one
 positive-number check, one symmetry-order check, one seeded-generator helper.
 """
+from pathlib import Path
+
 import numpy as np
 
 
@@ -16,12 +18,18 @@ class HexatissueWarning(UserWarning):
     """Something valid but unusual was found in the input (documented per function)."""
 
 
+def is_real(value) -> bool:
+    """True for a finite real number (int, float or numpy number; not bool, str, None or an array)."""
+    return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+            and bool(np.isfinite(value)))
+
+
 def check_positive(value, name, integer=False, unit=""):
     """``value`` as float (int when ``integer``) if it is a positive finite number; else :class:`InputError`.
 
     ``unit`` (e.g. ``"px"``) is named in the message.
     """
-    ok = not isinstance(value, bool) and np.isscalar(value) and np.isfinite(value) and value > 0
+    ok = is_real(value) and value > 0
     if ok and integer:
         ok = float(value) == int(value)
     if not ok:
@@ -39,7 +47,13 @@ def check_p(p, name="p"):
 
 def check_orders(p, name="p"):
     """One or more symmetry orders as a tuple of distinct ints (a single int is accepted)."""
-    orders = (p,) if np.isscalar(p) else tuple(p)
+    if p is None or isinstance(p, (str, bytes, dict)):
+        raise InputError(f"{name} must be a positive integer symmetry order or a sequence of them; got {p!r}")
+    try:
+        orders = (p,) if np.isscalar(p) else tuple(p)
+    except TypeError:
+        raise InputError(f"{name} must be a positive integer symmetry order or a sequence of them; "
+                         f"got {p!r}") from None
     if not orders:
         raise InputError(f"{name} must list at least one symmetry order; got {p!r}")
     orders = tuple(check_p(q, name) for q in orders)
@@ -55,3 +69,14 @@ def as_generator(seed, name="seed"):
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise InputError(f"{name} must be a non-negative int or a numpy.random.Generator; got {seed!r}")
     return np.random.default_rng(int(seed))
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` for ``warnings.warn`` that points at the first caller outside hexatissue."""
+    import sys
+
+    package = str(Path(__file__).resolve().parent)
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level

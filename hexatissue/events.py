@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from .box import Box
-from .errors import InputError
+from .errors import InputError, is_real
 from .graph import contact_table as graph_contacts
 from .schema import interior_mask, track_ids, validate
 
@@ -109,7 +109,7 @@ def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_l
     for col in ("frame", "cell_a", "cell_b", "length"):
         if col not in edges.columns:
             raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
-    if not np.isfinite(min_length) or min_length < 0:
+    if not is_real(min_length) or min_length < 0:
         raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
     pairs = graph_contacts(edges[["frame", "cell_a", "cell_b", "length"]])
     frame = pairs["frame"].to_numpy(np.int64)

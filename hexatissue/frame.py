@@ -208,15 +208,26 @@ class Movie:
 
         Files are written to temporary names and renamed, so a folder is never
         left with half a table; ``metadata.json`` is written last, so a folder
-        that has it is complete.
+        that has it is complete.  Rewriting an existing results folder first
+        removes its ``metadata.json`` (a write interrupted half-way leaves a
+        folder that :func:`read_results` refuses, never old and new tables
+        passing for one result), then the tables of this Movie are written
+        and the old tables it does not have are removed.
         """
-        from .io import atomic_path, write_tables
+        from .io import atomic_path, check_output_folder, write_tables
 
+        formats = tuple(formats) if isinstance(formats, (list, tuple)) else (formats,)
         bad = [f for f in formats if f not in FORMATS]
         if bad or not formats:
             raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
-        directory = Path(directory)
+        directory = check_output_folder(directory, "directory")
+        (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
         written = write_tables(self.tables(), directory, formats=formats)
+        for name in TABLES:
+            for fmt in FORMATS:
+                stale = directory / f"{name}.{fmt}"
+                if stale not in written:
+                    stale.unlink(missing_ok=True)
         meta = dict(self.metadata(), formats=list(formats))
         with atomic_path(directory / METADATA) as tmp:
             tmp.write_text(json.dumps(meta, indent=2))
@@ -250,7 +261,13 @@ def read_results(directory) -> Movie:
     if not meta_path.exists():
         raise InputError(f"results folder {str(folder)!r} has no {METADATA}: it is not a complete hexatissue "
                          f"results folder (analyze writes metadata.json last)")
-    meta = json.loads(meta_path.read_text())
+    try:
+        meta = json.loads(meta_path.read_text())
+        if not isinstance(meta, dict):
+            raise ValueError("not a JSON object")
+    except (OSError, ValueError) as exc:
+        raise InputError(f"results folder {str(folder)!r}: {METADATA} cannot be read ({exc}); the folder is "
+                         f"damaged: write it again") from None
     tables = {}
     for name in TABLES:
         for fmt in FORMATS:
@@ -259,6 +276,13 @@ def read_results(directory) -> Movie:
                 table = read_table(path)
                 tables[name] = coerce(table, name) if fmt == "csv" and name in SCHEMAS else table
                 break
+    # metadata.json is the manifest: every table it lists must be there, with the row count it gives
+    listed = meta.get("tables", {})
+    wrong = [name for name, rows in listed.items() if name in TABLES
+             and (name not in tables or len(tables[name]) != int(rows))]
+    if wrong:
+        raise InputError(f"results folder {str(folder)!r} does not match its {METADATA}: table(s) {wrong} are "
+                         f"missing or have other row counts; the folder is damaged or was partly overwritten")
     missing = [name for name in MESH_TABLES if name not in tables]
     if missing:
         raise InputError(f"results folder {str(folder)!r} is missing table(s) {missing}")

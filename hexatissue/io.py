@@ -15,7 +15,8 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path"]
+__all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path", "check_output_folder",
+           "check_zarr_chunks", "read_zarr"]
 
 
 def _current_umask() -> int:
@@ -53,7 +54,7 @@ def read_labels(path, key: str | None = None, *, channel: int | None = None) -> 
         Indexed ``[row, col]``, or ``[t, row, col]`` when the data have a
         frame axis.  RGB images with equal channels (skeletons saved as RGB)
         are reduced to one channel; distinct colours become one integer per
-        colour (``R << 16 | G << 8 | B``), decided frame by frame.  Values are
+        colour (``R << 16 | G << 8 | B``, 16-bit ``R << 32 | G << 16 | B``), decided frame by frame.  Values are
         as stored (not validated).
 
     Raises
@@ -99,6 +100,32 @@ def atomic_path(path):
     return _ctx()
 
 
+def check_output_folder(path, name="out") -> Path:
+    """``path`` as a Path if a folder can be written there (it exists as a folder, or can be made); else InputError.
+
+    Nothing is created: the nearest existing ancestor must be a folder in
+    which a file can be made (tried with a temporary file, so read-only
+    file systems are caught too).  Call it before a long computation.
+    """
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise InputError(f"{name} must be a folder path (str or Path); got {path!r}")
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{name} {str(path)!r} is a file; expected a folder (or a path where one can be made)")
+    ancestor = path
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise InputError(f"{name} {str(path)!r} lies below the file {str(ancestor)!r}; expected a folder path")
+    try:
+        with tempfile.TemporaryFile(dir=ancestor):
+            pass
+    except OSError as exc:
+        raise InputError(f"{name} {str(path)!r} cannot be written: {str(ancestor)!r} is not writable "
+                         f"({exc.strerror or exc})") from None
+    return path
+
+
 def write_table(df: pd.DataFrame, path) -> Path:
     """Write ``df`` to ``path`` (``.parquet`` or ``.csv``) atomically; returns the path."""
     path = Path(path)
@@ -127,8 +154,52 @@ def read_table(path) -> pd.DataFrame:
     path = Path(path)
     if not path.exists():
         raise InputError(f"table {str(path)!r} does not exist")
-    if path.suffix.lower() == ".parquet":
-        return pd.read_parquet(path)
-    if path.suffix.lower() == ".csv":
-        return pd.read_csv(path)
-    raise InputError(f"table path {str(path)!r} must end in .parquet or .csv")
+    suffix = path.suffix.lower()
+    if suffix not in (".parquet", ".csv"):
+        raise InputError(f"table path {str(path)!r} must end in .parquet or .csv")
+    try:
+        return pd.read_parquet(path) if suffix == ".parquet" else pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"table {str(path)!r} cannot be read ({detail}); it is damaged or not a "
+                         f"{suffix[1:]} file") from exc
+
+
+def check_zarr_chunks(arr, n_rows, what) -> None:
+    """InputError when a chunk of the first ``n_rows`` rows of the zarr array ``arr`` is missing from its store.
+
+    zarr reads a missing chunk as its fill value (zeros), so a deleted chunk
+    would pass for data.  zarr also skips writing chunks that are all fill
+    value, so check only arrays whose chunks never are (label images, cell
+    areas, fields).  Stores this check cannot inspect are not checked.
+    """
+    import math
+
+    try:
+        from zarr.core.sync import sync
+
+        path = arr.store_path
+        prefix = f"{path.path}/" if path.path else ""
+        if n_rows <= 0 or 0 in arr.shape:
+            return
+        rows = range(math.ceil(min(n_rows, arr.shape[0]) / arr.chunks[0]))
+        rest = [range(math.ceil(n / c)) for n, c in zip(arr.shape[1:], arr.chunks[1:])]
+        from itertools import product
+
+        missing = [c for c in product(rows, *rest)
+                   if not sync(path.store.exists(prefix + arr.metadata.encode_chunk_key(c)))]
+    except (AttributeError, ImportError, TypeError):  # another zarr version or store: nothing to check
+        return
+    if missing:
+        raise InputError(f"{what}: {len(missing)} chunk(s) of array {arr.name!r} are missing from the store "
+                         f"(first at chunk {missing[0]}); the store is damaged: write it again")
+
+
+def read_zarr(arr, what, index=Ellipsis):
+    """``np.asarray(arr[index])``; a damaged (truncated, garbled) chunk becomes an InputError naming ``what``."""
+    try:
+        return np.asarray(arr[index])
+    except Exception as exc:
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(f"{what}: array {getattr(arr, 'name', '?')!r} cannot be read ({type(exc).__name__}: "
+                         f"{detail}); the store is damaged: write it again") from exc

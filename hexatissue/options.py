@@ -12,9 +12,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
 
-import numpy as np
 
-from .errors import InputError, check_orders
+from .errors import InputError, check_orders, is_real
 from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from .order import CENTERS
 from .track import TRACK_MODES
@@ -26,10 +25,6 @@ def _fail(cls, name, value, expected):
     raise InputError(f"{cls.__name__}.{name} must be {expected}; got {value!r}")
 
 
-def _is_number(value):
-    return not isinstance(value, bool) and np.isscalar(value) and isinstance(value, (int, float, np.number))
-
-
 class _Options:
     """Shared behaviour: validation helpers, ``to_dict`` / ``from_dict`` for ``metadata.json``."""
 
@@ -37,7 +32,7 @@ class _Options:
         value = getattr(self, name)
         if value is None and allow_none:
             return
-        ok = _is_number(value) and np.isfinite(value) and (value > low if strict else value >= low)
+        ok = is_real(value) and (value > low if strict else value >= low)
         ok = ok and (high is None or value <= high) and (not integer or float(value) == int(value))
         if not ok:
             what = "an integer" if integer else "a finite number"

@@ -17,7 +17,7 @@ import pandas as pd
 from scipy.spatial import cKDTree
 
 from .box import as_box
-from .errors import InputError, check_orders, check_p
+from .errors import InputError, check_orders, check_p, is_real
 from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_perimeter, row_keys, segment_sum,
                        table_polygons)
 from .schema import interior_mask, validate
@@ -33,6 +33,8 @@ __all__ = [
 ]
 
 CENTERS = ("vertex_mean", "area_centroid")
+#: Polygons with area < DEGENERATE_AREA * (mean squared vertex radius) have no shape function (NaN).
+DEGENERATE_AREA = 1e-9
 
 
 def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
@@ -40,7 +42,9 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
 
     ``starts`` gives each polygon's first row in ``xy``.  Polygons must be
     contiguous (unwrapped in periodic boxes) and not closed.  Polygons with
-    fewer than three vertices give NaN.
+    fewer than three vertices, and degenerate ones (area below
+    ``DEGENERATE_AREA`` times their mean squared vertex distance from the
+    centre: collinear or collapsed vertices), give NaN.
     """
     xy = np.asarray(xy, dtype=float)
     starts = np.asarray(starts, dtype=np.int64)
@@ -67,7 +71,11 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
     den = segment_sum(weight, starts, n)
     with np.errstate(invalid="ignore", divide="ignore"):
         gamma = num / den
-    gamma[(lengths < 3) | ~(den > 0)] = np.nan
+    # degenerate polygons (collinear or collapsed vertices, area ~ 0) have no shape
+    area = np.abs(polygon_area_centroid(xy, starts)[0]) if n else np.zeros(0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        size2 = segment_sum(np.abs(z) ** 2, starts, n) / lengths
+    gamma[(lengths < 3) | ~(den > 0) | ~(area > DEGENERATE_AREA * size2)] = np.nan
     return gamma
 
 
@@ -211,12 +219,14 @@ SPACING_FACTOR = 1.0
 #: interior cell c closer than COVER_FACTOR * max(sqrt(area_c / pi), R_cell) (a regular hexagon's
 #: corners are 1.1 sqrt(area / pi) from its centre).
 COVER_FACTOR = 1.5
+#: Largest coarse-graining grid (nodes per frame); a finer spacing is refused, not computed for minutes.
+MAX_NODES = 1_000_000
 
 
 def _check_length(value, name):
     if value is None:
         return None
-    if isinstance(value, bool) or not np.isscalar(value) or not np.isfinite(value) or value <= 0:
+    if not is_real(value) or value <= 0:
         raise InputError(f"{name} must be a positive finite length in px (or None for the default); got {value!r}")
     return float(value)
 
@@ -239,15 +249,21 @@ def cell_radius(cells):
 def _grid_axes(cells_xy, spacing, box):
     """Node coordinates along x and y: tiling the periodic box, or centred on the cells' extent."""
     if box is not None:
-        nx = max(2, int(round(box.Lx / spacing)))
-        ny = max(2, int(round(box.Ly / spacing)))
+        counts = [max(2, int(round(box.Lx / spacing))), max(2, int(round(box.Ly / spacing)))]
+    else:
+        lo, hi = cells_xy.min(axis=0), cells_xy.max(axis=0)
+        counts = [max(int(np.floor((hi[k] - lo[k]) / spacing)) + 1, 1) for k in range(2)]
+    if counts[0] * counts[1] > MAX_NODES:
+        raise InputError(f"spacing {spacing:g} px gives a grid of {counts[0]} x {counts[1]} nodes (more than "
+                         f"{MAX_NODES:,}); expected a spacing comparable to the cell size (default R_cell)")
+    if box is not None:
+        nx, ny = counts
         return (np.arange(nx) + 0.5) * box.Lx / nx, (np.arange(ny) + 0.5) * box.Ly / ny
-    lo, hi = cells_xy.min(axis=0), cells_xy.max(axis=0)
     axes = []
     for k in range(2):
-        n = int(np.floor((hi[k] - lo[k]) / spacing)) + 1
+        n = counts[k]
         start = lo[k] + 0.5 * ((hi[k] - lo[k]) - (n - 1) * spacing)
-        axes.append(start + spacing * np.arange(max(n, 1)))
+        axes.append(start + spacing * np.arange(n))
     return axes[0], axes[1]
 
 

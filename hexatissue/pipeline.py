@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from .box import as_box
-from .errors import HexatissueWarning, InputError, check_positive
+from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from .events import cell_event_stats, default_censor, detect_t1, neighbour_events
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
@@ -75,12 +75,13 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         Folder for checkpoints: every ``checkpoint_every`` frames the tables
         of the finished frames and the tracker state are saved there
         (atomically); a later call with the same source and options resumes
-        after the last checkpoint.  The tracker state is a pickle: only
+        after the last checkpoint.  The folder is locked while a run uses it
+        (``checkpoint.lock``): a second run on it raises InputError.  The tracker state is a pickle: only
         resume from folders you wrote yourself.
     checkpoint_every : int
         Frames per checkpoint.
     progress : bool
-        Show a progress bar.
+        Show a progress bar (on a terminal; see :mod:`hexatissue.progress`).
 
     Returns
     -------
@@ -267,16 +268,42 @@ def _defect_tracks(defects, grid, order, box, n_frames):
 # ----------------------------------------------------------------------------
 
 def _frame_job(labels, t, box, mesh, order, mask=None):
-    """Tables of one frame and its normalised labels (for the tracker)."""
+    """Tables of one frame, its normalised labels (for the tracker) and its warnings.
+
+    Warnings are caught here, in the worker, and returned as ``(category,
+    text)`` pairs, so the main process reports them with their frames.
+    """
     from .mesh.labels import normalize_valid
     from .mesh.network import network_tables
 
-    lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
-                                    background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside,
-                                    mask=mask)
-    tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
-    tables.update(_order_tables(tables, box, order))
-    return tables, lab
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
+                                        background=mesh.background, fill_holes=mesh.fill_holes,
+                                        outside=mesh.outside, mask=mask)
+        tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
+        tables.update(_order_tables(tables, box, order))
+    found = [(w.category, str(w.message)) for w in caught]
+    return tables, lab, found
+
+
+class _FrameWarnings:
+    """Warnings of the frame jobs, reported once per distinct text with the frames it occurred in."""
+
+    def __init__(self):
+        self.frames = {}
+
+    def add(self, t, found):
+        for category, text in found:
+            self.frames.setdefault((category, text), []).append(int(t))
+
+    def emit(self):
+        for (category, text), frames in self.frames.items():
+            frames = sorted(set(frames))
+            shown = ", ".join(str(f) for f in frames[:10]) + (f", ... ({len(frames)} frames)" if len(frames) > 10
+                                                              else "")
+            warnings.warn(f"frame{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
+                          stacklevel=user_stacklevel())
 
 
 def _order_tables(tables, box, order):
@@ -339,8 +366,35 @@ class _Dask:
         pass
 
 
+def _die_with_parent():
+    """Pool initializer: on Linux, ask the kernel to SIGKILL this worker when its parent dies.
+
+    Without it a parent killed by SIGKILL (or the OOM killer) leaves its
+    workers alive, holding memory and the parent's pipes.  ``prctl`` is
+    Linux-only; elsewhere this does nothing (workers then notice the broken
+    pipe at their next task).
+    """
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # the parent died before prctl took effect
+        os._exit(1)
+
+
+PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
+
+
 class _Pool:
-    """A local process pool.
+    """A local process pool whose workers die with the parent (:func:`_die_with_parent`).
 
     Workers are forked where the OS allows it: they start at once and need no
     importable ``__main__`` (scripts piped to Python, notebooks).  The mesh
@@ -357,7 +411,8 @@ class _Pool:
         method = "fork" if "fork" in mp.get_all_start_methods() else None
         if method == "fork":
             warm_up()  # compile the kernels once here; forked workers inherit them
-        self.pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=mp.get_context(method))
+        self.pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=mp.get_context(method),
+                                        initializer=_die_with_parent)
 
     def submit(self, fn, *args):
         return self.pool.submit(fn, *args)
@@ -378,7 +433,20 @@ def _executor(client, workers, n_frames):
 
 
 def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress):
-    """Per-frame tables (in frame order) and the tracker, with a bounded number of frames in flight."""
+    """Per-frame tables (in frame order) and the tracker, with a bounded number of frames in flight.
+
+    A checkpoint folder is locked for the whole extraction: two runs cannot share it.
+    """
+    if store is not None:
+        store.lock()
+        try:
+            return _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store, progress)
+        finally:
+            store.unlock()
+    return _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store, progress)
+
+
+def _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store, progress):
     from .progress import progress as progress_bar
 
     parts = {name: [] for name in FRAME_TABLES}
@@ -395,9 +463,12 @@ def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progr
     due = store.due(start, n_frames) if store is not None else set()
     new_parts = {name: [] for name in FRAME_TABLES}
 
+    frame_warnings = _FrameWarnings()
+
     def collect(item):
         t, future = item
-        tables, labels = future.result()
+        tables, labels, found = future.result()
+        frame_warnings.add(t, found)
         tracker.add_valid(labels, t)
         for name, table in tables.items():
             parts[name].append(table)
@@ -418,6 +489,7 @@ def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progr
             collect(pending.popleft())
     finally:
         executor.shutdown()
+        frame_warnings.emit()
     return parts, tracker
 
 
@@ -425,29 +497,85 @@ class _Checkpoint:
     """Frame tables and tracker state saved every ``every`` frames in ``directory``."""
 
     def __init__(self, directory, key, every):
+        from .io import check_output_folder
+
         self.every = check_positive(every, "checkpoint_every", integer=True)
-        self.dir = Path(directory)
+        self.dir = check_output_folder(directory, "checkpoint")
         self.key = json.loads(json.dumps(key))  # as it reads back from JSON
         self.state_path = self.dir / "checkpoint.json"
+        self._lock = None
+
+    def lock(self):
+        """Take the folder's exclusive lock (``checkpoint.lock``, fcntl); InputError when another run holds it.
+
+        The lock is released by :meth:`unlock`, or by the OS when the
+        process ends.  Where fcntl is missing (Windows) nothing is locked.
+        """
+        try:
+            import fcntl
+        except ImportError:
+            return
+        self.dir.mkdir(parents=True, exist_ok=True)
+        handle = open(self.dir / "checkpoint.lock", "a+")
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            raise InputError(f"checkpoint folder {str(self.dir)!r} is in use by another running analysis "
+                             f"(its checkpoint.lock is held); wait for it to finish or use another folder") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"{os.getpid()}\n")
+        handle.flush()
+        self._lock = handle
+
+    def unlock(self):
+        """Release the lock taken by :meth:`lock`."""
+        if self._lock is not None:
+            self._lock.close()  # closing the file releases the flock
+            self._lock = None
+
+    def _damaged(self, what):
+        return InputError(f"checkpoint folder {str(self.dir)!r} is damaged ({what}); delete it (or use another "
+                          f"folder) to start again")
 
     def due(self, start, n_frames):
         """Frame counts after which a checkpoint is written."""
         return set(range(start + self.every, n_frames + 1, self.every)) | {n_frames}
 
     def _state(self):
-        return json.loads(self.state_path.read_text()) if self.state_path.exists() else None
+        if not self.state_path.exists():
+            return None
+        try:
+            state = json.loads(self.state_path.read_text())
+            if not (isinstance(state, dict) and {"key", "done", "files", "tracker"} <= set(state)
+                    and isinstance(state["files"], dict)):
+                raise ValueError("not a checkpoint state")
+        except (OSError, ValueError) as exc:
+            raise self._damaged(f"checkpoint.json cannot be read: {exc}") from None
+        return state
 
     def load(self):
         """(frames done, tables, tracker) from the last checkpoint, or (0, None, None)."""
+        from .io import read_table
+
         state = self._state()
         if state is None:
             return 0, None, None
         if state["key"] != self.key:
             raise InputError(f"checkpoint folder {str(self.dir)!r} holds another movie or other options; "
                              f"use a new folder or delete it")
-        parts = {name: [pd.read_parquet(self.dir / f) for f in state["files"].get(name, [])]
-                 for name in FRAME_TABLES}
-        tracker = pickle.loads((self.dir / state["tracker"]).read_bytes()) if state["tracker"] else None
+        try:
+            parts = {name: [read_table(self.dir / f) for f in state["files"].get(name, [])]
+                     for name in FRAME_TABLES}
+        except InputError as exc:
+            raise self._damaged(str(exc)) from None
+        tracker = None
+        if state["tracker"]:
+            try:
+                tracker = pickle.loads((self.dir / state["tracker"]).read_bytes())
+            except Exception as exc:  # missing or truncated pickle
+                raise self._damaged(f"tracker state {state['tracker']!r}: {type(exc).__name__}: {exc}") from None
         return int(state["done"]), parts, tracker
 
     def save(self, done, new_parts, tracker_bytes):

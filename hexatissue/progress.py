@@ -1,7 +1,9 @@
 """Progress bars (tqdm) that stay quiet when output is not a terminal or when disabled.
 
-Set the environment variable ``HEXATISSUE_PROGRESS=0`` to silence every bar,
-``=1`` to force them.
+Bars are shown only when stderr is a terminal, so logs, pipes and batch jobs
+show none by default.  Set the environment variable ``HEXATISSUE_PROGRESS=1``
+to force them there (tqdm then writes a line per update to the log), ``=0``
+to silence every bar (documented in the README).
 """
 from __future__ import annotations
 

@@ -13,7 +13,9 @@ Axis rules, the same for TIFF files, arrays and OME-Zarr images:
 - the last two axes are rows (Y) and columns (X); a trailing sample axis
   of 3 or 4 values (RGB / RGBA; arrays and ``.npy`` files too) is
   collapsed to one integer per pixel: equal channels give that channel,
-  distinct colours give ``R << 16 | G << 8 | B``;
+  distinct colours give ``R << 16 | G << 8 | B`` (8-bit; ``R << 32 | G << 16 | B``
+  for 16-bit channels); a 3-D array with a last axis of 3 or 4 is read as
+  RGB with a warning (pass ``list(array)`` for frames 3 or 4 px wide);
 - a channel axis (C) of more than one channel needs ``channel=``;
 - the frame axis is T; when there is no T axis (or it has a single
   entry) any other single axis (e.g. Z, or ImageJ's untyped "images") is
@@ -36,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .box import Box
-from .errors import HexatissueWarning, InputError
+from .errors import HexatissueWarning, InputError, user_stacklevel
 from .mesh.labels import validate_labels
 from .units import Calibration, normalize_length_unit, normalize_time_unit
 
@@ -342,17 +344,6 @@ def _make(reader, description, calibration=None, box=None, ids_consistent=False)
                   calibration=calibration or Calibration(), description=desc, _reader=reader)
 
 
-def _stacklevel() -> int:
-    """The ``stacklevel`` pointing a warning at the first caller outside hexatissue."""
-    import sys
-
-    package = str(Path(__file__).resolve().parent)
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_code.co_filename.startswith(package):
-        frame, level = frame.f_back, level + 1
-    return level
-
-
 def _read_error(what, exc) -> InputError:
     return InputError(f"could not read label image {what}: {type(exc).__name__}: {exc}")
 
@@ -421,12 +412,23 @@ def _plan(axes, sizes, channel, what, full_axes=None) -> _Layout:
 
 
 def _collapse_rgb(arr: np.ndarray) -> np.ndarray:
-    """One integer per pixel from a trailing RGB(A) axis: equal channels give that channel, else R<<16|G<<8|B."""
+    """One integer per pixel from a trailing RGB(A) axis.
+
+    Equal channels give that channel; distinct colours of ``b``-bit channels
+    (8 or 16) give ``R << 2b | G << b | B``, one id per colour.
+    """
     rgb = arr[..., :3]
     if np.array_equal(rgb[..., 0], rgb[..., 1]) and np.array_equal(rgb[..., 0], rgb[..., 2]):
         return np.ascontiguousarray(rgb[..., 0])
+    if rgb.dtype.kind not in "iu":
+        raise InputError(f"an RGB image of dtype {rgb.dtype} with distinct channels cannot be read as labels; "
+                         f"expected 8- or 16-bit integer colours, or pass channel= for one channel")
+    bits = 8 if rgb.dtype.itemsize == 1 else 16
+    if rgb.min() < 0 or rgb.max() >= 2**bits:
+        raise InputError(f"an RGB image of dtype {rgb.dtype} has channel values from {rgb.min()} to {rgb.max()}; "
+                         f"colour labels need channels in 0..{2**bits - 1} (8- or 16-bit), or pass channel=")
     rgb = rgb.astype(np.int64)
-    return (rgb[..., 0] << 16) | (rgb[..., 1] << 8) | rgb[..., 2]
+    return (rgb[..., 0] << (2 * bits)) | (rgb[..., 1] << bits) | rgb[..., 2]
 
 
 def _array_axes(shape, rgb_allowed=True):
@@ -436,6 +438,11 @@ def _array_axes(shape, rgb_allowed=True):
     if lead < 0 or lead > 2:
         raise InputError(f"array has shape {tuple(shape)}; expected rows x cols, T x rows x cols or "
                          f"T x C x rows x cols (with channel=), optionally with a last RGB(A) axis of 3 or 4")
+    if rgb and len(shape) == 3:
+        # as likely a T x rows x cols stack of 3 or 4 px wide frames: say which reading was taken
+        warnings.warn(f"an array of shape {tuple(shape)} is read as one RGB(A) image of {shape[0]} x {shape[1]} "
+                      f"px (last axis = colour); to read it as {shape[0]} frames of {shape[1]} x {shape[2]} px, "
+                      f"pass list(array)", HexatissueWarning, stacklevel=user_stacklevel())
     return ("", "T", "TC")[lead] + "YX" + ("S" if rgb else "")
 
 
@@ -548,7 +555,7 @@ class _TiffReader:
             n_ifd = len(tf.pages)
             warnings.warn(f"TIFF {self.what}: its ImageJ header says {n_pages} images but the file holds "
                           f"{n_ifd} page(s); reading the pages that are there", HexatissueWarning,
-                          stacklevel=_stacklevel())
+                          stacklevel=user_stacklevel())
             self.notes.append(f"ImageJ header says {n_pages} images (axes {self.axes!r}) but the file holds "
                               f"{n_ifd} page(s); each page is read as a frame")
             self.mode = "ifds"
@@ -735,7 +742,7 @@ def _file_unit(unit, normalize, kind, notes):
     except InputError:
         warnings.warn(f"unknown {kind} unit {unit!r} in the file's metadata; that calibration is ignored (pass "
                       f"{'length_unit' if kind == 'length' else 'time_unit'}= to set it)", HexatissueWarning,
-                      stacklevel=_stacklevel())
+                      stacklevel=user_stacklevel())
         notes.append(f"unknown {kind} unit {unit!r} in the metadata: ignored")
         return None
 
@@ -747,7 +754,7 @@ def _calibration(notes, size_x=None, size_y=None, length_unit=None, interval=Non
     if lu not in (None, "px") and size_x is not None and np.isfinite(size_x) and size_x > 0:
         fields.update(pixel_size=_clean(size_x), length_unit=lu)
         if size_y is not None and size_y > 0 and not np.isclose(size_x, size_y, rtol=1e-6):
-            warnings.warn(NON_SQUARE, HexatissueWarning, stacklevel=_stacklevel())
+            warnings.warn(NON_SQUARE, HexatissueWarning, stacklevel=user_stacklevel())
             notes.append(f"non-square pixels: x {_clean(size_x)} and y {_clean(size_y)} {lu}; "
                          f"the x size is used for all lengths")
     elif lu == "px" and size_x not in (None, 1, 1.0):

@@ -368,13 +368,15 @@ def test_chain_pinched_cell_and_empty_input():
 def test_cell_moments_unwrap_on_the_torus():
     """4 x 6 image: 1 in columns 0 and 5, 2 in columns 1-4.
 
-    On the torus each pixel is taken within half a box of its label's first
-    pixel (0, 0) or (0, 1): column 5 of cell 1 is column -1, and row 3 (3 > 4 / 2
-    below row 0) is row -1 for both cells.
+    On the torus each pixel is taken within half a box of its label's circular
+    mean: cell 1 (columns 0 and 5) is centred at column 5.5, so column 0 is
+    column 6; cell 2 at 2.5.  Along y both cells are bands around the whole
+    torus, so their first pixel's row 0 is the reference and row 3 (3 > 4 / 2
+    below row 0) is row -1.
     """
     labels = np.full((4, 6), 2, np.int32)
     labels[:, [0, 5]] = 1
-    for periodic, sx1, rows in [(False, 4 * (0 + 5), 0 + 1 + 2 + 3), (True, 4 * (0 - 1), 0 + 1 + 2 - 1)]:
+    for periodic, sx1, rows in [(False, 4 * (0 + 5), 0 + 1 + 2 + 3), (True, 4 * (6 + 5), 0 + 1 + 2 - 1)]:
         count, sx, sy = K.cell_moments(labels, 3, periodic)
         for a, b in zip((count, sx, sy), R.cell_moments(labels, 3, periodic)):
             assert a.dtype == b.dtype

@@ -2,6 +2,9 @@
 """
 from __future__ import annotations
 
+from pathlib import Path
+
+from ..errors import InputError
 
 __all__ = ["add_parser"]
 
@@ -28,8 +31,13 @@ def add_parser(subparsers):
     p.add_argument("--out", required=True, help="output zarr store (RUN.zarr)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint in --out")
     p.add_argument("--defects", default=None, help="also write the defect trajectories (.parquet/.csv)")
-    p.set_defaults(func=_run)
+    p.set_defaults(func=_run, cli_text=cli_text)
     return p
+
+
+def cli_text(text: str) -> str:
+    """An error text of the library with HydroParams fields replaced by the ``hydro`` options that set them."""
+    return text.replace("HydroParams.dt", "--dt").replace("HydroParams.alpha6", "--alpha")
 
 
 def _run(args) -> int:
@@ -38,6 +46,9 @@ def _run(args) -> int:
     from ..io import write_table
     from .experiments import run_dipole, run_quadrupole
 
+    if args.resume and not (Path(args.out) / "checkpoint.npz").exists():
+        raise InputError(f"--resume: {args.out!r} holds no hydro run checkpoint to continue; expected the --out "
+                         f"of an earlier run (or drop --resume to start a new one)")
     common = dict(n=args.n, steps=args.steps, dt=args.dt, seed=args.seed, out=args.out, resume=args.resume,
                   progress=True, orientation=float(np.deg2rad(args.orientation_deg)))
     if args.max_time is not None:

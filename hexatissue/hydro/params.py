@@ -74,6 +74,11 @@ class HydroParams:
                 raise InputError(f"HydroParams.{name} must be finite; got {getattr(self, name)!r}")
         if self.A6 >= 0:
             raise InputError(f"HydroParams.A6 must be negative (ordered hexatic phase); got {self.A6!r}")
+        # the bulk term is explicit in both integrators: |Psi| relaxes at rate 2 Gamma6 |A6|, stable for rate * dt < 2
+        limit = 1.0 / (self.Gamma6 * -self.A6)
+        if self.dt > limit:
+            raise InputError(f"HydroParams.dt = {self.dt!r} is too large: the explicit bulk term needs dt <= "
+                             f"1 / (Gamma6 |A6|) = {limit:.4g} (production 0.05)")
         if self.scheme not in SCHEMES:
             raise InputError(f"HydroParams.scheme must be one of {SCHEMES}; got {self.scheme!r}")
         if self.integrator not in INTEGRATORS:

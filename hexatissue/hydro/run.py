@@ -114,11 +114,20 @@ class _Store:
         self.ckpt = self.path / "checkpoint.npz"
         n = solver.n
         if resume and self.ckpt.exists():
-            self.group = zarr.open_group(str(self.path), mode="r+")
-            saved = self.group.attrs["params"]
+            try:
+                self.group = zarr.open_group(str(self.path), mode="r+")
+                saved = self.group.attrs["params"]
+            except Exception as exc:
+                raise InputError(f"cannot resume {str(self.path)!r}: it is not a readable hydro run store "
+                                 f"({type(exc).__name__}: {exc})") from None
             if saved != solver.params.to_dict() or self.group.attrs["n"] != n:
                 raise InputError(f"cannot resume {self.path}: it was run with other parameters ({saved}, n={self.group.attrs['n']})")
         else:
+            if self.path.exists() and not self.path.is_dir():
+                raise InputError(f"out {str(self.path)!r} is a file; expected a folder for the zarr store")
+            from ..io import check_output_folder
+
+            check_output_folder(self.path, "out")
             self.group = zarr.open_group(str(self.path), mode="w")
             self.group.attrs.update({"params": solver.params.to_dict(), "n": n, "meta": meta})
             for k, t in SCALARS.items():
@@ -131,11 +140,26 @@ class _Store:
 
     def load(self, solver):
         """(state, memory, n_frames, n_fields) from the checkpoint, arrays truncated to it."""
-        with np.load(self.ckpt) as z:
-            prev = {k[5:]: z[k] for k in z.files if k.startswith("prev_")}
-            state = State(z["psi_hat"], z["omega_hat"], float(z["time"]), int(z["step"]), prev)
-            frames, fields, ndef = int(z["frames"]), int(z["fields"]), int(z["defects"])
+        from ..io import check_zarr_chunks
+
+        try:
+            with np.load(self.ckpt) as z:
+                prev = {k[5:]: z[k] for k in z.files if k.startswith("prev_")}
+                state = State(z["psi_hat"], z["omega_hat"], float(z["time"]), int(z["step"]), prev)
+                frames, fields, ndef = int(z["frames"]), int(z["fields"]), int(z["defects"])
+        except Exception as exc:  # truncated or garbled npz (zipfile, pickle, key and value errors)
+            raise InputError(f"cannot resume {str(self.path)!r}: its checkpoint.npz cannot be read "
+                             f"({type(exc).__name__}: {exc}); the store is damaged: run it again") from None
         g = self.group
+        what = f"cannot resume {str(self.path)!r}"
+        try:
+            # arrays never all zero in a chunk (zarr does not store such chunks): energies, defect charges
+            for k, rows in (("free_energy", frames), ("defects/charge", ndef)):
+                check_zarr_chunks(g[k], rows, what)
+            for k in list(SCALARS) + [f"defects/{c}" for c in DEFECT_COLS]:
+                g[k]  # noqa: B018 -- every array must be there
+        except KeyError as exc:
+            raise InputError(f"{what}: array {exc} is missing; the store is damaged: run it again") from None
         for k in SCALARS:
             g[k].resize((frames,))
         g["field_time"].resize((fields,))
@@ -218,6 +242,8 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
 
     if steps is None and max_time is None:
         raise InputError("give steps or max_time (a safety cap when running until a stop condition)")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1):
+        raise InputError(f"steps must be a positive integer number of time steps (or None); got {steps!r}")
     if save_every < 1 or field_every < 1:
         raise InputError(f"save_every and field_every must be >= 1; got {save_every}, {field_every}")
     dt = solver.params.dt
@@ -243,11 +269,13 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
         for _ in range(n):
             solver.step(state)
         bar.update(n)
+        if not np.all(np.isfinite(state.psi_hat)):
+            bar.close()
+            raise InputError(f"dt = {dt:g} is too large: the run became unstable (non-finite fields) by "
+                             f"t = {state.time:g}; lower dt (--dt; default 0.05)")
         done = _record(solver, state, mem, store, pending, frame, field_every, stop, state.step >= last_step)
         frame += 1
     bar.close()
-    if not np.all(np.isfinite(state.psi_hat)):
-        raise FloatingPointError(f"the run became unstable (non-finite fields) by t = {state.time}; reduce dt")
     diag, d = mem.tables()
     d.insert(2, "defect", d.groupby("frame").cumcount().astype(np.int64))
     zero = diag.loc[diag["n_defects"] == 0, "time"]

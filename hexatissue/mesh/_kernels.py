@@ -274,8 +274,11 @@ def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
 
     Returns count (n,), sum_x (n,), sum_y (n,) as float64 with centroids
-    ``sum / count`` in pixel coordinates (x = column, y = row); on a torus the
-    sums are of positions unwrapped around the first pixel met of each label.
+    ``sum / count`` in pixel coordinates (x = column, y = row).  On a torus
+    the sums are of positions unwrapped around the label's circular mean
+    (a first pass), so cells wider than half the box get the right centroid;
+    along an axis a label wraps around completely (a band) its first pixel
+    is the reference.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
@@ -283,16 +286,37 @@ def cell_moments(labels, n_labels, periodic):
     sy = np.zeros(n_labels, np.float64)
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
+    if periodic:
+        cx = np.zeros(n_labels, np.float64)
+        snx = np.zeros(n_labels, np.float64)
+        cy = np.zeros(n_labels, np.float64)
+        sny = np.zeros(n_labels, np.float64)
+        seen = np.zeros(n_labels, np.float64)
+        for i in range(h):
+            ay = 2.0 * np.pi * i / h
+            for j in range(w):
+                lab = labels[i, j]
+                if seen[lab] == 0:  # first pixel: the reference of a band around the whole torus
+                    ref_x[lab] = j
+                    ref_y[lab] = i
+                seen[lab] += 1
+                ax = 2.0 * np.pi * j / w
+                cx[lab] += np.cos(ax)
+                snx[lab] += np.sin(ax)
+                cy[lab] += np.cos(ay)
+                sny[lab] += np.sin(ay)
+        for k in range(n_labels):
+            if np.hypot(cx[k], snx[k]) > 1e-6 * seen[k]:
+                ref_x[k] = (np.arctan2(snx[k], cx[k]) % (2.0 * np.pi)) * w / (2.0 * np.pi)
+            if np.hypot(cy[k], sny[k]) > 1e-6 * seen[k]:
+                ref_y[k] = (np.arctan2(sny[k], cy[k]) % (2.0 * np.pi)) * h / (2.0 * np.pi)
     for i in range(h):
         for j in range(w):
             lab = labels[i, j]
             x = float(j)
             y = float(i)
             if periodic:
-                if count[lab] == 0:
-                    ref_x[lab] = x
-                    ref_y[lab] = y
-                # the image of the pixel nearest the label's first pixel
+                # the image of the pixel nearest the label's circular mean
                 if x - ref_x[lab] > 0.5 * w:
                     x -= w
                 elif x - ref_x[lab] < -0.5 * w:

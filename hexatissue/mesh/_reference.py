@@ -241,6 +241,15 @@ def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
     return count, mean, direction
 
 
+def _circular_mean(v, period):
+    """Circular mean of the coordinates ``v`` (raster order) on a circle of ``period``; ``v[0]`` for a full band."""
+    angle = 2.0 * np.pi * v / period
+    c, s = np.cumsum(np.cos(angle))[-1], np.cumsum(np.sin(angle))[-1]  # sequential sums, as the kernel
+    if not np.hypot(c, s) > 1e-6 * len(v):
+        return v[0]
+    return (np.arctan2(s, c) % (2.0 * np.pi)) * period / (2.0 * np.pi)
+
+
 def cell_moments(labels, n_labels, periodic):
     """Reference of :func:`._kernels.cell_moments`."""
     h, w = labels.shape
@@ -252,9 +261,10 @@ def cell_moments(labels, n_labels, periodic):
         if len(x) == 0:
             continue
         x, y = x.astype(float), y.astype(float)
-        if periodic:  # the image of each pixel within half a box of the first pixel (ties not moved)
-            x -= w * np.where(x - x[0] > w / 2, 1, np.where(x - x[0] < -w / 2, -1, 0))
-            y -= h * np.where(y - y[0] > h / 2, 1, np.where(y - y[0] < -h / 2, -1, 0))
+        if periodic:  # the image of each pixel within half a box of the circular mean (ties not moved)
+            rx, ry = _circular_mean(x, w), _circular_mean(y, h)
+            x -= w * np.where(x - rx > w / 2, 1, np.where(x - rx < -w / 2, -1, 0))
+            y -= h * np.where(y - ry > h / 2, 1, np.where(y - ry < -h / 2, -1, 0))
         count[lab], sx[lab], sy[lab] = len(x), x.sum(), y.sum()
     return count, sx, sy
 

@@ -81,6 +81,9 @@ def validate_labels(labels, name="labels") -> np.ndarray:
         arr = arr.astype(np.int64)
     elif arr.dtype.kind not in "iu":
         raise InputError(f"{name} must hold integer cell ids; got dtype {arr.dtype}")
+    if arr.dtype.kind == "u" and arr.dtype.itemsize == 8 and arr.max() > np.iinfo(np.int64).max:
+        raise InputError(f"{name} has ids up to {arr.max()} (uint64); expected ids below 2**63 (cell ids are "
+                         f"int64 in the tables): relabel the image")
     if arr.dtype.kind == "i" and arr.min() < 0:
         raise InputError(f"{name} has negative ids (min {arr.min()}); expected 0 = background and positive cell ids")
     if not arr.any():

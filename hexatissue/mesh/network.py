@@ -9,7 +9,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..box import as_box
-from ..errors import HexatissueWarning, InputError
+from ..errors import HexatissueWarning, InputError, is_real
 from ..frame import Frame
 from ..geometry import polygon_area_centroid, polygon_perimeter
 from ..schema import validate
@@ -322,12 +322,13 @@ def mesh_from_labels(
     -----
     HexatissueWarning
         When cells come in several pieces or have holes (their largest
-        boundary cycle is used), and when cells smaller than
-        ``merge_distance`` collapse to a point.
+        boundary cycle is used), when cells smaller than
+        ``merge_distance`` collapse to a point, and when cells are left
+        without a boundary polygon (``n_sides`` 0).
     """
     lab = validate_labels(labels)
     box = as_box(box, lab.shape)
-    if not (np.isscalar(merge_distance) and np.isfinite(merge_distance) and merge_distance >= 0):
+    if not (is_real(merge_distance) and merge_distance >= 0):
         raise InputError(f"merge_distance must be a non-negative length in px; got {merge_distance!r}")
     normalized, membrane = normalize_valid(lab, kind, box is not None, membrane_width, min_area,
                                            background=background, fill_holes=fill_holes, outside=outside,
@@ -417,6 +418,17 @@ def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, 
         warnings.warn(
             "some cells have several boundary cycles (pieces, holes or pinches); their largest cycle is "
             "used as polygon (see the n_boundaries column)",
+            HexatissueWarning,
+            stacklevel=3,
+        )
+    # a lone cell on background (no neighbour) has no vertex and no polygon by design; others have lost theirs
+    neighbours = np.zeros(len(ids), bool)
+    between = (junctions["left"] != 0) & (junctions["right"] != 0)
+    neighbours[junctions["left"][between]] = neighbours[junctions["right"][between]] = True
+    if (~has_poly & neighbours[present]).any():
+        warnings.warn(
+            "some cells have no boundary polygon (too small, or all their vertices merged within "
+            "merge_distance): n_sides 0, no polygon_area, perimeter or shape function",
             HexatissueWarning,
             stacklevel=3,
         )

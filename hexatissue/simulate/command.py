@@ -39,11 +39,30 @@ def add_parser(subparsers):
     p.add_argument("--threads", default="auto",
                    help="numba threads, or 'auto' = cores left idle by the current load (default auto)")
     p.add_argument("--patches-every", type=int, default=0, help="save full patch fields every K frames (default 0 = never)")
+    p.add_argument("--checkpoint-seconds", type=float, default=60.0,
+                   help="least wall time between checkpoints, s (default 60; 0 = after every frame)")
     p.add_argument("--resume", action="store_true", help="continue --out from its last checkpoint")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, cli_text=cli_text)
     return p
+
+
+#: Params fields -> the options that set them, so errors and warnings name what the user typed
+CLI_NAMES = {"Params.n_cells": "--cells", "Params.Lx": "--size LX", "Params.Ly": "--size LY",
+             "Params.patch": "--patch", "Params.dt": "--dt", "Params.v0": "--v0", "Params.D_r": "--dr",
+             "Params.dtype": "--float64", "save_every": "--save-every", "patches_every": "--patches-every",
+             "checkpoint_seconds": "--checkpoint-seconds", "relax": "--relax", "steps": "--steps",
+             "seed": "--seed", "threads": "--threads"}
+
+
+def cli_text(text: str) -> str:
+    """An error or warning text of the library with parameter names replaced by their ``simulate`` options."""
+    import re
+
+    names = sorted(CLI_NAMES, key=len, reverse=True)
+    pattern = re.compile(r"(?<![\w.-])(" + "|".join(re.escape(n) for n in names) + r")(?![\w])")
+    return pattern.sub(lambda m: CLI_NAMES[m.group(1)], text)
 
 
 def _threads(value):
@@ -64,16 +83,19 @@ def main(args) -> int:
         threads = _threads(args.threads)
         if args.resume:
             summary = run_simulation(args.out, steps=args.steps, threads=threads, resume=True,
-                                     progress=not args.quiet)
+                                     checkpoint_seconds=args.checkpoint_seconds, progress=not args.quiet)
         else:
             preset = Params.loewe if args.preset == "loewe" else Params.paper
             params = preset(n_cells=args.cells, Lx=args.size[0], Ly=args.size[1], D_r=args.dr, v0=args.v0,
                             dt=args.dt, patch=args.patch, dtype="float64" if args.float64 else "float32")
             summary = run_simulation(args.out, params, steps=args.steps, save_every=args.save_every,
                                      relax=args.relax, seed=args.seed, patches_every=args.patches_every,
-                                     threads=threads, overwrite=args.overwrite, progress=not args.quiet)
+                                     threads=threads, overwrite=args.overwrite,
+                                     checkpoint_seconds=args.checkpoint_seconds, progress=not args.quiet)
     except InputError as exc:
-        print(f"hexatissue simulate: error: {exc}", file=sys.stderr)
+        if getattr(args, "debug", False):
+            raise
+        print(f"hexatissue simulate: error: {cli_text(str(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
         print(f"{exc}\nresume with: hexatissue simulate --out {args.out} --resume", file=sys.stderr)

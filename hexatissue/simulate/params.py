@@ -183,6 +183,7 @@ class Params:
                 f"Params.patch = {self.patch} px exceeds the box ({self.Lx} x {self.Ly}); "
                 "a patch must not wrap onto itself: expected patch <= min(Lx, Ly)"
             )
+        _check_packing(self)
         limit = stability_limit(self)
         if self.dt >= limit:
             raise InputError(
@@ -190,6 +191,23 @@ class Params:
                 f"(area constraint: pi R^2 phi0^2 / (4 M lam) = {_area_limit(self):.4g}); "
                 "lower dt or M, or raise R or phi0"
             )
+
+
+#: Largest packing fraction N pi R^2 / (Lx Ly); the paper's 440 cells in 384 x 403 px pack 1.18.
+MAX_PACKING = 1.4
+
+
+def _check_packing(p: Params):
+    """InputError when the cells' target areas overfill the box (the fields would be squeezed, silently)."""
+    packing = p.n_cells * math.pi * p.R**2 / (p.Lx * p.Ly)
+    if packing > MAX_PACKING:
+        most = int(MAX_PACKING * p.Lx * p.Ly / (math.pi * p.R**2))
+        raise InputError(
+            f"Params.n_cells = {p.n_cells} cells of target area pi R^2 = {math.pi * p.R**2:.0f} px^2 do not fit "
+            f"the {p.Lx} x {p.Ly} box: {packing:.2f} times its area (each cell would get "
+            f"{p.Lx * p.Ly / p.n_cells:.0f} px^2); expected at most {MAX_PACKING} times (the paper packs 1.18): "
+            f"use at most {most} cells or a larger box"
+        )
 
 
 def _area_limit(p: Params) -> float:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, is_real
 from .model import initial_state, set_threads
 from .params import Params
 from .segment import segment
@@ -153,6 +153,8 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
     """
     out = Path(out)
     save_every = _check_int("save_every", save_every, 1)
+    if not (is_real(checkpoint_seconds) and checkpoint_seconds >= 0):
+        raise InputError(f"checkpoint_seconds must be a finite number of seconds >= 0; got {checkpoint_seconds!r}")
     if resume:
         store = RunStore.open(out)
         sim, n_frames, n_patch = store.read_checkpoint()

@@ -70,6 +70,12 @@ class RunStore:
         path = Path(path)
         if path.exists() and not overwrite:
             raise InputError(f"out: {str(path)!r} already exists; pass overwrite=True (--overwrite) or resume=True (--resume)")
+        if path.exists() and not path.is_dir():
+            raise InputError(f"out: {str(path)!r} is a file, not a run store; overwrite replaces run stores "
+                             f"(folders) only: remove the file or choose another --out")
+        from ..io import check_output_folder
+
+        check_output_folder(path, "out")
         g = zarr.open_group(str(path), mode="w")
         N, (Ly, Lx), P = params.n_cells, params.shape, params.patch
         g.create_array("labels", shape=(0, Ly, Lx), chunks=(1, Ly, Lx), dtype=_label_dtype(N), fill_value=0)
@@ -194,17 +200,29 @@ class RunStore:
         """``(Simulation, n_frames, n_patch_frames)`` from the last complete checkpoint."""
         from .model import Simulation
 
+        from ..io import check_zarr_chunks, read_zarr
+
         slot = self.g.attrs.get("checkpoint")
         if slot is None:
             raise InputError("resume: the store has no checkpoint yet; start the run again without resume")
-        cg = self.g[f"checkpoint/{slot}"]
-        state = json.loads(cg.attrs["rng_state"])
-        bitgen = getattr(np.random, state["bit_generator"])()
-        bitgen.state = state
-        rng = np.random.Generator(bitgen)
-        sim = Simulation(self.params, cg["phi"][...], cg["ox"][...], cg["oy"][...], cg["theta"][...], rng,
-                         step=int(cg.attrs["step"]), leak=cg["leak"][...])
-        return sim, int(cg.attrs["n_frames"]), int(cg.attrs["n_patch_frames"])
+        what = f"resume: the checkpoint of {str(self.g.store_path)!r}"
+        try:
+            cg = self.g[f"checkpoint/{slot}"]
+            arrays = {key: cg[key] for key in ("phi", "ox", "oy", "theta", "leak")}
+            state = json.loads(cg.attrs["rng_state"])
+            bitgen = getattr(np.random, state["bit_generator"])()
+            bitgen.state = state
+            step, n_frames, n_patch = int(cg.attrs["step"]), int(cg.attrs["n_frames"]), int(cg.attrs["n_patch_frames"])
+        except (KeyError, ValueError, TypeError, AttributeError) as exc:
+            raise InputError(f"{what} is incomplete or garbled ({type(exc).__name__}: {exc}); the store is "
+                             f"damaged: start the run again with --overwrite") from None
+        values = {}
+        check_zarr_chunks(arrays["phi"], arrays["phi"].shape[0], what)  # leak, ox, oy may be all zero: unchecked
+        for key, arr in arrays.items():
+            values[key] = read_zarr(arr, what)
+        sim = Simulation(self.params, values["phi"], values["ox"], values["oy"], values["theta"],
+                         np.random.Generator(bitgen), step=step, leak=values["leak"])
+        return sim, n_frames, n_patch
 
 
 @dataclass
@@ -259,7 +277,17 @@ class MPFRun:
         from ..box import Box
 
         self.box = Box(float(self.params.Lx), float(self.params.Ly))
-        self.step = np.asarray(g["step"][:T])
+        from ..io import check_zarr_chunks, read_zarr
+
+        what = f"MPF run {str(path)!r}"
+        try:
+            arrays = [g[name] for name in ("labels", "step") + PER_CELL]
+        except KeyError as exc:
+            raise InputError(f"{what} has no array {exc}; the store is damaged: run it again") from None
+        for arr in arrays:
+            if arr.basename in ("labels", "x", "y", "area"):  # never all zero in a chunk (zarr skips those)
+                check_zarr_chunks(arr, T, what)
+        self.step = read_zarr(g["step"], what, slice(0, T))
         self.time = self.step * self.params.dt
         self._cells = None
         K = int(self.attrs.get("n_patch_frames", 0))
@@ -277,7 +305,9 @@ class MPFRun:
     def cells(self) -> pd.DataFrame:
         if self._cells is None:
             T, N = self.n_frames, self.params.n_cells
-            cols = {k: np.asarray(self._g[k][:T]) for k in PER_CELL}
+            from ..io import read_zarr
+
+            cols = {k: read_zarr(self._g[k], f"MPF run {str(self.path)!r}", slice(0, T)) for k in PER_CELL}
             xw = np.mod(cols["x"], self.params.Lx)
             yw = np.mod(cols["y"], self.params.Ly)
             self._cells = pd.DataFrame(
