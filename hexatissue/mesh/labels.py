@@ -237,15 +237,10 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = np.where(mask, lab, 0)
     if min_area is None:
         min_area = SKELETON_MIN_AREA if kind == "skeleton" else 0
-    counts = np.bincount(lab.ravel())
     if min_area > 0:
-        small = counts < min_area
-        small[0] = False
-        if small.any():
-            lab = np.where(small[lab], 0, lab)
-            counts[small] = 0
-    if kind == "skeleton" and outside == "auto" and not periodic:
-        lab = _drop_outer_regions(lab, counts)
+        lab = _drop_small(lab, min_area)
+    if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
+        lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
     if not lab.any():
         raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
                          "outside the mask")
@@ -281,6 +276,15 @@ def outer_regions(lab, counts=None):
     edge = np.unique(np.r_[lab[0], lab[-1], lab[:, 0], lab[:, -1]])
     edge = edge[edge > 0]
     return edge[counts[edge] > OUTSIDE_FACTOR * np.median(areas)]
+
+
+def _drop_small(lab, min_area):
+    """Regions of fewer than ``min_area`` px set to 0 (counted on compact ids: any id range)."""
+    compact, _ = compact_labels(lab)
+    counts = np.bincount(compact.ravel())
+    small = counts < min_area
+    small[0] = False
+    return np.where(small[compact], 0, lab) if small.any() else lab
 
 
 def _drop_outer_regions(lab, counts):
