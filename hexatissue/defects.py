@@ -15,7 +15,7 @@ import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
 from .box import Box, as_box
-from .errors import InputError, check_p, check_positive
+from .errors import InputError, check_orders, check_positive
 from .schema import require_columns, validate
 
 __all__ = [
@@ -133,39 +133,59 @@ def _defect_table(xy, charge, p):
 # Defects of a coarse-grained grid table
 # ----------------------------------------------------------------------------
 
-def _grid_arrays(grid, p):
-    """Field ``Gamma_p`` (NaN at invalid nodes) and node positions as ``[row, col]`` arrays."""
-    row, col = grid["row"].to_numpy(np.int64), grid["col"].to_numpy(np.int64)
+def _group_rows(grid):
+    """Rows of each (frame, radius) field of a grid table, and whether a frame holds several radii.
+
+    Returns ``(groups, multi)`` with ``groups`` a list of ``(frame, radius, rows)`` sorted by frame
+    then radius (``radius`` NaN when the grid has no ``radius`` column).
+    """
+    frame = grid["frame"].to_numpy() if "frame" in grid.columns else np.zeros(len(grid), np.int64)
+    radius = grid["radius"].to_numpy(float) if "radius" in grid.columns else np.full(len(grid), np.nan)
+    f_code, f_values = pd.factorize(frame, sort=True)
+    r_code, r_values = pd.factorize(radius, sort=True, use_na_sentinel=False)
+    key = f_code.astype(np.int64) * len(r_values) + r_code
+    order = np.argsort(key, kind="stable")
+    present, first = np.unique(key[order], return_index=True)
+    bounds = np.r_[first, len(order)]
+    groups = [(f_values[k // len(r_values)], r_values[k % len(r_values)], order[bounds[g]:bounds[g + 1]])
+              for g, k in enumerate(present)]
+    multi = len(present) > len(np.unique(present // len(r_values)))
+    return groups, multi
+
+
+def _field_layout(row, col):
+    """Grid shape ``(ny, nx)`` of one field and the flat index of every node; every node exactly once."""
     shape = (int(row.max()) + 1, int(col.max()) + 1)
-    if len(grid) != shape[0] * shape[1] or len(np.unique(row * shape[1] + col)) != len(grid):
-        raise InputError(f"grid must hold every node of a {shape[0]} x {shape[1]} grid exactly once per frame")
+    flat = row * shape[1] + col
+    n = shape[0] * shape[1]
+    if len(row) != n or row.min() < 0 or col.min() < 0 or np.bincount(flat, minlength=n).max() != 1:
+        raise InputError(f"grid must hold every node of a {shape[0]} x {shape[1]} grid exactly once per frame "
+                         "(and radius)")
     if min(shape) < 2:
         raise InputError(f"grid must have at least 2 x 2 nodes; got {shape[0]} x {shape[1]}")
-    gamma = grid[f"Gamma{p}_re"].to_numpy(float) + 1j * grid[f"Gamma{p}_im"].to_numpy(float)
-    if "valid" in grid.columns:
-        gamma = np.where(grid["valid"].to_numpy(bool), gamma, np.nan)
-    field = np.full(shape, np.nan, complex)
-    x, y = np.full(shape, np.nan), np.full(shape, np.nan)
-    field[row, col] = gamma
-    x[row, col], y[row, col] = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
-    return field, x, y
+    return shape, flat
 
 
-def _find_defects_frame(grid, p, box):
-    field, x, y = _grid_arrays(grid, p)
+def _field_defects(gamma, valid, x, y, flat, shape, p, box):
+    """Defect positions and charges of one gridded field (node arrays in table order)."""
+    field = np.full(shape[0] * shape[1], np.nan, complex)
+    field[flat] = np.where(valid, gamma, np.nan) if valid is not None else gamma
     periodic = box is not None
-    charges = plaquette_charges(field, p, periodic=periodic)
+    charges = plaquette_charges(field.reshape(shape), p, periodic=periodic)
     i, j = np.nonzero(np.nan_to_num(charges) != 0)
+    gx, gy = np.empty(shape[0] * shape[1]), np.empty(shape[0] * shape[1])
+    gx[flat], gy[flat] = x, y
+    gx, gy = gx.reshape(shape), gy.reshape(shape)
     # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
-    dx = (x[0, -1] - x[0, 0]) / (x.shape[1] - 1)
-    dy = (y[-1, 0] - y[0, 0]) / (y.shape[0] - 1)
-    if periodic and not np.allclose([dx * x.shape[1], dy * y.shape[0]], box.lengths, rtol=1e-9):
+    dx = (gx[0, -1] - gx[0, 0]) / (shape[1] - 1)
+    dy = (gy[-1, 0] - gy[0, 0]) / (shape[0] - 1)
+    if periodic and not np.allclose([dx * shape[1], dy * shape[0]], box.lengths, rtol=1e-9):
         raise InputError(f"grid does not tile the periodic box {box}: build it with coarse_grain(..., box=box) "
                          "or pass box=None for an open image")
-    xy = np.c_[x[i, j] + dx / 2, y[i, j] + dy / 2]
+    xy = np.c_[gx[i, j] + dx / 2, gy[i, j] + dy / 2]
     if periodic:
         xy = box.wrap(xy)
-    return _defect_table(xy, charges[i, j], p)
+    return xy, charges[i, j]
 
 
 def find_defects(grid, p=6, box=None):
@@ -184,48 +204,53 @@ def find_defects(grid, p=6, box=None):
     grid : pandas.DataFrame
         Grid table from :func:`hexatissue.coarse_grain` (columns ``row``,
         ``col``, ``x``, ``y``, ``Gamma{p}_re``, ``Gamma{p}_im``; optional
-        ``valid`` and ``frame``).
-    p : int
-        Symmetry order.
+        ``valid``, ``frame`` and ``radius``).  A grid with several radii per
+        frame gives the defects of every radius.
+    p : int or sequence of int
+        Symmetry order(s).
     box : Box, optional
         The periodic box the grid was built in (None for open images).
 
     Returns
     -------
     pandas.DataFrame
-        Defects table, one row per defect: ``frame`` (0 for a grid without one),
-        ``defect`` (id, 0-based per frame), ``x``, ``y`` (plaquette centre,
-        px; x = column, y = row, origin at the centre of pixel (0, 0)),
-        ``charge`` (a nonzero multiple of ``1/p``), ``p``.
+        Defects table, one row per defect, ordered by ``p`` (as given),
+        frame, radius: ``frame`` (0 for a grid without one), ``radius`` (R,
+        px; only when a frame of ``grid`` holds several radii), ``defect``
+        (id, 0-based per frame, p and radius), ``x``, ``y`` (plaquette
+        centre, px; x = column, y = row, origin at the centre of pixel (0,
+        0)), ``charge`` (a nonzero multiple of ``1/p``), ``p``.
     """
-    p = check_p(p)
-    require_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
+    orders = check_orders(p)
+    fields = [f"Gamma{q}_{part}" for q in orders for part in ("re", "im")]
+    require_columns(grid, ("row", "col", "x", "y", *fields), "grid")
     if len(grid) == 0:
         raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
     box = as_box(box)
-    if "frame" not in grid.columns:  # a grid built by hand: one image, frame 0
-        grid = grid.assign(frame=np.int64(0))
-    parts = []
-    for frame, group in grid.groupby("frame", sort=True):
-        found = _find_defects_frame(group, p, box)
-        found.insert(0, "frame", np.full(len(found), frame, dtype=grid["frame"].dtype))
-        parts.append(found)
-    if not parts:
-        return validate(_empty_defects(p, grid["frame"].dtype), "defects")
-    return validate(pd.concat(parts, ignore_index=True), "defects")
-
-
-def _empty_defects(p, frame_dtype):
-    return pd.DataFrame(
-        {
-            "frame": pd.Series(dtype=frame_dtype),
-            "defect": pd.Series(dtype=np.int64),
-            "x": pd.Series(dtype=float),
-            "y": pd.Series(dtype=float),
-            "charge": pd.Series(dtype=float),
-            "p": pd.Series(dtype=np.int64),
-        }
-    )
+    frame_dtype = grid["frame"].dtype if "frame" in grid.columns else np.dtype(np.int64)
+    groups, multi = _group_rows(grid)
+    row, col = grid["row"].to_numpy(np.int64), grid["col"].to_numpy(np.int64)
+    x, y = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
+    valid = grid["valid"].to_numpy(bool) if "valid" in grid.columns else None
+    layouts = [_field_layout(row[rows], col[rows]) for _, _, rows in groups]
+    parts = {"frame": [], "radius": [], "defect": [], "x": [], "y": [], "charge": [], "p": []}
+    for q in orders:
+        gamma = grid[f"Gamma{q}_re"].to_numpy(float) + 1j * grid[f"Gamma{q}_im"].to_numpy(float)
+        for (frame, radius, rows), (shape, flat) in zip(groups, layouts):
+            xy, charge = _field_defects(gamma[rows], None if valid is None else valid[rows], x[rows], y[rows],
+                                        flat, shape, q, box)
+            n = len(charge)
+            parts["frame"].append(np.full(n, frame, dtype=frame_dtype))
+            parts["radius"].append(np.full(n, radius, dtype=float))
+            parts["defect"].append(np.arange(n, dtype=np.int64))
+            parts["x"].append(xy[:, 0])
+            parts["y"].append(xy[:, 1])
+            parts["charge"].append(charge)
+            parts["p"].append(np.full(n, q, dtype=np.int64))
+    out = pd.DataFrame({c: np.concatenate(v) for c, v in parts.items()})
+    if not multi:
+        out = out.drop(columns="radius")
+    return validate(out, "defects")
 
 
 def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
