@@ -96,6 +96,13 @@ def disk_sums(nodes, xy, values, radii, order, starts, origin, size, nbins, peri
     r2 = radii * radii
     rmax = radii[k - 1]
     nbx, nby = nbins[0], nbins[1]
+    # centroids and values in cell-list order: each bin is a contiguous run
+    xs, ys = np.empty(order.shape[0]), np.empty(order.shape[0])
+    vs = np.empty((order.shape[0], q))
+    for s in range(order.shape[0]):
+        xs[s], ys[s] = xy[order[s], 0], xy[order[s], 1]
+        vs[s] = values[order[s]]
+    band = np.zeros((k, q))
     for i in range(n):
         qx, qy = nodes[i, 0], nodes[i, 1]
         if period[0] > 0.0:
@@ -103,27 +110,30 @@ def disk_sums(nodes, xy, values, radii, order, starts, origin, size, nbins, peri
             qy -= period[1] * math.floor(qy / period[1])
         x0, x1 = _bin_range(qx, rmax, origin[0], size[0], nbx, period[0])
         y0, y1 = _bin_range(qy, rmax, origin[1], size[1], nby, period[1])
+        band[:] = 0.0
         for byu in range(y0, y1 + 1):
             by = byu % nby
             for bxu in range(x0, x1 + 1):
                 b = by * nbx + bxu % nbx
                 for s in range(starts[b], starts[b + 1]):
-                    c = order[s]
-                    dx = _offset(xy[c, 0] - qx, period[0])
-                    dy = _offset(xy[c, 1] - qy, period[1])
+                    dx = _offset(xs[s] - qx, period[0])
+                    dy = _offset(ys[s] - qy, period[1])
                     d2 = dx * dx + dy * dy
                     if d2 > r2[k - 1]:
                         continue
-                    j = 0
-                    while d2 > r2[j]:
-                        j += 1
+                    j = 0  # first disk holding the centroid (radii ascending)
+                    for t in range(k - 1):
+                        if d2 > r2[t]:
+                            j += 1
                     counts[i, j] += 1
                     for t in range(q):
-                        sums[i, j, t] += values[c, t]
-        for j in range(1, k):  # bands -> disks
-            counts[i, j] += counts[i, j - 1]
+                        band[j, t] += vs[s, t]
+        acc = 0
+        for j in range(k):  # bands -> disks
+            acc += counts[i, j]
+            counts[i, j] = acc
             for t in range(q):
-                sums[i, j, t] += sums[i, j - 1, t]
+                sums[i, j, t] = band[j, t] if j == 0 else sums[i, j - 1, t] + band[j, t]
     return sums, counts
 
 
@@ -264,15 +274,63 @@ def disk_coverage(mask, node_i, node_j, half_width):
             prefix[i, j + 1] = prefix[i, j] + (1 if mask[i, j] else 0)
     n, k = node_i.shape[0], half_width.shape[0]
     pad = (half_width.shape[1] - 1) // 2
+    first = np.zeros(k, np.int64)  # the rows of disk j are first[j] .. 2 pad - first[j] (a disk is convex)
+    for j in range(k):
+        while first[j] < pad and half_width[j, first[j]] < 0:
+            first[j] += 1
     out = np.zeros((n, k), np.int64)
     for a in range(n):
         ci, cj = node_i[a], node_j[a]
         for j in range(k):
             total = 0
-            for dy in range(2 * pad + 1):
+            for dy in range(first[j], 2 * pad + 1 - first[j]):
                 w = half_width[j, dy]
                 if w >= 0:
                     row = ci + dy - pad
                     total += prefix[row, cj + w + 1] - prefix[row, cj - w]
             out[a, j] = total
+    return out
+
+
+@njit(cache=True)
+def _wrapped(d, period):
+    """``d`` wrapped into (-period/2, period/2] (as ``hexatissue.defects._wrap_angle``)."""
+    return d - period * np.ceil(d / period - 0.5)
+
+
+@njit(cache=True)
+def winding(theta, p, periodic):
+    """Plaquette charges of a stack of orientation grids (the kernel of :func:`hexatissue.defects.winding`).
+
+    Parameters
+    ----------
+    theta : (g, ny, nx) float
+        Orientations ``Arg(field) / p``, radians, indexed ``[grid, row, col]``; NaN nodes make
+        the plaquettes around them NaN.
+    p : int
+        Symmetry order.
+    periodic : bool
+        The grids wrap around: ``ny x nx`` plaquettes, else ``(ny - 1) x (nx - 1)``.
+
+    Returns
+    -------
+    (g, ny', nx') float
+        Charge of plaquette ``[i, j]`` (corners ``[i, j]`` to ``[i+1, j+1]``, counter-clockwise
+        in x, y), a multiple of ``1/p``: the sum of the four steps, each wrapped into
+        ``(-pi/p, pi/p]``, over ``2 pi``.
+    """
+    g, ny, nx = theta.shape
+    my, mx = (ny, nx) if periodic else (ny - 1, nx - 1)
+    out = np.empty((g, my, mx))
+    period = 2.0 * np.pi / p
+    for a in range(g):
+        for i in range(my):
+            i1 = (i + 1) % ny
+            for j in range(mx):
+                j1 = (j + 1) % nx
+                here, right = theta[a, i, j], theta[a, i, j1]
+                down, diag = theta[a, i1, j], theta[a, i1, j1]
+                total = (_wrapped(right - here, period) + _wrapped(diag - right, period)
+                         + _wrapped(down - diag, period) + _wrapped(here - down, period))
+                out[a, i, j] = np.round(total * p / (2.0 * np.pi)) / p
     return out

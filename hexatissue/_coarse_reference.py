@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .defects import winding  # noqa: F401  (the reference of _coarse_kernels.winding lives beside plaquette_charges)
+
 
 def disk_sums(nodes, xy, values, radii, order, starts, origin, size, nbins, period):
     """Reference of :func:`hexatissue._coarse_kernels.disk_sums`."""

@@ -41,12 +41,13 @@ def _wrap_angle(d, p):
 
 
 def plaquette_charges(field, p, periodic=False):
-    """Winding number of ``Arg(field)/p`` around every plaquette of a grid.
+    """Winding number of ``Arg(field)/p`` around every plaquette of a grid (or of a stack of grids).
 
     Parameters
     ----------
-    field : (ny, nx) complex array
-        Field on a regular grid indexed ``[row, col]`` (row = y, col = x).
+    field : (..., ny, nx) complex array
+        Field on a regular grid indexed ``[row, col]`` (row = y, col = x);
+        leading axes, if any, index independent grids of the same shape.
         NaN nodes make the plaquettes around them NaN.
     p : int
         Symmetry order.
@@ -56,25 +57,39 @@ def plaquette_charges(field, p, periodic=False):
 
     Returns
     -------
-    (ny', nx') float array
+    (..., ny', nx') float array
         Charge of plaquette ``[i, j]`` (corners ``[i, j]`` to ``[i+1, j+1]``),
         an exact multiple of ``1/p`` (NaN where a corner is NaN).
     """
     field = np.asarray(field)
-    if field.ndim != 2 or min(field.shape) < 2:
+    if field.ndim < 2 or min(field.shape[-2:]) < 2:
         raise InputError(f"field must be a 2-D grid of at least 2 x 2 nodes; got shape {field.shape}")
     if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or p < 1:
         raise InputError(f"p must be a positive integer symmetry order; got {p!r}")
+    return winding(_orientation(field, p), p, periodic)
+
+
+def _orientation(field, p):
+    """``Arg(field) / p``, NaN where ``field`` is not finite."""
     theta = np.angle(field) / p
     theta[~np.isfinite(field)] = np.nan
+    return theta
+
+
+def winding(theta, p, periodic):
+    """Plaquette charges of orientations ``theta`` (..., ny, nx), radians: the plain-numpy path.
+
+    :func:`plaquette_charges` after the orientation; the reference of the kernel
+    ``hexatissue._coarse_kernels.winding``.
+    """
     if periodic:
-        right = np.roll(theta, -1, axis=1)
-        down = np.roll(theta, -1, axis=0)
-        diag = np.roll(right, -1, axis=0)
+        right = np.roll(theta, -1, axis=-1)
+        down = np.roll(theta, -1, axis=-2)
+        diag = np.roll(right, -1, axis=-2)
         here = theta
     else:
-        here, right = theta[:-1, :-1], theta[:-1, 1:]
-        down, diag = theta[1:, :-1], theta[1:, 1:]
+        here, right = theta[..., :-1, :-1], theta[..., :-1, 1:]
+        down, diag = theta[..., 1:, :-1], theta[..., 1:, 1:]
     # counter-clockwise in (x, y): [i,j] -> [i,j+1] -> [i+1,j+1] -> [i+1,j] -> [i,j]
     total = (
         _wrap_angle(right - here, p)
@@ -141,15 +156,25 @@ def _group_rows(grid):
     """
     frame = grid["frame"].to_numpy() if "frame" in grid.columns else np.zeros(len(grid), np.int64)
     radius = grid["radius"].to_numpy(float) if "radius" in grid.columns else np.full(len(grid), np.nan)
-    f_code, f_values = pd.factorize(frame, sort=True)
-    r_code, r_values = pd.factorize(radius, sort=True, use_na_sentinel=False)
-    key = f_code.astype(np.int64) * len(r_values) + r_code
-    order = np.argsort(key, kind="stable")
-    present, first = np.unique(key[order], return_index=True)
-    bounds = np.r_[first, len(order)]
-    groups = [(f_values[k // len(r_values)], r_values[k % len(r_values)], order[bounds[g]:bounds[g + 1]])
-              for g, k in enumerate(present)]
-    multi = len(present) > len(np.unique(present // len(r_values)))
+    # fast path: every field a contiguous run of rows (as coarse_grain writes them)
+    change = np.flatnonzero((frame[1:] != frame[:-1]) | ~((radius[1:] == radius[:-1]) | np.isnan(radius[1:])))
+    bounds = np.r_[0, change + 1, len(grid)]
+    runs = [(frame[b0], radius[b0], b0, b1) for b0, b1 in zip(bounds[:-1], bounds[1:])]
+    keys = [(f, r) for f, r, _, _ in runs]
+    if len(set(keys)) == len(keys):
+        runs.sort(key=lambda run: (run[0], run[1]))
+        groups = [(f, r, np.arange(b0, b1)) for f, r, b0, b1 in runs]
+    else:
+        f_code, f_values = pd.factorize(frame, sort=True)
+        r_code, r_values = pd.factorize(radius, sort=True, use_na_sentinel=False)
+        key = f_code.astype(np.int64) * len(r_values) + r_code
+        order = np.argsort(key, kind="stable")
+        present, first = np.unique(key[order], return_index=True)
+        cuts = np.r_[first, len(order)]
+        groups = [(f_values[k // len(r_values)], r_values[k % len(r_values)], order[cuts[g]:cuts[g + 1]])
+                  for g, k in enumerate(present)]
+    frames = [f for f, _, _ in groups]
+    multi = len(set(frames)) < len(frames)
     return groups, multi
 
 
@@ -166,26 +191,53 @@ def _field_layout(row, col):
     return shape, flat
 
 
-def _field_defects(gamma, valid, x, y, flat, shape, p, box):
-    """Defect positions and charges of one gridded field (node arrays in table order)."""
-    field = np.full(shape[0] * shape[1], np.nan, complex)
-    field[flat] = np.where(valid, gamma, np.nan) if valid is not None else gamma
-    periodic = box is not None
-    charges = plaquette_charges(field.reshape(shape), p, periodic=periodic)
-    i, j = np.nonzero(np.nan_to_num(charges) != 0)
-    gx, gy = np.empty(shape[0] * shape[1]), np.empty(shape[0] * shape[1])
-    gx[flat], gy[flat] = x, y
-    gx, gy = gx.reshape(shape), gy.reshape(shape)
-    # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
-    dx = (gx[0, -1] - gx[0, 0]) / (shape[1] - 1)
-    dy = (gy[-1, 0] - gy[0, 0]) / (shape[0] - 1)
-    if periodic and not np.allclose([dx * shape[1], dy * shape[0]], box.lengths, rtol=1e-9):
+def _stacking(groups, layouts, members, shape):
+    """Rows of the grid table and their flat positions in a ``(len(members), ny, nx)`` stack of fields.
+
+    ``(start, None)`` when the stack is rows ``start ..`` in table order (no reordering needed).
+    """
+    n = shape[0] * shape[1]
+    target = np.concatenate([k * n + layouts[g][1] for k, g in enumerate(members)])
+    source = np.concatenate([groups[g][2] for g in members])
+    if np.array_equal(target, np.arange(len(target))) and np.array_equal(source, source[0] + target):
+        return int(source[0]), None
+    return source, target
+
+
+def _stack(values, source, target, count, shape, fill=np.nan):
+    if target is None:  # the stack is a block of consecutive rows
+        return values[source:source + count * shape[0] * shape[1]].reshape(count, *shape)
+    out = np.full(count * shape[0] * shape[1], fill, dtype=values.dtype)
+    out[target] = values[source]
+    return out.reshape(count, *shape)
+
+
+def _stack_positions(x, y, stacking, count, shape, box):
+    """Node positions ``(gx, gy)`` of a stack of fields and each field's steps ``(dx, dy)``."""
+    gx, gy = _stack(x, *stacking, count, shape), _stack(y, *stacking, count, shape)
+    dx = (gx[:, 0, -1] - gx[:, 0, 0]) / (shape[1] - 1)
+    dy = (gy[:, -1, 0] - gy[:, 0, 0]) / (shape[0] - 1)
+    if box is not None and not (np.allclose(dx * shape[1], box.Lx, rtol=1e-9)
+                                and np.allclose(dy * shape[0], box.Ly, rtol=1e-9)):
         raise InputError(f"grid does not tile the periodic box {box}: build it with coarse_grain(..., box=box) "
                          "or pass box=None for an open image")
-    xy = np.c_[gx[i, j] + dx / 2, gy[i, j] + dy / 2]
-    if periodic:
+    return gx, gy, dx, dy
+
+
+def _stack_defects(re, im, usable, stacking, positions, count, shape, p, box):
+    """Defects of a stack of fields of one shape: field index in the stack, positions and charges."""
+    from ._coarse_kernels import winding as winding_kernel
+
+    theta = np.arctan2(_stack(im, *stacking, count, shape), _stack(re, *stacking, count, shape)) / p  # = Arg / p
+    theta[~_stack(usable, *stacking, count, shape, fill=False)] = np.nan  # theta is a new array: safe
+    charges = winding_kernel(theta, p, box is not None)
+    g, i, j = np.nonzero((charges > 0) | (charges < 0))  # NaN plaquettes compare False
+    gx, gy, dx, dy = positions
+    # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
+    xy = np.c_[gx[g, i, j] + dx[g] / 2, gy[g, i, j] + dy[g] / 2]
+    if box is not None:
         xy = box.wrap(xy)
-    return xy, charges[i, j]
+    return g, xy, charges[g, i, j]
 
 
 def find_defects(grid, p=6, box=None):
@@ -233,21 +285,37 @@ def find_defects(grid, p=6, box=None):
     x, y = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
     valid = grid["valid"].to_numpy(bool) if "valid" in grid.columns else None
     layouts = [_field_layout(row[rows], col[rows]) for _, _, rows in groups]
-    parts = {"frame": [], "radius": [], "defect": [], "x": [], "y": [], "charge": [], "p": []}
-    for q in orders:
-        gamma = grid[f"Gamma{q}_re"].to_numpy(float) + 1j * grid[f"Gamma{q}_im"].to_numpy(float)
-        for (frame, radius, rows), (shape, flat) in zip(groups, layouts):
-            xy, charge = _field_defects(gamma[rows], None if valid is None else valid[rows], x[rows], y[rows],
-                                        flat, shape, q, box)
-            n = len(charge)
-            parts["frame"].append(np.full(n, frame, dtype=frame_dtype))
-            parts["radius"].append(np.full(n, radius, dtype=float))
-            parts["defect"].append(np.arange(n, dtype=np.int64))
-            parts["x"].append(xy[:, 0])
-            parts["y"].append(xy[:, 1])
-            parts["charge"].append(charge)
-            parts["p"].append(np.full(n, q, dtype=np.int64))
-    out = pd.DataFrame({c: np.concatenate(v) for c, v in parts.items()})
+    shapes = {}
+    for g, (shape, _) in enumerate(layouts):
+        shapes.setdefault(shape, []).append(g)
+    stackings = {shape: _stacking(groups, layouts, members, shape) for shape, members in shapes.items()}
+    positions = {shape: _stack_positions(x, y, stackings[shape], len(members), shape, box)
+                 for shape, members in shapes.items()}
+    found = {"group": [], "rank": [], "x": [], "y": [], "charge": []}
+    for rank, q in enumerate(orders):
+        re, im = grid[f"Gamma{q}_re"].to_numpy(float), grid[f"Gamma{q}_im"].to_numpy(float)
+        usable = np.isfinite(re) & np.isfinite(im)
+        if valid is not None:
+            usable &= valid
+        for shape, members in shapes.items():
+            g, xy, charge = _stack_defects(re, im, usable, stackings[shape], positions[shape], len(members), shape,
+                                           q, box)
+            for name, value in (("group", np.asarray(members)[g]), ("rank", np.full(len(g), rank)),
+                                ("x", xy[:, 0]), ("y", xy[:, 1]), ("charge", charge)):
+                found[name].append(value)
+    found = {name: np.concatenate(value) for name, value in found.items()}
+    # rows ordered by p (as given), frame, radius, then plaquette (row-major; lexsort is stable)
+    order = np.lexsort((found["group"], found["rank"]))
+    found = {name: value[order] for name, value in found.items()}
+    group, rank = found["group"], found["rank"]
+    # defect ids: 0-based per (p, frame, radius)
+    cut = np.r_[0, np.flatnonzero((np.diff(group) != 0) | (np.diff(rank) != 0)) + 1]
+    ids = np.arange(len(group)) - np.repeat(cut, np.diff(np.r_[cut, len(group)]))
+    frames = np.array([frame for frame, _, _ in groups], dtype=frame_dtype)
+    radii = np.array([radius for _, radius, _ in groups], dtype=float)
+    out = pd.DataFrame({"frame": frames[group], "radius": radii[group], "defect": ids.astype(np.int64),
+                        "x": found["x"], "y": found["y"], "charge": found["charge"],
+                        "p": np.asarray(orders, np.int64)[rank]})
     if not multi:
         out = out.drop(columns="radius")
     return validate(out, "defects")

@@ -262,20 +262,30 @@ def _check_validity(validity, min_coverage):
     return validity, float(min_coverage)
 
 
+def _area_column(cells):
+    """Cell areas, px^2, from ``area`` (``polygon_area`` if ``area`` is absent); None when neither is there."""
+    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
+    return None if column is None else cells[column].to_numpy(float)
+
+
+def _mean_radius(area, interior):
+    """sqrt(mean area / pi) over the interior cells with a finite area (the concept behind :func:`cell_radius`)."""
+    if area is None:
+        raise InputError("cells needs an 'area' (or 'polygon_area') column, px^2, to compute R_cell "
+                         "(or pass r_cell)")
+    area = area[interior]
+    area = area[np.isfinite(area)]
+    if len(area) == 0 or not area.mean() > 0:
+        raise InputError("cells has no interior cell with a positive finite area to compute R_cell")
+    return float(np.sqrt(area.mean() / np.pi))
+
+
 def cell_radius(cells):
     """R_cell = sqrt(mean cell area / pi), px, over the interior (non-border) cells.
 
     Uses the ``area`` column (``polygon_area`` if ``area`` is absent).
     """
-    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
-    if column is None:
-        raise InputError("cells needs an 'area' (or 'polygon_area') column, px^2, to compute R_cell "
-                         "(or pass r_cell)")
-    area = cells[column].to_numpy(float)[interior_mask(cells)]
-    area = area[np.isfinite(area)]
-    if len(area) == 0 or not area.mean() > 0:
-        raise InputError("cells has no interior cell with a positive finite area to compute R_cell")
-    return float(np.sqrt(area.mean() / np.pi))
+    return _mean_radius(_area_column(cells), interior_mask(cells))
 
 
 def _grid_axes(cells_xy, spacing, box, origin, shape):
@@ -307,18 +317,15 @@ def _grid_axes(cells_xy, spacing, box, origin, shape):
     return axes[0], axes[1]
 
 
-def _reach(cells, r_cell):
+def _reach(area, r_cell):
     """Largest distance from each centroid still counted as inside the cell, px.
 
     ``COVER_FACTOR * max(sqrt(area / pi), R_cell)``: large cells reach further, and
-    small cells next to large ones do not punch holes into the coverage.
+    small cells next to large ones do not punch holes into the coverage.  ``area`` may be None.
     """
-    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
-    r = np.full(len(cells), r_cell)
-    if column is not None:
-        own = np.sqrt(np.abs(cells[column].to_numpy(float)) / np.pi)
-        r = np.fmax(r, own)  # fmax ignores NaN areas
-    return COVER_FACTOR * r
+    if area is None:
+        return np.full(1, COVER_FACTOR * r_cell)
+    return COVER_FACTOR * np.fmax(r_cell, np.sqrt(np.abs(area) / np.pi))  # fmax ignores NaN areas
 
 
 def _neighbours(xy, box):
@@ -349,7 +356,7 @@ def _half_widths(radii, step, pad):
     return (inside.sum(axis=2) - 1) // 2, inside.sum(axis=(1, 2))
 
 
-def _coverage(gx, gy, radii, spacing, cells, finite, interior, r_cell, neighbours):
+def _coverage(gx, gy, radii, spacing, area, interior, r_cell, neighbours):
     """(n_nodes, n_radii) fraction of each node's disks on the tissue of an open image.
 
     The tissue is a raster of pitch ``spacing / k <= R_cell / 4`` aligned with the grid (every
@@ -362,48 +369,73 @@ def _coverage(gx, gy, radii, spacing, cells, finite, interior, r_cell, neighbour
     pad = int(np.ceil(max(radii) / step))
     rx = gx[0] + step * np.arange(-pad, (len(gx) - 1) * k + pad + 1)
     ry = gy[0] + step * np.arange(-pad, (len(gy) - 1) * k + pad + 1)
-    reach = _reach(cells, r_cell)[finite]
     xy, (order, starts, origin, size, nbins, _) = neighbours
-    mask = K.tissue_mask(rx, ry, xy, interior, reach, float(reach.max()), order, starts, origin, size, nbins)
+    reach = np.broadcast_to(_reach(area, r_cell), len(xy))
+    mask = K.tissue_mask(rx, ry, xy, interior, np.ascontiguousarray(reach), float(reach.max()), order, starts,
+                         origin, size, nbins)
     half, n_disk = _half_widths(radii, step, pad)
     col, row = np.meshgrid(np.arange(len(gx)), np.arange(len(gy)))
     inside = K.disk_coverage(mask, pad + k * row.ravel(), pad + k * col.ravel(), half)
     return inside / n_disk[None, :]
 
 
-def _frame_grid(cells, orders, radii, spacing, box, min_coverage, r_cell, origin, shape, validity):
-    """Columns (dict of arrays, without ``frame``) of one frame's grid: every radius, rows (radius, node)."""
-    xy_all = cells[["x", "y"]].to_numpy(float)
-    gamma = np.stack([cells[f"gamma{q}_re"].to_numpy(float) + 1j * cells[f"gamma{q}_im"].to_numpy(float)
-                      for q in orders], axis=1)
-    finite = np.isfinite(xy_all).all(axis=1)
-    use = interior_mask(cells) & np.isfinite(gamma).all(axis=1) & finite
+def _frame_geometry(xy, gamma, interior, area, radii, spacing, box, r_cell, origin, shape):
+    """The grid of one frame: a dict with the cells used, R_cell, radii, spacing and node axes ``gx``, ``gy``.
+
+    ``xy`` (m, 2), ``gamma`` (m, n_orders) complex, ``interior`` (m,) and ``area`` (m,) or None
+    are the frame's cells.
+    """
+    finite = np.isfinite(xy).all(axis=1)
+    use = interior & np.isfinite(gamma).all(axis=1) & finite
     if not use.any():
         raise InputError("cells has no interior cell with finite x, y and gamma to coarse-grain")
     if r_cell is None and (radii is None or spacing is None or box is None):
-        r_cell = cell_radius(cells)
+        r_cell = _mean_radius(area, interior)
     radii = (RADIUS_FACTOR * r_cell,) if radii is None else radii
     spacing = SPACING_FACTOR * r_cell if spacing is None else spacing
-    gx, gy = _grid_axes(xy_all[use], spacing, box, origin, shape)
+    gx, gy = _grid_axes(xy[use], spacing, box, origin, shape)
+    return {"finite": finite, "use": use, "r_cell": r_cell, "radii": radii, "spacing": spacing, "gx": gx, "gy": gy,
+            "size": len(gx) * len(gy) * len(radii)}
+
+
+def _grid_columns(orders, size, frame_dtype=np.int64):
+    """Empty output columns of a grid table of ``size`` rows."""
+    columns = {"frame": np.empty(size, frame_dtype)}
+    columns.update({name: np.empty(size, np.int64) for name in ("node", "row", "col")})
+    columns.update({name: np.empty(size) for name in ("x", "y")})
+    for q in orders:
+        columns[f"Gamma{q}_re"], columns[f"Gamma{q}_im"] = np.empty(size), np.empty(size)
+    columns["n_cells"] = np.empty(size, np.int64)
+    columns["coverage"], columns["valid"] = np.empty(size), np.empty(size, bool)
+    columns["radius"], columns["spacing"] = np.empty(size), np.empty(size)
+    return columns
+
+
+def _frame_fill(geometry, xy, gamma, area, orders, box, min_coverage, validity, columns, start):
+    """Compute one frame's grid (every radius, rows (radius, node)) into ``columns[...][start:]``."""
+    finite, use, r_cell, radii = geometry["finite"], geometry["use"], geometry["r_cell"], geometry["radii"]
+    gx, gy, spacing = geometry["gx"], geometry["gy"], geometry["spacing"]
     col, row = np.meshgrid(np.arange(len(gx)), np.arange(len(gy)))
     nodes = np.c_[gx[col.ravel()], gy[row.ravel()]]
     # one neighbour structure for every p, every radius and the tissue raster
-    neighbours = _neighbours(xy_all[finite], box)
-    values = np.zeros((int(finite.sum()), 2 * len(orders) + 1))
-    g = gamma[finite]
+    neighbours = _neighbours(xy[finite], box)
     ok = use[finite]
-    values[ok, 0:-1:2], values[ok, 1:-1:2], values[ok, -1] = g[ok].real, g[ok].imag, 1.0
+    g = gamma[finite][ok]
+    values = np.zeros((len(ok), 2 * len(orders) + 1))
+    values[ok, 0:-1:2], values[ok, 1:-1:2], values[ok, -1] = g.real, g.imag, 1.0
     sort = np.argsort(radii, kind="stable")
     xy_nb, (order, starts, cl_origin, size, nbins, period) = neighbours
     sums, _ = K.disk_sums(nodes, xy_nb, values, np.asarray(radii, float)[sort], order, starts, cl_origin, size,
                           nbins, period)
-    unsort = np.argsort(sort)
-    sums = sums[:, unsort]  # (nodes, radii, values)
+    sums = sums[:, np.argsort(sort)].transpose(1, 0, 2)  # (radii, nodes, values), radii as given
     counts = np.rint(sums[..., -1]).astype(np.int64)
-    if box is None:
-        coverage = _coverage(gx, gy, radii, spacing, cells, finite, ok, r_cell, neighbours)
-    else:
+    if box is not None:
         coverage = np.ones(counts.shape)
+    elif validity == "tissue":
+        coverage = _coverage(gx, gy, radii, spacing, None if area is None else area[finite], ok, r_cell,
+                             neighbours).T
+    else:  # not needed by the rule: not measured (validity="tissue", min_coverage=0 measures it)
+        coverage = np.full(counts.shape, np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = sums[..., :-1] / counts[..., None]
     if validity == "all":
@@ -414,22 +446,33 @@ def _frame_grid(cells, orders, radii, spacing, box, min_coverage, r_cell, origin
     else:
         valid = (counts > 0) & (coverage >= min_coverage)
     n, k = len(nodes), len(radii)
-    out = {
-        "node": np.tile(np.arange(n, dtype=np.int64), k),
-        "row": np.tile(row.ravel().astype(np.int64), k),
-        "col": np.tile(col.ravel().astype(np.int64), k),
-        "x": np.tile(nodes[:, 0], k),
-        "y": np.tile(nodes[:, 1], k),
-    }
+
+    def block(name):
+        return columns[name][start:start + n * k].reshape(k, n)
+
+    block("node")[:] = np.arange(n)
+    block("row")[:], block("col")[:] = row.ravel(), col.ravel()
+    block("x")[:], block("y")[:] = nodes[:, 0], nodes[:, 1]
     for a, q in enumerate(orders):
-        out[f"Gamma{q}_re"] = mean[:, :, 2 * a].T.ravel()
-        out[f"Gamma{q}_im"] = mean[:, :, 2 * a + 1].T.ravel()
-    out["n_cells"] = counts.T.ravel()
-    out["coverage"] = coverage.T.ravel()
-    out["valid"] = valid.T.ravel()
-    out["radius"] = np.repeat(np.asarray(radii, float), n)
-    out["spacing"] = np.full(n * k, float(spacing))
-    return out
+        block(f"Gamma{q}_re")[:], block(f"Gamma{q}_im")[:] = mean[:, :, 2 * a], mean[:, :, 2 * a + 1]
+    block("n_cells")[:], block("coverage")[:], block("valid")[:] = counts, coverage, valid
+    block("radius")[:] = np.asarray(radii, float)[:, None]
+    block("spacing")[:] = spacing
+    return n * k
+
+
+def _cell_arrays(cells, orders):
+    """``xy``, ``gamma`` (one column per order), ``interior`` and ``area`` (or None) of a cells table."""
+    xy = cells[["x", "y"]].to_numpy(float)
+    gamma = np.empty((len(cells), len(orders)), complex)
+    for a, q in enumerate(orders):
+        gamma[:, a] = cells[f"gamma{q}_re"].to_numpy(float) + 1j * cells[f"gamma{q}_im"].to_numpy(float)
+    return xy, gamma, interior_mask(cells), _area_column(cells)
+
+
+def _frame_arrays(arrays, rows):
+    xy, gamma, interior, area = arrays
+    return xy[rows], gamma[rows], interior[rows], None if area is None else area[rows]
 
 
 def _frames(cells):
@@ -544,21 +587,27 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
         being on the tissue when its nearest centroid, border cells included,
         is an interior cell c closer than ``1.5 max(sqrt(area_c / pi),
         R_cell)``; the raster has a pitch of at most ``R_cell / 4`` and holds
-        every node; 1 in a periodic box), ``valid`` (bool), ``radius`` (R,
-        px) and ``spacing`` (requested grid spacing, px).
+        every node; 1 in a periodic box; NaN on open images with
+        ``validity="occupied"`` or ``"all"``, which do not use it: take
+        ``validity="tissue", min_coverage=0`` for the "occupied" rule with
+        coverage measured), ``valid`` (bool), ``radius`` (R, px) and
+        ``spacing`` (requested grid spacing, px).
     """
     orders = check_orders(p)
     radii = _check_radii(radius)
-    grid_options = _check_grid_options(cells, orders, spacing, box, min_coverage, r_cell, origin, shape, validity)
+    spacing, box, min_coverage, r_cell, origin, shape, validity = _check_grid_options(
+        cells, orders, spacing, box, min_coverage, r_cell, origin, shape, validity)
     groups, frame_dtype = _frames(cells)
-    parts = []
-    for frame, rows in groups:
-        part = _frame_grid(cells.iloc[rows], orders, radii, *grid_options)
-        part["frame"] = np.full(len(part["node"]), frame, dtype=frame_dtype)
-        parts.append(part)
-    columns = ["frame"] + [c for c in parts[0] if c != "frame"]
-    table = pd.DataFrame({c: np.concatenate([part[c] for part in parts]) for c in columns})
-    return validate(table, "grid")
+    arrays = _cell_arrays(cells, orders)
+    frames = [_frame_arrays(arrays, rows) for _, rows in groups]
+    geometry = [_frame_geometry(*f, radii, spacing, box, r_cell, origin, shape) for f in frames]
+    columns = _grid_columns(orders, sum(g["size"] for g in geometry), frame_dtype)
+    start = 0
+    for (frame, _), (xy, gamma, _, area), geo in zip(groups, frames, geometry):
+        size = _frame_fill(geo, xy, gamma, area, orders, box, min_coverage, validity, columns, start)
+        columns["frame"][start:start + size] = frame
+        start += size
+    return validate(pd.DataFrame(columns, copy=False), "grid")
 
 
 def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box=None, min_coverage=1.0,
@@ -601,13 +650,16 @@ def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box
     spacing, box, min_coverage, r_cell, origin, shape, validity = _check_grid_options(
         cells, orders, spacing, box, min_coverage, r_cell, origin, shape, validity)
     groups, _ = _frames(cells)
+    arrays = _cell_arrays(cells, orders)
     rows = []
     for frame, index in groups:
-        group = cells.iloc[index]
-        rc = cell_radius(group) if r_cell is None else r_cell
+        xy, gamma, interior, area = _frame_arrays(arrays, index)
+        rc = _mean_radius(area, interior) if r_cell is None else r_cell
         radii = tuple(f * rc for f in factors)
-        grid = _frame_grid(group, orders, radii, rc if spacing is None else spacing, box, min_coverage, rc, origin,
-                           shape, validity)
+        geometry = _frame_geometry(xy, gamma, interior, area, radii, rc if spacing is None else spacing, box, rc,
+                                   origin, shape)
+        grid = _grid_columns(orders, geometry["size"])
+        _frame_fill(geometry, xy, gamma, area, orders, box, min_coverage, validity, grid, 0)
         valid = grid["valid"].reshape(len(factors), -1)
         for q in orders:
             size = np.hypot(grid[f"Gamma{q}_re"], grid[f"Gamma{q}_im"]).reshape(len(factors), -1)

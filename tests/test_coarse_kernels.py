@@ -142,6 +142,10 @@ def test_nodes_outside_the_bounding_box_and_the_validity_rules():
     # "all" (the published grids): empty nodes are kept as Gamma = 0
     assert every["valid"].all() and (every["Gamma6_re"].iloc[:2] == 0.0).all() and (every["Gamma6_im"].iloc[:2] == 0).all()
     np.testing.assert_array_equal(every["Gamma6_re"].iloc[2:], occupied["Gamma6_re"].iloc[2:])
+    # coverage is measured only by the rule that uses it ("tissue", which with min_coverage=0 is "occupied")
+    assert occupied["coverage"].isna().all() and every["coverage"].isna().all()
+    measured = coarse_grain(cells, min_coverage=0.0, **kw)
+    np.testing.assert_array_equal(measured["valid"], occupied["valid"])
     # "tissue": a cell reaches 1.5 R_cell = 8.46 px from its centroid, so the disk (R = 3) of the
     # node at x = -20 is wholly off the tissue, that at -10 partly, those at 0 and 10 wholly on it
     cov = tissue["coverage"].to_numpy()
@@ -203,3 +207,18 @@ def test_several_orders_and_radii_in_one_call_equal_single_calls():
 def test_convention_options_bad_input(bad, match):
     with pytest.raises(InputError, match=match):
         coarse_grain(square_cells(), **bad)
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("p", [2, 6])
+def test_winding_kernel_matches_reference(periodic, p):
+    rng = np.random.default_rng(7)
+    theta = rng.uniform(-np.pi / p, np.pi / p, (5, 13, 17))
+    theta[0, 3, 4] = np.nan
+    theta[1] = 0.0  # a uniform grid: no charge
+    theta[2, 5, 6] = np.pi / p  # steps of exactly pi/p
+    out_k = K.winding(theta, p, periodic)
+    out_r = R.winding(theta, p, periodic)
+    np.testing.assert_array_equal(out_k, out_r)
+    assert np.isnan(out_k[0]).sum() == 4 and (out_k[1] == 0).all()
+    assert 0 < np.count_nonzero(np.nan_to_num(out_k)) and set(np.unique(np.round(out_k[2:] * p))) <= {-2, -1, 0, 1, 2}
