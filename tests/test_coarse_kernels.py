@@ -222,3 +222,45 @@ def test_winding_kernel_matches_reference(periodic, p):
     np.testing.assert_array_equal(out_k, out_r)
     assert np.isnan(out_k[0]).sum() == 4 and (out_k[1] == 0).all()
     assert 0 < np.count_nonzero(np.nan_to_num(out_k)) and set(np.unique(np.round(out_k[2:] * p))) <= {-2, -1, 0, 1, 2}
+
+
+def test_find_defects_does_not_depend_on_the_row_order_of_the_grid():
+    rng = np.random.default_rng(8)
+    g = np.stack(np.meshgrid(np.arange(0, 150, 10.0), np.arange(0, 120, 10.0)), -1).reshape(-1, 2)
+    z = np.exp(1j * rng.uniform(-np.pi, np.pi, len(g)))
+    cells = pd.DataFrame({"x": g[:, 0], "y": g[:, 1], "area": 100.0, "gamma6_re": z.real, "gamma6_im": z.imag})
+    movie = pd.concat([cells.assign(frame=1), cells.assign(frame=0, gamma6_im=-cells["gamma6_im"])])
+    grid = coarse_grain(movie, radius=(12.0, 20.0), validity="occupied")
+    ordered = find_defects(grid)
+    shuffled = find_defects(grid.sample(frac=1.0, random_state=0))
+    assert len(ordered) > 10 and ordered["frame"].is_monotonic_increasing
+    pd.testing.assert_frame_equal(shuffled, ordered)
+
+
+def test_order_options_carry_the_conventions():
+    from hexatissue import OrderOptions
+
+    options = OrderOptions(r_cell=21.5, origin=[0, 0], shape=[23, 23], validity="all")
+    assert options.origin == (0.0, 0.0) and options.shape == (23, 23)
+    assert OrderOptions.from_dict(options.to_dict()) == options
+    for bad in (dict(validity="disk"), dict(origin=(1.0,)), dict(shape=(0, 3)), dict(r_cell=-1.0),
+                dict(validity="occupied", min_coverage=0.5)):
+        with pytest.raises(InputError, match=next(iter(bad)) if "min_coverage" not in bad else "min_coverage"):
+            OrderOptions(**bad)
+
+
+def test_analyze_passes_the_conventions_through():
+    import hexatissue as ht
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    labels = voronoi_labels(jittered_seeds((120, 140), 12.0, seed=3), (120, 140))
+    order = ht.OrderOptions(p=(6, 2), r_cell=7.0, origin=(0.0, 0.0), shape=(12, 14), validity="all")
+    movie = ht.analyze(labels, box=False, order=order, workers=1, progress=False)
+    grid = coarse_grain(movie.cells, p=(6, 2), r_cell=7.0, origin=(0.0, 0.0), shape=(12, 14), validity="all")
+    pd.testing.assert_frame_equal(movie.grid.reset_index(drop=True), grid, check_dtype=False)
+    keys = ["frame", "p", "x", "y"]
+    ours = find_defects(grid, p=(6, 2)).sort_values(keys).reset_index(drop=True)
+    theirs = movie.defects.sort_values(keys).reset_index(drop=True)
+    assert len(ours) > 0
+    pd.testing.assert_frame_equal(theirs[ours.columns].drop(columns="defect"), ours.drop(columns="defect"),
+                                  check_dtype=False)
