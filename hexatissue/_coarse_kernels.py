@@ -5,7 +5,7 @@ Each kernel has a plain-numpy twin of the same name and signature in
 are (x, y) = (column, row) in px.
 
 The neighbour structure is a *cell list*: the centroids sorted by the bin of
-a regular lattice of bins (``bin_index``), so that every query scans only the
+a regular lattice of bins (:func:`cell_list`), so that every query scans only the
 bins its search disk overlaps.  One cell list per frame serves every disk
 radius, every symmetry order and the tissue raster.
 
