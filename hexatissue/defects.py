@@ -15,7 +15,7 @@ import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
 from .box import Box, as_box
-from .errors import InputError, check_p, check_positive
+from .errors import InputError, check_orders, check_positive
 from .schema import require_columns, validate
 
 __all__ = [
@@ -41,12 +41,13 @@ def _wrap_angle(d, p):
 
 
 def plaquette_charges(field, p, periodic=False):
-    """Winding number of ``Arg(field)/p`` around every plaquette of a grid.
+    """Winding number of ``Arg(field)/p`` around every plaquette of a grid (or of a stack of grids).
 
     Parameters
     ----------
-    field : (ny, nx) complex array
-        Field on a regular grid indexed ``[row, col]`` (row = y, col = x).
+    field : (..., ny, nx) complex array
+        Field on a regular grid indexed ``[row, col]`` (row = y, col = x);
+        leading axes, if any, index independent grids of the same shape.
         NaN nodes make the plaquettes around them NaN.
     p : int
         Symmetry order.
@@ -56,24 +57,38 @@ def plaquette_charges(field, p, periodic=False):
 
     Returns
     -------
-    (ny', nx') float array
+    (..., ny', nx') float array
         Charge of plaquette ``[i, j]`` (corners ``[i, j]`` to ``[i+1, j+1]``),
         an exact multiple of ``1/p`` (NaN where a corner is NaN).
     """
     field = np.asarray(field)
-    if field.ndim != 2 or min(field.shape) < 2:
+    if field.ndim < 2 or min(field.shape[-2:]) < 2:
         raise InputError(f"field must be a 2-D grid of at least 2 x 2 nodes; got shape {field.shape}")
     p = check_p(p)
+    return winding(_orientation(field, p), p, periodic)
+
+
+def _orientation(field, p):
+    """``Arg(field) / p``, NaN where ``field`` is not finite."""
     theta = np.angle(field) / p
     theta[~np.isfinite(field)] = np.nan
+    return theta
+
+
+def winding(theta, p, periodic):
+    """Plaquette charges of orientations ``theta`` (..., ny, nx), radians: the plain-numpy path.
+
+    :func:`plaquette_charges` after the orientation; the reference of the kernel
+    ``hexatissue._coarse_kernels.winding``.
+    """
     if periodic:
-        right = np.roll(theta, -1, axis=1)
-        down = np.roll(theta, -1, axis=0)
-        diag = np.roll(right, -1, axis=0)
+        right = np.roll(theta, -1, axis=-1)
+        down = np.roll(theta, -1, axis=-2)
+        diag = np.roll(right, -1, axis=-2)
         here = theta
     else:
-        here, right = theta[:-1, :-1], theta[:-1, 1:]
-        down, diag = theta[1:, :-1], theta[1:, 1:]
+        here, right = theta[..., :-1, :-1], theta[..., :-1, 1:]
+        down, diag = theta[..., 1:, :-1], theta[..., 1:, 1:]
     # counter-clockwise in (x, y): [i,j] -> [i,j+1] -> [i+1,j+1] -> [i+1,j] -> [i,j]
     total = (
         _wrap_angle(right - here, p)
@@ -132,39 +147,96 @@ def _defect_table(xy, charge, p):
 # Defects of a coarse-grained grid table
 # ----------------------------------------------------------------------------
 
-def _grid_arrays(grid, p):
-    """Field ``Gamma_p`` (NaN at invalid nodes) and node positions as ``[row, col]`` arrays."""
-    row, col = grid["row"].to_numpy(np.int64), grid["col"].to_numpy(np.int64)
+def _group_rows(grid):
+    """Rows of each (frame, radius) field of a grid table, and whether a frame holds several radii.
+
+    Returns ``(groups, multi)`` with ``groups`` a list of ``(frame, radius, rows)`` sorted by frame
+    then radius (``radius`` NaN when the grid has no ``radius`` column).
+    """
+    frame = grid["frame"].to_numpy() if "frame" in grid.columns else np.zeros(len(grid), np.int64)
+    radius = grid["radius"].to_numpy(float) if "radius" in grid.columns else np.full(len(grid), np.nan)
+    # fast path: every field a contiguous run of rows (as coarse_grain writes them)
+    change = np.flatnonzero((frame[1:] != frame[:-1]) | ~((radius[1:] == radius[:-1]) | np.isnan(radius[1:])))
+    bounds = np.r_[0, change + 1, len(grid)]
+    runs = [(frame[b0], radius[b0], b0, b1) for b0, b1 in zip(bounds[:-1], bounds[1:])]
+    keys = [(f, r) for f, r, _, _ in runs]
+    if len(set(keys)) == len(keys):
+        runs.sort(key=lambda run: (run[0], run[1]))
+        groups = [(f, r, np.arange(b0, b1)) for f, r, b0, b1 in runs]
+    else:
+        f_code, f_values = pd.factorize(frame, sort=True)
+        r_code, r_values = pd.factorize(radius, sort=True, use_na_sentinel=False)
+        key = f_code.astype(np.int64) * len(r_values) + r_code
+        order = np.argsort(key, kind="stable")
+        present, first = np.unique(key[order], return_index=True)
+        cuts = np.r_[first, len(order)]
+        groups = [(f_values[k // len(r_values)], r_values[k % len(r_values)], order[cuts[g]:cuts[g + 1]])
+                  for g, k in enumerate(present)]
+    frames = [f for f, _, _ in groups]
+    multi = len(set(frames)) < len(frames)
+    return groups, multi
+
+
+def _field_layout(row, col):
+    """Grid shape ``(ny, nx)`` of one field and the flat index of every node; every node exactly once."""
     shape = (int(row.max()) + 1, int(col.max()) + 1)
-    if len(grid) != shape[0] * shape[1] or len(np.unique(row * shape[1] + col)) != len(grid):
-        raise InputError(f"grid must hold every node of a {shape[0]} x {shape[1]} grid exactly once per frame")
+    flat = row * shape[1] + col
+    n = shape[0] * shape[1]
+    if len(row) != n or row.min() < 0 or col.min() < 0 or np.bincount(flat, minlength=n).max() != 1:
+        raise InputError(f"grid must hold every node of a {shape[0]} x {shape[1]} grid exactly once per frame "
+                         "(and radius)")
     if min(shape) < 2:
         raise InputError(f"grid must have at least 2 x 2 nodes; got {shape[0]} x {shape[1]}")
-    gamma = grid[f"Gamma{p}_re"].to_numpy(float) + 1j * grid[f"Gamma{p}_im"].to_numpy(float)
-    if "valid" in grid.columns:
-        gamma = np.where(grid["valid"].to_numpy(bool), gamma, np.nan)
-    field = np.full(shape, np.nan, complex)
-    x, y = np.full(shape, np.nan), np.full(shape, np.nan)
-    field[row, col] = gamma
-    x[row, col], y[row, col] = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
-    return field, x, y
+    return shape, flat
 
 
-def _find_defects_frame(grid, p, box):
-    field, x, y = _grid_arrays(grid, p)
-    periodic = box is not None
-    charges = plaquette_charges(field, p, periodic=periodic)
-    i, j = np.nonzero(np.nan_to_num(charges) != 0)
-    # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
-    dx = (x[0, -1] - x[0, 0]) / (x.shape[1] - 1)
-    dy = (y[-1, 0] - y[0, 0]) / (y.shape[0] - 1)
-    if periodic and not np.allclose([dx * x.shape[1], dy * y.shape[0]], box.lengths, rtol=1e-9):
+def _stacking(groups, layouts, members, shape):
+    """Rows of the grid table and their flat positions in a ``(len(members), ny, nx)`` stack of fields.
+
+    ``(start, None)`` when the stack is rows ``start ..`` in table order (no reordering needed).
+    """
+    n = shape[0] * shape[1]
+    target = np.concatenate([k * n + layouts[g][1] for k, g in enumerate(members)])
+    source = np.concatenate([groups[g][2] for g in members])
+    if np.array_equal(target, np.arange(len(target))) and np.array_equal(source, source[0] + target):
+        return int(source[0]), None
+    return source, target
+
+
+def _stack(values, source, target, count, shape, fill=np.nan):
+    if target is None:  # the stack is a block of consecutive rows
+        return values[source:source + count * shape[0] * shape[1]].reshape(count, *shape)
+    out = np.full(count * shape[0] * shape[1], fill, dtype=values.dtype)
+    out[target] = values[source]
+    return out.reshape(count, *shape)
+
+
+def _stack_positions(x, y, stacking, count, shape, box):
+    """Node positions ``(gx, gy)`` of a stack of fields and each field's steps ``(dx, dy)``."""
+    gx, gy = _stack(x, *stacking, count, shape), _stack(y, *stacking, count, shape)
+    dx = (gx[:, 0, -1] - gx[:, 0, 0]) / (shape[1] - 1)
+    dy = (gy[:, -1, 0] - gy[:, 0, 0]) / (shape[0] - 1)
+    if box is not None and not (np.allclose(dx * shape[1], box.Lx, rtol=1e-9)
+                                and np.allclose(dy * shape[0], box.Ly, rtol=1e-9)):
         raise InputError(f"grid does not tile the periodic box {box}: build it with coarse_grain(..., box=box) "
                          "or pass box=None for an open image")
-    xy = np.c_[x[i, j] + dx / 2, y[i, j] + dy / 2]
-    if periodic:
+    return gx, gy, dx, dy
+
+
+def _stack_defects(re, im, usable, stacking, positions, count, shape, p, box):
+    """Defects of a stack of fields of one shape: field index in the stack, positions and charges."""
+    from ._coarse_kernels import winding as winding_kernel
+
+    theta = np.arctan2(_stack(im, *stacking, count, shape), _stack(re, *stacking, count, shape)) / p  # = Arg / p
+    theta[~_stack(usable, *stacking, count, shape, fill=False)] = np.nan  # theta is a new array: safe
+    charges = winding_kernel(theta, p, box is not None)
+    g, i, j = np.nonzero((charges > 0) | (charges < 0))  # NaN plaquettes compare False
+    gx, gy, dx, dy = positions
+    # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
+    xy = np.c_[gx[g, i, j] + dx[g] / 2, gy[g, i, j] + dy[g] / 2]
+    if box is not None:
         xy = box.wrap(xy)
-    return _defect_table(xy, charges[i, j], p)
+    return g, xy, charges[g, i, j]
 
 
 def find_defects(grid, p=6, box=None):
@@ -183,48 +255,69 @@ def find_defects(grid, p=6, box=None):
     grid : pandas.DataFrame
         Grid table from :func:`hexatissue.coarse_grain` (columns ``row``,
         ``col``, ``x``, ``y``, ``Gamma{p}_re``, ``Gamma{p}_im``; optional
-        ``valid`` and ``frame``).
-    p : int
-        Symmetry order.
+        ``valid``, ``frame`` and ``radius``).  A grid with several radii per
+        frame gives the defects of every radius.
+    p : int or sequence of int
+        Symmetry order(s).
     box : Box, optional
         The periodic box the grid was built in (None for open images).
 
     Returns
     -------
     pandas.DataFrame
-        Defects table, one row per defect: ``frame`` (0 for a grid without one),
-        ``defect`` (id, 0-based per frame), ``x``, ``y`` (plaquette centre,
-        px; x = column, y = row, origin at the centre of pixel (0, 0)),
-        ``charge`` (a nonzero multiple of ``1/p``), ``p``.
+        Defects table, one row per defect, ordered by ``p`` (as given),
+        frame, radius: ``frame`` (0 for a grid without one), ``radius`` (R,
+        px; only when a frame of ``grid`` holds several radii), ``defect``
+        (id, 0-based per frame, p and radius), ``x``, ``y`` (plaquette
+        centre, px; x = column, y = row, origin at the centre of pixel (0,
+        0)), ``charge`` (a nonzero multiple of ``1/p``), ``p``.
     """
-    p = check_p(p)
-    require_columns(grid, ("row", "col", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im"), "grid")
+    orders = check_orders(p)
+    fields = [f"Gamma{q}_{part}" for q in orders for part in ("re", "im")]
+    require_columns(grid, ("row", "col", "x", "y", *fields), "grid")
     if len(grid) == 0:
         raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
     box = as_box(box)
-    if "frame" not in grid.columns:  # a grid built by hand: one image, frame 0
-        grid = grid.assign(frame=np.int64(0))
-    parts = []
-    for frame, group in grid.groupby("frame", sort=True):
-        found = _find_defects_frame(group, p, box)
-        found.insert(0, "frame", np.full(len(found), frame, dtype=grid["frame"].dtype))
-        parts.append(found)
-    if not parts:
-        return validate(_empty_defects(p, grid["frame"].dtype), "defects")
-    return validate(pd.concat(parts, ignore_index=True), "defects")
-
-
-def _empty_defects(p, frame_dtype):
-    return pd.DataFrame(
-        {
-            "frame": pd.Series(dtype=frame_dtype),
-            "defect": pd.Series(dtype=np.int64),
-            "x": pd.Series(dtype=float),
-            "y": pd.Series(dtype=float),
-            "charge": pd.Series(dtype=float),
-            "p": pd.Series(dtype=np.int64),
-        }
-    )
+    frame_dtype = grid["frame"].dtype if "frame" in grid.columns else np.dtype(np.int64)
+    groups, multi = _group_rows(grid)
+    row, col = grid["row"].to_numpy(np.int64), grid["col"].to_numpy(np.int64)
+    x, y = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
+    valid = grid["valid"].to_numpy(bool) if "valid" in grid.columns else None
+    layouts = [_field_layout(row[rows], col[rows]) for _, _, rows in groups]
+    shapes = {}
+    for g, (shape, _) in enumerate(layouts):
+        shapes.setdefault(shape, []).append(g)
+    stackings = {shape: _stacking(groups, layouts, members, shape) for shape, members in shapes.items()}
+    positions = {shape: _stack_positions(x, y, stackings[shape], len(members), shape, box)
+                 for shape, members in shapes.items()}
+    found = {"group": [], "rank": [], "x": [], "y": [], "charge": []}
+    for rank, q in enumerate(orders):
+        re, im = grid[f"Gamma{q}_re"].to_numpy(float), grid[f"Gamma{q}_im"].to_numpy(float)
+        usable = np.isfinite(re) & np.isfinite(im)
+        if valid is not None:
+            usable &= valid
+        for shape, members in shapes.items():
+            g, xy, charge = _stack_defects(re, im, usable, stackings[shape], positions[shape], len(members), shape,
+                                           q, box)
+            for name, value in (("group", np.asarray(members)[g]), ("rank", np.full(len(g), rank)),
+                                ("x", xy[:, 0]), ("y", xy[:, 1]), ("charge", charge)):
+                found[name].append(value)
+    found = {name: np.concatenate(value) for name, value in found.items()}
+    # rows ordered by p (as given), frame, radius, then plaquette (row-major; lexsort is stable)
+    order = np.lexsort((found["group"], found["rank"]))
+    found = {name: value[order] for name, value in found.items()}
+    group, rank = found["group"], found["rank"]
+    # defect ids: 0-based per (p, frame, radius)
+    cut = np.r_[0, np.flatnonzero((np.diff(group) != 0) | (np.diff(rank) != 0)) + 1]
+    ids = np.arange(len(group)) - np.repeat(cut, np.diff(np.r_[cut, len(group)]))
+    frames = np.array([frame for frame, _, _ in groups], dtype=frame_dtype)
+    radii = np.array([radius for _, radius, _ in groups], dtype=float)
+    out = pd.DataFrame({"frame": frames[group], "radius": radii[group], "defect": ids.astype(np.int64),
+                        "x": found["x"], "y": found["y"], "charge": found["charge"],
+                        "p": np.asarray(orders, np.int64)[rank]})
+    if not multi:
+        out = out.drop(columns="radius")
+    return validate(out, "defects")
 
 
 def defect_density(defects, extent, bin_size, time_column="frame", frames=None):

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, fields, replace
 
 from .errors import InputError, check_orders, is_real
 from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
-from .order import CENTERS
+from .order import CENTERS, VALIDITY, _check_pair
 from .track import TRACK_MODES
 
 __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "OPTION_CLASSES"]
@@ -128,6 +128,14 @@ class OrderOptions(_Options):
         and R_cell of each frame, see :func:`hexatissue.coarse_grain`).
     min_coverage : float
         Open images: fraction of a node's disk that must lie on interior cells.
+    r_cell : float, optional
+        R_cell, px, for every frame (default: each frame's own).
+    origin : (float, float), optional
+        Position (x, y), px, of the first grid node.
+    shape : (int, int), optional
+        Grid nodes (rows, cols) on open images.
+    validity : {"tissue", "occupied", "all"}
+        Node-validity rule (see :func:`hexatissue.coarse_grain`).
     defect_max_distance : float, optional
         Largest displacement of a defect between frames when defects are
         tracked, px (default: 1.5 grid spacings).
@@ -139,6 +147,10 @@ class OrderOptions(_Options):
     radius: float | None = None
     spacing: float | None = None
     min_coverage: float = 1.0
+    r_cell: float | None = None
+    origin: tuple | None = None
+    shape: tuple | None = None
+    validity: str = "tissue"
     defect_max_distance: float | None = None
 
     def __post_init__(self):
@@ -150,9 +162,20 @@ class OrderOptions(_Options):
             _fail(type(self), "center", self.center, f"one of {CENTERS}")
         if not isinstance(self.fields, bool):
             _fail(type(self), "fields", self.fields, "True or False")
-        for name in ("radius", "spacing", "defect_max_distance"):
+        for name in ("radius", "spacing", "r_cell", "defect_max_distance"):
             self._number(name, strict=True, allow_none=True)
         self._number("min_coverage", high=1.0)
+        for name, integer in (("origin", False), ("shape", True)):
+            try:
+                object.__setattr__(self, name, _check_pair(getattr(self, name), name, integer))
+            except InputError:
+                _fail(type(self), name, getattr(self, name),
+                      "(rows, cols), two positive integers, or None" if integer
+                      else "(x, y), two finite numbers in px, or None")
+        if self.validity not in VALIDITY:
+            _fail(type(self), "validity", self.validity, f"one of {VALIDITY}")
+        if self.validity != "tissue" and self.min_coverage != 1.0:
+            _fail(type(self), "min_coverage", self.min_coverage, "1.0 unless validity is 'tissue'")
 
 
 @dataclass(frozen=True)

@@ -14,10 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.spatial import cKDTree
-
+from . import _coarse_kernels as K
 from .box import as_box
-from .errors import InputError, check_orders, check_p, is_real
+from .errors import InputError, check_orders, check_p, check_positive
 from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_perimeter, row_keys, segment_sum,
                        table_polygons)
 from .schema import interior_mask, validate
@@ -215,20 +214,80 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
 #: Default disk radius and grid spacing in units of R_cell (Armengol-Collado et al. 2023, Methods).
 RADIUS_FACTOR = 1.5
 SPACING_FACTOR = 1.0
-#: On open images a disk sample point counts as tissue when its nearest cell centroid is an
+#: On open images a raster point counts as tissue when its nearest cell centroid is an
 #: interior cell c closer than COVER_FACTOR * max(sqrt(area_c / pi), R_cell) (a regular hexagon's
 #: corners are 1.1 sqrt(area / pi) from its centre).
 COVER_FACTOR = 1.5
 #: Largest coarse-graining grid (nodes per frame); a finer spacing is refused, not computed for minutes.
 MAX_NODES = 1_000_000
+#: The tissue raster of an open image has a pitch of at most R_cell / RASTER_PER_RCELL.
+RASTER_PER_RCELL = 4
+#: Node-validity rules of :func:`coarse_grain` (see its docstring and docs/order.md).
+VALIDITY = ("tissue", "occupied", "all")
 
 
 def _check_length(value, name):
     if value is None:
         return None
-    if not is_real(value) or value <= 0:
-        raise InputError(f"{name} must be a positive finite length in px (or None for the default); got {value!r}")
-    return float(value)
+    return check_positive(value, name, unit="px (or None for the default)")
+
+
+def _check_radii(value):
+    """``radius`` as a tuple of positive lengths (one or more), or None."""
+    if value is None:
+        return None
+    values = (value,) if np.isscalar(value) else tuple(value)
+    if not values:
+        raise InputError(f"radius must be a positive length in px or a non-empty sequence of them; got {value!r}")
+    return tuple(check_positive(v, "radius", unit="px") for v in values)
+
+
+def _check_pair(value, name, integer):
+    """``origin`` (two finite numbers, px) or ``shape`` (two positive ints) as a tuple, or None."""
+    if value is None:
+        return None
+    try:
+        pair = tuple(value)
+    except TypeError:
+        pair = ()
+    what = "(rows, cols), two positive integers" if integer else "(x, y), two finite numbers in px"
+    if len(pair) != 2:
+        raise InputError(f"{name} must be {what}; got {value!r}")
+    if integer:
+        return tuple(check_positive(v, name, integer=True) for v in pair)
+    ok = all(not isinstance(v, bool) and np.isscalar(v) and np.isfinite(v) for v in pair)
+    if not ok:
+        raise InputError(f"{name} must be {what}; got {value!r}")
+    return float(pair[0]), float(pair[1])
+
+
+def _check_validity(validity, min_coverage):
+    if validity not in VALIDITY:
+        raise InputError(f"validity must be one of {VALIDITY}; got {validity!r}")
+    if isinstance(min_coverage, bool) or not np.isscalar(min_coverage) or not 0.0 <= min_coverage <= 1.0:
+        raise InputError(f"min_coverage must be a fraction in [0, 1]; got {min_coverage!r}")
+    if validity != "tissue" and min_coverage != 1.0:
+        raise InputError(f"min_coverage applies to validity='tissue' only; got min_coverage={min_coverage!r} "
+                         f"with validity={validity!r}")
+    return validity, float(min_coverage)
+
+
+def _area_column(cells):
+    """Cell areas, px^2, from ``area`` (``polygon_area`` if ``area`` is absent); None when neither is there."""
+    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
+    return None if column is None else cells[column].to_numpy(float)
+
+
+def _mean_radius(area, interior):
+    """sqrt(mean area / pi) over the interior cells with a finite area (the concept behind :func:`cell_radius`)."""
+    if area is None:
+        raise InputError("cells needs an 'area' (or 'polygon_area') column, px^2, to compute R_cell "
+                         "(or pass r_cell)")
+    area = area[interior]
+    area = area[np.isfinite(area)]
+    if len(area) == 0 or not area.mean() > 0:
+        raise InputError("cells has no interior cell with a positive finite area to compute R_cell")
+    return float(np.sqrt(area.mean() / np.pi))
 
 
 def cell_radius(cells):
@@ -236,146 +295,248 @@ def cell_radius(cells):
 
     Uses the ``area`` column (``polygon_area`` if ``area`` is absent).
     """
-    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
-    if column is None:
-        raise InputError("cells needs an 'area' (or 'polygon_area') column, px^2, to compute R_cell")
-    area = cells[column].to_numpy(float)[interior_mask(cells)]
-    area = area[np.isfinite(area)]
-    if len(area) == 0 or not area.mean() > 0:
-        raise InputError("cells has no interior cell with a positive finite area to compute R_cell")
-    return float(np.sqrt(area.mean() / np.pi))
+    return _mean_radius(_area_column(cells), interior_mask(cells))
 
 
-def _grid_axes(cells_xy, spacing, box):
-    """Node coordinates along x and y: tiling the periodic box, or centred on the cells' extent."""
+def _grid_axes(cells_xy, spacing, box, origin, shape):
+    """Node coordinates along x and y.
+
+    Periodic box: ``round(L / spacing)`` nodes tile each side, from ``origin`` (default half a step).
+    Open image: ``shape`` nodes (default: enough to span the cells' extent) starting at ``origin``
+    (default: centred on the cells' extent).
+    """
     if box is not None:
-        counts = [max(2, int(round(box.Lx / spacing))), max(2, int(round(box.Ly / spacing)))]
-    else:
-        lo, hi = cells_xy.min(axis=0), cells_xy.max(axis=0)
-        counts = [max(int(np.floor((hi[k] - lo[k]) / spacing)) + 1, 1) for k in range(2)]
-    if counts[0] * counts[1] > MAX_NODES:
-        raise InputError(f"spacing {spacing:g} px gives a grid of {counts[0]} x {counts[1]} nodes (more than "
-                         f"{MAX_NODES:,}); expected a spacing comparable to the cell size (default R_cell)")
-    if box is not None:
-        nx, ny = counts
-        return (np.arange(nx) + 0.5) * box.Lx / nx, (np.arange(ny) + 0.5) * box.Ly / ny
+        axes = []
+        for k, length in enumerate(box.lengths):
+            n = max(2, int(round(length / spacing)))
+            step = length / n
+            start = 0.5 * step if origin is None else origin[k]
+            axes.append(start + step * np.arange(n))
+        return _bounded(axes, spacing)
+    lo, hi = cells_xy.min(axis=0), cells_xy.max(axis=0)
     axes = []
     for k in range(2):
-        n = counts[k]
-        start = lo[k] + 0.5 * ((hi[k] - lo[k]) - (n - 1) * spacing)
+        if shape is not None:
+            n = shape[1 - k]  # shape is (rows, cols): cols count x nodes
+        elif origin is not None:
+            n = max(int(np.floor((hi[k] - origin[k]) / spacing)) + 1, 1)
+        else:
+            n = max(int(np.floor((hi[k] - lo[k]) / spacing)) + 1, 1)
+        start = lo[k] + 0.5 * ((hi[k] - lo[k]) - (n - 1) * spacing) if origin is None else origin[k]
         axes.append(start + spacing * np.arange(n))
+    return _bounded(axes, spacing)
+
+
+def _bounded(axes, spacing):
+    """``(x nodes, y nodes)``, refused when the grid would exceed :data:`MAX_NODES` nodes."""
+    if len(axes[0]) * len(axes[1]) > MAX_NODES:
+        raise InputError(f"spacing {spacing:g} px gives a grid of {len(axes[0])} x {len(axes[1])} nodes (more than "
+                         f"{MAX_NODES:,}); expected a spacing comparable to the cell size (default R_cell)")
     return axes[0], axes[1]
 
 
-def _disk_means(nodes, xy, gamma, radius, box):
-    """Mean of ``gamma`` over the points of ``xy`` within ``radius`` of each node, and their count."""
-    if box is not None:
-        tree = cKDTree(box.wrap(xy), boxsize=box.lengths)
-    else:
-        tree = cKDTree(xy)
-    members = tree.query_ball_point(nodes, r=radius)
-    counts = np.fromiter((len(m) for m in members), np.int64, len(members))
-    index = np.concatenate([np.asarray(m, np.int64) for m in members]) if counts.sum() else np.zeros(0, np.int64)
-    owner = np.repeat(np.arange(len(nodes)), counts)
-    total = np.bincount(owner, gamma.real[index], len(nodes)) + 1j * np.bincount(owner, gamma.imag[index], len(nodes))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return total / counts, counts
-
-
-def _reach(cells, r_cell):
+def _reach(area, r_cell):
     """Largest distance from each centroid still counted as inside the cell, px.
 
     ``COVER_FACTOR * max(sqrt(area / pi), R_cell)``: large cells reach further, and
-    small cells next to large ones do not punch holes into the coverage.
+    small cells next to large ones do not punch holes into the coverage.  ``area`` may be None.
     """
-    column = "area" if "area" in cells.columns else "polygon_area" if "polygon_area" in cells.columns else None
-    r = np.full(len(cells), r_cell)
-    if column is not None:
-        own = np.sqrt(np.abs(cells[column].to_numpy(float)) / np.pi)
-        r = np.fmax(r, own)  # fmax ignores NaN areas
-    return COVER_FACTOR * r
+    if area is None:
+        return np.full(1, COVER_FACTOR * r_cell)
+    return COVER_FACTOR * np.fmax(r_cell, np.sqrt(np.abs(area) / np.pi))  # fmax ignores NaN areas
 
 
-def _coverage(gx, gy, radius, spacing, all_xy, interior, reach, r_cell):
-    """Fraction of each node's disk lying on interior cells (open images, see :func:`coarse_grain`).
+def _neighbours(xy, box):
+    """Cell list of the centroids ``xy`` (``_coarse_kernels`` conventions), about 2 centroids per bin."""
+    if box is not None:
+        lengths = box.lengths
+        xy = box.wrap(xy)
+        size = np.sqrt(2.0 * lengths.prod() / max(len(xy), 1))
+        nbins = np.maximum(1, np.floor(lengths / size)).astype(np.int64)
+        origin, size, period = np.zeros(2), lengths / nbins, lengths
+    else:
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        extent = np.maximum(hi - lo, 1e-9)
+        size = max(np.sqrt(2.0 * extent.prod() / max(len(xy), 1)), 1e-3 * extent.max())
+        nbins = (np.floor(extent / size) + 1).astype(np.int64)
+        origin, size, period = lo, np.full(2, size), np.zeros(2)
+    order, starts = K.cell_list(xy, origin, size, nbins)
+    return xy, (order, starts, origin, size, nbins, period)
 
-    The tissue mask is sampled on a raster of pitch ``spacing / k <= R_cell / 4`` aligned with
-    the grid (every node is a raster point); a raster point is on the tissue when its nearest
-    centroid is an interior cell within that cell's ``reach``.  The disk sums are one FFT
-    correlation of the mask with the disk, read off at the nodes.
+
+def _half_widths(radii, step, pad):
+    """Raster disks of ``radii``: half width (in raster columns) of every row offset -pad..pad, -1 if empty.
+
+    A raster offset (a, b) steps lies in the disk of radius R when (a step)^2 + (b step)^2 <= R^2.
     """
-    k = max(1, int(np.ceil(4.0 * spacing / r_cell)))
+    off = np.arange(-pad, pad + 1) * step
+    inside = (off[None, None, :] ** 2 + off[None, :, None] ** 2) <= np.asarray(radii)[:, None, None] ** 2
+    return (inside.sum(axis=2) - 1) // 2, inside.sum(axis=(1, 2))
+
+
+def _coverage(gx, gy, radii, spacing, area, interior, r_cell, neighbours):
+    """(n_nodes, n_radii) fraction of each node's disks on the tissue of an open image.
+
+    The tissue is a raster of pitch ``spacing / k <= R_cell / 4`` aligned with the grid (every
+    node is a raster point); a raster point is on the tissue when its nearest centroid (border
+    cells included) is an interior cell within that cell's reach (:func:`_reach`).  The raster is
+    made once per frame for every radius; each disk count is a sum of row runs of the raster.
+    """
+    k = max(1, int(np.ceil(RASTER_PER_RCELL * spacing / r_cell)))
     step = spacing / k
-    pad = int(np.ceil(radius / step))
+    pad = int(np.ceil(max(radii) / step))
     rx = gx[0] + step * np.arange(-pad, (len(gx) - 1) * k + pad + 1)
     ry = gy[0] + step * np.arange(-pad, (len(gy) - 1) * k + pad + 1)
-    px, py = np.meshgrid(rx, ry)
-    dist, nearest = cKDTree(all_xy).query(np.c_[px.ravel(), py.ravel()])
-    mask = (interior[nearest] & (dist <= reach[nearest])).reshape(px.shape)
-    off = np.arange(-pad, pad + 1) * step
-    disk = (off[None, :] ** 2 + off[:, None] ** 2) <= radius**2
-    inside = _valid_correlation(mask.astype(float), disk.astype(float))
-    return (np.rint(inside[::k, ::k]) / disk.sum()).ravel()
+    xy, (order, starts, origin, size, nbins, _) = neighbours
+    reach = np.broadcast_to(_reach(area, r_cell), len(xy))
+    mask = K.tissue_mask(rx, ry, xy, interior, np.ascontiguousarray(reach), float(reach.max()), order, starts,
+                         origin, size, nbins)
+    half, n_disk = _half_widths(radii, step, pad)
+    col, row = np.meshgrid(np.arange(len(gx)), np.arange(len(gy)))
+    inside = K.disk_coverage(mask, pad + k * row.ravel(), pad + k * col.ravel(), half)
+    return inside / n_disk[None, :]
 
 
-def _valid_correlation(image, kernel):
-    """``scipy.signal.correlate(image, kernel, "valid")`` by FFT (kernel point-symmetric, so = convolution).
+def _frame_geometry(xy, gamma, interior, area, radii, spacing, box, r_cell, origin, shape):
+    """The grid of one frame: a dict with the cells used, R_cell, radii, spacing and node axes ``gx``, ``gy``.
 
-    Uses scipy.fft directly: importing scipy.signal costs seconds.
+    ``xy`` (m, 2), ``gamma`` (m, n_orders) complex, ``interior`` (m,) and ``area`` (m,) or None
+    are the frame's cells.
     """
-    from scipy import fft
-
-    shape = [fft.next_fast_len(m + q - 1, real=True) for m, q in zip(image.shape, kernel.shape)]
-    full = fft.irfft2(fft.rfft2(image, shape) * fft.rfft2(kernel, shape), shape)
-    return full[kernel.shape[0] - 1: image.shape[0], kernel.shape[1] - 1: image.shape[1]]
-
-
-def _coarse_grain_frame(cells, p, radius, spacing, box, min_coverage):
-    """Grid table (without ``frame``) of one frame's cells."""
-    xy_all = cells[["x", "y"]].to_numpy(float)
-    gamma = cells[f"gamma{p}_re"].to_numpy(float) + 1j * cells[f"gamma{p}_im"].to_numpy(float)
-    use = interior_mask(cells) & np.isfinite(gamma) & np.isfinite(xy_all).all(axis=1)
+    finite = np.isfinite(xy).all(axis=1)
+    use = interior & np.isfinite(gamma).all(axis=1) & finite
     if not use.any():
         raise InputError("cells has no interior cell with finite x, y and gamma to coarse-grain")
-    need_rcell = radius is None or spacing is None or box is None
-    r_cell = cell_radius(cells) if need_rcell else np.nan
-    radius = RADIUS_FACTOR * r_cell if radius is None else radius
+    if r_cell is None and (radii is None or spacing is None or box is None):
+        r_cell = _mean_radius(area, interior)
+    radii = (RADIUS_FACTOR * r_cell,) if radii is None else radii
     spacing = SPACING_FACTOR * r_cell if spacing is None else spacing
-    gx, gy = _grid_axes(xy_all[use], spacing, box)
+    gx, gy = _grid_axes(xy[use], spacing, box, origin, shape)
+    return {"finite": finite, "use": use, "r_cell": r_cell, "radii": radii, "spacing": spacing, "gx": gx, "gy": gy,
+            "size": len(gx) * len(gy) * len(radii)}
+
+
+def _grid_columns(orders, size, frame_dtype=np.int64):
+    """Empty output columns of a grid table of ``size`` rows."""
+    columns = {"frame": np.empty(size, frame_dtype)}
+    columns.update({name: np.empty(size, np.int64) for name in ("node", "row", "col")})
+    columns.update({name: np.empty(size) for name in ("x", "y")})
+    for q in orders:
+        columns[f"Gamma{q}_re"], columns[f"Gamma{q}_im"] = np.empty(size), np.empty(size)
+    columns["n_cells"] = np.empty(size, np.int64)
+    columns["coverage"], columns["valid"] = np.empty(size), np.empty(size, bool)
+    columns["radius"], columns["spacing"] = np.empty(size), np.empty(size)
+    return columns
+
+
+def _frame_fill(geometry, xy, gamma, area, orders, box, min_coverage, validity, columns, start):
+    """Compute one frame's grid (every radius, rows (radius, node)) into ``columns[...][start:]``."""
+    finite, use, r_cell, radii = geometry["finite"], geometry["use"], geometry["r_cell"], geometry["radii"]
+    gx, gy, spacing = geometry["gx"], geometry["gy"], geometry["spacing"]
     col, row = np.meshgrid(np.arange(len(gx)), np.arange(len(gy)))
     nodes = np.c_[gx[col.ravel()], gy[row.ravel()]]
-    mean, counts = _disk_means(nodes, xy_all[use], gamma[use], radius, box)
-    if box is None:
-        finite = np.isfinite(xy_all).all(axis=1)
-        reach = _reach(cells, r_cell)
-        coverage = _coverage(gx, gy, radius, spacing, xy_all[finite], use[finite], reach[finite], r_cell)
+    # one neighbour structure for every p, every radius and the tissue raster
+    neighbours = _neighbours(xy[finite], box)
+    ok = use[finite]
+    g = gamma[finite][ok]
+    values = np.zeros((len(ok), 2 * len(orders) + 1))
+    values[ok, 0:-1:2], values[ok, 1:-1:2], values[ok, -1] = g.real, g.imag, 1.0
+    sort = np.argsort(radii, kind="stable")
+    xy_nb, (order, starts, cl_origin, size, nbins, period) = neighbours
+    sums, _ = K.disk_sums(nodes, xy_nb, values, np.asarray(radii, float)[sort], order, starts, cl_origin, size,
+                          nbins, period)
+    sums = sums[:, np.argsort(sort)].transpose(1, 0, 2)  # (radii, nodes, values), radii as given
+    counts = np.rint(sums[..., -1]).astype(np.int64)
+    if box is not None:
+        coverage = np.ones(counts.shape)
+    elif validity == "tissue":
+        coverage = _coverage(gx, gy, radii, spacing, None if area is None else area[finite], ok, r_cell,
+                             neighbours).T
+    else:  # not needed by the rule: not measured (validity="tissue", min_coverage=0 measures it)
+        coverage = np.full(counts.shape, np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = sums[..., :-1] / counts[..., None]
+    if validity == "all":
+        mean[counts == 0] = 0.0
+        valid = np.ones(counts.shape, bool)
+    elif validity == "occupied":
+        valid = counts > 0
     else:
-        coverage = np.ones(len(nodes))
-    return pd.DataFrame(
-        {
-            "node": np.arange(len(nodes), dtype=np.int64),
-            "row": row.ravel().astype(np.int64),
-            "col": col.ravel().astype(np.int64),
-            "x": nodes[:, 0],
-            "y": nodes[:, 1],
-            f"Gamma{p}_re": mean.real,
-            f"Gamma{p}_im": mean.imag,
-            "n_cells": counts,
-            "coverage": coverage,
-            "valid": (counts > 0) & (coverage >= min_coverage),
-            "radius": np.full(len(nodes), radius),
-            "spacing": np.full(len(nodes), spacing),
-        }
-    )
+        valid = (counts > 0) & (coverage >= min_coverage)
+    n, k = len(nodes), len(radii)
+
+    def block(name):
+        return columns[name][start:start + n * k].reshape(k, n)
+
+    block("node")[:] = np.arange(n)
+    block("row")[:], block("col")[:] = row.ravel(), col.ravel()
+    block("x")[:], block("y")[:] = nodes[:, 0], nodes[:, 1]
+    for a, q in enumerate(orders):
+        block(f"Gamma{q}_re")[:], block(f"Gamma{q}_im")[:] = mean[:, :, 2 * a], mean[:, :, 2 * a + 1]
+    block("n_cells")[:], block("coverage")[:], block("valid")[:] = counts, coverage, valid
+    block("radius")[:] = np.asarray(radii, float)[:, None]
+    block("spacing")[:] = spacing
+    return n * k
 
 
-def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1.0):
+def _cell_arrays(cells, orders):
+    """``xy``, ``gamma`` (one column per order), ``interior`` and ``area`` (or None) of a cells table."""
+    xy = cells[["x", "y"]].to_numpy(float)
+    gamma = np.empty((len(cells), len(orders)), complex)
+    for a, q in enumerate(orders):
+        gamma[:, a] = cells[f"gamma{q}_re"].to_numpy(float) + 1j * cells[f"gamma{q}_im"].to_numpy(float)
+    return xy, gamma, interior_mask(cells), _area_column(cells)
+
+
+def _frame_arrays(arrays, rows):
+    xy, gamma, interior, area = arrays
+    return xy[rows], gamma[rows], interior[rows], None if area is None else area[rows]
+
+
+def _frames(cells):
+    """``(frame, rows)`` of each frame of a cells table, in frame order (one frame 0 without a column)."""
+    if "frame" not in cells.columns:
+        return [(0, slice(None))], np.int64
+    frame = cells["frame"].to_numpy()
+    order = np.argsort(frame, kind="stable")
+    values, first = np.unique(frame[order], return_index=True)
+    bounds = np.r_[first, len(order)]
+    return [(values[i], order[bounds[i]:bounds[i + 1]]) for i in range(len(values))], cells["frame"].dtype
+
+
+def _check_grid_options(cells, orders, spacing, box, min_coverage, r_cell, origin, shape, validity):
+    """The checked grid options ``(spacing, box, min_coverage, r_cell, origin, shape, validity)``; checks ``cells``."""
+    spacing, r_cell = _check_length(spacing, "spacing"), _check_length(r_cell, "r_cell")
+    box = as_box(box)
+    validity, min_coverage = _check_validity(validity, min_coverage)
+    origin, shape = _check_pair(origin, "origin", False), _check_pair(shape, "shape", True)
+    if box is not None and shape is not None:
+        raise InputError(f"shape must be None in a periodic box (the grid tiles the box); got {shape!r}")
+    _check_cells(cells, orders)
+    return spacing, box, min_coverage, r_cell, origin, shape, validity
+
+
+def _check_cells(cells, orders):
+    if not isinstance(cells, pd.DataFrame):
+        raise InputError(f"cells must be a pandas DataFrame; got {type(cells).__name__}")
+    needed = ["x", "y"] + [f"gamma{q}_{part}" for q in orders for part in ("re", "im")]
+    missing = [c for c in needed if c not in cells.columns]
+    if missing:
+        raise InputError(f"cells is missing column(s) {missing}; expected {needed} (compute gamma with p={orders})")
+    if len(cells) == 0:
+        raise InputError("cells is empty; expected at least one interior cell to coarse-grain")
+
+
+def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1.0, r_cell=None, origin=None,
+                 shape=None, validity="tissue"):
     """Coarse-grained shape parameter Gamma_p on a square grid.
 
     ``Gamma_p(r)`` is the mean of the cells' ``gamma_p`` over the cells whose
     centroid lies within a disk of radius ``R`` centred at the node ``r``
-    (Armengol-Collado et al. 2023, Methods).  Border cells (``is_border``)
-    never enter the mean.
+    (``dx^2 + dy^2 <= R^2``; Armengol-Collado et al. 2023, Methods).
+    Border cells (``is_border``) never enter the mean.  Several symmetry
+    orders and several radii can be done in one call: they share one
+    neighbour search and one tissue raster per frame.
 
     Parameters
     ----------
@@ -383,106 +544,146 @@ def coarse_grain(cells, p=6, radius=None, spacing=None, box=None, min_coverage=1
         Cells table: ``x``, ``y`` (centroid, px; x = column, y = row, origin
         at the centre of pixel (0, 0)), ``gamma{p}_re``, ``gamma{p}_im``;
         optionally ``is_border`` (default: no border cells), ``area`` or
-        ``polygon_area`` (px^2; needed for the defaults and on open images)
+        ``polygon_area`` (px^2; needed for R_cell unless ``r_cell`` is given)
         and ``frame`` (a movie: each frame is coarse-grained on its own and
-        ``frame`` is passed through).
-    p : int
-        Symmetry order (2 nematic, 6 hexatic).
-    radius : float, optional
-        Disk radius R, px.  Default ``1.5 R_cell`` with
-        ``R_cell = sqrt(mean area / pi)`` of the frame's interior cells
-        (:func:`cell_radius`).
+        ``frame`` is passed through).  A cell enters the means when its
+        ``x``, ``y`` and ``gamma_p`` of every requested ``p`` are finite.
+    p : int or sequence of int
+        Symmetry order(s) (2 nematic, 6 hexatic); one ``Gamma{p}`` column
+        pair each, on the same nodes.
+    radius : float or sequence of float, optional
+        Disk radius R, px.  Default ``1.5 R_cell``.  With several radii the
+        grid holds every node once per radius (rows ordered by frame, radius
+        as given, node).
     spacing : float, optional
         Grid spacing, px.  Default ``R_cell``.  In a periodic box the grid
         tiles the box exactly (``round(L / spacing)`` nodes per side, so the
         actual spacing along x and y is ``Lx / nx`` and ``Ly / ny``).
     box : Box, optional
-        Periodic box: distances are minimum-image and every node with at
-        least one cell in its disk is valid.  ``None`` (or a non-periodic box)
-        means an open image.
+        Periodic box: distances are minimum-image and ``coverage`` is 1.
+        ``None`` means an open image.
     min_coverage : float
-        Open images only: a node is ``valid`` when at least this fraction of
-        its disk lies on interior cells.  The fraction is measured on a raster
-        of pitch at most ``R_cell / 4`` aligned with the grid (the disk's
-        raster points); a point lies on an interior cell when its nearest
-        cell centroid (border cells included) belongs to an interior cell c and
-        is closer than ``1.5 max(sqrt(area_c / pi), R_cell)`` (a regular
-        hexagon's corners are ``1.1 sqrt(area / pi)`` from its centre).  The default 1.0 keeps only disks that
-        lie wholly inside the tissue, so the tissue edge, the border cells and
-        holes do not bias Gamma_p.
+        ``validity="tissue"`` on open images: a node is valid when at least
+        this fraction of its disk lies on interior cells (default 1.0: the
+        whole disk, so the tissue edge, border cells and holes do not bias
+        Gamma_p).
+    r_cell : float, optional
+        R_cell, px, of every frame (the published scripts use one value for
+        all images).  Default: ``sqrt(mean area / pi)`` of each frame's
+        interior cells (:func:`cell_radius`).  It sets the default radius and
+        spacing, the pitch of the tissue raster and the cells' reach.
+    origin : (float, float), optional
+        Position ``(x, y)``, px, of node (row 0, col 0).  Default: open
+        image, the grid is centred on the interior cells' extent; periodic
+        box, half a grid step from (0, 0).
+    shape : (int, int), optional
+        Open images: nodes ``(rows, cols)``.  Default: enough nodes to span
+        the interior cells' extent from the first node.  With ``origin`` and
+        ``shape`` the grid may reach beyond the cells' bounding box (e.g. a
+        whole image); those nodes are kept and ``validity`` decides whether
+        they count.  A periodic grid always tiles the box (``shape`` must be
+        None).
+    validity : {"tissue", "occupied", "all"}
+        Which nodes are ``valid`` (used for statistics and defects):
+        ``"tissue"`` (default): at least one cell in the disk and, on open
+        images, ``coverage >= min_coverage``; ``"occupied"``: at least one
+        cell in the disk (the published scripts' averages); ``"all"``: every
+        node, and an empty disk gives ``Gamma_p = 0`` (the published scripts'
+        grids and defects).
 
     Returns
     -------
     pandas.DataFrame
-        Grid table, one row per node (row-major), per frame:
-        ``frame`` (0 for a table without one), ``node`` (id, 0-based per frame), ``row``,
-        ``col`` (node index along y and x), ``x``, ``y`` (node position, px),
-        ``Gamma{p}_re``, ``Gamma{p}_im`` (dimensionless; NaN when the disk is
-        empty), ``n_cells`` (cells in the disk), ``coverage`` (fraction of the
-        disk on interior cells; 1 in a periodic box), ``valid`` (bool: used
-        for statistics and defects), ``radius`` (R, px) and ``spacing``
-        (requested grid spacing, px).
+        Grid table, one row per node (row-major) and radius, per frame:
+        ``frame`` (0 for a table without one), ``node`` (id, 0-based per
+        frame, the same for every radius), ``row``, ``col`` (node index along
+        y and x), ``x``, ``y`` (node position, px), ``Gamma{p}_re``,
+        ``Gamma{p}_im`` for every ``p`` (dimensionless; NaN when the disk is
+        empty, 0 with ``validity="all"``), ``n_cells`` (cells in the disk),
+        ``coverage`` (fraction of the disk on interior cells, measured on the
+        tissue raster: raster points within R of the node, a raster point
+        being on the tissue when its nearest centroid, border cells included,
+        is an interior cell c closer than ``1.5 max(sqrt(area_c / pi),
+        R_cell)``; the raster has a pitch of at most ``R_cell / 4`` and holds
+        every node; 1 in a periodic box; NaN on open images with
+        ``validity="occupied"`` or ``"all"``, which do not use it: take
+        ``validity="tissue", min_coverage=0`` for the "occupied" rule with
+        coverage measured), ``valid`` (bool), ``radius`` (R, px) and
+        ``spacing`` (requested grid spacing, px).
     """
-    p = check_p(p)
-    radius, spacing = _check_length(radius, "radius"), _check_length(spacing, "spacing")
-    box = as_box(box)
-    if not 0.0 <= min_coverage <= 1.0:
-        raise InputError(f"min_coverage must be a fraction in [0, 1]; got {min_coverage!r}")
-    if not isinstance(cells, pd.DataFrame):
-        raise InputError(f"cells must be a pandas DataFrame; got {type(cells).__name__}")
-    needed = ["x", "y", f"gamma{p}_re", f"gamma{p}_im"]
-    missing = [c for c in needed if c not in cells.columns]
-    if missing:
-        raise InputError(f"cells is missing column(s) {missing}; expected {needed} (compute gamma with p={p})")
-    if len(cells) == 0:
-        raise InputError("cells is empty; expected at least one interior cell to coarse-grain")
-    if "frame" not in cells.columns:  # a table built by hand: one image, frame 0
-        cells = cells.assign(frame=np.int64(0))
-    parts = []
-    for frame, group in cells.groupby("frame", sort=True):
-        grid = _coarse_grain_frame(group, p, radius, spacing, box, min_coverage)
-        grid.insert(0, "frame", np.full(len(grid), frame, dtype=cells["frame"].dtype))
-        parts.append(grid)
-    return validate(pd.concat(parts, ignore_index=True), "grid")
+    orders = check_orders(p)
+    radii = _check_radii(radius)
+    spacing, box, min_coverage, r_cell, origin, shape, validity = _check_grid_options(
+        cells, orders, spacing, box, min_coverage, r_cell, origin, shape, validity)
+    groups, frame_dtype = _frames(cells)
+    arrays = _cell_arrays(cells, orders)
+    frames = [_frame_arrays(arrays, rows) for _, rows in groups]
+    geometry = [_frame_geometry(*f, radii, spacing, box, r_cell, origin, shape) for f in frames]
+    columns = _grid_columns(orders, sum(g["size"] for g in geometry), frame_dtype)
+    start = 0
+    for (frame, _), (xy, gamma, _, area), geo in zip(groups, frames, geometry):
+        size = _frame_fill(geo, xy, gamma, area, orders, box, min_coverage, validity, columns, start)
+        columns["frame"][start:start + size] = frame
+        start += size
+    return validate(pd.DataFrame(columns, copy=False), "grid")
 
 
-def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box=None, min_coverage=1.0):
+def order_vs_radius(cells, p=6, factors=(1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0), box=None, min_coverage=1.0,
+                    r_cell=None, spacing=None, origin=None, shape=None, validity="tissue"):
     """Mean ``|Gamma_p|`` over the valid grid nodes as a function of the coarse-graining radius.
 
-    For each factor, every frame is coarse-grained (:func:`coarse_grain`)
-    with ``R = factor * R_cell`` (R_cell of that frame, grid spacing R_cell)
-    and ``|Gamma_p|`` is averaged over its valid nodes.
+    For each frame, the grid of :func:`coarse_grain` is built once with every
+    radius ``R = factor * R_cell`` (one neighbour search and one tissue raster
+    for all radii and orders), and ``|Gamma_p|`` is averaged over the valid
+    nodes of each radius.
 
     Parameters
     ----------
     cells : pandas.DataFrame
-        Cells table as for :func:`coarse_grain` (``area`` needed).
-    p : int
-        Symmetry order.
+        Cells table as for :func:`coarse_grain` (``area`` needed unless
+        ``r_cell`` is given).
+    p : int or sequence of int
+        Symmetry order(s).
     factors : sequence of float
         Radii in units of R_cell.
-    box, min_coverage
-        As for :func:`coarse_grain`.
+    box, min_coverage, r_cell, origin, shape, validity
+        As for :func:`coarse_grain`.  ``r_cell`` fixes R_cell for every frame
+        (the published scripts use 21.5 px for all MDCK images); by default
+        each frame has its own.
+    spacing : float, optional
+        Grid spacing, px (default R_cell of the frame).
 
     Returns
     -------
     pandas.DataFrame
-        One row per frame and factor: ``frame``, ``p``,
+        One row per frame, p and factor (in that order): ``frame``, ``p``,
         ``factor`` (R / R_cell), ``radius`` (R, px), ``abs_Gamma`` (mean
         ``|Gamma_p|`` over valid nodes, dimensionless; NaN when none is
         valid), ``n_nodes`` (valid nodes).
     """
-    p = check_p(p)
-    groups = cells.groupby("frame", sort=True) if "frame" in cells.columns else [(0, cells)]
+    orders = check_orders(p)
+    factors = tuple(check_positive(f, "factors") for f in (factors if not np.isscalar(factors) else (factors,)))
+    if not factors:
+        raise InputError("factors must list at least one radius in units of R_cell")
+    spacing, box, min_coverage, r_cell, origin, shape, validity = _check_grid_options(
+        cells, orders, spacing, box, min_coverage, r_cell, origin, shape, validity)
+    groups, _ = _frames(cells)
+    arrays = _cell_arrays(cells, orders)
     rows = []
-    for frame, group in groups:
-        r_cell = cell_radius(group)
-        for factor in factors:
-            grid = coarse_grain(group, p=p, radius=float(factor) * r_cell, spacing=r_cell, box=box,
-                                min_coverage=min_coverage)
-            valid = grid[grid["valid"]]
-            size = np.hypot(valid[f"Gamma{p}_re"], valid[f"Gamma{p}_im"]).to_numpy()
-            rows.append((frame, p, float(factor), float(factor) * r_cell,
-                         size.mean() if len(size) else np.nan, len(size)))
-    out = pd.DataFrame(rows, columns=["frame", "p", "factor", "radius", "abs_Gamma", "n_nodes"])
-    return out
+    for frame, index in groups:
+        xy, gamma, interior, area = _frame_arrays(arrays, index)
+        rc = _mean_radius(area, interior) if r_cell is None else r_cell
+        radii = tuple(f * rc for f in factors)
+        geometry = _frame_geometry(xy, gamma, interior, area, radii, rc if spacing is None else spacing, box, rc,
+                                   origin, shape)
+        grid = _grid_columns(orders, geometry["size"])
+        _frame_fill(geometry, xy, gamma, area, orders, box, min_coverage, validity, grid, 0)
+        valid = grid["valid"].reshape(len(factors), -1)
+        for q in orders:
+            size = np.hypot(grid[f"Gamma{q}_re"], grid[f"Gamma{q}_im"]).reshape(len(factors), -1)
+            n_valid = valid.sum(axis=1)
+            total = np.where(valid, size, 0.0).sum(axis=1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                mean = np.where(n_valid > 0, total / n_valid, np.nan)
+            rows += [(frame, q, f, r, m, int(n)) for f, r, m, n in zip(factors, radii, mean, n_valid)]
+    return pd.DataFrame(rows, columns=["frame", "p", "factor", "radius", "abs_Gamma", "n_nodes"])

@@ -320,15 +320,11 @@ def _order_tables(tables, box, order):
     if not usable.any():
         out["grid"], out["defects"] = empty_table("grid", order.p), empty_table("defects")
         return out
-    grid, defects = None, []
-    for q in order.p:
-        g = coarse_grain(cells, p=q, radius=order.radius, spacing=order.spacing, box=box,
-                         min_coverage=order.min_coverage)
-        defects.append(find_defects(g, p=q, box=box))
-        field = [f"Gamma{q}_re", f"Gamma{q}_im"]
-        grid = g if grid is None else grid.join(g[field])  # the same nodes for every p
+    grid = coarse_grain(cells, p=order.p, radius=order.radius, spacing=order.spacing, box=box,
+                        min_coverage=order.min_coverage, r_cell=order.r_cell, origin=order.origin,
+                        shape=order.shape, validity=order.validity)
     out["grid"] = grid
-    out["defects"] = pd.concat(defects, ignore_index=True)
+    out["defects"] = find_defects(grid, p=order.p, box=box)
     return out
 
 

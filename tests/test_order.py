@@ -463,18 +463,6 @@ def test_hexagonal_tissue_from_labels_has_no_defect(periodic):
     assert len(find_defects(grid, p=6, box=box if periodic else None)) == 0
 
 
-def test_fft_disk_correlation_matches_direct_correlation():
-    from scipy.signal import correlate
-
-    from hexatissue.order import _valid_correlation
-
-    rng = np.random.default_rng(0)
-    mask = (rng.random((57, 73)) > 0.3).astype(float)
-    off = np.arange(-4, 5)
-    disk = ((off[None, :] ** 2 + off[:, None] ** 2) <= 16).astype(float)
-    np.testing.assert_allclose(_valid_correlation(mask, disk), correlate(mask, disk, "valid"), atol=1e-9)
-
-
 # ---------------------------------------------------------------------------- movies: fields -> defects -> tracks
 
 
