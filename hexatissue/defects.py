@@ -15,7 +15,7 @@ import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
 from .box import Box, as_box
-from .errors import InputError, check_orders, check_positive
+from .errors import InputError, check_orders, check_p, check_positive
 from .schema import require_columns, validate
 
 __all__ = [
