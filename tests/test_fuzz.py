@@ -72,19 +72,14 @@ def mesh_or_input_error(image, periodic, merge_distance):
             return None
 
 
+@pytest.mark.parametrize("periodic", [False, True], ids=["open", "periodic"])
 @SETTINGS
 @given(image=label_images(), merge_distance=st.sampled_from([0.0, 2.0]))
-def test_fuzz_open(image, merge_distance):
-    f = mesh_or_input_error(image, False, merge_distance)
-    if f is not None:
-        check_network(f, periodic=False)
-
-
-@SETTINGS
-@given(image=label_images(), merge_distance=st.sampled_from([0.0, 2.0]))
-def test_fuzz_periodic(image, merge_distance):
-    f = mesh_or_input_error(image, True, merge_distance)
-    if f is not None:
-        check_network(f, periodic=True)
+def test_fuzz(periodic, image, merge_distance):
+    f = mesh_or_input_error(image, periodic, merge_distance)
+    if f is None:
+        return
+    check_network(f, periodic=periodic)
+    if periodic:  # vertices folded into the box
         assert ((f.vertices[["x", "y"]] >= 0).all().all() and (f.vertices["x"] < f.shape[1]).all()
                 and (f.vertices["y"] < f.shape[0]).all())
