@@ -18,9 +18,11 @@ at the centre of pixel (0, 0); times in frames.
 """
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 import pickle
+import sys
 import warnings
 from collections import deque
 from pathlib import Path
@@ -125,14 +127,15 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
                    source=src.description, options={k: v.to_dict() for k, v in requested.items()}, mask=mask_info)
         store = _Checkpoint(checkpoint, key, checkpoint_every)
-    parts, tracker = _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress)
-    tables = {name: _concat(parts[name], name, order.p) for name in FRAME_TABLES}
+    rows, tracker = _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress)
+    tables = {name: rows.pop(name).table(name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
     parents = tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
+    _release_freed_memory()  # T1 detection's working set is about half the tables
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
     tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
     summary = {"tracking": _tracking_summary(tracker, cells, parents),
@@ -143,6 +146,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
                                                                     box, src.n_frames)
     else:
         del tables["grid"], tables["defects"]
+    _release_freed_memory()
     options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),
                "events": events.replace(censor=censor)}
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
@@ -190,10 +194,86 @@ def _with_mask(description, mask_info):
     return description if mask_info is None else {**description, "mask": mask_info}
 
 
-def _concat(parts, name, orders):
-    if not parts:
-        return empty_table(name, orders)
-    return pd.concat(parts, ignore_index=True)
+def _release_freed_memory():
+    """Return the C heap's free pages to the OS (glibc's ``malloc_trim``; a no-op elsewhere).
+
+    glibc keeps memory freed in the middle of its heap resident: without
+    this, the working set of a movie-level stage (T1 detection needs about
+    half the tables) stays in the process and what follows (writing the
+    tables) comes on top of it.
+    """
+    global _malloc_trim
+    if _malloc_trim is None:
+        _malloc_trim = False
+        if sys.platform.startswith("linux"):
+            try:
+                _malloc_trim = ctypes.CDLL(None).malloc_trim  # absent from musl
+            except (OSError, AttributeError):
+                pass
+    if _malloc_trim:
+        _malloc_trim(0)
+
+
+_malloc_trim = None
+
+
+class _Rows:
+    """One table of the movie, filled frame by frame into one growing buffer per column.
+
+    What ``pd.concat`` of the per-frame tables gives, without keeping them:
+    each frame's table is copied into the buffers on arrival and dropped, so
+    its memory is reused by the next frame, and :meth:`table` wraps the
+    buffers without a copy.  (Keeping thousands of small per-frame tables,
+    then concatenating them, holds the movie twice at the end, and the C
+    heap keeps the freed parts resident.)  Buffers are reserved for the
+    expected number of rows and doubled when full; the reserved tail is
+    never written, so it costs address space, not memory.  Frames whose
+    columns or dtypes differ from the first one's (or non-NumPy dtypes) fall
+    back to ``pd.concat``.
+    """
+
+    def __init__(self, expected_frames=1):
+        self.expected_frames = max(int(expected_frames), 1)
+        self.n = 0
+        self.names = self.dtypes = self.buffers = None
+        self.parts = None  # the pd.concat fallback
+
+    def append(self, df: pd.DataFrame, frames=1):
+        """Add the rows of ``df`` (the table of ``frames`` frames, used to size the buffers)."""
+        if self.parts is not None:
+            self.parts.append(df)
+            return
+        if self.buffers is None:
+            if not all(isinstance(dt, np.dtype) for dt in df.dtypes):
+                self.parts = [df]
+                return
+            self.names, self.dtypes = list(df.columns), list(df.dtypes)
+            capacity = int(1.1 * max(len(df), 1) / max(frames, 1) * self.expected_frames) + 16
+            self.buffers = [np.empty(capacity, dt) for dt in self.dtypes]
+        elif list(df.columns) != self.names or list(df.dtypes) != self.dtypes:
+            self.parts = [self.table(), df]
+            self.names = self.dtypes = self.buffers = None
+            return
+        end = self.n + len(df)
+        if end > len(self.buffers[0]):
+            capacity = max(end, 2 * len(self.buffers[0]))
+            for k, old in enumerate(self.buffers):  # one column at a time
+                new = np.empty(capacity, old.dtype)
+                new[:self.n] = old[:self.n]
+                self.buffers[k] = new
+                del old, new
+        for buf, name in zip(self.buffers, self.names):
+            buf[self.n:end] = df[name].to_numpy()
+        self.n = end
+
+    def table(self, name=None, orders=None, start=0) -> pd.DataFrame:
+        """The rows from ``start`` on (views of the buffers); ``empty_table(name, orders)`` if nothing came."""
+        if self.parts is not None:
+            out = pd.concat(self.parts, ignore_index=True)
+            return out.iloc[start:].reset_index(drop=True) if start else out
+        if self.buffers is None:
+            return empty_table(name, orders)
+        return pd.DataFrame({n: buf[start:self.n] for n, buf in zip(self.names, self.buffers)}, copy=False)
 
 
 def _with_tracks(cells, tracker):
@@ -445,19 +525,22 @@ def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progr
 def _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store, progress):
     from .progress import progress as progress_bar
 
-    parts = {name: [] for name in FRAME_TABLES}
+    n_frames = src.n_frames
+    rows = {name: _Rows(n_frames) for name in FRAME_TABLES}
     start = 0
     if store is not None:
         start, loaded, saved_tracker = store.load()
         if start:
-            parts, tracker = loaded, saved_tracker
-    n_frames = src.n_frames
+            tracker = saved_tracker
+            for name, tables in loaded.items():
+                for table in tables:
+                    rows[name].append(table, frames=table["frame"].nunique() if "frame" in table else 1)
     if start >= n_frames:
-        return parts, tracker
+        return rows, tracker
     executor, max_inflight = _executor(client, workers, n_frames - start)
     pending: deque = deque()
     due = store.due(start, n_frames) if store is not None else set()
-    new_parts = {name: [] for name in FRAME_TABLES}
+    saved = {name: r.n for name, r in rows.items()}  # rows already in checkpoint files
 
     frame_warnings = _FrameWarnings()
 
@@ -467,12 +550,12 @@ def _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store
         frame_warnings.add(t, found)
         tracker.add_valid(labels, t)
         for name, table in tables.items():
-            parts[name].append(table)
-            new_parts[name].append(table)
+            rows[name].append(table)
+        del tables, labels
         if t + 1 in due:
-            store.save(t + 1, new_parts, pickle.dumps(tracker))
-            for name in new_parts:
-                new_parts[name] = []
+            new = {name: [r.table(start=saved[name])] for name, r in rows.items() if r.n > saved[name]}
+            store.save(t + 1, new, pickle.dumps(tracker))
+            saved.update({name: r.n for name, r in rows.items()})
 
     try:
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
@@ -486,7 +569,7 @@ def _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store
     finally:
         executor.shutdown()
         frame_warnings.emit()
-    return parts, tracker
+    return rows, tracker
 
 
 class _Checkpoint:

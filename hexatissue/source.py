@@ -510,7 +510,13 @@ def _describe(axes, stored_shape, dtype, layout, notes=()) -> dict:
 
 
 class _TiffReader:
-    """Frames of series 0 of a TIFF file: memory-mapped when contiguous, else one page per read."""
+    """Frames of series 0 of a TIFF file: one positioned read per frame when contiguous, else one page per read.
+
+    Contiguous data are read with a plain file read into a new array, not
+    through a memory map: the pages of a map stay in the process's resident
+    memory once touched, so streaming a long stack through one would grow
+    the reader's RSS by the whole file.
+    """
 
     def __init__(self, path, channel):
         import tifffile
@@ -519,14 +525,13 @@ class _TiffReader:
         self.notes = []
         self._lock = threading.Lock()
         self._tf = None
-        self._mm = None
         tf = tifffile.TiffFile(self.path)
         try:
             self._inspect(tf, channel)
         except BaseException:
             tf.close()
             raise
-        if self.mode == "memmap":
+        if self.mode == "contiguous":
             tf.close()
         else:
             self._tf = tf
@@ -547,9 +552,9 @@ class _TiffReader:
         self.calibration = _tiff_calibration(tf, self.notes)
         n_pages = int(np.prod(lead_sizes, dtype=np.int64))
         if series.dataoffset is not None:
-            self.mode = "memmap"
+            self.mode = "contiguous"
             self._offset = int(series.dataoffset)
-            self._mm_dtype = np.dtype(tf.byteorder + series.dtype.char).str
+            self._file_dtype = np.dtype(tf.byteorder + series.dtype.char).str
         elif n_pages > 1 and not _has_page(series, n_pages - 1):
             # ImageJ header promising more images than the file holds (e.g. re-saved compressed): read the IFDs
             n_ifd = len(tf.pages)
@@ -570,7 +575,7 @@ class _TiffReader:
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_tf=None, _mm=None, _lock=None)
+        state.update(_tf=None, _lock=None)
         return state
 
     def __setstate__(self, state):
@@ -593,11 +598,8 @@ class _TiffReader:
         idx = self.layout.index(t)
         try:
             with self._lock:
-                if self.mode == "memmap":
-                    if self._mm is None:
-                        self._mm = np.memmap(self.path, dtype=self._mm_dtype, mode="r", offset=self._offset,
-                                             shape=self.stored_shape)
-                    arr = np.array(self._mm[idx])
+                if self.mode == "contiguous":
+                    arr = self._read_contiguous(idx)
                 else:
                     if self._tf is None:
                         import tifffile
@@ -611,6 +613,18 @@ class _TiffReader:
         if "S" in self.page_axes:
             arr = _collapse_rgb(np.moveaxis(arr, self.page_axes.index("S"), -1))
         return arr
+
+    def _read_contiguous(self, idx) -> np.ndarray:
+        page_shape = self.stored_shape[len(idx):]
+        dtype = np.dtype(self._file_dtype)
+        count = int(np.prod(page_shape, dtype=np.int64))
+        k = int(np.ravel_multi_index(idx, self.layout.sizes)) if idx else 0
+        with open(self.path, "rb") as fh:
+            fh.seek(self._offset + k * count * dtype.itemsize)
+            arr = np.fromfile(fh, dtype=dtype, count=count)
+        if arr.size != count:
+            raise OSError(f"the file ends inside image {k} ({arr.size} of {count} values)")
+        return arr.reshape(page_shape)
 
 
 def _has_page(series, k) -> bool:
