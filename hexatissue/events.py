@@ -34,6 +34,7 @@ import pandas as pd
 from .box import Box
 from .errors import InputError, is_real
 from .graph import contact_table as graph_contacts
+from .geometry import lookup, row_keys
 from .schema import interior_mask, track_ids, validate
 
 __all__ = ["detect_t1", "neighbour_events", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
@@ -472,21 +473,59 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
 # The paper's per-cell definition: changes of each cell's neighbour list
 # ----------------------------------------------------------------------------
 
-def _neighbour_sets(contacts, frames, tracks):
-    """``{track: {frame: frozenset of neighbour tracks}}`` and ``{frame: set of tracks present}``."""
-    present = {}
-    for f, t in zip(frames, tracks):
-        present.setdefault(int(f), set()).add(int(t))
-    u = np.r_[contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)]
-    v = np.r_[contacts["b"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64)]
-    f = np.r_[contacts["frame"].to_numpy(np.int64), contacts["frame"].to_numpy(np.int64)]
-    order = np.lexsort((v, f, u))
-    u, v, f = u[order], v[order], f[order]
-    starts = np.flatnonzero(np.r_[True, (u[1:] != u[:-1]) | (f[1:] != f[:-1])]) if len(u) else np.zeros(0, int)
-    pairs = {}
-    for lo, hi in zip(starts.tolist(), np.r_[starts[1:], len(u)].tolist()):
-        pairs.setdefault(int(u[lo]), {})[int(f[lo])] = frozenset(v[lo:hi].tolist())
-    return pairs, present
+def _mix(ids):
+    """A 64-bit hash of each id (splitmix64): sums of them identify neighbour sets (order-free)."""
+    z = ids.astype(np.uint64) + np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+class _Lists:
+    """Every cell's neighbour list in every frame, as hashes (vectorised) and, on demand, as sets.
+
+    Rows are the (track, frame) pairs present, sorted by track then frame.  ``full[r]`` hashes
+    the list of row r; ``changed[r]`` says whether it differs from the row before (the same cell
+    one frame earlier) on the cells present in both frames.
+    """
+
+    def __init__(self, contacts, frames, tracks):
+        key = row_keys(frames, tracks)
+        _, first = np.unique(key, return_index=True)
+        order = first[np.lexsort((frames[first], tracks[first]))]
+        self.frame, self.track = frames[order], tracks[order]
+        self.keys = row_keys(self.frame, self.track)
+        u = np.r_[contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)]
+        v = np.r_[contacts["b"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64)]
+        f = np.r_[contacts["frame"].to_numpy(np.int64), contacts["frame"].to_numpy(np.int64)]
+        srt = np.lexsort((v, u, f))  # by (frame, cell): the order of their row keys
+        self.u, self.v, self.f = u[srt], v[srt], f[srt]
+        row = lookup(self.keys, None, row_keys(self.f, self.u))
+        ok = row >= 0
+        self.u, self.v, self.f, row = self.u[ok], self.v[ok], self.f[ok], row[ok]
+        n = len(self.keys)
+        h = _mix(self.v)
+        self.full = np.zeros(n, np.uint64)
+        np.add.at(self.full, row, h)
+        # the list at f restricted to cells present at f + 1, and to cells present at f - 1
+        fwd, bwd = np.zeros(n, np.uint64), np.zeros(n, np.uint64)
+        np.add.at(fwd, row, np.where(self.present(self.f + 1, self.v), h, np.uint64(0)))
+        np.add.at(bwd, row, np.where(self.present(self.f - 1, self.v), h, np.uint64(0)))
+        consecutive = np.r_[False, (self.track[1:] == self.track[:-1]) & (self.frame[1:] == self.frame[:-1] + 1)]
+        self.changed = consecutive & (np.r_[np.uint64(0), fwd[:-1]] != bwd)
+        self.contact_key = row_keys(self.f, self.u)  # sorted: slices of one row's neighbours
+        frame_ids, counts = np.unique(self.frame, return_counts=True)
+        self.constant = len(set(counts.tolist())) <= 1 and all(
+            np.array_equal(self.track[self.frame == frame_ids[0]], self.track[self.frame == g]) for g in frame_ids[1:])
+
+    def present(self, frames, tracks):
+        return lookup(self.keys, None, row_keys(frames, tracks)) >= 0
+
+    def members(self, frame, track):
+        """The neighbour set of ``track`` at ``frame``."""
+        k = row_keys(np.int64(frame), np.int64(track))
+        lo, hi = np.searchsorted(self.contact_key, [k, k + 1])
+        return frozenset(self.v[lo:hi].tolist())
 
 
 def _same_list(a, b, present_a, present_b):
@@ -494,51 +533,38 @@ def _same_list(a, b, present_a, present_b):
     return a == b or all(c not in present_a or c not in present_b for c in a ^ b)
 
 
-def _first_return(k, frames_of, sets, present, before, prev, index):
-    """Position in ``frames_of`` after ``k`` of the first frame whose list is ``before`` (the list at ``prev``).
-
-    With a constant cell population (``index``: positions of each exact list) the lists must be equal and
-    the answer is looked up; otherwise every later frame is compared on the cells present at both.
-    """
-    if index is not None:
-        positions = index.get(before, ())
-        at = bisect.bisect_right(positions, k)
-        return positions[at] if at < len(positions) else None
-    empty = frozenset()
-    for j in range(k + 1, len(frames_of)):
-        if _same_list(sets.get(frames_of[j], empty), before, present[frames_of[j]], present[prev]):
-            return j
-    return None
-
-
-def _cell_changes(frames_of, sets, present, last, censor, constant):
-    """Events of one cell: (frame_start, frame_end or None, kind, n_lost, n_gained).
-
-    ``constant``: every frame has the same cells (then lists are compared exactly, through an index).
-    """
-    empty = frozenset()
-    index = None
-    if constant:
-        index = {}
-        for j, g in enumerate(frames_of):
-            index.setdefault(sets.get(g, empty), []).append(j)
+def _cell_events(lists, lo, hi, population, last, censor):
+    """Events of the cell of rows ``lo:hi``: (frame_start, frame_end or None, kind, n_lost, n_gained)."""
+    frames_of = lists.frame[lo:hi].tolist()
+    track = int(lists.track[lo])
+    changes = np.flatnonzero(lists.changed[lo:hi]).tolist()
+    if not changes:
+        return []
+    full = lists.full[lo:hi]
     out = []
-    k = 1
-    while k < len(frames_of):
+    c = 0
+    while c < len(changes):
+        k = changes[c]
         prev, f = frames_of[k - 1], frames_of[k]
-        before, after = sets.get(prev, empty), sets.get(f, empty)
-        if f != prev + 1 or _same_list(before, after, present[prev], present[f]):
-            k += 1  # unchanged, or the cell was missing: nothing to compare across the gap
-            continue
-        n_lost = sum(c in present[f] for c in before - after)
-        n_gained = sum(c in present[prev] for c in after - before)
-        back = _first_return(k, frames_of, sets, present, before, prev, index)
+        before, after = lists.members(prev, track), lists.members(f, track)
+        n_lost = sum(x in population(f) for x in before - after)
+        n_gained = sum(x in population(prev) for x in after - before)
+        back = None  # first later row whose list is the one left at `prev`, on the cells present at both
+        if lists.constant:  # the same cells in every frame: the lists must be equal, and so their hashes
+            same = np.flatnonzero(full[k + 1:] == full[k - 1])
+            back = int(same[0]) + k + 1 if len(same) else None
+        else:
+            for j in range(k + 1, len(frames_of)):
+                g = frames_of[j]
+                if _same_list(lists.members(g, track), before, population(g), population(prev)):
+                    back = j
+                    break
         if back is not None:
             out.append((f, frames_of[back], "cycle", n_lost, n_gained))
-            k = back + 1
+            c = bisect.bisect_right(changes, back)
         else:
             out.append((f, None, "unresolved" if last - f < censor else "intercalation", n_lost, n_gained))
-            k += 1
+            c += 1
     return out
 
 
@@ -590,19 +616,21 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
         raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
     frames = cells["frame"].to_numpy(np.int64)
     tracks = track_ids(cells)
-    contacts = track_contacts(edges, cells, min_length)
-    sets, present = _neighbour_sets(contacts, frames, tracks)
+    lists = _Lists(track_contacts(edges, cells, min_length), frames, tracks)
     last = int(frames.max()) if len(frames) else 0
-    population = list(present.values())
-    constant = all(p == population[0] for p in population)
-    order = np.lexsort((frames, tracks))
+    by_frame = {}
+
+    def population(frame):  # the cells present at a frame, as a set (built when first needed)
+        if frame not in by_frame:
+            by_frame[frame] = set(lists.track[lists.frame == frame].tolist())
+        return by_frame[frame]
+
     rows = []
-    bounds = np.flatnonzero(np.r_[True, tracks[order][1:] != tracks[order][:-1], True])
-    for lo, hi in zip(bounds[:-1], bounds[1:]):
-        track = int(tracks[order][lo])
-        frames_of = frames[order][lo:hi].tolist()
-        for start, end, kind, n_lost, n_gained in _cell_changes(frames_of, sets.get(track, {}), present, last,
-                                                                censor, constant):
+    bounds = np.flatnonzero(np.r_[True, lists.track[1:] != lists.track[:-1], True])
+    with_changes = np.add.reduceat(lists.changed, bounds[:-1]) > 0 if len(lists.track) else np.zeros(0, bool)
+    for lo, hi in zip(bounds[:-1][with_changes], bounds[1:][with_changes]):
+        track = int(lists.track[lo])
+        for start, end, kind, n_lost, n_gained in _cell_events(lists, lo, hi, population, last, censor):
             rows.append((track, kind, start, np.nan if end is None else float(end), n_lost, n_gained))
     out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
     out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,
