@@ -8,6 +8,9 @@ Data layout (see ../shared/mpf.md):
   origins (they follow the cell across the periodic box).  The outer ring of
   every patch is held at 0 (Dirichlet), so only the interior nodes
   ``1..P-2`` evolve.
+- Advection ``v_c . grad phi_c``: third-order upwind (``UPWIND3``; it reads
+  the second neighbours ``i -+ 2``, clamped onto the zero ring next to it) or
+  central differences (``CENTRAL``).
 - ``S1 = sum_c phi_c`` and ``S2 = sum_c phi_c^2`` on the full lattice; the
   "other cells" terms are ``S2 - phi_c^2`` and ``lap(S1) - lap(phi_c)``.
 
@@ -29,8 +32,12 @@ from numba import njit, prange
 CHUNK_ROWS = 8  # lattice rows per band of the lattice sums (fixed: results must not depend on threads)
 
 # indices into the per-dtype constant vector ``par`` (kept in the field dtype so float32 runs stay float32)
-HALF_ALPHA, K_PHI, TWO_EPS, K_AD, MOB, DT, PHI0, FOUR, HALF = range(9)
-N_PAR = 9
+HALF_ALPHA, K_PHI, TWO_EPS, K_AD, MOB, DT, PHI0, FOUR, HALF, TWO, THREE, SIX, SIXTH = range(13)
+N_PAR = 13
+
+# advection schemes (Params.advection -> the ``scheme`` argument of the kernels)
+CENTRAL, UPWIND3 = 0, 1
+SCHEMES = {"central": CENTRAL, "upwind3": UPWIND3}
 
 
 def pack_params(p, dtype) -> np.ndarray:
@@ -45,6 +52,10 @@ def pack_params(p, dtype) -> np.ndarray:
     par[PHI0] = p.phi0
     par[FOUR] = 4.0
     par[HALF] = 0.5
+    par[TWO] = 2.0
+    par[THREE] = 3.0
+    par[SIX] = 6.0
+    par[SIXTH] = 1.0 / 6.0
     return par
 
 
@@ -143,8 +154,27 @@ def lattice_laplacian(S1, ptr, L):
 
 
 @njit(cache=True, fastmath=True)
-def _rhs_node(phi, c, i, j, s2, lap_s1, par, ca, vx, vy):
-    """``d phi_c / dt`` at patch node (i, j), given ``S2`` and ``lap S1`` at its lattice node."""
+def _upwind3(vm2, vm1, v, vp1, vp2, velocity, par):
+    """6 x the third-order upwind first derivative along one axis (spacing 1).
+
+    velocity > 0 (upstream is the minus side): ``(2 f[+1] + 3 f[0] - 6 f[-1] + f[-2]) / 6``;
+    velocity <= 0: ``(-f[+2] + 6 f[+1] - 3 f[0] - 2 f[-1]) / 6``.  Both are exact for cubics;
+    the leading error ``+-f^(4) / 12`` acts as a hyperdiffusion ``-(|v| / 12) d^4 phi`` in the
+    advection equation (docs/simulate.md).
+    """
+    if velocity > 0:
+        return par[TWO] * vp1 + par[THREE] * v - par[SIX] * vm1 + vm2
+    return par[SIX] * vp1 - vp2 - par[THREE] * v - par[TWO] * vm1
+
+
+@njit(cache=True, fastmath=True)
+def _rhs_node(phi, c, i, j, im2, ip2, jm2, jp2, s2, lap_s1, par, ca, vx, vy, scheme):
+    """``d phi_c / dt`` at patch node (i, j), given ``S2`` and ``lap S1`` at its lattice node.
+
+    ``im2, ip2, jm2, jp2`` are the second neighbours ``i -+ 2``, ``j -+ 2`` clamped onto the patch's
+    zero ring (0 or P - 1), so next to the ring the upwind stencil reads 0, as the field beyond the
+    patch is; the central scheme does not use them.
+    """
     v = phi[c, i, j]
     vn = phi[c, i - 1, j]
     vs = phi[c, i + 1, j]
@@ -159,12 +189,17 @@ def _rhs_node(phi, c, i, j, s2, lap_s1, par, ca, vx, vy):
         - par[K_AD] * (lap_s1 - lap)
         - ca * v
     )
-    adv = par[HALF] * (vx * (ve - vw) + vy * (vs - vn))
+    if scheme == UPWIND3:
+        dx6 = _upwind3(phi[c, i, jm2], vw, v, ve, phi[c, i, jp2], vx, par)
+        dy6 = _upwind3(phi[c, im2, j], vn, v, vs, phi[c, ip2, j], vy, par)
+        adv = par[SIXTH] * (vx * dx6 + vy * dy6)
+    else:
+        adv = par[HALF] * (vx * (ve - vw) + vy * (vs - vn))
     return -par[MOB] * mu - adv
 
 
 @njit(cache=True, parallel=True, fastmath=True)
-def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second):
+def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second, scheme):
     """One Heun stage for every cell (prange over cells; each writes only its own patch).
 
     First stage (``second=False``): ``out = phi + dt f(phi)`` (``phi_eval`` is ``phi``).
@@ -173,7 +208,7 @@ def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a
     so ``k1`` is never stored (``out`` may be ``phi``: each node reads only
     ``phi_eval`` around it and ``phi`` at itself).  ``f`` is evaluated with
     ``S2`` and ``L = lap S1`` of ``phi_eval``.  ``area[c]`` receives
-    ``int phi_eval_c^2 dA`` (float64).
+    ``int phi_eval_c^2 dA`` (float64).  ``scheme`` is ``CENTRAL`` or ``UPWIND3`` (advection).
     """
     N, P = phi.shape[0], phi.shape[1]
     Lx = S2.shape[1]
@@ -193,9 +228,12 @@ def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a
         straight = q0 + P <= Lx
         for i in range(1, P - 1):
             r = gy[c, i]
+            im2 = max(i - 2, 0)
+            ip2 = min(i + 2, P - 1)
             for j in range(1, P - 1):
                 q = q0 + j if straight else gx[c, j]
-                k = _rhs_node(phi_eval, c, i, j, S2[r, q], L[r, q], par, ca, cvx, cvy)
+                k = _rhs_node(phi_eval, c, i, j, im2, ip2, max(j - 2, 0), min(j + 2, P - 1), S2[r, q], L[r, q],
+                              par, ca, cvx, cvy, scheme)
                 if second:
                     out[c, i, j] = half * (phi[c, i, j] + phi_eval[c, i, j]) + half_dt * k
                 else:
@@ -293,14 +331,15 @@ def set_velocity(theta, v0, vx, vy):
 
 @njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
 def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
-            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold):
+            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme):
     """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).
 
     Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
     (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
     for passive steps).  After every step whose global index ``step0 + s + 1``
     is a multiple of ``recentre_every`` the patches are re-centred (``phis``
-    is their scratch space).  Returns the number of patch moves.
+    is their scratch space).  ``scheme`` selects the advection stencil (``CENTRAL``, ``UPWIND3``).
+    Returns the number of patch moves.
     """
     Lx, Ly = S1.shape[1], S1.shape[0]
     P = phi.shape[1]
@@ -309,10 +348,10 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
         set_velocity(theta, v0, vx, vy)
         lattice_sums(phi, oy, gx, ptr, cells, S1, S2)
         lattice_laplacian(S1, ptr, L)
-        heun_stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False)
+        heun_stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False, scheme)
         lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
         lattice_laplacian(S1, ptr, L)
-        heun_stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True)
+        heun_stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme)
         if sigma > 0:
             for c in range(theta.shape[0]):
                 theta[c] += sigma * noise[s, c]
