@@ -160,7 +160,8 @@ def test_upwind_stencils_are_third_order():
     cubic = lambda t: 0.3 - 1.2 * t + 0.05 * t**2 + 0.02 * t**3  # noqa: E731
     vals = [cubic(t) for t in (-2, -1, 0, 1, 2)]
     for velocity in (0.5, -0.5):
-        assert K._upwind3(*vals, velocity, par) / 6 == pytest.approx(-1.2, abs=1e-13)
+        for w in (K._upwind3_weights(velocity, par), K.upwind3_weights(velocity)):
+            assert np.dot(w, vals) == pytest.approx(-1.2 * velocity, abs=1e-13)
 
 
 def test_upwind_next_to_the_zero_ring_reads_zero():
@@ -388,7 +389,7 @@ def test_run_store_contents(tmp_path):
     assert run.labels.shape == (7, 44, 48)
     assert run.labels[0].shape == (44, 48) and run.labels[-1].shape == (44, 48)
     assert np.array_equal(run.step, np.arange(0, 61, 10))
-    assert run.params == RUNP and run.seed == 5
+    assert run.params == RUNP and run.seed == 5 and run.params.advection == "upwind3"
     assert (run.box.Lx, run.box.Ly, run.box.periodic) == (48.0, 44.0, True)
     cells = run.cells
     assert list(cells.columns[:4]) == ["frame", "cell", "x", "y"]
@@ -408,6 +409,24 @@ def test_run_store_contents(tmp_path):
     # polarity diffuses at D_r: theta changes, and only during the active run
     th = cells.pivot(index="frame", columns="cell", values="theta").to_numpy()
     assert np.all(th[1:] != th[:-1])
+
+
+def test_store_without_advection_reads_back_as_central(tmp_path):
+    """Stores written before Params.advection existed were advected with central differences."""
+    import zarr
+
+    out = tmp_path / "old.zarr"
+    run_simulation(out, RUNP.replace(advection="central"), **{**RUN, "steps": 20})
+    g = zarr.open_group(str(out), mode="r+")
+    params = dict(g.attrs["params"])
+    del params["advection"]
+    g.attrs["params"] = params
+    assert read_run(out).params == RUNP.replace(advection="central")
+    # and it resumes with central differences: the same frames as a central run made in one go
+    run_simulation(out, steps=60, resume=True, progress=False)
+    full = tmp_path / "full.zarr"
+    run_simulation(full, RUNP.replace(advection="central"), **RUN)
+    _assert_same_run(_arrays(out), _arrays(full))
 
 
 def test_runs_are_deterministic_for_a_seed(tmp_path):
@@ -489,6 +508,13 @@ def test_command_line(tmp_path, capsys):
     assert args.func(args) == 0
     run = read_run(out)
     assert run.n_frames == 5 and run.params.n_cells == 6 and run.seed == 3
+    assert run.params.advection == "upwind3"
+    args = parser.parse_args(base + ["--steps", "10", "--save-every", "10", "--relax", "0", "--advection", "central",
+                                     "--overwrite"])
+    assert args.func(args) == 0
+    assert read_run(out).params.advection == "central"
+    with pytest.raises(SystemExit):
+        parser.parse_args(base + ["--advection", "upwind"])
     args = parser.parse_args(base + ["--dt", "2", "--overwrite"])
     assert args.func(args) == 2
     assert "unstable" in capsys.readouterr().err
