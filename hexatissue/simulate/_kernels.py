@@ -208,12 +208,16 @@ def upwind3_weights(velocity):
 
 @njit(cache=True, fastmath=True)
 def _upwind3_weights(velocity, par):
-    """:func:`upwind3_weights` in the field dtype (``par`` holds the constants)."""
+    """:func:`upwind3_weights` in the field dtype, without its zero weight.
+
+    Returns ``(far, w_far, w_m1, w_0, w_p1)``: the offset (-2 or +2) of the one second neighbour
+    the stencil uses and the weights of it, ``f[-1]``, ``f[0]`` and ``f[+1]`` (``par`` holds the
+    constants).
+    """
     s = velocity * par[SIXTH]
-    zero = s - s
     if velocity > 0:
-        return s, -par[SIX] * s, par[THREE] * s, par[TWO] * s, zero
-    return zero, -par[TWO] * s, -par[THREE] * s, par[SIX] * s, -s
+        return -2, s, -par[SIX] * s, par[THREE] * s, par[TWO] * s
+    return 2, -s, -par[TWO] * s, -par[THREE] * s, par[SIX] * s
 
 
 @njit(cache=True, fastmath=True)
@@ -253,18 +257,17 @@ def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, seco
     dt = par[DT]
     half = par[HALF]
     half_dt = half * dt
-    # weights of f[-2], f[-1], f[+1], f[+2] in v . grad f along x and y, and of f[0] (both axes)
-    xm2, xm1, x0, xp1, xp2 = _upwind3_weights(cvx, par)
-    ym2, ym1, y0, yp1, yp2 = _upwind3_weights(cvy, par)
+    # v . grad f = sum of weights x f at the node, its 4 neighbours and one second neighbour per axis
+    jfar, xf, xm1, x0, xp1 = _upwind3_weights(cvx, par)
+    ifar, yf, ym1, y0, yp1 = _upwind3_weights(cvy, par)
     w0 = x0 + y0
     flat = phi_eval[c].reshape(P * P)
     q0 = gx[c, 0]
     straight = q0 + P <= Lx
     for i in range(1, P - 1):
         r = gy[c, i]
-        im2 = max(i - 2, 0)
-        ip2 = min(i + 2, P - 1)
-        row = i * P
+        i2 = min(max(i + ifar, 0), P - 1)
+        row = i * P + jfar
         for j in range(1, P - 1):
             q = q0 + j if straight else gx[c, j]
             v = phi_eval[c, i, j]
@@ -273,12 +276,7 @@ def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, seco
             vw = phi_eval[c, i, j - 1]
             ve = phi_eval[c, i, j + 1]
             mu = _mu_node(v, vn, vs, vw, ve, S2[r, q], L[r, q], par, ca)
-            adv = (
-                w0 * v
-                + xm1 * vw + xp1 * ve + ym1 * vn + yp1 * vs
-                + xm2 * flat[row + j - 2] + xp2 * flat[row + j + 2]
-                + ym2 * phi_eval[c, im2, j] + yp2 * phi_eval[c, ip2, j]
-            )
+            adv = w0 * v + xm1 * vw + xp1 * ve + ym1 * vn + yp1 * vs + xf * flat[row + j] + yf * phi_eval[c, i2, j]
             k = -par[MOB] * mu - adv
             if second:
                 out[c, i, j] = half * (phi[c, i, j] + v) + half_dt * k
