@@ -9,7 +9,7 @@ One state, two codes
 --------------------
 The C code starts every cell from one template field (its "shape file") placed at a given centre
 (its "cm file", with the polarity as a unit velocity).  So the common initial state is: N identical
-tanh discs (radius 0.45 x the mean spacing, hexatissue's default) whose 41 x 41 patches have their
+tanh discs (radius 0.45 x the mean spacing, hexatissue's default) whose P x P patches (``--patch``, 41) have their
 origins on hexatissue's jittered lattice, and one random polarity per cell.  Both codes get exactly
 these fields (hexatissue's ``phi[c, row, col]`` = the C code's ``field[x = col][y = row]``) and
 polarities.  Parameters: the paper's (alpha = k_phi = 0.2, eps = 0.1, lambda = mu = 600, R = 11.5,
@@ -64,7 +64,6 @@ from hexatissue.simulate import Params, set_threads  # noqa: E402
 from hexatissue.simulate.model import Simulation, _disc_patch, _lattice_seeds  # noqa: E402
 from hexatissue.simulate.segment import labels_from_max  # noqa: E402
 
-HALF = 20  # the C code places a cell's template at int(x_cm - cellLx / 2) with integer division: 41 / 2 = 20
 
 
 # -- building the C code ---------------------------------------------------------------------
@@ -97,18 +96,23 @@ def build_c_code(repo: Path, build: Path) -> Path:
 
 # -- the common initial state ----------------------------------------------------------------
 def common_params(**kw) -> Params:
-    """The paper's parameters with the C code's phi0 = 2, M = 0.1, dt = 0.5 and no adhesion."""
-    return Params.loewe(k_ad=0.0, dtype="float64", patch=41, **kw)
+    """The paper's parameters with the C code's phi0 = 2, M = 0.1, dt = 0.5 and no adhesion (patch 41 by default)."""
+    return Params.loewe(**{"k_ad": 0.0, "dtype": "float64", "patch": 41, **kw})
+
+
+def half(p: Params) -> int:
+    """The C code places a cell's template at ``int(x_cm - cellLx / 2)``, with integer division."""
+    return p.patch // 2
 
 
 def initial_fields(p: Params, seed: int):
     """(template (P, P), ox, oy, theta): one disc template, nonnegative patch origins, polarities."""
     rng = np.random.default_rng(seed)
     xy = _lattice_seeds(p.n_cells, p.Lx, p.Ly, 0.2, rng)
-    ox = (np.floor(xy[:, 0]).astype(np.int64) - HALF) % p.Lx
-    oy = (np.floor(xy[:, 1]).astype(np.int64) - HALF) % p.Ly
+    ox = (np.floor(xy[:, 0]).astype(np.int64) - half(p)) % p.Lx
+    oy = (np.floor(xy[:, 1]).astype(np.int64) - half(p)) % p.Ly
     radius = min(p.R, 0.45 * math.sqrt(p.Lx * p.Ly / p.n_cells))
-    template = _disc_patch(p, HALF, HALF, radius)
+    template = _disc_patch(p, half(p), half(p), radius)
     # the C code holds the two outer rings of its patch fixed, hexatissue the outer one at 0: start both at 0
     template[:2, :] = template[-2:, :] = template[:, :2] = template[:, -2:] = 0.0
     theta = rng.uniform(0.0, 2 * np.pi, p.n_cells)
@@ -121,8 +125,8 @@ def write_c_inputs(run: Path, p: Params, template, ox, oy, theta, nequil, nsteps
     P = template.shape[0]
     with open(run / "cm.in", "w") as fh:  # the C code reads these lines into an 80-char buffer
         for c in range(p.n_cells):
-            # x_cm - 20 = origin + 0.5, which the C code truncates to the origin (origins are >= 0)
-            fh.write(f"{c} {ox[c] + HALF + 0.5:.1f} {oy[c] + HALF + 0.5:.1f} "
+            # x_cm - P // 2 = origin + 0.5, which the C code truncates to the origin (origins are >= 0)
+            fh.write(f"{c} {ox[c] + half(p) + 0.5:.1f} {oy[c] + half(p) + 0.5:.1f} "
                      f"{math.cos(theta[c]):.12f} {math.sin(theta[c]):.12f}\n")
     with open(run / "shape.in", "w") as fh:
         for x in range(P):
@@ -271,6 +275,7 @@ def main(argv=None):
     ap.add_argument("--advection", nargs="+", default=["upwind3", "central"], choices=["upwind3", "central"])
     ap.add_argument("--cells", type=int, default=440)
     ap.add_argument("--size", type=int, nargs=2, default=(384, 403))
+    ap.add_argument("--patch", type=int, default=41, help="patch side in both codes (odd; default 41)")
     ap.add_argument("--out", type=Path, default=None, help="append the markdown report here")
     ap.add_argument("--json", type=Path, default=None, help="write all numbers here")
     ap.add_argument("--keep", action="store_true", help="keep the temporary build and run folder")
@@ -283,10 +288,10 @@ def main(argv=None):
     results = {"settings": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()}, "runs": []}
     try:
         exe = build_c_code(args.c_code, work / "build")
-        base = common_params(n_cells=args.cells, Lx=args.size[0], Ly=args.size[1])
+        base = common_params(n_cells=args.cells, Lx=args.size[0], Ly=args.size[1], patch=args.patch)
         lines = [f"## hexatissue vs the C code, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}", "",
                  f"- {base.n_cells} cells, {base.Lx} x {base.Ly}, phi0 = {base.phi0:g}, M = {base.M:g}, "
-                 f"dt = {base.dt:g}, v0 = {base.v0:g}, D_r = {base.D_r:g}, k_ad = 0, patch 41; "
+                 f"dt = {base.dt:g}, v0 = {base.v0:g}, D_r = {base.D_r:g}, k_ad = 0, patch {base.patch}; "
                  f"{args.nequil} equilibration + {args.nsteps} active steps; seeds {args.seeds}",
                  f"- load before: `{os.getloadavg()}`", ""]
         if args.check_steps:
