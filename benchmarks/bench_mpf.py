@@ -10,9 +10,14 @@ thread it shows what an idle core would give even when the machine is busy.
 The machine load (``uptime``) is recorded: on a shared machine, compare only
 figures taken in one run.
 
+``--schemes`` instead measures the cost of the advection stencil: the paper
+system with ``advection="central"`` and ``"upwind3"`` side by side in one
+process, their stretches interleaved so that both see the same machine load.
+
 Usage::
 
     python benchmarks/bench_mpf.py [--repeats 5] [--out benchmarks/results_mpf.md]
+    python benchmarks/bench_mpf.py --schemes [--repeats 9] [--threads 1] [--out benchmarks/results_mpf.md]
 """
 from __future__ import annotations
 
@@ -55,6 +60,58 @@ def steps_per_second(params: Params, threads: int, repeats: int, seconds: float 
     return rates, cpu
 
 
+def scheme_rates(dtype: str, threads: int, repeats: int, n: int = 100):
+    """Interleaved stretches of ``n`` active steps with central and upwind3 advection (paper system)."""
+    set_threads(threads)
+    sims = {}
+    for adv in ("central", "upwind3"):
+        sim = initial_state(Params(dtype=dtype, advection=adv), seed=0)
+        sim.advance(30, active=False)  # compile and leave the initial transient
+        sim.advance(10)
+        sims[adv] = sim
+    rates = {adv: [] for adv in sims}
+    cpu = {adv: [] for adv in sims}
+    for _ in range(repeats):
+        for adv, sim in sims.items():
+            t0, c0 = time.perf_counter(), time.process_time()
+            sim.advance(n)
+            rates[adv].append(n / (time.perf_counter() - t0))
+            cpu[adv].append(n / (time.process_time() - c0))
+    return rates, cpu
+
+
+def schemes_main(args):
+    import numba
+
+    lines = [
+        f"## Advection stencil cost, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}",
+        "",
+        f"- machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores; "
+        f"python {platform.python_version()}, numba {numba.__version__}, numpy {np.__version__}",
+        f"- paper system (440 cells, 384 x 403, P = 41), active; {args.repeats} interleaved stretches of 100 steps "
+        "per scheme",
+        f"- load before: `{uptime()}`",
+        "",
+        "| dtype | threads | central steps/s (median wall; per CPU-s) | upwind3 steps/s (median wall; per CPU-s) "
+        "| upwind3 / central (per CPU-s) |",
+        "|---|---|---|---|---|",
+    ]
+    for dtype in ("float32", "float64"):
+        rates, cpu = scheme_rates(dtype, args.threads, args.repeats)
+        c = {a: float(np.median(v)) for a, v in cpu.items()}
+        w = {a: float(np.median(v)) for a, v in rates.items()}
+        row = (f"| {dtype} | {args.threads} | {w['central']:.0f}; {c['central']:.0f} | {w['upwind3']:.0f}; "
+               f"{c['upwind3']:.0f} | {c['upwind3'] / c['central']:.2f} |")
+        print(row, flush=True)
+        lines.append(row)
+    lines += ["", f"- load after: `{uptime()}`", ""]
+    text = "\n".join(lines)
+    print(text)
+    if args.out:
+        with open(args.out, "a") as fh:
+            fh.write(text + "\n")
+
+
 def scaled(n_cells: int, **kw) -> Params:
     s = math.sqrt(n_cells / 440)
     return Params(n_cells=n_cells, Lx=int(round(384 * s)), Ly=int(round(403 * s)), **kw)
@@ -64,7 +121,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", type=Path, default=None, help="also write the markdown table here")
+    ap.add_argument("--schemes", action="store_true", help="measure central vs upwind3 advection instead")
+    ap.add_argument("--threads", type=int, default=1, help="threads for --schemes (default 1)")
     args = ap.parse_args(argv)
+    if args.schemes:
+        return schemes_main(args)
 
     import numba
 

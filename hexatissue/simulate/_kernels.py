@@ -8,6 +8,9 @@ Data layout (see ../shared/mpf.md):
   origins (they follow the cell across the periodic box).  The outer ring of
   every patch is held at 0 (Dirichlet), so only the interior nodes
   ``1..P-2`` evolve.
+- Advection ``v_c . grad phi_c``: third-order upwind (``UPWIND3``; it reads
+  the second neighbours ``i -+ 2``, clamped onto the zero ring next to it) or
+  central differences (``CENTRAL``).
 - ``S1 = sum_c phi_c`` and ``S2 = sum_c phi_c^2`` on the full lattice; the
   "other cells" terms are ``S2 - phi_c^2`` and ``lap(S1) - lap(phi_c)``.
 
@@ -29,8 +32,12 @@ from numba import njit, prange
 CHUNK_ROWS = 8  # lattice rows per band of the lattice sums (fixed: results must not depend on threads)
 
 # indices into the per-dtype constant vector ``par`` (kept in the field dtype so float32 runs stay float32)
-HALF_ALPHA, K_PHI, TWO_EPS, K_AD, MOB, DT, PHI0, FOUR, HALF = range(9)
-N_PAR = 9
+HALF_ALPHA, K_PHI, TWO_EPS, K_AD, MOB, DT, PHI0, FOUR, HALF, TWO, THREE, SIX, SIXTH = range(13)
+N_PAR = 13
+
+# advection schemes (Params.advection -> the ``scheme`` argument of the kernels)
+CENTRAL, UPWIND3 = 0, 1
+SCHEMES = {"central": CENTRAL, "upwind3": UPWIND3}
 
 
 def pack_params(p, dtype) -> np.ndarray:
@@ -45,6 +52,10 @@ def pack_params(p, dtype) -> np.ndarray:
     par[PHI0] = p.phi0
     par[FOUR] = 4.0
     par[HALF] = 0.5
+    par[TWO] = 2.0
+    par[THREE] = 3.0
+    par[SIX] = 6.0
+    par[SIXTH] = 1.0 / 6.0
     return par
 
 
@@ -143,8 +154,26 @@ def lattice_laplacian(S1, ptr, L):
 
 
 @njit(cache=True, fastmath=True)
+def _mu_node(v, vn, vs, vw, ve, s2, lap_s1, par, ca):
+    """``dF/dphi_c`` at a node from its value, its 4 neighbours, ``S2`` and ``lap S1`` there."""
+    lap = (vn + vs + vw + ve) - par[FOUR] * v
+    phi0 = par[PHI0]
+    return (
+        par[HALF_ALPHA] * v * (v - phi0) * ((v + v) - phi0)
+        - par[K_PHI] * lap
+        + par[TWO_EPS] * v * (s2 - v * v)
+        - par[K_AD] * (lap_s1 - lap)
+        - ca * v
+    )
+
+
+@njit(cache=True, fastmath=True)
 def _rhs_node(phi, c, i, j, s2, lap_s1, par, ca, vx, vy):
-    """``d phi_c / dt`` at patch node (i, j), given ``S2`` and ``lap S1`` at its lattice node."""
+    """``d phi_c / dt`` at patch node (i, j) with central-difference advection.
+
+    The expression is kept exactly as it was before ``upwind3`` existed (not via :func:`_mu_node`):
+    with it, central runs are bit-identical to runs made by earlier versions.
+    """
     v = phi[c, i, j]
     vn = phi[c, i - 1, j]
     vs = phi[c, i + 1, j]
@@ -163,9 +192,101 @@ def _rhs_node(phi, c, i, j, s2, lap_s1, par, ca, vx, vy):
     return -par[MOB] * mu - adv
 
 
+def upwind3_weights(velocity):
+    """Weights of ``f[-2], f[-1], f[0], f[+1], f[+2]`` in ``velocity x`` the third-order upwind derivative.
+
+    velocity > 0 (upstream is the minus side): ``(f[-2] - 6 f[-1] + 3 f[0] + 2 f[+1]) / 6``;
+    velocity <= 0: ``(-2 f[-1] - 3 f[0] + 6 f[+1] - f[+2]) / 6``.  Both are exact for cubics;
+    the leading error ``+-f^(4) / 12`` makes the scheme add a hyperdiffusion
+    ``-(|velocity| / 12) d^4 phi`` (docs/simulate.md).  Plain-Python twin of :func:`_upwind3_weights`.
+    """
+    s = velocity / 6.0
+    if velocity > 0:
+        return (s, -6.0 * s, 3.0 * s, 2.0 * s, 0.0)
+    return (0.0, -2.0 * s, -3.0 * s, 6.0 * s, -s)
+
+
+@njit(cache=True, fastmath=True)
+def _upwind3_weights(velocity, par):
+    """:func:`upwind3_weights` in the field dtype, without its zero weight.
+
+    Returns ``(far, w_far, w_m1, w_0, w_p1)``: the offset (-2 or +2) of the one second neighbour
+    the stencil uses and the weights of it, ``f[-1]``, ``f[0]`` and ``f[+1]`` (``par`` holds the
+    constants).
+    """
+    s = velocity * par[SIXTH]
+    if velocity > 0:
+        return -2, s, -par[SIX] * s, par[THREE] * s, par[TWO] * s
+    return 2, -s, -par[TWO] * s, -par[THREE] * s, par[SIX] * s
+
+
+@njit(cache=True, fastmath=True)
+def _stage_central(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, second):
+    """One Heun stage of cell c with central-difference advection (see :func:`heun_stage`)."""
+    P = phi.shape[1]
+    Lx = S2.shape[1]
+    dt = par[DT]
+    half = par[HALF]
+    half_dt = half * dt
+    q0 = gx[c, 0]
+    # patches not cut by the box edge (most of them) index the lattice directly
+    straight = q0 + P <= Lx
+    for i in range(1, P - 1):
+        r = gy[c, i]
+        for j in range(1, P - 1):
+            q = q0 + j if straight else gx[c, j]
+            k = _rhs_node(phi_eval, c, i, j, S2[r, q], L[r, q], par, ca, cvx, cvy)
+            if second:
+                out[c, i, j] = half * (phi[c, i, j] + phi_eval[c, i, j]) + half_dt * k
+            else:
+                out[c, i, j] = phi[c, i, j] + dt * k
+
+
+@njit(cache=True, fastmath=True)
+def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, second):
+    """One Heun stage of cell c with third-order upwind advection (see :func:`heun_stage`).
+
+    Next to the patch's zero ring the second neighbours ``i -+ 2``, ``j -+ 2`` are ring nodes, so
+    there the stencil reads 0, as the field beyond the patch is: the row index is clamped onto the
+    ring (0 or P - 1); along a row the patch is read flat (``i P + j -+ 2``), where the second
+    neighbour of the first or last interior column is the ring node at the end of the row before
+    or the start of the row after (0 too), which keeps the node loop free of clamps.
+    """
+    P = phi.shape[1]
+    Lx = S2.shape[1]
+    dt = par[DT]
+    half = par[HALF]
+    half_dt = half * dt
+    # v . grad f = sum of weights x f at the node, its 4 neighbours and one second neighbour per axis
+    jfar, xf, xm1, x0, xp1 = _upwind3_weights(cvx, par)
+    ifar, yf, ym1, y0, yp1 = _upwind3_weights(cvy, par)
+    w0 = x0 + y0
+    flat = phi_eval[c].reshape(P * P)
+    q0 = gx[c, 0]
+    straight = q0 + P <= Lx
+    for i in range(1, P - 1):
+        r = gy[c, i]
+        i2 = min(max(i + ifar, 0), P - 1)
+        row = i * P + jfar
+        for j in range(1, P - 1):
+            q = q0 + j if straight else gx[c, j]
+            v = phi_eval[c, i, j]
+            vn = phi_eval[c, i - 1, j]
+            vs = phi_eval[c, i + 1, j]
+            vw = phi_eval[c, i, j - 1]
+            ve = phi_eval[c, i, j + 1]
+            mu = _mu_node(v, vn, vs, vw, ve, S2[r, q], L[r, q], par, ca)
+            adv = w0 * v + xm1 * vw + xp1 * ve + ym1 * vn + yp1 * vs + xf * flat[row + j] + yf * phi_eval[c, i2, j]
+            k = -par[MOB] * mu - adv
+            if second:
+                out[c, i, j] = half * (phi[c, i, j] + v) + half_dt * k
+            else:
+                out[c, i, j] = phi[c, i, j] + dt * k
+
+
 @njit(cache=True, parallel=True, fastmath=True)
 def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second):
-    """One Heun stage for every cell (prange over cells; each writes only its own patch).
+    """One Heun stage for every cell (prange over cells; each writes only its own patch), central advection.
 
     First stage (``second=False``): ``out = phi + dt f(phi)`` (``phi_eval`` is ``phi``).
     Second stage (``second=True``), with ``phi_eval = phi + dt k1`` from the
@@ -174,32 +295,38 @@ def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a
     ``phi_eval`` around it and ``phi`` at itself).  ``f`` is evaluated with
     ``S2`` and ``L = lap S1`` of ``phi_eval``.  ``area[c]`` receives
     ``int phi_eval_c^2 dA`` (float64).
+
+    :func:`heun_stage_upwind3` is the same with upwind advection.  They are two kernels rather than
+    one with a branch: with both loops in one function, LLVM's fast-math optimisation changed the
+    rounding of the central path (float32 fields 2e-6 apart after 400 steps).
     """
-    N, P = phi.shape[0], phi.shape[1]
-    Lx = S2.shape[1]
-    dt = par[DT]
-    half = par[HALF]
-    half_dt = half * dt
+    N = phi.shape[0]
     for c in prange(N):
         a = _area(phi_eval, c)
         area[c] = a
         # dF/dphi of lam (1 - A/A0)^2 is -4 lam/A0 (1 - A/A0) phi; coef keeps it in the field dtype
         coef[c] = lam4 * inv_a0 * (1.0 - a * inv_a0)
-        ca = coef[c]
-        cvx = vx[c]
-        cvy = vy[c]
-        q0 = gx[c, 0]
-        # patches not cut by the box edge (most of them) index the lattice directly
-        straight = q0 + P <= Lx
-        for i in range(1, P - 1):
-            r = gy[c, i]
-            for j in range(1, P - 1):
-                q = q0 + j if straight else gx[c, j]
-                k = _rhs_node(phi_eval, c, i, j, S2[r, q], L[r, q], par, ca, cvx, cvy)
-                if second:
-                    out[c, i, j] = half * (phi[c, i, j] + phi_eval[c, i, j]) + half_dt * k
-                else:
-                    out[c, i, j] = phi[c, i, j] + dt * k
+        _stage_central(phi_eval, phi, out, c, S2, L, gx, gy, par, coef[c], vx[c], vy[c], second)
+
+
+@njit(cache=True, parallel=True, fastmath=True)
+def heun_stage_upwind3(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second):
+    """:func:`heun_stage` with third-order upwind advection (:func:`_stage_upwind3`)."""
+    N = phi.shape[0]
+    for c in prange(N):
+        a = _area(phi_eval, c)
+        area[c] = a
+        coef[c] = lam4 * inv_a0 * (1.0 - a * inv_a0)
+        _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, coef[c], vx[c], vy[c], second)
+
+
+@njit(cache=True)
+def _stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second, scheme):
+    """:func:`heun_stage` or :func:`heun_stage_upwind3`, by ``scheme`` (``CENTRAL``, ``UPWIND3``)."""
+    if scheme == UPWIND3:
+        heun_stage_upwind3(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second)
+    else:
+        heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second)
 
 
 @njit(cache=True)
@@ -293,14 +420,15 @@ def set_velocity(theta, v0, vx, vy):
 
 @njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
 def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
-            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold):
+            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme):
     """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).
 
     Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
     (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
     for passive steps).  After every step whose global index ``step0 + s + 1``
     is a multiple of ``recentre_every`` the patches are re-centred (``phis``
-    is their scratch space).  Returns the number of patch moves.
+    is their scratch space).  ``scheme`` selects the advection stencil (``CENTRAL``, ``UPWIND3``).
+    Returns the number of patch moves.
     """
     Lx, Ly = S1.shape[1], S1.shape[0]
     P = phi.shape[1]
@@ -309,10 +437,10 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
         set_velocity(theta, v0, vx, vy)
         lattice_sums(phi, oy, gx, ptr, cells, S1, S2)
         lattice_laplacian(S1, ptr, L)
-        heun_stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False)
+        _stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False, scheme)
         lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
         lattice_laplacian(S1, ptr, L)
-        heun_stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True)
+        _stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme)
         if sigma > 0:
             for c in range(theta.shape[0]):
                 theta[c] += sigma * noise[s, c]

@@ -34,6 +34,10 @@ def add_parser(subparsers):
     p.add_argument("--preset", choices=("paper", "loewe"), default="paper",
                    help="paper: phi0 = 1 (default); loewe: phi0 = 2 as in the MPF code of Loewe et al. 2020")
     p.add_argument("--patch", type=int, default=41, help="patch side P in px (default 41)")
+    p.add_argument("--advection", choices=("upwind3", "central"), default="upwind3",
+                   help="stencil of v . grad phi: upwind3 = third-order upwind as in the published MPF code "
+                        "(default); central = central differences (slower free cells; runs made before "
+                        "this option used it)"),
     p.add_argument("--float64", action="store_true", help="double-precision fields (default float32)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--threads", default="auto",
@@ -87,7 +91,8 @@ def main(args) -> int:
         else:
             preset = Params.loewe if args.preset == "loewe" else Params.paper
             params = preset(n_cells=args.cells, Lx=args.size[0], Ly=args.size[1], D_r=args.dr, v0=args.v0,
-                            dt=args.dt, patch=args.patch, dtype="float64" if args.float64 else "float32")
+                            dt=args.dt, patch=args.patch, dtype="float64" if args.float64 else "float32",
+                            advection=args.advection)
             summary = run_simulation(args.out, params, steps=args.steps, save_every=args.save_every,
                                      relax=args.relax, seed=args.seed, patches_every=args.patches_every,
                                      threads=threads, overwrite=args.overwrite,

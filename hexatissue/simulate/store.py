@@ -2,7 +2,8 @@
 
 Layout of ``RUN.zarr`` (zarr v3 group)::
 
-    attrs: format, format_version, params, seed, relax, steps, save_every,
+    attrs: format, format_version, params (a store without params.advection
+           was advected with central differences and reads back so), seed, relax, steps, save_every,
            patches_every, hexatissue_version, n_frames, n_patch_frames,
            checkpoint ("a", "b" or null), leak_max
     labels         (T, Ly, Lx) int16/int32   label = cell index + 1, 0 = background
@@ -129,7 +130,10 @@ class RunStore:
 
     @property
     def params(self) -> Params:
-        return Params.from_dict(dict(self.g.attrs["params"]))
+        d = dict(self.g.attrs["params"])
+        # stores written before Params.advection existed were advected with central differences
+        d.setdefault("advection", "central")
+        return Params.from_dict(d)
 
     # -- frames -----------------------------------------------------------------------
     def append_frame(self, labels, step, moments, theta):
