@@ -116,15 +116,12 @@ def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_l
     frame = pairs["frame"].to_numpy(np.int64)
     a, b = pairs["cell_a"].to_numpy(np.int64), pairs["cell_b"].to_numpy(np.int64)
     length = pairs["length"].to_numpy(float)
-    if cells is not None and "track" in cells.columns:
-        lut = pd.Series(cells["track"].to_numpy(np.int64),
-                        index=pd.MultiIndex.from_arrays([cells["frame"].to_numpy(np.int64),
-                                                         cells["cell"].to_numpy(np.int64)]))
-        a = lut.reindex(pd.MultiIndex.from_arrays([frame, a])).to_numpy()
-        b = lut.reindex(pd.MultiIndex.from_arrays([frame, b])).to_numpy()
-        if np.isnan(a.astype(float)).any() or np.isnan(b.astype(float)).any():
-            raise InputError("edges refer to (frame, cell) pairs missing from the cells table")
-        a, b = a.astype(np.int64), b.astype(np.int64)
+    if cells is not None and "track" in cells.columns:  # label ids -> track ids, one sorted key per cell
+        keys = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
+        missing = "edges refer to (frame, cell) pairs missing from the cells table"
+        track = cells["track"].to_numpy(np.int64)
+        a = lookup(keys, track, row_keys(frame, a), missing)
+        b = lookup(keys, track, row_keys(frame, b), missing)
     df = pd.DataFrame({"frame": frame, "a": np.minimum(a, b), "b": np.maximum(a, b), "length": length})
     if min_length > 0:
         df = df[df["length"] >= min_length]
@@ -322,15 +319,14 @@ def _positions(events, cells, box):
     if events.empty:
         return np.empty(0), np.empty(0), np.empty(0, bool)
     border = ~interior_mask(cells)
-    lut = pd.DataFrame({"x": cells["x"].to_numpy(float), "y": cells["y"].to_numpy(float), "border": border},
-                       index=pd.MultiIndex.from_arrays([cells["frame"].to_numpy(np.int64), track_ids(cells)]))
-    lut = lut[~lut.index.duplicated()]
+    keys = row_keys(cells["frame"].to_numpy(np.int64), track_ids(cells))
+    pos = np.c_[cells["x"].to_numpy(float), cells["y"].to_numpy(float)]
     frame = events["frame_start"].to_numpy(np.int64)
     xy, flag = [], np.zeros(len(events), bool)
     for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
-        rows = lut.reindex(pd.MultiIndex.from_arrays([frame, events[col].to_numpy(np.int64)]))
-        xy.append(rows[["x", "y"]].to_numpy(float))
-        flag |= rows["border"].fillna(False).to_numpy(bool)
+        row = lookup(keys, None, row_keys(frame, events[col].to_numpy(np.int64)))
+        xy.append(np.where(row[:, None] >= 0, pos[np.maximum(row, 0)], np.nan))
+        flag |= (row >= 0) & border[np.maximum(row, 0)]
     xy = np.stack(xy, axis=1)
     if box is not None:
         xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
