@@ -179,3 +179,26 @@ def test_raw_microscopy_images_are_refused_with_a_clear_error(real_data, name):
     path = real_subdir(real_data, "epicure_notum") / name
     with pytest.raises(InputError, match="does not look like a label image.*raw microscopy"):
         open_source(path).frame(0)
+
+
+def test_mouse_epidermis_untracked_labels_are_tracked_by_overlap(real_data, tmp_path):
+    """laptrack's mouse epidermis crop: 5 frames renumbered independently, cells 132/139/136/141/160 per frame,
+    1-px zero membranes: every cell is found, auto mode re-tracks by overlap, analyze and report run."""
+    import warnings
+
+    from hexatissue import HexatissueWarning, analyze, read_results
+    from hexatissue.workflows import report
+
+    path = real_subdir(real_data, "mouse_epidermis_laptrack") / "labels.npy"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = analyze(path, workers=1, progress=False)
+    assert movie.cells.groupby("frame").size().tolist() == [132, 139, 136, 141, 160]
+    assert movie.options["mesh"].kind == "auto" and movie.summary["tracking"]["resolved"] == "always"
+    assert movie.summary["tracking"]["id_consistency"] < 0.5  # the ids mean nothing across frames
+    # every track is a chain of overlapping cells: most cells of frame 0 reach frame 4
+    assert (movie.lineage["n_frames"] == 5).sum() > 132 / 2
+    movie.write(tmp_path / "res")
+    numbers = report(tmp_path / "res", dt=2)
+    assert numbers["frames"] == 5 and (tmp_path / "res" / "report" / "report.md").exists()
+    assert read_results(tmp_path / "res").cells.equals(movie.cells)
