@@ -1,4 +1,4 @@
-"""Timing helper shared by the benchmark scripts."""
+"""Timing and reporting helpers shared by the benchmark scripts."""
 import time
 
 import numpy as np
@@ -12,3 +12,12 @@ def median_time(fn, repeats=5):
         fn()
         times.append(time.perf_counter() - t0)
     return float(np.median(times))
+
+
+def emit(lines, load, out=None):
+    """Print a Markdown result block (``lines`` plus the load after the run) and append it to ``out``."""
+    text = "\n".join(list(lines) + ["", f"- load after: `{load}`", ""])
+    print(text)
+    if out:
+        with open(out, "a") as fh:
+            fh.write(text + "\n")

@@ -34,6 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _timing import emit  # noqa: E402  (benchmarks/_timing.py)
 from hexatissue.simulate import Params, initial_state, set_threads  # noqa: E402
 
 
@@ -104,12 +105,7 @@ def schemes_main(args):
                f"{c['upwind3']:.0f} | {c['upwind3'] / c['central']:.2f} |")
         print(row, flush=True)
         lines.append(row)
-    lines += ["", f"- load after: `{uptime()}`", ""]
-    text = "\n".join(lines)
-    print(text)
-    if args.out:
-        with open(args.out, "a") as fh:
-            fh.write(text + "\n")
+    emit(lines, uptime(), args.out)
 
 
 def scaled(n_cells: int, **kw) -> Params:

@@ -60,6 +60,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from _timing import emit  # noqa: E402  (benchmarks/_timing.py)
 from hexatissue.simulate import Params, set_threads  # noqa: E402
 from hexatissue.simulate.model import Simulation, _disc_patch, _lattice_seeds  # noqa: E402
 from hexatissue.simulate.segment import labels_from_max  # noqa: E402
@@ -342,12 +343,7 @@ def main(argv=None):
             ratios = [r[key]["mean_displacement"] / r["C code"]["mean_displacement"] for r in results["runs"]]
             results[f"ratio_{adv}"] = ratios
             lines.append(f"- {adv}: " + ", ".join(f"{x:.3f}" for x in ratios) + f" (mean {np.mean(ratios):.3f})")
-        lines += ["", f"- load after: `{os.getloadavg()}`", ""]
-        text = "\n".join(lines)
-        print(text)
-        if args.out:
-            with open(args.out, "a") as fh:
-                fh.write(text + "\n")
+        emit(lines, os.getloadavg(), args.out)
         if args.json:
             args.json.write_text(json.dumps(results, indent=1))
     finally:
