@@ -112,20 +112,24 @@ def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_l
             raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
     if not is_real(min_length) or min_length < 0:
         raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
-    pairs = graph_contacts(edges[["frame", "cell_a", "cell_b", "length"]])
+    pairs = graph_contacts(edges)
     frame = pairs["frame"].to_numpy(np.int64)
     a, b = pairs["cell_a"].to_numpy(np.int64), pairs["cell_b"].to_numpy(np.int64)
     length = pairs["length"].to_numpy(float)
+    del pairs
+    if min_length > 0:
+        keep = length >= min_length
+        frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
     if cells is not None and "track" in cells.columns:  # label ids -> track ids, one sorted key per cell
         keys = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
         missing = "edges refer to (frame, cell) pairs missing from the cells table"
         track = cells["track"].to_numpy(np.int64)
         a = lookup(keys, track, row_keys(frame, a), missing)
         b = lookup(keys, track, row_keys(frame, b), missing)
-    df = pd.DataFrame({"frame": frame, "a": np.minimum(a, b), "b": np.maximum(a, b), "length": length})
-    if min_length > 0:
-        df = df[df["length"] >= min_length]
-    return df.sort_values(["frame", "a", "b"], ignore_index=True)
+        a, b = np.minimum(a, b), np.maximum(a, b)
+        order = np.lexsort((b, a, frame))  # track ids need not keep the label order
+        frame, a, b, length = frame[order], a[order], b[order], length[order]
+    return pd.DataFrame({"frame": frame, "a": a, "b": b, "length": length})
 
 
 def _expand(lo, hi):

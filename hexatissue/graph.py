@@ -55,26 +55,27 @@ def contact_table(edges: pd.DataFrame, include_outside: bool = False) -> pd.Data
         ``include_outside``.
     """
     a, b = edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)
-    keep = np.ones(len(a), bool) if include_outside else a != 0
     has_frame = "frame" in edges.columns
-    frame = edges["frame"].to_numpy(np.int64)[keep] if has_frame else np.zeros(int(keep.sum()), np.int64)
-    a, b, length = a[keep], b[keep], edges["length"].to_numpy(float)[keep]
+    frame = edges["frame"].to_numpy(np.int64) if has_frame else np.zeros(len(a), np.int64)
+    length = edges["length"].to_numpy(float)
+    if not include_outside:
+        keep = a != 0
+        frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
     # one sort of one int64 key per junction (a groupby on three columns needs several times the memory)
-    n = np.int64(max(int(b.max()) if len(b) else 0, 0) + 1)
-    if len(frame) and (int(frame.max()) + 1) * int(n) * int(n) >= 2**62:
-        key = None  # ids too large for one key: fall back to a lexicographic sort
-        order = np.lexsort((b, a, frame))
-    else:
+    n = int(b.max()) + 1 if len(b) else 1
+    if len(frame) and (int(frame.max()) + 1) * n * n < 2**62:
         key = (frame * n + a) * n + b
         order = np.argsort(key, kind="stable")
-    frame, a, b, length = frame[order], a[order], b[order], length[order]
-    new = (np.diff(key[order]) != 0) if key is not None else \
-        (np.diff(frame) != 0) | (np.diff(a) != 0) | (np.diff(b) != 0)
+        new = np.diff(key[order]) != 0
+        del key
+    else:  # ids too large for one key: a lexicographic sort
+        order = np.lexsort((b, a, frame))
+        new = (np.diff(frame[order]) != 0) | (np.diff(a[order]) != 0) | (np.diff(b[order]) != 0)
     starts = np.flatnonzero(np.r_[True, new]) if len(a) else np.zeros(0, np.int64)
-    counts = np.diff(np.r_[starts, len(a)])
-    out = pd.DataFrame({"cell_a": a[starts], "cell_b": b[starts],
-                        "length": np.add.reduceat(length, starts) if len(starts) else np.zeros(0),
-                        "n_junctions": counts.astype(np.int64)})
+    first = order[starts]
+    out = pd.DataFrame({"cell_a": a[first], "cell_b": b[first],
+                        "length": np.add.reduceat(length[order], starts) if len(starts) else np.zeros(0),
+                        "n_junctions": np.diff(np.r_[starts, len(a)]).astype(np.int64)})
     if has_frame:
-        out.insert(0, "frame", frame[starts])
+        out.insert(0, "frame", frame[first])
     return out
