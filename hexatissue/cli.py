@@ -45,6 +45,10 @@ def _analyze_parser(sub):
     src.add_argument("--units", help="length unit of --pixel-size (default: from the file, else um)")
     src.add_argument("--frame-interval", type=float, help="time between frames (default: from the file)")
     src.add_argument("--time-unit", help="unit of --frame-interval, e.g. s, min, h (default: from the file, else min)")
+    src.add_argument("--intensity", metavar="FILE",
+                     help="a raw channel (e.g. E-cadherin) of the labels' shape: junction and cell intensities, "
+                          "junction polarity")
+    src.add_argument("--intensity-channel", type=int, help="channel of a multi-channel --intensity file")
     mesh = p.add_argument_group("junction network")
     mesh.add_argument("--kind", default="auto", choices=list(KINDS), help="label convention (default: detected)")
     mesh.add_argument("--merge-distance", type=float, default=2.0,
@@ -107,6 +111,17 @@ def open_cli_source(args):
                                    frame_interval=args.frame_interval, time_unit=time_unit)
 
 
+def _intensity(args):
+    """The --intensity channel as a Source (None without the flag)."""
+    if args.intensity is None:
+        if args.intensity_channel is not None:
+            raise InputError("--intensity-channel needs --intensity FILE")
+        return None
+    from .source import open_source
+
+    return open_source(args.intensity, channel=args.intensity_channel)
+
+
 def _run_analyze(args) -> int:
     from .io import check_output_folder
     from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
@@ -129,7 +144,7 @@ def _run_analyze(args) -> int:
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
-                        checkpoint=args.checkpoint, mask=args.mask, **options)
+                        checkpoint=args.checkpoint, mask=args.mask, intensity=_intensity(args), **options)
     finally:
         if client is not None:
             client.close()

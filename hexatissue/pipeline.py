@@ -46,8 +46,8 @@ DEFECT_SPACINGS = 1.5  # default largest defect displacement between frames, in 
 
 
 def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track=TrackOptions(),
-            events=EventOptions(), mask=None, client=None, workers=None, checkpoint=None, checkpoint_every=100,
-            progress=True) -> Movie:
+            events=EventOptions(), mask=None, intensity=None, client=None, workers=None, checkpoint=None,
+            checkpoint_every=100, progress=True) -> Movie:
     """Every table of a label image, label movie or MPF run: networks, order, defects, tracks, T1 events.
 
     Parameters
@@ -68,6 +68,13 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         :func:`hexatissue.open_source`, one frame).  Pixels outside it are 0,
         so cells outside vanish and cells cut by its edge are border cells.
         Recorded as ``source["mask"]`` in ``metadata.json``.
+    intensity : Source, path or array, optional
+        A raw channel (e.g. E-cadherin, myosin) of the same shape, with one
+        frame per frame of ``source`` or one frame for all: measured along
+        every junction and in every cell (:func:`hexatissue.intensity.measure_intensity`;
+        columns ``intensity_mean``, ``intensity_total`` in ``edges`` and
+        ``intensity_mean``, ``junction_polarity_re/_im`` in ``cells``).
+        Recorded as ``source["intensity"]`` in ``metadata.json``.
     client : dask.distributed.Client, optional
         Run the per-frame work on this cluster.
     workers : int, optional
@@ -119,15 +126,17 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         check_options(value, name)
     box = src.box if box is None else as_box(box, src.shape)
     mask, mask_info = read_mask(mask, src.shape)
+    raw = _intensity_source(intensity, src)
     tracker = MovieTracker(track.mode, track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap,
                            ids_consistent=src.ids_consistent)
     store = None
     if checkpoint is not None:
         requested = {"mesh": mesh, "order": order, "track": track, "events": events}
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
-                   source=src.description, options={k: v.to_dict() for k, v in requested.items()}, mask=mask_info)
+                   source=src.description, options={k: v.to_dict() for k, v in requested.items()}, mask=mask_info,
+                   intensity=None if raw is None else raw.description)
         store = _Checkpoint(checkpoint, key, checkpoint_every)
-    rows, tracker = _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress)
+    rows, tracker = _extract(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress)
     tables = {name: rows.pop(name).table(name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
@@ -150,7 +159,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),
                "events": events.replace(censor=censor)}
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
-                 options=options, source=_with_mask(src.description, mask_info), version=__version__,
+                 options=options, source=_described(src.description, mask_info, raw), version=__version__,
                  summary=summary)
 
 
@@ -190,8 +199,30 @@ def read_mask(mask, shape):
     return inside, {"path": path, "shape": list(inside.shape), "inside": int(inside.sum())}
 
 
-def _with_mask(description, mask_info):
-    return description if mask_info is None else {**description, "mask": mask_info}
+def _described(description, mask_info, raw):
+    """The source's description with the mask and the intensity channel used."""
+    out = dict(description)
+    if mask_info is not None:
+        out["mask"] = mask_info
+    if raw is not None:
+        out["intensity"] = raw.description
+    return out
+
+
+def _intensity_source(intensity, src):
+    """The raw channel as a Source of the labels' shape, one frame per frame or one for all (or None)."""
+    from .source import open_source
+
+    if intensity is None:
+        return None
+    try:
+        raw = open_source(intensity)
+    except InputError as exc:
+        raise InputError(f"intensity: {exc}") from None
+    if raw.shape != src.shape or raw.n_frames not in (1, src.n_frames):
+        raise InputError(f"intensity has {raw.n_frames} frame(s) of {raw.shape}; expected {src.n_frames} frame(s) "
+                         f"(or one) of the labels' shape {src.shape}")
+    return raw
 
 
 def _release_freed_memory():
@@ -347,7 +378,7 @@ def _defect_tracks(defects, grid, order, box, n_frames):
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
 
-def _frame_job(labels, t, box, mesh, order, mask=None):
+def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
     """Tables of one frame, its normalised labels (for the tracker) and its warnings.
 
     Warnings are caught here, in the worker, and returned as ``(category,
@@ -362,6 +393,11 @@ def _frame_job(labels, t, box, mesh, order, mask=None):
                                         background=mesh.background, fill_holes=mesh.fill_holes,
                                         outside=mesh.outside, mask=mask)
         tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
+        if image is not None:
+            from .intensity import measure_intensity
+
+            tables["cells"], tables["edges"] = measure_intensity(tables["cells"], tables["vertices"], tables["edges"],
+                                                                 lab, image, box)
         tables.update(_order_tables(tables, box, order))
     found = [(w.category, str(w.message)) for w in caught]
     return tables, lab, found
@@ -508,7 +544,7 @@ def _executor(client, workers, n_frames):
     return _Pool(workers), 2 * workers
 
 
-def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progress):
+def _extract(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress):
     """Per-frame tables (in frame order) and the tracker, with a bounded number of frames in flight.
 
     A checkpoint folder is locked for the whole extraction: two runs cannot share it.
@@ -516,13 +552,13 @@ def _extract(src, box, mesh, order, mask, tracker, client, workers, store, progr
     if store is not None:
         store.lock()
         try:
-            return _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store, progress)
+            return _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress)
         finally:
             store.unlock()
-    return _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store, progress)
+    return _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress)
 
 
-def _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store, progress):
+def _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress):
     from .progress import progress as progress_bar
 
     n_frames = src.n_frames
@@ -560,7 +596,8 @@ def _extract_locked(src, box, mesh, order, mask, tracker, client, workers, store
     try:
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
                               total=n_frames):
-            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, mask)
+            image = None if raw is None else raw.image(t if raw.n_frames > 1 else 0)
+            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, mask, image)
             pending.append((t, job))
             while len(pending) >= max_inflight:
                 collect(pending.popleft())

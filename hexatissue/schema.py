@@ -33,6 +33,9 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "n_boundaries": ("i", "", "boundary cycles of the cell (> 1: holes, pieces or pinches)"),
         "is_border": ("b", "", "touches the image edge or the background (0, background labels, the "
                       "outside of a skeleton, outside the mask)"),
+        "intensity_mean": ("f", "intensity", "mean of the raw channel over the cell's pixels (with --intensity)"),
+        "junction_polarity_re": ("f", "", "nematic of the junctions' integrated intensity, real part (with --intensity)"),
+        "junction_polarity_im": ("f", "", "nematic of the junctions' integrated intensity, imaginary part"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
     },
@@ -53,6 +56,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "cell_a": ("i", "", "smaller id of the two cells the junction separates (0 = outside the tissue)"),
         "cell_b": ("i", "", "larger id of the two cells"),
         "length": ("f", "px", "straight-line distance between the end vertices"),
+        "intensity_mean": ("f", "intensity", "mean of the raw channel along the junction (with --intensity)"),
+        "intensity_total": ("f", "intensity px", "intensity_mean x length: integrated junction intensity"),
     },
     "cell_vertices": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -145,7 +150,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 }
 
 # columns a producer may leave out (every other schema column is required)
-_OPTIONAL = {"track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
+_OPTIONAL = {"intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "p"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}

@@ -138,6 +138,21 @@ class Source:
         t = self._index(t)
         return validate_labels(self._raw(t), f"frame {t}")
 
+    def image(self, t) -> np.ndarray:
+        """Frame ``t`` as an intensity image (float64, not checked as labels): for a raw channel.
+
+        Raises
+        ------
+        InputError
+            The index is out of range, the frame cannot be read, or it is not
+            a finite 2-D image.
+        """
+        t = self._index(t)
+        arr = np.asarray(self._raw(t), dtype=float)
+        if arr.ndim != 2 or not np.isfinite(arr).all():
+            raise InputError(f"frame {t} must be a finite 2-D intensity image; got shape {arr.shape}")
+        return arr
+
     def __len__(self) -> int:
         return self.n_frames
 
