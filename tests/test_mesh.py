@@ -402,3 +402,20 @@ def test_a_raw_intensity_image_is_not_taken_for_labels():
         mesh_from_labels(noisy)
     labels = voronoi_labels(jittered_seeds((80, 90), 12, seed=3), (80, 90))
     assert len(mesh_from_labels(labels).cells) == labels.max()
+
+
+def test_white_membranes_are_refused_with_the_fix_in_the_message():
+    """uint8 labels whose membranes are 255 instead of 0 would be one giant cell: a clear error, and the fix works."""
+    from hexatissue.synthetic import draw_membranes
+
+    labels = voronoi_labels(jittered_seeds((90, 120), 12, seed=1), (90, 120))
+    zero = draw_membranes(labels, width=1)
+    white = np.where(zero == 0, 255, zero).astype(np.uint8)
+    with pytest.raises(InputError, match=r"label 255 .* looks like membranes drawn in white.*--background 255"):
+        mesh_from_labels(white)
+    fixed = mesh_from_labels(white, background=(255,), kind="membrane")
+    ref = mesh_from_labels(zero)
+    pd.testing.assert_frame_equal(fixed.cells, ref.cells)
+    big_id = labels.astype(np.uint8).copy()  # a real cell with id 255 among many: still a cell
+    big_id[big_id == big_id.max()] = 255
+    assert 255 in mesh_from_labels(big_id).cells["cell"].tolist()

@@ -225,6 +225,8 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
     if not (isinstance(fill_holes, (int, np.integer)) and not isinstance(fill_holes, bool) and fill_holes >= 0):
         raise InputError(f"fill_holes must be a non-negative whole number of px; got {fill_holes!r}")
     background = check_background(background)
+    if kind != "skeleton":
+        _refuse_white_membranes(lab, background)
     if kind == "auto":
         kind = detect_kind(lab, periodic)
     if kind == "skeleton":
@@ -276,6 +278,28 @@ def outer_regions(lab, counts=None):
     edge = np.unique(np.r_[lab[0], lab[-1], lab[:, 0], lab[:, -1]])
     edge = edge[edge > 0]
     return edge[counts[edge] > OUTSIDE_FACTOR * np.median(areas)]
+
+
+#: A label whose pixels border this fraction of all cells or more is a line network, not a cell.
+WHITE_LINE_FRACTION = 0.5
+
+
+def _refuse_white_membranes(lab, background):
+    """Membranes drawn with the dtype's largest value (white lines) instead of 0 would be one giant cell."""
+    if lab.dtype.kind != "u" or lab.dtype.itemsize > 2:
+        return
+    white = np.iinfo(lab.dtype).max
+    if white in background or not (lab == white).any():
+        return
+    beside = np.r_[lab[:, 1:][lab[:, :-1] == white], lab[:, :-1][lab[:, 1:] == white],
+                   lab[1:][lab[:-1] == white], lab[:-1][lab[1:] == white]]
+    touched = np.unique(beside[(beside != white) & (beside != 0)])
+    n_cells = len(np.unique(lab)) - 1 - (0 in lab)
+    if n_cells >= 10 and len(touched) >= WHITE_LINE_FRACTION * n_cells:
+        raise InputError(f"label {white} (the largest {lab.dtype} value) borders {len(touched)} of {n_cells} cells: "
+                         f"it looks like membranes drawn in white, not a cell. Set them to 0 first "
+                         f"(labels[labels == {white}] = 0), or pass background=({white},) with kind='membrane' "
+                         f"(--background {white} --kind membrane)")
 
 
 def _drop_small(lab, min_area):
