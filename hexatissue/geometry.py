@@ -90,8 +90,10 @@ def table_polygons(vertices, cell_vertices, box=None):
     cell_vertices : pandas.DataFrame
         ``frame``, ``cell``, ``rank``, ``vertex``.
     box : Box, optional
-        Periodic box: each polygon is unwrapped to be contiguous from its
-        first vertex (minimum-image steps), so coordinates may leave ``[0, L)``.
+        Periodic box: each polygon is made contiguous, from the periodic
+        images the mesh recorded (``image_x``, ``image_y``) or else by
+        minimum-image steps from its first vertex; coordinates may then
+        leave ``[0, L)``.
 
     Returns
     -------
@@ -109,7 +111,10 @@ def table_polygons(vertices, cell_vertices, box=None):
                 "cell_vertices names a vertex missing from the vertices table")
     first = np.r_[True, (frame[1:] != frame[:-1]) | (cell[1:] != cell[:-1])] if len(cv) else np.zeros(0, bool)
     starts = np.flatnonzero(first).astype(np.int64)
-    if box is not None and len(xy):
+    if box is not None and len(xy) and {"image_x", "image_y"} <= set(cv.columns):
+        # the mesh recorded which periodic image every polygon vertex is: exact for any junction length
+        xy = xy + cv[["image_x", "image_y"]].to_numpy(float) * box.lengths
+    elif box is not None and len(xy):  # tables without images: unwrap by minimum-image steps (junctions < L/2)
         step = box.min_image(np.diff(xy, axis=0))
         step = np.vstack([np.zeros((1, 2)), step])
         step[starts] = 0.0

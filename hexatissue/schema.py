@@ -64,6 +64,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "cell": ("i", "", "cell id"),
         "rank": ("i", "", "position of the vertex in the polygon (counter-clockwise in x, y)"),
         "vertex": ("i", "", "vertex id"),
+        "image_x": ("i", "box", "periodic image of the vertex in the contiguous polygon, along x (0 on open images)"),
+        "image_y": ("i", "box", "periodic image of the vertex in the contiguous polygon, along y"),
     },
     "events": {
         "event": ("i", "", "event id"),
@@ -150,7 +152,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 }
 
 # columns a producer may leave out (every other schema column is required)
-_OPTIONAL = {"intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
+_OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "p"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}

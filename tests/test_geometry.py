@@ -37,3 +37,22 @@ def test_lookup():
     assert lookup(np.array([], np.int64), None, np.array([1])).tolist() == [-1]
     with pytest.raises(InputError, match="gone"):
         lookup(keys, np.arange(3), np.array([4]), "gone")
+
+
+def test_polygons_of_cells_wider_than_half_the_box_come_back_exactly():
+    """A junction longer than L/2: minimum-image steps would fold it; the recorded periodic images do not."""
+    from hexatissue import mesh_from_labels
+    from hexatissue.geometry import polygon_area_centroid as area_of
+
+    labels = np.zeros((8, 24), int)
+    labels[:4, :20], labels[:4, 20:] = 1, 2   # top row: a cell 20 px wide and one of 4 px
+    labels[4:, :2], labels[4:, 2:] = 3, 4     # bottom row: 2 px and 22 px
+    f = mesh_from_labels(labels, box=Box(24, 8))
+    keys, xy, starts = table_polygons(f.vertices, f.cell_vertices, f.box)
+    area, _ = area_of(xy, starts)
+    expected = f.cells.set_index("cell").loc[keys["cell"], "polygon_area"].to_numpy()
+    np.testing.assert_allclose(area, expected)
+    assert sorted(np.round(area).tolist()) == [8.0, 16.0, 80.0, 88.0]  # 2 x 4, 4 x 4, 20 x 4, 22 x 4
+    # without the recorded images, minimum-image steps fold the long junctions: the areas come out wrong
+    _, xy_old, _ = table_polygons(f.vertices, f.cell_vertices.drop(columns=["image_x", "image_y"]), f.box)
+    assert not np.allclose(area_of(xy_old, starts)[0], expected)

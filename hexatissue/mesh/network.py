@@ -351,7 +351,7 @@ def network_tables(lab, membrane, box, merge_distance, frame=0) -> dict:
     poly_start, poly_len, verts, xy, n_cycles = _polygons(centre, kept, n_labels)
     cells = _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles)
     centre, kept, verts = _drop_closed_loops(centre, kept, verts)
-    vertices, edges, cell_vertices = _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts)
+    vertices, edges, cell_vertices = _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box)
     out = {}
     for name, table in (("cells", cells), ("vertices", vertices), ("edges", edges), ("cell_vertices", cell_vertices)):
         table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
@@ -441,7 +441,7 @@ def _scatter(n, mask, values):
     return out
 
 
-def _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts):
+def _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box):
     cell_a = ids[np.minimum(kept["left"], kept["right"])]
     cell_b = ids[np.maximum(kept["left"], kept["right"])]
     degree = np.bincount(kept["a"], minlength=len(centre)) + np.bincount(kept["b"], minlength=len(centre))
@@ -480,6 +480,12 @@ def _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts):
             "vertex": verts[take].astype(np.int64),
         }
     )
+    # which periodic image of each vertex the contiguous polygon uses (exact: from the traced displacements),
+    # so polygons read back from the tables are right even with a junction longer than half the box
+    shift = np.zeros((len(take), 2), np.int64)
+    if box is not None and len(take):
+        shift = np.rint((xy[take] - centre[verts[take]]) / box.lengths).astype(np.int64)
+    cell_vertices["image_x"], cell_vertices["image_y"] = shift[:, 0], shift[:, 1]
     return vertices, edges, cell_vertices
 
 
