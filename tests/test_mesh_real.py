@@ -202,3 +202,23 @@ def test_mouse_epidermis_untracked_labels_are_tracked_by_overlap(real_data, tmp_
     numbers = report(tmp_path / "res", dt=2)
     assert numbers["frames"] == 5 and (tmp_path / "res" / "report" / "report.md").exists()
     assert read_results(tmp_path / "res").cells.equals(movie.cells)
+
+
+@pytest.mark.parametrize("name, regions", [("003_crop_epyseg.tif", (118, 126)), ("area3_Composite_epyseg.tif", (112, 117))])
+def test_epyseg_skeleton_movies_are_tracked_on_their_regions(real_data, name, regions):
+    """The skeleton movies that crashed the tracker: regions per frame as SOURCE.md counts them (the enclosed
+    regions, less specks), every cell has a track, every track is one region per frame, T1s are valid quartets."""
+    import warnings
+
+    from hexatissue import HexatissueWarning, analyze
+    from tests.test_events import assert_valid_quartets
+
+    path = real_subdir(real_data, "epicure_notum") / name
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = analyze(path, workers=1, progress=False)
+    per_frame = movie.cells.groupby("frame").size()
+    assert per_frame.min() >= regions[0] - 8 and per_frame.max() <= regions[1]
+    assert movie.cells["track"].notna().all() and not movie.cells.duplicated(["frame", "track"]).any()
+    assert movie.summary["tracking"]["resolved"] == "always"  # region numbers mean nothing across frames
+    assert_valid_quartets(movie.events, movie.edges, movie.cells)
