@@ -513,17 +513,15 @@ def _track_ends(tracked, time_column, first):
     return groups.head(1) if first else groups.tail(1)
 
 
-def _pair_ends(ends, pair_distance, box):
-    """Match positive to negative ends (same frame, charges cancelling) within ``pair_distance``."""
-    pos, neg = ends[ends["charge"] > 0], ends[ends["charge"] < 0]
+def _pair_ends(xy, charge, pair_distance, box):
+    """Positions in one frame's ends: positive matched to negative (charges cancelling) within ``pair_distance``."""
+    pos, neg = np.flatnonzero(charge > 0), np.flatnonzero(charge < 0)
     if len(pos) == 0 or len(neg) == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    a, b = pos[["x", "y"]].to_numpy(float), neg[["x", "y"]].to_numpy(float)
-    dist = _pair_distances(a, b, box)
-    cancel = _charge_keys(pos["charge"].to_numpy())[:, None] == -_charge_keys(neg["charge"].to_numpy())[None, :]
-    far = np.where(cancel, dist, np.inf)
-    ia, ib = _match_cost(far, pair_distance)
-    return pos.index.to_numpy()[ia], neg.index.to_numpy()[ib]
+    dist = _pair_distances(xy[pos], xy[neg], box)
+    cancel = _charge_keys(charge[pos])[:, None] == -_charge_keys(charge[neg])[None, :]
+    ia, ib = _match_cost(np.where(cancel, dist, np.inf), pair_distance)
+    return pos[ia], neg[ib]
 
 
 def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False, frames=None):
@@ -586,12 +584,18 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
     for first, kind, lone in ((True, "creation", "appearance"), (False, "annihilation", "disappearance")):
         ends = _track_ends(tracked, time_column, first).reset_index(drop=True)
         ends = ends[ends[time_column] != (t_first if first else t_last)]
-        for t, group in ends.groupby(time_column, sort=True):
-            ip, ineg = _pair_ends(group, pair_distance, box)
-            rows.extend(_pair_rows(group, ip, ineg, t, kind, box, time_column))
+        times = ends[time_column].to_numpy()
+        xy = ends[["x", "y"]].to_numpy(float)
+        charge, track = ends["charge"].to_numpy(float), ends["track"].to_numpy(np.int64)
+        order = np.argsort(times, kind="stable")
+        bounds = np.flatnonzero(np.r_[True, times[order][1:] != times[order][:-1], True]) if len(order) else [0]
+        for lo, hi in zip(bounds[:-1], bounds[1:]):  # one frame's births (or deaths) at a time, as arrays
+            at = order[lo:hi]
+            ip, ineg = _pair_ends(xy[at], charge[at], pair_distance, box)
+            rows.extend(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
             if include_unpaired:
-                lonely = group.drop(index=np.r_[ip, ineg])
-                rows.extend(_lone_rows(lonely, t, lone, time_column))
+                alone = np.setdiff1d(np.arange(len(at)), np.r_[ip, ineg])
+                rows.extend(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]], lone))
     if not rows:
         return _empty_events(columns, time_column)
     out = pd.DataFrame(rows, columns=columns)
@@ -600,26 +604,20 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
     return validate(out, "defect_events") if time_column == "frame" else out
 
 
-def _pair_rows(group, ip, ineg, t, kind, box, time_column):
-    pa = group.loc[ip, ["x", "y"]].to_numpy(float)
-    d = group.loc[ineg, ["x", "y"]].to_numpy(float) - pa
+def _pair_rows(xy, track, ip, ineg, t, kind, box):
+    d = xy[ineg] - xy[ip]
     if box is not None:
         d = box.min_image(d)
-    mid = pa + d / 2
+    mid = xy[ip] + d / 2
     if box is not None:
         mid = box.wrap(mid)
-    plus, minus = group.loc[ip, "track"].to_numpy(np.int64), group.loc[ineg, "track"].to_numpy(np.int64)
-    return [(t, kind, float(m[0]), float(m[1]), int(a), int(b), float(s))
-            for m, a, b, s in zip(mid, plus, minus, np.hypot(d[:, 0], d[:, 1]) if len(d) else [])]
+    return [(t, kind, float(m[0]), float(m[1]), int(a), int(b), float(sep))
+            for m, a, b, sep in zip(mid, track[ip], track[ineg], np.hypot(d[:, 0], d[:, 1]) if len(d) else [])]
 
 
-def _lone_rows(lonely, t, kind, time_column):
-    rows = []
-    for _, r in lonely.iterrows():
-        plus = r["charge"] > 0
-        rows.append((t, kind, float(r["x"]), float(r["y"]), int(r["track"]) if plus else -1,
-                     -1 if plus else int(r["track"]), np.nan))
-    return rows
+def _lone_rows(xy, charge, track, t, kind):
+    return [(t, kind, float(x), float(y), int(tr) if q > 0 else -1, -1 if q > 0 else int(tr), np.nan)
+            for (x, y), q, tr in zip(xy, charge, track)]
 
 
 def _empty_events(columns, time_column):
