@@ -121,7 +121,7 @@ def stage_mesh(path, n_frames, box, tables_dir):
     mesh, order = MeshOptions(), OrderOptions(fields=False)  # mesh + gamma_p, as analyze does per frame
     t0 = time.perf_counter()
     for t in range(n_frames):
-        out, _ = _frame_job(np.asarray(stack[t]), t, box, mesh, order, False)
+        out, _, _ = _frame_job(np.asarray(stack[t]), t, box, mesh, order)
         parts["cells"].append(out["cells"])
         parts["edges"].append(out["edges"])
     elapsed = time.perf_counter() - t0
