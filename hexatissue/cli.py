@@ -101,12 +101,11 @@ def open_cli_source(args):
     """The :class:`~hexatissue.Source` named by the input options of ``hexatissue analyze``."""
     from .source import open_source
 
-    units, time_unit = args.units, args.time_unit
+    from .units import override_units
+
     source = open_source(args.input, key=args.key, channel=args.channel, level=args.level)
-    if args.pixel_size is not None and units is None and not source.calibration.has_length:
-        units = "um"  # a bare --pixel-size is almost always in micrometres
-    if args.frame_interval is not None and time_unit is None and not source.calibration.has_time:
-        time_unit = "min"
+    units, time_unit = override_units(source.calibration, pixel_size=args.pixel_size, length_unit=args.units,
+                                      frame_interval=args.frame_interval, time_unit=args.time_unit)
     return source.with_calibration(pixel_size=args.pixel_size, length_unit=units,
                                    frame_interval=args.frame_interval, time_unit=time_unit)
 

@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, replace
 
 from .errors import InputError, check_positive
 
-__all__ = ["Calibration", "as_calibration", "normalize_length_unit", "normalize_time_unit"]
+__all__ = ["Calibration", "as_calibration", "override_units", "normalize_length_unit", "normalize_time_unit"]
 
 # spellings found in ImageJ / OME / zarr metadata -> one canonical ASCII name
 _LENGTH_ALIASES = {
@@ -141,6 +141,19 @@ class Calibration:
         if extra:
             raise InputError(f"calibration has unknown field(s) {sorted(extra)}; expected {sorted(known)}")
         return cls(**data)
+
+
+def override_units(calibration, *, pixel_size=None, length_unit=None, frame_interval=None, time_unit=None):
+    """The units of a user's override of ``calibration``: ``(length_unit, time_unit)``.
+
+    A bare pixel size given for an uncalibrated image is in micrometres, a bare frame interval for an
+    uncalibrated movie in minutes (what the command line assumes); given units, or the file's own, are kept.
+    """
+    if pixel_size is not None and length_unit is None and not calibration.has_length:
+        length_unit = "um"
+    if frame_interval is not None and time_unit is None and not calibration.has_time:
+        time_unit = "min"
+    return length_unit, time_unit
 
 
 def as_calibration(calibration) -> Calibration:

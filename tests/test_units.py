@@ -47,3 +47,13 @@ def test_as_calibration_and_from_dict_errors():
         as_calibration(0.2)
     with pytest.raises(InputError, match="unknown field"):
         Calibration.from_dict({"pixel_size": 1.0, "colour": "red"})
+
+
+def test_override_units_assumes_micrometres_and_minutes_only_when_uncalibrated():
+    from hexatissue.units import override_units
+
+    plain, file_cal = Calibration(), Calibration(0.2, "nm", 3.0, "s")
+    assert override_units(plain, pixel_size=0.5, frame_interval=2.0) == ("um", "min")
+    assert override_units(file_cal, pixel_size=0.5, frame_interval=2.0) == (None, None)  # keep the file's units
+    assert override_units(plain, pixel_size=0.5, length_unit="nm") == ("nm", None)
+    assert override_units(plain) == (None, None)

@@ -39,12 +39,13 @@ def _run(args) -> int:
     from pathlib import Path
 
     from ..frame import read_results
+    from ..units import override_units
     from .report import report
 
     movie = read_results(args.results)
     cal = movie.calibration
-    units = args.units or (None if args.pixel_size is None or cal.has_length else "um")
-    time_unit = args.time_unit or (None if args.frame_interval is None or cal.has_time else "min")
+    units, time_unit = override_units(cal, pixel_size=args.pixel_size, length_unit=args.units,
+                                      frame_interval=args.frame_interval, time_unit=args.time_unit)
     movie = movie.replace(calibration=cal.replace(pixel_size=args.pixel_size, length_unit=units,
                                                   frame_interval=args.frame_interval, time_unit=time_unit))
     out = Path(args.results) / "report" if args.out is None else args.out

@@ -171,7 +171,8 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
         movie = results
     else:
         movie = read_results(results)
-    name = Path(str(movie.source.get("path") or (results if not isinstance(results, Movie) else "movie"))).name
+    folder = None if isinstance(results, Movie) else results
+    name = Path(str(movie.source.get("path") or folder or "movie")).name  # the input's name, else the folder's
     out = Path(results) / "report" if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
     order = movie.options.get("order")
