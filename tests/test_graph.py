@@ -27,4 +27,6 @@ def test_neighbour_graph_of_squares():
     f = mesh_from_labels(square_labels(4, 3, 6))
     g = neighbor_graph(f)
     assert g.number_of_nodes() == 12 and g.number_of_edges() == 17  # 3 x 3 + 4 x 2 shared sides
+    assert g.edges[1, 2]["length"] == pytest.approx(6.0)
+    assert g.nodes[6]["n_sides"] == 4 and not g.nodes[6]["is_border"]
     assert contact_table(f.edges)["n_junctions"].eq(1).all()

@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 from scipy.spatial import cKDTree
 
-from hexatissue import Box, HexatissueWarning, InputError, mesh_from_labels, neighbor_graph, shape_order
+from hexatissue import Box, HexatissueWarning, InputError, mesh_from_labels, shape_order
 from hexatissue.mesh import _kernels as K
 from hexatissue.mesh.labels import detect_kind
 from hexatissue.synthetic import (
@@ -219,69 +219,6 @@ def test_rot90_multiplies_gamma_by_the_phase(k, quarter_turns):
         ga = ca[f"gamma{p}_re"] + 1j * ca[f"gamma{p}_im"]
         gb = cb[f"gamma{p}_re"] + 1j * cb[f"gamma{p}_im"]
         np.testing.assert_allclose(gb.to_numpy(), ga.to_numpy() * np.exp(1j * p * quarter_turns * np.pi / 2), atol=1e-9)
-
-
-def test_neighbor_graph():
-    labels = square_labels(4, 3, 6)
-    f = mesh_from_labels(labels)
-    g = neighbor_graph(f)
-    assert g.number_of_nodes() == 12 and g.number_of_edges() == 17
-    assert g.edges[1, 2]["length"] == pytest.approx(6.0)
-    assert g.nodes[6]["n_sides"] == 4 and not g.nodes[6]["is_border"]
-    assert 0 in neighbor_graph(f, include_outside=True)
-
-
-# --- kernels against plain-numpy references ---------------------------------------------------
-
-def numpy_corner_arms(pad):
-    tl, tr, bl, br = pad[:-1, :-1], pad[:-1, 1:], pad[1:, :-1], pad[1:, 1:]
-    return ((tr != br) * 1 + (bl != br) * 2 + (tl != bl) * 4 + (tl != tr) * 8).astype(np.uint8)
-
-
-def test_corner_kernel_matches_numpy():
-    labels = voronoi_labels(jittered_seeds((60, 80), 9, seed=1), (60, 80))
-    pad = np.pad(labels, 1)
-    arms, kind, vid, vi, vj, n_cracks = K.corner_types(pad, 61, 81, False)
-    np.testing.assert_array_equal(arms, numpy_corner_arms(pad))
-    degree = np.unpackbits(arms[..., None], axis=-1).sum(-1)
-    assert set(np.unique(kind[degree == 3])) == {3}
-    assert set(np.unique(kind[degree == 2])) == {2}
-    assert n_cracks == degree.sum() // 2
-    rows, cols = np.nonzero((kind == 3) | (kind == 4))
-    np.testing.assert_array_equal(vi, rows)
-    np.testing.assert_array_equal(vj, cols)
-    np.testing.assert_array_equal(vid[rows, cols], np.arange(len(rows)))
-
-
-def test_moments_kernel_matches_numpy():
-    labels = voronoi_labels(jittered_seeds((60, 80), 9, seed=1), (60, 80))
-    count, sx, sy = K.cell_moments(labels.astype(np.int32), labels.max() + 1, False)
-    rows, cols = np.indices(labels.shape)
-    np.testing.assert_array_equal(count, np.bincount(labels.ravel()))
-    np.testing.assert_allclose(sx, np.bincount(labels.ravel(), cols.ravel()))
-    np.testing.assert_allclose(sy, np.bincount(labels.ravel(), rows.ravel()))
-
-
-def test_fill_kernel_matches_python_reference():
-    labels = draw_membranes(voronoi_labels(jittered_seeds((40, 50), 9, seed=3), (40, 50)), 1)
-    for periodic in (False, True):
-        np.testing.assert_array_equal(
-            K.fill_gaps(labels.astype(np.int32), 2, periodic), K.fill_gaps.py_func(labels.astype(np.int32), 2, periodic)
-        )
-
-
-# --- valid edge cases -------------------------------------------------------------------------
-
-def test_single_cell():
-    f = mesh_from_labels(np.ones((10, 12), np.uint8))
-    assert len(f.cells) == 1 and f.cells["is_border"].all()
-    assert f.cells["area"].iloc[0] == 120
-    # the image corners are vertices: the cell is the image rectangle
-    assert len(f.edges) == 4 and set(zip(f.edges["cell_a"], f.edges["cell_b"])) == {(0, 1)}
-    assert (f.vertices["degree"] == 2).all() and f.cells["n_sides"].iloc[0] == 4
-    assert f.cells["polygon_area"].iloc[0] == pytest.approx(120.0)
-    periodic = mesh_from_labels(np.ones((10, 12), np.uint8), box=Box(12, 10))
-    assert len(periodic.cells) == 1 and len(periodic.edges) == 0 and periodic.cells["n_sides"].iloc[0] == 0
 
 
 def test_two_cells_no_vertex():
