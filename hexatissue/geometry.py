@@ -13,8 +13,8 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["segment_sum", "pack_polygons", "polygon_area_centroid", "polygon_perimeter", "table_polygons",
-           "row_keys", "lookup"]
+__all__ = ["segment_sum", "pack_polygons", "polygon_area_centroid", "polygon_perimeter", "polygon_cells",
+           "table_polygons", "row_keys", "lookup"]
 
 
 def segment_sum(values, starts, n):
@@ -78,6 +78,33 @@ def polygon_perimeter(xy, starts):
     """Perimeter of each polygon stored back to back, px."""
     nxt = _next_vertex(len(xy), starts)
     return segment_sum(np.hypot(*(xy[nxt] - xy).T), starts, len(starts))
+
+
+def polygon_cells(ids, xy, starts):
+    """The geometric columns of a cells table for cells known only by their polygons.
+
+    Parameters
+    ----------
+    ids : (N,) int array
+        Cell ids, one per polygon.
+    xy, starts : arrays
+        Polygons back to back (x = column, y = row, px).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``cell``; ``x``, ``y``: the polygon's area centroid (px); ``area`` and
+        ``polygon_area``: both the polygon's area (px^2: there are no pixels);
+        ``perimeter`` (px); ``n_sides``: vertices of the polygon;
+        ``n_boundaries``: 1 (one polygon per cell).
+    """
+    area, centroid = polygon_area_centroid(xy, starts)
+    n = len(starts)
+    return pd.DataFrame({"cell": np.asarray(ids, np.int64), "x": centroid[:, 0], "y": centroid[:, 1],
+                         "area": np.abs(area), "polygon_area": np.abs(area),
+                         "perimeter": polygon_perimeter(xy, starts),
+                         "n_sides": np.diff(np.r_[starts, len(xy)]).astype(np.int64),
+                         "n_boundaries": np.ones(n, np.int64)})
 
 
 def table_polygons(vertices, cell_vertices, box=None):

@@ -40,12 +40,13 @@ import numpy as np
 from .box import Box
 from .errors import HexatissueWarning, InputError, user_stacklevel
 from .mesh.labels import validate_labels
+from .polygons import POLYGON_SUFFIXES, open_polygons
 from .units import Calibration, normalize_length_unit, normalize_time_unit
 
 __all__ = ["Source", "open_source"]
 
 IMAGE_SUFFIXES = (".tif", ".tiff", ".png")
-FILE_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz")
+FILE_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz") + POLYGON_SUFFIXES
 MPF_FORMAT = "hexatissue-mpf"  # attrs["format"] of a run store (hexatissue.simulate.store), what read_run needs
 NON_SQUARE = "non-square pixels: hexatissue uses the x (column) pixel size for all lengths"
 _KEY_USE = "key= selects an array in a .npz, a Cellpose _seg.npy or a zarr group"
@@ -152,6 +153,28 @@ class Source:
         if arr.ndim != 2 or not np.isfinite(arr).all():
             raise InputError(f"frame {t} must be a finite 2-D intensity image; got shape {arr.shape}")
         return arr
+
+    @property
+    def kind(self) -> str:
+        """``"labels"`` (label images: :meth:`frame`) or ``"polygons"`` (cell polygons: :meth:`polygons`)."""
+        return getattr(self._reader, "kind", "labels")
+
+    @property
+    def independent(self) -> bool:
+        """True when the frames are unrelated images (a folder of polygon files), not a movie: nothing is tracked."""
+        return bool(getattr(self._reader, "independent", False))
+
+    def polygons(self, t):
+        """The cell polygons of frame ``t`` (:class:`hexatissue.polygons.Polygons`) of a polygon source.
+
+        Raises
+        ------
+        InputError
+            The source holds label images, or the index is out of range.
+        """
+        if self.kind != "polygons":
+            raise InputError(f"this source holds label images, not cell polygons; use source.frame({t!r})")
+        return self._reader.polygons(self._index(t))
 
     def __len__(self) -> int:
         return self.n_frames
@@ -845,7 +868,7 @@ def _ome_xml_calibration(xml, notes) -> Calibration:
 # ---------------------------------------------------------------------------------------------------------
 def _open_path(path: Path, key, channel, level) -> Source:
     if not path.exists():
-        raise InputError(f"path {str(path)!r} does not exist; expected a label image file "
+        raise InputError(f"path {str(path)!r} does not exist; expected a label image or polygon file "
                          f"({', '.join(FILE_SUFFIXES)}), a folder of images, a zarr store or an MPF run (.zarr)")
     try:
         if path.is_dir():
@@ -853,9 +876,15 @@ def _open_path(path: Path, key, channel, level) -> Source:
                 return _open_zarr_path(path, key, channel, level)
             if path.suffix.lower() == ".zarr":
                 raise InputError(f"path {str(path)!r} is not a zarr store (no zarr.json, .zgroup or .zarray in it)")
+            if _is_polygon_folder(path):
+                _refuse("a folder of polygon files", key=key, channel=channel, level=level)
+                return open_polygons(path)
             _refuse("a folder of images", key=key, level=level)
             return _open_folder(path, channel)
         suffix = path.suffix.lower()
+        if suffix in POLYGON_SUFFIXES:
+            _refuse("a polygon file", key=key, channel=channel, level=level)
+            return open_polygons(path)
         if suffix in (".tif", ".tiff"):
             _refuse("a TIFF file", key=key, level=level)
             reader = _TiffReader(path, channel)
@@ -888,6 +917,12 @@ def _open_path(path: Path, key, channel, level) -> Source:
 
 def _int(value):
     return None if value is None else int(value)
+
+
+def _is_polygon_folder(path: Path) -> bool:
+    """A folder of hexanematic ``.mat`` polygon files and no images."""
+    suffixes = {p.suffix.lower() for p in path.iterdir() if p.is_file() and not p.name.startswith(".")}
+    return ".mat" in suffixes and not suffixes & set(IMAGE_SUFFIXES)
 
 
 def _cellpose_entry(path, key):
