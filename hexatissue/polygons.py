@@ -231,20 +231,23 @@ def _shared_vertices(xy, tolerance):
         raise InputError(f"tolerance must be a distance >= 0 in px; got {tolerance!r}")
     points, group = np.unique(xy, axis=0, return_inverse=True)
     group = group.ravel()
+    merged = np.arange(len(points))
     if tolerance > 0 and len(points) > 1:
         pairs = cKDTree(points).query_pairs(tolerance, output_type="ndarray")
         graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
-        _, merged = connected_components(graph, directed=False)
-        group = merged[group]
+        merged = connected_components(graph, directed=False)[1]
+    group = merged[group]
     # renumber by first appearance, so vertex ids follow the file
-    first = np.full(group.max() + 1 if len(group) else 0, len(group))
+    n = int(merged.max()) + 1 if len(merged) else 0
+    first = np.full(n, len(group))
     np.minimum.at(first, group, np.arange(len(group)))
-    rank = np.empty(len(first), np.int64)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    vid = rank[group]
-    count = np.bincount(vid, minlength=len(first))
-    position = np.stack([np.bincount(vid, xy[:, k], minlength=len(first)) for k in (0, 1)], axis=1)
-    return vid, position / np.maximum(count, 1)[:, None]
+    rank = np.empty(n, np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(n)
+    # a vertex sits at the mean of its distinct points: exactly the shared point when sharing is exact
+    owner = rank[merged]
+    count = np.bincount(owner, minlength=n)
+    position = np.stack([np.bincount(owner, points[:, k], minlength=n) for k in (0, 1)], axis=1)
+    return rank[group], position / np.maximum(count, 1)[:, None]
 
 
 def _check_polygons(cell, vid, owner, lengths, at):
