@@ -334,3 +334,15 @@ def test_polygon_mat_files_and_a_folder_of_them(voronoi, tmp_path):
     assert len(both.events) == 0 and len(both.defect_events) == 0 and len(both.lineage) == 2 * len(polys)
     d0, d1 = (both.defects[both.defects["frame"] == t] for t in (0, 1))
     assert len(d0) == len(d1) > 0 and not set(d0["track"] + 1000 * d0["p"]) & set(d1["track"] + 1000 * d1["p"])
+
+
+def test_cli_figures_and_report_of_a_vertices_table(voronoi, tmp_path):
+    """Figures are drawn from the tables alone (no label image underneath); the report runs."""
+    from hexatissue.workflows import report
+
+    _, polys = voronoi
+    path = write_table(tmp_path / "v.csv", polys)
+    assert main(["analyze", str(path), "--out", str(tmp_path / "res"), "--figures", "--workers", "1"]) == 0
+    assert (tmp_path / "res" / "figures" / "polygons.png").stat().st_size > 0
+    numbers = report(tmp_path / "res")
+    assert numbers["frames"] == 1 and (tmp_path / "res" / "report" / "order6.png").exists()
