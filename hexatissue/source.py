@@ -1,7 +1,9 @@
 """The one place that looks at what the user gave: :func:`open_source` -> :class:`Source`.
 
 A :class:`Source` is a read-only, lazily read movie of 2-D label images
-indexed ``[row, col]``: ``source.frame(t)`` (or ``source[t]``) reads frame
+indexed ``[row, col]`` (or, for polygon files, of cell polygons:
+``source.kind == "polygons"``, see :mod:`hexatissue.polygons`):
+``source.frame(t)`` (or ``source[t]``) reads frame
 ``t`` and nothing else, and validates it once with
 :func:`hexatissue.mesh.labels.validate_labels`.  It also carries the
 periodic box of simulation runs, whether label ids are already consistent
@@ -79,8 +81,10 @@ class Source:
     description : dict
         JSON-serialisable account of what was opened: ``kind`` (``"tiff"``,
         ``"png"``, ``"npy"``, ``"cellpose"``, ``"npz"``, ``"zarr"``,
-        ``"ome-zarr"``, ``"mpf_run"``, ``"array"``, ``"list"`` or
-        ``"folder"``), ``path`` (str or None), ``key``, ``channel``,
+        ``"ome-zarr"``, ``"mpf_run"``, ``"array"``, ``"list"``,
+        ``"folder"``; for polygons ``"vertices_table"``,
+        ``"tissue_analyzer"``, ``"polygon_mat"`` or ``"polygon_mat_folder"``),
+        ``path`` (str or None), ``key``, ``channel``,
         ``level``, ``axes`` (axis letters of the data as stored, e.g.
         ``"TCYX"``), ``stored_shape``, ``dtype``, ``frame_axis`` (letter of
         the axis read as time, or None for a single image), ``notes``
@@ -269,7 +273,12 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
           ``*_seg.npy`` (its ``masks``), ``.npz``, a zarr array or group,
           an OME-Zarr image (NGFF 0.4 / 0.5), an MPF run store, or a folder
           of ``.tif``/``.png`` files (one frame per file, natural order:
-          ``frame2`` before ``frame10``).
+          ``frame2`` before ``frame10``);
+        - cell polygons (a Source of ``kind == "polygons"``, frames read with
+          ``source.polygons(t)``; :func:`hexatissue.polygons.open_polygons`):
+          a vertices table (``.csv``/``.parquet``), a Tissue Analyzer
+          ``.db``, a hexanematic ``.mat`` file or a folder of ``.mat`` files
+          (independent images).
     key : str, optional
         The array in a ``.npz`` (default ``"labels"`` or the only array), a
         Cellpose ``_seg.npy`` (default ``"masks"``) or a zarr group
