@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import HexatissueWarning, InputError
-from .geometry import pack_polygons, polygon_area_centroid, polygon_cells
+from .geometry import next_vertex, pack_polygons, polygon_area_centroid, polygon_cells
 from .schema import validate
 
 __all__ = ["Polygons", "SHARED_TOLERANCE", "polygon_network", "mesh_from_polygons", "read_vertices_table",
@@ -141,7 +141,7 @@ def polygon_network(polygons, frame=0, tolerance=SHARED_TOLERANCE, where="") -> 
         raise InputError(f"polygon of cell {cell[owner[bad][0]]}{at} has a NaN or infinite vertex; expected finite "
                          f"x, y (px)")
     vid, position = _shared_vertices(xy, tolerance)
-    keep = vid != vid[_successor(polys.starts, len(xy))]  # drops repeats, including a closing vertex
+    keep = vid != vid[next_vertex(len(xy), polys.starts)]  # drops repeats, including a closing vertex
     vid, owner = vid[keep], owner[keep]
     lengths = np.bincount(owner, minlength=len(cell))
     starts = (np.cumsum(lengths) - lengths).astype(np.int64)
@@ -197,15 +197,6 @@ def polygon_shape(frames) -> tuple:
 
 def _owner(polys):
     return np.repeat(np.arange(len(polys.cell)), np.diff(np.r_[polys.starts, len(polys.xy)]))
-
-
-def _successor(starts, n):
-    """Index of each vertex's successor around its polygon."""
-    lengths = np.diff(np.r_[starts, n])
-    nxt = np.arange(n) + 1
-    ends = (starts + lengths - 1)[lengths > 0]
-    nxt[ends] = starts[lengths > 0]
-    return nxt
 
 
 def _extent(position):
@@ -275,7 +266,7 @@ def _counter_clockwise(vid, starts, lengths, reverse):
 
 
 def _tables(cell, vid, owner, starts, lengths, position, at):
-    nxt = _successor(starts, len(vid))
+    nxt = next_vertex(len(vid), starts)
     u, v = vid, vid[nxt]
     n_vertices = len(position)
     key = np.minimum(u, v) * n_vertices + np.maximum(u, v)

@@ -11,6 +11,7 @@ from scipy.spatial import Voronoi, cKDTree
 
 from .box import Box
 from .errors import InputError, as_generator
+from .geometry import polygon_area_centroid
 
 __all__ = [
     "jittered_seeds",
@@ -186,7 +187,7 @@ def voronoi_polygons(seeds, shape):
             continue
         xy = vor.vertices[region]
         if np.all((xy >= lo) & (xy <= hi)):
-            area = np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
+            area = polygon_area_centroid(xy, np.zeros(1, np.int64))[0][0]
             out[k + 1] = xy if area > 0 else xy[::-1]
     return out
 

@@ -527,8 +527,7 @@ class MovieTracker:
     def add_ids(self, ids, frame):
         """Add the next frame by its cell ids only (polygon input: nothing to overlap)."""
         if self.overlap is not None:
-            raise InputError("overlap tracking (track mode 'always') needs label images; cells given as polygons are "
-                             "tracked by their ids: use track mode 'never' (ids are tracks) or 'off' (no tracking)")
+            raise InputError("add_ids: overlap tracking (mode 'always') needs label images; use add_valid")
         self.ids.add_ids(ids, frame)
         if self.separate is not None:
             self.separate.add_ids(ids, frame)
