@@ -152,7 +152,7 @@ def polygon_network(polygons, frame=0, tolerance=SHARED_TOLERANCE, where="") -> 
         raise InputError(f"polygon of cell {cell[np.flatnonzero(flat)[0]]}{at} has zero area (its vertices are "
                          f"collinear); expected a closed polygon enclosing the cell")
     vid = _counter_clockwise(vid, starts, lengths, area < 0)
-    cells, vertices, edges, cell_vertices = _tables(cell, vid, owner, starts, lengths, position, at)
+    cells, vertices, edges, cell_vertices = _tables(cell, vid, owner, starts, position)
     out = {}
     for name, table in (("cells", cells), ("vertices", vertices), ("edges", edges), ("cell_vertices", cell_vertices)):
         table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
@@ -265,7 +265,8 @@ def _counter_clockwise(vid, starts, lengths, reverse):
     return vid[index]
 
 
-def _tables(cell, vid, owner, starts, lengths, position, at):
+def _tables(cell, vid, owner, starts, position):
+    """The four network tables of polygons given as network vertex ids (counter-clockwise)."""
     nxt = next_vertex(len(vid), starts)
     u, v = vid, vid[nxt]
     n_vertices = len(position)
