@@ -14,6 +14,7 @@ from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
 from .graph import contact_table, neighbor_graph
 from .io import read_labels, read_table, write_table, write_tables
 from .mesh import mesh_from_labels
+from .polygons import mesh_from_polygons
 from .defects import defect_density, defect_events, find_defects, track_defects
 from .order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius, shape_function, shape_order
 from .events import cell_event_stats, detect_t1, intercalation_intervals
@@ -44,6 +45,7 @@ __all__ = [
     "open_source",
     "Source",
     "read_labels",
+    "mesh_from_polygons",
     "read_table",
     "write_table",
     "write_tables",
