@@ -490,7 +490,7 @@ class MovieTracker:
         if self.mode != "auto":
             return self.mode, f"track={self.mode!r} requested; {measured}"
         if self.ids_consistent:
-            return "never", "the source's ids are consistent (MPF run): ids kept"
+            return "never", "the source's ids are consistent (MPF run or Cell Tracking Challenge folder): ids kept"
         if not np.isfinite(c):
             return "never", f"{measured}: ids kept"
         if c >= ID_CONSISTENCY:
