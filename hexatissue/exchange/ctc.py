@@ -70,9 +70,9 @@ def _mask_frames(masks) -> list[np.ndarray]:
 
 
 def _presence(frames) -> dict[int, np.ndarray]:
-    """``{id: sorted frames where it has pixels}`` (0 left out)."""
+    """``{id: sorted frames where it has pixels}`` (0 left out) of a list or a ``{frame: mask}`` dict."""
     seen: dict[int, list[int]] = {}
-    for t, f in enumerate(frames):
+    for t, f in (frames.items() if isinstance(frames, dict) else enumerate(frames)):
         for i in np.unique(f).tolist():
             if i:
                 seen.setdefault(int(i), []).append(t)
@@ -244,27 +244,26 @@ def _read_track_file(path: Path, problems: list) -> pd.DataFrame:
     return pd.DataFrame(rows or np.zeros((0, 4), np.int64), columns=list(TRACK_COLUMNS)).astype(np.int64)
 
 
-def _numbered(files, prefix, problems) -> list[Path]:
-    """Mask files in frame order; numbering problems (not 0..T-1, mixed widths) appended to ``problems``."""
+def _numbered(files, prefix, problems) -> dict[int, Path]:
+    """``{frame: mask file}``; numbering problems (not 0..T-1, mixed widths) appended to ``problems``."""
     found = {}
     widths = set()
-    for p in files:
+    for p in sorted(files):
         digits = re.match(rf"^{prefix}(\d+)", p.name, re.IGNORECASE).group(1)
         widths.add(len(digits))
         if int(digits) in found:
             problems.append(f"frame {int(digits)} has two mask files: {found[int(digits)].name}, {p.name}")
         found[int(digits)] = p
-    n = len(found)
-    if not n:
+    if not found:
         problems.append(f"no {prefix}TTT.tif mask files")
-        return []
+        return {}
+    n = max(found) + 1
     gaps = sorted(set(range(n)) - set(found))
-    extra = sorted(set(found) - set(range(n)))
-    if gaps or extra:
-        problems.append(f"mask files must be numbered 0..{n - 1}; missing {gaps[:20]}, beyond the end {extra[:20]}")
+    if gaps:
+        problems.append(f"mask files must be numbered 0..{n - 1}; missing {gaps[:20]}")
     if widths != {_digits(n)}:
         problems.append(f"mask file numbers have {sorted(widths)} digits; expected {_digits(n)} for {n} frames")
-    return [found[t] for t in sorted(found)]
+    return dict(sorted(found.items()))
 
 
 def _check_tracks(tracks, presence, problems):
@@ -298,11 +297,12 @@ def _check_tracks(tracks, presence, problems):
         problems.append(f"mask id(s) {unlisted[:20]} have no line in the track file")
 
 
-def _read_masks(paths, problems):
+def _read_masks(paths, problems) -> dict[int, np.ndarray]:
+    """``{frame: mask}`` of the files that are single 2-D non-negative integer images of one shape."""
     from ..source import open_source
 
-    frames = []
-    for t, path in enumerate(paths):
+    frames = {}
+    for t, path in paths.items():
         try:
             src = open_source(path)
             if src.n_frames != 1:
@@ -313,21 +313,22 @@ def _read_masks(paths, problems):
         except InputError as exc:
             problems.append(f"{path.name}: {exc}")
             continue
-        if frames and f.shape != frames[0].shape:
-            problems.append(f"{path.name} is {f.shape}; expected {frames[0].shape} like the first mask")
+        shape = next(iter(frames.values())).shape if frames else f.shape
+        if f.shape != shape:
+            problems.append(f"{path.name} is {f.shape}; expected {shape} like the first mask")
             continue
-        frames.append(f)
+        frames[t] = f
     return frames
 
 
 def _inspect(folder):
-    """``(masks, tracks, problems, layout)`` of a CTC folder."""
+    """``(masks by frame, tracks, problems, layout)`` of a CTC folder."""
     where, track_file, prefix, layout = _layout(folder)
     problems: list[str] = []
     tracks = _read_track_file(track_file, problems)
     paths = _numbered(_mask_files(where, prefix), prefix, problems)
     frames = _read_masks(paths, problems)
-    if len(frames) == len(paths) and frames:
+    if frames and len(frames) == len(paths):
         _check_tracks(tracks, _presence(frames), problems)
     return frames, tracks, problems, layout
 
@@ -376,7 +377,7 @@ def read_ctc(folder) -> tuple[np.ndarray, pd.DataFrame]:
     frames, tracks, problems, _ = _inspect(folder)
     if problems:
         check_ctc(folder)  # raises with the full list
-    return np.stack(frames), tracks.sort_values("track", kind="stable").reset_index(drop=True)
+    return np.stack(list(frames.values())), tracks.sort_values("track", kind="stable").reset_index(drop=True)
 
 
 def gap_links(tracks) -> tuple[dict[int, int], dict[int, int]]:
@@ -435,7 +436,7 @@ class CtcReader:
         self.same, self.parents = gap_links(tracks)
         self._old = np.array(sorted(self.same), np.int64)
         self._new = np.array([self.same[i] for i in self._old.tolist()], np.int64)
-        self._files = _FilesReader(paths, None, f"CTC folder {str(folder)!r}")
+        self._files = _FilesReader(list(paths.values()), None, f"CTC folder {str(folder)!r}")
         self.n_frames, self.shape, self.calibration = self._files.n_frames, self._files.shape, self._files.calibration
 
     def describe(self) -> dict:
