@@ -400,17 +400,12 @@ def gap_links(tracks) -> tuple[dict[int, int], dict[int, int]]:
     require_columns(tracks, ("track", "parent"), "tracks")
     child_of = {int(l): int(p) for l, p in zip(tracks["track"], tracks["parent"]) if p}
     counts = pd.Series(list(child_of.values()), dtype=np.int64).value_counts().to_dict()
+    from ..track import lineage_roots
+
     single = {c: p for c, p in child_of.items() if counts[p] == 1}
-
-    def root(i):
-        seen = set()
-        while i in single and i not in seen:
-            seen.add(i)
-            i = single[i]
-        return i
-
-    same = {c: root(c) for c in single}
-    parents = {root(c): root(p) for c, p in child_of.items() if counts[p] > 1}
+    root = lineage_roots(single, set(single) | set(child_of) | set(child_of.values()))
+    same = {c: root[c] for c in single}
+    parents = {root[c]: root[p] for c, p in child_of.items() if counts[p] > 1}
     return same, parents
 
 

@@ -45,6 +45,15 @@ EDGE_PROPS = {
 }
 
 
+def _need_geff():
+    """Import check: InputError with the install command when the optional ``geff`` package is missing."""
+    try:
+        import geff  # noqa: F401
+        import geff_spec  # noqa: F401
+    except ImportError:
+        raise InputError("GEFF export and import need the geff package: pip install 'hexatissue[geff]'") from None
+
+
 def _nodes(cells: pd.DataFrame) -> pd.DataFrame:
     """Cells sorted by frame and cell with ``node`` ids 0..n-1 and |gamma_p|, arg(gamma_p)/p for every p."""
     nodes = cells.sort_values(["frame", "cell"], kind="stable").reset_index(drop=True)
@@ -106,16 +115,10 @@ def track_edges(cells: pd.DataFrame, lineage: pd.DataFrame | None) -> pd.DataFra
 
 
 def _lineage_roots(nodes, lineage):
+    from ..track import lineage_roots
+
     parents = {} if lineage is None else {int(t): int(p) for t, p in zip(lineage["track"], lineage["parent"]) if p}
-
-    def root(t):
-        seen = set()
-        while t in parents and t not in seen:
-            seen.add(t)
-            t = parents[t]
-        return t
-
-    return nodes["track"].map({t: root(t) for t in nodes["track"].unique().tolist()}).to_numpy(np.int64)
+    return nodes["track"].map(lineage_roots(parents, nodes["track"].unique().tolist())).to_numpy(np.int64)
 
 
 def _axes(calibration):
@@ -213,6 +216,7 @@ def write_geff(movie, out) -> list[Path]:
     from .. import __version__
     from ..io import check_output_folder
 
+    _need_geff()
     folder = check_output_folder(out, "out")
     nodes = _nodes(movie.cells)
     extra = {"version": movie.version or __version__, "calibration": movie.calibration.to_dict(),
@@ -248,6 +252,7 @@ def read_geff(path):
     InputError
         The path is missing or is not a valid GEFF store.
     """
+    _need_geff()
     import geff
 
     try:
@@ -263,6 +268,7 @@ def geff_tables(path) -> tuple[pd.DataFrame, pd.DataFrame]:
     columns (``node``, ``gamma{p}_abs``, ``gamma{p}_angle``, ``lineage``)
     equals the Movie's ``cells`` sorted by frame and cell.
     """
+    _need_geff()
     from geff.core_io import read_to_memory
 
     try:
