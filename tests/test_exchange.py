@@ -326,7 +326,10 @@ def test_ctc_export_of_the_epicure_sample_lists_its_division(epicure, tmp_path):
 
 def test_analyzing_the_ctc_export_gives_back_the_lineage(epicure, tmp_path):
     main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")])
-    again = ht.analyze(tmp_path / "ctc", order=NO_FIELDS, workers=1, progress=False)
+    assert main(["analyze", str(tmp_path / "ctc"), "--out", str(tmp_path / "again"), "--workers", "1",
+                 "--no-fields"]) == 0
+    again = ht.read_results(tmp_path / "again")
+    assert again.source["kind"] == "ctc" and again.source["gaps_merged"] == 4
     first = epicure["movie"]
     pd.testing.assert_frame_equal(again.lineage, first.lineage)
     assert again.summary["tracking"]["resolved"] == "never"

@@ -148,7 +148,8 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
     A track missing from some frames is split at each gap: the part after a
     gap gets a new id (above every id in use) whose parent is the part
     before it, as the format requires.  A parent that never appears in the
-    masks is written as 0.  Files are written under temporary names and
+    masks, or has no part ending before its daughter begins, is written as
+    0.  Files are written under temporary names and
     renamed; mask files of an earlier export that this one does not write
     are removed.
 
@@ -206,7 +207,10 @@ def _mask_files(folder: Path, prefix: str) -> list[Path]:
 
 
 def _layout(folder) -> tuple[Path, Path, str, str]:
-    """``(mask folder, track file, mask prefix, layout name)`` of a CTC folder; InputError if it is not one."""
+    """``(mask folder, track file, mask prefix, layout name)`` of a CTC folder; InputError if it is not one.
+
+    A folder holding a result (``res_track.txt``) and a ``TRA`` folder is read as the result.
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"CTC folder {str(folder)!r} does not exist or is not a folder")

@@ -139,10 +139,7 @@ def _props(table, meanings):
 
     props, meta = {}, {}
     for name in table.columns:
-        values = table[name].to_numpy()
-        if values.dtype == object or pd.api.types.is_string_dtype(table[name].dtype):
-            values = table[name].astype(str).to_numpy().astype(str)
-        props[name] = PropDictNpArray(values=values, missing=None)
+        props[name] = PropDictNpArray(values=table[name].to_numpy(), missing=None)  # numbers and bools only
         unit, meaning = meanings.get(name, ("", ""))
         meta[name] = (unit, meaning)
     return props, meta
