@@ -39,8 +39,8 @@ import numpy as np
 
 from .box import Box
 from .errors import HexatissueWarning, InputError, user_stacklevel
-from .mesh.labels import validate_labels
 from .exchange.ctc import is_ctc_folder
+from .mesh.labels import validate_labels
 from .units import Calibration, normalize_length_unit, normalize_time_unit
 
 __all__ = ["Source", "open_source"]
