@@ -28,6 +28,7 @@ import pandas as pd
 
 from ..errors import InputError
 from ..schema import require_columns
+from .labels import relabel
 
 __all__ = ["write_ctc", "check_ctc", "read_ctc", "gap_links", "is_ctc_folder", "CtcReader", "MAX_ID"]
 
@@ -80,7 +81,7 @@ def _presence(frames) -> dict[int, np.ndarray]:
 
 
 def _ctc_tracks(presence, parents, first_new):
-    """Tracks without gaps: ``(rows [L, B, E, P], {(old id, frame): new id})``.
+    """Tracks without gaps: ``(rows [L, B, E, P], {frame: {old id: new id}})``.
 
     The first run of frames of an id keeps the id; every later run gets the
     next free id with the run before it as parent.  A daughter's parent is
@@ -98,7 +99,8 @@ def _ctc_tracks(presence, parents, first_new):
             next_id += k > 0
             runs[i].append((new, int(piece[0]), int(piece[-1])))
             if new != i:
-                renamed.update({(i, int(t)): new for t in piece})
+                for t in piece.tolist():
+                    renamed.setdefault(t, {})[i] = new
     rows = []
     for i, pieces in runs.items():
         mother = parents.get(i, 0)
@@ -181,11 +183,9 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
     digits = _digits(len(frames))
     written = set()
     for t, f in enumerate(frames):
-        changes = [(old, new) for (old, tt), new in renamed.items() if tt == t]
-        if changes:
-            f = f.copy()
-            for old, new in changes:
-                f[f == old] = new
+        if t in renamed:  # the ids of the parts after a gap
+            old = sorted(renamed[t])
+            f = relabel(f, old, [renamed[t][i] for i in old])
         path = folder / f"{prefix}{t:0{digits}d}.tif"
         with atomic_path(path) as tmp:
             tifffile.imwrite(tmp, f.astype(np.uint16), photometric="minisblack")
@@ -443,8 +443,4 @@ class CtcReader:
 
     def read(self, t) -> np.ndarray:
         arr = self._files.read(t)
-        hit = np.isin(arr, self._old)
-        if hit.any():
-            arr = arr.astype(np.int64)
-            arr[hit] = self._new[np.searchsorted(self._old, arr[hit])]
-        return arr
+        return relabel(arr, self._old, self._new) if len(self._old) else arr

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["track_masks"]
+__all__ = ["track_masks", "relabel"]
 
 
 def _labels_source(movie, labels):
@@ -48,12 +48,16 @@ def _mask(movie, mask):
     return read_mask(mask, tuple(movie.shape))[0]
 
 
-def _relabel(lab, ids, values):
-    """``lab`` with each id of ``ids`` (sorted) replaced by its ``values`` entry; every other pixel 0."""
+def relabel(lab, ids, values, others=None):
+    """``lab`` with each id of ``ids`` (sorted, unique) replaced by the matching entry of ``values``.
+
+    Pixels holding any other value keep it (``others`` None) or become ``others``.
+    """
+    ids, values = np.asarray(ids, np.int64), np.asarray(values, np.int64)
     if not len(ids):
-        return np.zeros(lab.shape, np.int64)
+        return lab.copy() if others is None else np.full(lab.shape, others, np.int64)
     key = np.minimum(np.searchsorted(ids, lab), len(ids) - 1)
-    return np.where(ids[key] == lab, values[key], 0)
+    return np.where(ids[key] == lab, values[key], lab if others is None else others)
 
 
 def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
@@ -110,5 +114,5 @@ def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
         if not ok.all() or not np.array_equal(counts[pos[ok]].astype(float), area[lo:hi]):
             raise InputError(f"{what}, frame {t}: the cells differ from the results' cells table (other ids or "
                              f"pixel areas); pass the labels the results were computed from (--labels FILE)")
-        out.append(_relabel(lab, ids[lo:hi], tracks[lo:hi]))
+        out.append(relabel(lab, ids[lo:hi], tracks[lo:hi], others=0))
     return out
