@@ -19,7 +19,8 @@ from .track import TRACK_MODES
 __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
-SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command")
+SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command",
+                      "hexatissue.exchange.command")
 DEBUG_HELP = "on an error, show the Python traceback instead of one line"
 
 

@@ -15,8 +15,8 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path", "check_output_folder",
-           "check_zarr_chunks", "read_zarr"]
+__all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path", "atomic_dir",
+           "check_output_folder", "check_zarr_chunks", "read_zarr"]
 
 
 def _current_umask() -> int:
@@ -95,6 +95,39 @@ def atomic_path(path):
         except BaseException:
             if os.path.exists(tmp):
                 os.remove(tmp)
+            raise
+
+    return _ctx()
+
+
+def atomic_dir(path):
+    """A context manager yielding a temporary folder next to ``path``; it replaces ``path`` on success.
+
+    For stores that are folders (zarr, GEFF): readers never see one half
+    written.  An existing ``path`` is moved aside, the new folder renamed
+    onto it, then the old one deleted; on error the temporary folder is
+    removed and ``path`` is left as it was.
+    """
+    import shutil
+    from contextlib import contextmanager
+
+    @contextmanager
+    def _ctx():
+        target = Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+        os.chmod(tmp, 0o777 & ~_UMASK)
+        try:
+            yield tmp
+            old = None
+            if target.exists():
+                old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+                os.replace(target, old / target.name)
+            os.replace(tmp, target)
+            if old is not None:
+                shutil.rmtree(old)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
             raise
 
     return _ctx()

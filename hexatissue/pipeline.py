@@ -142,7 +142,9 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tables = {name: rows.pop(name).table(name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
-    parents = tracker.parents
+    # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
+    keep_ids = src.parents is not None and tracker.decision()[0] == "never"
+    parents = src.parents if keep_ids else tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
@@ -390,20 +392,31 @@ def _defect_tracks(defects, grid, order, box, n_frames, linked=True):
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
 
+def mesh_labels(labels, box, mesh, mask=None):
+    """The touching labels the mesh (and the tracker) of :func:`analyze` use for one validated frame.
+
+    Returns ``(labels, membrane)``: the normalised labels and the pixels that
+    were membrane (see :func:`hexatissue.mesh.labels.normalize_labels`).
+    Exporters that must match the cells table (``hexatissue export --to ctc``)
+    call this with the options of the analysis.
+    """
+    from .mesh.labels import normalize_valid
+
+    return normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
+                           background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside, mask=mask)
+
+
 def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
     """Tables of one frame, its normalised labels (for the tracker) and its warnings.
 
     Warnings are caught here, in the worker, and returned as ``(category,
     text)`` pairs, so the main process reports them with their frames.
     """
-    from .mesh.labels import normalize_valid
     from .mesh.network import network_tables
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
-                                        background=mesh.background, fill_holes=mesh.fill_holes,
-                                        outside=mesh.outside, mask=mask)
+        lab, membrane = mesh_labels(labels, box, mesh, mask)
         tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
         if image is not None:
             from .intensity import measure_intensity

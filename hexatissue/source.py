@@ -41,6 +41,7 @@ import numpy as np
 
 from .box import Box
 from .errors import HexatissueWarning, InputError, user_stacklevel
+from .exchange.ctc import is_ctc_folder
 from .mesh.labels import validate_labels
 from .polygons import POLYGON_SUFFIXES, open_polygons
 from .units import Calibration, normalize_length_unit, normalize_time_unit
@@ -82,13 +83,18 @@ class Source:
         JSON-serialisable account of what was opened: ``kind`` (``"tiff"``,
         ``"png"``, ``"npy"``, ``"cellpose"``, ``"npz"``, ``"zarr"``,
         ``"ome-zarr"``, ``"mpf_run"``, ``"array"``, ``"list"``,
-        ``"folder"``; for polygons ``"vertices_table"``,
+        ``"folder"``, ``"ctc"``; for polygons ``"vertices_table"``,
         ``"tissue_analyzer"``, ``"polygon_mat"`` or ``"polygon_mat_folder"``),
         ``path`` (str or None), ``key``, ``channel``,
         ``level``, ``axes`` (axis letters of the data as stored, e.g.
         ``"TCYX"``), ``stored_shape``, ``dtype``, ``frame_axis`` (letter of
         the axis read as time, or None for a single image), ``notes``
         (list of str: choices made while reading) and kind-specific entries.
+    parents : dict or None
+        ``{daughter track: mother track}`` of the divisions recorded with the
+        masks (Cell Tracking Challenge folders); :func:`hexatissue.analyze`
+        uses them as the lineage when the ids are kept.  None: divisions are
+        found from the masks.
     """
 
     n_frames: int
@@ -98,6 +104,7 @@ class Source:
     calibration: Calibration
     description: dict
     _reader: object = field(repr=False)
+    parents: dict | None = None
 
     def __post_init__(self):
         if not (isinstance(self.n_frames, int) and self.n_frames >= 1):
@@ -273,7 +280,12 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
           ``*_seg.npy`` (its ``masks``), ``.npz``, a zarr array or group,
           an OME-Zarr image (NGFF 0.4 / 0.5), an MPF run store, or a folder
           of ``.tif``/``.png`` files (one frame per file, natural order:
-          ``frame2`` before ``frame10``);
+          ``frame2`` before ``frame10``), or a Cell Tracking Challenge
+          folder (``maskTTT.tif`` + ``res_track.txt``, or
+          ``TRA/man_trackTTT.tif`` + ``TRA/man_track.txt``): its ids are
+          tracks (``ids_consistent``), tracks continuing across a gap are
+          given one id again, and its divisions are ``Source.parents``
+          (:mod:`hexatissue.exchange.ctc`);
         - cell polygons (a Source of ``kind == "polygons"``, frames read with
           ``source.polygons(t)``; :func:`hexatissue.polygons.open_polygons`):
           a vertices table (``.csv``/``.parquet``), a Tissue Analyzer
@@ -385,10 +397,10 @@ def _is_zarr_group(obj) -> bool:
     return type(obj).__module__.split(".")[0] == "zarr" and hasattr(obj, "array_keys") and hasattr(obj, "attrs")
 
 
-def _make(reader, description, calibration=None, box=None, ids_consistent=False) -> Source:
+def _make(reader, description, calibration=None, box=None, ids_consistent=False, parents=None) -> Source:
     desc = {"key": None, "channel": None, "level": None, **description, **reader.describe()}
     return Source(n_frames=int(reader.n_frames), shape=tuple(reader.shape), box=box, ids_consistent=ids_consistent,
-                  calibration=calibration or Calibration(), description=desc, _reader=reader)
+                  calibration=calibration or Calibration(), description=desc, _reader=reader, parents=parents)
 
 
 def _read_error(what, exc) -> InputError:
@@ -888,6 +900,8 @@ def _open_path(path: Path, key, channel, level) -> Source:
             if _is_polygon_folder(path):
                 _refuse("a folder of polygon files", key=key, channel=channel, level=level)
                 return open_polygons(path)
+            if is_ctc_folder(path):
+                return _open_ctc(path, key, channel, level)
             _refuse("a folder of images", key=key, level=level)
             return _open_folder(path, channel)
         suffix = path.suffix.lower()
@@ -979,6 +993,16 @@ def _open_folder(path: Path, channel) -> Source:
         raise InputError(f"folder {str(path)!r} mixes .png and .tif files; expected one kind of image file per "
                          f"frame (move the others away)")
     return _from_files(images, channel, {"kind": "folder", "path": str(path)}, f"folder {str(path)!r}")
+
+
+def _open_ctc(path: Path, key, channel, level) -> Source:
+    """A Cell Tracking Challenge folder: masks whose ids are tracks (consistent), divisions from its track file."""
+    from .exchange.ctc import CtcReader
+
+    _refuse("a Cell Tracking Challenge folder", key=key, channel=channel, level=level)
+    reader = CtcReader(path)
+    desc = {"kind": "ctc", "path": str(path), "layout": reader.layout, "gaps_merged": len(reader.same)}
+    return _make(reader, desc, reader.calibration, ids_consistent=True, parents=reader.parents)
 
 
 def _from_files(paths, channel, description, what) -> Source:

@@ -28,7 +28,8 @@ from .errors import InputError
 from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
-__all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
+__all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
+           "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -542,7 +543,8 @@ class MovieTracker:
         if self.independent:
             return "off", "the source's frames are independent images, not a movie: every cell is its own track"
         if self.ids_consistent:
-            return "never", "the source's ids are consistent (MPF run or polygon table): ids kept"
+            return "never", ("the source's ids are consistent (MPF run, polygon table or Cell Tracking Challenge "
+                             "folder): ids kept")
         if not np.isfinite(c):
             return "never", f"{measured}: ids kept"
         if c >= ID_CONSISTENCY:
@@ -612,6 +614,21 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
     out["begin"] = pd.array(begin, dtype="string")
     out["end"] = pd.array(end, dtype="string")
     return validate(out.reset_index(drop=True), "lineage")
+
+
+def lineage_roots(parents: dict, ids) -> dict:
+    """``{id: its first ancestor}`` following ``parents`` (``{child: parent}``) up from each of ``ids``.
+
+    An id without a parent is its own root; a cycle (bad input) stops where it closes.
+    """
+    out = {}
+    for i in ids:
+        root, seen = int(i), set()
+        while root in parents and root not in seen:
+            seen.add(root)
+            root = int(parents[root])
+        out[int(i)] = root
+    return out
 
 
 def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0, progress=False):

@@ -65,3 +65,21 @@ def test_atomic_path_leaves_nothing_on_error(tmp_path):
             tmp.write_text("half")
             raise RuntimeError("interrupted")
     assert not target.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_atomic_dir_replaces_a_folder_whole_or_not_at_all(tmp_path):
+    from hexatissue.io import atomic_dir
+
+    target = tmp_path / "store.zarr"
+    with atomic_dir(target) as tmp:
+        (tmp / "a").write_text("1")
+    assert [p.name for p in target.iterdir()] == ["a"]
+    with pytest.raises(RuntimeError):
+        with atomic_dir(target) as tmp:
+            (tmp / "b").write_text("2")
+            raise RuntimeError("interrupted")
+    assert [p.name for p in target.iterdir()] == ["a"]  # the old folder is untouched
+    with atomic_dir(target) as tmp:
+        (tmp / "c").write_text("3")
+    assert [p.name for p in target.iterdir()] == ["c"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["store.zarr"]  # no temporary folders left
