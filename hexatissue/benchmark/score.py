@@ -303,8 +303,9 @@ def match_points(a, b, radius, box=None):
     i, j, d, comp = i[order], j[order], d[order], comp[order]
     starts = np.flatnonzero(np.r_[True, comp[1:] != comp[:-1]])
     ends = np.r_[starts[1:], len(comp)]
-    out = [np.c_[i[ends - starts == 1][:, None], j[ends - starts == 1][:, None], d[ends - starts == 1][:, None]]]
-    for s, e in zip(starts[ends - starts > 1], ends[ends - starts > 1]):
+    single = ends - starts == 1  # one candidate pair: it is the match
+    out = [np.c_[i[starts[single]], j[starts[single]], d[starts[single]]]]
+    for s, e in zip(starts[~single], ends[~single]):
         ui, ri = np.unique(i[s:e], return_inverse=True)
         uj, rj = np.unique(j[s:e], return_inverse=True)
         big = radius * (len(ui) + len(uj)) + 1.0  # more than any set of real pairs: maximise their number first
@@ -593,7 +594,7 @@ def plot_scores(scores, path=None):
         ax.text(min(v, 0.86) + 0.01, yy, f"{v:.3f}", va="center", fontsize=8)
     ax.set_yticks(y, names, fontsize=8)
     ax.set_xlim(0, 1)
-    ax.set_xlabel("score (1 = perfect)")
+    ax.set_xlabel("score (1 = perfect; blue >= 0.95, orange >= 0.8, red < 0.8)")
     ax.axvline(1.0, color="k", lw=0.8)
     ax.set_title("prediction vs truth", fontsize=10)
     if path is not None:
