@@ -158,8 +158,8 @@ def _side(obj, labels, name, box):
 # ---------------------------------------------------------------------------------------------------------
 # cell matching and segmentation
 # ---------------------------------------------------------------------------------------------------------
-def _match_frame(t, truth, pred):
-    """The truth-cell and predicted-cell rows of frame t (matching rules in the module docstring)."""
+def _overlaps(t, truth, pred):
+    """Frame t's overlaps (``frame``, ``truth``, ``pred``, ``n`` px; both ids > 0) and the cells' areas."""
     if truth.shape != pred.shape:
         raise InputError(f"frame {t}: the prediction's labels have shape {pred.shape} and the truth's {truth.shape}; "
                          f"expected the same image size")
@@ -167,36 +167,48 @@ def _match_frame(t, truth, pred):
     n_p = int(pl.max()) + 1
     code, n = np.unique(tl * n_p + pl, return_counts=True)
     tj, pi = np.divmod(code, n_p)
-    at, ap = np.bincount(tl), np.bincount(pl, minlength=n_p)
     real = (tj > 0) & (pi > 0)
-    ov = pd.DataFrame({"truth": tj[real], "pred": pi[real], "n": n[real]})
-    ov["iou"] = ov["n"] / (at[ov["truth"]] + ap[ov["pred"]] - ov["n"])
-    covers = ov[2 * ov["n"] > at[ov["truth"]]].set_index("truth")
-    belongs = ov[2 * ov["n"] > ap[ov["pred"]]]
-    matched = ov[ov["iou"] > 0.5]
-    truth_ids, pred_ids = np.flatnonzero(at[1:]) + 1, np.flatnonzero(ap[1:]) + 1
-    n_belonging = belongs.groupby("truth").size().reindex(truth_ids, fill_value=0).to_numpy()
-    seg_cell = covers["pred"].reindex(truth_ids, fill_value=0).to_numpy()
-    cells = pd.DataFrame({
-        "frame": np.int64(t), "cell": truth_ids, "area": at[truth_ids],
-        "seg_cell": seg_cell, "jaccard": covers["iou"].reindex(truth_ids, fill_value=0.0).to_numpy(),
-        "pred_cell": matched.set_index("truth")["pred"].reindex(truth_ids, fill_value=0).to_numpy(),
-        "is_split": n_belonging >= 2, "is_missed": (seg_cell == 0) & (n_belonging == 0)})
-    n_covered = covers.groupby("pred").size().reindex(pred_ids, fill_value=0).to_numpy()
-    owner = belongs.set_index("pred")["truth"].reindex(pred_ids, fill_value=0).to_numpy()
-    pred_cells = pd.DataFrame({
-        "frame": np.int64(t), "cell": pred_ids, "area": ap[pred_ids],
-        "truth_cell": matched.set_index("pred")["truth"].reindex(pred_ids, fill_value=0).to_numpy(),
-        "is_merge": n_covered >= 2, "is_extra": (n_covered == 0) & (owner == 0)})
-    return cells, pred_cells
+    areas = []
+    for lab in (tl, pl):
+        count = np.bincount(lab)
+        ids = np.flatnonzero(count[1:]) + 1
+        areas.append(pd.DataFrame({"frame": np.int64(t), "cell": ids, "area": count[ids]}))
+    return pd.DataFrame({"frame": np.int64(t), "truth": tj[real], "pred": pi[real], "n": n[real]}), *areas
 
 
 def _match_cells(truth_labels, pred_labels, n_frames, show_progress):
-    parts = [_match_frame(t, truth_labels(t), pred_labels(t))
+    """The truth-cell and predicted-cell tables of every frame (matching rules in the module docstring)."""
+    parts = [_overlaps(t, truth_labels(t), pred_labels(t))
              for t in progress(range(n_frames), enabled=show_progress, desc="matching cells", unit="frame")]
-    cells = pd.concat([p[0] for p in parts], ignore_index=True)
-    pred_cells = pd.concat([p[1] for p in parts], ignore_index=True)
-    return cells, pred_cells
+    ov, t_area, p_area = (pd.concat([p[k] for p in parts], ignore_index=True) for k in range(3))
+    ov = ov.merge(t_area.rename(columns={"cell": "truth", "area": "at"}), on=["frame", "truth"]).merge(
+        p_area.rename(columns={"cell": "pred", "area": "ap"}), on=["frame", "pred"])
+    ov["iou"] = ov["n"] / (ov["at"] + ov["ap"] - ov["n"])
+    covers = ov[2 * ov["n"] > ov["at"]]  # the truth cell's SEG match (at most one per truth cell)
+    belongs = ov[2 * ov["n"] > ov["ap"]]  # the predicted cell lies mostly in this truth cell
+    matched = ov[ov["iou"] > 0.5]
+    keys = ["frame", "cell"]
+
+    def column(table, key, value, name, fill):
+        got = table[["frame", key, value]].rename(columns={key: "cell", value: name})
+        return lambda df: df.merge(got, on=keys, how="left").fillna({name: fill})
+
+    cells = t_area
+    for add in (column(covers, "truth", "pred", "seg_cell", 0), column(covers, "truth", "iou", "jaccard", 0.0),
+                column(matched, "truth", "pred", "pred_cell", 0),
+                column(belongs.groupby(["frame", "truth"], as_index=False).size(), "truth", "size", "n_parts", 0)):
+        cells = add(cells)
+    cells["is_split"] = cells["n_parts"] >= 2
+    cells["is_missed"] = (cells["seg_cell"] == 0) & (cells.pop("n_parts") == 0)
+    pred_cells = p_area
+    for add in (column(matched, "pred", "truth", "truth_cell", 0),
+                column(covers.groupby(["frame", "pred"], as_index=False).size(), "pred", "size", "n_covered", 0),
+                column(belongs, "pred", "truth", "owner", 0)):
+        pred_cells = add(pred_cells)
+    pred_cells["is_merge"] = pred_cells["n_covered"] >= 2
+    pred_cells["is_extra"] = (pred_cells.pop("n_covered") == 0) & (pred_cells.pop("owner") == 0)
+    return (cells.astype({"seg_cell": np.int64, "pred_cell": np.int64}),
+            pred_cells.astype({"truth_cell": np.int64}))
 
 
 def _segmentation(cells, pred_cells, summary, counts):
