@@ -69,3 +69,21 @@ def test_bad_input_names_the_argument():
         segment_membranes(np.zeros((10, 10)))
     with pytest.raises(InputError, match="sigma"):
         segment_membranes(np.random.default_rng(0).random((10, 10)), sigma=0)
+
+
+def test_cli_baseline_writes_labels_with_the_input_calibration(tmp_path):
+    from hexatissue import open_source
+    from hexatissue.cli import main
+    from hexatissue.io import write_tiff
+    from hexatissue.units import Calibration
+
+    truth = voronoi_labels(jittered_seeds((100, 120), 20, seed=5), (100, 120))
+    raw = np.stack([_membrane_image(truth, 5), _membrane_image(truth, 6)])
+    cal = Calibration(0.25, "um", 3.0, "min")
+    write_tiff(tmp_path / "raw.tif", raw, cal)
+    assert main(["benchmark", "baseline", str(tmp_path / "raw.tif"), "--out", str(tmp_path / "labels.tif")]) == 0
+    out = open_source(tmp_path / "labels.tif")
+    assert out.calibration == cal and out.n_frames == 2
+    assert out.frame(0).dtype == np.uint16
+    np.testing.assert_array_equal(out.frame(1), segment_membranes(raw[1]))
+    assert main(["benchmark", "baseline", str(tmp_path / "missing.tif"), "--out", str(tmp_path / "x.tif")]) == 2

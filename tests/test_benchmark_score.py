@@ -312,3 +312,37 @@ def test_bad_input(truth):
     with pytest.raises(InputError, match="same frames"):
         score(result.replace(n_frames=3), folder, pred_labels=labels)
     assert main(["benchmark", "score", str(folder / "nothing"), str(folder), "--out", str(folder / "s")]) == 2
+
+
+def _dividing(split_from, n_frames=5):
+    """A still Voronoi tissue whose cell 13 divides into 40 and 41 (left / right halves) from ``split_from`` on."""
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    base = voronoi_labels(jittered_seeds((120, 120), 24, seed=2), (120, 120))
+    out = np.repeat(base[None], n_frames, axis=0)
+    r, c = np.nonzero(base == 13)
+    right = c > c.mean()
+    out[split_from:, r[right], c[right]] = 40
+    out[split_from:, r[~right], c[~right]] = 41
+    return out
+
+
+def test_divisions_found_late_within_the_tolerance_or_missed():
+    truth_labels = _dividing(2)
+    truth = analyze(truth_labels, order=ORDER, workers=1, progress=False)
+    assert truth.lineage["parent"].tolist().count(13) == 2
+    same = score(truth, truth, pred_labels=truth_labels, truth_labels=truth_labels, show_progress=False)
+    assert same.summary["division_precision"] == same.summary["division_recall"] == 1.0
+    late_labels = _dividing(3)
+    late = analyze(late_labels, order=ORDER, workers=1, progress=False)
+    for tolerance, expected in ((0, 0.0), (1, 1.0)):
+        s = score(late, truth, pred_labels=late_labels, truth_labels=truth_labels, frame_tolerance=tolerance,
+                  show_progress=False)
+        assert s.summary["division_precision"] == s.summary["division_recall"] == expected
+    # links: 24 other tracks x 4; truth 13 (frames 0-1) 1 and daughters (2-4) 2 each = 101; prediction 13
+    # (0-2) 2 and daughters (3-4) 1 each = 100.  In frame 2 the undivided mother covers each true daughter
+    # with IoU 0.5 (not > 0.5): unmatched, so 13's link 1->2 and the daughters' links 2->3 are not matched.
+    assert s.counts["n_truth_links"] == 101 and s.counts["n_pred_links"] == 100
+    assert s.summary["link_precision"] == pytest.approx(99 / 100) and s.summary["link_recall"] == pytest.approx(99 / 101)
+    never = score(_dividing(9), truth, truth_labels=truth_labels, show_progress=False)  # analysed by score
+    assert never.summary["division_recall"] == 0.0 and "division_precision" not in never.summary

@@ -34,7 +34,7 @@ from ..frame import Movie, read_results
 from ..progress import progress
 from ..schema import interior_mask, track_ids
 
-__all__ = ["Scores", "score", "score_to_folder", "SCORE_NAMES"]
+__all__ = ["Scores", "score", "score_to_folder", "plot_scores", "match_points", "SCORE_NAMES"]
 
 #: Every score :func:`score` can report, in the order of the summary and the figure.
 SCORE_NAMES = ("seg_jaccard", "split_score", "merge_score", "missed_score", "extra_score",
