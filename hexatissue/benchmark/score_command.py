@@ -33,6 +33,8 @@ def add_parsers(benchmark_subparsers):
     b.add_argument("--h", type=float, default=0.1,
                    help="seed basin depth as a fraction of the robust intensity range (default 0.1)")
     b.add_argument("--min-area", type=int, default=30, help="smaller cells go to their neighbours, px (default 30)")
+    b.add_argument("--periodic", action="store_true",
+                   help="the frames tile a periodic box (MPF runs): a cell crossing the edge gets one id")
     b.set_defaults(func=_run_baseline)
 
     s = benchmark_subparsers.add_parser(
@@ -63,7 +65,8 @@ def _run_baseline(args) -> int:
     from .baseline import segment_movie
 
     source = open_source(args.raw, channel=args.channel)
-    labels = segment_movie(_Images(source), sigma=args.sigma, h=args.h, min_area=args.min_area)
+    labels = segment_movie(_Images(source), sigma=args.sigma, h=args.h, min_area=args.min_area,
+                           periodic=args.periodic)
     if source.description.get("frame_axis") is None:
         labels = labels[0]
     if labels.max() < 2**16:
