@@ -114,6 +114,7 @@ def test_truth_against_itself_is_perfect(truth, tmp_path):
     assert (c["n_truth_cells"], c["n_truth_pairs"], c["n_truth_vertices"], c["n_truth_links"], c["n_truth_t1"]) == \
         (n_cells, n_pairs, n_vertices, n_links, n_t1) == (4320, n_pairs, n_vertices, 4200, 5)
     assert "division_precision" in scores.notes[-1]
+    assert scores.notes[:2] == [f"prediction labels: {folder / 'labels.tif'}", f"truth labels: {folder / 'labels.tif'}"]
     written = score_to_folder(scores, tmp_path / "out")
     assert json.loads((tmp_path / "out" / "scores.json").read_text()) == scores.summary
     assert {p.name for p in written} >= {"scores.json", "counts.json", "summary.txt", "scores.png", "cells.parquet",
@@ -311,6 +312,8 @@ def test_bad_input(truth):
         score(folder, folder, vertex_radius=0)
     with pytest.raises(InputError, match="same frames"):
         score(result.replace(n_frames=3), folder, pred_labels=labels)
+    with pytest.raises(InputError, match="prediction labels"):
+        score(folder, folder, pred_labels=labels[:5])
     assert main(["benchmark", "score", str(folder / "nothing"), str(folder), "--out", str(folder / "s")]) == 2
 
 
@@ -343,6 +346,25 @@ def test_divisions_found_late_within_the_tolerance_or_missed():
     # (0-2) 2 and daughters (3-4) 1 each = 100.  In frame 2 the undivided mother covers each true daughter
     # with IoU 0.5 (not > 0.5): unmatched, so 13's link 1->2 and the daughters' links 2->3 are not matched.
     assert s.counts["n_truth_links"] == 101 and s.counts["n_pred_links"] == 100
-    assert s.summary["link_precision"] == pytest.approx(99 / 100) and s.summary["link_recall"] == pytest.approx(99 / 101)
+    assert s.summary["link_precision"] == pytest.approx(99 / 100)
+    assert s.summary["link_recall"] == pytest.approx(99 / 101)
     never = score(_dividing(9), truth, truth_labels=truth_labels, show_progress=False)  # analysed by score
     assert never.summary["division_recall"] == 0.0 and "division_precision" not in never.summary
+
+
+@pytest.mark.slow
+def test_baseline_analyze_score_loop_on_the_t1_movie(truth):
+    """Blurred noisy membranes of the whole T1 movie -> baseline -> analyze -> score (about a minute)."""
+    from scipy import ndimage
+
+    from hexatissue.benchmark.baseline import segment_movie
+    from hexatissue.synthetic import draw_membranes
+
+    folder, result, labels = truth
+    rng = np.random.default_rng(0)
+    raw = [0.1 + ndimage.gaussian_filter((draw_membranes(f, 2, periodic=True) == 0).astype(float), 1.0, mode="wrap")
+           + rng.normal(0, 0.05, f.shape) for f in labels]
+    seg = segment_movie(raw, periodic=True, show_progress=False)
+    pred = analyze(seg, box=result.box, order=ORDER, workers=1, progress=False)
+    s = score(pred, folder, pred_labels=seg, show_progress=False).summary
+    assert s["neighbour_pairs_recall"] >= 0.98 and s["t1_recall"] * s["t1_kind_accuracy"] >= 0.9

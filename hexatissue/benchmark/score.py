@@ -187,28 +187,28 @@ def _match_cells(truth_labels, pred_labels, n_frames, show_progress):
     covers = ov[2 * ov["n"] > ov["at"]]  # the truth cell's SEG match (at most one per truth cell)
     belongs = ov[2 * ov["n"] > ov["ap"]]  # the predicted cell lies mostly in this truth cell
     matched = ov[ov["iou"] > 0.5]
-    keys = ["frame", "cell"]
-
-    def column(table, key, value, name, fill):
-        got = table[["frame", key, value]].rename(columns={key: "cell", value: name})
-        return lambda df: df.merge(got, on=keys, how="left").fillna({name: fill})
-
-    cells = t_area
-    for add in (column(covers, "truth", "pred", "seg_cell", 0), column(covers, "truth", "iou", "jaccard", 0.0),
-                column(matched, "truth", "pred", "pred_cell", 0),
-                column(belongs.groupby(["frame", "truth"], as_index=False).size(), "truth", "size", "n_parts", 0)):
-        cells = add(cells)
+    cells = _attach(t_area, covers, "truth", "pred", "seg_cell", 0)
+    cells = _attach(cells, covers, "truth", "iou", "jaccard", 0.0)
+    cells = _attach(cells, matched, "truth", "pred", "pred_cell", 0)
+    parts = belongs.groupby(["frame", "truth"], as_index=False).size()
+    cells = _attach(cells, parts, "truth", "size", "n_parts", 0)
     cells["is_split"] = cells["n_parts"] >= 2
     cells["is_missed"] = (cells["seg_cell"] == 0) & (cells.pop("n_parts") == 0)
-    pred_cells = p_area
-    for add in (column(matched, "pred", "truth", "truth_cell", 0),
-                column(covers.groupby(["frame", "pred"], as_index=False).size(), "pred", "size", "n_covered", 0),
-                column(belongs, "pred", "truth", "owner", 0)):
-        pred_cells = add(pred_cells)
+    pred_cells = _attach(p_area, matched, "pred", "truth", "truth_cell", 0)
+    covered = covers.groupby(["frame", "pred"], as_index=False).size()
+    pred_cells = _attach(pred_cells, covered, "pred", "size", "n_covered", 0)
+    pred_cells = _attach(pred_cells, belongs, "pred", "truth", "owner", 0)
     pred_cells["is_merge"] = pred_cells["n_covered"] >= 2
     pred_cells["is_extra"] = (pred_cells.pop("n_covered") == 0) & (pred_cells.pop("owner") == 0)
     return (cells.astype({"seg_cell": np.int64, "pred_cell": np.int64}),
             pred_cells.astype({"truth_cell": np.int64}))
+
+
+def _attach(df, table, key, value, name, fill):
+    """``df`` (``frame``, ``cell``) with column ``name``: ``table[value]`` where ``table[key]`` is the cell, else
+    ``fill``."""
+    got = table[["frame", key, value]].rename(columns={key: "cell", value: name})
+    return df.merge(got, on=["frame", "cell"], how="left").fillna({name: fill})
 
 
 def _segmentation(cells, pred_cells, summary, counts):
@@ -233,12 +233,13 @@ def _to_truth(cells):
 
 
 def _map(table, columns, to_truth):
-    """``table`` with ``t_<column>``: the truth cell matched to each predicted cell id column (0 if none)."""
+    """``table`` with ``t_<column>`` for each predicted cell id column: its matched truth cell in the row's
+    frame (0 if none)."""
     lookup = dict(zip(zip(to_truth["frame"].to_numpy(), to_truth["pred"].to_numpy()), to_truth["truth"].to_numpy()))
     out = table.copy()
-    for col, frame_col in columns:
-        out[f"t_{col}"] = np.array([lookup.get(k, 0) for k in zip(out[frame_col].to_numpy(), out[col].to_numpy())],
-                                   dtype=np.int64)
+    frames = out["frame"].to_numpy()
+    for col in columns:
+        out[f"t_{col}"] = np.array([lookup.get(k, 0) for k in zip(frames, out[col].to_numpy())], dtype=np.int64)
     return out
 
 
@@ -261,7 +262,7 @@ def _pairs(edges):
 
 def _neighbour_pairs(truth, pred, to_truth, summary, counts):
     tp, pp = _pairs(truth.edges), _pairs(pred.edges)
-    pp = _map(pp, [("a", "frame"), ("b", "frame")], to_truth)
+    pp = _map(pp, ["a", "b"], to_truth)
     lo, hi = np.minimum(pp["t_a"], pp["t_b"]), np.maximum(pp["t_a"], pp["t_b"])
     mapped = pd.DataFrame({"frame": pp["frame"], "a": np.where(lo > 0, lo, 0), "b": np.where(lo > 0, hi, 0),
                            "pred_a": pp["a"], "pred_b": pp["b"]})
@@ -393,13 +394,14 @@ def _links(cells):
 
 def _tracking(truth, pred, to_truth, summary, counts):
     tl, pl = _links(truth.cells), _links(pred.cells)
-    pl = _map(pl, [("cell", "frame")], to_truth)
-    pl["t_cell_next"] = _map(pl.assign(frame=pl["frame"] + 1), [("cell_next", "frame")], to_truth)["t_cell_next"]
+    pl = _map(pl, ["cell"], to_truth)
+    pl["t_cell_next"] = _map(pl.assign(frame=pl["frame"] + 1), ["cell_next"], to_truth)["t_cell_next"]
     truth_links = set(zip(tl["frame"], tl["cell"], tl["cell_next"]))
     hit = np.array([k in truth_links for k in zip(pl["frame"], pl["t_cell"], pl["t_cell_next"])], bool)
     found = set(zip(pl["frame"][hit], pl["t_cell"][hit], pl["t_cell_next"][hit]))
     table = pd.concat([
-        tl.assign(status=["matched" if k in found else "missed" for k in zip(tl["frame"], tl["cell"], tl["cell_next"])]),
+        tl.assign(status=["matched" if k in found else "missed"
+                          for k in zip(tl["frame"], tl["cell"], tl["cell_next"])]),
         pd.DataFrame({"frame": pl["frame"][~hit], "track": 0, "cell": pl["t_cell"][~hit],
                       "cell_next": pl["t_cell_next"][~hit], "pred_track": pl["track"][~hit],
                       "pred_cell": pl["cell"][~hit], "pred_cell_next": pl["cell_next"][~hit], "status": "extra"})],
@@ -557,12 +559,21 @@ def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radi
     vertex_radius = check_positive(vertex_radius, "vertex_radius", unit="px")
     if isinstance(frame_tolerance, bool) or not isinstance(frame_tolerance, (int, np.integer)) or frame_tolerance < 0:
         raise InputError(f"frame_tolerance must be a non-negative integer number of frames; got {frame_tolerance!r}")
-    t_movie, t_labels, _ = _side(truth, truth_labels, "truth", None)
-    p_movie, p_labels, _ = _side(prediction, pred_labels, "prediction", t_movie.box)
+    t_movie, t_labels, t_where = _side(truth, truth_labels, "truth", None)
+    p_movie, p_labels, p_where = _side(prediction, pred_labels, "prediction", t_movie.box)
     if len(p_movie) != len(t_movie) or tuple(p_movie.shape) != tuple(t_movie.shape):
         raise InputError(f"the prediction has {len(p_movie)} frame(s) of {tuple(p_movie.shape)} and the truth "
                          f"{len(t_movie)} of {tuple(t_movie.shape)}; expected the same frames and image size")
-    summary, counts, tables, notes = {}, {}, {}, []
+    notes = []
+    for name, movie, lab, where in (("prediction", p_movie, p_labels, p_where), ("truth", t_movie, t_labels, t_where)):
+        if lab is None:
+            continue
+        if lab.source.n_frames != len(movie) or tuple(lab.source.shape) != tuple(movie.shape):
+            raise InputError(f"{name} labels ({where}) have {lab.source.n_frames} frame(s) of {lab.source.shape} "
+                             f"but its tables {len(movie)} of {tuple(movie.shape)}; expected the labels the tables "
+                             f"were computed from")
+        notes.append(f"{name} labels: {where}")
+    summary, counts, tables = {}, {}, {}
     missing = [name for name, lab in (("prediction", p_labels), ("truth", t_labels)) if lab is None]
     if missing:
         notes.append(f"no label images for the {' and the '.join(missing)} (pass pred_labels= / truth_labels=): "
