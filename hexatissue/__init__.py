@@ -77,15 +77,17 @@ __all__ = [
     "mesh_from_labels",
     "neighbor_graph",
     "contact_table",
+    "score",
     "__version__",
 ]
 
 
-# the simulators (numba + zarr) are imported on first use, not with the package
+# the simulators (numba + zarr) and the benchmark scorer are imported on first use, not with the package
 _LAZY = {"MPFParams": ("hexatissue.simulate", "Params"), "read_run": ("hexatissue.simulate", "read_run"),
          "run_simulation": ("hexatissue.simulate", "run_simulation"),
          "HydroParams": ("hexatissue.hydro", "HydroParams"), "run_dipole": ("hexatissue.hydro", "run_dipole"),
-         "run_quadrupole": ("hexatissue.hydro", "run_quadrupole")}
+         "run_quadrupole": ("hexatissue.hydro", "run_quadrupole"),
+         "score": ("hexatissue.benchmark.score", "score")}
 
 
 def __getattr__(name):
