@@ -56,7 +56,12 @@ import pandas as pd
 from ..errors import InputError, as_generator
 from ..options import _fail, _Options
 
-__all__ = ["RenderOptions", "Renderer", "render", "PSFS", "SHOT_NOISE"]
+__all__ = ["RenderOptions", "Renderer", "render", "airy_kernel", "PSFS", "SHOT_NOISE", "SNR_DEFINITION"]
+
+#: the SNR, in one line (for benchmark.json)
+SNR_DEFINITION = ("frame 0, noise-free image after the PSF, electrons: (mean over junction centreline pixels - mean "
+                  "over cytoplasm pixels) / sqrt(mean over cytoplasm pixels + read_noise**2); cytoplasm = inside "
+                  "a cell and farther than membrane_width / 2 + 3 psf_sigma + 1 px from every centreline")
 
 PSFS = ("gaussian", "airy")
 SHOT_NOISE = ("poisson", "gaussian")
