@@ -67,8 +67,9 @@ PSFS = ("gaussian", "airy")
 SHOT_NOISE = ("poisson", "gaussian")
 #: drawing sub-pixel precision: cv2 coordinates are integers in units of 1 / 2**_SHIFT px
 _SHIFT = 4
-#: junction intensities are drawn into uint8 in steps of 1/_LEVEL of the mean (AA needs 8-bit images)
-_LEVEL = 64
+#: junction intensities are drawn into uint8 (cv2 anti-aliases 8-bit images only) as multiples of 1/_LEVEL of
+#: the mean, in _BUCKET such steps: one cv2.polylines call per bucket present (about 15 per frame at CV 0.25)
+_LEVEL, _BUCKET = 64, 4
 #: points along a bent junction (a parabola through its two vertices)
 _CURVE_POINTS = 7
 #: Airy pattern: the Gaussian of standard deviation sigma that fits it best has sigma = 0.21 lambda / NA
@@ -192,15 +193,14 @@ def _lognormal(u, cv):
     return np.exp(s * ndtri(u) - 0.5 * s**2)
 
 
-def _frame_rows(table):
-    """``{frame: slice}`` of a table sorted by frame (stable sort first when it is not)."""
+def _by_frame(table, columns):
+    """``{frame: {column: numpy array}}`` of a table (rows of each frame in table order)."""
     frames = table["frame"].to_numpy()
-    if np.any(np.diff(frames) < 0):
-        table = table.sort_values("frame", kind="stable", ignore_index=True)
-        frames = table["frame"].to_numpy()
-    values, starts = np.unique(frames, return_index=True)
-    ends = np.r_[starts[1:], len(frames)]
-    return table, {int(f): slice(s, e) for f, s, e in zip(values, starts, ends)}
+    order = np.argsort(frames, kind="stable")
+    values, starts = np.unique(frames[order], return_index=True)
+    parts = np.split(order, starts[1:])
+    data = {c: table[c].to_numpy() for c in columns}
+    return {int(f): {c: data[c][rows] for c in columns} for f, rows in zip(values, parts)}
 
 
 def airy_kernel(sigma):
@@ -251,6 +251,7 @@ class Renderer:
         steps = rng.normal(0.0, options.drift, size=(n, 2)) if options.drift > 0 else np.zeros((n, 2))
         steps[0] = 0.0
         walk = np.cumsum(steps, axis=0)
+        self._walk = walk
         self.drift = pd.DataFrame({"frame": np.arange(n, dtype=np.int64), "dx": walk[:, 0], "dy": walk[:, 1]})
         self._frame_seeds = rng.integers(0, 2**63, size=n)
         self._shape = truth.labels.shape[1:]
@@ -260,17 +261,18 @@ class Renderer:
         self._pad = int(np.ceil(o.membrane_width / 2 + (7.7 if o.psf == "airy" else 4) * o.psf_sigma)) + 2
         self._kernel = airy_kernel(o.psf_sigma) if o.psf == "airy" and o.psf_sigma > 0 else None
         movie = truth.movie
-        self._edges, self._edge_rows = _frame_rows(movie.edges)
-        self._vertices, self._vertex_rows = _frame_rows(movie.vertices)
-        self._cells, self._cell_rows = _frame_rows(movie.cells)
+        self._edges = _by_frame(movie.edges, ("vertex_a", "vertex_b", "cell_a", "cell_b"))
+        self._vertices = _by_frame(movie.vertices, ("vertex", "x", "y"))
+        self._cells = _by_frame(movie.cells, ("cell", "x", "y", "area"))
         top = int(truth.labels.max()) if truth.labels.size else 0
-        self._cell_level = np.r_[0.0, _lognormal(_hash_uniform(self._keys[1], np.arange(1, top + 1)),
-                                                 o.cytoplasm_cv)].astype(np.float32)
+        # expected photons by label id: background at 0, each cell's own cytoplasm level
+        self._level = np.r_[o.background, o.cytoplasm * _lognormal(_hash_uniform(self._keys[1], np.arange(1, top + 1)),
+                                                                   o.cytoplasm_cv)].astype(np.float32)
         self.channels = 2 if o.nuclei else 1
         self.nucleus_radius = None
         if o.nuclei:
-            cells0 = self._cells.iloc[self._cell_rows.get(0, slice(0, 0))]
-            mean_radius = np.sqrt(cells0["area"].mean() / np.pi) if len(cells0) else 5.0
+            area = self._cells.get(0, {}).get("area", np.zeros(0))
+            mean_radius = np.sqrt(area.mean() / np.pi) if len(area) else 5.0
             self.nucleus_radius = float(o.nucleus_radius or 0.4 * mean_radius)
         self.amplitude = self._calibrate()
 
@@ -280,17 +282,16 @@ class Renderer:
     # -- geometry ------------------------------------------------------------------------------------
     def _junctions(self, t):
         """Polylines (n, k, 2) in px (unwrapped from their first vertex) and their intensities of frame ``t``."""
-        rows = self._edge_rows.get(t)
-        if rows is None:
+        e = self._edges.get(t)
+        if e is None:
             return np.zeros((0, 2, 2)), np.zeros(0)
-        e = self._edges.iloc[rows]
-        v = self._vertices.iloc[self._vertex_rows[t]]
-        ids = v["vertex"].to_numpy()
+        v = self._vertices[t]
+        ids = v["vertex"]
         lut = np.full(int(ids.max()) + 1, -1, np.int64)
         lut[ids] = np.arange(len(ids))
-        xy = v[["x", "y"]].to_numpy()
-        ia, ib = lut[e["vertex_a"].to_numpy()], lut[e["vertex_b"].to_numpy()]
-        ca, cb = e["cell_a"].to_numpy(), e["cell_b"].to_numpy()
+        xy = np.c_[v["x"], v["y"]]
+        ia, ib = lut[e["vertex_a"]], lut[e["vertex_b"]]
+        ca, cb = e["cell_a"], e["cell_b"]
         p0, d = xy[ia], xy[ib] - xy[ia]
         if self._period is not None:
             d -= self._period * np.round(d / self._period)
@@ -314,9 +315,9 @@ class Renderer:
 
         z = ndtri(_hash_uniform(self._keys[0] ^ 0x5DEECE66D, ca, cb))
         normal = np.c_[-d[:, 1], d[:, 0]]  # length |d|: sagitta = curvature * z * |d|
-        cells = self._cells.iloc[self._cell_rows[t]]
+        cells = self._cells[t]
         lut = np.zeros((int(cells["cell"].max()) + 1, 2))
-        lut[cells["cell"].to_numpy()] = cells[["x", "y"]].to_numpy()
+        lut[cells["cell"]] = np.c_[cells["x"], cells["y"]]
         to_b = lut[cb] - (p0 + 0.5 * d)
         if self._period is not None:
             to_b -= self._period * np.round(to_b / self._period)
@@ -357,7 +358,7 @@ class Renderer:
         canvas = self._canvas()
         if not len(lines):
             return canvas.astype(np.float32)
-        code = np.clip(np.round(level * _LEVEL), 1, 255).astype(np.int64)
+        code = np.clip(np.round(level * (_LEVEL / _BUCKET)), 1, 255 // _BUCKET).astype(np.int64) * _BUCKET
         copies, index = self._copies(lines)
         pts = np.round(copies * 2**_SHIFT).astype(np.int32)
         codes = code[index]
@@ -375,11 +376,7 @@ class Renderer:
         return cv2.copyMakeBorder(image, p, p, p, p, border)
 
     def _cytoplasm(self, t):
-        o = self.options
-        lab = self.truth.labels[t]
-        level = self._cell_level[np.clip(lab, 0, len(self._cell_level) - 1)] * np.float32(o.cytoplasm)
-        level[lab == 0] = o.background
-        return self._pad_image(level)
+        return self._pad_image(self._level.take(self.truth.labels[t]))
 
     def _blur(self, image):
         o = self.options
@@ -411,8 +408,8 @@ class Renderer:
 
     def _nuclei(self, t):
         o = self.options
-        cells = self._cells.iloc[self._cell_rows.get(t, slice(0, 0))]
-        centres = cells[["x", "y"]].to_numpy()[:, None, :]
+        cells = self._cells.get(t, {"x": np.zeros(0), "y": np.zeros(0)})
+        centres = np.c_[cells["x"], cells["y"]][:, None, :]
         canvas = self._canvas()
         if len(centres):
             r = self.nucleus_radius
@@ -431,7 +428,7 @@ class Renderer:
         layers = [self._cytoplasm(t) + np.float32(self.amplitude) * self._membrane(t)]
         if o.nuclei:
             layers.append(self._nuclei(t))
-        dx, dy = self.drift.loc[t, ["dx", "dy"]]
+        dx, dy = self._walk[t]
         fade = np.float32(np.exp(-o.bleach_rate * t))
         out = []
         for layer in layers:
@@ -448,14 +445,15 @@ class Renderer:
         o = self.options
         clean = np.maximum(self.clean(t), 0)
         rng = as_generator(int(self._frame_seeds[int(t)]))
+        z = rng.standard_normal(clean.shape, dtype=np.float32)
         if o.shot_noise == "poisson":
             electrons = rng.poisson(clean).astype(np.float32)
-        else:
-            electrons = clean + np.sqrt(clean) * rng.standard_normal(clean.shape, dtype=np.float32)
-        if o.read_noise > 0:
-            electrons += np.float32(o.read_noise) * rng.standard_normal(clean.shape, dtype=np.float32)
-        adu = np.rint(electrons * np.float32(o.gain) + np.float32(o.offset))
-        return np.clip(adu, 0, 65535).astype(np.uint16)
+            electrons += np.float32(o.read_noise) * z
+        else:  # shot and read noise in one normal draw: Normal(clean, clean + read_noise**2)
+            electrons = clean + np.sqrt(clean + np.float32(o.read_noise**2)) * z
+        electrons *= np.float32(o.gain)
+        electrons += np.float32(o.offset + 0.5)  # + 0.5 then truncation: rounding to the nearest ADU
+        return np.clip(electrons, 0, 65535, out=electrons).astype(np.uint16)
 
 
 def render(truth, options=RenderOptions(), *, seed=0, progress=True):
