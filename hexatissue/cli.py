@@ -18,7 +18,8 @@ from .order import CENTERS
 __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
-SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command")
+SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command",
+                      "hexatissue.benchmark.command")
 DEBUG_HELP = "on an error, show the Python traceback instead of one line"
 
 

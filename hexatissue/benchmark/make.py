@@ -45,6 +45,8 @@ def _truth(source, *, n_cells, n_frames, shape, periodic, crop, seed, workers, p
             raise InputError("the 't1' source is the fixed scripted T1 movie (12 x 10 cells, 360 x 260 px): "
                              "n_cells, shape and crop do not apply")
         return truth_from_t1(periodic=periodic, n_frames=n_frames or 36, seed=seed, **common)
+    if isinstance(source, str) and not Path(source).exists():
+        raise InputError(f"source {source!r} is neither one of {SOURCES} nor an existing MPF run store (RUN.zarr)")
     if n_cells is not None or shape is not None:
         raise InputError("n_cells and shape apply to the 'voronoi' source; an MPF run has its own cells and box")
     return truth_from_run(source, frames=slice(0, n_frames), crop=crop, **common)
