@@ -2,9 +2,10 @@
 
 OpenCV is the project's tool for rendering synthetic microscopy images: the
 junctions are drawn with ``cv2.polylines`` (anti-aliased, ``cv2.LINE_AA``),
-the PSF is ``cv2.GaussianBlur`` (or ``cv2.filter2D`` with an Airy kernel) and
-stage drift is an exact (band-limited) Fourier shift, because ``cv2.warpAffine``'s
-interpolation moves fine detail by up to 0.15 px less or more than asked
+the nuclei with ``cv2.circle`` and the Gaussian PSF is ``cv2.GaussianBlur``.  The Airy PSF and stage drift are
+applied together in Fourier space (the PSF's transfer function times the
+phase ramp of an exact, band-limited shift): ``cv2.warpAffine``'s
+interpolation moved fine detail by up to 0.15 px more or less than asked
 (measured by phase correlation).  Noise comes from numpy's Generator.
 
 Geometry comes from the truth tables, not the labels: every junction is the
@@ -58,7 +59,7 @@ import pandas as pd
 from ..errors import InputError, as_generator
 from ..options import _fail, _Options
 
-__all__ = ["RenderOptions", "Renderer", "render", "airy_kernel", "PSFS", "SHOT_NOISE", "SNR_DEFINITION"]
+__all__ = ["RenderOptions", "Renderer", "render", "transfer_function", "PSFS", "SHOT_NOISE", "SNR_DEFINITION"]
 
 #: the SNR, in one line (for benchmark.json)
 SNR_DEFINITION = ("frame 0, noise-free image after the PSF, electrons: (mean over junction centreline pixels - mean "
@@ -74,9 +75,6 @@ _SHIFT = 4
 _LEVEL, _BUCKET = 64, 4
 #: points along a bent junction (a parabola through its two vertices)
 _CURVE_POINTS = 7
-#: Airy pattern: the Gaussian of standard deviation sigma that fits it best has sigma = 0.21 lambda / NA
-#: (Zhang, Zerubia & Olivo-Marin 2007, paraxial widefield), i.e. sigma = 1.3195 in units of v = 2 pi NA r / lambda
-_AIRY_SIGMA_V = 2 * np.pi * 0.21
 
 
 @dataclass(frozen=True)
@@ -106,7 +104,8 @@ class RenderOptions(_Options):
         Point spread function.
     psf_sigma : float
         Gaussian standard deviation, px; for ``"airy"``, the sigma of the
-        Gaussian that best fits its central lobe (first zero at 2.9 sigma).
+        Gaussian that best fits it (0.21 lambda / NA; first dark ring at
+        2.9 sigma).
         0 disables the PSF.
     read_noise : float
         Camera read noise, electrons RMS (Gaussian).
@@ -205,32 +204,38 @@ def _by_frame(table, columns):
     return {int(f): {c: data[c][rows] for c in columns} for f, rows in zip(values, parts)}
 
 
-def _fourier_shift(image, dx, dy):
-    """``image`` translated by (dx, dy) px (x = column), periodically, by a phase ramp on its spectrum."""
-    rows, cols = image.shape
-    spectrum = np.fft.rfft2(image)
+def transfer_function(shape, psf, sigma):
+    """Optical transfer function of the PSF on the ``rfft2`` grid of an image of ``shape`` (rows, cols).
+
+    ``"gaussian"``: exp(-2 pi^2 sigma^2 f^2).  ``"airy"``: the incoherent OTF of a
+    circular pupil (the Fourier transform of the Airy pattern (2 J1(v) / v)^2),
+    (2 / pi) (arccos q - q sqrt(1 - q^2)) with q = f / f_c, zero beyond the cutoff
+    f_c = 2 NA / lambda.  Its best-fit Gaussian has sigma = 0.21 lambda / NA
+    (Zhang, Zerubia & Olivo-Marin 2007, paraxial widefield), so f_c = 0.42 / sigma.
+    f in cycles per px; sigma 0 gives 1 (no blur).
+    """
+    fy = np.fft.fftfreq(shape[0])[:, None]
+    fx = np.fft.rfftfreq(shape[1])[None, :]
+    f = np.hypot(fx, fy)
+    if sigma <= 0:
+        return np.ones_like(f)
+    if psf == "gaussian":
+        return np.exp(-2 * np.pi**2 * sigma**2 * f**2)
+    q = np.minimum(f * sigma / 0.42, 1.0)
+    return (2 / np.pi) * (np.arccos(q) - q * np.sqrt(1 - q**2))
+
+
+def _shift_ramp(shape, dx, dy):
+    """Phase ramp translating an image of ``shape`` by (dx, dy) px (x = column) on its ``rfft2`` grid."""
+    rows, cols = shape
     ramp_y = np.exp(-2j * np.pi * dy * np.fft.fftfreq(rows))
     ramp_x = np.exp(-2j * np.pi * dx * np.fft.rfftfreq(cols))
-    if cols % 2 == 0:  # the Nyquist column of a real signal cannot carry a phase: keep its real part
+    # the Nyquist frequency of a real signal cannot carry a phase: keep its real part
+    if cols % 2 == 0:
         ramp_x[-1] = np.cos(np.pi * dx)
     if rows % 2 == 0:
         ramp_y[rows // 2] = np.cos(np.pi * dy)
-    spectrum *= ramp_y[:, None]
-    spectrum *= ramp_x[None, :]
-    return np.fft.irfft2(spectrum, s=image.shape).astype(np.float32)
-
-
-def airy_kernel(sigma):
-    """Normalised Airy pattern (2 J1(v) / v)**2 out to its third dark ring, best-fit Gaussian sigma ``sigma`` px."""
-    from scipy.special import j1
-
-    radius = int(np.ceil(10.17 / _AIRY_SIGMA_V * sigma))  # third zero of J1 at v = 10.17
-    y, x = np.mgrid[-radius:radius + 1, -radius:radius + 1]
-    v = np.hypot(x, y) * (_AIRY_SIGMA_V / sigma)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        k = np.where(v > 0, (2 * j1(v) / v) ** 2, 1.0)
-    k[v > 10.17] = 0
-    return (k / k.sum()).astype(np.float32)
+    return ramp_y[:, None] * ramp_x[None, :]
 
 
 class Renderer:
@@ -278,7 +283,9 @@ class Renderer:
         self._pad = int(np.ceil(o.membrane_width / 2 + (7.7 if o.psf == "airy" else 4) * o.psf_sigma)) + 2
         if self._period is None:  # the Fourier shift wraps: the pad must hold the largest drift
             self._pad += int(np.ceil(np.abs(walk).max()))
-        self._kernel = airy_kernel(o.psf_sigma) if o.psf == "airy" and o.psf_sigma > 0 else None
+        # cv2.GaussianBlur for a Gaussian PSF without drift; else one pass in Fourier space (PSF and shift)
+        self._fourier = o.psf == "airy" or o.drift > 0
+        self._otf = {}
         movie = truth.movie
         self._edges = _by_frame(movie.edges, ("vertex_a", "vertex_b", "cell_a", "cell_b"))
         self._vertices = _by_frame(movie.vertices, ("vertex", "x", "y"))
@@ -397,13 +404,22 @@ class Renderer:
     def _cytoplasm(self, t):
         return self._pad_image(self._level.take(self.truth.labels[t]))
 
-    def _blur(self, image):
+    def _optics(self, layer, dx=0.0, dy=0.0):
+        """A padded layer blurred by the PSF and shifted by (dx, dy), cropped to the frame."""
         o = self.options
-        if o.psf_sigma <= 0:
-            return image
-        if self._kernel is not None:
-            return cv2.filter2D(image, -1, self._kernel, borderType=cv2.BORDER_REFLECT_101)
-        return cv2.GaussianBlur(image, (0, 0), o.psf_sigma, borderType=cv2.BORDER_REFLECT_101)
+        if not self._fourier:
+            blurred = cv2.GaussianBlur(layer, (0, 0), o.psf_sigma) if o.psf_sigma > 0 else layer
+            return self._crop(blurred)
+        # periodic: transform exactly one box (the convolution and the shift wrap); open: the padded
+        # canvas, whose pad holds the PSF's reach and the largest drift
+        image = self._crop(layer) if self._period is not None else layer
+        if image.shape not in self._otf:
+            self._otf[image.shape] = transfer_function(image.shape, o.psf, o.psf_sigma)
+        spectrum = np.fft.rfft2(image) * self._otf[image.shape]
+        if dx or dy:
+            spectrum *= _shift_ramp(image.shape, dx, dy)
+        image = np.fft.irfft2(spectrum, s=image.shape).astype(np.float32)
+        return image if self._period is not None else self._crop(image)
 
     def _crop(self, image):
         p = self._pad
@@ -412,8 +428,8 @@ class Renderer:
     def _calibrate(self):
         """Membrane amplitude giving the requested SNR on frame 0 (module docstring)."""
         o = self.options
-        cyto = self._crop(self._blur(self._cytoplasm(0)))
-        drawn = self._crop(self._blur(self._membrane(0)))
+        cyto = self._optics(self._cytoplasm(0))
+        drawn = self._optics(self._membrane(0))
         centre = self._crop(self._membrane(0, width=1, aa=False)) > 0
         far = cv2.distanceTransform((~centre).astype(np.uint8), cv2.DIST_L2, 5)
         inside = (self.truth.labels[0] > 0) & (far > o.membrane_width / 2 + 3 * o.psf_sigma + 1)
@@ -451,14 +467,7 @@ class Renderer:
         fade = np.float32(np.exp(-o.bleach_rate * t))
         out = []
         for layer in layers:
-            image = self._blur(layer)
-            if self._period is not None:
-                image = self._crop(image)  # one box: exactly periodic for the shift
-            if dx or dy:
-                image = _fourier_shift(image, dx, dy)
-            if self._period is None:
-                image = self._crop(image)
-            out.append(image * fade)
+            out.append(self._optics(layer, dx, dy) * fade)
         return np.stack(out)
 
     def frame(self, t):
