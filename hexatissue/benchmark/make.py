@@ -32,9 +32,9 @@ SOURCES = ("voronoi", "t1")
 def _truth(source, *, n_cells, n_frames, shape, periodic, crop, seed, workers, progress) -> Truth:
     """The Truth named by ``source`` (a Truth, ``"voronoi"``, ``"t1"`` or an MPF run path)."""
     if isinstance(source, Truth):
-        if crop is not None:
-            raise InputError("crop applies to a source that is built here (an MPF run or 'voronoi'); crop the "
-                             "Truth when you build it instead")
+        if crop is not None or n_cells is not None or n_frames is not None or shape is not None:
+            raise InputError("crop, n_cells, n_frames and shape apply to a source built here (an MPF run, "
+                             "'voronoi', 't1'); a Truth is used as it is (crop it when you build it)")
         return source
     common = dict(workers=workers, progress=progress)
     if isinstance(source, str) and source == "voronoi":

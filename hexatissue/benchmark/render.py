@@ -264,6 +264,11 @@ class Renderer:
     """
 
     def __init__(self, truth, options=RenderOptions(), seed=0):
+        from .truth import Truth
+
+        if not isinstance(truth, Truth):
+            raise InputError(f"truth must be a hexatissue.benchmark.Truth (e.g. truth_from_run); got "
+                             f"{type(truth).__name__}")
         if not isinstance(options, RenderOptions):
             raise InputError(f"options must be a hexatissue.benchmark.RenderOptions; got {type(options).__name__}")
         self.truth, self.options = truth, options
@@ -324,9 +329,7 @@ class Renderer:
         keep = np.hypot(*d.T) > 0  # a band around the torus (one degree-2 vertex) has no straight segment
         if self._period is None:
             # a junction with cell 0 along the image edge is the edge of the field of view, not a membrane
-            rows_, cols_ = self._shape
-            on_edge = lambda p: (p[:, 0] < 0.5) | (p[:, 0] > cols_ - 1.5) | (p[:, 1] < 0.5) | (p[:, 1] > rows_ - 1.5)
-            keep &= ~((ca == 0) & on_edge(p0) & on_edge(p0 + d))
+            keep &= ~((ca == 0) & self._on_edge(p0) & self._on_edge(p0 + d))
         p0, d, ca, cb = p0[keep], d[keep], ca[keep], cb[keep]
         level = _lognormal(_hash_uniform(self._keys[0], ca, cb), self.options.junction_cv)
         if self.options.curvature > 0 and len(d):
@@ -334,6 +337,12 @@ class Renderer:
         else:
             lines = np.stack([p0, p0 + d], axis=1)
         return lines, level
+
+    def _on_edge(self, xy):
+        """Points (x, y) on the rim of the open image: within half a pixel of its outer pixel centres."""
+        rows, cols = self._shape
+        x, y = xy[:, 0], xy[:, 1]
+        return (x < 0.5) | (x > cols - 1.5) | (y < 0.5) | (y > rows - 1.5)
 
     def _bend(self, t, p0, d, ca, cb):
         """Parabolic junctions: sagitta ``curvature * length * z`` (z standard normal per cell pair), toward cell_b for z > 0."""
