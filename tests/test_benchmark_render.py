@@ -256,3 +256,60 @@ def test_ctc_folder_passes_its_format_check(periodic, tmp_path):
     out = make_benchmark(periodic, tmp_path / "ctc", **QUIET)
     check_ctc(out / "ctc")
     assert (out / "ctc" / "TRA" / "man_track.txt").exists()
+
+
+def _encoded_pmf(tables, n):
+    """The distribution an alias table of Poisson(n) samples: P(k) = (prob[k] + sum over j aliased to k of 1 - prob[j]) / K."""
+    offset, size, prob, alias = tables
+    start, k_n = int(offset[n]), int(size[n])
+    p, a = prob[start:start + k_n], alias[start:start + k_n]
+    pmf = p.copy()
+    np.add.at(pmf, a, 1 - p)
+    pmf -= np.where(a == np.arange(k_n), 1 - p, 0)
+    return pmf / k_n
+
+
+def test_alias_tables_encode_the_poisson_distribution():
+    from scipy.stats import poisson
+
+    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+
+    for tables in (kernels.alias_tables(64), reference.alias_tables(64)):
+        for n in (0, 1, 7, 33, 64):
+            pmf = _encoded_pmf(tables, n)
+            want = poisson.pmf(np.arange(len(pmf)), n) if n else (np.arange(len(pmf)) == 0).astype(float)
+            np.testing.assert_allclose(pmf, want, rtol=0, atol=1e-14)
+            assert poisson.sf(len(pmf) - 1, n) < 1e-31  # the support left out
+    big = kernels.alias_tables(kernels.TABLE_MAX - 1)
+    pmf = _encoded_pmf(big, 1000)  # exp(k log n - n - lgamma(k + 1)) of numbers ~7000: 1e-12 relative
+    np.testing.assert_allclose(pmf, poisson.pmf(np.arange(len(pmf)), 1000), rtol=1e-11, atol=1e-300)
+
+
+def test_poisson_kernel_equals_its_reference_on_the_same_uniforms():
+    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+
+    rng = np.random.default_rng(11)
+    lam = np.r_[0.0, 1e-6, 0.999, rng.uniform(0, 200, 20000)].astype(np.float32)
+    u1, u2 = rng.random((2, lam.size))
+    tables = kernels.alias_tables(200)
+    np.testing.assert_array_equal(kernels.poisson_counts(lam, u1, u2, *tables),
+                                  reference.poisson_counts(lam, u1, u2, *tables))
+
+
+@pytest.mark.parametrize("mean", [0.3, 7.5, 63.2, 1500.0])  # 1500: above the tables, numpy's sampler
+def test_poisson_counts_follow_the_poisson_distribution(mean):
+    from scipy.stats import chisquare, poisson
+
+    from hexatissue.benchmark.render import poisson_counts
+
+    x = poisson_counts(np.full((400, 500), mean, np.float32), seed=5)
+    assert x.shape == (400, 500) and x.dtype == np.float32 and np.all(x == np.round(x))
+    assert x.mean() == pytest.approx(mean, abs=5 * np.sqrt(mean / x.size))
+    assert x.var() == pytest.approx(mean, rel=0.02)
+    # chi-square against the Poisson pmf: one bin per count between the 1e-4 quantiles, the tails pooled
+    lo, hi = poisson.ppf(1e-4, mean), poisson.ppf(1 - 1e-4, mean)
+    k = np.arange(lo, hi + 1)
+    observed = np.r_[(x < lo).sum(), np.histogram(x, np.r_[k, hi + 1] - 0.5)[0], (x > hi).sum()]
+    expected = np.r_[poisson.cdf(lo - 1, mean), poisson.pmf(k, mean), poisson.sf(hi, mean)] * x.size
+    keep = expected > 0
+    assert chisquare(observed[keep], expected[keep]).pvalue > 1e-3

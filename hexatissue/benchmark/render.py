@@ -51,6 +51,7 @@ nothing there).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -59,7 +60,7 @@ import pandas as pd
 from ..errors import InputError, as_generator
 from ..options import _fail, _Options
 
-__all__ = ["RenderOptions", "Renderer", "render", "transfer_function", "PSFS", "SHOT_NOISE", "SNR_DEFINITION"]
+__all__ = ["RenderOptions", "Renderer", "render", "poisson_counts", "transfer_function", "PSFS", "SHOT_NOISE", "SNR_DEFINITION"]
 
 #: the SNR, in one line (for benchmark.json)
 SNR_DEFINITION = ("frame 0, noise-free image after the PSF, electrons: (mean over junction centreline pixels - mean "
@@ -445,10 +446,15 @@ class Renderer:
         if not centre.any() or not inside.any():
             raise InputError("the truth's frame 0 has no junctions or no cytoplasm far from them; the SNR cannot "
                              "be set (use a movie with several cells of more than a few px)")
-        noise = np.sqrt(cyto[inside].mean() + o.read_noise**2)
-        contrast = cyto[centre].mean() - cyto[inside].mean()
-        signal = drawn[centre].mean()
-        return float(max(o.snr * noise - contrast, 0.0) / signal)
+        # clean = cyto + A drawn; SNR (A dm + dc) = sqrt(q + A m) with the means over J (centre) and C
+        # (inside): dm, dc their differences, m the membrane's share of C (the Airy PSF's rings reach
+        # it), q = C's cytoplasm + read noise^2.  A is the larger root of the quadratic.
+        dm = float(drawn[centre].mean() - drawn[inside].mean())
+        dc = float(cyto[centre].mean() - cyto[inside].mean())
+        m, q, snr2 = float(drawn[inside].mean()), float(cyto[inside].mean()) + o.read_noise**2, o.snr**2
+        b = 2 * dm * dc - snr2 * m
+        root = (-b + np.sqrt(b * b - 4 * dm * dm * (dc * dc - snr2 * q))) / (2 * dm * dm)
+        return float(max(root, 0.0))
 
     def _nuclei(self, t):
         o = self.options
@@ -486,13 +492,42 @@ class Renderer:
         rng = as_generator(int(self._frame_seeds[int(t)]))
         z = rng.standard_normal(clean.shape, dtype=np.float32)
         if o.shot_noise == "poisson":
-            electrons = rng.poisson(clean).astype(np.float32)
+            electrons = poisson_counts(clean, rng)
             electrons += np.float32(o.read_noise) * z
         else:  # shot and read noise in one normal draw: Normal(clean, clean + read_noise**2)
             electrons = clean + np.sqrt(clean + np.float32(o.read_noise**2)) * z
         electrons *= np.float32(o.gain)
         electrons += np.float32(o.offset + 0.5)  # + 0.5 then truncation: rounding to the nearest ADU
         return np.clip(electrons, 0, 65535, out=electrons).astype(np.uint16)
+
+
+@lru_cache(maxsize=1)
+def _alias_tables():
+    from ._camera_kernels import TABLE_MAX, alias_tables
+
+    return alias_tables(TABLE_MAX - 1)
+
+
+def poisson_counts(mean, seed=0):
+    """Exact Poisson counts of the expected counts ``mean`` (any shape, >= 0), float32.
+
+    Means below :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX` use
+    the alias-table kernel (:mod:`hexatissue.benchmark._camera_kernels`),
+    larger ones numpy's ``Generator.poisson``; both are exact.
+    """
+    from ._camera_kernels import TABLE_MAX, poisson_counts as kernel
+
+    rng = as_generator(seed)
+    lam = np.ascontiguousarray(mean, dtype=np.float32).ravel()
+    u = rng.random((2, lam.size))
+    big = None
+    if lam.size and lam.max() >= TABLE_MAX:
+        big = lam >= TABLE_MAX
+        lam = np.where(big, np.float32(0), lam)
+    counts = kernel(lam, u[0], u[1], *_alias_tables())
+    if big is not None:
+        counts[big] = rng.poisson(np.asarray(mean, np.float32).ravel()[big])
+    return counts.reshape(np.shape(mean))
 
 
 def render(truth, options=RenderOptions(), *, seed=0, progress=True):
