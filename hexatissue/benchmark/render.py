@@ -27,7 +27,9 @@ efficiency 1):
 3. blurred by the PSF, shifted by the stage drift ``(dx_t, dy_t)``,
    multiplied by ``exp(-bleach_rate * t)``;
 4. ``electrons = Poisson(clean) + Normal(0, read_noise)``, recorded as
-   ``ADU = round(gain * electrons + offset)`` clipped to uint16.
+   ``ADU = round(gain * electrons + offset)`` clipped to uint16.  The
+   Poisson counts are exact (:func:`poisson_counts`: alias tables and
+   inversion, :mod:`hexatissue.benchmark._camera_kernels`).
 
 **SNR** (frame 0, computed on the noise-free image after the PSF): with J
 the junction centreline pixels (the junction segments rasterised 1 px wide)
@@ -128,8 +130,8 @@ class RenderOptions(_Options):
         Expected photons per pixel inside a nucleus, above ``background``, frame 0.
     shot_noise : {"poisson", "gaussian"}
         ``"poisson"``: exact Poisson counts; ``"gaussian"``: Normal(clean,
-        clean), the usual approximation for counts above ~20 (about 3 x
-        faster).
+        clean + read_noise^2) in one draw, the usual approximation for
+        counts above ~20 (a frame renders about 2 x faster).
     """
 
     snr: float = 20.0
