@@ -244,6 +244,8 @@ def test_cli_make_writes_a_benchmark_folder(tmp_path, capsys):
     assert tifffile.imread(out / "raw.tif").shape == (2, 80, 90)
     assert main(["benchmark", "make", "--from", "voronoi", "--snr", "-1", "--out", str(tmp_path / "bad")]) == 2
     assert "--snr must be" in capsys.readouterr().err
+    with pytest.raises(InputError, match="neither"):  # --debug after the action shows the traceback
+        main(["benchmark", "make", "--from", "voronio", "--out", str(tmp_path / "bad"), "--debug"])
 
 
 @pytest.mark.skipif(importlib.util.find_spec("hexatissue.exchange") is None
