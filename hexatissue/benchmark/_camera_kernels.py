@@ -90,11 +90,17 @@ def alias_tables(n_max):
     return offset, size, prob, alias
 
 
-@njit(cache=True)
-def poisson_counts(lam, u1, u2, offset, size, prob, alias):
-    """Poisson counts of means ``lam`` (1-D, 0 <= lam < TABLE_MAX + 1) from uniforms ``u1``, ``u2`` in [0, 1).
+#: 1 / k for the inversion loop (index 0 unused): a multiplication is cheaper than a division
+RECIPROCALS = np.r_[0.0, 1.0 / np.arange(1, 65)]
 
-    Returns a float32 array of the counts.
+
+@njit(cache=True)
+def poisson_counts(lam, p0, u1, u2, offset, size, prob, alias, reciprocals):
+    """Poisson counts of means ``lam`` (1-D, 0 <= lam < TABLE_MAX) from uniforms ``u1``, ``u2`` in [0, 1).
+
+    ``p0 = exp(floor(lam) - lam)`` (float64; numpy's vectorised exp is
+    faster than one call per pixel here) and ``reciprocals`` =
+    :data:`RECIPROCALS`.  Returns a float32 array of the counts.
     """
     out = np.empty(lam.size, np.float32)
     for i in range(lam.size):
@@ -106,12 +112,12 @@ def poisson_counts(lam, u1, u2, offset, size, prob, alias):
         count = j if x - j < prob[offset[n] + j] else alias[offset[n] + j]
         # the fractional mean by inversion: the smallest k with P(K <= k) > u2
         delta = m - n
-        p = math.exp(-delta)
+        p = p0[i]
         cdf = p
         k = 0
         while u2[i] >= cdf and k < 64:
             k += 1
-            p *= delta / k
+            p *= delta * reciprocals[k]
             cdf += p
         out[i] = count + k
     return out

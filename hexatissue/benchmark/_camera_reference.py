@@ -37,7 +37,7 @@ def alias_tables(n_max):
     return offset, size, prob, alias
 
 
-def poisson_counts(lam, u1, u2, offset, size, prob, alias):
+def poisson_counts(lam, p0, u1, u2, offset, size, prob, alias, reciprocals):
     """Reference of :func:`hexatissue.benchmark._camera_kernels.poisson_counts`."""
     n = lam.astype(np.int64)
     k_n = size[n]
@@ -45,16 +45,15 @@ def poisson_counts(lam, u1, u2, offset, size, prob, alias):
     j = np.minimum(x.astype(np.int64), k_n - 1)
     idx = offset[n] + j
     count = np.where(x - j < prob[idx], j, alias[idx])
-    delta = lam - n
+    delta = lam.astype(np.float64) - n
     k = np.zeros(lam.size, np.int64)
-    p = np.exp(-delta)
+    p = p0.copy()
     cdf = p.copy()
     for step in range(1, 65):
         more = u2 >= cdf
         if not more.any():
             break
         k[more] = step
-        p = p * (delta / step)
+        p = p * (delta * reciprocals[step])
         cdf = np.where(more, cdf + p, cdf)
     return (count + k).astype(np.float32)
-

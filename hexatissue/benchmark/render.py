@@ -517,7 +517,7 @@ def poisson_counts(mean, seed=0):
     the alias-table kernel (:mod:`hexatissue.benchmark._camera_kernels`),
     larger ones numpy's ``Generator.poisson``; both are exact.
     """
-    from ._camera_kernels import TABLE_MAX, poisson_counts as kernel
+    from ._camera_kernels import RECIPROCALS, TABLE_MAX, poisson_counts as kernel
 
     rng = as_generator(seed)
     lam = np.ascontiguousarray(mean, dtype=np.float32).ravel()
@@ -526,7 +526,9 @@ def poisson_counts(mean, seed=0):
     if lam.size and lam.max() >= TABLE_MAX:
         big = lam >= TABLE_MAX
         lam = np.where(big, np.float32(0), lam)
-    counts = kernel(lam, u[0], u[1], *_alias_tables())
+    whole = np.floor(lam.astype(np.float64))
+    p0 = np.exp(whole - lam, out=whole)  # P(0) of the fractional part of every mean
+    counts = kernel(lam, p0, u[0], u[1], *_alias_tables(), RECIPROCALS)
     if big is not None:
         counts[big] = rng.poisson(np.asarray(mean, np.float32).ravel()[big])
     return counts.reshape(np.shape(mean))
