@@ -20,7 +20,7 @@ __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
 SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command",
-                      "hexatissue.exchange.command", "hexatissue.benchmark.score_command")
+                      "hexatissue.exchange.command", "hexatissue.benchmark.command")
 DEBUG_HELP = "on an error, show the Python traceback instead of one line"
 
 

@@ -1,26 +1,16 @@
 """``hexatissue benchmark baseline`` and ``hexatissue benchmark score``.
 
-:func:`add_parsers` adds both to the ``benchmark`` group's subparsers.
-:func:`add_parser` registers a ``benchmark`` group holding only these two
-(until the group of ``benchmark make`` takes them in).
+Each ``add_*`` function adds its action to the subparsers of ``hexatissue
+benchmark`` (:data:`hexatissue.benchmark.command.SUBCOMMANDS`).
 """
 from __future__ import annotations
 
-__all__ = ["add_parsers", "add_parser"]
+__all__ = ["add_baseline", "add_score"]
 
 
-def add_parser(subparsers):
-    """Register a ``benchmark`` command whose subcommands are ``baseline`` and ``score``."""
-    p = subparsers.add_parser("benchmark", help="synthetic benchmark: baseline segmentation and scoring",
-                              description="Segment rendered membrane movies with a baseline and score predictions "
-                                          "against exact truth.")
-    add_parsers(p.add_subparsers(dest="benchmark_command", required=True, metavar="SUBCOMMAND"))
-    return p
-
-
-def add_parsers(benchmark_subparsers):
-    """Add ``baseline`` and ``score`` to the subparsers of the ``benchmark`` command."""
-    b = benchmark_subparsers.add_parser(
+def add_baseline(actions):
+    """Add ``baseline`` to the subparsers of the ``benchmark`` command."""
+    b = actions.add_parser(
         "baseline", help="segment a membrane movie with the scikit-image baseline",
         description="Segment a membrane image or movie (bright junctions) into touching cell labels: Gaussian "
                     "smoothing, h-minima seeds, seeded watershed, small-cell cleanup. A baseline, not a "
@@ -37,7 +27,10 @@ def add_parsers(benchmark_subparsers):
                    help="the frames tile a periodic box (MPF runs): a cell crossing the edge gets one id")
     b.set_defaults(func=_run_baseline)
 
-    s = benchmark_subparsers.add_parser(
+
+def add_score(actions):
+    """Add ``score`` to the subparsers of the ``benchmark`` command."""
+    s = actions.add_parser(
         "score", help="score a prediction against exact truth",
         description="Compare two results folders (PRED: e.g. 'hexatissue analyze' of a segmentation; TRUTH: "
                     "'benchmark make''s truth/ folder) frame by frame: segmentation (CTC SEG Jaccard, splits, "
