@@ -4,7 +4,7 @@
 
     OUT/raw.tif          rendered movie, uint16, ImageJ hyperstack (TYX, or TCYX with nuclei),
                          pixel size, unit and frame interval in the metadata
-    OUT/truth/           hexatissue results folder (read_results): every table + labels.tif
+    OUT/truth/           hexatissue results folder (read_results): every table + labels.tif (OME-TIFF)
     OUT/ctc/             Cell Tracking Challenge ground truth (TRA/man_trackTTT.tif, TRA/man_track.txt)
     OUT/drift.csv        frame, dx, dy: the stage drift of every frame, px
     OUT/benchmark.json   how it was made: source, seed, every rendering parameter, version (written last)
@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import HexatissueWarning, InputError, check_positive
+from ..io import write_tiff
 from .render import Renderer, RenderOptions, SNR_DEFINITION
 from .truth import Truth, truth_from_run, truth_from_t1, truth_from_voronoi
 
@@ -147,11 +148,8 @@ def make_benchmark(source, out, *, render=RenderOptions(), seed=0, crop=None, n_
 
     truth_dir = out / "truth"
     truth.movie.write(truth_dir)
-    top = int(truth.labels.max())
-    if top > np.iinfo(np.uint16).max:
-        raise InputError(f"the truth has cell id {top}; labels.tif holds ids up to 65535 (ImageJ uint16)")
-    _write_tiff(truth_dir / "labels.tif", iter(truth.labels.astype(np.uint16)), truth.labels.shape, np.uint16, cal,
-                "TYX")
+    # OME-TIFF keeps any id range (uint32 for > 65535 cells); ImageJ hyperstacks hold 16 bits at most
+    write_tiff(truth_dir / "labels.tif", truth.labels, cal)
     ctc = _write_ctc(truth, out / "ctc")
 
     description = {
