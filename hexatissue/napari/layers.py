@@ -45,7 +45,9 @@ STAR_SCALE = 0.45  # star leg for |gamma_p| = 1, in typical cell spacings (as he
 
 
 def _rgba(hex_colors, alpha=1.0) -> np.ndarray:
-    """``(N, 4)`` float RGBA of hex strings ``"#rrggbb"``."""
+    """``(N, 4)`` float RGBA of hex strings ``"#rrggbb"``; for no colours, one (napari refuses empty colour arrays
+    even for an empty layer)."""
+    hex_colors = list(hex_colors) or ["#808080"]
     rgb = np.array([[int(h[i:i + 2], 16) / 255 for i in (1, 3, 5)] for h in hex_colors], float).reshape(-1, 3)
     return np.hstack([rgb, np.full((len(rgb), 1), float(alpha))])
 
@@ -236,7 +238,7 @@ def vertex_layer(movie) -> tuple:
     """Points layer of the vertices, four-fold (degree >= 4) ones in orange; ``features`` = the vertices table."""
     v = movie.vertices.reset_index(drop=True)
     degree = np.clip(v["degree"].to_numpy(int), 3, 4)
-    kwargs = {"name": "vertices", "scale": layer_scale(movie), "size": 1.6, "border_width": 0,
+    kwargs = {"name": "vertices", "scale": layer_scale(movie), "size": 1.6, "border_width": 0, "visible": False,
               "face_color": _rgba([VERTEX_COLORS[int(d)] for d in degree]), "features": v,
               "metadata": _metadata(movie)}
     return _coords(movie, v["frame"], v["x"], v["y"]), kwargs, "points"
@@ -302,7 +304,7 @@ def track_layer(movie) -> tuple | None:
         for child, parent in zip(lin["track"].to_numpy(), lin["parent"].to_numpy()):
             if parent != 0 and child in present and parent in present:
                 graph[int(child)] = [int(parent)]
-    kwargs = {"name": "tracks", "scale": layer_scale(movie, time=True), "graph": graph, "tail_length": 5,
+    kwargs = {"name": "tracks", "scale": layer_scale(movie, time=True), "graph": graph, "tail_length": 5, "visible": False,
               "features": cells[["cell", "n_sides", "area"]], "metadata": _metadata(movie, time=True)}
     return data, kwargs, "tracks"
 
@@ -312,7 +314,7 @@ def track_layer(movie) -> tuple | None:
 # ---------------------------------------------------------------------------------------------------------
 def movie_layers(movie, labels=None, p=6) -> list:
     """Every layer of a Movie, bottom to top: labels (when given), polygons, vertices, gamma_p stars,
-    Gamma_p defects (one layer per p), T1 events, tracks.
+    Gamma_p defects (one layer per p), T1 events, tracks; vertices and tracks start hidden.
 
     Parameters
     ----------

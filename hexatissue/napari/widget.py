@@ -70,27 +70,28 @@ class AnalyzeWidget(Container):
     def __init__(self, napari_viewer):
         import napari
 
+        # children are reached by name (self.layer, self.p, ...), as magicgui containers do
+        super().__init__(widgets=[
+            create_widget(annotation=napari.layers.Labels, name="layer", label="labels"),
+            SpinBox(value=6, min=2, max=12, name="p", label="p"),
+            FloatSpinBox(value=0.0, min=0.0, max=1e4, step=1.0, name="radius", label="radius (px, 0 = auto)"),
+            ComboBox(choices=TRACK_MODES, value="auto", name="track_mode", label="track mode"),
+            FloatSpinBox(value=2.0, min=0.0, max=100.0, step=0.5, name="merge_distance",
+                         label="merge distance (px)"),
+            FloatSpinBox(value=0.0, min=0.0, max=1e6, step=0.01, name="pixel_size", label="pixel size (0 = keep)"),
+            LineEdit(value="um", name="length_unit", label="length unit"),
+            PushButton(text="Analyze", name="run"),
+            Label(value="", name="status")])
         self.viewer = napari_viewer
-        self.labels = create_widget(annotation=napari.layers.Labels, label="labels")
-        self.p = SpinBox(value=6, min=2, max=12, label="p")
-        self.radius = FloatSpinBox(value=0.0, min=0.0, max=1e4, step=1.0, label="radius (px, 0 = auto)")
-        self.track_mode = ComboBox(choices=TRACK_MODES, value="auto", label="track mode")
-        self.merge_distance = FloatSpinBox(value=2.0, min=0.0, max=100.0, step=0.5, label="merge distance (px)")
-        self.pixel_size = FloatSpinBox(value=0.0, min=0.0, max=1e6, step=0.01, label="pixel size (0 = keep)")
-        self.length_unit = LineEdit(value="um", label="length unit")
-        self.run = PushButton(text="Analyze")
-        self.status = Label(value="")
-        super().__init__(widgets=[self.labels, self.p, self.radius, self.track_mode, self.merge_distance,
-                                  self.pixel_size, self.length_unit, self.run, self.status])
-        self.run.changed.connect(self.start)
         self.worker = None
+        self.run.changed.connect(self.start)
 
     def start(self, *_):
         """Start the analysis of the chosen layer in a thread worker; returns the worker (None if no layer)."""
         from napari.qt.threading import thread_worker
         from napari.utils import progress
 
-        layer = self.labels.value
+        layer = self.layer.value
         if layer is None:
             self.status.value = "choose a Labels layer"
             return None
