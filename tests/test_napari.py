@@ -50,6 +50,7 @@ def test_the_reader_opens_a_results_folder_as_the_layers(viewer, epicure):
     assert tracks.graph == {477: [73], 490: [73]}
     for layer in viewer.layers:
         assert tuple(layer.scale) == (300.0, 0.2, 0.2), layer.name
+        assert [str(u) for u in layer.units] == ["second", "micrometer", "micrometer"], layer.name
     assert np.array_equal(np.asarray(_layer(viewer, "labels").data), tifffile.imread(SAMPLE).astype(np.int64))
 
 

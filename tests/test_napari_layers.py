@@ -43,6 +43,7 @@ def test_every_layer_of_the_epicure_results_has_the_table_counts_and_the_scale(l
     for data, kw, kind in by_name.values():
         assert kw["scale"] == (300.0, 0.2, 0.2), kw["name"]
         assert kw["metadata"]["units"] == {"t": "s", "y": "um", "x": "um"}, kw["name"]
+        assert kw["units"] == ("s", "um", "um"), kw["name"]  # napari's (pint) names
     cells = movie.cells
     polygons = by_name["polygons"][0]
     assert len(polygons) == int((cells["n_sides"] >= 3).sum()) == 894  # 8 cells have no polygon (n_sides 0)
@@ -173,7 +174,7 @@ def test_periodic_polygons_sit_at_their_cell_and_tracks_are_unwrapped(scripted):
     steps = np.abs(np.diff(tracks[:, 2:], axis=0))[same]
     assert steps.max() < 10.0  # drift, wobble and the T1 scripts move cells < 6 px a frame; a wrap jumps ~L
     assert (tracks[:, 3] > truth.box.Lx).any() or (tracks[:, 3] < 0).any()  # the drift carries cells out
-    assert tkw["scale"] == (1.0, 1.0, 1.0) and tkw["graph"] == {}
+    assert tkw["scale"] == (1.0, 1.0, 1.0) and tkw["units"] == ("pixel",) * 3 and tkw["graph"] == {}
 
 
 def test_a_single_image_gives_2d_layers_without_tracks(scripted):
@@ -185,3 +186,4 @@ def test_a_single_image_gives_2d_layers_without_tracks(scripted):
     assert layers["polygons"][0][0].shape[1] == 2 and layers["vertices"][0].shape[1] == 2
     assert layers["gamma6 stars"][0].shape[1:] == (2, 2)
     assert layers["polygons"][1]["metadata"]["units"] == {"y": "px", "x": "px"}
+    assert layers["polygons"][1]["units"] == ("pixel", "pixel")

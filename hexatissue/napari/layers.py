@@ -7,9 +7,10 @@ a leading frame coordinate when the movie has more than one frame; the
 tables' ``x`` is the column and ``y`` the row, in px.  Every layer carries
 ``scale = (frame_interval, pixel_size, pixel_size)`` for movies (or
 ``(pixel_size, pixel_size)`` for one image) from the Movie's calibration, so
-the viewer's axes are in the calibrated units; the units themselves are in
-``kwargs["metadata"]["units"]`` (napari layers have no unit of their own
-before napari 0.6).
+the viewer's axes (and its scale bar) are in the calibrated units, which
+are also the layers' ``units`` (napari's pint names: ``"pixel"`` for px,
+frames and simulation iterations) and in ``kwargs["metadata"]["units"]``
+(hexatissue's names).
 
 Periodic boxes (MPF runs): every polygon is drawn once, contiguous (as
 :func:`hexatissue.geometry.table_polygons` unwraps it), at the periodic image
@@ -39,8 +40,9 @@ SIDES_COLORS = {3: "#56b4e9", 4: "#f0e442", 5: "#009e73", 6: "#d9d9d9", 7: "#e69
 #: T1 event colour by kind.
 EVENT_COLORS = {"cycle": "#ffffff", "intercalation": "#ffd700", "unresolved": "#888888"}
 VERTEX_COLORS = {3: "#303030", 4: "#ff7f0e"}  # degree 2 (image corners) as 3, degree >= 4 as 4
-POLYGON_FACE_ALPHA = 0.3
-DEFECT_SIZE = 0.7  # defect marker diameter, in typical cell spacings
+POLYGON_FACE_ALPHA = 0.45
+DEFECT_SIZE = 0.8  # defect marker diameter, in typical cell spacings
+STAR_COLOR = "#ff3cd2"  # bright magenta: visible on every polygon colour and on black
 STAR_SCALE = 0.45  # star leg for |gamma_p| = 1, in typical cell spacings (as hexatissue.plot.plot_stars)
 
 
@@ -61,6 +63,22 @@ def layer_scale(movie, time=None) -> tuple:
     cal = movie.calibration
     time = _is_movie(movie) if time is None else time
     return ((float(cal.frame_interval),) if time else ()) + (float(cal.pixel_size),) * 2
+
+
+def _napari_units(movie, time=None) -> tuple:
+    """The layer's ``units``: hexatissue's unit names are pint's, but px, frames and iterations are napari's
+    ``"pixel"`` (no physical unit)."""
+    cal = movie.calibration
+    time = _is_movie(movie) if time is None else time
+    length = "pixel" if cal.length_unit == "px" else cal.length_unit
+    t = "pixel" if cal.time_unit in ("frame", "iteration") else cal.time_unit
+    return ((t,) if time else ()) + (length, length)
+
+
+def _common(movie, time=None, **extra) -> dict:
+    """``scale``, ``units`` and ``metadata`` of a layer (``time``: with a frame axis; default: movies)."""
+    return {"scale": layer_scale(movie, time), "units": _napari_units(movie, time),
+            "metadata": _metadata(movie, time, **extra)}
 
 
 def _metadata(movie, time=None, **extra) -> dict:
@@ -156,8 +174,7 @@ def labels_layer(movie, labels) -> tuple:
     if tuple(labels.shape) != expect:
         raise InputError(f"labels must have shape {expect} (the results' frames and image shape); "
                          f"got {tuple(labels.shape)}")
-    return labels, {"name": "labels", "scale": layer_scale(movie), "opacity": 0.35,
-                    "metadata": _metadata(movie)}, "labels"
+    return labels, {"name": "labels", "opacity": 0.35, **_common(movie)}, "labels"
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -195,10 +212,10 @@ def polygon_layer(movie) -> tuple:
     data = [np.column_stack(([np.full(len(poly), f, float)] if movie_axis else []) + [poly[:, 1], poly[:, 0]])
             for f, poly in zip(rows["frame"].to_numpy(), polys)]
     sides = rows["n_sides"].to_numpy()
-    kwargs = {"name": "polygons", "shape_type": "polygon", "scale": layer_scale(movie),
+    kwargs = {"name": "polygons", "shape_type": "polygon",
               "edge_color": _sides_colors(sides, 1.0), "face_color": _sides_colors(sides, POLYGON_FACE_ALPHA),
               "edge_width": 0.8, "features": rows, "ndim": 3 if movie_axis else 2,
-              "metadata": _metadata(movie, colors="n_sides", sides_colors=SIDES_COLORS)}
+              **_common(movie, colors="n_sides", sides_colors=SIDES_COLORS)}
     return data, kwargs, "shapes"
 
 
@@ -225,9 +242,9 @@ def star_layer(movie, p=6, scale=STAR_SCALE) -> tuple:
     leg = cells.loc[ok, ["frame", "cell", "track"]].reset_index(drop=True)
     features = leg.loc[np.repeat(np.arange(len(leg)), p)].reset_index(drop=True).assign(
         **{f"abs_gamma{p}": np.repeat(np.abs(gamma[ok]), p)})
-    kwargs = {"name": f"gamma{p} stars", "scale": layer_scale(movie), "edge_width": 0.6, "edge_color": "#b0006e",
+    kwargs = {"name": f"gamma{p} stars", "edge_width": 0.7, "edge_color": STAR_COLOR,
               "vector_style": "line", "length": 1.0, "features": features,
-              "metadata": _metadata(movie, p=int(p), leg_per_unit_gamma_px=scale * _spacing(movie))}
+              **_common(movie, p=int(p), leg_per_unit_gamma_px=scale * _spacing(movie))}
     return np.stack([start, step], axis=1), kwargs, "vectors"
 
 
@@ -238,15 +255,16 @@ def vertex_layer(movie) -> tuple:
     """Points layer of the vertices, four-fold (degree >= 4) ones in orange; ``features`` = the vertices table."""
     v = movie.vertices.reset_index(drop=True)
     degree = np.clip(v["degree"].to_numpy(int), 3, 4)
-    kwargs = {"name": "vertices", "scale": layer_scale(movie), "size": 1.6, "border_width": 0, "visible": False,
+    kwargs = {"name": "vertices", "size": 1.6, "border_width": 0, "visible": False,
               "face_color": _rgba([VERTEX_COLORS[int(d)] for d in degree]), "features": v,
-              "metadata": _metadata(movie)}
+              **_common(movie)}
     return _coords(movie, v["frame"], v["x"], v["y"]), kwargs, "points"
 
 
-def defect_layers(movie) -> list:
+def defect_layers(movie, shown=6) -> list:
     """One Points layer per order p of the Gamma_p defects: +1/p (and other positive charges) as red discs,
-    negative ones as blue triangles; ``features`` = the defects rows."""
+    negative ones as blue triangles; ``features`` = the defects rows.  Only the layer of p = ``shown``
+    starts visible (the colours are the same for every p)."""
     d = movie.defects
     if d is None:
         return []
@@ -255,10 +273,11 @@ def defect_layers(movie) -> list:
     for p in sorted(int(v) for v in d["p"].unique()):
         rows = d[d["p"].to_numpy() == p].reset_index(drop=True)
         plus = rows["charge"].to_numpy(float) > 0
-        kwargs = {"name": f"Gamma{p} defects", "scale": layer_scale(movie), "size": size,
+        kwargs = {"name": f"Gamma{p} defects", "size": size,
                   "face_color": _rgba(np.where(plus, PLUS_COLOR, MINUS_COLOR)), "border_color": "black",
                   "border_width": 0.1, "symbol": np.where(plus, "disc", "triangle_up"), "features": rows,
-                  "metadata": _metadata(movie, p=p, colors={"+": PLUS_COLOR, "-": MINUS_COLOR})}
+                  "visible": p == shown,
+                  **_common(movie, p=p, colors={"+": PLUS_COLOR, "-": MINUS_COLOR})}
         out.append((_coords(movie, rows["frame"], rows["x"], rows["y"]), kwargs, "points"))
     return out
 
@@ -271,9 +290,9 @@ def event_layer(movie) -> tuple | None:
         return None
     e = e.reset_index(drop=True)
     colors = [EVENT_COLORS.get(str(k), "#888888") for k in e["kind"]]
-    kwargs = {"name": "T1 events", "scale": layer_scale(movie), "size": 0.5 * _spacing(movie), "symbol": "star",
+    kwargs = {"name": "T1 events", "size": 0.5 * _spacing(movie), "symbol": "star",
               "face_color": _rgba(colors), "border_color": "black", "border_width": 0.1, "features": e,
-              "ndim": 3 if _is_movie(movie) else 2, "metadata": _metadata(movie, colors=EVENT_COLORS)}
+              "ndim": 3 if _is_movie(movie) else 2, **_common(movie, colors=EVENT_COLORS)}
     return _coords(movie, e["frame_start"], e["x"], e["y"]), kwargs, "points"
 
 
@@ -304,8 +323,8 @@ def track_layer(movie) -> tuple | None:
         for child, parent in zip(lin["track"].to_numpy(), lin["parent"].to_numpy()):
             if parent != 0 and child in present and parent in present:
                 graph[int(child)] = [int(parent)]
-    kwargs = {"name": "tracks", "scale": layer_scale(movie, time=True), "graph": graph, "tail_length": 5, "visible": False,
-              "features": cells[["cell", "n_sides", "area"]], "metadata": _metadata(movie, time=True)}
+    kwargs = {"name": "tracks", "graph": graph, "tail_length": 5, "visible": False,
+              "features": cells[["cell", "n_sides", "area"]], **_common(movie, time=True)}
     return data, kwargs, "tracks"
 
 
@@ -314,7 +333,8 @@ def track_layer(movie) -> tuple | None:
 # ---------------------------------------------------------------------------------------------------------
 def movie_layers(movie, labels=None, p=6) -> list:
     """Every layer of a Movie, bottom to top: labels (when given), polygons, vertices, gamma_p stars,
-    Gamma_p defects (one layer per p), T1 events, tracks; vertices and tracks start hidden.
+    Gamma_p defects (one layer per p), T1 events, tracks; vertices, tracks and the defects of other
+    orders than ``p`` start hidden.
 
     Parameters
     ----------
@@ -335,6 +355,6 @@ def movie_layers(movie, labels=None, p=6) -> list:
     layers += [polygon_layer(movie), vertex_layer(movie)]
     if f"gamma{p}_re" in movie.cells.columns:
         layers.append(star_layer(movie, p))
-    layers += defect_layers(movie)
+    layers += defect_layers(movie, shown=p)
     layers += [t for t in (event_layer(movie), track_layer(movie)) if t is not None]
     return layers
