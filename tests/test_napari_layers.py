@@ -130,6 +130,12 @@ def test_labels_fall_back_to_labels_tif_then_are_left_out_with_a_warning(epicure
                     photometric="minisblack")  # another frame count
     with pytest.warns(HexatissueWarning, match="4 frame"):
         assert L.open_labels(movie, moved) is None
+    # a relative path, as `hexatissue analyze IMAGE --out results` records it, is also looked for beside the folder
+    run = tmp_path / "run"
+    shutil.copytree(epicure, run / "results")
+    shutil.copy(SAMPLE, run / "image.tif")
+    movie = movie.replace(source={"path": "image.tif"})
+    assert L.open_labels(movie, run / "results").shape == (11, 160, 257)
     with pytest.raises(InputError, match="labels must have shape"):
         L.labels_layer(movie, np.zeros((3, 160, 257), int))
     with pytest.raises(InputError, match="p=4"):

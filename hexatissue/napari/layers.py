@@ -110,7 +110,9 @@ def open_labels(movie, folder=None):
     """The label images the Movie was computed from, read lazily, or None with a warning.
 
     Tried in order: the source recorded in the Movie's metadata (its path,
-    absolute or relative to the working directory, with the same ``key``,
+    absolute or relative to the working directory, or a relative path
+    taken from the folder holding ``folder``, as when ``hexatissue analyze
+    IMAGE --out results`` ran beside ``results``; with the same ``key``,
     ``channel`` and ``level``), then ``labels.tif`` in ``folder``.  A
     candidate whose frame count or shape differs from the Movie's is
     skipped.
@@ -134,7 +136,11 @@ def open_labels(movie, folder=None):
     desc = movie.source or {}
     candidates = []
     if desc.get("path"):
-        candidates.append((Path(desc["path"]), {k: desc.get(k) for k in ("key", "channel", "level")}))
+        selection = {k: desc.get(k) for k in ("key", "channel", "level")}
+        candidates.append((Path(desc["path"]), selection))
+        if folder is not None and not Path(desc["path"]).is_absolute():
+            # `hexatissue analyze IMAGE --out results` records IMAGE relative to where it ran: results/..
+            candidates.append((Path(folder).resolve().parent / desc["path"], selection))
     if folder is not None:
         candidates.append((Path(folder) / "labels.tif", {}))
     tried = []
