@@ -6,7 +6,6 @@ with a per-frame progress bar in napari's activity dock.
 """
 from __future__ import annotations
 
-import numpy as np
 from magicgui.widgets import ComboBox, Container, FloatSpinBox, Label, LineEdit, PushButton, SpinBox, create_widget
 
 from ..errors import InputError
@@ -98,7 +97,7 @@ class AnalyzeWidget(Container):
         options = {"p": self.p.value, "radius": self.radius.value or None, "track_mode": self.track_mode.value,
                    "merge_distance": self.merge_distance.value, "pixel_size": self.pixel_size.value or None,
                    "length_unit": self.length_unit.value, "calibration": layer.metadata.get("calibration")}
-        data = np.asarray(layer.data)
+        data = layer.data[0] if layer.multiscale else layer.data  # read lazily, frame by frame, by open_source
         self.status.value = f"analysing {layer.name}..."
         self.run.enabled = False
         self.worker = thread_worker(run_analysis)(data, progress=progress, **options)
