@@ -143,11 +143,13 @@ def test_labels_fall_back_to_labels_tif_then_are_left_out_with_a_warning(epicure
 
 
 @pytest.fixture(scope="module")
-def scripted():
-    """The scripted T1 movie in a periodic box (exact events) and its analysis."""
+def scripted(tmp_path_factory):
+    """The scripted T1 movie in a periodic box (exact events) and its analysis, written and read back."""
     m = t1_movie(periodic=True, seed=2)
-    return m, analyze(m.labels, box=m.box, events=EventOptions(min_length=m.min_length, censor=m.censor),
-                      workers=1, progress=False)
+    folder = tmp_path_factory.mktemp("t1")
+    analyze(m.labels, box=m.box, events=EventOptions(min_length=m.min_length, censor=m.censor),
+            workers=1, progress=False).write(folder)
+    return m, read_results(folder)
 
 
 def test_t1_events_are_points_at_their_quartet_centre_with_kind_and_duration(scripted):

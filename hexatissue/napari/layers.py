@@ -315,7 +315,7 @@ def track_layer(movie) -> tuple | None:
     if not _is_movie(movie) or not len(movie.cells):
         return None
     cells = movie.cells.sort_values(["track", "frame"], kind="stable").reset_index(drop=True)
-    xy = cells[["x", "y"]].to_numpy(float)
+    xy = cells[["x", "y"]].to_numpy(float, copy=True)  # unwrapped in place below
     track = cells["track"].to_numpy()
     if movie.box is not None:
         starts = np.flatnonzero(np.r_[True, track[1:] != track[:-1]])
