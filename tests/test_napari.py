@@ -96,9 +96,20 @@ def test_a_headless_screenshot_of_the_epicure_sample_shows_polygons_stars_and_de
     assert np.abs(canvas_image(viewer).astype(int) - image).mean() > 5
 
 
-def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
+def _run(widget):
+    """Press Analyze and process Qt events until the widget is done (button enabled again); True when it is."""
     from qtpy.QtWidgets import QApplication
 
+    widget.start()
+    deadline = time.monotonic() + 300  # a bound on the wait, not a timing assertion
+    while not widget.run.enabled and time.monotonic() < deadline:
+        QApplication.processEvents()
+        time.sleep(0.02)
+    QApplication.processEvents()
+    return widget.run.enabled
+
+
+def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
     from hexatissue.napari.widget import AnalyzeWidget
 
     stack = tifffile.imread(SAMPLE)[:3].astype(np.int32)
@@ -109,16 +120,9 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
     widget.layer.value = viewer.layers["epicure"]
     widget.pixel_size.value = 0.2
     widget.track_mode.value = "never"
-    done = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
-        worker = widget.start()
-        worker.finished.connect(lambda: done.append(True))
-        deadline = time.monotonic() + 300  # a bound on the wait, not a timing assertion
-        while not done and time.monotonic() < deadline:
-            QApplication.processEvents()
-            time.sleep(0.02)
-        QApplication.processEvents()
+        done = _run(widget)
         movie = analyze(stack, track=TrackOptions(mode="never"), order=OrderOptions(p=(6,)), workers=1,
                         progress=False)
     assert done, "the analysis did not finish"
@@ -128,3 +132,17 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
     assert viewer.layers["polygons"].nshapes == int((movie.cells["n_sides"] >= 3).sum())
     assert len(viewer.layers["Gamma6 defects"].data) == len(movie.defects)
     assert tuple(viewer.layers["polygons"].scale) == (1.0, 0.2, 0.2)
+
+
+def test_the_widget_reports_bad_input_in_its_status_line(viewer):
+    from hexatissue.napari.widget import AnalyzeWidget
+
+    viewer.add_labels(tifffile.imread(SAMPLE)[:2].astype(np.int32), name="epicure")
+    widget = AnalyzeWidget(viewer)
+    widget.reset_choices()
+    widget.layer.value = viewer.layers["epicure"]
+    widget.pixel_size.value = 0.2
+    widget.length_unit.value = "parsec"
+    assert _run(widget)
+    assert widget.status.value.startswith("error: length unit 'parsec' is not a known unit")
+    assert [layer.name for layer in viewer.layers] == ["epicure"] and widget.run.enabled

@@ -100,22 +100,28 @@ class AnalyzeWidget(Container):
         data = layer.data[0] if layer.multiscale else layer.data  # read lazily, frame by frame, by open_source
         self.status.value = f"analysing {layer.name}..."
         self.run.enabled = False
-        self.worker = thread_worker(run_analysis)(data, progress=progress, **options)
-        self.worker.returned.connect(self._add_layers)
-        self.worker.errored.connect(self._failed)
+        self.worker = thread_worker(_checked_analysis)(data, progress=progress, **options)
+        self.worker.returned.connect(self._finish)
         self.worker.finished.connect(lambda: setattr(self.run, "enabled", True))
         self.worker.start()
         return self.worker
 
-    def _add_layers(self, layers):
+    def _finish(self, result):
         from napari.layers import Layer
 
+        layers, error = result
+        if error is not None:
+            self.status.value = f"error: {error}"
+            return
         for data, kwargs, kind in layers:
             self.viewer.add_layer(Layer.create(data, kwargs, kind))
         self.status.value = f"added {len(layers)} layers"
 
-    def _failed(self, exc):
-        # bad input is explained to the user; anything else is a bug and napari shows its traceback
-        if not isinstance(exc, InputError):
-            raise exc
-        self.status.value = f"error: {exc}"
+
+def _checked_analysis(labels, **options):
+    """``(layers, None)``, or ``(None, message)`` for bad input: an InputError is the user's to fix and goes to
+    the status line; any other exception is a bug and reaches napari's error notification (with its traceback)."""
+    try:
+        return run_analysis(labels, **options), None
+    except InputError as exc:
+        return None, str(exc)
