@@ -188,3 +188,11 @@ def test_one_border_rule_for_the_mesh_and_the_tracker(periodic):
     border = set(frame.cells.loc[frame.cells["is_border"], "cell"])
     assert border == set(touches_outside(labels, periodic).tolist())
     assert len(border) > 4
+
+
+def test_lineage_roots_follow_parents_to_the_first_ancestor():
+    from hexatissue.track import lineage_roots
+
+    parents = {3: 2, 4: 2, 2: 1, 6: 5}
+    assert lineage_roots(parents, [1, 2, 3, 4, 5, 6, 7]) == {1: 1, 2: 1, 3: 1, 4: 1, 5: 5, 6: 5, 7: 7}
+    assert lineage_roots({1: 2, 2: 1}, [1]) == {1: 1}  # a cycle stops where it closes
