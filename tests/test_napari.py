@@ -73,6 +73,28 @@ def test_the_reader_analyses_a_label_stack_and_declines_other_files(viewer, tmp_
     assert get_reader([str(path), str(raw)]) is None
 
 
+def test_the_reader_opens_cell_polygons_without_labels(viewer, tmp_path):
+    """A vertices table of a 3 x 2 grid of unit-10 squares (hand-made truth: 6 quadrilaterals, 12 vertices)."""
+    import pandas as pd
+
+    rows = []
+    for cell, (i, j) in enumerate([(i, j) for j in range(2) for i in range(3)], start=1):
+        x0, y0 = 10.0 * i, 10.0 * j
+        rows += [(cell, x, y) for x, y in ((x0, y0), (x0, y0 + 10), (x0 + 10, y0 + 10), (x0 + 10, y0))]
+    path = tmp_path / "vertices.csv"
+    pd.DataFrame(rows, columns=["cell", "x", "y"]).to_csv(path, index=False)
+    assert get_reader(str(path)) is read_labels_source
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        viewer.open(str(path), plugin="hexatissue")
+    assert "labels" not in [layer.name for layer in viewer.layers]
+    polygons = viewer.layers["polygons"]
+    assert polygons.nshapes == 6 and list(polygons.features["n_sides"]) == [4] * 6
+    assert len(viewer.layers["vertices"].data) == 12
+    first = polygons.features["cell"].tolist().index(1)
+    assert {tuple(v) for v in polygons.data[first]} == {(0, 0), (10, 0), (10, 10), (0, 10)}  # (y, x)
+
+
 def test_a_headless_screenshot_of_the_epicure_sample_shows_polygons_stars_and_defects(viewer, epicure, tmp_path):
     from hexatissue.napari.screenshot import canvas_image
 

@@ -1,8 +1,8 @@
-"""npe2 reader: a results folder, a label image or stack, or an MPF run, opened as napari layers.
+"""npe2 reader: a results folder, a label image or stack, an MPF run or cell polygons, opened as napari layers.
 
 A results folder (with ``metadata.json``) is read with
 :func:`hexatissue.read_results`; anything else that
-:func:`hexatissue.open_source` opens as label images is analysed first with
+:func:`hexatissue.open_source` opens as label images or cell polygons is analysed first with
 :func:`hexatissue.analyze` (default options, in this process: forking a
 process pool from inside a Qt application is not safe) and shown with its
 labels.  Big movies are faster analysed with ``hexatissue analyze`` on the
@@ -42,11 +42,12 @@ def get_reader(path):
 
 
 def _open_labels(path):
-    """The :class:`~hexatissue.Source` of ``path`` with its first frame checked (InputError if not labels)."""
+    """The :class:`~hexatissue.Source` of ``path`` with its first frame checked (InputError if it holds
+    neither label images nor cell polygons)."""
     from ..source import open_source
 
     source = open_source(path)
-    source.frame(0)
+    source.polygons(0) if source.kind == "polygons" else source.frame(0)
     return source
 
 
@@ -65,9 +66,10 @@ def read_folder(path) -> list:
 
 
 def read_labels_source(path) -> list:
-    """Layers of a label image / stack / MPF run, analysed now with :func:`hexatissue.analyze` (one process)."""
+    """Layers of a label image / stack / MPF run, or of cell polygons (vertices table, ``TA.db``, hexanematic
+    ``.mat``: no labels layer), analysed now with :func:`hexatissue.analyze` (one process)."""
     from ..pipeline import analyze
 
     source = _open_labels(_one(path))
     movie = analyze(source, workers=1)
-    return movie_layers(movie, labels=lazy_stack(source))
+    return movie_layers(movie, labels=lazy_stack(source) if source.kind == "labels" else None)
