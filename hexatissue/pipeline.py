@@ -89,8 +89,9 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         resume from folders you wrote yourself.
     checkpoint_every : int
         Frames per checkpoint.
-    progress : bool
-        Show a progress bar (on a terminal; see :mod:`hexatissue.progress`).
+    progress : bool or tqdm class
+        Show a progress bar (on a terminal; see :mod:`hexatissue.progress`);
+        a tqdm subclass (e.g. ``napari.utils.progress``) draws it with that class.
 
     Returns
     -------
