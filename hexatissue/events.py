@@ -31,7 +31,7 @@ import pandas as pd
 
 from .box import Box
 from .errors import InputError, is_real
-from .geometry import lookup
+from .geometry import lookup, row_keys
 from .graph import pair_groups
 from .schema import interior_mask, track_ids, validate
 
@@ -242,11 +242,11 @@ class _FrameGraph:
 
 
 def _quartets(owner, v):
-    """Every pair (c < d) of common neighbours per query: arrays (query, c, d)."""
-    df = pd.DataFrame({"q": owner, "v": v})
-    pairs = df.merge(df, on="q")
-    pairs = pairs[pairs["v_x"] < pairs["v_y"]]
-    return pairs["q"].to_numpy(np.int64), pairs["v_x"].to_numpy(np.int64), pairs["v_y"].to_numpy(np.int64)
+    """Every pair (c < d) of common neighbours per query (``owner`` sorted): arrays (query, c, d)."""
+    starts = np.searchsorted(owner, owner, "left")
+    idx, first = _expand(starts, np.searchsorted(owner, owner, "right"))  # each element with its group
+    keep = v[first] < v[idx]
+    return owner[first[keep]], v[first[keep]], v[idx[keep]]
 
 
 def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
@@ -602,7 +602,6 @@ class _Lists:
         self.row = np.searchsorted(tracks, self.u)
         self.h = _mix(self.v)
         self.full = self.restricted(None)
-        self._population = None
 
     def restricted(self, present):
         """List hashes on the neighbours in the sorted ids ``present`` (all when None), per cell."""
@@ -611,22 +610,10 @@ class _Lists:
         np.add.at(out, self.row, h)
         return out
 
-    def members(self, track):
-        """The neighbour set of ``track``."""
-        lo, hi = np.searchsorted(self.u, [track, track + 1])
-        return frozenset(self.v[lo:hi].tolist())
-
-    @property
-    def population(self):
-        """The cells present, as a set (built when first needed)."""
-        if self._population is None:
-            self._population = set(self.tracks.tolist())
-        return self._population
-
-
-def _same_list(a, b, present_a, present_b):
-    """Neighbour lists ``a`` (at one frame) and ``b`` (at another) agree on the cells present in both frames."""
-    return a == b or all(c not in present_a or c not in present_b for c in a ^ b)
+    def neighbours(self, tracks):
+        """Directed contacts of each of ``tracks``: (position in ``tracks``, row of ``u``/``v``/``h``)."""
+        rows, owner = _expand(np.searchsorted(self.u, tracks, "left"), np.searchsorted(self.u, tracks, "right"))
+        return owner, rows
 
 
 class _Changes:
@@ -634,54 +621,92 @@ class _Changes:
 
     Frames are added in order; only the previous frame's lists are kept.  A
     change of cell ``t`` at frame ``f`` (its list at ``f`` differs from the
-    one at ``f - 1`` on the cells present in both) stays open until a later
-    frame where the list is the one of ``f - 1`` again.  With the same cells
-    in every frame (``constant``) lists are compared by hash, else as sets on
-    the cells present in both frames.
+    one at ``f - 1`` on the cells present in both frames) stays open until a
+    later frame ``g`` where its list agrees with the one of ``f - 1`` again on
+    the cells present at both ``g`` and ``f - 1``.  Lists are compared by
+    their hashes on those cells (sums of :func:`_mix`, one vectorised
+    comparison per frame).  ``present_keys``: sorted
+    :func:`~hexatissue.geometry.row_keys` of every (frame, cell) of the
+    movie, or None when every frame has the same cells (then lists compare
+    whole).
     """
 
-    def __init__(self, constant):
-        self.constant = constant
-        self.rows = []  # (track, frame, n_lost, n_gained) per change
-        self.back = []  # first later frame the list is back, or -1
-        self.open = []  # open changes: (index, track, hash or (list, population of the frame before))
+    def __init__(self, present_keys):
+        self.present_keys = present_keys
+        if present_keys is not None:  # cells present in every frame need no look-up in the whole movie's keys
+            frames, ids = np.divmod(present_keys, row_keys(1, 0))
+            ids, count = np.unique(ids, return_counts=True)
+            self.always = ids[count == len(np.unique(frames))]
+        self.found = []  # per frame with changes: (track, frame, n_lost, n_gained) arrays
+        self.back = []  # per frame with returns: (change index, frame) arrays
+        self.n = 0  # changes so far
+        empty = np.zeros(0, np.int64)
+        self.index, self.track, self.prev_frame = empty, empty, empty  # open changes
+        self.owner, self.before = empty, empty  # their lists at f - 1: (open change, neighbour)
         self.prev = None
+
+    def _present(self, frame, cells):
+        if self.present_keys is None:
+            return np.ones(len(cells), bool)
+        out = _in_sorted(cells, self.always)
+        rest = np.flatnonzero(~out)
+        out[rest] = _in_sorted(row_keys(frame[rest], cells[rest]), self.present_keys)
+        return out
 
     def add(self, lists):
         self._close(lists)
         prev = self.prev
-        if prev is not None and prev.frame == lists.frame - 1:
-            at_prev = np.searchsorted(prev.tracks, lists.tracks)
-            both = _in_sorted(lists.tracks, prev.tracks)
-            at_prev = np.minimum(at_prev, max(len(prev.tracks) - 1, 0))
-            fwd = prev.restricted(lists.tracks)[at_prev] if len(prev.tracks) else np.zeros(len(lists.tracks), np.uint64)
-            changed = both & (fwd != lists.restricted(prev.tracks))
-            for k in np.flatnonzero(changed).tolist():
-                track = int(lists.tracks[k])
-                before, after = prev.members(track), lists.members(track)
-                n_lost = sum(x in lists.population for x in before - after)
-                n_gained = sum(x in prev.population for x in after - before)
-                ref = prev.full[at_prev[k]] if self.constant else (before, prev.population)
-                self.open.append((len(self.rows), track, ref))
-                self.rows.append((track, lists.frame, n_lost, n_gained))
-                self.back.append(-1)
         self.prev = lists
+        if prev is None or prev.frame != lists.frame - 1 or not len(prev.tracks):
+            return
+        at_prev = np.minimum(np.searchsorted(prev.tracks, lists.tracks), len(prev.tracks) - 1)
+        both = prev.tracks[at_prev] == lists.tracks
+        changed = both & (prev.restricted(lists.tracks)[at_prev] != lists.restricted(prev.tracks))
+        track = lists.tracks[changed]
+        if not len(track):
+            return
+        b_owner, rows = prev.neighbours(track)
+        before = prev.v[rows]
+        a_owner, rows = lists.neighbours(track)
+        after = lists.v[rows]
+        # lost: neighbours at f - 1 that are not at f but present at f; gained: the other way round
+        lost = ~_in_sorted(row_keys(b_owner, before), row_keys(a_owner, after)) & _in_sorted(before, lists.tracks)
+        gained = ~_in_sorted(row_keys(a_owner, after), row_keys(b_owner, before)) & _in_sorted(after, prev.tracks)
+        m = len(track)
+        self.found.append((track, np.full(m, lists.frame), np.bincount(b_owner[lost], minlength=m),
+                           np.bincount(a_owner[gained], minlength=m)))
+        self.owner = np.r_[self.owner, b_owner + len(self.track)]
+        self.before = np.r_[self.before, before]
+        self.index = np.r_[self.index, self.n + np.arange(m)]
+        self.track = np.r_[self.track, track]
+        self.prev_frame = np.r_[self.prev_frame, np.full(m, prev.frame)]
+        self.n += m
 
     def _close(self, lists):
         """Close the open changes whose list is back at this frame."""
-        if not self.open:
+        m = len(self.track)
+        if not m:
             return
-        index, track, ref = (list(c) for c in zip(*self.open))
-        k = np.minimum(np.searchsorted(lists.tracks, track), max(len(lists.tracks) - 1, 0))
-        here = lists.tracks[k] == track if len(lists.tracks) else np.zeros(len(track), bool)
-        if self.constant:  # one vectorised comparison of hashes
-            back = here & (lists.full[k] == np.array(ref, np.uint64)) if len(lists.tracks) else here
-        else:
-            back = [bool(h) and _same_list(lists.members(t), r[0], lists.population, r[1])
-                    for h, t, r in zip(here.tolist(), track, ref)]
-        for i in np.flatnonzero(back).tolist():
-            self.back[index[i]] = lists.frame
-        self.open = [item for item, done in zip(self.open, back) if not done]
+        here = _in_sorted(self.track, lists.tracks)
+        owner, rows = lists.neighbours(self.track)
+        now, h_now, h_before = lists.v[rows], lists.h[rows], _mix(self.before)
+        if self.present_keys is not None:  # compare on the cells present at both frames
+            keep = _in_sorted(now, lists.tracks) & self._present(self.prev_frame[owner], now)
+            h_now = np.where(keep, h_now, np.uint64(0))
+            keep = _in_sorted(self.before, lists.tracks) & self._present(self.prev_frame[self.owner], self.before)
+            h_before = np.where(keep, h_before, np.uint64(0))
+        s_now, s_before = np.zeros(m, np.uint64), np.zeros(m, np.uint64)
+        np.add.at(s_now, owner, h_now)
+        np.add.at(s_before, self.owner, h_before)
+        done = here & (s_now == s_before)
+        if not done.any():
+            return
+        self.back.append((self.index[done], np.full(int(done.sum()), lists.frame)))
+        kept = ~done
+        new_pos = np.cumsum(kept) - 1
+        rows = kept[self.owner]
+        self.owner, self.before = new_pos[self.owner[rows]], self.before[rows]
+        self.index, self.track, self.prev_frame = self.index[kept], self.track[kept], self.prev_frame[kept]
 
     def events(self, last, censor):
         """Events per cell, by the first change of each excursion: (track, kind, start, end, n_lost, n_gained).
@@ -690,19 +715,25 @@ class _Changes:
         return belong to it; one that never does is an intercalation
         (``unresolved`` within ``censor`` frames of ``last``).
         """
-        order = sorted(range(len(self.rows)), key=lambda i: self.rows[i][:2])
+        if not self.found:
+            return []
+        track, start, n_lost, n_gained = (np.concatenate(c).tolist() for c in zip(*self.found))
+        back = np.full(self.n, -1, np.int64)
+        for index, frame in self.back:
+            back[index] = frame
+        back = back.tolist()
+        order = sorted(range(self.n), key=lambda i: (track[i], start[i]))
         out, k = [], 0
         while k < len(order):
-            track, start, n_lost, n_gained = self.rows[order[k]]
-            back = self.back[order[k]]
+            i = order[k]
             k += 1
-            if back >= 0:
-                out.append((track, "cycle", start, float(back), n_lost, n_gained))
-                while k < len(order) and self.rows[order[k]][0] == track and self.rows[order[k]][1] <= back:
+            if back[i] >= 0:
+                out.append((track[i], "cycle", start[i], float(back[i]), n_lost[i], n_gained[i]))
+                while k < len(order) and track[order[k]] == track[i] and start[order[k]] <= back[i]:
                     k += 1
             else:
-                out.append((track, "unresolved" if last - start < censor else "intercalation", start, np.nan,
-                            n_lost, n_gained))
+                kind = "unresolved" if last - start[i] < censor else "intercalation"
+                out.append((track[i], kind, start[i], np.nan, n_lost[i], n_gained[i]))
         return out
 
 
@@ -754,7 +785,8 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
         raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
     frames, tracks = cells["frame"].to_numpy(np.int64), track_ids(cells)
     by_frame = _ByFrame(frames)
-    changes = _Changes(_same_cells_every_frame(by_frame, tracks))
+    constant = _same_cells_every_frame(by_frame, tracks)
+    changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)))
     for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
         changes.add(_Lists(frame, present, a, b))
     rows = changes.events(int(frames.max()) if len(frames) else 0, censor)

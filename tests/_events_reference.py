@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from hexatissue.errors import InputError, is_real
-from hexatissue.events import _expand, _quartets, _mix, _same_list, classify_t1, default_censor
+from hexatissue.events import _expand, _mix, classify_t1, default_censor
 from hexatissue.geometry import lookup, row_keys
 from hexatissue.graph import contact_table as graph_contacts
 from hexatissue.schema import interior_mask, track_ids, validate
@@ -295,6 +295,19 @@ class _Lists:
         k = row_keys(np.int64(frame), np.int64(track))
         lo, hi = np.searchsorted(self.contact_key, [k, k + 1])
         return frozenset(self.v[lo:hi].tolist())
+
+
+def _same_list(a, b, present_a, present_b):
+    """Neighbour lists ``a`` (at one frame) and ``b`` (at another) agree on the cells present in both frames."""
+    return a == b or all(c not in present_a or c not in present_b for c in a ^ b)
+
+
+def _quartets(owner, v):
+    """Every pair (c < d) of common neighbours per query: arrays (query, c, d)."""
+    df = pd.DataFrame({"q": owner, "v": v})
+    pairs = df.merge(df, on="q")
+    pairs = pairs[pairs["v_x"] < pairs["v_y"]]
+    return pairs["q"].to_numpy(np.int64), pairs["v_x"].to_numpy(np.int64), pairs["v_y"].to_numpy(np.int64)
 
 
 def _cell_events(lists, lo, hi, population, last, censor):
