@@ -137,6 +137,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
                    intensity=None if raw is None else raw.description)
         store = _Checkpoint(checkpoint, key, checkpoint_every)
     rows, tracker = _extract(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress)
+    _release_freed_memory()  # the frames' freed temporaries, before the movie-level stages
     tables = {name: rows.pop(name).table(name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
@@ -144,7 +145,6 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
-    _release_freed_memory()  # T1 detection's working set is about half the tables
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
     tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
     summary = {"tracking": _tracking_summary(tracker, cells, parents),
@@ -229,9 +229,9 @@ def _release_freed_memory():
     """Return the C heap's free pages to the OS (glibc's ``malloc_trim``; a no-op elsewhere).
 
     glibc keeps memory freed in the middle of its heap resident: without
-    this, the working set of a movie-level stage (T1 detection needs about
-    half the tables) stays in the process and what follows (writing the
-    tables) comes on top of it.
+    this, the temporaries of a thousand frames' jobs (tens of MB of holes
+    between the growing tables) stay in the process under the movie-level
+    stages and the writing of the tables.
     """
     global _malloc_trim
     if _malloc_trim is None:
