@@ -114,6 +114,10 @@ def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_l
     return pd.DataFrame({"frame": frame, "a": a, "b": b, "length": length.astype(float)})
 
 
+#: Rows of a table handled at once by the movie-level stages (whole frames; a few MB of temporaries).
+BLOCK_ROWS = 1 << 16
+
+
 class _ByFrame:
     """The rows of each frame of a ``frame`` column (sorted or not: one stable argsort if not)."""
 
@@ -128,6 +132,22 @@ class _ByFrame:
     def __iter__(self):
         for k, frame in enumerate(self.frames.tolist()):
             yield frame, self._rows(k)
+
+    def blocks(self, rows=BLOCK_ROWS):
+        """Consecutive frames in blocks of about ``rows`` rows (one frame at least): ``(frames, rows)``."""
+        k = 0
+        while k < len(self.frames):
+            end = max(int(np.searchsorted(self.bounds, self.bounds[k] + rows, "right")) - 1, k + 1)
+            end = min(end, len(self.frames))
+            lo, hi = self.bounds[k], self.bounds[end]
+            yield self.frames[k:end], (slice(lo, hi) if self.order is None else self.order[lo:hi])
+            k = end
+
+    def between(self, first, last):
+        """Row indices (a slice when the column is sorted) of the frames ``first`` to ``last``."""
+        lo, hi = np.searchsorted(self.frames, first, "left"), np.searchsorted(self.frames, last, "right")
+        lo, hi = self.bounds[lo], self.bounds[hi]
+        return slice(lo, hi) if self.order is None else self.order[lo:hi]
 
     def rows(self, frame):
         """Row indices (a slice when the column is sorted) of ``frame``; none if it is absent."""
@@ -170,30 +190,41 @@ MISSING_CELLS = "edges refer to (frame, cell) pairs missing from the cells table
 
 
 def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
-    """The generator of :func:`_movie_frames` (its arguments checked)."""
+    """The generator of :func:`_movie_frames` (its arguments checked): contacts found a block of frames at a time."""
     tracks = track_ids(cells)
     labels = cells["cell"].to_numpy(np.int64) if translate else None
+    c_frame = cells["frame"].to_numpy(np.int64)
+    e_frame = edges["frame"].to_numpy(np.int64)
     e_a, e_b = edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)
     e_length = edges["length"].to_numpy(float)
-    for frame, rows in cell_rows:
-        er = edge_rows.rows(frame)
-        a, b, length = e_a[er], e_b[er], e_length[er]
+    for frames, rows in cell_rows.blocks():
+        er = edge_rows.between(frames[0], frames[-1])
+        frame, a, b, length = e_frame[er], e_a[er], e_b[er], e_length[er]
         keep = a != 0  # contacts with the outside are not cell contacts
-        a, b, length = a[keep], b[keep], length[keep]
-        order, starts = pair_groups(None, a, b)
+        frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
+        order, starts = pair_groups(frame, a, b)
         first = order[starts]
-        a, b = a[first], b[first]
+        frame, a, b = frame[first], a[first], b[first]
         length = np.add.reduceat(length[order], starts) if len(starts) else np.zeros(0)
         if min_length > 0:
             keep = length >= min_length
-            a, b, length = a[keep], b[keep], length[keep]
+            frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
+        here = c_frame[rows]
         if labels is not None:  # label ids -> track ids
-            here, track = labels[rows], tracks[rows]
-            a, b = lookup(here, track, a, MISSING_CELLS), lookup(here, track, b, MISSING_CELLS)
+            keys, track = row_keys(here, labels[rows]), tracks[rows]
+            a = lookup(keys, track, row_keys(frame, a), MISSING_CELLS)
+            b = lookup(keys, track, row_keys(frame, b), MISSING_CELLS)
             a, b = np.minimum(a, b), np.maximum(a, b)
-            order = np.lexsort((b, a))  # track ids need not keep the label order
-            a, b, length = a[order], b[order], length[order]
-        yield frame, np.unique(tracks[rows]), a, b, length
+            order = np.lexsort((b, a, frame))  # track ids need not keep the label order
+            frame, a, b, length = frame[order], a[order], b[order], length[order]
+        present = np.unique(row_keys(here, tracks[rows]))
+        p_bounds = np.searchsorted(present, row_keys(frames, 0))
+        c_bounds = np.searchsorted(frame, frames)
+        ids = present - row_keys(np.repeat(frames, np.diff(np.append(p_bounds, len(present)))), 0)
+        for k, f in enumerate(frames.tolist()):
+            lo, hi = c_bounds[k], c_bounds[k + 1] if k + 1 < len(frames) else len(frame)
+            p_hi = p_bounds[k + 1] if k + 1 < len(frames) else len(present)
+            yield f, ids[p_bounds[k]:p_hi], a[lo:hi], b[lo:hi], length[lo:hi]
 
 
 def _ids(edges, cells):
@@ -209,7 +240,7 @@ def _expand(lo, hi):
     """Concatenated ranges ``lo[k]..hi[k]-1`` and the query index of each element."""
     count = hi - lo
     owner = np.repeat(np.arange(len(lo)), count)
-    start = np.repeat(lo - np.r_[0, np.cumsum(count)[:-1]], count)
+    start = np.repeat(lo - (np.cumsum(count) - count), count)
     return np.arange(count.sum()) + start, owner
 
 
@@ -220,7 +251,7 @@ class _FrameGraph:
         self.present, self.K = present, K
         self.keys = np.unique(np.minimum(a, b) * K + np.maximum(a, b))
         a, b = np.divmod(self.keys, K)
-        u, v = np.r_[a, b], np.r_[b, a]
+        u, v = np.concatenate((a, b)), np.concatenate((b, a))
         order = np.lexsort((v, u))
         self.u, self.v = u[order], v[order]
 
@@ -553,15 +584,13 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     """
     long = _participants(events)
     counts = pd.crosstab(long["track"], long["kind"]) if len(long) else pd.DataFrame()
-    if cells is not None:
-        n_frames = pd.Series(track_ids(cells)).value_counts().sort_index()
-        tracks = n_frames.index.to_numpy(np.int64)
+    if cells is not None:  # rows per track: a sort of one column (a hash table of it costs far more)
+        tracks, n_frames = np.unique(track_ids(cells), return_counts=True)
     else:
         tracks = np.unique(long["track"].to_numpy(np.int64))
-        n_frames = None
+        n_frames = np.zeros(len(tracks))
     out = pd.DataFrame({"track": tracks})
-    out["n_frames"] = (n_frames.reindex(tracks).to_numpy(np.int64) if n_frames is not None
-                       else np.zeros(len(tracks), np.int64))
+    out["n_frames"] = n_frames.astype(np.int64)
     for kind, col in (("cycle", "n_cycles"), ("intercalation", "n_intercalations"), ("unresolved", "n_unresolved")):
         src = counts[kind] if kind in counts.columns else pd.Series(dtype=np.int64)
         out[col] = src.reindex(tracks).fillna(0).to_numpy(np.int64)
@@ -594,7 +623,7 @@ class _Lists:
 
     def __init__(self, frame, tracks, a, b):
         self.frame, self.tracks = frame, tracks
-        u, v = np.r_[a, b], np.r_[b, a]
+        u, v = np.concatenate((a, b)), np.concatenate((b, a))
         order = np.lexsort((v, u))
         u, v = u[order], v[order]
         ok = _in_sorted(u, tracks)  # a list belongs to a cell present in the frame
@@ -675,11 +704,11 @@ class _Changes:
         m = len(track)
         self.found.append((track, np.full(m, lists.frame), np.bincount(b_owner[lost], minlength=m),
                            np.bincount(a_owner[gained], minlength=m)))
-        self.owner = np.r_[self.owner, b_owner + len(self.track)]
-        self.before = np.r_[self.before, before]
-        self.index = np.r_[self.index, self.n + np.arange(m)]
-        self.track = np.r_[self.track, track]
-        self.prev_frame = np.r_[self.prev_frame, np.full(m, prev.frame)]
+        self.owner = np.concatenate((self.owner, b_owner + len(self.track)))
+        self.before = np.concatenate((self.before, before))
+        self.index = np.concatenate((self.index, self.n + np.arange(m)))
+        self.track = np.concatenate((self.track, track))
+        self.prev_frame = np.concatenate((self.prev_frame, np.full(m, prev.frame)))
         self.n += m
 
     def _close(self, lists):
