@@ -653,16 +653,18 @@ class _Changes:
     one at ``f - 1`` on the cells present in both frames) stays open until a
     later frame ``g`` where its list agrees with the one of ``f - 1`` again on
     the cells present at both ``g`` and ``f - 1``.  Lists are compared by
-    their hashes on those cells (sums of :func:`_mix`, one vectorised
-    comparison per frame).  ``present_keys``: sorted
+    their hashes on those cells (sums of :func:`_mix`): the whole list's hash
+    less the neighbours absent from one of the two frames.  Only neighbours
+    that are not present in every frame can be absent, so only those are
+    kept and looked up, in ``present_keys`` (sorted
     :func:`~hexatissue.geometry.row_keys` of every (frame, cell) of the
-    movie, or None when every frame has the same cells (then lists compare
-    whole).
+    movie; None when every frame has the same cells).
     """
 
     def __init__(self, present_keys):
         self.present_keys = present_keys
-        if present_keys is not None:  # cells present in every frame need no look-up in the whole movie's keys
+        self.always = None  # cells present in every frame (None: all of them)
+        if present_keys is not None:
             frames, ids = np.divmod(present_keys, row_keys(1, 0))
             ids, count = np.unique(ids, return_counts=True)
             self.always = ids[count == len(np.unique(frames))]
@@ -670,17 +672,18 @@ class _Changes:
         self.back = []  # per frame with returns: (change index, frame) arrays
         self.n = 0  # changes so far
         empty = np.zeros(0, np.int64)
-        self.index, self.track, self.prev_frame = empty, empty, empty  # open changes
-        self.owner, self.before = empty, empty  # their lists at f - 1: (open change, neighbour)
+        # open changes: index, cell, frame before the change, hash of the list left there
+        self.index, self.track, self.prev_frame, self.ref = empty, empty, empty, np.zeros(0, np.uint64)
+        self.owner, self.before = empty, empty  # the neighbours of that list not present in every frame
         self.prev = None
 
-    def _present(self, frame, cells):
-        if self.present_keys is None:
-            return np.ones(len(cells), bool)
-        out = _in_sorted(cells, self.always)
-        rest = np.flatnonzero(~out)
-        out[rest] = _in_sorted(row_keys(frame[rest], cells[rest]), self.present_keys)
-        return out
+    def _rare(self, cells):
+        """Which ``cells`` are not present in every frame."""
+        return np.zeros(len(cells), bool) if self.always is None else ~_in_sorted(cells, self.always)
+
+    def _absent(self, frame, cells, lists):
+        """Which ``cells`` (not present in every frame) are absent from ``lists``' frame or from ``frame``."""
+        return ~(_in_sorted(cells, lists.tracks) & _in_sorted(row_keys(frame, cells), self.present_keys))
 
     def add(self, lists):
         self._close(lists)
@@ -704,30 +707,35 @@ class _Changes:
         m = len(track)
         self.found.append((track, np.full(m, lists.frame), np.bincount(b_owner[lost], minlength=m),
                            np.bincount(a_owner[gained], minlength=m)))
-        self.owner = np.concatenate((self.owner, b_owner + len(self.track)))
-        self.before = np.concatenate((self.before, before))
+        rare = self._rare(before)
+        self.owner = np.concatenate((self.owner, b_owner[rare] + len(self.track)))
+        self.before = np.concatenate((self.before, before[rare]))
         self.index = np.concatenate((self.index, self.n + np.arange(m)))
         self.track = np.concatenate((self.track, track))
         self.prev_frame = np.concatenate((self.prev_frame, np.full(m, prev.frame)))
+        self.ref = np.concatenate((self.ref, prev.full[at_prev[changed]]))
         self.n += m
 
     def _close(self, lists):
         """Close the open changes whose list is back at this frame."""
         m = len(self.track)
-        if not m:
+        if not m or not len(lists.tracks):
             return
-        here = _in_sorted(self.track, lists.tracks)
-        owner, rows = lists.neighbours(self.track)
-        now, h_now, h_before = lists.v[rows], lists.h[rows], _mix(self.before)
-        if self.present_keys is not None:  # compare on the cells present at both frames
-            keep = _in_sorted(now, lists.tracks) & self._present(self.prev_frame[owner], now)
-            h_now = np.where(keep, h_now, np.uint64(0))
-            keep = _in_sorted(self.before, lists.tracks) & self._present(self.prev_frame[self.owner], self.before)
-            h_before = np.where(keep, h_before, np.uint64(0))
-        s_now, s_before = np.zeros(m, np.uint64), np.zeros(m, np.uint64)
-        np.add.at(s_now, owner, h_now)
-        np.add.at(s_before, self.owner, h_before)
-        done = here & (s_now == s_before)
+        k = np.minimum(np.searchsorted(lists.tracks, self.track), len(lists.tracks) - 1)
+        here = lists.tracks[k] == self.track
+        now, ref = lists.full[k], self.ref.copy()
+        if self.always is not None:  # less the neighbours absent from either frame
+            rare = np.flatnonzero(self._rare(lists.v))
+            if len(rare):
+                rare_u = lists.u[rare]
+                rows, owner = _expand(np.searchsorted(rare_u, self.track, "left"),
+                                      np.searchsorted(rare_u, self.track, "right"))
+                rows = rare[rows]
+                gone = self._absent(self.prev_frame[owner], lists.v[rows], lists)
+                np.subtract.at(now, owner[gone], lists.h[rows[gone]])
+            gone = self._absent(self.prev_frame[self.owner], self.before, lists)
+            np.subtract.at(ref, self.owner[gone], _mix(self.before[gone]))
+        done = here & (now == ref)
         if not done.any():
             return
         self.back.append((self.index[done], np.full(int(done.sum()), lists.frame)))
@@ -735,7 +743,8 @@ class _Changes:
         new_pos = np.cumsum(kept) - 1
         rows = kept[self.owner]
         self.owner, self.before = new_pos[self.owner[rows]], self.before[rows]
-        self.index, self.track, self.prev_frame = self.index[kept], self.track[kept], self.prev_frame[kept]
+        self.index, self.track = self.index[kept], self.track[kept]
+        self.prev_frame, self.ref = self.prev_frame[kept], self.ref[kept]
 
     def events(self, last, censor):
         """Events per cell, by the first change of each excursion: (track, kind, start, end, n_lost, n_gained).
