@@ -441,15 +441,20 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
     return out.sort_values(["frame_start", "cell_a", "cell_b"], ignore_index=True)
 
 
-def _rows_at(by_frame, tracks, frame, track):
-    """Row of ``cells`` of each (``frame``, ``track``), the first if several, -1 if none; one frame at a time."""
+def _rows_at(cells, by_frame, frame, track):
+    """Row of ``cells`` of each (``frame``, ``track``), the first if several, -1 if none; a block of frames at a time."""
     out = np.full(len(frame), -1, np.int64)
-    for f in np.unique(frame).tolist():
-        sel = np.flatnonzero(frame == f)
-        rows = by_frame.rows(f)
+    order = np.argsort(frame, kind="stable")
+    wanted = frame[order]
+    c_frame, c_track = cells["frame"].to_numpy(np.int64), track_ids(cells)
+    for frames, rows in by_frame.blocks():
+        lo, hi = np.searchsorted(wanted, [frames[0], frames[-1] + 1])
+        if lo == hi:
+            continue
         rows = np.arange(rows.start, rows.stop) if isinstance(rows, slice) else rows
-        pos = lookup(tracks[rows], None, track[sel])
-        out[sel] = np.where(pos >= 0, rows[np.maximum(pos, 0)] if len(rows) else -1, -1)
+        sel = order[lo:hi]
+        pos = lookup(row_keys(c_frame[rows], c_track[rows]), None, row_keys(frame[sel], track[sel]))
+        out[sel] = np.where(pos >= 0, rows[np.maximum(pos, 0)], -1)
     return out
 
 
@@ -458,16 +463,14 @@ def _positions(events, cells, box):
     if events.empty:
         return np.empty(0), np.empty(0), np.empty(0, bool)
     border = ~interior_mask(cells)
-    by_frame, tracks = _ByFrame(cells["frame"].to_numpy(np.int64)), track_ids(cells)
     x, y = cells["x"].to_numpy(float), cells["y"].to_numpy(float)
-    frame = events["frame_start"].to_numpy(np.int64)
-    xy, flag = [], np.zeros(len(events), bool)
-    for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
-        row = _rows_at(by_frame, tracks, frame, events[col].to_numpy(np.int64))
-        at = np.maximum(row, 0)
-        xy.append(np.where(row[:, None] >= 0, np.c_[x[at], y[at]], np.nan))
-        flag |= (row >= 0) & border[at]
-    xy = np.stack(xy, axis=1)
+    quartet = ("cell_a", "cell_b", "cell_c", "cell_d")
+    frame = np.tile(events["frame_start"].to_numpy(np.int64), 4)
+    row = _rows_at(cells, _ByFrame(cells["frame"].to_numpy(np.int64)), frame,
+                   np.concatenate([events[c].to_numpy(np.int64) for c in quartet])).reshape(4, -1).T
+    at = np.maximum(row, 0)
+    xy = np.where(row[..., None] >= 0, np.stack([x[at], y[at]], axis=-1), np.nan)  # event, cell, (x, y)
+    flag = ((row >= 0) & border[at]).any(axis=1)
     if box is not None:
         xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
         centre = box.wrap(np.nanmean(xy, axis=1))
@@ -833,7 +836,7 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
                       "n_gained": np.int64})
     out.insert(4, "duration", out["frame_end"] - out["frame_start"])
     out["kind"] = out["kind"].astype("string")
-    row = _rows_at(by_frame, tracks, out["frame_start"].to_numpy(np.int64), out["track"].to_numpy(np.int64))
+    row = _rows_at(cells, by_frame, out["frame_start"].to_numpy(np.int64), out["track"].to_numpy(np.int64))
     at = np.maximum(row, 0)
     for col in ("x", "y"):
         out[col] = np.where(row >= 0, cells[col].to_numpy(float)[at], np.nan)
