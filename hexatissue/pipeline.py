@@ -35,6 +35,7 @@ from .errors import HexatissueWarning, InputError, check_positive, user_stacklev
 from .events import cell_event_stats, default_censor, detect_t1, neighbour_events
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
+from .geometry import row_keys
 from .schema import empty_table, interior_mask, validate
 from .track import MovieTracker, lineage_table
 
@@ -143,10 +144,13 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tables["cells"] = cells
     parents = tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
+    _release_freed_memory()  # after each movie-level stage: its freed working set would stay under the next
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
+    _release_freed_memory()
     tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
+    _release_freed_memory()
     summary = {"tracking": _tracking_summary(tracker, cells, parents),
                "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
@@ -310,11 +314,19 @@ class _Rows:
 def _with_tracks(cells, tracker):
     """``cells`` with a ``track`` column after ``cell``, from the tracker's ``(frame, cell) -> track``."""
     ids = tracker.tracks()
-    merged = cells[["frame", "cell"]].merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
-    if merged["track"].isna().any():  # the tracker saw the mesh's own labels: this is a bug, not bad input
-        raise AssertionError("mesh cells missing from the tracker's labels")
+    # one sorted int64 key per (frame, cell), not a merge (which needs several times the column's memory)
+    keys = row_keys(ids["frame"].to_numpy(np.int64), ids["cell"].to_numpy(np.int64))
+    order = np.argsort(keys)
+    keys = keys[order]
+    wanted = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
+    pos = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+    # the tracker saw the mesh's own labels, once each: anything else is a bug, not bad input
+    if len(wanted) and (len(keys) == 0 or (keys[pos] != wanted).any() or (np.diff(keys) == 0).any()):
+        raise AssertionError("mesh cells missing from the tracker's labels, or seen twice")
+    track = ids["track"].to_numpy(np.int64)[order[pos]]
+    del keys, order, wanted, pos
     cells = cells.drop(columns="track", errors="ignore")
-    cells.insert(cells.columns.get_loc("cell") + 1, "track", merged["track"].to_numpy(np.int64))
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
     return cells
 
 
