@@ -458,6 +458,14 @@ def _rows_at(cells, by_frame, frame, track):
     return out
 
 
+def _centre(xy, box):
+    """Mean of each row's points ``xy`` (rows x points x 2, NaN = missing), minimum-image in a periodic ``box``."""
+    if box is not None:
+        xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
+        return box.wrap(np.nanmean(xy, axis=1))
+    return np.nanmean(xy, axis=1)
+
+
 def _positions(events, cells, box):
     """Quartet centre (x, y) and border flag at frame_start, from the cells table."""
     if events.empty:
@@ -471,12 +479,19 @@ def _positions(events, cells, box):
     at = np.maximum(row, 0)
     xy = np.where(row[..., None] >= 0, np.stack([x[at], y[at]], axis=-1), np.nan)  # event, cell, (x, y)
     flag = ((row >= 0) & border[at]).any(axis=1)
-    if box is not None:
-        xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
-        centre = box.wrap(np.nanmean(xy, axis=1))
-    else:
-        centre = np.nanmean(xy, axis=1)
+    centre = _centre(xy, box)
     return centre[:, 0], centre[:, 1], flag
+
+
+def _events_table(raw, cells, box, censor):
+    """The ``events`` table of the raw T1s of :func:`find_t1`: classified, placed, numbered."""
+    events = classify_t1(raw, int(cells["frame"].max()) if len(cells) else 0, censor)
+    x, y, border = _positions(events, cells, box)
+    events.insert(8, "x", x)
+    events.insert(9, "y", y)
+    events["is_border"] = border
+    events.insert(0, "event", np.arange(len(events), dtype=np.int64))
+    return validate(events, "events")
 
 
 def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int | None = None,
@@ -519,13 +534,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     frames = _movie_frames(edges, cells, min_length)
     raw = _find_t1(((f, tracks, a, b) for f, tracks, a, b, _ in frames), _ids(edges, cells))
     last = int(cells["frame"].max()) if len(cells) else 0
-    events = classify_t1(raw, last, default_censor(last + 1) if censor is None else censor)
-    x, y, border = _positions(events, cells, box)
-    events.insert(8, "x", x)
-    events.insert(9, "y", y)
-    events["is_border"] = border
-    events.insert(0, "event", np.arange(len(events), dtype=np.int64))
-    return validate(events, "events")
+    return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
 
 
 def _participants(events: pd.DataFrame) -> pd.DataFrame:

@@ -11,38 +11,14 @@ import bisect
 import numpy as np
 import pandas as pd
 
-from hexatissue.errors import InputError, is_real
-from hexatissue.events import _expand, _mix, classify_t1, default_censor
+from hexatissue.events import _events_table, _expand, _mix, default_censor
 from hexatissue.geometry import lookup, row_keys
 from hexatissue.graph import contact_table as graph_contacts
 from hexatissue.schema import interior_mask, track_ids, validate
 
 
 def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
-    """Cell-cell contacts per frame, in track ids.
-
-    Parameters
-    ----------
-    edges : pandas.DataFrame
-        ``frame``, ``cell_a``, ``cell_b``, ``length`` (px); several junctions
-        between the same two cells are summed.
-    cells : pandas.DataFrame, optional
-        ``frame``, ``cell`` and ``track``: label ids are translated to track ids.
-        Without it (or without ``track``) label ids are track ids.
-    min_length : float
-        A contact whose total junction length is below ``min_length`` px is
-        treated as a four-fold vertex, i.e. not a contact.  0 keeps every junction.
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``frame``, ``a`` < ``b`` (track ids, both > 0), ``length`` (px), sorted.
-    """
-    for col in ("frame", "cell_a", "cell_b", "length"):
-        if col not in edges.columns:
-            raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
-    if not is_real(min_length) or min_length < 0:
-        raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
+    """Cell-cell contacts per frame, in track ids. (reference)"""
     pairs = graph_contacts(edges)
     frame = pairs["frame"].to_numpy(np.int64)
     a, b = pairs["cell_a"].to_numpy(np.int64), pairs["cell_b"].to_numpy(np.int64)
@@ -98,24 +74,7 @@ class _Graph:
 
 
 def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
-    """Raw T1s (one per neighbour exchange) from contacts and cell presence.
-
-    Parameters
-    ----------
-    contacts : pandas.DataFrame
-        ``frame``, ``a`` < ``b`` (track ids), e.g. from :func:`track_contacts`.
-    presence : pandas.DataFrame
-        ``frame``, ``track``: which cells exist in which frame.
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``frame_lost`` (first frame without a-b), ``frame_gain`` (first frame
-        with c-d), ``cell_a`` < ``cell_b`` (lose contact), ``cell_c`` <
-        ``cell_d`` (gain contact), sorted by ``frame_lost``.  Frames are those
-        of the input; consecutive means consecutive in the sorted list of
-        frames present in ``presence``.
-    """
+    """Raw T1s (one per neighbour exchange) from contacts and cell presence. (reference)"""
     frames = np.unique(presence["frame"].to_numpy(np.int64))
     ids, inv = np.unique(np.r_[presence["track"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64),
                                contacts["b"].to_numpy(np.int64)], return_inverse=True)
@@ -178,85 +137,18 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     return out.sort_values(["frame_lost", "cell_a", "cell_b"], ignore_index=True)
 
 
-def _positions(events, cells, box):
-    """Quartet centre (x, y) and border flag at frame_start, from the cells table."""
-    if events.empty:
-        return np.empty(0), np.empty(0), np.empty(0, bool)
-    border = ~interior_mask(cells)
-    keys = row_keys(cells["frame"].to_numpy(np.int64), track_ids(cells))
-    pos = np.c_[cells["x"].to_numpy(float), cells["y"].to_numpy(float)]
-    frame = events["frame_start"].to_numpy(np.int64)
-    xy, flag = [], np.zeros(len(events), bool)
-    for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
-        row = lookup(keys, None, row_keys(frame, events[col].to_numpy(np.int64)))
-        xy.append(np.where(row[:, None] >= 0, pos[np.maximum(row, 0)], np.nan))
-        flag |= (row >= 0) & border[np.maximum(row, 0)]
-    xy = np.stack(xy, axis=1)
-    if box is not None:
-        xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
-        centre = box.wrap(np.nanmean(xy, axis=1))
-    else:
-        centre = np.nanmean(xy, axis=1)
-    return centre[:, 0], centre[:, 1], flag
-
-
 def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int | None = None,
-              box: Box | None = None) -> pd.DataFrame:
-    """T1 events of a movie, classified as ``cycle``, ``intercalation`` or ``unresolved``.
-
-    Parameters
-    ----------
-    edges : pandas.DataFrame
-        Junctions of every frame: ``frame``, ``cell_a``, ``cell_b`` (label
-        ids, 0 = outside), ``length`` (px).
-    cells : pandas.DataFrame
-        ``frame``, ``cell``, ``x``, ``y`` (px), optionally ``track`` (label
-        ids are translated to track ids) and ``is_border``.  A cell absent
-        from a frame is absent from the tissue (entered, left, divided or died).
-    min_length : float
-        Junctions shorter than ``min_length`` px are treated as four-fold
-        vertices (no contact).  Use it to suppress T1s flickering across a
-        noisy, nearly four-fold vertex; 0 (default) uses the raw network.
-    censor : int, optional
-        Right-censoring window, frames (see :func:`classify_t1`); default
-        :func:`default_censor` of the movie's frames (last frame + 1).
-    box : Box, optional
-        Periodic box: quartet centres use minimum-image displacements.
-
-    Returns
-    -------
-    pandas.DataFrame
-        The ``events`` table: ``event`` (id), ``kind``, ``frame_start`` (first
-        frame without the a-b contact), ``frame_end`` (first frame a-b touch
-        again, cycles only, else NaN), ``duration`` (frames, cycles only),
-        ``cell_a``, ``cell_b`` (lose the contact), ``cell_c``, ``cell_d``
-        (gain it; all track ids), ``x``, ``y`` (quartet centre at
-        ``frame_start``, px; x = column, y = row), ``frame_gain``,
-        ``frame_undo``, ``is_border`` (see :data:`EVENT_EXTRA_COLUMNS`).
-    """
-    for col in ("frame", "cell", "x", "y"):
-        if col not in cells.columns:
-            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+              box=None) -> pd.DataFrame:
+    """T1 events of a movie, classified as ``cycle``, ``intercalation`` or ``unresolved``. (reference)"""
     presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": track_ids(cells)})
     contacts = track_contacts(edges, cells, min_length)
     raw = find_t1(contacts, presence)
     last = int(presence["frame"].max()) if len(presence) else 0
-    events = classify_t1(raw, last, default_censor(last + 1) if censor is None else censor)
-    x, y, border = _positions(events, cells, box)
-    events.insert(8, "x", x)
-    events.insert(9, "y", y)
-    events["is_border"] = border
-    events.insert(0, "event", np.arange(len(events), dtype=np.int64))
-    return validate(events, "events")
+    return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
 
 
 class _Lists:
-    """Every cell's neighbour list in every frame, as hashes (vectorised) and, on demand, as sets.
-
-    Rows are the (track, frame) pairs present, sorted by track then frame.  ``full[r]`` hashes
-    the list of row r; ``changed[r]`` says whether it differs from the row before (the same cell
-    one frame earlier) on the cells present in both frames.
-    """
+    """Every cell's neighbour list in every frame, as hashes (vectorised) and, on demand, as sets. (reference)"""
 
     def __init__(self, contacts, frames, tracks):
         key = row_keys(frames, tracks)
@@ -347,50 +239,7 @@ def _cell_events(lists, lo, hi, population, last, censor):
 
 def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10
                      ) -> pd.DataFrame:
-    """Neighbour exchanges by the paper's per-cell definition: changes of each cell's list of neighbours.
-
-    Armengol-Collado et al. identify rearrangements "by tracking changes in
-    the list of neighbours of each cell".  Here, for every cell and every
-    pair of consecutive frames in which it is present, its neighbour list
-    (restricted to the cells present in both frames, so cells entering,
-    leaving or dividing do not count) either stays or changes.  A change at
-    frame ``t`` starts an event; it is a **T1 cycle** of that cell when the
-    list returns to the one it had at ``t - 1`` at a later frame ``t + T``
-    (``duration = T``; changes in between belong to the same excursion), and
-    an **intercalation** when it never does (``unresolved`` when it started
-    fewer than ``censor`` frames before the last frame).  Compare
-    :func:`detect_t1`, which follows quartets of cells instead: a quartet T1
-    gives one event to each of its four cells here, but two quartet T1s that
-    share a cell merge into one excursion of that cell.
-
-    Parameters
-    ----------
-    edges, cells : pandas.DataFrame
-        As for :func:`detect_t1` (``cells`` with ``frame``, ``cell``, ``x``,
-        ``y``, optionally ``track`` and ``is_border``).
-    min_length : float
-        Contacts shorter than this (px) are not contacts (hysteresis against
-        flickering four-fold vertices), as in :func:`detect_t1`.
-    censor : int
-        Right-censoring window, frames.
-
-    Returns
-    -------
-    pandas.DataFrame
-        The ``neighbour_events`` table, one row per event of a cell:
-        ``event`` (id), ``track``, ``kind`` (cycle, intercalation,
-        unresolved), ``frame_start`` (first frame with the changed list),
-        ``frame_end`` (first frame the list is back, cycles; else NaN),
-        ``duration`` (frames, cycles; else NaN), ``n_lost``, ``n_gained``
-        (neighbours lost and gained at ``frame_start``), ``x``, ``y`` (the
-        cell's centroid at ``frame_start``, px; x = column, y = row),
-        ``is_border`` (a border cell at ``frame_start``).
-    """
-    for col in ("frame", "cell", "x", "y"):
-        if col not in cells.columns:
-            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
-    if int(censor) != censor or censor < 0:
-        raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
+    """Neighbour exchanges by the paper's per-cell definition: changes of each cell's list of neighbours. (reference)"""
     frames = cells["frame"].to_numpy(np.int64)
     tracks = track_ids(cells)
     lists = _Lists(track_contacts(edges, cells, min_length), frames, tracks)
