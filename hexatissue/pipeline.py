@@ -155,7 +155,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
                "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
-        tables["defects"], tables["defect_events"] = _defect_tracks(tables["defects"], tables["grid"], order,
+        tables["defects"], tables["defect_events"] = _defect_tracks(tables.pop("defects"), tables["grid"], order,
                                                                     box, src.n_frames)
     else:
         del tables["grid"], tables["defects"]
@@ -374,13 +374,18 @@ def _defect_tracks(defects, grid, order, box, n_frames):
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
         max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
-    for q in order.p:
-        d = defects[defects["p"].to_numpy() == q].drop(columns="track", errors="ignore")
-        t = track_defects(d, max_distance, box=box, frames=frames)
+    p = defects["p"].to_numpy()
+    parts = [defects[p == q].drop(columns="track", errors="ignore") for q in order.p]
+    del defects, p  # the caller gave its table away: at most two copies of the defects at a time
+    for k, q in enumerate(order.p):
+        t = track_defects(parts[k], max_distance, box=box, frames=frames)
+        parts[k] = None
         e = defect_events(t, max_distance, box=box, frames=frames)
         tracked.append(t)
         pair_events.append(e.assign(p=np.int64(q)))
-    defects = pd.concat(tracked, ignore_index=True).sort_values(["frame", "p", "defect"], kind="stable")
+    defects = pd.concat(tracked, ignore_index=True)
+    tracked.clear()
+    defects = defects.take(np.lexsort((defects["defect"], defects["p"], defects["frame"])))  # a stable sort
     pair_events = pd.concat(pair_events, ignore_index=True)
     return (validate(defects.reset_index(drop=True), "defects"),
             validate(pair_events.astype({"frame": np.int64}), "defect_events"))
