@@ -26,15 +26,13 @@ origin at the centre of pixel (0, 0).
 """
 from __future__ import annotations
 
-import bisect
-
 import numpy as np
 import pandas as pd
 
 from .box import Box
 from .errors import InputError, is_real
-from .graph import contact_table as graph_contacts
 from .geometry import lookup, row_keys
+from .graph import pair_groups
 from .schema import interior_mask, track_ids, validate
 
 __all__ = ["detect_t1", "neighbour_events", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
@@ -107,79 +105,179 @@ def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_l
     pandas.DataFrame
         ``frame``, ``a`` < ``b`` (track ids, both > 0), ``length`` (px), sorted.
     """
+    if cells is None or "track" not in cells.columns:  # label ids are track ids: every frame of the edges
+        frames = edges["frame"].to_numpy(np.int64) if "frame" in edges.columns else np.zeros(0, np.int64)
+        cells = pd.DataFrame({"frame": np.unique(frames), "cell": np.int64(0)})
+    parts = [(np.full(len(a), frame, np.int64), a, b, length)
+             for frame, _, a, b, length in _movie_frames(edges, cells, min_length)]
+    frame, a, b, length = (np.concatenate(c) for c in zip(*parts)) if parts else (np.zeros(0, np.int64),) * 4
+    return pd.DataFrame({"frame": frame, "a": a, "b": b, "length": length.astype(float)})
+
+
+#: Cell rows handled at once by the movie-level stages (whole frames): about 0.8 kB of temporaries per row.
+BLOCK_ROWS = 1 << 14
+
+
+class _ByFrame:
+    """The rows of each frame of a ``frame`` column (sorted or not: one stable argsort if not)."""
+
+    def __init__(self, frame):
+        frame = np.asarray(frame)
+        self.order = None if len(frame) < 2 or bool(np.all(frame[1:] >= frame[:-1])) else np.argsort(frame,
+                                                                                                       kind="stable")
+        f = frame if self.order is None else frame[self.order]
+        starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]]) if len(f) else np.zeros(0, np.int64)
+        self.frames, self.bounds = f[starts].astype(np.int64), np.r_[starts, len(f)]
+
+    def __iter__(self):
+        for k, frame in enumerate(self.frames.tolist()):
+            yield frame, self._rows(k)
+
+    def blocks(self, rows=BLOCK_ROWS):
+        """Consecutive frames in blocks of about ``rows`` rows (one frame at least): ``(frames, rows)``."""
+        k = 0
+        while k < len(self.frames):
+            end = max(int(np.searchsorted(self.bounds, self.bounds[k] + rows, "right")) - 1, k + 1)
+            end = min(end, len(self.frames))
+            lo, hi = self.bounds[k], self.bounds[end]
+            yield self.frames[k:end], (slice(lo, hi) if self.order is None else self.order[lo:hi])
+            k = end
+
+    def between(self, first, last):
+        """Row indices (a slice when the column is sorted) of the frames ``first`` to ``last``."""
+        lo, hi = np.searchsorted(self.frames, first, "left"), np.searchsorted(self.frames, last, "right")
+        lo, hi = self.bounds[lo], self.bounds[hi]
+        return slice(lo, hi) if self.order is None else self.order[lo:hi]
+
+    def rows(self, frame):
+        """Row indices (a slice when the column is sorted) of ``frame``; none if it is absent."""
+        k = int(np.searchsorted(self.frames, frame))
+        return self._rows(k) if k < len(self.frames) and self.frames[k] == frame else slice(0, 0)
+
+    def _rows(self, k):
+        lo, hi = self.bounds[k], self.bounds[k + 1]
+        return slice(lo, hi) if self.order is None else self.order[lo:hi]
+
+
+def _in_sorted(values, sorted_keys):
+    """Which ``values`` are in the sorted array ``sorted_keys``."""
+    pos = np.minimum(np.searchsorted(sorted_keys, values), max(len(sorted_keys) - 1, 0))
+    return sorted_keys[pos] == values if len(sorted_keys) else np.zeros(len(values), bool)
+
+
+def _movie_frames(edges, cells, min_length):
+    """Each frame of ``cells`` in turn: ``(frame, tracks, a, b, length)``.
+
+    ``tracks``: the track ids present (sorted, unique); ``a`` < ``b``: its contacts
+    in track ids, sorted, with their summed junction ``length`` (px).  Only
+    one frame's contacts exist at a time: the movie-level stages stream the
+    movie instead of holding every contact of it (three per cell-frame).
+    """
     for col in ("frame", "cell_a", "cell_b", "length"):
         if col not in edges.columns:
             raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
     if not is_real(min_length) or min_length < 0:
         raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
-    pairs = graph_contacts(edges)
-    frame = pairs["frame"].to_numpy(np.int64)
-    a, b = pairs["cell_a"].to_numpy(np.int64), pairs["cell_b"].to_numpy(np.int64)
-    length = pairs["length"].to_numpy(float)
-    del pairs
-    if min_length > 0:
-        keep = length >= min_length
+    cell_rows, edge_rows = _ByFrame(cells["frame"].to_numpy(np.int64)), _ByFrame(edges["frame"].to_numpy(np.int64))
+    translate = "track" in cells.columns
+    if translate and len(np.setdiff1d(edge_rows.frames, cell_rows.frames)):
+        raise InputError(MISSING_CELLS)
+    return _frames(edges, cells, min_length, cell_rows, edge_rows, translate)
+
+
+#: Edges whose cells the cells table does not have.
+MISSING_CELLS = "edges refer to (frame, cell) pairs missing from the cells table"
+
+
+def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
+    """The generator of :func:`_movie_frames` (its arguments checked): contacts found a block of frames at a time."""
+    tracks = track_ids(cells)
+    labels = cells["cell"].to_numpy(np.int64) if translate else None
+    c_frame = cells["frame"].to_numpy(np.int64)
+    e_frame = edges["frame"].to_numpy(np.int64)
+    e_a, e_b = edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)
+    e_length = edges["length"].to_numpy(float)
+    for frames, rows in cell_rows.blocks():
+        er = edge_rows.between(frames[0], frames[-1])
+        frame, a, b, length = e_frame[er], e_a[er], e_b[er], e_length[er]
+        keep = a != 0  # contacts with the outside are not cell contacts
         frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
-    if cells is not None and "track" in cells.columns:  # label ids -> track ids, one sorted key per cell
-        keys = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
-        missing = "edges refer to (frame, cell) pairs missing from the cells table"
-        track = cells["track"].to_numpy(np.int64)
-        a = lookup(keys, track, row_keys(frame, a), missing)
-        b = lookup(keys, track, row_keys(frame, b), missing)
-        a, b = np.minimum(a, b), np.maximum(a, b)
-        order = np.lexsort((b, a, frame))  # track ids need not keep the label order
-        frame, a, b, length = frame[order], a[order], b[order], length[order]
-    return pd.DataFrame({"frame": frame, "a": a, "b": b, "length": length})
+        order, starts = pair_groups(frame, a, b)
+        first = order[starts]
+        frame, a, b = frame[first], a[first], b[first]
+        length = np.add.reduceat(length[order], starts) if len(starts) else np.zeros(0)
+        if min_length > 0:
+            keep = length >= min_length
+            frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
+        here = c_frame[rows]
+        if labels is not None:  # label ids -> track ids
+            keys, track = row_keys(here, labels[rows]), tracks[rows]
+            a = lookup(keys, track, row_keys(frame, a), MISSING_CELLS)
+            b = lookup(keys, track, row_keys(frame, b), MISSING_CELLS)
+            a, b = np.minimum(a, b), np.maximum(a, b)
+            order = np.lexsort((b, a, frame))  # track ids need not keep the label order
+            frame, a, b, length = frame[order], a[order], b[order], length[order]
+        present = np.unique(row_keys(here, tracks[rows]))
+        p_bounds = np.searchsorted(present, row_keys(frames, 0))
+        c_bounds = np.searchsorted(frame, frames)
+        ids = present - row_keys(np.repeat(frames, np.diff(np.append(p_bounds, len(present)))), 0)
+        for k, f in enumerate(frames.tolist()):
+            lo, hi = c_bounds[k], c_bounds[k + 1] if k + 1 < len(frames) else len(frame)
+            p_hi = p_bounds[k + 1] if k + 1 < len(frames) else len(present)
+            yield f, ids[p_bounds[k]:p_hi], a[lo:hi], b[lo:hi], length[lo:hi]
+
+
+def _ids(edges, cells):
+    """Every track id a movie's contacts can name, sorted: those of ``cells`` (label ids of the edges too
+    when ``cells`` has no ``track``)."""
+    tracks = track_ids(cells)
+    if "track" in cells.columns:
+        return np.unique(tracks)
+    return np.unique(np.r_[tracks, edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)])
 
 
 def _expand(lo, hi):
     """Concatenated ranges ``lo[k]..hi[k]-1`` and the query index of each element."""
     count = hi - lo
     owner = np.repeat(np.arange(len(lo)), count)
-    start = np.repeat(lo - np.r_[0, np.cumsum(count)[:-1]], count)
+    start = np.repeat(lo - (np.cumsum(count) - count), count)
     return np.arange(count.sum()) + start, owner
 
 
-class _Graph:
-    """Contacts and presence of every frame as sorted int64 keys (frame positions, compact ids)."""
+class _FrameGraph:
+    """One frame's contacts and cells in compact ids: sorted pair keys ``a * K + b`` and adjacency."""
 
-    def __init__(self, frame, a, b, pres_frame, pres_id, n_ids):
-        self.K = np.int64(n_ids + 1)
-        self.pair_key = np.sort((frame * self.K + a) * self.K + b)
-        # directed adjacency sorted by (frame, u)
-        u, v, f = np.r_[a, b], np.r_[b, a], np.r_[frame, frame]
-        order = np.lexsort((v, u, f))
-        self.adj_key, self.adj_v = (f * self.K + u)[order], v[order]
-        self.present = np.sort(pres_frame * self.K + pres_id)
+    def __init__(self, present, a, b, K):
+        self.present, self.K = present, K
+        self.keys = np.unique(np.minimum(a, b) * K + np.maximum(a, b))
+        a, b = np.divmod(self.keys, K)
+        u, v = np.concatenate((a, b)), np.concatenate((b, a))
+        order = np.lexsort((v, u))
+        self.u, self.v = u[order], v[order]
 
-    def has_pair(self, frame, a, b):
-        lo, hi = np.minimum(a, b), np.maximum(a, b)
-        key = (frame * self.K + lo) * self.K + hi
-        pos = np.searchsorted(self.pair_key, key)
-        pos = np.minimum(pos, len(self.pair_key) - 1)
-        return (self.pair_key[pos] == key) if len(self.pair_key) else np.zeros(len(key), bool)
+    def has_pair(self, a, b):
+        return _in_sorted(np.minimum(a, b) * self.K + np.maximum(a, b), self.keys)
 
-    def is_present(self, frame, cell):
-        key = frame * self.K + cell
-        pos = np.minimum(np.searchsorted(self.present, key), max(len(self.present) - 1, 0))
-        return (self.present[pos] == key) if len(self.present) else np.zeros(len(key), bool)
+    def is_present(self, cell):
+        return _in_sorted(cell, self.present)
 
-    def common_neighbours(self, frame, a, b):
-        """Rows ``(query index, v)`` for every common neighbour v of a and b at ``frame``."""
-        key = frame * self.K + a
-        lo, hi = np.searchsorted(self.adj_key, key, "left"), np.searchsorted(self.adj_key, key, "right")
+    def quartets(self, pairs):
+        """Each contact a-b of ``pairs`` with each pair c < d of common neighbours: arrays (pair, c * K + d)."""
+        a, b = np.divmod(pairs, self.K)
+        lo, hi = np.searchsorted(self.u, a, "left"), np.searchsorted(self.u, a, "right")
         idx, owner = _expand(lo, hi)
-        v = self.adj_v[idx]
-        keep = (v != b[owner]) & self.has_pair(frame[owner], b[owner], v)
-        return owner[keep], v[keep]
+        v = self.v[idx]
+        keep = (v != b[owner]) & self.has_pair(b[owner], v)
+        q, c, d = _quartets(owner[keep], v[keep])
+        return pairs[q], c * self.K + d
 
 
 def _quartets(owner, v):
-    """Every pair (c < d) of common neighbours per query: arrays (query, c, d)."""
-    df = pd.DataFrame({"q": owner, "v": v})
-    pairs = df.merge(df, on="q")
-    pairs = pairs[pairs["v_x"] < pairs["v_y"]]
-    return pairs["q"].to_numpy(np.int64), pairs["v_x"].to_numpy(np.int64), pairs["v_y"].to_numpy(np.int64)
+    """Every pair (c < d) of common neighbours per query (``owner`` sorted): arrays (query, c, d)."""
+    starts = np.searchsorted(owner, owner, "left")
+    idx, first = _expand(starts, np.searchsorted(owner, owner, "right"))  # each element with its group
+    keep = v[first] < v[idx]
+    return owner[first[keep]], v[first[keep]], v[idx[keep]]
 
 
 def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
@@ -199,52 +297,58 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
         with c-d), ``cell_a`` < ``cell_b`` (lose contact), ``cell_c`` <
         ``cell_d`` (gain contact), sorted by ``frame_lost``.  Frames are those
         of the input; consecutive means consecutive in the sorted list of
-        frames present in ``presence``.
+        frames present in ``presence``; contacts of other frames are ignored.
     """
-    frames = np.unique(presence["frame"].to_numpy(np.int64))
-    ids, inv = np.unique(np.r_[presence["track"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64),
-                               contacts["b"].to_numpy(np.int64)], return_inverse=True)
-    n_p, n_c = len(presence), len(contacts)
-    p_id, a, b = inv[:n_p], inv[n_p:n_p + n_c], inv[n_p + n_c:]
-    p_fr = np.searchsorted(frames, presence["frame"].to_numpy(np.int64))
-    c_fr = np.searchsorted(frames, contacts["frame"].to_numpy(np.int64))
+    track = presence["track"].to_numpy(np.int64)
+    a, b = contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)
+    contact_rows = _ByFrame(contacts["frame"].to_numpy(np.int64))
+    frames = ((frame, np.unique(track[rows]), a[contact_rows.rows(frame)], b[contact_rows.rows(frame)])
+              for frame, rows in _ByFrame(presence["frame"].to_numpy(np.int64)))
+    return _find_t1(frames, np.unique(np.r_[track, a, b]))
+
+
+def _find_t1(frames, ids):
+    """:func:`find_t1` of a stream of frames ``(frame, tracks present, a, b)`` whose ids are all in ``ids``.
+
+    One pass, two frames at a time: a contact lost between consecutive frames
+    (its two cells still present) is a loss, with a quartet for each pair of
+    common neighbours before; a contact gained (its cells present before) is
+    a gain, with a quartet for each pair of common neighbours after; the runs
+    of frames of every contact say which loss and gain were not interrupted.
+    """
+    K = np.int64(len(ids) + 1)
+    starts, stops, losses, gains, values = [], [], [], [], []
+    prev = None
+    for i, (frame, tracks, a, b) in enumerate(frames):
+        cur = _FrameGraph(np.searchsorted(ids, tracks), np.searchsorted(ids, a), np.searchsorted(ids, b), K)
+        values.append(frame)
+        if prev is None:
+            starts.append((cur.keys, 0))
+        else:
+            new, gone = cur.keys[~_in_sorted(cur.keys, prev.keys)], prev.keys[~_in_sorted(prev.keys, cur.keys)]
+            starts.append((new, i))
+            stops.append((gone, i))
+            la, lb = np.divmod(gone, K)  # losses: both cells still present; quartets of the frame before
+            ab, cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
+            losses.append((ab, cd, np.full(len(ab), i)))
+            ga, gb = np.divmod(new, K)  # gains: both cells present before; quartets of this frame
+            cd, ab = cur.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
+            gains.append((ab, cd, np.full(len(ab), i)))
+        prev = cur
     empty = pd.DataFrame({c: np.empty(0, np.int64) for c in
                           ("frame_lost", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d")})
-    if n_c == 0 or len(frames) < 2:
+    if len(values) < 2 or not sum(len(k) for k, _ in starts):
         return empty
-    g = _Graph(c_fr, a, b, p_fr, p_id, len(ids))
-    # Runs of consecutive frames of each contact: interval starts are gains, ends are losses.
-    pair = a * g.K + b
-    order = np.lexsort((c_fr, pair))
-    pair, fr = pair[order], c_fr[order]
-    brk = np.r_[True, (pair[1:] != pair[:-1]) | (fr[1:] != fr[:-1] + 1)]
-    starts = np.flatnonzero(brk)
-    ends = np.r_[starts[1:], len(pair)] - 1
-    i_pair, i_start, i_stop = pair[starts], fr[starts], fr[ends] + 1
-    same_next = np.r_[i_pair[1:] == i_pair[:-1], False]
-    i_next = np.where(same_next, np.r_[i_start[1:], 0], np.iinfo(np.int64).max)
-    same_prev = np.r_[False, i_pair[1:] == i_pair[:-1]]
-    i_prev = np.where(same_prev, np.r_[0, i_stop[:-1]], -1)  # end of the contact's previous run
-    ia, ib = np.divmod(i_pair, g.K)
-    T = len(frames)
-    # losses: a-b present at stop-1, absent at stop, both cells present at stop
-    lost = (i_stop < T)
-    lost &= g.is_present(np.minimum(i_stop, T - 1), ia) & g.is_present(np.minimum(i_stop, T - 1), ib)
-    L = np.flatnonzero(lost)
-    # gains: c-d present at start, absent at start-1, both cells present at start-1
-    gain = i_start > 0
-    gain &= g.is_present(np.maximum(i_start - 1, 0), ia) & g.is_present(np.maximum(i_start - 1, 0), ib)
-    G = np.flatnonzero(gain)
-    # Quartet of a loss: common neighbours of a, b just before; of a gain: of c, d just after.
-    q, v = g.common_neighbours(i_stop[L] - 1, ia[L], ib[L])
-    lq, lc, ld = _quartets(q, v)
-    q, v = g.common_neighbours(i_start[G], ia[G], ib[G])
-    gq, ga, gb = _quartets(q, v)
-    losses = pd.DataFrame({"ab": i_pair[L][lq], "cd": lc * g.K + ld, "frame_lost": i_stop[L][lq],
-                           "next_ab": i_next[L][lq]}).sort_values("frame_lost")
-    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq],
-                          "prev_cd": i_prev[G][gq]})
-    gains = gains.sort_values("frame_gain")
+    stops.append((prev.keys, len(values)))
+    runs = _runs(starts, stops)
+    losses = pd.DataFrame(dict(zip(("ab", "cd", "frame_lost"), (np.concatenate(c) for c in zip(*losses)))))
+    gains = pd.DataFrame(dict(zip(("ab", "cd", "frame_gain"), (np.concatenate(c) for c in zip(*gains)))))
+    losses = losses.merge(runs[["pair", "stop", "next_start"]], left_on=["ab", "frame_lost"],
+                          right_on=["pair", "stop"]).drop(columns=["pair", "stop"]).rename(columns={"next_start": "next_ab"})
+    gains = gains.merge(runs[["pair", "start", "prev_stop"]], left_on=["cd", "frame_gain"],
+                        right_on=["pair", "start"]).drop(columns=["pair", "start"]).rename(columns={"prev_stop": "prev_cd"})
+    losses = losses.sort_values(["frame_lost", "ab", "cd"], kind="stable")
+    gains = gains.sort_values(["frame_gain", "ab", "cd"], kind="stable")
     if losses.empty or gains.empty:
         return empty
     # Each gain pairs with the latest loss of the same quartet at or before it ...
@@ -253,14 +357,33 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     # ... provided neither a-b nor c-d touched in between (a four-fold vertex at most); the first
     # such gain completes the T1.
     m = m[(m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
-    m = m.sort_values("frame_gain").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
+    m = m.sort_values("frame_gain", kind="stable").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
     ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
+    values = np.asarray(values, np.int64)
     out = pd.DataFrame({
-        "frame_lost": frames[m["frame_lost"].to_numpy(np.int64)],
-        "frame_gain": frames[m["frame_gain"].to_numpy(np.int64)],
-        "cell_a": ids[ab // g.K], "cell_b": ids[ab % g.K], "cell_c": ids[cd // g.K], "cell_d": ids[cd % g.K],
+        "frame_lost": values[m["frame_lost"].to_numpy(np.int64)],
+        "frame_gain": values[m["frame_gain"].to_numpy(np.int64)],
+        "cell_a": ids[ab // K], "cell_b": ids[ab % K], "cell_c": ids[cd // K], "cell_d": ids[cd % K],
     })
-    return out.sort_values(["frame_lost", "cell_a", "cell_b"], ignore_index=True)
+    return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
+
+
+def _runs(starts, stops):
+    """Runs of consecutive frames of each contact: ``pair``, ``start``, ``stop`` (first frame without it),
+    ``next_start`` (of its next run, or a frame past every frame) and ``prev_stop`` (of its previous run, or -1)."""
+    def ordered(parts):
+        key = np.concatenate([k for k, _ in parts])
+        frame = np.concatenate([np.full(len(k), i, np.int64) for k, i in parts])
+        order = np.lexsort((frame, key))
+        return key[order], frame[order]
+
+    pair, start = ordered(starts)
+    _, stop = ordered(stops)  # a contact's runs alternate start, stop: the k-th stop ends the k-th start's run
+    same_next = np.r_[pair[1:] == pair[:-1], False]
+    same_prev = np.r_[False, pair[1:] == pair[:-1]]
+    return pd.DataFrame({"pair": pair, "start": start, "stop": stop,
+                         "next_start": np.where(same_next, np.r_[start[1:], 0], np.iinfo(np.int64).max),
+                         "prev_stop": np.where(same_prev, np.r_[0, stop[:-1]], -1)})
 
 
 def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataFrame:
@@ -318,26 +441,57 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
     return out.sort_values(["frame_start", "cell_a", "cell_b"], ignore_index=True)
 
 
+def _rows_at(cells, by_frame, frame, track):
+    """Row of ``cells`` of each (``frame``, ``track``), the first if several, -1 if none; a block of frames at a time."""
+    out = np.full(len(frame), -1, np.int64)
+    order = np.argsort(frame, kind="stable")
+    wanted = frame[order]
+    c_frame, c_track = cells["frame"].to_numpy(np.int64), track_ids(cells)
+    for frames, rows in by_frame.blocks():
+        lo, hi = np.searchsorted(wanted, [frames[0], frames[-1] + 1])
+        if lo == hi:
+            continue
+        rows = np.arange(rows.start, rows.stop) if isinstance(rows, slice) else rows
+        sel = order[lo:hi]
+        pos = lookup(row_keys(c_frame[rows], c_track[rows]), None, row_keys(frame[sel], track[sel]))
+        out[sel] = np.where(pos >= 0, rows[np.maximum(pos, 0)], -1)
+    return out
+
+
+def _centre(xy, box):
+    """Mean of each row's points ``xy`` (rows x points x 2, NaN = missing), minimum-image in a periodic ``box``."""
+    if box is not None:
+        xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
+        return box.wrap(np.nanmean(xy, axis=1))
+    return np.nanmean(xy, axis=1)
+
+
 def _positions(events, cells, box):
     """Quartet centre (x, y) and border flag at frame_start, from the cells table."""
     if events.empty:
         return np.empty(0), np.empty(0), np.empty(0, bool)
     border = ~interior_mask(cells)
-    keys = row_keys(cells["frame"].to_numpy(np.int64), track_ids(cells))
-    pos = np.c_[cells["x"].to_numpy(float), cells["y"].to_numpy(float)]
-    frame = events["frame_start"].to_numpy(np.int64)
-    xy, flag = [], np.zeros(len(events), bool)
-    for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
-        row = lookup(keys, None, row_keys(frame, events[col].to_numpy(np.int64)))
-        xy.append(np.where(row[:, None] >= 0, pos[np.maximum(row, 0)], np.nan))
-        flag |= (row >= 0) & border[np.maximum(row, 0)]
-    xy = np.stack(xy, axis=1)
-    if box is not None:
-        xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
-        centre = box.wrap(np.nanmean(xy, axis=1))
-    else:
-        centre = np.nanmean(xy, axis=1)
+    x, y = cells["x"].to_numpy(float), cells["y"].to_numpy(float)
+    quartet = ("cell_a", "cell_b", "cell_c", "cell_d")
+    frame = np.tile(events["frame_start"].to_numpy(np.int64), 4)
+    row = _rows_at(cells, _ByFrame(cells["frame"].to_numpy(np.int64)), frame,
+                   np.concatenate([events[c].to_numpy(np.int64) for c in quartet])).reshape(4, -1).T
+    at = np.maximum(row, 0)
+    xy = np.where(row[..., None] >= 0, np.stack([x[at], y[at]], axis=-1), np.nan)  # event, cell, (x, y)
+    flag = ((row >= 0) & border[at]).any(axis=1)
+    centre = _centre(xy, box)
     return centre[:, 0], centre[:, 1], flag
+
+
+def _events_table(raw, cells, box, censor):
+    """The ``events`` table of the raw T1s of :func:`find_t1`: classified, placed, numbered."""
+    events = classify_t1(raw, int(cells["frame"].max()) if len(cells) else 0, censor)
+    x, y, border = _positions(events, cells, box)
+    events.insert(8, "x", x)
+    events.insert(9, "y", y)
+    events["is_border"] = border
+    events.insert(0, "event", np.arange(len(events), dtype=np.int64))
+    return validate(events, "events")
 
 
 def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int | None = None,
@@ -377,17 +531,10 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     for col in ("frame", "cell", "x", "y"):
         if col not in cells.columns:
             raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
-    presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": track_ids(cells)})
-    contacts = track_contacts(edges, cells, min_length)
-    raw = find_t1(contacts, presence)
-    last = int(presence["frame"].max()) if len(presence) else 0
-    events = classify_t1(raw, last, default_censor(last + 1) if censor is None else censor)
-    x, y, border = _positions(events, cells, box)
-    events.insert(8, "x", x)
-    events.insert(9, "y", y)
-    events["is_border"] = border
-    events.insert(0, "event", np.arange(len(events), dtype=np.int64))
-    return validate(events, "events")
+    frames = _movie_frames(edges, cells, min_length)
+    raw = _find_t1(((f, tracks, a, b) for f, tracks, a, b, _ in frames), _ids(edges, cells))
+    last = int(cells["frame"].max()) if len(cells) else 0
+    return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
 
 
 def _participants(events: pd.DataFrame) -> pd.DataFrame:
@@ -449,15 +596,13 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     """
     long = _participants(events)
     counts = pd.crosstab(long["track"], long["kind"]) if len(long) else pd.DataFrame()
-    if cells is not None:
-        n_frames = pd.Series(track_ids(cells)).value_counts().sort_index()
-        tracks = n_frames.index.to_numpy(np.int64)
+    if cells is not None:  # rows per track: a sort of one column (a hash table of it costs far more)
+        tracks, n_frames = np.unique(track_ids(cells), return_counts=True)
     else:
         tracks = np.unique(long["track"].to_numpy(np.int64))
-        n_frames = None
+        n_frames = np.zeros(len(tracks))
     out = pd.DataFrame({"track": tracks})
-    out["n_frames"] = (n_frames.reindex(tracks).to_numpy(np.int64) if n_frames is not None
-                       else np.zeros(len(tracks), np.int64))
+    out["n_frames"] = n_frames.astype(np.int64)
     for kind, col in (("cycle", "n_cycles"), ("intercalation", "n_intercalations"), ("unresolved", "n_unresolved")):
         src = counts[kind] if kind in counts.columns else pd.Series(dtype=np.int64)
         out[col] = src.reindex(tracks).fillna(0).to_numpy(np.int64)
@@ -482,90 +627,164 @@ def _mix(ids):
 
 
 class _Lists:
-    """Every cell's neighbour list in every frame, as hashes (vectorised) and, on demand, as sets.
+    """One frame's neighbour lists: directed contacts ``u -> v`` sorted by (u, v), hashed per cell.
 
-    Rows are the (track, frame) pairs present, sorted by track then frame.  ``full[r]`` hashes
-    the list of row r; ``changed[r]`` says whether it differs from the row before (the same cell
-    one frame earlier) on the cells present in both frames.
+    ``full[k]`` hashes the list of ``tracks[k]`` (a sum of :func:`_mix` of its neighbours, so it
+    does not depend on their order).
     """
 
-    def __init__(self, contacts, frames, tracks):
-        key = row_keys(frames, tracks)
-        _, first = np.unique(key, return_index=True)
-        order = first[np.lexsort((frames[first], tracks[first]))]
-        self.frame, self.track = frames[order], tracks[order]
-        self.keys = row_keys(self.frame, self.track)
-        u = np.r_[contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)]
-        v = np.r_[contacts["b"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64)]
-        f = np.r_[contacts["frame"].to_numpy(np.int64), contacts["frame"].to_numpy(np.int64)]
-        srt = np.lexsort((v, u, f))  # by (frame, cell): the order of their row keys
-        self.u, self.v, self.f = u[srt], v[srt], f[srt]
-        row = lookup(self.keys, None, row_keys(self.f, self.u))
-        ok = row >= 0
-        self.u, self.v, self.f, row = self.u[ok], self.v[ok], self.f[ok], row[ok]
-        n = len(self.keys)
-        h = _mix(self.v)
-        self.full = np.zeros(n, np.uint64)
-        np.add.at(self.full, row, h)
-        # the list at f restricted to cells present at f + 1, and to cells present at f - 1
-        fwd, bwd = np.zeros(n, np.uint64), np.zeros(n, np.uint64)
-        np.add.at(fwd, row, np.where(self.present(self.f + 1, self.v), h, np.uint64(0)))
-        np.add.at(bwd, row, np.where(self.present(self.f - 1, self.v), h, np.uint64(0)))
-        consecutive = np.r_[False, (self.track[1:] == self.track[:-1]) & (self.frame[1:] == self.frame[:-1] + 1)]
-        self.changed = consecutive & (np.r_[np.uint64(0), fwd[:-1]] != bwd)
-        self.contact_key = row_keys(self.f, self.u)  # sorted: slices of one row's neighbours
-        frame_ids, counts = np.unique(self.frame, return_counts=True)
-        self.constant = len(set(counts.tolist())) <= 1 and all(
-            np.array_equal(self.track[self.frame == frame_ids[0]], self.track[self.frame == g]) for g in frame_ids[1:])
+    def __init__(self, frame, tracks, a, b):
+        self.frame, self.tracks = frame, tracks
+        u, v = np.concatenate((a, b)), np.concatenate((b, a))
+        order = np.lexsort((v, u))
+        u, v = u[order], v[order]
+        ok = _in_sorted(u, tracks)  # a list belongs to a cell present in the frame
+        self.u, self.v = u[ok], v[ok]
+        self.row = np.searchsorted(tracks, self.u)
+        self.h = _mix(self.v)
+        self.full = self.restricted(None)
 
-    def present(self, frames, tracks):
-        return lookup(self.keys, None, row_keys(frames, tracks)) >= 0
+    def restricted(self, present):
+        """List hashes on the neighbours in the sorted ids ``present`` (all when None), per cell."""
+        out = np.zeros(len(self.tracks), np.uint64)
+        h = self.h if present is None else np.where(_in_sorted(self.v, present), self.h, np.uint64(0))
+        np.add.at(out, self.row, h)
+        return out
 
-    def members(self, frame, track):
-        """The neighbour set of ``track`` at ``frame``."""
-        k = row_keys(np.int64(frame), np.int64(track))
-        lo, hi = np.searchsorted(self.contact_key, [k, k + 1])
-        return frozenset(self.v[lo:hi].tolist())
+    def neighbours(self, tracks):
+        """Directed contacts of each of ``tracks``: (position in ``tracks``, row of ``u``/``v``/``h``)."""
+        rows, owner = _expand(np.searchsorted(self.u, tracks, "left"), np.searchsorted(self.u, tracks, "right"))
+        return owner, rows
 
 
-def _same_list(a, b, present_a, present_b):
-    """Neighbour lists ``a`` (at one frame) and ``b`` (at another) agree on the cells present in both frames."""
-    return a == b or all(c not in present_a or c not in present_b for c in a ^ b)
+class _Changes:
+    """Every change of a cell's neighbour list between consecutive frames, and when the list comes back.
 
+    Frames are added in order; only the previous frame's lists are kept.  A
+    change of cell ``t`` at frame ``f`` (its list at ``f`` differs from the
+    one at ``f - 1`` on the cells present in both frames) stays open until a
+    later frame ``g`` where its list agrees with the one of ``f - 1`` again on
+    the cells present at both ``g`` and ``f - 1``.  Lists are compared by
+    their hashes on those cells (sums of :func:`_mix`): the whole list's hash
+    less the neighbours absent from one of the two frames.  Only neighbours
+    that are not present in every frame can be absent, so only those are
+    kept and looked up, in ``present_keys`` (sorted
+    :func:`~hexatissue.geometry.row_keys` of every (frame, cell) of the
+    movie; None when every frame has the same cells).
+    """
 
-def _cell_events(lists, lo, hi, population, last, censor):
-    """Events of the cell of rows ``lo:hi``: (frame_start, frame_end or None, kind, n_lost, n_gained)."""
-    frames_of = lists.frame[lo:hi].tolist()
-    track = int(lists.track[lo])
-    changes = np.flatnonzero(lists.changed[lo:hi]).tolist()
-    if not changes:
-        return []
-    full = lists.full[lo:hi]
-    out = []
-    c = 0
-    while c < len(changes):
-        k = changes[c]
-        prev, f = frames_of[k - 1], frames_of[k]
-        before, after = lists.members(prev, track), lists.members(f, track)
-        n_lost = sum(x in population(f) for x in before - after)
-        n_gained = sum(x in population(prev) for x in after - before)
-        back = None  # first later row whose list is the one left at `prev`, on the cells present at both
-        if lists.constant:  # the same cells in every frame: the lists must be equal, and so their hashes
-            same = np.flatnonzero(full[k + 1:] == full[k - 1])
-            back = int(same[0]) + k + 1 if len(same) else None
-        else:
-            for j in range(k + 1, len(frames_of)):
-                g = frames_of[j]
-                if _same_list(lists.members(g, track), before, population(g), population(prev)):
-                    back = j
-                    break
-        if back is not None:
-            out.append((f, frames_of[back], "cycle", n_lost, n_gained))
-            c = bisect.bisect_right(changes, back)
-        else:
-            out.append((f, None, "unresolved" if last - f < censor else "intercalation", n_lost, n_gained))
-            c += 1
-    return out
+    def __init__(self, present_keys):
+        self.present_keys = present_keys
+        self.always = None  # cells present in every frame (None: all of them)
+        if present_keys is not None:
+            frames, ids = np.divmod(present_keys, row_keys(1, 0))
+            ids, count = np.unique(ids, return_counts=True)
+            self.always = ids[count == len(np.unique(frames))]
+        self.found = []  # per frame with changes: (track, frame, n_lost, n_gained) arrays
+        self.back = []  # per frame with returns: (change index, frame) arrays
+        self.n = 0  # changes so far
+        empty = np.zeros(0, np.int64)
+        # open changes: index, cell, frame before the change, hash of the list left there
+        self.index, self.track, self.prev_frame, self.ref = empty, empty, empty, np.zeros(0, np.uint64)
+        self.owner, self.before = empty, empty  # the neighbours of that list not present in every frame
+        self.prev = None
+
+    def _rare(self, cells):
+        """Which ``cells`` are not present in every frame."""
+        return np.zeros(len(cells), bool) if self.always is None else ~_in_sorted(cells, self.always)
+
+    def _absent(self, frame, cells, lists):
+        """Which ``cells`` (not present in every frame) are absent from ``lists``' frame or from ``frame``."""
+        return ~(_in_sorted(cells, lists.tracks) & _in_sorted(row_keys(frame, cells), self.present_keys))
+
+    def add(self, lists):
+        self._close(lists)
+        prev = self.prev
+        self.prev = lists
+        if prev is None or prev.frame != lists.frame - 1 or not len(prev.tracks):
+            return
+        at_prev = np.minimum(np.searchsorted(prev.tracks, lists.tracks), len(prev.tracks) - 1)
+        both = prev.tracks[at_prev] == lists.tracks
+        changed = both & (prev.restricted(lists.tracks)[at_prev] != lists.restricted(prev.tracks))
+        track = lists.tracks[changed]
+        if not len(track):
+            return
+        b_owner, rows = prev.neighbours(track)
+        before = prev.v[rows]
+        a_owner, rows = lists.neighbours(track)
+        after = lists.v[rows]
+        # lost: neighbours at f - 1 that are not at f but present at f; gained: the other way round
+        lost = ~_in_sorted(row_keys(b_owner, before), row_keys(a_owner, after)) & _in_sorted(before, lists.tracks)
+        gained = ~_in_sorted(row_keys(a_owner, after), row_keys(b_owner, before)) & _in_sorted(after, prev.tracks)
+        m = len(track)
+        self.found.append((track, np.full(m, lists.frame), np.bincount(b_owner[lost], minlength=m),
+                           np.bincount(a_owner[gained], minlength=m)))
+        rare = self._rare(before)
+        self.owner = np.concatenate((self.owner, b_owner[rare] + len(self.track)))
+        self.before = np.concatenate((self.before, before[rare]))
+        self.index = np.concatenate((self.index, self.n + np.arange(m)))
+        self.track = np.concatenate((self.track, track))
+        self.prev_frame = np.concatenate((self.prev_frame, np.full(m, prev.frame)))
+        self.ref = np.concatenate((self.ref, prev.full[at_prev[changed]]))
+        self.n += m
+
+    def _close(self, lists):
+        """Close the open changes whose list is back at this frame."""
+        m = len(self.track)
+        if not m or not len(lists.tracks):
+            return
+        k = np.minimum(np.searchsorted(lists.tracks, self.track), len(lists.tracks) - 1)
+        here = lists.tracks[k] == self.track
+        now, ref = lists.full[k], self.ref.copy()
+        if self.always is not None:  # less the neighbours absent from either frame
+            rare = np.flatnonzero(self._rare(lists.v))
+            if len(rare):
+                rare_u = lists.u[rare]
+                rows, owner = _expand(np.searchsorted(rare_u, self.track, "left"),
+                                      np.searchsorted(rare_u, self.track, "right"))
+                rows = rare[rows]
+                gone = self._absent(self.prev_frame[owner], lists.v[rows], lists)
+                np.subtract.at(now, owner[gone], lists.h[rows[gone]])
+            gone = self._absent(self.prev_frame[self.owner], self.before, lists)
+            np.subtract.at(ref, self.owner[gone], _mix(self.before[gone]))
+        done = here & (now == ref)
+        if not done.any():
+            return
+        self.back.append((self.index[done], np.full(int(done.sum()), lists.frame)))
+        kept = ~done
+        new_pos = np.cumsum(kept) - 1
+        rows = kept[self.owner]
+        self.owner, self.before = new_pos[self.owner[rows]], self.before[rows]
+        self.index, self.track = self.index[kept], self.track[kept]
+        self.prev_frame, self.ref = self.prev_frame[kept], self.ref[kept]
+
+    def events(self, last, censor):
+        """Events per cell, by the first change of each excursion: (track, kind, start, end, n_lost, n_gained).
+
+        A change whose list comes back is a cycle and the changes up to the
+        return belong to it; one that never does is an intercalation
+        (``unresolved`` within ``censor`` frames of ``last``).
+        """
+        if not self.found:
+            return []
+        track, start, n_lost, n_gained = (np.concatenate(c).tolist() for c in zip(*self.found))
+        back = np.full(self.n, -1, np.int64)
+        for index, frame in self.back:
+            back[index] = frame
+        back = back.tolist()
+        order = sorted(range(self.n), key=lambda i: (track[i], start[i]))
+        out, k = [], 0
+        while k < len(order):
+            i = order[k]
+            k += 1
+            if back[i] >= 0:
+                out.append((track[i], "cycle", start[i], float(back[i]), n_lost[i], n_gained[i]))
+                while k < len(order) and track[order[k]] == track[i] and start[order[k]] <= back[i]:
+                    k += 1
+            else:
+                kind = "unresolved" if last - start[i] < censor else "intercalation"
+                out.append((track[i], kind, start[i], np.nan, n_lost[i], n_gained[i]))
+        return out
 
 
 def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10
@@ -614,33 +833,35 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
             raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
     if int(censor) != censor or censor < 0:
         raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
-    frames = cells["frame"].to_numpy(np.int64)
-    tracks = track_ids(cells)
-    lists = _Lists(track_contacts(edges, cells, min_length), frames, tracks)
-    last = int(frames.max()) if len(frames) else 0
-    by_frame = {}
-
-    def population(frame):  # the cells present at a frame, as a set (built when first needed)
-        if frame not in by_frame:
-            by_frame[frame] = set(lists.track[lists.frame == frame].tolist())
-        return by_frame[frame]
-
-    rows = []
-    bounds = np.flatnonzero(np.r_[True, lists.track[1:] != lists.track[:-1], True])
-    with_changes = np.add.reduceat(lists.changed, bounds[:-1]) > 0 if len(lists.track) else np.zeros(0, bool)
-    for lo, hi in zip(bounds[:-1][with_changes], bounds[1:][with_changes]):
-        track = int(lists.track[lo])
-        for start, end, kind, n_lost, n_gained in _cell_events(lists, lo, hi, population, last, censor):
-            rows.append((track, kind, start, np.nan if end is None else float(end), n_lost, n_gained))
+    frames, tracks = cells["frame"].to_numpy(np.int64), track_ids(cells)
+    by_frame = _ByFrame(frames)
+    constant = _same_cells_every_frame(by_frame, tracks)
+    changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)))
+    for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
+        changes.add(_Lists(frame, present, a, b))
+    rows = changes.events(int(frames.max()) if len(frames) else 0, censor)
     out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
     out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,
                       "n_gained": np.int64})
     out.insert(4, "duration", out["frame_end"] - out["frame_start"])
     out["kind"] = out["kind"].astype("string")
-    at = pd.DataFrame({"frame": frames, "track": tracks, "x": cells["x"].to_numpy(float),
-                       "y": cells["y"].to_numpy(float), "is_border": ~interior_mask(cells)})
-    at = at.drop_duplicates(["frame", "track"])
-    out = out.merge(at, left_on=["frame_start", "track"], right_on=["frame", "track"], how="left").drop(columns="frame")
+    row = _rows_at(cells, by_frame, out["frame_start"].to_numpy(np.int64), out["track"].to_numpy(np.int64))
+    at = np.maximum(row, 0)
+    for col in ("x", "y"):
+        out[col] = np.where(row >= 0, cells[col].to_numpy(float)[at], np.nan)
+    out["is_border"] = ~interior_mask(cells)[at]
     out = out.sort_values(["frame_start", "track"], ignore_index=True)
     out.insert(0, "event", np.arange(len(out), dtype=np.int64))
     return validate(out, "neighbour_events")
+
+
+def _same_cells_every_frame(by_frame, tracks):
+    """Whether every frame has the same set of cells (then neighbour lists compare by hash alone)."""
+    first = None
+    for _, rows in by_frame:
+        here = np.unique(tracks[rows])
+        if first is None:
+            first = here
+        elif not np.array_equal(first, here):
+            return False
+    return True

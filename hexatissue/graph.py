@@ -8,7 +8,7 @@ import pandas as pd
 from .errors import InputError
 from .frame import Frame
 
-__all__ = ["neighbor_graph", "contact_table"]
+__all__ = ["neighbor_graph", "contact_table", "pair_groups"]
 
 
 def neighbor_graph(frame: Frame, include_outside: bool = False) -> nx.Graph:
@@ -61,17 +61,7 @@ def contact_table(edges: pd.DataFrame, include_outside: bool = False) -> pd.Data
     if not include_outside:
         keep = a != 0
         frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
-    # one sort of one int64 key per junction (a groupby on three columns needs several times the memory)
-    n = int(b.max()) + 1 if len(b) else 1
-    if len(frame) and (int(frame.max()) + 1) * n * n < 2**62:
-        key = (frame * n + a) * n + b
-        order = np.argsort(key, kind="stable")
-        new = np.diff(key[order]) != 0
-        del key
-    else:  # ids too large for one key: a lexicographic sort
-        order = np.lexsort((b, a, frame))
-        new = (np.diff(frame[order]) != 0) | (np.diff(a[order]) != 0) | (np.diff(b[order]) != 0)
-    starts = np.flatnonzero(np.r_[True, new]) if len(a) else np.zeros(0, np.int64)
+    order, starts = pair_groups(frame, a, b)
     first = order[starts]
     out = pd.DataFrame({"cell_a": a[first], "cell_b": b[first],
                         "length": np.add.reduceat(length[order], starts) if len(starts) else np.zeros(0),
@@ -79,3 +69,37 @@ def contact_table(edges: pd.DataFrame, include_outside: bool = False) -> pd.Data
     if has_frame:
         out.insert(0, "frame", frame[first])
     return out
+
+
+def pair_groups(frame, a, b):
+    """Rows grouped by equal ``(frame, a, b)``: a stable sorting order and where each group starts in it.
+
+    Parameters
+    ----------
+    frame : numpy.ndarray or None
+        Frame of each row; None for rows of one frame.
+    a, b : numpy.ndarray
+        Non-negative integer ids of each row.
+
+    Returns
+    -------
+    order : numpy.ndarray
+        Row indices sorted by (frame, a, b), rows of a group in their input order.
+    starts : numpy.ndarray
+        Position in ``order`` of the first row of each group.
+    """
+    n = int(max(a.max(), b.max())) + 1 if len(b) else 1
+    n_frames = int(frame.max()) + 1 if frame is not None and len(frame) else 1
+    # one sort of one int64 key per row (a groupby on three columns needs several times the memory)
+    if n_frames * n * n < 2**62:
+        key = a * n + b if frame is None else (frame * n + a) * n + b
+        order = np.argsort(key, kind="stable")
+        new = np.diff(key[order]) != 0
+        del key
+    else:  # ids too large for one key: a lexicographic sort
+        order = np.lexsort((b, a) if frame is None else (b, a, frame))
+        new = (np.diff(a[order]) != 0) | (np.diff(b[order]) != 0)
+        if frame is not None:
+            new |= np.diff(frame[order]) != 0
+    starts = np.flatnonzero(np.r_[True, new]) if len(a) else np.zeros(0, np.int64)
+    return order, starts

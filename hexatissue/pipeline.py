@@ -35,6 +35,7 @@ from .errors import HexatissueWarning, InputError, check_positive, user_stacklev
 from .events import cell_event_stats, default_censor, detect_t1, neighbour_events
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
+from .geometry import row_keys
 from .schema import empty_table, interior_mask, validate
 from .track import MovieTracker, lineage_table
 
@@ -140,6 +141,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
                    intensity=None if raw is None else raw.description)
         store = _Checkpoint(checkpoint, key, checkpoint_every)
     rows, tracker = _extract(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress)
+    _release_freed_memory()  # the frames' freed temporaries, before the movie-level stages
     tables = {name: rows.pop(name).table(name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
@@ -147,17 +149,19 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
+    _release_freed_memory()  # after each movie-level stage: its freed working set would stay under the next
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
-    _release_freed_memory()  # T1 detection's working set is about half the tables
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
+    _release_freed_memory()
     tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
+    _release_freed_memory()
     summary = {"tracking": _tracking_summary(tracker, cells, parents),
                "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
         linked = summary["tracking"]["resolved"] != "off"
-        tables["defects"], tables["defect_events"] = _defect_tracks(tables["defects"], tables["grid"], order,
+        tables["defects"], tables["defect_events"] = _defect_tracks(tables.pop("defects"), tables["grid"], order,
                                                                     box, src.n_frames, linked)
     else:
         del tables["grid"], tables["defects"]
@@ -235,9 +239,9 @@ def _release_freed_memory():
     """Return the C heap's free pages to the OS (glibc's ``malloc_trim``; a no-op elsewhere).
 
     glibc keeps memory freed in the middle of its heap resident: without
-    this, the working set of a movie-level stage (T1 detection needs about
-    half the tables) stays in the process and what follows (writing the
-    tables) comes on top of it.
+    this, the temporaries of a thousand frames' jobs (tens of MB of holes
+    between the growing tables) stay in the process under the movie-level
+    stages and the writing of the tables.
     """
     global _malloc_trim
     if _malloc_trim is None:
@@ -316,11 +320,19 @@ class _Rows:
 def _with_tracks(cells, tracker):
     """``cells`` with a ``track`` column after ``cell``, from the tracker's ``(frame, cell) -> track``."""
     ids = tracker.tracks()
-    merged = cells[["frame", "cell"]].merge(ids, on=["frame", "cell"], how="left", validate="one_to_one")
-    if merged["track"].isna().any():  # the tracker saw the mesh's own labels: this is a bug, not bad input
-        raise AssertionError("mesh cells missing from the tracker's labels")
+    # one sorted int64 key per (frame, cell), not a merge (which needs several times the column's memory)
+    keys = row_keys(ids["frame"].to_numpy(np.int64), ids["cell"].to_numpy(np.int64))
+    order = np.argsort(keys)
+    keys = keys[order]
+    wanted = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
+    pos = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+    # the tracker saw the mesh's own labels, once each: anything else is a bug, not bad input
+    if len(wanted) and (len(keys) == 0 or (keys[pos] != wanted).any() or (np.diff(keys) == 0).any()):
+        raise AssertionError("mesh cells missing from the tracker's labels, or seen twice")
+    track = ids["track"].to_numpy(np.int64)[order[pos]]
+    del keys, order, wanted, pos
     cells = cells.drop(columns="track", errors="ignore")
-    cells.insert(cells.columns.get_loc("cell") + 1, "track", merged["track"].to_numpy(np.int64))
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
     return cells
 
 
@@ -372,18 +384,25 @@ def _defect_tracks(defects, grid, order, box, n_frames, linked=True):
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
         max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
-    for q in order.p:
-        of_p = defects[defects["p"].to_numpy() == q].drop(columns="track", errors="ignore")
+    p = defects["p"].to_numpy()
+    parts = [defects[p == q].drop(columns="track", errors="ignore") for q in order.p]
+    del defects, p  # the caller gave its table away: at most two copies of the defects at a time
+    for k, q in enumerate(order.p):
+        of_p, parts[k] = parts[k], None
+        frame = of_p["frame"].to_numpy()
         n_tracks = 0
         for frames in groups:
-            d = of_p if linked else of_p[of_p["frame"].to_numpy() == frames[0]]
+            d = of_p if linked else of_p[frame == frames[0]]
             t = track_defects(d, max_distance, box=box, frames=frames)
             t["track"] += n_tracks
             n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
             e = defect_events(t, max_distance, box=box, frames=frames)
             tracked.append(t)
             pair_events.append(e.assign(p=np.int64(q)))
-    defects = pd.concat(tracked, ignore_index=True).sort_values(["frame", "p", "defect"], kind="stable")
+        of_p = frame = d = None  # free this order's defects before the next
+    defects = pd.concat(tracked, ignore_index=True)
+    tracked.clear()
+    defects = defects.take(np.lexsort((defects["defect"], defects["p"], defects["frame"])))  # a stable sort
     pair_events = pd.concat(pair_events, ignore_index=True)
     return (validate(defects.reset_index(drop=True), "defects"),
             validate(pair_events.astype({"frame": np.int64}), "defect_events"))

@@ -1,4 +1,6 @@
 """T1 detection and classification against exact Voronoi truth and hand-made networks."""
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -319,3 +321,104 @@ def test_cells_entering_and_leaving_do_not_change_a_neighbour_list():
     got = neighbour_events(edges, cells, censor=2).set_index("track")
     assert sorted(got.index) == [1, 2, 3, 4]
     assert got["duration"].to_dict() == {1: 6.0, 2: 6.0, 3: 3.0, 4: 3.0}
+
+
+# ----------------------------------------------------------------------------
+# The streaming implementation gives the tables of the whole-movie one (tests/_events_reference.py)
+# ----------------------------------------------------------------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _analysed(source, n_frames=None):
+    """Edges, cells (with tracks) and box of ``hexatissue.analyze`` of a sample (its first ``n_frames``)."""
+    from hexatissue import analyze, open_source
+
+    src = open_source(source)
+    if n_frames is not None:
+        src = open_source([src.frame(t) for t in range(n_frames)])
+    movie = analyze(src, box=open_source(source).box, progress=False)
+    return movie.edges, movie.cells, movie.box
+
+
+def _voronoi_tables(periodic, seed, leave=False):
+    """A random moving Voronoi tissue's contacts and cells; with ``leave``, some cells absent from some frames."""
+    mov = voronoi_movie(50, (100, 130), 30, periodic=periodic, amplitude=0.45, seed=seed)
+    seeds = np.stack([mov.seeds(t) for t in range(len(mov))])
+    edges = movie_contacts(seeds, mov.shape[1:], periodic)
+    cells = pd.DataFrame({"frame": np.repeat(np.arange(len(mov)), len(mov.base)),
+                          "cell": np.tile(np.arange(1, len(mov.base) + 1), len(mov)),
+                          "x": seeds[..., 0].ravel(), "y": seeds[..., 1].ravel()})
+    if leave:  # cells leave the tissue for a few frames: their contacts go too (not T1s)
+        gone = (cells["cell"] % 7 == 0) & cells["frame"].between(8, 12)
+        cells = cells[~gone].reset_index(drop=True)
+        keys = set(zip(cells["frame"], cells["cell"]))
+        edges = edges[[(f, a) in keys and (f, b) in keys
+                       for f, a, b in zip(edges["frame"], edges["cell_a"], edges["cell_b"])]].reset_index(drop=True)
+    rng = np.random.default_rng(seed)  # relabelled tracks: label ids != track ids, another order
+    track = rng.permutation(200)[:len(mov.base)] + 1
+    cells.insert(2, "track", track[cells["cell"].to_numpy() - 1])
+    return edges, cells, mov.box
+
+
+def _assert_as_reference(edges, cells, box, censor, min_lengths=(0.0, 2.0)):
+    import tests._events_reference as ref
+
+    n = {"t1": 0, "neighbour": 0}
+    for min_length in min_lengths:
+        contacts = track_contacts(edges, cells, min_length)
+        pd.testing.assert_frame_equal(contacts, ref.track_contacts(edges, cells, min_length))
+        presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": cells["track"].to_numpy()})
+        pd.testing.assert_frame_equal(find_t1(contacts, presence), ref.find_t1(contacts, presence))
+        got = detect_t1(edges, cells, min_length, censor, box)
+        pd.testing.assert_frame_equal(got, ref.detect_t1(edges, cells, min_length, censor, box))
+        per_cell = neighbour_events(edges, cells, min_length, censor)
+        pd.testing.assert_frame_equal(per_cell, ref.neighbour_events(edges, cells, min_length, censor))
+        n["t1"] += len(got)
+        n["neighbour"] += len(per_cell)
+    return n
+
+
+@pytest.mark.parametrize("periodic", [True, False], ids=["periodic", "open"])
+def test_streaming_events_equal_the_whole_movie_reference_on_the_t1_movie(periodic):
+    m = t1_movie(periodic=periodic, seed=1)
+    cells = m.cells.assign(track=m.cells["cell"])
+    n = _assert_as_reference(m.edges, cells, m.box, m.censor, (0.0, m.min_length))
+    assert n["t1"] >= len(m.events) and n["neighbour"] > 0
+    # rows in another order (frames interleaved): the same tables
+    shuffled = np.random.default_rng(0).permutation(len(m.edges))
+    _assert_as_reference(m.edges.iloc[shuffled].reset_index(drop=True), cells.iloc[::-1].reset_index(drop=True),
+                         m.box, m.censor, (m.min_length,))
+
+
+@pytest.mark.parametrize("periodic,leave", [(True, False), (False, False), (True, True)],
+                         ids=["periodic", "open", "cells-leaving"])
+def test_streaming_events_equal_the_whole_movie_reference_on_a_random_voronoi_movie(periodic, leave):
+    edges, cells, box = _voronoi_tables(periodic, seed=3, leave=leave)
+    n = _assert_as_reference(edges, cells, box if periodic else None, censor=4)
+    assert n["t1"] > 0 and n["neighbour"] > 0
+
+
+def test_streaming_events_equal_the_whole_movie_reference_on_the_bundled_sample():
+    edges, cells, box = _analysed(ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif")
+    n = _assert_as_reference(edges, cells, box, censor=2)
+    assert n["neighbour"] > 0
+
+
+def test_streaming_events_equal_the_whole_movie_reference_on_the_mpf_sample():
+    run = ROOT / "sample_data" / "mpf_small" / "run.zarr"
+    if not run.exists():
+        pytest.skip("sample_data/mpf_small/run.zarr is absent")
+    edges, cells, box = _analysed(run, n_frames=80)
+    n = _assert_as_reference(edges, cells, box, censor=10)
+    assert n["t1"] > 0 and n["neighbour"] > 0
+
+
+@pytest.mark.slow
+def test_streaming_events_equal_the_whole_movie_reference_on_the_whole_mpf_sample():
+    run = ROOT / "sample_data" / "mpf_small" / "run.zarr"
+    if not run.exists():
+        pytest.skip("sample_data/mpf_small/run.zarr is absent")
+    edges, cells, box = _analysed(run)
+    n = _assert_as_reference(edges, cells, box, censor=10, min_lengths=(0.0,))
+    assert n["t1"] > 300

@@ -1,0 +1,272 @@
+"""Today's whole-movie implementation of the T1 and neighbour-list events (before they streamed frames).
+
+Kept only as the reference the streaming implementation in :mod:`hexatissue.events` is compared
+against (``tests/test_events.py``): it holds every contact of the movie at once.  The helpers
+that did not change are imported, not copied.
+"""
+from __future__ import annotations
+
+import bisect
+
+import numpy as np
+import pandas as pd
+
+from hexatissue.events import _events_table, _expand, _mix, default_censor
+from hexatissue.geometry import lookup, row_keys
+from hexatissue.graph import contact_table as graph_contacts
+from hexatissue.schema import interior_mask, track_ids, validate
+
+
+def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
+    """Cell-cell contacts per frame, in track ids. (reference)"""
+    pairs = graph_contacts(edges)
+    frame = pairs["frame"].to_numpy(np.int64)
+    a, b = pairs["cell_a"].to_numpy(np.int64), pairs["cell_b"].to_numpy(np.int64)
+    length = pairs["length"].to_numpy(float)
+    del pairs
+    if min_length > 0:
+        keep = length >= min_length
+        frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
+    if cells is not None and "track" in cells.columns:  # label ids -> track ids, one sorted key per cell
+        keys = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
+        missing = "edges refer to (frame, cell) pairs missing from the cells table"
+        track = cells["track"].to_numpy(np.int64)
+        a = lookup(keys, track, row_keys(frame, a), missing)
+        b = lookup(keys, track, row_keys(frame, b), missing)
+        a, b = np.minimum(a, b), np.maximum(a, b)
+        order = np.lexsort((b, a, frame))  # track ids need not keep the label order
+        frame, a, b, length = frame[order], a[order], b[order], length[order]
+    return pd.DataFrame({"frame": frame, "a": a, "b": b, "length": length})
+
+
+class _Graph:
+    """Contacts and presence of every frame as sorted int64 keys (frame positions, compact ids)."""
+
+    def __init__(self, frame, a, b, pres_frame, pres_id, n_ids):
+        self.K = np.int64(n_ids + 1)
+        self.pair_key = np.sort((frame * self.K + a) * self.K + b)
+        # directed adjacency sorted by (frame, u)
+        u, v, f = np.r_[a, b], np.r_[b, a], np.r_[frame, frame]
+        order = np.lexsort((v, u, f))
+        self.adj_key, self.adj_v = (f * self.K + u)[order], v[order]
+        self.present = np.sort(pres_frame * self.K + pres_id)
+
+    def has_pair(self, frame, a, b):
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        key = (frame * self.K + lo) * self.K + hi
+        pos = np.searchsorted(self.pair_key, key)
+        pos = np.minimum(pos, len(self.pair_key) - 1)
+        return (self.pair_key[pos] == key) if len(self.pair_key) else np.zeros(len(key), bool)
+
+    def is_present(self, frame, cell):
+        key = frame * self.K + cell
+        pos = np.minimum(np.searchsorted(self.present, key), max(len(self.present) - 1, 0))
+        return (self.present[pos] == key) if len(self.present) else np.zeros(len(key), bool)
+
+    def common_neighbours(self, frame, a, b):
+        """Rows ``(query index, v)`` for every common neighbour v of a and b at ``frame``."""
+        key = frame * self.K + a
+        lo, hi = np.searchsorted(self.adj_key, key, "left"), np.searchsorted(self.adj_key, key, "right")
+        idx, owner = _expand(lo, hi)
+        v = self.adj_v[idx]
+        keep = (v != b[owner]) & self.has_pair(frame[owner], b[owner], v)
+        return owner[keep], v[keep]
+
+
+def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
+    """Raw T1s (one per neighbour exchange) from contacts and cell presence. (reference)"""
+    frames = np.unique(presence["frame"].to_numpy(np.int64))
+    ids, inv = np.unique(np.r_[presence["track"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64),
+                               contacts["b"].to_numpy(np.int64)], return_inverse=True)
+    n_p, n_c = len(presence), len(contacts)
+    p_id, a, b = inv[:n_p], inv[n_p:n_p + n_c], inv[n_p + n_c:]
+    p_fr = np.searchsorted(frames, presence["frame"].to_numpy(np.int64))
+    c_fr = np.searchsorted(frames, contacts["frame"].to_numpy(np.int64))
+    empty = pd.DataFrame({c: np.empty(0, np.int64) for c in
+                          ("frame_lost", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d")})
+    if n_c == 0 or len(frames) < 2:
+        return empty
+    g = _Graph(c_fr, a, b, p_fr, p_id, len(ids))
+    # Runs of consecutive frames of each contact: interval starts are gains, ends are losses.
+    pair = a * g.K + b
+    order = np.lexsort((c_fr, pair))
+    pair, fr = pair[order], c_fr[order]
+    brk = np.r_[True, (pair[1:] != pair[:-1]) | (fr[1:] != fr[:-1] + 1)]
+    starts = np.flatnonzero(brk)
+    ends = np.r_[starts[1:], len(pair)] - 1
+    i_pair, i_start, i_stop = pair[starts], fr[starts], fr[ends] + 1
+    same_next = np.r_[i_pair[1:] == i_pair[:-1], False]
+    i_next = np.where(same_next, np.r_[i_start[1:], 0], np.iinfo(np.int64).max)
+    same_prev = np.r_[False, i_pair[1:] == i_pair[:-1]]
+    i_prev = np.where(same_prev, np.r_[0, i_stop[:-1]], -1)  # end of the contact's previous run
+    ia, ib = np.divmod(i_pair, g.K)
+    T = len(frames)
+    # losses: a-b present at stop-1, absent at stop, both cells present at stop
+    lost = (i_stop < T)
+    lost &= g.is_present(np.minimum(i_stop, T - 1), ia) & g.is_present(np.minimum(i_stop, T - 1), ib)
+    L = np.flatnonzero(lost)
+    # gains: c-d present at start, absent at start-1, both cells present at start-1
+    gain = i_start > 0
+    gain &= g.is_present(np.maximum(i_start - 1, 0), ia) & g.is_present(np.maximum(i_start - 1, 0), ib)
+    G = np.flatnonzero(gain)
+    # Quartet of a loss: common neighbours of a, b just before; of a gain: of c, d just after.
+    q, v = g.common_neighbours(i_stop[L] - 1, ia[L], ib[L])
+    lq, lc, ld = _quartets(q, v)
+    q, v = g.common_neighbours(i_start[G], ia[G], ib[G])
+    gq, ga, gb = _quartets(q, v)
+    losses = pd.DataFrame({"ab": i_pair[L][lq], "cd": lc * g.K + ld, "frame_lost": i_stop[L][lq],
+                           "next_ab": i_next[L][lq]}).sort_values("frame_lost")
+    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq],
+                          "prev_cd": i_prev[G][gq]})
+    gains = gains.sort_values("frame_gain")
+    if losses.empty or gains.empty:
+        return empty
+    # Each gain pairs with the latest loss of the same quartet at or before it ...
+    m = pd.merge_asof(gains, losses, left_on="frame_gain", right_on="frame_lost", by=["ab", "cd"],
+                      direction="backward").dropna(subset=["frame_lost"])
+    # ... provided neither a-b nor c-d touched in between (a four-fold vertex at most); the first
+    # such gain completes the T1.
+    m = m[(m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
+    m = m.sort_values("frame_gain").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
+    ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
+    out = pd.DataFrame({
+        "frame_lost": frames[m["frame_lost"].to_numpy(np.int64)],
+        "frame_gain": frames[m["frame_gain"].to_numpy(np.int64)],
+        "cell_a": ids[ab // g.K], "cell_b": ids[ab % g.K], "cell_c": ids[cd // g.K], "cell_d": ids[cd % g.K],
+    })
+    return out.sort_values(["frame_lost", "cell_a", "cell_b"], ignore_index=True)
+
+
+def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int | None = None,
+              box=None) -> pd.DataFrame:
+    """T1 events of a movie, classified as ``cycle``, ``intercalation`` or ``unresolved``. (reference)"""
+    presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": track_ids(cells)})
+    contacts = track_contacts(edges, cells, min_length)
+    raw = find_t1(contacts, presence)
+    last = int(presence["frame"].max()) if len(presence) else 0
+    return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
+
+
+class _Lists:
+    """Every cell's neighbour list in every frame, as hashes (vectorised) and, on demand, as sets. (reference)"""
+
+    def __init__(self, contacts, frames, tracks):
+        key = row_keys(frames, tracks)
+        _, first = np.unique(key, return_index=True)
+        order = first[np.lexsort((frames[first], tracks[first]))]
+        self.frame, self.track = frames[order], tracks[order]
+        self.keys = row_keys(self.frame, self.track)
+        u = np.r_[contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)]
+        v = np.r_[contacts["b"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64)]
+        f = np.r_[contacts["frame"].to_numpy(np.int64), contacts["frame"].to_numpy(np.int64)]
+        srt = np.lexsort((v, u, f))  # by (frame, cell): the order of their row keys
+        self.u, self.v, self.f = u[srt], v[srt], f[srt]
+        row = lookup(self.keys, None, row_keys(self.f, self.u))
+        ok = row >= 0
+        self.u, self.v, self.f, row = self.u[ok], self.v[ok], self.f[ok], row[ok]
+        n = len(self.keys)
+        h = _mix(self.v)
+        self.full = np.zeros(n, np.uint64)
+        np.add.at(self.full, row, h)
+        # the list at f restricted to cells present at f + 1, and to cells present at f - 1
+        fwd, bwd = np.zeros(n, np.uint64), np.zeros(n, np.uint64)
+        np.add.at(fwd, row, np.where(self.present(self.f + 1, self.v), h, np.uint64(0)))
+        np.add.at(bwd, row, np.where(self.present(self.f - 1, self.v), h, np.uint64(0)))
+        consecutive = np.r_[False, (self.track[1:] == self.track[:-1]) & (self.frame[1:] == self.frame[:-1] + 1)]
+        self.changed = consecutive & (np.r_[np.uint64(0), fwd[:-1]] != bwd)
+        self.contact_key = row_keys(self.f, self.u)  # sorted: slices of one row's neighbours
+        frame_ids, counts = np.unique(self.frame, return_counts=True)
+        self.constant = len(set(counts.tolist())) <= 1 and all(
+            np.array_equal(self.track[self.frame == frame_ids[0]], self.track[self.frame == g]) for g in frame_ids[1:])
+
+    def present(self, frames, tracks):
+        return lookup(self.keys, None, row_keys(frames, tracks)) >= 0
+
+    def members(self, frame, track):
+        """The neighbour set of ``track`` at ``frame``."""
+        k = row_keys(np.int64(frame), np.int64(track))
+        lo, hi = np.searchsorted(self.contact_key, [k, k + 1])
+        return frozenset(self.v[lo:hi].tolist())
+
+
+def _same_list(a, b, present_a, present_b):
+    """Neighbour lists ``a`` (at one frame) and ``b`` (at another) agree on the cells present in both frames."""
+    return a == b or all(c not in present_a or c not in present_b for c in a ^ b)
+
+
+def _quartets(owner, v):
+    """Every pair (c < d) of common neighbours per query: arrays (query, c, d)."""
+    df = pd.DataFrame({"q": owner, "v": v})
+    pairs = df.merge(df, on="q")
+    pairs = pairs[pairs["v_x"] < pairs["v_y"]]
+    return pairs["q"].to_numpy(np.int64), pairs["v_x"].to_numpy(np.int64), pairs["v_y"].to_numpy(np.int64)
+
+
+def _cell_events(lists, lo, hi, population, last, censor):
+    """Events of the cell of rows ``lo:hi``: (frame_start, frame_end or None, kind, n_lost, n_gained)."""
+    frames_of = lists.frame[lo:hi].tolist()
+    track = int(lists.track[lo])
+    changes = np.flatnonzero(lists.changed[lo:hi]).tolist()
+    if not changes:
+        return []
+    full = lists.full[lo:hi]
+    out = []
+    c = 0
+    while c < len(changes):
+        k = changes[c]
+        prev, f = frames_of[k - 1], frames_of[k]
+        before, after = lists.members(prev, track), lists.members(f, track)
+        n_lost = sum(x in population(f) for x in before - after)
+        n_gained = sum(x in population(prev) for x in after - before)
+        back = None  # first later row whose list is the one left at `prev`, on the cells present at both
+        if lists.constant:  # the same cells in every frame: the lists must be equal, and so their hashes
+            same = np.flatnonzero(full[k + 1:] == full[k - 1])
+            back = int(same[0]) + k + 1 if len(same) else None
+        else:
+            for j in range(k + 1, len(frames_of)):
+                g = frames_of[j]
+                if _same_list(lists.members(g, track), before, population(g), population(prev)):
+                    back = j
+                    break
+        if back is not None:
+            out.append((f, frames_of[back], "cycle", n_lost, n_gained))
+            c = bisect.bisect_right(changes, back)
+        else:
+            out.append((f, None, "unresolved" if last - f < censor else "intercalation", n_lost, n_gained))
+            c += 1
+    return out
+
+
+def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10
+                     ) -> pd.DataFrame:
+    """Neighbour exchanges by the paper's per-cell definition: changes of each cell's list of neighbours. (reference)"""
+    frames = cells["frame"].to_numpy(np.int64)
+    tracks = track_ids(cells)
+    lists = _Lists(track_contacts(edges, cells, min_length), frames, tracks)
+    last = int(frames.max()) if len(frames) else 0
+    by_frame = {}
+
+    def population(frame):  # the cells present at a frame, as a set (built when first needed)
+        if frame not in by_frame:
+            by_frame[frame] = set(lists.track[lists.frame == frame].tolist())
+        return by_frame[frame]
+
+    rows = []
+    bounds = np.flatnonzero(np.r_[True, lists.track[1:] != lists.track[:-1], True])
+    with_changes = np.add.reduceat(lists.changed, bounds[:-1]) > 0 if len(lists.track) else np.zeros(0, bool)
+    for lo, hi in zip(bounds[:-1][with_changes], bounds[1:][with_changes]):
+        track = int(lists.track[lo])
+        for start, end, kind, n_lost, n_gained in _cell_events(lists, lo, hi, population, last, censor):
+            rows.append((track, kind, start, np.nan if end is None else float(end), n_lost, n_gained))
+    out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
+    out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,
+                      "n_gained": np.int64})
+    out.insert(4, "duration", out["frame_end"] - out["frame_start"])
+    out["kind"] = out["kind"].astype("string")
+    at = pd.DataFrame({"frame": frames, "track": tracks, "x": cells["x"].to_numpy(float),
+                       "y": cells["y"].to_numpy(float), "is_border": ~interior_mask(cells)})
+    at = at.drop_duplicates(["frame", "track"])
+    out = out.merge(at, left_on=["frame_start", "track"], right_on=["frame", "track"], how="left").drop(columns="frame")
+    out = out.sort_values(["frame_start", "track"], ignore_index=True)
+    out.insert(0, "event", np.arange(len(out), dtype=np.int64))
+    return validate(out, "neighbour_events")
