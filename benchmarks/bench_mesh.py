@@ -32,9 +32,9 @@ def make_labels(size, spacing):
 
 
 def hexatissue_route(labels):
-    from hexatissue import Box, mesh_from_labels
+    from hexatissue import Box, mesh_from_labels, shape_order
 
-    frame = mesh_from_labels(labels, box=Box.from_shape(labels.shape), p=(6,))
+    frame = shape_order(mesh_from_labels(labels, box=Box.from_shape(labels.shape)), p=6)
     return frame.cells["gamma6_re"].to_numpy() + 1j * frame.cells["gamma6_im"].to_numpy()
 
 
