@@ -108,21 +108,44 @@ def shape_function(polygons, p=6, center="vertex_mean"):
     return shape_function_flat(xy, starts, p=p, center=center)
 
 
-def gamma_columns(cells, vertices, cell_vertices, box=None, p=(6, 2), center="vertex_mean"):
+def gamma_columns(cells, vertices, cell_vertices, box=None, p=(6, 2), center="vertex_mean", polygons=None):
     """``cells`` (a copy) with ``gamma{p}_re`` / ``gamma{p}_im`` computed from the polygons of the tables.
 
     The tables are those of :func:`hexatissue.mesh_from_labels` (one frame
     or many, each with a ``frame`` column); cells without a polygon get NaN.
+    ``polygons``, ``(xy, starts)`` of the rows of ``cells`` with
+    ``n_sides > 0`` in their order (as :func:`hexatissue.mesh.network.network_columns`
+    gives them), saves reading them back from the tables.
+    """
+    out = cells.drop(columns=[c for c in cells.columns if c.startswith("gamma")])
+    if polygons is None:
+        keys, xy, starts = table_polygons(vertices, cell_vertices, box)
+        take = lookup(row_keys(keys["frame"], keys["cell"]), None,
+                      row_keys(out["frame"].to_numpy(np.int64), out["cell"].to_numpy(np.int64)))
+    else:
+        xy, starts = polygons
+        take = polygon_rows(out["n_sides"].to_numpy(np.int64) > 0)
+    for name, value in gamma_arrays(xy, starts, take, p, center).items():
+        out[name] = value
+    return out
+
+
+def polygon_rows(has_polygon):
+    """For each row, its polygon's index among the rows with a polygon (``has_polygon``), else -1."""
+    return np.where(has_polygon, np.cumsum(has_polygon) - 1, -1)
+
+
+def gamma_arrays(xy, starts, take, p=(6, 2), center="vertex_mean"):
+    """``gamma{p}_re`` and ``gamma{p}_im`` columns (dimensionless) of rows whose polygon is ``take`` (-1: NaN).
+
+    ``xy`` and ``starts`` hold the polygons back to back (:func:`shape_function_flat`).
     """
     orders = check_orders(p)
-    keys, xy, starts = table_polygons(vertices, cell_vertices, box)
-    out = cells.drop(columns=[c for c in cells.columns if c.startswith("gamma")])
-    take = lookup(row_keys(keys["frame"], keys["cell"]), None,
-                  row_keys(out["frame"].to_numpy(np.int64), out["cell"].to_numpy(np.int64)))
     has = take >= 0
+    out = {}
     for q in orders:
         g = shape_function_flat(xy, starts, p=q, center=center)
-        value = np.full(len(out), np.nan + 0j)
+        value = np.full(len(take), np.nan + 0j)
         value[has] = g[take[has]]
         out[f"gamma{q}_re"], out[f"gamma{q}_im"] = value.real, value.imag
     return out

@@ -383,22 +383,32 @@ def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
 
     Warnings are caught here, in the worker, and returned as ``(category,
     text)`` pairs, so the main process reports them with their frames.
+    The shape functions come from the polygons the mesh built, and each
+    table is built and checked once.
     """
     from .mesh.labels import normalize_valid
-    from .mesh.network import network_tables
+    from .mesh.network import as_tables, network_columns
+    from .order import gamma_arrays, gamma_columns, polygon_rows
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
                                         background=mesh.background, fill_holes=mesh.fill_holes,
                                         outside=mesh.outside, mask=mask)
-        tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
-        if image is not None:
+        columns, polygons = network_columns(lab, membrane, box, mesh.merge_distance, t)
+        if image is None:
+            cells = columns["cells"]
+            cells.update(gamma_arrays(*polygons, polygon_rows(cells["n_sides"] > 0), order.p, order.center))
+            tables = as_tables(columns)
+        else:
             from .intensity import measure_intensity
 
-            tables["cells"], tables["edges"] = measure_intensity(tables["cells"], tables["vertices"], tables["edges"],
-                                                                 lab, image, box)
-        tables.update(_order_tables(tables, box, order))
+            tables = as_tables(columns)
+            cells, tables["edges"] = measure_intensity(tables["cells"], tables["vertices"], tables["edges"],
+                                                       lab, image, box)
+            tables["cells"] = validate(gamma_columns(cells, None, None, box, order.p, order.center, polygons),
+                                       "cells")
+        tables.update(_order_fields(tables["cells"], box, order))
     found = [(w.category, str(w.message)) for w in caught]
     return tables, lab, found
 
@@ -422,26 +432,21 @@ class _FrameWarnings:
                           stacklevel=user_stacklevel())
 
 
-def _order_tables(tables, box, order):
-    """The order stage of one frame: ``cells`` with gamma_p, and the grid and defects of every p."""
+def _order_fields(cells, box, order):
+    """The fields of one frame's order stage: the grid and defects of every p (none without ``order.fields``)."""
     from .defects import find_defects
-    from .order import coarse_grain, gamma_columns
+    from .order import coarse_grain
 
-    cells = gamma_columns(tables["cells"], tables["vertices"], tables["cell_vertices"], box, order.p, order.center)
-    out = {"cells": validate(cells, "cells")}
     if not order.fields:
-        return out
+        return {}
     first = order.p[0]
     usable = interior_mask(cells) & np.isfinite(cells[f"gamma{first}_re"].to_numpy(float))
     if not usable.any():
-        out["grid"], out["defects"] = empty_table("grid", order.p), empty_table("defects")
-        return out
+        return {"grid": empty_table("grid", order.p), "defects": empty_table("defects")}
     grid = coarse_grain(cells, p=order.p, radius=order.radius, spacing=order.spacing, box=box,
                         min_coverage=order.min_coverage, r_cell=order.r_cell, origin=order.origin,
                         shape=order.shape, validity=order.validity)
-    out["grid"] = grid
-    out["defects"] = find_defects(grid, p=order.p, box=box)
-    return out
+    return {"grid": grid, "defects": find_defects(grid, p=order.p, box=box)}
 
 
 # ----------------------------------------------------------------------------

@@ -33,59 +33,49 @@ def corner_types(pad, nci, ncj, image_corners):
     ``image_corners`` the four corners of an open image where a boundary
     turns) as row and column arrays in raster order, the map ``vid`` from
     corners to vertex ids (-1 elsewhere) and the total number of cracks.
+
+    The first pass has no branch (selects only), so it runs on whole vectors
+    of corners; vertices are few and are numbered in a second pass.
     """
-    arms = np.zeros((nci, ncj), dtype=np.uint8)
-    kind = np.zeros((nci, ncj), dtype=np.uint8)
-    vid = np.full((nci, ncj), -1, dtype=np.int32)
-    n_vertices = 0
+    arms = np.empty((nci, ncj), dtype=np.uint8)
+    kind = np.empty((nci, ncj), dtype=np.uint8)
     n_arms = 0
+    n_forks = 0
     for ci in range(nci):
         for cj in range(ncj):
             tl = pad[ci, cj]
             tr = pad[ci, cj + 1]
             bl = pad[ci + 1, cj]
             br = pad[ci + 1, cj + 1]
-            m = 0
-            if tr != br:
-                m |= 1
-            if bl != br:
-                m |= 2
-            if tl != bl:
-                m |= 4
-            if tl != tr:
-                m |= 8
-            arms[ci, cj] = m
-            n = (m & 1) + ((m >> 1) & 1) + ((m >> 2) & 1) + ((m >> 3) & 1)
+            a0 = np.uint8(tr != br)
+            a1 = np.uint8(bl != br)
+            a2 = np.uint8(tl != bl)
+            a3 = np.uint8(tl != tr)
+            n = a0 + a1 + a2 + a3
+            # four arms: 5 when TL == BR connect, 6 when TR == BL do, the smaller id when both; else 4
+            d5 = np.uint8(tl == br)
+            d6 = np.uint8(tr == bl)
+            four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
+            arms[ci, cj] = a0 | (a1 << 1) | (a2 << 2) | (a3 << 3)
+            k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
+            kind[ci, cj] = k
             n_arms += n
-            if n == 0:
-                continue
-            if n == 2:
-                kind[ci, cj] = 2
-            elif n == 3:
-                kind[ci, cj] = 3
-            else:  # n == 4
-                if tl == br and tr == bl:
-                    # two labels in a checkerboard: the smaller id is taken as connected
-                    kind[ci, cj] = 5 if tl < tr else 6
-                elif tl == br:
-                    kind[ci, cj] = 5
-                elif tr == bl:
-                    kind[ci, cj] = 6
-                else:
-                    kind[ci, cj] = 4
-            corner = image_corners and (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1)
-            if kind[ci, cj] == 3 or kind[ci, cj] == 4 or corner:
-                vid[ci, cj] = n_vertices
-                n_vertices += 1
-    vi = np.empty(n_vertices, np.int64)
-    vj = np.empty(n_vertices, np.int64)
+            n_forks += (k == 3) | (k == 4)
+    vid = np.full((nci, ncj), -1, dtype=np.int32)
+    vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
+    vj = np.empty(n_forks + 4, np.int64)
+    n_vertices = 0
     for ci in range(nci):
+        edge_row = image_corners and (ci == 0 or ci == nci - 1)
         for cj in range(ncj):
-            v = vid[ci, cj]
-            if v >= 0:
-                vi[v] = ci
-                vj[v] = cj
-    return arms, kind, vid, vi, vj, n_arms // 2
+            k = kind[ci, cj]
+            corner = edge_row and (cj == 0 or cj == ncj - 1) and k != 0
+            if k == 3 or k == 4 or corner:
+                vid[ci, cj] = n_vertices
+                vi[n_vertices] = ci
+                vj[n_vertices] = cj
+                n_vertices += 1
+    return arms, kind, vid, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
 
 
 @njit(cache=True)
@@ -270,6 +260,36 @@ def trace_loops(pad, arms, kind, visited):
 
 
 @njit(cache=True)
+def _angle_table(n):
+    """cos and sin of ``2 pi k / n`` for k = 0..n-1 (the circular-mean terms of one coordinate)."""
+    c = np.empty(n, np.float64)
+    s = np.empty(n, np.float64)
+    for k in range(n):
+        a = 2.0 * np.pi * k / n
+        c[k] = np.cos(a)
+        s[k] = np.sin(a)
+    return c, s
+
+
+@njit(cache=True)
+def _circular_refs(cx, snx, seen, ref, period):
+    """Circular mean of each label's coordinate (kept at the first pixel's for a band around the torus)."""
+    for k in range(len(ref)):
+        if np.hypot(cx[k], snx[k]) > 1e-6 * seen[k]:
+            ref[k] = (np.arctan2(snx[k], cx[k]) % (2.0 * np.pi)) * period / (2.0 * np.pi)
+
+
+@njit(cache=True)
+def _unwrapped(v, ref, period):
+    """The image of coordinate ``v`` within half a period of ``ref`` (ties not moved)."""
+    if v - ref > 0.5 * period:
+        return v - period
+    if v - ref < -0.5 * period:
+        return v + period
+    return v
+
+
+@njit(cache=True)
 def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
 
@@ -279,6 +299,12 @@ def cell_moments(labels, n_labels, periodic):
     (a first pass), so cells wider than half the box get the right centroid;
     along an axis a label wraps around completely (a band) its first pixel
     is the reference.
+
+    Both passes go along runs of equal labels in a row.  The circular-mean
+    terms come from per-column and per-row tables and are added pixel by
+    pixel in raster order, so the means are those of a pixel-by-pixel sum;
+    the second pass sums whole numbers only (exact in any order), so a run
+    whose ends need no unwrapping is added at once.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
@@ -287,47 +313,57 @@ def cell_moments(labels, n_labels, periodic):
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
     if periodic:
+        cos_x, sin_x = _angle_table(w)
+        cos_y, sin_y = _angle_table(h)
         cx = np.zeros(n_labels, np.float64)
         snx = np.zeros(n_labels, np.float64)
         cy = np.zeros(n_labels, np.float64)
         sny = np.zeros(n_labels, np.float64)
         seen = np.zeros(n_labels, np.float64)
         for i in range(h):
-            ay = 2.0 * np.pi * i / h
-            for j in range(w):
+            j = 0
+            while j < w:
                 lab = labels[i, j]
                 if seen[lab] == 0:  # first pixel: the reference of a band around the whole torus
                     ref_x[lab] = j
                     ref_y[lab] = i
-                seen[lab] += 1
-                ax = 2.0 * np.pi * j / w
-                cx[lab] += np.cos(ax)
-                snx[lab] += np.sin(ax)
-                cy[lab] += np.cos(ay)
-                sny[lab] += np.sin(ay)
-        for k in range(n_labels):
-            if np.hypot(cx[k], snx[k]) > 1e-6 * seen[k]:
-                ref_x[k] = (np.arctan2(snx[k], cx[k]) % (2.0 * np.pi)) * w / (2.0 * np.pi)
-            if np.hypot(cy[k], sny[k]) > 1e-6 * seen[k]:
-                ref_y[k] = (np.arctan2(sny[k], cy[k]) % (2.0 * np.pi)) * h / (2.0 * np.pi)
+                a = cx[lab]
+                b = snx[lab]
+                c = cy[lab]
+                d = sny[lab]
+                j0 = j
+                while j < w and labels[i, j] == lab:
+                    a += cos_x[j]
+                    b += sin_x[j]
+                    c += cos_y[i]
+                    d += sin_y[i]
+                    j += 1
+                cx[lab] = a
+                snx[lab] = b
+                cy[lab] = c
+                sny[lab] = d
+                seen[lab] += j - j0
+        _circular_refs(cx, snx, seen, ref_x, w)
+        _circular_refs(cy, sny, seen, ref_y, h)
     for i in range(h):
-        for j in range(w):
+        j = 0
+        while j < w:
             lab = labels[i, j]
-            x = float(j)
+            j0 = j
+            while j < w and labels[i, j] == lab:
+                j += 1
+            n = j - j0
             y = float(i)
+            total_x = 0.5 * (j0 + j - 1) * n  # sum of the columns j0..j-1 (a whole number)
             if periodic:
-                # the image of the pixel nearest the label's circular mean
-                if x - ref_x[lab] > 0.5 * w:
-                    x -= w
-                elif x - ref_x[lab] < -0.5 * w:
-                    x += w
-                if y - ref_y[lab] > 0.5 * h:
-                    y -= h
-                elif y - ref_y[lab] < -0.5 * h:
-                    y += h
-            count[lab] += 1
-            sx[lab] += x
-            sy[lab] += y
+                y = _unwrapped(y, ref_y[lab], h)
+                if _unwrapped(float(j0), ref_x[lab], w) != j0 or _unwrapped(float(j - 1), ref_x[lab], w) != j - 1:
+                    total_x = 0.0
+                    for k in range(j0, j):
+                        total_x += _unwrapped(float(k), ref_x[lab], w)
+            count[lab] += n
+            sx[lab] += total_x
+            sy[lab] += n * y
     return count, sx, sy
 
 
