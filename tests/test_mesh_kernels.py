@@ -442,3 +442,31 @@ def test_reference_equals_kernels_on_random_labels():
         seen += np.bincount(k.kind.ravel(), minlength=7)
         seen[1] += len(k.loops["row"])  # (type 1 does not exist: count loops there)
     assert (seen[[1, 3, 4, 5, 6]] > 0).all()
+
+
+# --- connected components (merged vertices) ---------------------------------------------------------
+
+def test_components_hand_made():
+    """Edges 3-1, 4-0, 0-2 on six vertices: {0, 2, 4} is component 0 (smallest vertex 0), {1, 3} is 1, {5} is 2."""
+    for impl in (K, R):
+        label, first = impl.components(6, np.array([3, 4, 0]), np.array([1, 0, 2]))
+        assert label.tolist() == [0, 1, 0, 1, 0, 2] and first.tolist() == [0, 1, 5]
+
+
+def test_components_equal_reference_and_scipy():
+    """Random graphs (self-loops, repeated edges, no edge): kernel == reference == scipy's numbering."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        n = int(rng.integers(1, 40))
+        m = int(rng.integers(0, 2 * n))
+        a, b = rng.integers(0, n, m), rng.integers(0, n, m)
+        label, first = K.components(n, a, b)
+        ref_label, ref_first = R.components(n, a, b)
+        _, scipy_label = connected_components(coo_matrix((np.ones(m), (a, b)), shape=(n, n)), directed=False)
+        np.testing.assert_array_equal(label, ref_label)
+        np.testing.assert_array_equal(first, ref_first)
+        np.testing.assert_array_equal(label, scipy_label)
+        np.testing.assert_array_equal(first, np.unique(label, return_index=True)[1])

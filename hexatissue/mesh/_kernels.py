@@ -423,6 +423,44 @@ def fill_gaps(labels, passes, periodic):
 
 
 @njit(cache=True)
+def components(n, a, b):
+    """Connected components of the graph on vertices 0..n-1 with edges ``(a[k], b[k])``.
+
+    Returns the component id of every vertex, components numbered in the
+    order of their smallest vertex (as scipy's ``connected_components``),
+    and that smallest vertex of each component.
+    """
+    parent = np.arange(n)
+    for k in range(len(a)):
+        ra = a[k]
+        while parent[ra] != ra:
+            parent[ra] = parent[parent[ra]]
+            ra = parent[ra]
+        rb = b[k]
+        while parent[rb] != rb:
+            parent[rb] = parent[parent[rb]]
+            rb = parent[rb]
+        if ra < rb:  # the root is the smallest vertex of its component
+            parent[rb] = ra
+        elif rb < ra:
+            parent[ra] = rb
+    label = np.empty(n, np.int64)
+    first = np.empty(n, np.int64)
+    n_components = 0
+    for v in range(n):  # a root precedes every vertex of its component, so its label is known first
+        r = v
+        while parent[r] != r:
+            r = parent[r]
+        if r == v:
+            label[v] = n_components
+            first[n_components] = v
+            n_components += 1
+        else:
+            label[v] = label[r]
+    return label, first[:n_components].copy()
+
+
+@njit(cache=True)
 def chain_cycles(cell, frm, to):
     """Boundary cycles of every cell from its half-edges.
 

@@ -269,6 +269,29 @@ def cell_moments(labels, n_labels, periodic):
     return count, sx, sy
 
 
+def components(n, a, b):
+    """Reference of :func:`._kernels.components` (breadth-first search from each vertex in turn)."""
+    adjacent = [[] for _ in range(n)]
+    for u, v in zip(a, b):
+        adjacent[u].append(v)
+        adjacent[v].append(u)
+    label = np.full(n, -1, np.int64)
+    first = []
+    for v in range(n):
+        if label[v] >= 0:
+            continue
+        label[v] = len(first)
+        queue = [v]
+        while queue:
+            u = queue.pop()
+            for w in adjacent[u]:
+                if label[w] < 0:
+                    label[w] = len(first)
+                    queue.append(w)
+        first.append(v)
+    return label, np.array(first, np.int64)
+
+
 def chain_cycles(cell, frm, to):
     """Reference of :func:`._kernels.chain_cycles`.
 

@@ -5,8 +5,6 @@ import warnings
 
 import numpy as np
 import pandas as pd
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
@@ -161,10 +159,7 @@ def _clusters(pos, j, short, lines, box):
     A vertex's position is its cluster's position plus its offset (minimum
     image); cluster positions are refined to the intersection of their arms.
     """
-    n = len(pos)
-    graph = coo_matrix((np.ones(short.sum()), (j["start"][short], j["end"][short])), shape=(n, n))
-    _, cluster = connected_components(graph, directed=False)
-    first = np.unique(cluster, return_index=True)[1]
+    cluster, first = K.components(len(pos), j["start"][short], j["end"][short])
     min_image = box.min_image if box is not None else (lambda d: d)
     off_first = min_image(pos - pos[first[cluster]])
     counts = np.bincount(cluster)
