@@ -104,7 +104,8 @@ def table_polygons(vertices, cell_vertices, box=None):
     starts : (N,) int array
         First row in ``xy`` of each polygon.
     """
-    cv = cell_vertices.sort_values(["frame", "cell", "rank"], kind="stable")
+    cv = cell_vertices if _sorted_polygons(cell_vertices) else cell_vertices.sort_values(["frame", "cell", "rank"],
+                                                                                          kind="stable")
     frame, cell = cv["frame"].to_numpy(np.int64), cv["cell"].to_numpy(np.int64)
     vkey = row_keys(vertices["frame"].to_numpy(np.int64), vertices["vertex"].to_numpy(np.int64))
     xy = lookup(vkey, vertices[["x", "y"]].to_numpy(float), row_keys(frame, cv["vertex"].to_numpy(np.int64)),
@@ -123,6 +124,14 @@ def table_polygons(vertices, cell_vertices, box=None):
         xy = xy[starts][owner] + cum - cum[starts][owner]
     keys = pd.DataFrame({"frame": frame[starts], "cell": cell[starts]})
     return keys, xy, starts
+
+
+def _sorted_polygons(cell_vertices):
+    """Whether the rows are in (frame, cell, rank) order already (as the mesh writes them): no sort needed."""
+    key = row_keys(cell_vertices["frame"].to_numpy(np.int64), cell_vertices["cell"].to_numpy(np.int64))
+    rank = cell_vertices["rank"].to_numpy(np.int64)
+    step, same = np.diff(key), np.diff(rank)
+    return bool(np.all((step > 0) | ((step == 0) & (same > 0))))
 
 
 def row_keys(frame, ident):

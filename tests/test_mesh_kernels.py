@@ -470,3 +470,14 @@ def test_components_equal_reference_and_scipy():
         np.testing.assert_array_equal(first, ref_first)
         np.testing.assert_array_equal(label, scipy_label)
         np.testing.assert_array_equal(first, np.unique(label, return_index=True)[1])
+
+
+def test_present_ids_equal_reference():
+    """Which ids occur, for the label dtypes the mesh sees (uint8, uint16, int32, int64), incl. absent 0 and gaps."""
+    rng = np.random.default_rng(8)
+    for dtype in (np.uint8, np.uint16, np.int32, np.int64):
+        for _ in range(5):
+            labels = rng.choice([1, 3, 4, 9], size=tuple(rng.integers(1, 20, 2))).astype(dtype)
+            top = int(labels.max()) + int(rng.integers(0, 3))
+            np.testing.assert_array_equal(K.present_ids(labels, top), R.present_ids(labels, top))
+    assert K.present_ids(np.array([[0, 2], [2, 5]], np.int32), 5).tolist() == [True, False, True, False, False, True]

@@ -368,6 +368,15 @@ def cell_moments(labels, n_labels, periodic):
 
 
 @njit(cache=True)
+def present_ids(labels, top):
+    """Which ids 0..top occur in ``labels`` (any integer image with values in that range)."""
+    present = np.zeros(top + 1, np.bool_)
+    for v in labels.ravel():
+        present[v] = True
+    return present
+
+
+@njit(cache=True)
 def fill_gaps(labels, passes, periodic):
     """Give 0-valued pixels the majority label of their 4 neighbours, ``passes`` times.
 

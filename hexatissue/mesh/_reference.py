@@ -269,6 +269,11 @@ def cell_moments(labels, n_labels, periodic):
     return count, sx, sy
 
 
+def present_ids(labels, top):
+    """Reference of :func:`._kernels.present_ids`."""
+    return np.bincount(np.ravel(labels), minlength=top + 1) > 0
+
+
 def components(n, a, b):
     """Reference of :func:`._kernels.components` (breadth-first search from each vertex in turn)."""
     adjacent = [[] for _ in range(n)]

@@ -52,7 +52,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError
-from ._kernels import fill_gaps
+from ._kernels import fill_gaps, present_ids
 
 KINDS = ("auto", "touching", "membrane", "skeleton")
 OUTSIDE_RULES = ("auto", "none")
@@ -334,7 +334,7 @@ def compact_labels(lab):
     """
     top = int(lab.max())
     if top < 2**24 and top <= 4 * lab.size:
-        present = np.bincount(lab.ravel(), minlength=top + 1) > 0
+        present = present_ids(lab, top)  # no int64 copy of the image, unlike np.bincount
         present[0] = True
         ids = np.flatnonzero(present)
         if len(ids) == top + 1:
