@@ -481,3 +481,16 @@ def test_present_ids_equal_reference():
             top = int(labels.max()) + int(rng.integers(0, 3))
             np.testing.assert_array_equal(K.present_ids(labels, top), R.present_ids(labels, top))
     assert K.present_ids(np.array([[0, 2], [2, 5]], np.int32), 5).tolist() == [True, False, True, False, False, True]
+
+
+def test_label_summary_equals_reference():
+    """min, max, any nonzero and equal-neighbour counts for every integer dtype the readers give, and views."""
+    rng = np.random.default_rng(9)
+    for dtype in (np.uint8, np.uint16, np.uint32, np.uint64, np.int8, np.int16, np.int32, np.int64):
+        for _ in range(4):
+            labels = rng.integers(0, 4, tuple(rng.integers(2, 12, 2))).astype(dtype)
+            assert K.label_summary(labels) == R.label_summary(labels)
+            assert K.label_summary(labels[::2, 1:]) == R.label_summary(labels[::2, 1:]) if labels.shape[0] > 3 else True
+    labels = np.array([[0, 0, 5], [0, 2, 5]], np.int32)  # pairs equal: 1 + 0 across, 1 + 0 + 1 down
+    assert K.label_summary(labels) == (0, 5, True, 1, 2)
+    assert K.label_summary(np.zeros((2, 2), np.uint8))[2] is False

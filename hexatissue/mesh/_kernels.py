@@ -368,6 +368,29 @@ def cell_moments(labels, n_labels, periodic):
 
 
 @njit(cache=True)
+def label_summary(labels):
+    """One pass over a 2-D integer image: min, max, whether any pixel is nonzero, and the numbers of
+    horizontally and vertically neighbouring pixel pairs that share their value."""
+    h, w = labels.shape
+    lo = labels[0, 0]
+    hi = labels[0, 0]
+    nonzero = False
+    same_h = 0
+    same_v = 0
+    for i in range(h):
+        for j in range(w):
+            v = labels[i, j]
+            lo = min(lo, v)
+            hi = max(hi, v)
+            nonzero |= v != 0
+            if j > 0:
+                same_h += v == labels[i, j - 1]
+            if i > 0:
+                same_v += v == labels[i - 1, j]
+    return lo, hi, nonzero, same_h, same_v
+
+
+@njit(cache=True)
 def present_ids(labels, top):
     """Which ids 0..top occur in ``labels`` (any integer image with values in that range)."""
     present = np.zeros(top + 1, np.bool_)

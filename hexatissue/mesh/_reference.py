@@ -269,6 +269,12 @@ def cell_moments(labels, n_labels, periodic):
     return count, sx, sy
 
 
+def label_summary(labels):
+    """Reference of :func:`._kernels.label_summary`."""
+    return (labels.min(), labels.max(), bool(labels.any()), int((labels[:, 1:] == labels[:, :-1]).sum()),
+            int((labels[1:] == labels[:-1]).sum()))
+
+
 def present_ids(labels, top):
     """Reference of :func:`._kernels.present_ids`."""
     return np.bincount(np.ravel(labels), minlength=top + 1) > 0

@@ -52,7 +52,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError
-from ._kernels import fill_gaps, present_ids
+from ._kernels import fill_gaps, label_summary, present_ids
 
 KINDS = ("auto", "touching", "membrane", "skeleton")
 OUTSIDE_RULES = ("auto", "none")
@@ -81,14 +81,17 @@ def validate_labels(labels, name="labels") -> np.ndarray:
         arr = arr.astype(np.int64)
     elif arr.dtype.kind not in "iu":
         raise InputError(f"{name} must hold integer cell ids; got dtype {arr.dtype}")
-    if arr.dtype.kind == "u" and arr.dtype.itemsize == 8 and arr.max() > np.iinfo(np.int64).max:
-        raise InputError(f"{name} has ids up to {arr.max()} (uint64); expected ids below 2**63 (cell ids are "
+    if not arr.dtype.isnative:  # big-endian TIFF data: the kernel needs the machine's byte order
+        arr = arr.astype(arr.dtype.newbyteorder("="))
+    lo, hi, nonzero, same_h, same_v = label_summary(arr)  # one pass instead of one per check
+    if arr.dtype.kind == "u" and arr.dtype.itemsize == 8 and hi > np.iinfo(np.int64).max:
+        raise InputError(f"{name} has ids up to {hi} (uint64); expected ids below 2**63 (cell ids are "
                          f"int64 in the tables): relabel the image")
-    if arr.dtype.kind == "i" and arr.min() < 0:
-        raise InputError(f"{name} has negative ids (min {arr.min()}); expected 0 = background and positive cell ids")
-    if not arr.any():
+    if arr.dtype.kind == "i" and lo < 0:
+        raise InputError(f"{name} has negative ids (min {lo}); expected 0 = background and positive cell ids")
+    if not nonzero:
         raise InputError(f"{name} is all zeros: there are no cells")
-    _check_label_like(arr, name)
+    _check_label_like(arr, name, same_h, same_v)
     return arr
 
 
@@ -99,11 +102,15 @@ MIN_SAME_NEIGHBOUR = 0.7
 LABEL_CHECK_PIXELS = 4096  # smaller images (hand-made test cases) are not checked
 
 
-def _check_label_like(arr, name):
-    """Refuse images whose neighbouring pixels rarely share a value: intensities, not cell labels."""
+def _check_label_like(arr, name, same_h, same_v):
+    """Refuse images whose neighbouring pixels rarely share a value: intensities, not cell labels.
+
+    ``same_h`` and ``same_v`` count the horizontal and vertical pairs of neighbours with equal values.
+    """
     if arr.size < LABEL_CHECK_PIXELS:
         return
-    same = ((arr[:, 1:] == arr[:, :-1]).mean() + (arr[1:] == arr[:-1]).mean()) / 2
+    h, w = arr.shape
+    same = (same_h / (h * (w - 1)) + same_v / ((h - 1) * w)) / 2
     if same < MIN_SAME_NEIGHBOUR:
         raise InputError(f"{name} does not look like a label image: only {same:.0%} of neighbouring pixels share a "
                          f"value (a label image has most pixels inside cells, >= {MIN_SAME_NEIGHBOUR:.0%}); is it a "
