@@ -1,6 +1,6 @@
 """The fast paths of the frame job give the tables of the plain paths, exactly.
 
-The frame job (``pipeline._frame_job``) builds every table once from numpy
+The frame job (``pipeline._frame_job``) returns the network tables as numpy
 columns and takes gamma_p from the polygons the mesh built; the plain path
 is ``mesh_from_labels`` then ``shape_order`` (polygons read back from the
 tables).  Both run the same kernels, so the tables must be equal bit for
@@ -50,7 +50,9 @@ def test_frame_job_equals_mesh_then_shape_order(p):
         tables, _, _ = _frame_job(labels, t, b, MeshOptions(), OrderOptions(p=p, fields=False))
         expected = plain_tables(labels, b, t, p)
         for name in TABLES:
-            pd.testing.assert_frame_equal(tables[name], expected[name], check_exact=True, obj=f"{name}, frame {t}")
+            assert isinstance(tables[name], dict)  # numpy columns, read without pandas in the main process
+            pd.testing.assert_frame_equal(pd.DataFrame(tables[name]), expected[name], check_exact=True,
+                                          obj=f"{name}, frame {t}")
 
 
 @pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
@@ -92,3 +94,20 @@ def test_network_from_reference_kernels_equals_network_from_kernels(monkeypatch)
         for name in TABLES:
             pd.testing.assert_frame_equal(slow[name], expected[name], check_exact=False, rtol=1e-12, atol=1e-12,
                                           obj=name)
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_movie_rows_from_columns_equal_concatenated_tables():
+    """_Rows fed the frame job's columns gives pd.concat of the plain per-frame tables (and checks the schema)."""
+    from hexatissue.pipeline import _Rows
+
+    frames, box = movie_frames()
+    rows = {name: _Rows(len(frames)) for name in TABLES}
+    for t, labels in enumerate(frames):
+        tables, _, _ = _frame_job(labels, t, box, MeshOptions(), OrderOptions(fields=False))
+        for name in TABLES:
+            rows[name].append(tables[name])
+    for name in TABLES:
+        expected = pd.concat([plain_tables(f, box, t, OrderOptions().p)[name] for t, f in enumerate(frames)],
+                             ignore_index=True)
+        pd.testing.assert_frame_equal(rows[name].table(name), expected, check_exact=True)
