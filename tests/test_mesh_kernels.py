@@ -494,3 +494,12 @@ def test_label_summary_equals_reference():
     labels = np.array([[0, 0, 5], [0, 2, 5]], np.int32)  # pairs equal: 1 + 0 across, 1 + 0 + 1 down
     assert K.label_summary(labels) == (0, 5, True, 1, 2)
     assert K.label_summary(np.zeros((2, 2), np.uint8))[2] is False
+
+
+@pytest.mark.parametrize("spacing", [9, 30])
+def test_cell_moments_equal_reference_on_a_larger_torus(spacing):
+    """64 x 72 periodic Voronoi (small cells, some across the edges; or a few cells wider than half the box)."""
+    labels = voronoi_labels(jittered_seeds((64, 72), spacing, seed=7), (64, 72), True).astype(np.int32)
+    labels = np.roll(labels, (5, 11), axis=(0, 1))  # cells across both edges
+    for periodic in (True, False):
+        moments_both(labels, periodic)

@@ -300,51 +300,24 @@ def cell_moments(labels, n_labels, periodic):
     along an axis a label wraps around completely (a band) its first pixel
     is the reference.
 
-    Both passes go along runs of equal labels in a row.  The circular-mean
-    terms come from per-column and per-row tables and are added pixel by
-    pixel in raster order, so the means are those of a pixel-by-pixel sum;
-    the second pass sums whole numbers only (exact in any order), so a run
-    whose ends need no unwrapping is added at once.
+    The image is read along runs of equal labels in a row.  The sums are of
+    whole numbers, exact in any order.  A label spanning less than half the
+    box less a pixel along an axis is never moved along it (its circular
+    mean lies within its span), so circular means are taken only of the
+    wider ones (those touching the box edge, or large): their cos/sin terms
+    come from per-column and per-row tables and are added pixel by pixel in
+    raster order, as a pixel-by-pixel sum does.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
     sx = np.zeros(n_labels, np.float64)
     sy = np.zeros(n_labels, np.float64)
+    lo_x = np.full(n_labels, w, np.int64)
+    hi_x = np.full(n_labels, -1, np.int64)
+    lo_y = np.full(n_labels, h, np.int64)
+    hi_y = np.full(n_labels, -1, np.int64)
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
-    if periodic:
-        cos_x, sin_x = _angle_table(w)
-        cos_y, sin_y = _angle_table(h)
-        cx = np.zeros(n_labels, np.float64)
-        snx = np.zeros(n_labels, np.float64)
-        cy = np.zeros(n_labels, np.float64)
-        sny = np.zeros(n_labels, np.float64)
-        seen = np.zeros(n_labels, np.float64)
-        for i in range(h):
-            j = 0
-            while j < w:
-                lab = labels[i, j]
-                if seen[lab] == 0:  # first pixel: the reference of a band around the whole torus
-                    ref_x[lab] = j
-                    ref_y[lab] = i
-                a = cx[lab]
-                b = snx[lab]
-                c = cy[lab]
-                d = sny[lab]
-                j0 = j
-                while j < w and labels[i, j] == lab:
-                    a += cos_x[j]
-                    b += sin_x[j]
-                    c += cos_y[i]
-                    d += sin_y[i]
-                    j += 1
-                cx[lab] = a
-                snx[lab] = b
-                cy[lab] = c
-                sny[lab] = d
-                seen[lab] += j - j0
-        _circular_refs(cx, snx, seen, ref_x, w)
-        _circular_refs(cy, sny, seen, ref_y, h)
     for i in range(h):
         j = 0
         while j < w:
@@ -353,17 +326,74 @@ def cell_moments(labels, n_labels, periodic):
             while j < w and labels[i, j] == lab:
                 j += 1
             n = j - j0
-            y = float(i)
-            total_x = 0.5 * (j0 + j - 1) * n  # sum of the columns j0..j-1 (a whole number)
-            if periodic:
-                y = _unwrapped(y, ref_y[lab], h)
-                if _unwrapped(float(j0), ref_x[lab], w) != j0 or _unwrapped(float(j - 1), ref_x[lab], w) != j - 1:
-                    total_x = 0.0
-                    for k in range(j0, j):
-                        total_x += _unwrapped(float(k), ref_x[lab], w)
+            if count[lab] == 0:  # first pixel: the reference of a band around the whole torus
+                ref_x[lab] = j0
+                ref_y[lab] = i
+                lo_y[lab] = i
             count[lab] += n
-            sx[lab] += total_x
-            sy[lab] += n * y
+            sx[lab] += 0.5 * (j0 + j - 1) * n  # the columns j0..j-1 (a whole number)
+            sy[lab] += n * float(i)
+            lo_x[lab] = min(lo_x[lab], j0)
+            hi_x[lab] = max(hi_x[lab], j - 1)
+            hi_y[lab] = i
+    if not periodic:
+        return count, sx, sy
+    wide_x = hi_x - lo_x >= 0.5 * w - 1
+    wide_y = hi_y - lo_y >= 0.5 * h - 1
+    wide = wide_x | wide_y
+    if not wide.any():
+        return count, sx, sy
+    cos_x, sin_x = _angle_table(w)
+    cos_y, sin_y = _angle_table(h)
+    cx = np.zeros(n_labels, np.float64)
+    snx = np.zeros(n_labels, np.float64)
+    cy = np.zeros(n_labels, np.float64)
+    sny = np.zeros(n_labels, np.float64)
+    for i in range(h):
+        j = 0
+        while j < w:
+            lab = labels[i, j]
+            if not wide[lab]:
+                while j < w and labels[i, j] == lab:
+                    j += 1
+                continue
+            a = cx[lab]
+            b = snx[lab]
+            c = cy[lab]
+            d = sny[lab]
+            while j < w and labels[i, j] == lab:
+                a += cos_x[j]
+                b += sin_x[j]
+                c += cos_y[i]
+                d += sin_y[i]
+                j += 1
+            cx[lab] = a
+            snx[lab] = b
+            cy[lab] = c
+            sny[lab] = d
+    _circular_refs(cx, snx, count, ref_x, w)
+    _circular_refs(cy, sny, count, ref_y, h)
+    for k in range(n_labels):  # summed again below, unwrapped
+        if wide_x[k]:
+            sx[k] = 0.0
+        if wide_y[k]:
+            sy[k] = 0.0
+    for i in range(h):
+        j = 0
+        while j < w:
+            lab = labels[i, j]
+            j0 = j
+            while j < w and labels[i, j] == lab:
+                j += 1
+            n = j - j0
+            if wide_y[lab]:
+                sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
+            if wide_x[lab]:
+                if _unwrapped(float(j0), ref_x[lab], w) != j0 or _unwrapped(float(j - 1), ref_x[lab], w) != j - 1:
+                    for k in range(j0, j):  # the move is monotone in x: only runs whose ends move are split
+                        sx[lab] += _unwrapped(float(k), ref_x[lab], w)
+                else:
+                    sx[lab] += 0.5 * (j0 + j - 1) * n
     return count, sx, sy
 
 

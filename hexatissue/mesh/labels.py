@@ -151,7 +151,7 @@ def detect_kind(lab, periodic=False) -> str:
         interior = ndimage.binary_erosion(fg, border_value=1)
         if fg.mean() < 0.5 and interior.sum() < 0.2 * fg.sum():
             return "skeleton"
-    if not (lab == 0).any():
+    if lab.min() > 0:  # no 0 pixel
         return "touching"
     direct, separating = _direct_and_separating(lab)
     return "membrane" if separating > direct else "touching"
@@ -260,9 +260,9 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
                          "outside the mask")
     membrane = np.zeros(lab.shape, bool)
-    zero = lab == 0
-    if not zero.any():
+    if lab.min() > 0:  # no 0 pixel (ids are non-negative): a min does not build a mask
         return lab, membrane
+    zero = lab == 0
     dtype = np.int32 if lab.max() < 2**31 else np.int64
     lab = np.ascontiguousarray(lab, dtype=dtype)
     if kind in ("membrane", "skeleton") and membrane_width > 0:
