@@ -145,11 +145,14 @@ def lookup(keys, values, wanted, missing=None):
         if missing is not None and len(wanted):
             raise InputError(missing)
         return values[:0] if missing is not None else np.full(len(wanted), -1, np.int64)
-    order = np.argsort(keys, kind="stable")
-    pos = np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)
-    found = keys[order[pos]] == wanted
+    if np.all(keys[1:] > keys[:-1]):  # sorted already (tables in key order): no argsort, no indirect search
+        at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
+    else:
+        order = np.argsort(keys, kind="stable")
+        at = order[np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)]
+    found = keys[at] == wanted
     if missing is not None:
         if not found.all():
             raise InputError(missing)
-        return values[order[pos]]
-    return np.where(found, order[pos], -1)
+        return values[at]
+    return np.where(found, at, -1)

@@ -503,3 +503,26 @@ def test_cell_moments_equal_reference_on_a_larger_torus(spacing):
     labels = np.roll(labels, (5, 11), axis=(0, 1))  # cells across both edges
     for periodic in (True, False):
         moments_both(labels, periodic)
+
+
+def test_arm_intersections_equal_reference():
+    """Random arm lines of random clusters (parallel lines, empty clusters, far intersections): bit for bit."""
+    rng = np.random.default_rng(12)
+    for _ in range(30):
+        nv, n_clusters = int(rng.integers(1, 30)), int(rng.integers(1, 10))
+        cluster = rng.integers(0, n_clusters, nv)
+        off = rng.normal(0, 1, (nv, 2))
+        count = rng.integers(0, 9, (nv, 4))
+        mean = rng.normal(0, 2, (nv, 4, 2))
+        angle = rng.choice([0.0, np.pi / 2, rng.uniform(0, np.pi)], (nv, 4))  # some exactly parallel
+        direction = np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+        m = int(rng.integers(0, 3 * nv))
+        v, arm = rng.integers(0, nv, m), rng.integers(0, 4, m)
+        args = (cluster, off, v, arm, count, mean, direction, n_clusters, 1.5)
+        np.testing.assert_array_equal(K.arm_intersections(*args), R.arm_intersections(*args))
+    # two perpendicular lines through (1, 0.5) relative to the centre of one cluster: the shift is that point
+    direction = np.array([[[1.0, 0.0], [0.0, 1.0], [0, 0], [0, 0]]])
+    mean = np.array([[[0.0, 0.5], [1.0, 0.0], [0, 0], [0, 0]]])
+    shift = K.arm_intersections(np.array([0]), np.zeros((1, 2)), np.array([0, 0]), np.array([0, 1]),
+                                np.ones((1, 4), np.int64), mean, direction, 1, 1.5)
+    np.testing.assert_allclose(shift, [[1.0, 0.5]], atol=1e-15)

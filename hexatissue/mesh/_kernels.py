@@ -484,6 +484,51 @@ def fill_gaps(labels, passes, periodic):
     return cur
 
 
+@njit(cache=True, error_model="numpy")  # numpy's division: 0 / 0 is NaN, as the checks below expect
+def arm_intersections(cluster, off, v, arm, count, mean, direction, n_clusters, max_shift):
+    """Least-squares intersection of the fitted arm lines of each cluster of vertices, relative to its centre.
+
+    Arm ``arm[k]`` of vertex ``v[k]`` is the line through ``off[v] +
+    mean[v, arm]`` along ``direction[v, arm]``, weighted by its crack
+    ``count``; ``cluster`` maps vertices to clusters.  Minimises
+    sum_k w_k |(I - t t^T)(x - point_k)|^2 per cluster (its normal equations
+    are summed in the order of ``v``).  Clusters whose lines are nearly
+    parallel, or whose intersection is farther than ``max_shift`` px, get 0.
+    """
+    mxx = np.zeros(n_clusters)
+    mxy = np.zeros(n_clusters)
+    myy = np.zeros(n_clusters)
+    rx = np.zeros(n_clusters)
+    ry = np.zeros(n_clusters)
+    for k in range(len(v)):
+        vk = v[k]
+        ak = arm[k]
+        w = float(count[vk, ak])
+        t0 = direction[vk, ak, 0]
+        t1 = direction[vk, ak, 1]
+        p0 = off[vk, 0] + mean[vk, ak, 0]
+        p1 = off[vk, 1] + mean[vk, ak, 1]
+        pxx = 1 - t0 * t0
+        pxy = -t0 * t1
+        pyy = 1 - t1 * t1
+        c = cluster[vk]
+        mxx[c] += w * pxx
+        mxy[c] += w * pxy
+        myy[c] += w * pyy
+        rx[c] += w * (pxx * p0 + pxy * p1)
+        ry[c] += w * (pxy * p0 + pyy * p1)
+    shift = np.zeros((n_clusters, 2))
+    for c in range(n_clusters):
+        det = mxx[c] * myy[c] - mxy[c] * mxy[c]
+        trace = mxx[c] + myy[c]
+        sx = (myy[c] * rx[c] - mxy[c] * ry[c]) / det
+        sy = (mxx[c] * ry[c] - mxy[c] * rx[c]) / det
+        if det > 0.1 * (trace * trace) / 4 and np.hypot(sx, sy) <= max_shift:
+            shift[c, 0] = sx
+            shift[c, 1] = sy
+    return shift
+
+
 @njit(cache=True)
 def components(n, a, b):
     """Connected components of the graph on vertices 0..n-1 with edges ``(a[k], b[k])``.

@@ -96,22 +96,8 @@ def _subpixel_shift(cluster, off, j, use, lines, n_clusters):
         ends.append((v[ok], arm[ok]))
     v = np.concatenate([e[0] for e in ends])
     arm = np.concatenate([e[1] for e in ends])
-    w = lines["count"][v, arm].astype(float)
-    t = lines["direction"][v, arm]
-    point = off[v] + lines["mean"][v, arm]  # on the line, relative to the cluster centre
-    c = cluster[v]
-    # normal equations of sum_k w_k |(I - t t^T)(x - point_k)|^2
-    pxx, pxy, pyy = 1 - t[:, 0] ** 2, -t[:, 0] * t[:, 1], 1 - t[:, 1] ** 2
-    mxx, mxy, myy = (np.bincount(c, w * q, n_clusters) for q in (pxx, pxy, pyy))
-    rx = np.bincount(c, w * (pxx * point[:, 0] + pxy * point[:, 1]), n_clusters)
-    ry = np.bincount(c, w * (pxy * point[:, 0] + pyy * point[:, 1]), n_clusters)
-    det = mxx * myy - mxy**2
-    trace = mxx + myy
-    with np.errstate(invalid="ignore", divide="ignore"):
-        shift = np.c_[(myy * rx - mxy * ry) / det, (mxx * ry - mxy * rx) / det]
-        good = (det > 0.1 * trace**2 / 4) & (np.hypot(*shift.T) <= MAX_SHIFT)
-    shift[~good] = 0.0
-    return shift
+    return K.arm_intersections(cluster, off, v, arm, lines["count"], lines["mean"], lines["direction"], n_clusters,
+                               MAX_SHIFT)
 
 
 def _merge_short(pos, j, lines, merge_distance, box):
