@@ -290,6 +290,16 @@ def _unwrapped(v, ref, period):
 
 
 @njit(cache=True)
+def _run_end(labels, i, j):
+    """End (exclusive) of the run of equal labels that starts at column ``j`` of row ``i``."""
+    lab = labels[i, j]
+    w = labels.shape[1]
+    while j < w and labels[i, j] == lab:
+        j += 1
+    return j
+
+
+@njit(cache=True)
 def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
 
@@ -321,10 +331,7 @@ def cell_moments(labels, n_labels, periodic):
     for i in range(h):
         j = 0
         while j < w:
-            lab = labels[i, j]
-            j0 = j
-            while j < w and labels[i, j] == lab:
-                j += 1
+            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
             n = j - j0
             if count[lab] == 0:  # first pixel: the reference of a band around the whole torus
                 ref_x[lab] = j0
@@ -354,8 +361,7 @@ def cell_moments(labels, n_labels, periodic):
         while j < w:
             lab = labels[i, j]
             if not wide[lab]:
-                while j < w and labels[i, j] == lab:
-                    j += 1
+                j = _run_end(labels, i, j)
                 continue
             a = cx[lab]
             b = snx[lab]
@@ -381,10 +387,7 @@ def cell_moments(labels, n_labels, periodic):
     for i in range(h):
         j = 0
         while j < w:
-            lab = labels[i, j]
-            j0 = j
-            while j < w and labels[i, j] == lab:
-                j += 1
+            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
             n = j - j0
             if wide_y[lab]:
                 sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
