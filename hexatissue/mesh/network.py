@@ -505,3 +505,5 @@ def warm_up() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)  # cell 1 has a hole, on purpose
         mesh_from_labels(labels)
+        # uint16 labels without 0 (the usual movie frame) keep their dtype into the id kernels
+        mesh_from_labels(np.where(labels == 0, 1, labels).astype(np.uint16), box=True)
