@@ -14,6 +14,7 @@ from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
 from .graph import contact_table, neighbor_graph
 from .io import read_labels, read_table, write_table, write_tables
 from .mesh import mesh_from_labels
+from .polygons import mesh_from_polygons
 from .defects import defect_density, defect_events, find_defects, track_defects
 from .order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius, shape_function, shape_order
 from .events import cell_event_stats, detect_t1, intercalation_intervals
@@ -44,6 +45,7 @@ __all__ = [
     "open_source",
     "Source",
     "read_labels",
+    "mesh_from_polygons",
     "read_table",
     "write_table",
     "write_tables",
@@ -75,15 +77,17 @@ __all__ = [
     "mesh_from_labels",
     "neighbor_graph",
     "contact_table",
+    "score",
     "__version__",
 ]
 
 
-# the simulators (numba + zarr) are imported on first use, not with the package
+# the simulators (numba + zarr) and the benchmark scorer are imported on first use, not with the package
 _LAZY = {"MPFParams": ("hexatissue.simulate", "Params"), "read_run": ("hexatissue.simulate", "read_run"),
          "run_simulation": ("hexatissue.simulate", "run_simulation"),
          "HydroParams": ("hexatissue.hydro", "HydroParams"), "run_dipole": ("hexatissue.hydro", "run_dipole"),
-         "run_quadrupole": ("hexatissue.hydro", "run_quadrupole")}
+         "run_quadrupole": ("hexatissue.hydro", "run_quadrupole"),
+         "score": ("hexatissue.benchmark.score", "score")}
 
 
 def __getattr__(name):

@@ -14,11 +14,13 @@ from pathlib import Path
 from .errors import HexatissueWarning, InputError
 from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA
 from .order import CENTERS
+from .track import TRACK_MODES
 
 __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
-SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command")
+SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command",
+                      "hexatissue.exchange.command", "hexatissue.benchmark.command")
 DEBUG_HELP = "on an error, show the Python traceback instead of one line"
 
 
@@ -27,14 +29,18 @@ def _analyze_parser(sub):
         "analyze",
         help="junction network, shape order, defects (and, for movies, tracks and T1 events)",
         description="Extract vertices, junctions, ordered polygons and per-cell shape functions from a 2-D "
-        "label image, a T x Y x X label stack or an MPF run; coarse-grain the shape order and find its "
+        "label image, a T x Y x X label stack, an MPF run or cell polygons (a vertices table, a Tissue Analyzer "
+        "TA.db, hexanematic Polygon.mat files: no label image needed); coarse-grain the shape order and find its "
         "defects; for movies also track cells and classify T1 events. Writes every table and metadata.json "
         "to --out (read it back with hexatissue.read_results). Lengths in the tables are px, times frames; "
         "the pixel size and frame interval (from the file, or --pixel-size / --frame-interval) go to "
         "metadata.json and to the figures.",
     )
     p.add_argument("input", help="label image or stack (.tif/.tiff, .png, .npy, Cellpose _seg.npy, .npz, zarr / "
-                                 "OME-Zarr, a folder of frames) or an MPF run (.zarr)")
+                                 "OME-Zarr, a folder of frames), an MPF run (.zarr), or cell polygons: a vertices "
+                                 "table (.csv/.parquet: cell, x, y in polygon order, optional frame), a Tissue "
+                                 "Analyzer TA.db, a hexanematic ImageN_Polygon.mat or a folder of them (independent "
+                                 "images, not tracked)")
     p.add_argument("--out", required=True, help="output folder for the tables")
     src = p.add_argument_group("input")
     src.add_argument("--key", help="array inside an .npz, zarr group or Cellpose _seg.npy file")
@@ -77,9 +83,10 @@ def _analyze_parser(sub):
     order.add_argument("--radius", type=float, help="coarse-graining radius, px (default 1.5 R_cell)")
     order.add_argument("--spacing", type=float, help="coarse-graining grid spacing, px (default R_cell)")
     track = p.add_argument_group("tracking and T1 events")
-    track.add_argument("--track", default="auto", choices=["auto", "always", "never"],
+    track.add_argument("--track", default="auto", choices=list(TRACK_MODES),
                        help="never: the label ids are the tracks (divisions still read from them); always: link "
-                            "cells by overlap; auto (default): keep the ids when they are consistent over time")
+                            "cells by overlap; off: no tracking (unrelated images); auto (default): keep the ids "
+                            "when they are consistent over time (off for a folder of polygon files)")
     track.add_argument("--max-gap", type=int, default=0,
                        help="overlap tracking: link cells missing for up to this many frames (default: 0)")
     track.add_argument("--min-length", type=float, default=0.0,
@@ -177,11 +184,14 @@ def summary_line(movie) -> str:
              f"{len(cells) / n:.0f} cells/frame ({int((~cells['is_border']).sum()) / n:.0f} interior)",
              f"{len(movie.vertices) / n:.0f} vertices/frame"]
     tracking = movie.summary.get("tracking")
-    if len(movie) > 1 and tracking:
+    independent = bool(tracking) and tracking["resolved"] == "off"
+    if len(movie) > 1 and independent:
+        parts.append("independent frames: not tracked")
+    elif len(movie) > 1 and tracking:
         how = "ids kept" if tracking["resolved"] == "never" else "re-tracked by overlap"
         parts.append(f"tracks: {how} ({tracking['rows_track_not_cell']} rows changed, "
                      f"{tracking['n_divisions']} divisions)")
-    if len(movie) > 1 and movie.events is not None:
+    if len(movie) > 1 and movie.events is not None and not independent:
         counts = movie.events["kind"].value_counts()
         censor = movie.summary.get("events", {}).get("censor")
         parts.append("T1 events " + (", ".join(f"{k} {v}" for k, v in counts.items()) or "none")

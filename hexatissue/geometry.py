@@ -13,8 +13,8 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["segment_sum", "pack_polygons", "polygon_area_centroid", "polygon_perimeter", "table_polygons",
-           "row_keys", "lookup"]
+__all__ = ["segment_sum", "pack_polygons", "next_vertex", "polygon_area_centroid", "polygon_perimeter",
+           "polygon_cells", "table_polygons", "row_keys", "lookup"]
 
 
 def segment_sum(values, starts, n):
@@ -42,7 +42,7 @@ def pack_polygons(polygons, name="polygons"):
     return np.concatenate(arrays), (np.cumsum(lengths) - lengths).astype(np.int64)
 
 
-def _next_vertex(n_vertices, starts):
+def next_vertex(n_vertices, starts):
     """Index of each vertex's successor around its polygon (the last one wraps to the first)."""
     lengths = np.diff(np.r_[starts, n_vertices])
     nxt = np.arange(n_vertices) + 1
@@ -62,7 +62,7 @@ def polygon_area_centroid(xy, starts):
         Area centroid (x, y), px; NaN for polygons of zero area.
     """
     n = len(starts)
-    nxt = _next_vertex(len(xy), starts)
+    nxt = next_vertex(len(xy), starts)
     x0, y0 = xy[:, 0], xy[:, 1]
     x1, y1 = xy[nxt, 0], xy[nxt, 1]
     cross = x0 * y1 - x1 * y0
@@ -76,8 +76,35 @@ def polygon_area_centroid(xy, starts):
 
 def polygon_perimeter(xy, starts):
     """Perimeter of each polygon stored back to back, px."""
-    nxt = _next_vertex(len(xy), starts)
+    nxt = next_vertex(len(xy), starts)
     return segment_sum(np.hypot(*(xy[nxt] - xy).T), starts, len(starts))
+
+
+def polygon_cells(ids, xy, starts):
+    """The geometric columns of a cells table for cells known only by their polygons.
+
+    Parameters
+    ----------
+    ids : (N,) int array
+        Cell ids, one per polygon.
+    xy, starts : arrays
+        Polygons back to back (x = column, y = row, px).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``cell``; ``x``, ``y``: the polygon's area centroid (px); ``area`` and
+        ``polygon_area``: both the polygon's area (px^2: there are no pixels);
+        ``perimeter`` (px); ``n_sides``: vertices of the polygon;
+        ``n_boundaries``: 1 (one polygon per cell).
+    """
+    area, centroid = polygon_area_centroid(xy, starts)
+    n = len(starts)
+    return pd.DataFrame({"cell": np.asarray(ids, np.int64), "x": centroid[:, 0], "y": centroid[:, 1],
+                         "area": np.abs(area), "polygon_area": np.abs(area),
+                         "perimeter": polygon_perimeter(xy, starts),
+                         "n_sides": np.diff(np.r_[starts, len(xy)]).astype(np.int64),
+                         "n_boundaries": np.ones(n, np.int64)})
 
 
 def table_polygons(vertices, cell_vertices, box=None):

@@ -15,8 +15,8 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path", "check_output_folder",
-           "check_zarr_chunks", "read_zarr"]
+__all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path", "atomic_dir",
+           "check_output_folder", "check_zarr_chunks", "read_zarr", "write_tiff"]
 
 
 def _current_umask() -> int:
@@ -98,6 +98,72 @@ def atomic_path(path):
             raise
 
     return _ctx()
+
+
+def atomic_dir(path):
+    """A context manager yielding a temporary folder next to ``path``; it replaces ``path`` on success.
+
+    For stores that are folders (zarr, GEFF): readers never see one half
+    written.  An existing ``path`` is moved aside, the new folder renamed
+    onto it, then the old one deleted; on error the temporary folder is
+    removed and ``path`` is left as it was.
+    """
+    import shutil
+    from contextlib import contextmanager
+
+    @contextmanager
+    def _ctx():
+        target = Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+        os.chmod(tmp, 0o777 & ~_UMASK)
+        try:
+            yield tmp
+            old = None
+            if target.exists():
+                old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+                os.replace(target, old / target.name)
+            os.replace(tmp, target)
+            if old is not None:
+                shutil.rmtree(old)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+
+    return _ctx()
+
+
+# OME's spellings of the calibration's units (frames and simulation iterations have no OME unit)
+_OME_LENGTH = {"um": "µm", "nm": "nm", "mm": "mm", "cm": "cm", "m": "m"}
+_OME_TIME = {"ms": "ms", "s": "s", "min": "min", "h": "h"}
+
+
+def write_tiff(path, array, calibration=None) -> Path:
+    """Write a 2-D image or a ``T x rows x cols`` stack as an OME-TIFF with its calibration, atomically.
+
+    The pixel size and frame interval go to OME's ``PhysicalSizeX/Y`` and
+    ``TimeIncrement`` (read back by :func:`hexatissue.open_source`; Fiji
+    reads them with Bio-Formats).  Any integer or float dtype is kept
+    (uint32 labels included).  Returns the path.
+    """
+    import tifffile
+
+    from .units import Calibration
+
+    array = np.asarray(array)
+    if array.ndim not in (2, 3):
+        raise InputError(f"array must be a 2-D image or a T x rows x cols stack; got shape {array.shape}")
+    cal = calibration or Calibration()
+    meta = {"axes": "YX" if array.ndim == 2 else "TYX"}
+    if cal.length_unit in _OME_LENGTH:
+        unit = _OME_LENGTH[cal.length_unit]
+        meta.update(PhysicalSizeX=cal.pixel_size, PhysicalSizeY=cal.pixel_size, PhysicalSizeXUnit=unit,
+                    PhysicalSizeYUnit=unit)
+    if array.ndim == 3 and cal.time_unit in _OME_TIME:
+        meta.update(TimeIncrement=cal.frame_interval, TimeIncrementUnit=_OME_TIME[cal.time_unit])
+    with atomic_path(path) as tmp:
+        tifffile.imwrite(tmp, array, ome=True, metadata=meta)
+    return Path(path)
 
 
 def check_output_folder(path, name="out") -> Path:

@@ -184,13 +184,16 @@ class TrackOptions(_Options):
 
     Parameters
     ----------
-    mode : {"auto", "always", "never"}
+    mode : {"auto", "always", "never", "off"}
         ``"never"``: the label ids are the tracks (``track == cell``, a cell
         missing for some frames keeps its track); divisions are still read
         from them (a mother id ending while two new ids appear inside it).
         ``"always"``: link cells by overlap (:class:`hexatissue.Tracker`).
-        ``"auto"`` (default): ``"never"`` for sources with consistent ids
-        (MPF runs) and for movies whose ids are measured to be consistent
+        ``"off"``: no tracking, every cell of every frame is its own track
+        (frames that are unrelated images).
+        ``"auto"`` (default): ``"off"`` for sources of independent images (a
+        folder of polygon files), ``"never"`` for sources with consistent ids
+        (MPF runs, polygon tables) and for movies whose ids are measured to be consistent
         (at least :data:`hexatissue.track.ID_CONSISTENCY` of the cells that
         overlap a cell of the next frame overlap their own id), else
         ``"always"``.  :func:`hexatissue.analyze` records the resolved mode.

@@ -17,7 +17,7 @@ import pandas as pd
 from . import _coarse_kernels as K
 from .box import as_box
 from .errors import InputError, check_orders, check_p, check_positive
-from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_perimeter, row_keys, segment_sum,
+from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, segment_sum,
                        table_polygons)
 from .schema import interior_mask, validate
 
@@ -221,21 +221,21 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
     if (lengths < 3).any():
         k = ids[int(np.flatnonzero(lengths < 3)[0])]
         raise InputError(f"polygon of cell {k} must be an (n >= 3, 2) array of (x, y); it has fewer than 3 vertices")
-    area, centroid = polygon_area_centroid(xy, starts)
-    pos = centroid if centers is None else np.asarray(centers, float)
-    if pos.shape != (len(starts), 2):
-        raise InputError(f"centers must have shape ({len(starts)}, 2); got {pos.shape}")
+    table = polygon_cells(ids, xy, starts)
+    if centers is not None:
+        pos = np.asarray(centers, float)
+        if pos.shape != (len(starts), 2):
+            raise InputError(f"centers must have shape ({len(starts)}, 2); got {pos.shape}")
+        table["x"], table["y"] = pos[:, 0], pos[:, 1]
     border = np.zeros(len(starts), bool) if is_border is None else np.asarray(is_border, bool)
     if border.shape != (len(starts),):
         raise InputError(f"is_border must have shape ({len(starts)},); got {border.shape}")
-    table = {"frame": np.zeros(len(starts), np.int64), "cell": np.asarray(ids, np.int64), "x": pos[:, 0],
-             "y": pos[:, 1], "area": np.abs(area), "polygon_area": np.abs(area),
-             "perimeter": polygon_perimeter(xy, starts), "n_sides": lengths.astype(np.int64),
-             "n_boundaries": np.ones(len(starts), np.int64), "is_border": border}
+    table.insert(0, "frame", np.zeros(len(starts), np.int64))
+    table["is_border"] = border
     for order in check_orders(p):
         gamma = shape_function_flat(xy, starts, p=order, center=center)
         table[f"gamma{order}_re"], table[f"gamma{order}_im"] = gamma.real, gamma.imag
-    return validate(pd.DataFrame(table), "cells")
+    return validate(table, "cells")
 
 
 # ----------------------------------------------------------------------------

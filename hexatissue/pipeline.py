@@ -89,8 +89,9 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         resume from folders you wrote yourself.
     checkpoint_every : int
         Frames per checkpoint.
-    progress : bool
-        Show a progress bar (on a terminal; see :mod:`hexatissue.progress`).
+    progress : bool or tqdm class
+        Show a progress bar (on a terminal; see :mod:`hexatissue.progress`);
+        a tqdm subclass (e.g. ``napari.utils.progress``) draws it with that class.
 
     Returns
     -------
@@ -124,11 +125,13 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     src = open_source(source)
     for name, value in (("mesh", mesh), ("order", order), ("track", track), ("events", events)):
         check_options(value, name)
+    if src.kind == "polygons":
+        _check_polygon_run(box, mask, intensity, track)
     box = src.box if box is None else as_box(box, src.shape)
     mask, mask_info = read_mask(mask, src.shape)
     raw = _intensity_source(intensity, src)
     tracker = MovieTracker(track.mode, track.min_iou, track.child_fraction, track.mother_fraction, track.max_gap,
-                           ids_consistent=src.ids_consistent)
+                           ids_consistent=src.ids_consistent, independent=src.independent)
     store = None
     if checkpoint is not None:
         requested = {"mesh": mesh, "order": order, "track": track, "events": events}
@@ -140,7 +143,9 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tables = {name: rows.pop(name).table(name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
-    parents = tracker.parents
+    # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
+    keep_ids = src.parents is not None and tracker.decision()[0] == "never"
+    parents = src.parents if keep_ids else tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
@@ -151,8 +156,9 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
                "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
+        linked = summary["tracking"]["resolved"] != "off"
         tables["defects"], tables["defect_events"] = _defect_tracks(tables["defects"], tables["grid"], order,
-                                                                    box, src.n_frames)
+                                                                    box, src.n_frames, linked)
     else:
         del tables["grid"], tables["defects"]
     _release_freed_memory()
@@ -363,22 +369,31 @@ def _warn_frames_without_field(cells, grid, n_frames):
                       f"or defects there", HexatissueWarning, stacklevel=3)
 
 
-def _defect_tracks(defects, grid, order, box, n_frames):
-    """Defects linked over frames per p (``track``) and their pair creation / annihilation events."""
+def _defect_tracks(defects, grid, order, box, n_frames, linked=True):
+    """Defects linked over frames per p (``track``) and their pair creation / annihilation events.
+
+    With ``linked`` False (frames that are unrelated images) every frame is
+    tracked alone: each defect is its own track and there are no pair events.
+    """
     from .defects import defect_events, track_defects
 
     tracked, pair_events = [], []
-    frames = np.arange(n_frames)
+    groups = [np.arange(n_frames)] if linked else [np.array([t]) for t in range(n_frames)]
     max_distance = order.defect_max_distance
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
         max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
     for q in order.p:
-        d = defects[defects["p"].to_numpy() == q].drop(columns="track", errors="ignore")
-        t = track_defects(d, max_distance, box=box, frames=frames)
-        e = defect_events(t, max_distance, box=box, frames=frames)
-        tracked.append(t)
-        pair_events.append(e.assign(p=np.int64(q)))
+        of_p = defects[defects["p"].to_numpy() == q].drop(columns="track", errors="ignore")
+        n_tracks = 0
+        for frames in groups:
+            d = of_p if linked else of_p[of_p["frame"].to_numpy() == frames[0]]
+            t = track_defects(d, max_distance, box=box, frames=frames)
+            t["track"] += n_tracks
+            n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
+            e = defect_events(t, max_distance, box=box, frames=frames)
+            tracked.append(t)
+            pair_events.append(e.assign(p=np.int64(q)))
     defects = pd.concat(tracked, ignore_index=True).sort_values(["frame", "p", "defect"], kind="stable")
     pair_events = pd.concat(pair_events, ignore_index=True)
     return (validate(defects.reset_index(drop=True), "defects"),
@@ -388,6 +403,20 @@ def _defect_tracks(defects, grid, order, box, n_frames):
 # ----------------------------------------------------------------------------
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
+
+def mesh_labels(labels, box, mesh, mask=None):
+    """The touching labels the mesh (and the tracker) of :func:`analyze` use for one validated frame.
+
+    Returns ``(labels, membrane)``: the normalised labels and the pixels that
+    were membrane (see :func:`hexatissue.mesh.labels.normalize_labels`).
+    Exporters that must match the cells table (``hexatissue export --to ctc``)
+    call this with the options of the analysis.
+    """
+    from .mesh.labels import normalize_valid
+
+    return normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
+                           background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside, mask=mask)
+
 
 def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
     """Tables of one frame, its normalised labels (for the tracker) and its warnings.
@@ -399,15 +428,12 @@ def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
     against the schema when the movie's tables are assembled, in
     ``_Rows.table``); the grid and defects are DataFrames.
     """
-    from .mesh.labels import normalize_valid
     from .mesh.network import as_tables, network_columns
     from .order import gamma_arrays, gamma_columns, polygon_rows
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        lab, membrane = normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
-                                        background=mesh.background, fill_holes=mesh.fill_holes,
-                                        outside=mesh.outside, mask=mask)
+        lab, membrane = mesh_labels(labels, box, mesh, mask)
         columns, polygons = network_columns(lab, membrane, box, mesh.merge_distance, t)
         if image is None:  # numpy columns: no DataFrame to build here, pickle or read in the main process
             cells = columns["cells"]
@@ -425,6 +451,33 @@ def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
             tables.update(_order_fields(validate(pd.DataFrame(tables["cells"]), "cells"), box, order))
     found = [(w.category, str(w.message)) for w in caught]
     return tables, lab, found
+
+
+def _polygon_job(polygons, t, order):
+    """Tables of one frame of cell polygons, its cell ids (for the tracker) and its warnings."""
+    from .order import gamma_columns
+    from .polygons import polygon_network
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        tables = polygon_network(polygons, t, where=f"frame {t}")
+        tables["cells"] = validate(gamma_columns(tables["cells"], tables["vertices"], tables["cell_vertices"], None,
+                                                 order.p, order.center), "cells")
+        if order.fields:
+            tables.update(_order_fields(tables["cells"], None, order))
+    return tables, polygons.cell, [(w.category, str(w.message)) for w in caught]
+
+
+def _check_polygon_run(box, mask, intensity, track):
+    """Refuse what cell polygons cannot have: a periodic box, a mask, a raw channel, overlap tracking."""
+    if box is not None and box is not False:
+        raise InputError(f"box={box!r}: cell polygons are an open image; a periodic box needs label images")
+    for name, value in (("mask", mask), ("intensity", intensity)):
+        if value is not None:
+            raise InputError(f"{name}= needs a label image; the source holds cell polygons (no pixels)")
+    if track.mode == "always":
+        raise InputError("track mode 'always' (overlap tracking) needs label images; cells given as polygons are "
+                         "tracked by their ids: use 'never' (ids are tracks), 'off' or 'auto'")
 
 
 class _FrameWarnings:
@@ -596,12 +649,16 @@ def _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, 
     saved = {name: r.n for name, r in rows.items()}  # rows already in checkpoint files
 
     frame_warnings = _FrameWarnings()
+    polygons = src.kind == "polygons"
 
     def collect(item):
         t, future = item
         tables, labels, found = future.result()
         frame_warnings.add(t, found)
-        tracker.add_valid(labels, t)
+        if polygons:
+            tracker.add_ids(labels, t)  # the cell ids: polygons have no labels to overlap
+        else:
+            tracker.add_valid(labels, t)
         for name, table in tables.items():
             rows[name].append(table)
         del tables, labels
@@ -613,8 +670,11 @@ def _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, 
     try:
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
                               total=n_frames):
-            image = None if raw is None else raw.image(t if raw.n_frames > 1 else 0)
-            job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, mask, image)
+            if polygons:
+                job = executor.submit(_polygon_job, src.polygons(t), t, order)
+            else:
+                image = None if raw is None else raw.image(t if raw.n_frames > 1 else 0)
+                job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, mask, image)
             pending.append((t, job))
             while len(pending) >= max_inflight:
                 collect(pending.popleft())

@@ -1,7 +1,9 @@
 """The one place that looks at what the user gave: :func:`open_source` -> :class:`Source`.
 
 A :class:`Source` is a read-only, lazily read movie of 2-D label images
-indexed ``[row, col]``: ``source.frame(t)`` (or ``source[t]``) reads frame
+indexed ``[row, col]`` (or, for polygon files, of cell polygons:
+``source.kind == "polygons"``, see :mod:`hexatissue.polygons`):
+``source.frame(t)`` (or ``source[t]``) reads frame
 ``t`` and nothing else, and validates it once with
 :func:`hexatissue.mesh.labels.validate_labels`.  It also carries the
 periodic box of simulation runs, whether label ids are already consistent
@@ -39,13 +41,15 @@ import numpy as np
 
 from .box import Box
 from .errors import HexatissueWarning, InputError, user_stacklevel
+from .exchange.ctc import is_ctc_folder
 from .mesh.labels import validate_labels
+from .polygons import POLYGON_SUFFIXES, open_polygons
 from .units import Calibration, normalize_length_unit, normalize_time_unit
 
 __all__ = ["Source", "open_source"]
 
 IMAGE_SUFFIXES = (".tif", ".tiff", ".png")
-FILE_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz")
+FILE_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz") + POLYGON_SUFFIXES
 MPF_FORMAT = "hexatissue-mpf"  # attrs["format"] of a run store (hexatissue.simulate.store), what read_run needs
 NON_SQUARE = "non-square pixels: hexatissue uses the x (column) pixel size for all lengths"
 _KEY_USE = "key= selects an array in a .npz, a Cellpose _seg.npy or a zarr group"
@@ -78,12 +82,19 @@ class Source:
     description : dict
         JSON-serialisable account of what was opened: ``kind`` (``"tiff"``,
         ``"png"``, ``"npy"``, ``"cellpose"``, ``"npz"``, ``"zarr"``,
-        ``"ome-zarr"``, ``"mpf_run"``, ``"array"``, ``"list"`` or
-        ``"folder"``), ``path`` (str or None), ``key``, ``channel``,
+        ``"ome-zarr"``, ``"mpf_run"``, ``"array"``, ``"list"``,
+        ``"folder"``, ``"ctc"``; for polygons ``"vertices_table"``,
+        ``"tissue_analyzer"``, ``"polygon_mat"`` or ``"polygon_mat_folder"``),
+        ``path`` (str or None), ``key``, ``channel``,
         ``level``, ``axes`` (axis letters of the data as stored, e.g.
         ``"TCYX"``), ``stored_shape``, ``dtype``, ``frame_axis`` (letter of
         the axis read as time, or None for a single image), ``notes``
         (list of str: choices made while reading) and kind-specific entries.
+    parents : dict or None
+        ``{daughter track: mother track}`` of the divisions recorded with the
+        masks (Cell Tracking Challenge folders); :func:`hexatissue.analyze`
+        uses them as the lineage when the ids are kept.  None: divisions are
+        found from the masks.
     """
 
     n_frames: int
@@ -93,6 +104,7 @@ class Source:
     calibration: Calibration
     description: dict
     _reader: object = field(repr=False)
+    parents: dict | None = None
 
     def __post_init__(self):
         if not (isinstance(self.n_frames, int) and self.n_frames >= 1):
@@ -152,6 +164,28 @@ class Source:
         if arr.ndim != 2 or not np.isfinite(arr).all():
             raise InputError(f"frame {t} must be a finite 2-D intensity image; got shape {arr.shape}")
         return arr
+
+    @property
+    def kind(self) -> str:
+        """``"labels"`` (label images: :meth:`frame`) or ``"polygons"`` (cell polygons: :meth:`polygons`)."""
+        return getattr(self._reader, "kind", "labels")
+
+    @property
+    def independent(self) -> bool:
+        """True when the frames are unrelated images (a folder of polygon files), not a movie: nothing is tracked."""
+        return bool(getattr(self._reader, "independent", False))
+
+    def polygons(self, t):
+        """The cell polygons of frame ``t`` (:class:`hexatissue.polygons.Polygons`) of a polygon source.
+
+        Raises
+        ------
+        InputError
+            The source holds label images, or the index is out of range.
+        """
+        if self.kind != "polygons":
+            raise InputError(f"this source holds label images, not cell polygons; use source.frame({t!r})")
+        return self._reader.polygons(self._index(t))
 
     def __len__(self) -> int:
         return self.n_frames
@@ -246,7 +280,17 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
           ``*_seg.npy`` (its ``masks``), ``.npz``, a zarr array or group,
           an OME-Zarr image (NGFF 0.4 / 0.5), an MPF run store, or a folder
           of ``.tif``/``.png`` files (one frame per file, natural order:
-          ``frame2`` before ``frame10``).
+          ``frame2`` before ``frame10``), or a Cell Tracking Challenge
+          folder (``maskTTT.tif`` + ``res_track.txt``, or
+          ``TRA/man_trackTTT.tif`` + ``TRA/man_track.txt``): its ids are
+          tracks (``ids_consistent``), tracks continuing across a gap are
+          given one id again, and its divisions are ``Source.parents``
+          (:mod:`hexatissue.exchange.ctc`);
+        - cell polygons (a Source of ``kind == "polygons"``, frames read with
+          ``source.polygons(t)``; :func:`hexatissue.polygons.open_polygons`):
+          a vertices table (``.csv``/``.parquet``), a Tissue Analyzer
+          ``.db``, a hexanematic ``.mat`` file or a folder of ``.mat`` files
+          (independent images).
     key : str, optional
         The array in a ``.npz`` (default ``"labels"`` or the only array), a
         Cellpose ``_seg.npy`` (default ``"masks"``) or a zarr group
@@ -353,10 +397,10 @@ def _is_zarr_group(obj) -> bool:
     return type(obj).__module__.split(".")[0] == "zarr" and hasattr(obj, "array_keys") and hasattr(obj, "attrs")
 
 
-def _make(reader, description, calibration=None, box=None, ids_consistent=False) -> Source:
+def _make(reader, description, calibration=None, box=None, ids_consistent=False, parents=None) -> Source:
     desc = {"key": None, "channel": None, "level": None, **description, **reader.describe()}
     return Source(n_frames=int(reader.n_frames), shape=tuple(reader.shape), box=box, ids_consistent=ids_consistent,
-                  calibration=calibration or Calibration(), description=desc, _reader=reader)
+                  calibration=calibration or Calibration(), description=desc, _reader=reader, parents=parents)
 
 
 def _read_error(what, exc) -> InputError:
@@ -845,7 +889,7 @@ def _ome_xml_calibration(xml, notes) -> Calibration:
 # ---------------------------------------------------------------------------------------------------------
 def _open_path(path: Path, key, channel, level) -> Source:
     if not path.exists():
-        raise InputError(f"path {str(path)!r} does not exist; expected a label image file "
+        raise InputError(f"path {str(path)!r} does not exist; expected a label image or polygon file "
                          f"({', '.join(FILE_SUFFIXES)}), a folder of images, a zarr store or an MPF run (.zarr)")
     try:
         if path.is_dir():
@@ -853,9 +897,17 @@ def _open_path(path: Path, key, channel, level) -> Source:
                 return _open_zarr_path(path, key, channel, level)
             if path.suffix.lower() == ".zarr":
                 raise InputError(f"path {str(path)!r} is not a zarr store (no zarr.json, .zgroup or .zarray in it)")
+            if _is_polygon_folder(path):
+                _refuse("a folder of polygon files", key=key, channel=channel, level=level)
+                return open_polygons(path)
+            if is_ctc_folder(path):
+                return _open_ctc(path, key, channel, level)
             _refuse("a folder of images", key=key, level=level)
             return _open_folder(path, channel)
         suffix = path.suffix.lower()
+        if suffix in POLYGON_SUFFIXES:
+            _refuse("a polygon file", key=key, channel=channel, level=level)
+            return open_polygons(path)
         if suffix in (".tif", ".tiff"):
             _refuse("a TIFF file", key=key, level=level)
             reader = _TiffReader(path, channel)
@@ -888,6 +940,12 @@ def _open_path(path: Path, key, channel, level) -> Source:
 
 def _int(value):
     return None if value is None else int(value)
+
+
+def _is_polygon_folder(path: Path) -> bool:
+    """A folder of hexanematic ``.mat`` polygon files and no images."""
+    suffixes = {p.suffix.lower() for p in path.iterdir() if p.is_file() and not p.name.startswith(".")}
+    return ".mat" in suffixes and not suffixes & set(IMAGE_SUFFIXES)
 
 
 def _cellpose_entry(path, key):
@@ -935,6 +993,16 @@ def _open_folder(path: Path, channel) -> Source:
         raise InputError(f"folder {str(path)!r} mixes .png and .tif files; expected one kind of image file per "
                          f"frame (move the others away)")
     return _from_files(images, channel, {"kind": "folder", "path": str(path)}, f"folder {str(path)!r}")
+
+
+def _open_ctc(path: Path, key, channel, level) -> Source:
+    """A Cell Tracking Challenge folder: masks whose ids are tracks (consistent), divisions from its track file."""
+    from .exchange.ctc import CtcReader
+
+    _refuse("a Cell Tracking Challenge folder", key=key, channel=channel, level=level)
+    reader = CtcReader(path)
+    desc = {"kind": "ctc", "path": str(path), "layout": reader.layout, "gaps_merged": len(reader.same)}
+    return _make(reader, desc, reader.calibration, ids_consistent=True, parents=reader.parents)
 
 
 def _from_files(paths, channel, description, what) -> Source:

@@ -11,11 +11,13 @@ from scipy.spatial import Voronoi, cKDTree
 
 from .box import Box
 from .errors import InputError, as_generator
+from .geometry import polygon_area_centroid
 
 __all__ = [
     "jittered_seeds",
     "voronoi_labels",
     "voronoi_truth",
+    "voronoi_polygons",
     "hexagonal_seeds",
     "square_labels",
     "draw_membranes",
@@ -154,6 +156,40 @@ def voronoi_truth(seeds, shape, periodic=False):
     else:
         inside = np.all((verts >= lo) & (verts <= hi), axis=1)
     return pairs, verts[inside]
+
+
+def voronoi_polygons(seeds, shape):
+    """Exact polygons of the Voronoi cells of ``seeds`` that lie wholly inside an open image.
+
+    Parameters
+    ----------
+    seeds : (n, 2) array
+        Seed positions (x, y), px; label ``k`` is the cell of seed ``k - 1``
+        (as in :func:`voronoi_labels`).
+    shape : (int, int)
+        ``(rows, cols)`` of the image; cells reaching beyond the rectangle
+        ``[-0.5, cols - 0.5] x [-0.5, rows - 0.5]`` (or unbounded) are left out.
+
+    Returns
+    -------
+    dict
+        ``{label: (m, 2) array of (x, y)}``, counter-clockwise in (x, y);
+        neighbouring cells share their vertices exactly (same floats).
+    """
+    seeds = np.asarray(seeds, dtype=float)
+    rows, cols = int(shape[0]), int(shape[1])
+    vor = Voronoi(seeds)
+    lo, hi = np.array([-0.5, -0.5]), np.array([cols - 0.5, rows - 0.5])
+    out = {}
+    for k, region_index in enumerate(vor.point_region):
+        region = vor.regions[region_index]
+        if not region or -1 in region:
+            continue
+        xy = vor.vertices[region]
+        if np.all((xy >= lo) & (xy <= hi)):
+            area = polygon_area_centroid(xy, np.zeros(1, np.int64))[0][0]
+            out[k + 1] = xy if area > 0 else xy[::-1]
+    return out
 
 
 def _clipped_length(v0, v1, lo, hi):

@@ -29,7 +29,8 @@ from .errors import InputError
 from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
-__all__ = ["Tracker", "IdTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS"]
+__all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
+           "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -415,7 +416,7 @@ class Tracker(_Feed):
 
 
 #: Tracking modes of :class:`MovieTracker` and :class:`hexatissue.TrackOptions`.
-TRACK_MODES = ("auto", "always", "never")
+TRACK_MODES = ("auto", "always", "never", "off")
 #: ``mode="auto"`` trusts the ids when at least this fraction of the linked cells keep their id (see :class:`MovieTracker`).
 ID_CONSISTENCY = 0.9
 
@@ -476,6 +477,15 @@ class IdTracker(_Feed):
         self._n += 1
         return cur.ids.copy()
 
+    def add_ids(self, ids, frame) -> None:
+        """Add a frame known only by its cell ids (polygon input): track = id; no overlaps, so no divisions."""
+        ids = np.asarray(ids, np.int64)
+        self._seen = np.union1d(self._seen, ids)
+        self._last.update(dict.fromkeys(ids.tolist(), int(frame)))
+        self._frames.append(np.full(len(ids), frame, np.int64))
+        self._cells.append(ids)
+        self._n += 1
+
     @property
     def consistency(self) -> float:
         """Of the cells overlapping a cell of the next frame with IoU >= ``min_iou``, the fraction whose
@@ -494,42 +504,83 @@ class IdTracker(_Feed):
         return {d: m for d, (m, t) in self._divisions.items() if self._last[m] < t}
 
 
+class SeparateTracker:
+    """No tracking: every cell of every frame is its own track (frames that are unrelated images)."""
+
+    def __init__(self):
+        self._frames, self._cells = [], []
+
+    def add_valid(self, labels, frame) -> None:
+        """Add a label image (checked by :func:`~hexatissue.mesh.labels.validate_labels`)."""
+        self.add_ids(_compact(labels).ids, frame)
+
+    def add_ids(self, ids, frame) -> None:
+        """Add a frame by its cell ids."""
+        self._frames.append(np.full(len(ids), frame, np.int64))
+        self._cells.append(np.asarray(ids, np.int64))
+
+    def tracks(self) -> pd.DataFrame:
+        """``frame``, ``cell``, ``track`` (1, 2, ... in frame and cell order)."""
+        frames = np.concatenate(self._frames) if self._frames else np.empty(0, np.int64)
+        cells = np.concatenate(self._cells) if self._cells else np.empty(0, np.int64)
+        return pd.DataFrame({"frame": frames, "cell": cells, "track": np.arange(1, len(cells) + 1, dtype=np.int64)})
+
+    @property
+    def parents(self) -> dict:
+        """No divisions: ``{}``."""
+        return {}
+
+
 class MovieTracker:
     """Tracking of a whole movie by mode: keep the ids, link by overlap, or decide from the data.
 
     Parameters
     ----------
-    mode : {"auto", "always", "never"}
+    mode : {"auto", "always", "never", "off"}
         ``"never"``: the ids are the tracks (:class:`IdTracker`: track =
         cell, gap-tolerant, divisions read from the ids and overlaps).
-        ``"always"``: link cells by overlap (:class:`Tracker`).  ``"auto"``:
-        ``"never"`` when ``ids_consistent``; otherwise both run and the ids
-        are kept when :attr:`IdTracker.consistency` is at least
-        :data:`ID_CONSISTENCY` (or when no two frames could be compared),
-        else the overlap tracks are used.
+        ``"always"``: link cells by overlap (:class:`Tracker`).  ``"off"``:
+        every cell of every frame is its own track (:class:`SeparateTracker`).
+        ``"auto"``: ``"off"`` when ``independent``, ``"never"`` when
+        ``ids_consistent``; otherwise both run and the ids are kept when
+        :attr:`IdTracker.consistency` is at least :data:`ID_CONSISTENCY`
+        (or when no two frames could be compared), else the overlap tracks
+        are used.
     min_iou, child_fraction, mother_fraction : float
         See :func:`match_frames`.
     max_gap : int
         Gap closing of the overlap tracker (see :class:`Tracker`).
     ids_consistent : bool
-        The source guarantees consistent ids (MPF runs).
+        The source guarantees consistent ids (MPF runs, polygon tables with frames).
+    independent : bool
+        The frames are unrelated images (a folder of polygon files), not a movie.
     """
 
     def __init__(self, mode="auto", min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0,
-                 ids_consistent=False):
+                 ids_consistent=False, independent=False):
         if mode not in TRACK_MODES:
             raise InputError(f"mode must be one of {TRACK_MODES}; got {mode!r}")
-        self.mode, self.ids_consistent = mode, bool(ids_consistent)
+        self.mode, self.ids_consistent, self.independent = mode, bool(ids_consistent), bool(independent)
         self.ids = IdTracker(min_iou, child_fraction, mother_fraction)
-        overlap = mode == "always" or (mode == "auto" and not self.ids_consistent)
+        self.separate = SeparateTracker() if mode == "off" or (mode == "auto" and self.independent) else None
+        overlap = mode == "always" or (mode == "auto" and not self.ids_consistent and not self.independent)
         self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap) if overlap else None
 
     def add_valid(self, labels, frame=None):
         """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`)."""
         labels = _compact(labels)  # once for both trackers, which share the overlaps too
         self.ids.add_valid(labels, frame)
+        for feed in (self.overlap, self.separate):
+            if feed is not None:
+                feed.add_valid(labels, frame)
+
+    def add_ids(self, ids, frame):
+        """Add the next frame by its cell ids only (polygon input: nothing to overlap)."""
         if self.overlap is not None:
-            self.overlap.add_valid(labels, frame)
+            raise InputError("add_ids: overlap tracking (mode 'always') needs label images; use add_valid")
+        self.ids.add_ids(ids, frame)
+        if self.separate is not None:
+            self.separate.add_ids(ids, frame)
 
     def decision(self) -> tuple[str, str]:
         """``(resolved mode, reason)``: ``"never"`` (ids kept) or ``"always"`` (overlap tracks), and why."""
@@ -538,8 +589,11 @@ class MovieTracker:
                     f"overlap their own id" if np.isfinite(c) else "no two frames with overlapping cells")
         if self.mode != "auto":
             return self.mode, f"track={self.mode!r} requested; {measured}"
+        if self.independent:
+            return "off", "the source's frames are independent images, not a movie: every cell is its own track"
         if self.ids_consistent:
-            return "never", "the source's ids are consistent (MPF run): ids kept"
+            return "never", ("the source's ids are consistent (MPF run, polygon table or Cell Tracking Challenge "
+                             "folder): ids kept")
         if not np.isfinite(c):
             return "never", f"{measured}: ids kept"
         if c >= ID_CONSISTENCY:
@@ -547,7 +601,7 @@ class MovieTracker:
         return "always", f"{measured} (< {ID_CONSISTENCY:.0%}): cells re-tracked by overlap"
 
     def _chosen(self):
-        return self.ids if self.decision()[0] == "never" else self.overlap
+        return {"never": self.ids, "always": self.overlap, "off": self.separate}[self.decision()[0]]
 
     def tracks(self) -> pd.DataFrame:
         """``frame``, ``cell``, ``track`` of the chosen tracking."""
@@ -609,6 +663,21 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
     out["begin"] = pd.array(begin, dtype="string")
     out["end"] = pd.array(end, dtype="string")
     return validate(out.reset_index(drop=True), "lineage")
+
+
+def lineage_roots(parents: dict, ids) -> dict:
+    """``{id: its first ancestor}`` following ``parents`` (``{child: parent}``) up from each of ``ids``.
+
+    An id without a parent is its own root; a cycle (bad input) stops where it closes.
+    """
+    out = {}
+    for i in ids:
+        root, seen = int(i), set()
+        while root in parents and root not in seen:
+            seen.add(root)
+            root = int(parents[root])
+        out[int(i)] = root
+    return out
 
 
 def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0, progress=False):

@@ -20,7 +20,7 @@ _LENGTH_ALIASES = {
     "micrometre": "um", "micrometers": "um", "micrometres": "um", "\\u00b5m": "um", "u": "um",
     "nm": "nm", "nanometer": "nm", "nanometre": "nm", "nanometers": "nm",
     "mm": "mm", "millimeter": "mm", "millimetre": "mm",
-    "cm": "cm", "m": "m", "meter": "m", "metre": "m",
+    "cm": "cm", "centimeter": "cm", "centimetre": "cm", "m": "m", "meter": "m", "metre": "m",
 }
 _TIME_ALIASES = {
     "frame": "frame", "frames": "frame", "": "frame",

@@ -33,3 +33,12 @@ def png_write(path, image):
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(image))
     assert ok
     Path(path).write_bytes(buf.tobytes())
+
+
+def mdck_published_gamma(folder, image, p):
+    """Published gamma_p of every cell of MDCK image ``image`` (``dat/exp_N.dat``: x, y, then Re/Im of gamma 2..6).
+
+    Row k is cell k of ``mat/ImageN_Polygon.mat``.
+    """
+    dat = np.loadtxt(folder / "dat" / f"exp_{image}.dat")
+    return dat[:, 2 + 2 * (p - 2)] + 1j * dat[:, 3 + 2 * (p - 2)]

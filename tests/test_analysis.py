@@ -253,6 +253,18 @@ def test_migration_table_defect_density_and_event_counts():
     assert table.loc[(0, 0, 0), "x"] == 12.5 and table.loc[(0, 2, 2), "y"] == 62.5
 
 
+def test_migration_table_with_events_and_no_complete_window():
+    # regression (MDCK polygon folder through the report): a movie shorter than one window, with events,
+    # raised KeyError 'n_cycles' instead of giving an empty table with the event columns
+    cells = _path_cells({1: np.c_[np.arange(3.0) + 10, np.full(3, 10.0)]})
+    events = _events([("cycle", 1, 1, 1, 2, 3, 4, 0, 0)])
+    with pytest.warns(HexatissueWarning, match="no complete window"):
+        table = migration_table(cells, _defects([(0, 5.0, 5.0, SIXTH)]), dl=25.0, dt=5, extent=(100, 100),
+                                events=events)
+    assert table.empty
+    assert {"cycles_per_cell", "intercalations_per_cell", "defect_density", "n_cells"} <= set(table.columns)
+
+
 def test_frames_per_window():
     assert frames_per_window(25_000, 500) == 50
     assert frames_per_window(25_000, 1000) == 25

@@ -65,3 +65,40 @@ def test_atomic_path_leaves_nothing_on_error(tmp_path):
             tmp.write_text("half")
             raise RuntimeError("interrupted")
     assert not target.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_atomic_dir_replaces_a_folder_whole_or_not_at_all(tmp_path):
+    from hexatissue.io import atomic_dir
+
+    target = tmp_path / "store.zarr"
+    with atomic_dir(target) as tmp:
+        (tmp / "a").write_text("1")
+    assert [p.name for p in target.iterdir()] == ["a"]
+    with pytest.raises(RuntimeError):
+        with atomic_dir(target) as tmp:
+            (tmp / "b").write_text("2")
+            raise RuntimeError("interrupted")
+    assert [p.name for p in target.iterdir()] == ["a"]  # the old folder is untouched
+    with atomic_dir(target) as tmp:
+        (tmp / "c").write_text("3")
+    assert [p.name for p in target.iterdir()] == ["c"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["store.zarr"]  # no temporary folders left
+
+
+def test_write_tiff_round_trips_dtype_and_calibration(tmp_path):
+    from hexatissue import open_source
+    from hexatissue.io import write_tiff
+    from hexatissue.units import Calibration
+
+    stack = (np.arange(2 * 6 * 7, dtype=np.uint32) * 100_000).reshape(2, 6, 7)  # ids beyond uint16
+    cal = Calibration(0.5, "um", 10.0, "s")
+    write_tiff(tmp_path / "s.tif", stack, cal)
+    src = open_source(tmp_path / "s.tif")
+    assert src.calibration == cal and src.n_frames == 2
+    np.testing.assert_array_equal(src.frame(1), stack[1])
+    write_tiff(tmp_path / "one.tif", stack[0].astype(np.uint16))  # uncalibrated single image
+    one = open_source(tmp_path / "one.tif")
+    assert one.n_frames == 1 and one.calibration == Calibration() and one.frame(0).dtype == np.uint16
+    with pytest.raises(InputError, match="array"):
+        write_tiff(tmp_path / "bad.tif", np.zeros((2, 2, 2, 2)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.tif", "s.tif"]  # nothing half-written left

@@ -8,7 +8,7 @@ from hexatissue import Box, InputError, shape_function
 from hexatissue.defects import defect_events, find_defects, track_defects
 from hexatissue.order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius
 
-from .conftest import real_subdir
+from .conftest import mdck_published_gamma, real_subdir
 
 
 def regular(n, radius=5.0, phase=0.0, center=(0.0, 0.0)):
@@ -69,10 +69,9 @@ def test_published_mdck_gamma(real_data):
     for image in range(6, 69):
         mat = scipy_io.loadmat(folder / "mat" / f"Image{image}_Polygon.mat", simplify_cells=True)
         polys = [np.asarray(v, float) for v in mat["Polygon"]["Vertex"]]
-        dat = np.loadtxt(folder / "dat" / f"exp_{image}.dat")
-        assert len(polys) == len(dat)
-        for k, p in enumerate(range(2, 7)):
-            published = dat[:, 2 + 2 * k] + 1j * dat[:, 3 + 2 * k]
+        for p in range(2, 7):
+            published = mdck_published_gamma(folder, image, p)
+            assert len(polys) == len(published)
             worst = max(worst, np.abs(shape_function(polys, p=p) - published).max())
     assert worst < 1e-9
 

@@ -227,3 +227,25 @@ def test_short_mpf_run_end_to_end(tmp_path):
     lin = mv.lineage
     assert len(lin) == params.n_cells and (lin["begin"] == "movie_start").all()
     assert_valid_quartets(mv.events, mv.edges, mv.cells)
+
+
+def test_a_tqdm_class_draws_the_progress_bar():
+    """analyze(progress=<tqdm subclass>) counts the frames with that class (the napari widget passes napari's)."""
+    from tqdm import tqdm
+
+    made = []
+
+    class Recorder(tqdm):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, disable=True, **kwargs)
+            made.append(self)
+            self.seen = 0
+
+        def __iter__(self):
+            for item in self.iterable:
+                self.seen += 1
+                yield item
+
+    stack = voronoi_movie(20, (60, 90), 3, periodic=False, seed=0)
+    analyze(stack, workers=1, progress=Recorder)
+    assert len(made) == 1 and made[0].total == 3 and made[0].seen == 3

@@ -222,3 +222,11 @@ def test_movie_tracker_shares_one_overlap_count_and_pickles_without_it():
     assert both.ids.consistency == alone_ids.consistency
     assert both.overlap._prev.overlaps  # the cache is there in memory ...
     assert pickle.loads(pickle.dumps(both)).overlap._prev.overlaps == ()  # ... and not in a checkpoint
+
+
+def test_lineage_roots_follow_parents_to_the_first_ancestor():
+    from hexatissue.track import lineage_roots
+
+    parents = {3: 2, 4: 2, 2: 1, 6: 5}
+    assert lineage_roots(parents, [1, 2, 3, 4, 5, 6, 7]) == {1: 1, 2: 1, 3: 1, 4: 1, 5: 5, 6: 5, 7: 7}
+    assert lineage_roots({1: 2, 2: 1}, [1]) == {1: 1}  # a cycle stops where it closes

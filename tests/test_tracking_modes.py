@@ -219,3 +219,15 @@ def test_cli_track_choices():
     for bad in (["--track", "yes"], ["--no-track"]):
         with pytest.raises(SystemExit):
             parser.parse_args(["analyze", "in.tif", "--out", "o", *bad])
+
+
+def test_mode_off_makes_every_cell_its_own_track():
+    """track='off' (unrelated images): no track spans two frames, so no T1 events and no defect links."""
+    stack = _movie(n_frames=4)
+    movie = _run(stack, mode="off")
+    assert movie.summary["tracking"]["resolved"] == "off"
+    assert movie.cells["track"].is_unique and (movie.lineage["n_frames"] == 1).all()
+    assert len(movie.events) == 0 and len(movie.defect_events) == 0
+    assert not movie.defects.duplicated(["p", "track"]).any()
+    same = _run(stack, mode="never")  # the tables other than tracks do not depend on the mode
+    pd.testing.assert_frame_equal(movie.cells.drop(columns="track"), same.cells.drop(columns="track"))

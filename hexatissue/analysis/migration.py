@@ -197,6 +197,8 @@ def cell_displacements(cells, dl=DEFAULT_DL, dt=25, box=None, extent=None, event
     frames = np.unique(cells["frame"].to_numpy(np.int64))
     starts = _windows(frames, dt)
     columns = ["window", "frame_start", "frame_end", "track", "row", "col", "x", "y", "displacement", "msd"]
+    if events is not None:
+        columns += ["n_cycles", "n_intercalations"]
     if len(starts) == 0 or steps.empty:
         warnings.warn(f"no complete window of dt={dt} frames in a movie of {len(frames)} frames",
                       HexatissueWarning, stacklevel=2)

@@ -36,7 +36,7 @@ def save_movie_figures(movie, folder, source=None) -> list[Path]:
     written = []
     for t in shown_frames(movie):
         frame = movie.frame(t)
-        labels = source.frame(t) if source is not None else None
+        labels = source.frame(t) if source is not None and source.kind == "labels" else None  # polygons: no image
         prefix = "" if single else f"frame{t:04d}_"
         for q in orders:
             grid = defects = None

@@ -184,7 +184,10 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     lines += section + [""]
     for path in written:
         lines += _figure_line(path, out, path.stem)
-    if len(movie) > 1:
+    if len(movie) > 1 and _independent(movie):
+        lines += ["The frames are independent images (not a movie; nothing was tracked): no T1, migration or "
+                  "timing sections.", ""]
+    elif len(movie) > 1:
         lines += _movie_sections(movie, out, written, numbers, p=p, dl=dl, dt=dt, n_control=n_control, seed=seed,
                                  include_border=include_border, control=control)
     md = out / "report.md"
@@ -193,6 +196,11 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     written.append(md)
     numbers["written"] = [str(w) for w in written]
     return numbers
+
+
+def _independent(movie) -> bool:
+    """The frames are unrelated images (tracking resolved to ``"off"``, e.g. a folder of polygon files)."""
+    return (movie.summary.get("tracking") or {}).get("resolved") == "off"
 
 
 def _censor_of(movie):

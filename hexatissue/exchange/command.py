@@ -1,0 +1,73 @@
+"""``hexatissue export RESULTS --to {geff,ctc,ome-zarr} OUT``: a results folder in another tool's format."""
+from __future__ import annotations
+
+__all__ = ["add_parser", "export"]
+
+FORMATS = ("geff", "ctc", "ome-zarr")
+
+
+def add_parser(subparsers):
+    """Register the ``export`` subcommand on an argparse ``subparsers`` object."""
+    p = subparsers.add_parser(
+        "export", help="write a 'hexatissue analyze' folder as GEFF graphs, a Cell Tracking Challenge folder or "
+                       "an OME-Zarr label stack",
+        description="geff: OUT/neighbours.geff (cells and their contacts, every frame) and OUT/tracks.geff (cells "
+                    "linked along their tracks and divisions), node and edge properties from the tables. ctc: "
+                    "OUT/maskTTT.tif with track ids + OUT/res_track.txt (--truth: OUT/TRA/man_track*). ome-zarr: "
+                    "the labels with track ids as an OME-Zarr multiscale image OUT. ctc and ome-zarr re-open the "
+                    "labels the results were computed from (the path in metadata.json, or --labels).")
+    p.add_argument("results", metavar="RESULTS", help="output folder of 'hexatissue analyze'")
+    p.add_argument("out", metavar="OUT", help="output folder (ome-zarr: the .zarr folder)")
+    p.add_argument("--to", required=True, choices=FORMATS, help="format to write")
+    p.add_argument("--labels", metavar="FILE",
+                   help="ctc, ome-zarr: the label image or stack the results were computed from (default: the "
+                        "path recorded in metadata.json)")
+    p.add_argument("--mask", metavar="FILE", help="ctc, ome-zarr: the --mask of the analysis (default: the recorded one)")
+    p.add_argument("--truth", action="store_true", help="ctc: the ground-truth layout OUT/TRA/man_trackTTT.tif")
+    p.add_argument("--levels", type=int, default=1, help="ome-zarr: resolution levels (default 1)")
+    p.set_defaults(func=_run)
+    return p
+
+
+def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1):
+    """Write a results folder (or Movie) as ``to`` (``"geff"``, ``"ctc"`` or ``"ome-zarr"``); returns what was written.
+
+    See :func:`~hexatissue.exchange.geff.write_geff`,
+    :func:`~hexatissue.exchange.ctc.write_ctc` (masks from
+    :func:`~hexatissue.exchange.labels.track_masks`, lines from the lineage)
+    and :func:`~hexatissue.exchange.omezarr.write_ome_zarr_labels`.
+    """
+    from ..errors import InputError
+    from ..frame import Movie, read_results
+
+    movie = results if isinstance(results, Movie) else read_results(results)
+    if to not in FORMATS:
+        raise InputError(f"to must be one of {FORMATS}; got {to!r}")
+    if to == "geff":
+        from .geff import write_geff
+
+        return write_geff(movie, out)
+    from .labels import track_masks
+
+    masks = track_masks(movie, labels, mask)
+    if to == "ctc":
+        from .ctc import write_ctc
+
+        if movie.lineage is None:
+            raise InputError("the results have no lineage table; expected the output of hexatissue analyze")
+        return [write_ctc(masks, movie.lineage, out, truth=truth)]
+    import numpy as np
+
+    from .omezarr import write_ome_zarr_labels
+
+    biggest = max(int(m.max()) for m in masks)
+    dtype = np.uint16 if biggest < 2**16 else np.uint32 if biggest < 2**32 else np.uint64
+    return [write_ome_zarr_labels([m.astype(dtype) for m in masks], out, calibration=movie.calibration,
+                                  levels=levels)]
+
+
+def _run(args) -> int:
+    written = export(args.results, args.out, args.to, labels=args.labels, mask=args.mask, truth=args.truth,
+                     levels=args.levels)
+    print(f"{args.results} -> {args.to}: " + ", ".join(str(w) for w in written))
+    return 0

@@ -1,0 +1,446 @@
+"""Cell Tracking Challenge (CTC) folders: tracked masks plus a track file.
+
+The CTC layout (celltrackingchallenge.net, "Naming and file content
+conventions"): one 16-bit label image per frame whose pixel values are track
+ids (0 = background), and a text file with one line ``L B E P`` per track:
+its id ``L``, first and last frame ``B`` and ``E`` (0-based), and the id of
+its parent track ``P`` (0 = none).  A track is present in every frame from
+``B`` to ``E`` and in no other; a parent ends before its children begin.
+Two layouts hold the same content:
+
+- a result: ``maskTTT.tif`` and ``res_track.txt`` in one folder;
+- a ground truth: ``TRA/man_trackTTT.tif`` and ``TRA/man_track.txt``.
+
+``TTT`` is the frame index with 3 digits (4 when there are more than 1000
+frames).  The format has no gaps: an object missing for some frames and
+coming back is a new track whose parent is the part before the gap.
+:func:`write_ctc` splits tracks that way, and :func:`gap_links` tells the
+continuations apart from divisions when reading (a parent with one child is
+the same cell after a gap; a parent with two or more children divided).
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError
+from ..schema import require_columns
+from .labels import relabel
+
+__all__ = ["write_ctc", "check_ctc", "read_ctc", "gap_links", "is_ctc_folder", "CtcReader", "MAX_ID"]
+
+MAX_ID = 2**16 - 1  # CTC masks are 16-bit
+RESULT = ("mask", "res_track.txt")
+TRUTH = ("man_track", "man_track.txt")
+TRACK_COLUMNS = ("track", "frame_start", "frame_end", "parent")
+MAX_LISTED = 50  # violations spelled out by check_ctc before it only counts the rest
+
+
+def _digits(n_frames: int) -> int:
+    return 4 if n_frames > 1000 else 3
+
+
+# ---------------------------------------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------------------------------------
+def _mask_frames(masks) -> list[np.ndarray]:
+    """The frames of ``masks`` as 2-D non-negative integer arrays of one shape, ids <= MAX_ID."""
+    if isinstance(masks, np.ndarray) and masks.ndim == 3:
+        frames = list(masks)
+    elif isinstance(masks, (list, tuple)) and len(masks) and all(np.ndim(f) == 2 for f in masks):
+        frames = [np.asarray(f) for f in masks]
+    else:
+        raise InputError(f"masks must be a T x Y x X integer array or a non-empty sequence of 2-D frames; got "
+                         f"{type(masks).__name__} of shape {np.shape(masks) if hasattr(masks, 'shape') else '?'}")
+    out = []
+    for t, f in enumerate(frames):
+        if f.shape != frames[0].shape:
+            raise InputError(f"masks: frame {t} is {f.shape}; expected {frames[0].shape} like frame 0")
+        if f.dtype.kind == "f" and not (np.isfinite(f).all() and np.array_equal(f, np.round(f))):
+            raise InputError(f"masks: frame {t} has non-integer values; expected integer track ids")
+        if f.dtype.kind not in "iuf":
+            raise InputError(f"masks: frame {t} has dtype {f.dtype}; expected integer track ids")
+        if f.size and (f.min() < 0 or f.max() > MAX_ID):
+            raise InputError(f"masks: frame {t} has ids from {f.min()} to {f.max()}; CTC masks are 16-bit: "
+                             f"expected 0 (background) to {MAX_ID}")
+        out.append(f.astype(np.int64, copy=False))
+    return out
+
+
+def _presence(frames) -> dict[int, np.ndarray]:
+    """``{id: sorted frames where it has pixels}`` (0 left out) of a list or a ``{frame: mask}`` dict."""
+    seen: dict[int, list[int]] = {}
+    for t, f in (frames.items() if isinstance(frames, dict) else enumerate(frames)):
+        for i in np.unique(f).tolist():
+            if i:
+                seen.setdefault(int(i), []).append(t)
+    return {i: np.asarray(ts, np.int64) for i, ts in sorted(seen.items())}
+
+
+def _ctc_tracks(presence, parents, first_new):
+    """Tracks without gaps: ``(rows [L, B, E, P], {frame: {old id: new id}})``.
+
+    The first run of frames of an id keeps the id; every later run gets the
+    next free id with the run before it as parent.  A daughter's parent is
+    the last run of its mother that ends before the daughter begins.
+    """
+    runs = {}  # id -> [(new id, start, end)]
+    renamed = {}
+    next_id = first_new
+    for i, ts in presence.items():
+        cuts = np.flatnonzero(np.diff(ts) > 1) + 1
+        pieces = np.split(ts, cuts)
+        runs[i] = []
+        for k, piece in enumerate(pieces):
+            new = i if k == 0 else next_id
+            next_id += k > 0
+            runs[i].append((new, int(piece[0]), int(piece[-1])))
+            if new != i:
+                for t in piece.tolist():
+                    renamed.setdefault(t, {})[i] = new
+    rows = []
+    for i, pieces in runs.items():
+        mother = parents.get(i, 0)
+        for k, (new, start, end) in enumerate(pieces):
+            if k:
+                parent = pieces[k - 1][0]
+            elif mother in runs:
+                before = [r for r in runs[mother] if r[2] < start]
+                parent = before[-1][0] if before else 0
+            else:
+                parent = 0
+            rows.append((new, start, end, parent))
+    if next_id - 1 > MAX_ID:
+        raise InputError(f"masks: splitting tracks at their gaps needs ids up to {next_id - 1}; CTC ids are "
+                         f"16-bit (<= {MAX_ID}): relabel the tracks 1..n first")
+    return sorted(rows), renamed
+
+
+def write_ctc(masks, lineage, out, *, truth=False) -> Path:
+    """Write tracked masks and their lineage as a Cell Tracking Challenge folder.
+
+    Parameters
+    ----------
+    masks : T x Y x X integer array or sequence of 2-D arrays
+        Label images (indexed ``[row, col]``) whose ids are *track* ids;
+        0 = background.  Ids must fit in 16 bits (1..65535).
+    lineage : pandas.DataFrame
+        A hexatissue lineage table (:func:`hexatissue.track.lineage_table`):
+        at least ``track`` and ``parent`` (0 = no parent).  Every id of the
+        masks must have a row.  The frames a track spans are read from the
+        masks, not from the table.
+    out : str or Path
+        Output folder (made if needed).
+    truth : bool
+        False: the result layout, ``out/maskTTT.tif`` and
+        ``out/res_track.txt``; True: the ground-truth layout,
+        ``out/TRA/man_trackTTT.tif`` and ``out/TRA/man_track.txt``.
+
+    Returns
+    -------
+    Path
+        The folder holding the masks and the track file (``out``, or
+        ``out/TRA`` with ``truth``).
+
+    Notes
+    -----
+    A track missing from some frames is split at each gap: the part after a
+    gap gets a new id (above every id in use) whose parent is the part
+    before it, as the format requires.  A parent that never appears in the
+    masks, or has no part ending before its daughter begins, is written as
+    0.  Files are written under temporary names and
+    renamed; mask files of an earlier export that this one does not write
+    are removed.
+
+    Raises
+    ------
+    InputError
+        Masks that are not integer label images of one shape, ids outside
+        0..65535, a lineage without ``track``/``parent`` or missing a
+        track of the masks, or ``out`` not writable.
+    """
+    import tifffile
+
+    from ..io import atomic_path, check_output_folder
+
+    frames = _mask_frames(masks)
+    require_columns(lineage, ("track", "parent"), "lineage")
+    presence = _presence(frames)
+    known = set(lineage["track"].astype(np.int64).tolist())
+    missing = sorted(set(presence) - known)
+    if missing:
+        raise InputError(f"lineage has no row for track(s) {missing[:20]}{' ...' if len(missing) > 20 else ''} "
+                         f"of the masks; expected one row per track id in the masks")
+    parents = {int(t): int(p) for t, p in zip(lineage["track"], lineage["parent"]) if p}
+    biggest = max([0, *presence, *known])
+    rows, renamed = _ctc_tracks(presence, parents, biggest + 1)
+    prefix, track_name = TRUTH if truth else RESULT
+    folder = check_output_folder(out, "out")
+    folder = folder / "TRA" if truth else folder
+    digits = _digits(len(frames))
+    written = set()
+    for t, f in enumerate(frames):
+        if t in renamed:  # the ids of the parts after a gap
+            old = sorted(renamed[t])
+            f = relabel(f, old, [renamed[t][i] for i in old])
+        path = folder / f"{prefix}{t:0{digits}d}.tif"
+        with atomic_path(path) as tmp:
+            tifffile.imwrite(tmp, f.astype(np.uint16), photometric="minisblack")
+        written.add(path.name)
+    for stale in _mask_files(folder, prefix):
+        if stale.name not in written:
+            stale.unlink()
+    with atomic_path(folder / track_name) as tmp:
+        tmp.write_text("".join(f"{l} {b} {e} {p}\n" for l, b, e, p in rows))
+    return folder
+
+
+# ---------------------------------------------------------------------------------------------------------
+# reading and checking
+# ---------------------------------------------------------------------------------------------------------
+def _mask_files(folder: Path, prefix: str) -> list[Path]:
+    pattern = re.compile(rf"^{prefix}(\d+)\.tiff?$", re.IGNORECASE)
+    return [p for p in folder.iterdir() if p.is_file() and pattern.match(p.name)] if folder.is_dir() else []
+
+
+def _layout(folder) -> tuple[Path, Path, str, str]:
+    """``(mask folder, track file, mask prefix, layout name)`` of a CTC folder; InputError if it is not one.
+
+    A folder holding a result (``res_track.txt``) and a ``TRA`` folder is read as the result.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"CTC folder {str(folder)!r} does not exist or is not a folder")
+    for where, (prefix, name), layout in ((folder, RESULT, "result"), (folder / "TRA", TRUTH, "truth"),
+                                          (folder, TRUTH, "truth")):
+        if (where / name).is_file():
+            return where, where / name, prefix, layout
+    raise InputError(f"{str(folder)!r} is not a Cell Tracking Challenge folder: expected res_track.txt with "
+                     f"maskTTT.tif files, or TRA/man_track.txt with TRA/man_trackTTT.tif files")
+
+
+def is_ctc_folder(path) -> bool:
+    """True when ``path`` is a folder in a CTC layout (a track file with its masks next to it)."""
+    try:
+        where, _, prefix, _ = _layout(path)
+    except InputError:
+        return False
+    return bool(_mask_files(where, prefix))
+
+
+def _read_track_file(path: Path, problems: list) -> pd.DataFrame:
+    rows = []
+    for k, line in enumerate(path.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        parts = line.split()
+        try:
+            values = [int(v) for v in parts]
+        except ValueError:
+            values = []
+        if len(values) != 4 or min(values) < 0:
+            problems.append(f"{path.name} line {k} is {line.strip()!r}; expected four non-negative integers L B E P")
+            continue
+        rows.append(values)
+    return pd.DataFrame(rows or np.zeros((0, 4), np.int64), columns=list(TRACK_COLUMNS)).astype(np.int64)
+
+
+def _numbered(files, prefix, problems) -> dict[int, Path]:
+    """``{frame: mask file}``; numbering problems (not 0..T-1, mixed widths) appended to ``problems``."""
+    found = {}
+    widths = set()
+    for p in sorted(files):
+        digits = re.match(rf"^{prefix}(\d+)", p.name, re.IGNORECASE).group(1)
+        widths.add(len(digits))
+        if int(digits) in found:
+            problems.append(f"frame {int(digits)} has two mask files: {found[int(digits)].name}, {p.name}")
+        found[int(digits)] = p
+    if not found:
+        problems.append(f"no {prefix}TTT.tif mask files")
+        return {}
+    n = max(found) + 1
+    gaps = sorted(set(range(n)) - set(found))
+    if gaps:
+        problems.append(f"mask files must be numbered 0..{n - 1}; missing {gaps[:20]}")
+    if widths != {_digits(n)}:
+        problems.append(f"mask file numbers have {sorted(widths)} digits; expected {_digits(n)} for {n} frames")
+    return dict(sorted(found.items()))
+
+
+def _check_tracks(tracks, presence, problems):
+    ids = tracks["track"].to_numpy()
+    dup = sorted(set(ids[pd.Series(ids).duplicated().to_numpy()].tolist()))
+    if dup:
+        problems.append(f"track id(s) {dup[:20]} have several lines; ids must be unique")
+    if (ids == 0).any():
+        problems.append("a line has track id 0, which is the background; ids start at 1")
+    span = {int(l): (int(b), int(e)) for l, b, e in tracks[["track", "frame_start", "frame_end"]].to_numpy()}
+    for l, b, e, p in tracks.to_numpy().tolist():
+        if b > e:
+            problems.append(f"track {l}: begins at frame {b} after it ends ({e})")
+        if p == l:
+            problems.append(f"track {l} is its own parent")
+        elif p and p not in span:
+            problems.append(f"track {l}: parent {p} has no line")
+        elif p and span[p][1] >= b:
+            problems.append(f"track {l}: parent {p} ends at frame {span[p][1]}, not before its child begins ({b})")
+        frames = presence.get(l)
+        if frames is None:
+            problems.append(f"track {l}: its line says frames {b}..{e} but no mask holds it")
+        elif not np.array_equal(frames, np.arange(b, e + 1)):
+            want = set(range(b, e + 1))
+            absent, outside = sorted(want - set(frames.tolist())), sorted(set(frames.tolist()) - want)
+            problems.append(f"track {l}: its line says frames {b}..{e}; "
+                            + "; ".join(s for s in (f"absent from frame(s) {absent[:10]}" if absent else "",
+                                                    f"present in frame(s) {outside[:10]}" if outside else "") if s))
+    unlisted = sorted(set(presence) - set(span))
+    if unlisted:
+        problems.append(f"mask id(s) {unlisted[:20]} have no line in the track file")
+
+
+def _read_masks(paths, problems) -> dict[int, np.ndarray]:
+    """``{frame: mask}`` of the files that are single 2-D non-negative integer images of one shape."""
+    from ..source import open_source
+
+    frames = {}
+    for t, path in paths.items():
+        try:
+            src = open_source(path)
+            if src.n_frames != 1:
+                raise InputError(f"it holds {src.n_frames} images; expected one")
+            f = src._raw(0)
+            if f.dtype.kind not in "iu" or (f.size and f.min() < 0):
+                raise InputError(f"it has dtype {f.dtype}; expected non-negative integer (16-bit) labels")
+        except InputError as exc:
+            problems.append(f"{path.name}: {exc}")
+            continue
+        shape = next(iter(frames.values())).shape if frames else f.shape
+        if f.shape != shape:
+            problems.append(f"{path.name} is {f.shape}; expected {shape} like the first mask")
+            continue
+        frames[t] = f
+    return frames
+
+
+def _inspect(folder):
+    """``(masks by frame, tracks, problems, layout)`` of a CTC folder."""
+    where, track_file, prefix, layout = _layout(folder)
+    problems: list[str] = []
+    tracks = _read_track_file(track_file, problems)
+    paths = _numbered(_mask_files(where, prefix), prefix, problems)
+    frames = _read_masks(paths, problems)
+    if frames and len(frames) == len(paths):
+        _check_tracks(tracks, _presence(frames), problems)
+    return frames, tracks, problems, layout
+
+
+def check_ctc(folder) -> None:
+    """Check a Cell Tracking Challenge folder (either layout); InputError listing every violation.
+
+    Checked: the mask files are numbered ``0..T-1`` with 3 digits (4 beyond
+    1000 frames), are single 2-D integer images of one shape; every line of
+    the track file is ``L B E P`` (non-negative integers); ids are unique
+    and not 0; every mask id has a line and is present in exactly the
+    frames ``B..E`` of it; every parent has a line and ends before its
+    child begins.
+
+    Raises
+    ------
+    InputError
+        The folder is not in a CTC layout, or one message with every
+        violation found (the first 50 spelled out, the rest counted).
+    """
+    _, _, problems, _ = _inspect(folder)
+    if problems:
+        listed = "\n  ".join(problems[:MAX_LISTED])
+        more = f"\n  ... and {len(problems) - MAX_LISTED} more" if len(problems) > MAX_LISTED else ""
+        raise InputError(f"CTC folder {str(folder)!r} breaks the format ({len(problems)} violation(s)):\n  "
+                         f"{listed}{more}")
+
+
+def read_ctc(folder) -> tuple[np.ndarray, pd.DataFrame]:
+    """The masks and track lines of a Cell Tracking Challenge folder (either layout), as stored.
+
+    Returns
+    -------
+    masks : (T, rows, cols) integer array
+        Frame ``t`` is ``maskTTT.tif`` (``man_trackTTT.tif``); ids are track
+        ids, 0 = background.
+    tracks : pandas.DataFrame
+        One row per line of the track file: ``track`` (L), ``frame_start``
+        (B), ``frame_end`` (E, frames, inclusive), ``parent`` (P, 0 = none).
+
+    Raises
+    ------
+    InputError
+        The folder breaks the format (see :func:`check_ctc`).
+    """
+    frames, tracks, problems, _ = _inspect(folder)
+    if problems:
+        check_ctc(folder)  # raises with the full list
+    return np.stack(list(frames.values())), tracks.sort_values("track", kind="stable").reset_index(drop=True)
+
+
+def gap_links(tracks) -> tuple[dict[int, int], dict[int, int]]:
+    """Tell gap continuations from divisions in CTC track lines.
+
+    Parameters
+    ----------
+    tracks : pandas.DataFrame
+        ``track`` and ``parent`` columns (e.g. from :func:`read_ctc`).
+
+    Returns
+    -------
+    same : dict
+        ``{track: earlier track}`` for the only child of its parent: the same
+        cell after a gap, mapped to the first track of its chain.
+    parents : dict
+        ``{daughter: mother}`` for the children of parents with two or more
+        children (divisions), in the ids after applying ``same``.
+    """
+    require_columns(tracks, ("track", "parent"), "tracks")
+    child_of = {int(l): int(p) for l, p in zip(tracks["track"], tracks["parent"]) if p}
+    counts = pd.Series(list(child_of.values()), dtype=np.int64).value_counts().to_dict()
+    from ..track import lineage_roots
+
+    single = {c: p for c, p in child_of.items() if counts[p] == 1}
+    root = lineage_roots(single, set(single) | set(child_of) | set(child_of.values()))
+    same = {c: root[c] for c in single}
+    parents = {root[c]: root[p] for c, p in child_of.items() if counts[p] > 1}
+    return same, parents
+
+
+class CtcReader:
+    """Frames of a CTC folder for :func:`hexatissue.open_source`: ids are tracks, gaps merged back.
+
+    The masks are read lazily, one file per frame; the track file is read
+    when opened (InputError on a malformed line).  Tracks continuing one
+    another across a gap (a parent with a single child) are given the first
+    id of their chain, so each cell is one id over time; :attr:`parents`
+    holds the divisions.  :func:`check_ctc` checks a whole folder.
+    """
+
+    def __init__(self, folder):
+        from ..source import _FilesReader
+
+        where, track_file, prefix, self.layout = _layout(folder)
+        problems: list[str] = []
+        tracks = _read_track_file(track_file, problems)
+        paths = _numbered(_mask_files(where, prefix), prefix, problems)
+        if problems:
+            raise InputError(f"CTC folder {str(folder)!r}: " + "; ".join(problems[:10]))
+        self.same, self.parents = gap_links(tracks)
+        self._old = np.array(sorted(self.same), np.int64)
+        self._new = np.array([self.same[i] for i in self._old.tolist()], np.int64)
+        self._files = _FilesReader(list(paths.values()), None, f"CTC folder {str(folder)!r}")
+        self.n_frames, self.shape, self.calibration = self._files.n_frames, self._files.shape, self._files.calibration
+
+    def describe(self) -> dict:
+        return self._files.describe()
+
+    def read(self, t) -> np.ndarray:
+        arr = self._files.read(t)
+        return relabel(arr, self._old, self._new) if len(self._old) else arr

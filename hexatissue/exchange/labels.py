@@ -1,0 +1,118 @@
+"""The label images of a results folder again, with their ids replaced by track ids.
+
+A results folder holds tables, not images; :func:`track_masks` re-opens the
+labels it was computed from (the path in ``metadata.json``, or one given),
+applies the analysis's own label normalisation
+(:func:`hexatissue.pipeline.mesh_labels` with the recorded mesh options and
+mask), checks that every cell of the ``cells`` table is there with its pixel
+area, and maps ``(frame, cell)`` to ``track``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["track_masks", "relabel"]
+
+
+def _labels_source(movie, labels):
+    from ..source import open_source
+
+    if labels is not None:
+        return open_source(labels), "labels"
+    desc = movie.source or {}
+    path = desc.get("path")
+    if path is None:
+        raise InputError(f"the results were computed from {desc.get('kind', 'an unknown input')!r} data that were "
+                         f"not a file, so their labels cannot be re-opened; pass the label image or stack the "
+                         f"results were computed from (--labels FILE on the command line, labels= in Python)")
+    if not Path(path).exists():
+        raise InputError(f"the labels recorded in the results, {path!r}, do not exist (moved, or a relative path "
+                         f"from another folder); pass them with --labels FILE (labels= in Python)")
+    source = open_source(path, key=desc.get("key"), channel=desc.get("channel"), level=desc.get("level"))
+    return source, f"the recorded labels {path!r}"
+
+
+def _mask(movie, mask):
+    from ..pipeline import read_mask
+
+    info = (movie.source or {}).get("mask")
+    if mask is None and info is not None:
+        if info.get("path") is None:
+            raise InputError("the results were computed with a mask given as an array; pass the same mask "
+                             "(--mask FILE on the command line, mask= in Python)")
+        mask = info["path"]
+    return read_mask(mask, tuple(movie.shape))[0]
+
+
+def relabel(lab, ids, values, others=None):
+    """``lab`` with each id of ``ids`` (sorted, unique) replaced by the matching entry of ``values``.
+
+    Pixels holding any other value keep it (``others`` None) or become ``others``.
+    """
+    ids, values = np.asarray(ids, np.int64), np.asarray(values, np.int64)
+    if not len(ids):
+        return lab.copy() if others is None else np.full(lab.shape, others, np.int64)
+    key = np.minimum(np.searchsorted(ids, lab), len(ids) - 1)
+    return np.where(ids[key] == lab, values[key], lab if others is None else others)
+
+
+def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
+    """The frames of a Movie's labels with track ids: the masks of a CTC export or a tracked label stack.
+
+    Parameters
+    ----------
+    movie : Movie
+        An analysis (:func:`hexatissue.read_results`).
+    labels : path, array or Source, optional
+        The label image or stack it was computed from (default: the path in
+        ``movie.source``).
+    mask : path or array, optional
+        The region-of-interest mask of the analysis (default: the path in
+        ``movie.source["mask"]``, when there was one).
+
+    Returns
+    -------
+    list of (rows, cols) int64 arrays
+        One per frame, indexed ``[row, col]``: the labels as the mesh used
+        them (membranes shared out, background and outside 0), each cell's
+        pixels set to its ``track``; 0 elsewhere.
+
+    Raises
+    ------
+    InputError
+        No usable labels (not a file, moved: pass ``labels``), labels with
+        another number of frames or shape, or labels whose cells differ
+        from the ``cells`` table (other ids or pixel areas: not the labels
+        of these results, or other mesh options).
+    """
+    from ..options import MeshOptions
+    from ..pipeline import mesh_labels
+    from ..progress import progress
+
+    source, what = _labels_source(movie, labels)
+    if source.n_frames != movie.n_frames or tuple(source.shape) != tuple(movie.shape):
+        raise InputError(f"{what} hold {source.n_frames} frame(s) of {source.shape}; the results have "
+                         f"{movie.n_frames} of {tuple(movie.shape)}: pass the labels they were computed from")
+    inside = _mask(movie, mask)
+    mesh = movie.options.get("mesh", MeshOptions())
+    cells = movie.cells.sort_values(["frame", "cell"], kind="stable")
+    frame_of = cells["frame"].to_numpy(np.int64)
+    bounds = np.searchsorted(frame_of, np.arange(movie.n_frames + 1))
+    ids, tracks = cells["cell"].to_numpy(np.int64), cells["track"].to_numpy(np.int64)
+    area = cells["area"].to_numpy(float)
+    out = []
+    for t in progress(range(movie.n_frames), desc="labels", unit="frame"):
+        lab = mesh_labels(source.frame(t), movie.box, mesh, inside)[0]
+        lo, hi = bounds[t], bounds[t + 1]
+        found, counts = np.unique(lab, return_counts=True)
+        pos = np.searchsorted(found, ids[lo:hi])
+        ok = (pos < len(found)) & (found[np.minimum(pos, len(found) - 1)] == ids[lo:hi])
+        if not ok.all() or not np.array_equal(counts[pos[ok]].astype(float), area[lo:hi]):
+            raise InputError(f"{what}, frame {t}: the cells differ from the results' cells table (other ids or "
+                             f"pixel areas); pass the labels the results were computed from (--labels FILE)")
+        out.append(relabel(lab, ids[lo:hi], tracks[lo:hi], others=0))
+    return out

@@ -1,0 +1,127 @@
+"""Dock widget: run :func:`hexatissue.analyze` on an open Labels layer and add the result layers.
+
+The analysis runs in a napari thread worker (the viewer stays responsive),
+in one process (forking a process pool from a Qt application is not safe),
+with a per-frame progress bar in napari's activity dock.
+"""
+from __future__ import annotations
+
+from magicgui.widgets import ComboBox, Container, FloatSpinBox, Label, LineEdit, PushButton, SpinBox, create_widget
+
+from ..errors import InputError
+from ..options import MeshOptions, OrderOptions, TrackOptions
+from ..track import TRACK_MODES
+from .layers import movie_layers
+
+__all__ = ["AnalyzeWidget", "run_analysis"]
+
+
+def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=2.0, pixel_size=None,
+                 length_unit="um", calibration=None, progress=True):
+    """``analyze`` of a label array with the widget's options; returns the result layers (no labels layer).
+
+    Parameters
+    ----------
+    labels : array
+        ``(T, rows, cols)`` or ``(rows, cols)`` label images (a Labels layer's data).
+    p : int
+        Order of gamma_p, Gamma_p and the defects (drawn as p-legged stars).
+    radius : float, optional
+        Coarse-graining radius of Gamma_p, px (None: the default).
+    track_mode : {"auto", "always", "never"}
+        See :class:`hexatissue.TrackOptions`.
+    merge_distance : float
+        Junctions shorter than this (px) become four-fold vertices.
+    pixel_size : float, optional
+        Pixel side in ``length_unit``; None keeps ``calibration``'s (or px).
+    length_unit : str
+        Unit of ``pixel_size``.
+    calibration : dict, optional
+        :meth:`hexatissue.Calibration.to_dict` of the layer (set by this
+        plugin's reader), so the new layers line up with it.
+    progress : bool or tqdm class
+        Progress bar (see :func:`hexatissue.analyze`).
+
+    Returns
+    -------
+    list of (data, kwargs, layer_type)
+    """
+    from ..pipeline import analyze
+    from ..source import open_source
+    from ..units import Calibration
+
+    source = open_source(labels)
+    if calibration:
+        cal = Calibration.from_dict(calibration)
+        source = source.with_calibration(pixel_size=cal.pixel_size, length_unit=cal.length_unit,
+                                         frame_interval=cal.frame_interval, time_unit=cal.time_unit)
+    if pixel_size is not None:
+        source = source.with_calibration(pixel_size=pixel_size, length_unit=length_unit)
+    movie = analyze(source, mesh=MeshOptions(merge_distance=merge_distance),
+                    order=OrderOptions(p=(int(p),), radius=radius), track=TrackOptions(mode=track_mode),
+                    workers=1, progress=progress)
+    return movie_layers(movie, p=int(p))
+
+
+class AnalyzeWidget(Container):
+    """Labels layer, p, radius (0 = default), track mode, merge distance, pixel size (0 = keep) and Analyze."""
+
+    def __init__(self, napari_viewer):
+        import napari
+
+        # children are reached by name (self.layer, self.p, ...), as magicgui containers do
+        super().__init__(widgets=[
+            create_widget(annotation=napari.layers.Labels, name="layer", label="labels"),
+            SpinBox(value=6, min=2, max=12, name="p", label="p"),
+            FloatSpinBox(value=0.0, min=0.0, max=1e4, step=1.0, name="radius", label="radius (px, 0 = auto)"),
+            ComboBox(choices=TRACK_MODES, value="auto", name="track_mode", label="track mode"),
+            FloatSpinBox(value=2.0, min=0.0, max=100.0, step=0.5, name="merge_distance",
+                         label="merge distance (px)"),
+            FloatSpinBox(value=0.0, min=0.0, max=1e6, step=0.01, name="pixel_size", label="pixel size (0 = keep)"),
+            LineEdit(value="um", name="length_unit", label="length unit"),
+            PushButton(text="Analyze", name="run"),
+            Label(value="", name="status")])
+        self.viewer = napari_viewer
+        self.worker = None
+        self.run.changed.connect(self.start)
+
+    def start(self, *_):
+        """Start the analysis of the chosen layer in a thread worker; returns the worker (None if no layer)."""
+        from napari.qt.threading import thread_worker
+        from napari.utils import progress
+
+        layer = self.layer.value
+        if layer is None:
+            self.status.value = "choose a Labels layer"
+            return None
+        options = {"p": self.p.value, "radius": self.radius.value or None, "track_mode": self.track_mode.value,
+                   "merge_distance": self.merge_distance.value, "pixel_size": self.pixel_size.value or None,
+                   "length_unit": self.length_unit.value, "calibration": layer.metadata.get("calibration")}
+        data = layer.data[0] if layer.multiscale else layer.data  # read lazily, frame by frame, by open_source
+        self.status.value = f"analysing {layer.name}..."
+        self.run.enabled = False
+        self.worker = thread_worker(_checked_analysis)(data, progress=progress, **options)
+        self.worker.returned.connect(self._finish)
+        self.worker.finished.connect(lambda: setattr(self.run, "enabled", True))
+        self.worker.start()
+        return self.worker
+
+    def _finish(self, result):
+        from napari.layers import Layer
+
+        layers, error = result
+        if error is not None:
+            self.status.value = f"error: {error}"
+            return
+        for data, kwargs, kind in layers:
+            self.viewer.add_layer(Layer.create(data, kwargs, kind))
+        self.status.value = f"added {len(layers)} layers"
+
+
+def _checked_analysis(labels, **options):
+    """``(layers, None)``, or ``(None, message)`` for bad input: an InputError is the user's to fix and goes to
+    the status line; any other exception is a bug and reaches napari's error notification (with its traceback)."""
+    try:
+        return run_analysis(labels, **options), None
+    except InputError as exc:
+        return None, str(exc)

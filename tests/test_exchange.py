@@ -1,0 +1,452 @@
+"""Exchange formats: CTC folders, GEFF graphs, OME-Zarr label stacks, ``hexatissue export``."""
+import itertools
+import json
+import shutil
+from collections import Counter
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pandas as pd
+import pytest
+import tifffile
+
+import hexatissue as ht
+from hexatissue.cli import main
+from hexatissue.errors import InputError
+from hexatissue.exchange.ctc import check_ctc, gap_links, read_ctc, write_ctc
+from hexatissue.exchange.geff import geff_tables, read_geff, write_geff
+from hexatissue.exchange.labels import track_masks
+from hexatissue.exchange.omezarr import downsample_labels, write_ome_zarr_labels
+from hexatissue.graph import neighbor_graph
+from hexatissue.options import OrderOptions
+from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+from .conftest import real_subdir
+
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+NO_FIELDS = OrderOptions(fields=False)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# a scripted movie with a division and a gap, and its exact CTC content
+# ---------------------------------------------------------------------------------------------------------
+def scripted_masks():
+    """6 frames of 20 x 20: track 1 (missing in frame 1), mother 2 (frames 0-2) -> daughters 3, 4 (3-5)."""
+    m = np.zeros((6, 20, 20), np.int32)
+    m[:, :10, :10] = 1
+    m[1, :10, :10] = 0
+    m[:3, 10:, :] = 2
+    m[3:, 10:, :10] = 3
+    m[3:, 10:, 10:] = 4
+    lineage = pd.DataFrame({"track": [1, 2, 3, 4], "parent": [0, 0, 2, 2]})
+    return m, lineage
+
+
+# track 1's second part (frames 2-5) is a new track 5 whose parent is 1: the format has no gaps
+SCRIPTED_LINES = "1 0 0 0\n2 0 2 0\n3 3 5 2\n4 3 5 2\n5 2 5 1\n"
+
+
+def test_write_ctc_splits_gaps_and_writes_the_exact_track_file(tmp_path):
+    masks, lineage = scripted_masks()
+    folder = write_ctc(masks, lineage, tmp_path)
+    assert folder == tmp_path
+    assert (tmp_path / "res_track.txt").read_text() == SCRIPTED_LINES
+    assert sorted(p.name for p in tmp_path.glob("mask*.tif")) == [f"mask{t:03d}.tif" for t in range(6)]
+    check_ctc(tmp_path)
+    stored, tracks = read_ctc(tmp_path)
+    assert stored.dtype == np.uint16
+    expected = masks.copy()
+    expected[2:][expected[2:] == 1] = 5
+    np.testing.assert_array_equal(stored, expected)
+    assert tracks.values.tolist() == [[int(v) for v in line.split()] for line in SCRIPTED_LINES.splitlines()]
+    same, parents = gap_links(tracks)
+    assert same == {5: 1} and parents == {3: 2, 4: 2}
+
+
+def test_ctc_round_trip_through_open_source_gives_back_the_tracks_and_parents(tmp_path):
+    masks, lineage = scripted_masks()
+    write_ctc(masks, lineage, tmp_path / "res")
+    source = ht.open_source(tmp_path / "res")
+    assert source.ids_consistent and source.parents == {3: 2, 4: 2}
+    assert source.description["kind"] == "ctc" and source.description["layout"] == "result"
+    np.testing.assert_array_equal(np.stack([source.frame(t) for t in range(6)]), masks)  # gap merged back
+
+
+def test_ctc_truth_layout(tmp_path):
+    masks, lineage = scripted_masks()
+    folder = write_ctc(masks, lineage, tmp_path, truth=True)
+    assert folder == tmp_path / "TRA"
+    assert (folder / "man_track.txt").read_text() == SCRIPTED_LINES
+    assert sorted(p.name for p in folder.glob("*.tif")) == [f"man_track{t:03d}.tif" for t in range(6)]
+    check_ctc(tmp_path)
+    check_ctc(folder)
+    assert ht.open_source(tmp_path).description["layout"] == "truth"
+    assert ht.open_source(folder).parents == {3: 2, 4: 2}
+
+
+def test_ctc_uses_four_digits_beyond_1000_frames(tmp_path):
+    masks = np.ones((1001, 2, 2), np.uint8)
+    write_ctc(masks, pd.DataFrame({"track": [1], "parent": [0]}), tmp_path)
+    names = sorted(p.name for p in tmp_path.glob("mask*.tif"))
+    assert names[0] == "mask0000.tif" and names[-1] == "mask1000.tif" and len(names) == 1001
+    assert (tmp_path / "res_track.txt").read_text() == "1 0 1000 0\n"
+
+
+def test_write_ctc_removes_masks_of_an_earlier_longer_export(tmp_path):
+    masks, lineage = scripted_masks()
+    write_ctc(masks, lineage, tmp_path)
+    write_ctc(masks[:3], lineage, tmp_path)
+    assert sorted(p.name for p in tmp_path.glob("mask*.tif")) == [f"mask{t:03d}.tif" for t in range(3)]
+    check_ctc(tmp_path)
+
+
+def test_write_ctc_refuses_bad_input(tmp_path):
+    masks, lineage = scripted_masks()
+    with pytest.raises(InputError, match="lineage has no row for track"):
+        write_ctc(masks, lineage[lineage["track"] != 4], tmp_path)
+    with pytest.raises(InputError, match="16-bit"):
+        write_ctc(masks * 70000, lineage, tmp_path)
+    with pytest.raises(InputError, match="non-integer"):
+        write_ctc(masks + 0.5, lineage, tmp_path)
+    with pytest.raises(InputError, match="lineage is missing column"):
+        write_ctc(masks, lineage.drop(columns="parent"), tmp_path)
+    with pytest.raises(InputError, match="T x Y x X"):
+        write_ctc(masks[0], lineage, tmp_path)
+
+
+# corruptions of the track file: (text replaced, replacement)
+LINE_EDITS = {"no parent line": ("5 2 5 1", "5 2 5 9"), "parent too late": ("2 0 2 0", "2 0 3 0"),
+              "duplicate id": ("5 2 5 1\n", "5 2 5 1\n3 3 5 2\n"), "malformed line": ("5 2 5 1\n", "5 2 5 1\n7 3 x\n"),
+              "unlisted id": ("4 3 5 2\n", ""), "gap in a line": ("1 0 0 0", "1 0 5 0"),
+              "line never in masks": ("5 2 5 1\n", "5 2 5 1\n8 0 1 0\n")}
+
+
+def _corrupt(folder, how):
+    if how in LINE_EDITS:
+        track_file = folder / "res_track.txt"
+        track_file.write_text(track_file.read_text().replace(*LINE_EDITS[how]))
+    elif how == "missing file":
+        (folder / "mask004.tif").unlink()
+    elif how == "extra frame":  # track 1 back in frame 1, outside its line 0..0
+        tifffile.imwrite(folder / "mask001.tif", tifffile.imread(folder / "mask000.tif"))
+    elif how == "digits":
+        (folder / "mask005.tif").rename(folder / "mask0005.tif")
+    return folder
+
+
+CORRUPTIONS = {
+    "missing file": "numbered 0..5; missing \\[4\\]",
+    "extra frame": "track 1: its line says frames 0..0; present in frame\\(s\\) \\[1",
+    "no parent line": "track 5: parent 9 has no line",
+    "parent too late": "parent 2 ends at frame 3, not before its child begins \\(3\\)",
+    "duplicate id": "track id\\(s\\) \\[3\\] have several lines",
+    "malformed line": "line 6 is '7 3 x'; expected four non-negative integers",
+    "unlisted id": "mask id\\(s\\) \\[4\\] have no line",
+    "gap in a line": "track 1: its line says frames 0..5; absent from frame\\(s\\) \\[1, 2, 3, 4, 5\\]",
+    "line never in masks": "track 8: its line says frames 0..1 but no mask holds it",
+    "digits": "have \\[3, 4\\] digits",
+}
+
+
+@pytest.mark.parametrize("how", sorted(CORRUPTIONS))
+def test_check_ctc_names_each_kind_of_violation(tmp_path, how):
+    masks, lineage = scripted_masks()
+    folder = _corrupt(write_ctc(masks, lineage, tmp_path), how)
+    with pytest.raises(InputError, match=CORRUPTIONS[how]):
+        check_ctc(folder)
+    with pytest.raises(InputError, match="breaks the format"):
+        read_ctc(folder)
+
+
+def test_check_ctc_lists_every_violation_in_one_message(tmp_path):
+    masks, lineage = scripted_masks()
+    folder = write_ctc(masks, lineage, tmp_path)
+    (folder / "res_track.txt").write_text(SCRIPTED_LINES.replace("5 2 5 1", "5 2 5 9") + "3 3 5 2\n8 0 1 0\n")
+    with pytest.raises(InputError) as info:
+        check_ctc(folder)
+    text = str(info.value)
+    assert "3 violation(s)" in text
+    for part in ("parent 9 has no line", "[3] have several lines", "track 8"):
+        assert part in text
+
+
+def test_check_ctc_refuses_a_folder_that_is_not_ctc(tmp_path):
+    with pytest.raises(InputError, match="not a Cell Tracking Challenge folder"):
+        check_ctc(tmp_path)
+    tifffile.imwrite(tmp_path / "frame0.tif", np.ones((4, 4), np.uint8))
+    assert ht.open_source(tmp_path).description["kind"] == "folder"  # a folder of frames stays one
+
+
+# ---------------------------------------------------------------------------------------------------------
+# a hand-made two-frame movie: squares, one dividing
+# ---------------------------------------------------------------------------------------------------------
+def square_movie():
+    """Frame 0: a 2 x 2 grid of 40-px squares 1 2 / 3 4; frame 1: square 4 split into 5 (top) and 6 (bottom)."""
+    f0 = np.zeros((80, 80), np.int32)
+    f0[:40, :40], f0[:40, 40:], f0[40:, :40], f0[40:, 40:] = 1, 2, 3, 4
+    f1 = f0.copy()
+    f1[40:60, 40:], f1[60:, 40:] = 5, 6
+    return np.stack([f0, f1])
+
+
+SQUARE_CONTACTS = {0: {(1, 2), (1, 3), (2, 4), (3, 4)},  # diagonal squares meet at a point only
+                   1: {(1, 2), (1, 3), (2, 5), (3, 5), (3, 6), (5, 6)}}
+SQUARE_TRACK_LINKS = {((0, 1), (1, 1), False), ((0, 2), (1, 2), False), ((0, 3), (1, 3), False),
+                      ((0, 4), (1, 5), True), ((0, 4), (1, 6), True)}
+
+
+@pytest.fixture(scope="module")
+def squares(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("squares")
+    tifffile.imwrite(folder / "squares.tif", square_movie(), photometric="minisblack")
+    movie = ht.analyze(folder / "squares.tif", order=NO_FIELDS, workers=1, progress=False)
+    movie.write(folder / "results")
+    return folder, movie
+
+
+def _by_cell(graph):
+    """A GEFF graph relabelled from node ids to (frame, cell)."""
+    return nx.relabel_nodes(graph, {n: (d["frame"], d["cell"]) for n, d in graph.nodes(data=True)})
+
+
+def test_geff_neighbour_graph_of_the_squares_is_the_hand_made_one(squares, tmp_path):
+    _, movie = squares
+    assert movie.lineage.set_index("track")["parent"].to_dict() == {1: 0, 2: 0, 3: 0, 4: 0, 5: 4, 6: 4}
+    neighbours, tracks = write_geff(movie, tmp_path)
+    graph, meta = read_geff(neighbours)
+    g = _by_cell(graph)
+    assert not g.is_directed()
+    assert set(g.nodes) == {(0, c) for c in (1, 2, 3, 4)} | {(1, c) for c in (1, 2, 3, 5, 6)}
+    got = {t: {tuple(sorted((a[1], b[1]))) for a, b in g.edges if a[0] == t} for t in (0, 1)}
+    assert got == SQUARE_CONTACTS
+    assert [(a.name, a.type, a.unit) for a in meta.axes] == [("frame", "time", "frame"), ("y", "space", "pixel"),
+                                                              ("x", "space", "pixel")]
+    t = _by_cell(read_geff(tracks)[0])
+    assert t.is_directed()
+    assert {(a, b, d["is_division"]) for a, b, d in t.edges(data=True)} == SQUARE_TRACK_LINKS
+    assert all(d["frame_gap"] == 1 for *_, d in t.edges(data=True))
+    assert {d["lineage"] for n, d in t.nodes(data=True) if n[1] in (4, 5, 6)} == {4}
+
+
+def _expected_neighbour_graph(movie):
+    """Every frame's :func:`hexatissue.graph.neighbor_graph`, nodes keyed (frame, cell), plus |gamma|, angle."""
+    whole = nx.Graph()
+    for t in range(movie.n_frames):
+        g = neighbor_graph(movie.frame(t))
+        for c, attrs in g.nodes(data=True):
+            attrs = dict(attrs, cell=c, frame=t)
+            for p in (6, 2):
+                if f"gamma{p}_re" in attrs:
+                    z = np.array([attrs[f"gamma{p}_re"] + 1j * attrs[f"gamma{p}_im"]])
+                    attrs[f"gamma{p}_abs"], attrs[f"gamma{p}_angle"] = float(np.abs(z)[0]), float(np.angle(z)[0] / p)
+            whole.add_node((t, c), **attrs)
+        whole.add_edges_from(((t, a), (t, b), d) for a, b, d in g.edges(data=True))
+    return whole
+
+
+def _same_attrs(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        if isinstance(a[k], float) and np.isnan(a[k]):
+            assert np.isnan(b[k]), k
+        else:
+            assert a[k] == b[k], k
+
+
+def test_geff_round_trip_reproduces_nodes_edges_and_attributes_exactly(epicure, tmp_path):
+    movie = epicure["movie"]
+    neighbours, _ = write_geff(movie, tmp_path)
+    got = _by_cell(read_geff(neighbours)[0])
+    want = _expected_neighbour_graph(movie)
+    assert set(got.nodes) == set(want.nodes)
+    assert {frozenset(e) for e in got.edges} == {frozenset(e) for e in want.edges}
+    for n in want.nodes:
+        _same_attrs(got.nodes[n], want.nodes[n])
+    for a, b in want.edges:
+        assert got.edges[a, b] == want.edges[a, b]
+    nodes, edges = geff_tables(neighbours)  # and back to tables: the cells table itself
+    cells = movie.cells.sort_values(["frame", "cell"]).reset_index(drop=True)
+    pd.testing.assert_frame_equal(nodes[cells.columns], cells)
+
+
+def test_geff_track_graph_follows_tracks_and_divisions(epicure, tmp_path):
+    movie = epicure["movie"]
+    _, tracks = write_geff(movie, tmp_path)
+    graph, meta = read_geff(tracks)
+    g = _by_cell(graph)
+    divisions = {(a[1], b[1]) for a, b, d in g.edges(data=True) if d["is_division"]}
+    assert divisions == {(73, 477), (73, 490)}
+    assert meta.track_node_props == {"tracklet": "track", "lineage": "lineage"}
+    # every other edge joins consecutive appearances of one track, and each track is one path
+    cells = movie.cells
+    n_links = sum(len(f) - 1 for _, f in cells.groupby("track"))
+    assert g.number_of_edges() == n_links + 2
+    for a, b, d in g.edges(data=True):
+        if not d["is_division"]:
+            assert g.nodes[a]["track"] == g.nodes[b]["track"] and d["frame_gap"] == b[0] - a[0] >= 1
+    assert meta.axes[2].scale == 0.2 and meta.axes[2].scaled_unit == "micrometer"
+    assert meta.extra["hexatissue"]["graph"] == "tracks"
+
+
+def test_read_geff_refuses_what_is_not_a_store(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        read_geff(tmp_path / "none.geff")
+    with pytest.raises(InputError, match="cannot be read"):
+        geff_tables(tmp_path)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# the EpiCure sample: its annotated division 73 -> 477 + 490
+# ---------------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def epicure(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("epicure")
+    movie = ht.analyze(SAMPLE, workers=1, progress=False)
+    movie.write(folder / "results")
+    return {"folder": folder, "results": folder / "results", "movie": movie}
+
+
+def test_ctc_export_of_the_epicure_sample_lists_its_division(epicure, tmp_path):
+    assert main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")]) == 0
+    check_ctc(tmp_path / "ctc")
+    lines = [tuple(map(int, line.split())) for line in (tmp_path / "ctc" / "res_track.txt").read_text().splitlines()]
+    spans = {l: (b, e, p) for l, b, e, p in lines}
+    assert spans[477] == (3, 10, 73) and spans[490] == (3, 10, 73) and spans[73][1] == 2
+    masks, tracks = read_ctc(tmp_path / "ctc")
+    same, _ = gap_links(tracks)
+    assert same == {1163: 16, 1164: 65, 1165: 116, 1166: 116}  # ids missing from some frames of the EpiCure labels
+    cells = epicure["movie"].cells
+    for t in (0, 3, 10):  # each mask has the cell's pixel area under its track id (gaps merged back)
+        merged = pd.Series(masks[t].ravel()).replace(same).to_numpy()
+        ids, counts = np.unique(merged, return_counts=True)
+        area = cells[cells["frame"] == t].set_index("track")["area"]
+        assert dict(zip(ids[1:].tolist(), counts[1:].astype(float).tolist())) == area.to_dict()
+
+
+def test_analyzing_the_ctc_export_gives_back_the_lineage(epicure, tmp_path):
+    main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")])
+    assert main(["analyze", str(tmp_path / "ctc"), "--out", str(tmp_path / "again"), "--workers", "1",
+                 "--no-fields"]) == 0
+    again = ht.read_results(tmp_path / "again")
+    assert again.source["kind"] == "ctc" and again.source["gaps_merged"] == 4
+    first = epicure["movie"]
+    pd.testing.assert_frame_equal(again.lineage, first.lineage)
+    assert again.summary["tracking"]["resolved"] == "never"
+    key = ["frame", "track"]
+    a = again.cells.sort_values(key).reset_index(drop=True)
+    b = first.cells.sort_values(key).reset_index(drop=True)
+    pd.testing.assert_frame_equal(a[key + ["area", "is_border"]], b[key + ["area", "is_border"]])
+
+
+def test_export_needs_the_labels_when_the_recorded_path_is_gone(epicure, tmp_path, capsys):
+    results = tmp_path / "results"
+    shutil.copytree(epicure["results"], results)
+    meta = json.loads((results / "metadata.json").read_text())
+    meta["source"]["path"] = str(tmp_path / "moved.tif")
+    (results / "metadata.json").write_text(json.dumps(meta))
+    assert main(["export", str(results), "--to", "ctc", str(tmp_path / "ctc")]) == 2
+    assert "--labels FILE" in capsys.readouterr().err
+    assert main(["export", str(results), "--to", "ctc", str(tmp_path / "ctc"), "--labels", str(SAMPLE)]) == 0
+    check_ctc(tmp_path / "ctc")
+    other = tmp_path / "other.tif"
+    tifffile.imwrite(other, np.flip(tifffile.imread(SAMPLE), axis=2), photometric="minisblack")
+    assert main(["export", str(results), "--to", "ctc", str(tmp_path / "ctc2"), "--labels", str(other)]) == 2
+    assert "cells differ from the results' cells table" in capsys.readouterr().err
+
+
+def test_track_masks_of_an_array_source_need_labels(squares):
+    _, movie = squares
+    array_movie = movie.replace(source={"kind": "array", "path": None})
+    with pytest.raises(InputError, match="labels="):
+        track_masks(array_movie)
+    masks = track_masks(array_movie, labels=square_movie())
+    np.testing.assert_array_equal(np.stack(masks), square_movie())  # touching squares: ids = tracks
+
+
+def test_export_geff_and_ome_zarr_from_the_command_line(epicure, tmp_path):
+    assert main(["export", str(epicure["results"]), "--to", "geff", str(tmp_path / "g")]) == 0
+    assert (tmp_path / "g" / "neighbours.geff").is_dir() and (tmp_path / "g" / "tracks.geff").is_dir()
+    assert main(["export", str(epicure["results"]), "--to", "ome-zarr", str(tmp_path / "l.zarr"),
+                 "--levels", "2"]) == 0
+    source = ht.open_source(tmp_path / "l.zarr")
+    assert source.description["n_levels"] == 2
+    assert source.calibration == ht.Calibration(0.2, "um")
+    np.testing.assert_array_equal(np.stack([source.frame(t) for t in range(11)]),
+                                  np.stack(track_masks(epicure["movie"])))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# OME-Zarr
+# ---------------------------------------------------------------------------------------------------------
+def test_downsample_labels_is_the_mode_of_each_block():
+    for values in itertools.product(range(3), repeat=4):
+        counts = Counter(values)
+        best = max(counts.values())
+        want = values[0] if counts[values[0]] == best else next(v for v in values if counts[v] == best)
+        assert downsample_labels(np.array(values).reshape(2, 2))[0, 0] == want, values
+    odd = np.arange(15).reshape(3, 5)
+    np.testing.assert_array_equal(downsample_labels(odd), [[0, 2, 4], [10, 12, 14]])  # edge rows repeated
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32, np.int64])
+def test_ome_zarr_label_stack_reads_back_identical(tmp_path, dtype):
+    stack = np.random.default_rng(1).integers(0, 100, (4, 33, 47)).astype(dtype)
+    cal = ht.Calibration(0.5, "um", 2.0, "min")
+    path = write_ome_zarr_labels(stack, tmp_path / "s.zarr", calibration=cal, levels=3, chunks=(1, 16, 16))
+    source = ht.open_source(path)
+    back = np.stack([source._raw(t) for t in range(4)])
+    assert back.dtype == stack.dtype
+    np.testing.assert_array_equal(back, stack)
+    assert source.calibration == cal
+    assert ht.open_source(path, level=2).calibration == ht.Calibration(2.0, "um", 2.0, "min")
+    meta = json.loads((tmp_path / "s.zarr" / ".zattrs").read_text())
+    axes = meta["multiscales"][0]["axes"]
+    assert [(a["name"], a.get("unit")) for a in axes] == [("t", "minute"), ("y", "micrometer"), ("x", "micrometer")]
+    assert "image-label" in meta
+
+
+def test_two_level_ome_zarr_analyses_at_the_chosen_level(tmp_path):
+    full = np.stack([voronoi_labels(jittered_seeds((160, 200), 20, seed=s), (160, 200)) for s in (1, 2)])
+    write_ome_zarr_labels(full, tmp_path / "v.zarr", calibration=ht.Calibration(0.25, "um"), levels=2)
+    half = np.stack([downsample_labels(f) for f in full])
+    at_level = ht.analyze(ht.open_source(tmp_path / "v.zarr", level=1), workers=1, progress=False)
+    direct = ht.analyze(half, workers=1, progress=False)
+    assert at_level.shape == (80, 100) and at_level.calibration == ht.Calibration(0.5, "um")
+    for name, table in direct.tables().items():
+        pd.testing.assert_frame_equal(at_level.tables()[name], table, obj=name)
+
+
+def test_write_ome_zarr_labels_refuses_bad_input(tmp_path):
+    with pytest.raises(InputError, match="integer labels"):
+        write_ome_zarr_labels(np.zeros((2, 8, 8)), tmp_path / "a.zarr")
+    with pytest.raises(InputError, match="levels=5"):
+        write_ome_zarr_labels(np.ones((1, 8, 8), np.uint8), tmp_path / "a.zarr", levels=5)
+    with pytest.raises(InputError, match="levels must be a positive integer"):
+        write_ome_zarr_labels(np.ones((1, 8, 8), np.uint8), tmp_path / "a.zarr", levels=0)
+    assert not (tmp_path / "a.zarr").exists()
+
+
+# ---------------------------------------------------------------------------------------------------------
+# real data
+# ---------------------------------------------------------------------------------------------------------
+def test_real_mouse_epidermis_exports_to_ctc_and_geff(real_data, tmp_path):
+    """Untracked per-frame labels (overlap-tracked): the exports hold every cell and the lineage comes back."""
+    labels = real_subdir(real_data, "mouse_epidermis_laptrack") / "labels.npy"
+    movie = ht.analyze(labels, order=NO_FIELDS, workers=1, progress=False)
+    movie.write(tmp_path / "results")
+    assert main(["export", str(tmp_path / "results"), "--to", "ctc", str(tmp_path / "ctc")]) == 0
+    check_ctc(tmp_path / "ctc")
+    masks, tracks = read_ctc(tmp_path / "ctc")
+    per_frame = movie.cells.groupby("frame").size().tolist()
+    assert [len(np.unique(m[m > 0])) for m in masks] == per_frame
+    again = ht.analyze(tmp_path / "ctc", order=NO_FIELDS, workers=1, progress=False)
+    assert movie.summary["tracking"]["resolved"] == "always"  # ids renumbered every frame: re-tracked
+    pd.testing.assert_frame_equal(again.lineage, movie.lineage)  # the CTC folder is read as those tracks
+    neighbours, track_store = write_geff(movie, tmp_path / "geff")
+    nodes, edges = geff_tables(neighbours)
+    assert len(nodes) == len(movie.cells)
+    from hexatissue.graph import contact_table
+
+    assert len(edges) == len(contact_table(movie.edges))
+    assert read_geff(track_store)[0].number_of_nodes() == len(movie.cells)

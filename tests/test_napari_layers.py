@@ -1,0 +1,197 @@
+"""napari layer data of a Movie (hexatissue.napari.layers): counts, coordinates, colours and scale, no napari needed."""
+import shutil
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tifffile
+
+from hexatissue import EventOptions, analyze, open_source, read_results
+from hexatissue.errors import HexatissueWarning, InputError
+from hexatissue.napari import layers as L
+from hexatissue.plot import MINUS_COLOR, PLUS_COLOR
+from hexatissue.synthetic import t1_movie
+
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+
+
+@pytest.fixture(scope="module")
+def epicure(tmp_path_factory):
+    """The EpiCure sample analysed and written to a results folder (300 s between frames, from its README)."""
+    if not SAMPLE.exists():
+        pytest.skip("sample_data/epicure_notum/013_crop_labels.tif is absent")
+    folder = tmp_path_factory.mktemp("epicure")
+    source = open_source(SAMPLE, frame_interval=300, time_unit="s")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)  # a few cells without polygon (covered below)
+        analyze(source, progress=False).write(folder)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def layers(epicure):
+    movie = read_results(epicure)
+    return movie, {kw["name"]: (data, kw, kind) for data, kw, kind in
+                   L.movie_layers(movie, labels=L.open_labels(movie, epicure))}
+
+
+def test_every_layer_of_the_epicure_results_has_the_table_counts_and_the_scale(layers):
+    movie, by_name = layers
+    assert list(by_name) == ["labels", "polygons", "vertices", "gamma6 stars", "Gamma2 defects", "Gamma6 defects",
+                             "T1 events", "tracks"]
+    for data, kw, kind in by_name.values():
+        assert kw["scale"] == (300.0, 0.2, 0.2), kw["name"]
+        assert kw["metadata"]["units"] == {"t": "s", "y": "um", "x": "um"}, kw["name"]
+        assert kw["units"] == ("s", "um", "um"), kw["name"]  # napari's (pint) names
+    cells = movie.cells
+    polygons = by_name["polygons"][0]
+    assert len(polygons) == int((cells["n_sides"] >= 3).sum()) == 894  # 8 cells have no polygon (n_sides 0)
+    assert len(by_name["vertices"][0]) == len(movie.vertices)
+    for p in (2, 6):
+            assert len(by_name[f"Gamma{p} defects"][0]) == int((movie.defects["p"] == p).sum())
+    assert len(by_name["Gamma2 defects"][0]) + len(by_name["Gamma6 defects"][0]) == len(movie.defects)
+    assert len(by_name["T1 events"][0]) == len(movie.events)
+    tracks = by_name["tracks"][0]
+    assert len(np.unique(tracks[:, 0])) == len(movie.lineage) == cells["track"].nunique()
+    assert len(tracks) == len(cells)
+    # the annotated division of the sample: 73 -> 477 + 490 at frame 3
+    assert by_name["tracks"][1]["graph"] == {477: [73], 490: [73]}
+    assert by_name["tracks"][0][tracks[:, 0] == 477][:, 1].min() == 3
+
+
+def test_labels_are_the_sample_frames(layers):
+    _, by_name = layers
+    data, kw, kind = by_name["labels"]
+    assert kind == "labels" and data.shape == (11, 160, 257)
+    truth = tifffile.imread(SAMPLE).astype(np.int64)
+    assert np.array_equal(np.asarray(data), truth)
+
+
+def test_polygons_are_the_cell_vertices_in_row_col_order_coloured_by_sides(layers):
+    movie, by_name = layers
+    polygons, kw, _ = by_name["polygons"]
+    features = kw["features"]
+    assert (features["n_sides"].to_numpy() == [len(p) for p in polygons]).all()
+    # a hand-checked cell: its polygon is its cell_vertices rows in rank order, as (frame, row = y, col = x)
+    i = int(np.flatnonzero((features["frame"] == 5).to_numpy())[0])
+    cell = int(features["cell"].iloc[i])
+    cv = movie.cell_vertices.query("frame == 5 and cell == @cell").sort_values("rank")
+    v = movie.vertices.query("frame == 5").set_index("vertex").loc[cv["vertex"]]
+    assert np.allclose(polygons[i], np.column_stack([np.full(len(v), 5.0), v["y"], v["x"]]))
+    hexagon = np.flatnonzero(features["n_sides"].to_numpy() == 6)[0]
+    pentagon = np.flatnonzero(features["n_sides"].to_numpy() == 5)[0]
+    assert np.allclose(kw["edge_color"][hexagon], L._rgba([L.SIDES_COLORS[6]])[0])
+    assert np.allclose(kw["edge_color"][pentagon], L._rgba([L.SIDES_COLORS[5]])[0])
+    assert np.allclose(kw["face_color"][:, 3], L.POLYGON_FACE_ALPHA)
+
+
+def test_stars_have_p_legs_along_arg_gamma_over_p_scaled_by_its_modulus(layers):
+    movie, by_name = layers
+    vectors, kw, kind = by_name["gamma6 stars"]
+    cells = movie.cells
+    gamma = cells["gamma6_re"].to_numpy() + 1j * cells["gamma6_im"].to_numpy()
+    ok = np.isfinite(gamma)
+    assert kind == "vectors" and vectors.shape == (6 * ok.sum(), 2, 3)
+    unit = kw["metadata"]["leg_per_unit_gamma_px"]
+    first = cells[ok].iloc[0]
+    g = gamma[ok][0]
+    legs = vectors[:6]
+    assert np.allclose(legs[:, 0], [first["frame"], first["y"], first["x"]])  # every leg starts at the centroid
+    assert np.allclose(legs[:, 1, 0], 0.0)  # and stays in its frame
+    angles = np.arctan2(legs[:, 1, 1], legs[:, 1, 2])  # (dy, dx) in image axes, as hexatissue.plot draws them
+    expected = np.angle(g) / 6 + 2 * np.pi * np.arange(6) / 6
+    assert np.allclose(np.exp(1j * angles), np.exp(1j * expected))
+    assert np.allclose(np.hypot(legs[:, 1, 1], legs[:, 1, 2]), abs(g) * unit)
+    assert np.allclose(kw["features"]["abs_gamma6"].to_numpy(), np.repeat(np.abs(gamma[ok]), 6))
+
+
+def test_defects_are_red_for_positive_and_blue_for_negative_charges(layers):
+    movie, by_name = layers
+    data, kw, _ = by_name["Gamma6 defects"]
+    charge = kw["features"]["charge"].to_numpy()
+    assert set(np.round(charge * 6).astype(int)) <= {-1, 1} and (charge > 0).any() and (charge < 0).any()
+    assert np.allclose(kw["face_color"][charge > 0], L._rgba([PLUS_COLOR])[0])
+    assert np.allclose(kw["face_color"][charge < 0], L._rgba([MINUS_COLOR])[0])
+    rows = movie.defects[movie.defects["p"] == 6]
+    assert np.allclose(data, rows[["frame", "y", "x"]].to_numpy(float))
+
+
+def test_labels_fall_back_to_labels_tif_then_are_left_out_with_a_warning(epicure, tmp_path):
+    moved = tmp_path / "moved"
+    shutil.copytree(epicure, moved)
+    movie = read_results(moved).replace(source={"path": str(tmp_path / "gone.tif")})
+    with pytest.warns(HexatissueWarning, match="no label image"):
+        assert L.open_labels(movie, moved) is None
+    assert [kw["name"] for _, kw, _ in L.movie_layers(movie)][0] == "polygons"
+    tifffile.imwrite(moved / "labels.tif", tifffile.imread(SAMPLE).astype(np.uint16))
+    assert L.open_labels(movie, moved).shape == (11, 160, 257)
+    tifffile.imwrite(moved / "labels.tif", tifffile.imread(SAMPLE)[:4].astype(np.uint16),
+                    photometric="minisblack")  # another frame count
+    with pytest.warns(HexatissueWarning, match="4 frame"):
+        assert L.open_labels(movie, moved) is None
+    # a relative path, as `hexatissue analyze IMAGE --out results` records it, is also looked for beside the folder
+    run = tmp_path / "run"
+    shutil.copytree(epicure, run / "results")
+    shutil.copy(SAMPLE, run / "image.tif")
+    movie = movie.replace(source={"path": "image.tif"})
+    assert L.open_labels(movie, run / "results").shape == (11, 160, 257)
+    with pytest.raises(InputError, match="labels must have shape"):
+        L.labels_layer(movie, np.zeros((3, 160, 257), int))
+    with pytest.raises(InputError, match="p=4"):
+        L.star_layer(movie, p=4)
+
+
+@pytest.fixture(scope="module")
+def scripted(tmp_path_factory):
+    """The scripted T1 movie in a periodic box (exact events) and its analysis, written and read back."""
+    m = t1_movie(periodic=True, seed=2)
+    folder = tmp_path_factory.mktemp("t1")
+    analyze(m.labels, box=m.box, events=EventOptions(min_length=m.min_length, censor=m.censor),
+            workers=1, progress=False).write(folder)
+    return m, read_results(folder)
+
+
+def test_t1_events_are_points_at_their_quartet_centre_with_kind_and_duration(scripted):
+    truth, movie = scripted
+    data, kw, kind = L.event_layer(movie)
+    assert kind == "points" and len(data) == len(movie.events) == len(truth.events) == 5
+    assert np.allclose(data, movie.events[["frame_start", "y", "x"]].to_numpy(float))
+    assert sorted(kw["features"]["kind"]) == sorted(truth.events["kind"])
+    cycles = kw["features"][kw["features"]["kind"] == "cycle"]
+    assert np.isfinite(cycles["duration"]).all() and len(cycles) == 2
+    assert np.allclose(kw["face_color"][(kw["features"]["kind"] == "cycle").to_numpy()],
+                       L._rgba([L.EVENT_COLORS["cycle"]])[0])
+
+
+def test_periodic_polygons_sit_at_their_cell_and_tracks_are_unwrapped(scripted):
+    truth, movie = scripted
+    polygons, kw, _ = L.polygon_layer(movie)
+    features = kw["features"]
+    assert len(polygons) == int((movie.cells["n_sides"] >= 3).sum()) == len(movie.cells)
+    centre = np.array([p[:, 1:].mean(axis=0) for p in polygons])  # (y, x) vertex mean
+    offset = centre - features[["y", "x"]].to_numpy()
+    assert np.abs(offset).max() < 3.0  # next to the centroid, never a box length away
+    # cells cut by the box edge stick out of it instead of being split
+    lo = np.array([p[:, 1:].min(axis=0) for p in polygons])
+    hi = np.array([p[:, 1:].max(axis=0) for p in polygons])
+    assert (lo < 0).any() and (hi[:, 1] > truth.box.Lx).any()
+    assert (hi - lo).max() < 60  # contiguous: cells are 30-41 px across; a polygon split by the box spans ~L
+    tracks, tkw, _ = L.track_layer(movie)
+    same = tracks[1:, 0] == tracks[:-1, 0]
+    steps = np.abs(np.diff(tracks[:, 2:], axis=0))[same]
+    assert steps.max() < 10.0  # drift, wobble and the T1 scripts move cells < 6 px a frame; a wrap jumps ~L
+    assert (tracks[:, 3] > truth.box.Lx).any() or (tracks[:, 3] < 0).any()  # the drift carries cells out
+    assert tkw["scale"] == (1.0, 1.0, 1.0) and tkw["units"] == ("pixel",) * 3 and tkw["graph"] == {}
+
+
+def test_a_single_image_gives_2d_layers_without_tracks(scripted):
+    truth, _ = scripted
+    movie = analyze(truth.labels[0], box=truth.box, workers=1, progress=False)
+    layers = {kw["name"]: (data, kw) for data, kw, _ in L.movie_layers(movie)}
+    assert "tracks" not in layers and "T1 events" in layers
+    assert layers["polygons"][1]["scale"] == (1.0, 1.0) and layers["polygons"][1]["ndim"] == 2
+    assert layers["polygons"][0][0].shape[1] == 2 and layers["vertices"][0].shape[1] == 2
+    assert layers["gamma6 stars"][0].shape[1:] == (2, 2)
+    assert layers["polygons"][1]["metadata"]["units"] == {"y": "px", "x": "px"}
+    assert layers["polygons"][1]["units"] == ("pixel", "pixel")
