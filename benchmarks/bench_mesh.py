@@ -4,7 +4,8 @@ Compares, in the same run and on one core, hexatissue.mesh_from_labels with the 
 scikit-image route people use today (regionprops, then find_contours and approximate_polygon per
 cell, then gamma6 of that polygon).  Peak memory is the peak resident set size of a fresh process
 running each route once, minus its size just before (numba allocations are invisible to
-tracemalloc); the label image itself (16 MB as int32) is not included.
+tracemalloc); the label image itself (16 MB as int32) is not included.  CPU times (process time)
+are printed beside wall times: on a shared machine they are the steadier figure.
 
 Run:  python benchmarks/bench_mesh.py [--size 2048] [--spacing 20.5] [--repeats 5]
 """
@@ -32,9 +33,9 @@ def make_labels(size, spacing):
 
 
 def hexatissue_route(labels):
-    from hexatissue import Box, mesh_from_labels
+    from hexatissue import Box, mesh_from_labels, shape_order
 
-    frame = mesh_from_labels(labels, box=Box.from_shape(labels.shape), p=(6,))
+    frame = shape_order(mesh_from_labels(labels, box=Box.from_shape(labels.shape)), p=6)
     return frame.cells["gamma6_re"].to_numpy() + 1j * frame.cells["gamma6_im"].to_numpy()
 
 
@@ -74,14 +75,16 @@ def main():
     labels_path = os.path.join(tempfile.mkdtemp(), "labels.npy")
     np.save(labels_path, labels)
     hexatissue_route(make_labels(256, args.spacing))  # compile / load the numba cache
-    times = []
+    times, cpu = [], []
     for _ in range(args.repeats):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         g6 = hexatissue_route(labels)
         times.append(time.perf_counter() - t)
-    t = time.perf_counter()
+        cpu.append(time.process_time() - c)
+    t, c = time.perf_counter(), time.process_time()
     g6_sk = skimage_route(labels)
-    t_sk = time.perf_counter() - t
+    t_sk, cpu_sk = time.perf_counter() - t, time.process_time() - c
+    rss = peak_rss_mb("hexatissue_route", labels_path)
     result = {
         "date": time.strftime("%Y-%m-%d"),
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, {platform.python_version()}",
@@ -91,7 +94,12 @@ def main():
         "hexatissue_s_min": float(np.min(times)),
         "skimage_per_cell_s": t_sk,
         "speedup_vs_median": t_sk / float(np.median(times)),
-        "hexatissue_peak_rss_mb": peak_rss_mb("hexatissue_route", labels_path),
+        # CPU time of this process: less disturbed than wall time when other jobs share the cores
+        "hexatissue_cpu_s_median": float(np.median(cpu)),
+        "skimage_per_cell_cpu_s": cpu_sk,
+        "speedup_cpu": cpu_sk / float(np.median(cpu)),
+        "hexatissue_peak_rss_mb": rss,
+        "hexatissue_peak_bytes_per_px": rss * 2**20 / labels.size,
         "skimage_peak_rss_mb": peak_rss_mb("skimage_route", labels_path),
         "mean_abs_gamma6": [float(np.nanmean(np.abs(g6))), float(np.nanmean(np.abs(g6_sk)))],
     }

@@ -121,9 +121,9 @@ def stage_mesh(path, n_frames, box, tables_dir):
     mesh, order = MeshOptions(), OrderOptions(fields=False)  # mesh + gamma_p, as analyze does per frame
     t0 = time.perf_counter()
     for t in range(n_frames):
-        out, _, _ = _frame_job(np.asarray(stack[t]), t, box, mesh, order)
-        parts["cells"].append(out["cells"])
-        parts["edges"].append(out["edges"])
+        out, _, _ = _frame_job(np.asarray(stack[t]), t, box, mesh, order)  # network tables as numpy columns
+        parts["cells"].append(pd.DataFrame(out["cells"]))
+        parts["edges"].append(pd.DataFrame(out["edges"]))
     elapsed = time.perf_counter() - t0
     for name, p in parts.items():
         pd.concat(p, ignore_index=True).to_parquet(Path(tables_dir) / f"{name}.parquet")

@@ -131,7 +131,8 @@ def table_polygons(vertices, cell_vertices, box=None):
     starts : (N,) int array
         First row in ``xy`` of each polygon.
     """
-    cv = cell_vertices.sort_values(["frame", "cell", "rank"], kind="stable")
+    cv = cell_vertices if _sorted_polygons(cell_vertices) else cell_vertices.sort_values(["frame", "cell", "rank"],
+                                                                                          kind="stable")
     frame, cell = cv["frame"].to_numpy(np.int64), cv["cell"].to_numpy(np.int64)
     vkey = row_keys(vertices["frame"].to_numpy(np.int64), vertices["vertex"].to_numpy(np.int64))
     xy = lookup(vkey, vertices[["x", "y"]].to_numpy(float), row_keys(frame, cv["vertex"].to_numpy(np.int64)),
@@ -152,6 +153,14 @@ def table_polygons(vertices, cell_vertices, box=None):
     return keys, xy, starts
 
 
+def _sorted_polygons(cell_vertices):
+    """Whether the rows are in (frame, cell, rank) order already (as the mesh writes them): no sort needed."""
+    key = row_keys(cell_vertices["frame"].to_numpy(np.int64), cell_vertices["cell"].to_numpy(np.int64))
+    rank = cell_vertices["rank"].to_numpy(np.int64)
+    step, same = np.diff(key), np.diff(rank)
+    return bool(np.all((step > 0) | ((step == 0) & (same > 0))))
+
+
 def row_keys(frame, ident):
     """One int64 key per (frame, id) pair, ordered like the pairs (ids below 2**40)."""
     return np.asarray(frame, np.int64) * (1 << 40) + np.asarray(ident, np.int64)
@@ -163,11 +172,14 @@ def lookup(keys, values, wanted, missing=None):
         if missing is not None and len(wanted):
             raise InputError(missing)
         return values[:0] if missing is not None else np.full(len(wanted), -1, np.int64)
-    order = np.argsort(keys, kind="stable")
-    pos = np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)
-    found = keys[order[pos]] == wanted
+    if np.all(keys[1:] > keys[:-1]):  # sorted already (tables in key order): no argsort, no indirect search
+        at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
+    else:
+        order = np.argsort(keys, kind="stable")
+        at = order[np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)]
+    found = keys[at] == wanted
     if missing is not None:
         if not found.all():
             raise InputError(missing)
-        return values[order[pos]]
-    return np.where(found, order[pos], -1)
+        return values[at]
+    return np.where(found, at, -1)

@@ -45,6 +45,11 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
     ``DEGENERATE_AREA`` times their mean squared vertex distance from the
     centre: collinear or collapsed vertices), give NaN.
     """
+    return shape_functions_flat(xy, starts, (p,), center)[0]
+
+
+def shape_functions_flat(xy, starts, orders, center="vertex_mean"):
+    """:func:`shape_function_flat` for each p of ``orders`` (a list of arrays), sharing the geometry."""
     xy = np.asarray(xy, dtype=float)
     starts = np.asarray(starts, dtype=np.int64)
     n = len(starts)
@@ -64,18 +69,22 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
     owner = np.repeat(np.arange(n), lengths)
     r = xy - c[owner]
     z = r[:, 0] + 1j * r[:, 1]
-    weight = np.abs(z) ** p
-    phase = np.exp(1j * p * np.angle(z))
-    num = segment_sum(weight * phase, starts, n)
-    den = segment_sum(weight, starts, n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        gamma = num / den
+    radius, angle = np.abs(z), np.angle(z)
     # degenerate polygons (collinear or collapsed vertices, area ~ 0) have no shape
     area = np.abs(polygon_area_centroid(xy, starts)[0]) if n else np.zeros(0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        size2 = segment_sum(np.abs(z) ** 2, starts, n) / lengths
-    gamma[(lengths < 3) | ~(den > 0) | ~(area > DEGENERATE_AREA * size2)] = np.nan
-    return gamma
+        size2 = segment_sum(radius**2, starts, n) / lengths
+    degenerate = (lengths < 3) | ~(area > DEGENERATE_AREA * size2)
+    out = []
+    for p in orders:
+        weight = radius**p
+        num = segment_sum(weight * np.exp(1j * p * angle), starts, n)
+        den = segment_sum(weight, starts, n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gamma = num / den
+        gamma[degenerate | ~(den > 0)] = np.nan
+        out.append(gamma)
+    return out
 
 
 def shape_function(polygons, p=6, center="vertex_mean"):
@@ -108,21 +117,43 @@ def shape_function(polygons, p=6, center="vertex_mean"):
     return shape_function_flat(xy, starts, p=p, center=center)
 
 
-def gamma_columns(cells, vertices, cell_vertices, box=None, p=(6, 2), center="vertex_mean"):
+def gamma_columns(cells, vertices, cell_vertices, box=None, p=(6, 2), center="vertex_mean", polygons=None):
     """``cells`` (a copy) with ``gamma{p}_re`` / ``gamma{p}_im`` computed from the polygons of the tables.
 
     The tables are those of :func:`hexatissue.mesh_from_labels` (one frame
     or many, each with a ``frame`` column); cells without a polygon get NaN.
+    ``polygons``, ``(xy, starts)`` of the rows of ``cells`` with
+    ``n_sides > 0`` in their order (as :func:`hexatissue.mesh.network.network_columns`
+    gives them), saves reading them back from the tables.
+    """
+    out = cells.drop(columns=[c for c in cells.columns if c.startswith("gamma")])
+    if polygons is None:
+        keys, xy, starts = table_polygons(vertices, cell_vertices, box)
+        take = lookup(row_keys(keys["frame"], keys["cell"]), None,
+                      row_keys(out["frame"].to_numpy(np.int64), out["cell"].to_numpy(np.int64)))
+    else:
+        xy, starts = polygons
+        take = polygon_rows(out["n_sides"].to_numpy(np.int64) > 0)
+    for name, value in gamma_arrays(xy, starts, take, p, center).items():
+        out[name] = value
+    return out
+
+
+def polygon_rows(has_polygon):
+    """For each row, its polygon's index among the rows with a polygon (``has_polygon``), else -1."""
+    return np.where(has_polygon, np.cumsum(has_polygon) - 1, -1)
+
+
+def gamma_arrays(xy, starts, take, p=(6, 2), center="vertex_mean"):
+    """``gamma{p}_re`` and ``gamma{p}_im`` columns (dimensionless) of rows whose polygon is ``take`` (-1: NaN).
+
+    ``xy`` and ``starts`` hold the polygons back to back (:func:`shape_function_flat`).
     """
     orders = check_orders(p)
-    keys, xy, starts = table_polygons(vertices, cell_vertices, box)
-    out = cells.drop(columns=[c for c in cells.columns if c.startswith("gamma")])
-    take = lookup(row_keys(keys["frame"], keys["cell"]), None,
-                  row_keys(out["frame"].to_numpy(np.int64), out["cell"].to_numpy(np.int64)))
     has = take >= 0
-    for q in orders:
-        g = shape_function_flat(xy, starts, p=q, center=center)
-        value = np.full(len(out), np.nan + 0j)
+    out = {}
+    for q, g in zip(orders, shape_functions_flat(xy, starts, orders, center)):
+        value = np.full(len(take), np.nan + 0j)
         value[has] = g[take[has]]
         out[f"gamma{q}_re"], out[f"gamma{q}_im"] = value.real, value.imag
     return out

@@ -279,23 +279,33 @@ class _Rows:
         self.names = self.dtypes = self.buffers = None
         self.parts = None  # the pd.concat fallback
 
-    def append(self, df: pd.DataFrame, frames=1):
-        """Add the rows of ``df`` (the table of ``frames`` frames, used to size the buffers)."""
+    def append(self, df, frames=1):
+        """Add the rows of ``df`` (the table of ``frames`` frames, used to size the buffers).
+
+        ``df`` is a DataFrame or, as the frame job returns the network tables,
+        a dict of numpy columns (reading those is free; ``df[name]`` is not).
+        """
+        if isinstance(df, dict):
+            names, dtypes, n_rows = list(df), [a.dtype for a in df.values()], len(next(iter(df.values())))
+            column = df.__getitem__
+        else:
+            names, dtypes, n_rows = list(df.columns), list(df.dtypes), len(df)
+            column = lambda name: df[name].to_numpy()  # noqa: E731
         if self.parts is not None:
-            self.parts.append(df)
+            self.parts.append(pd.DataFrame(df))
             return
         if self.buffers is None:
-            if not all(isinstance(dt, np.dtype) for dt in df.dtypes):
-                self.parts = [df]
+            if not all(isinstance(dt, np.dtype) for dt in dtypes):
+                self.parts = [pd.DataFrame(df)]
                 return
-            self.names, self.dtypes = list(df.columns), list(df.dtypes)
-            capacity = int(1.1 * max(len(df), 1) / max(frames, 1) * self.expected_frames) + 16
+            self.names, self.dtypes = names, dtypes
+            capacity = int(1.1 * max(n_rows, 1) / max(frames, 1) * self.expected_frames) + 16
             self.buffers = [np.empty(capacity, dt) for dt in self.dtypes]
-        elif list(df.columns) != self.names or list(df.dtypes) != self.dtypes:
-            self.parts = [self.table(), df]
+        elif names != self.names or dtypes != self.dtypes:
+            self.parts = [self.table(), pd.DataFrame(df)]
             self.names = self.dtypes = self.buffers = None
             return
-        end = self.n + len(df)
+        end = self.n + n_rows
         if end > len(self.buffers[0]):
             capacity = max(end, 2 * len(self.buffers[0]))
             for k, old in enumerate(self.buffers):  # one column at a time
@@ -304,7 +314,7 @@ class _Rows:
                 self.buffers[k] = new
                 del old, new
         for buf, name in zip(self.buffers, self.names):
-            buf[self.n:end] = df[name].to_numpy()
+            buf[self.n:end] = column(name)
         self.n = end
 
     def table(self, name=None, orders=None, start=0) -> pd.DataFrame:
@@ -314,7 +324,8 @@ class _Rows:
             return out.iloc[start:].reset_index(drop=True) if start else out
         if self.buffers is None:
             return empty_table(name, orders)
-        return pd.DataFrame({n: buf[start:self.n] for n, buf in zip(self.names, self.buffers)}, copy=False)
+        out = pd.DataFrame({n: buf[start:self.n] for n, buf in zip(self.names, self.buffers)}, copy=False)
+        return validate(out, name) if name is not None else out  # the frame job's columns are checked here
 
 
 def _with_tracks(cells, tracker):
@@ -431,31 +442,48 @@ def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
 
     Warnings are caught here, in the worker, and returned as ``(category,
     text)`` pairs, so the main process reports them with their frames.
+    The shape functions come from the polygons the mesh built.  Without an
+    intensity image the network tables are dicts of numpy columns (checked
+    against the schema when the movie's tables are assembled, in
+    ``_Rows.table``); the grid and defects are DataFrames.
     """
-    from .mesh.network import network_tables
+    from .mesh.network import as_tables, network_columns
+    from .order import gamma_arrays, gamma_columns, polygon_rows
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         lab, membrane = mesh_labels(labels, box, mesh, mask)
-        tables = network_tables(lab, membrane, box, mesh.merge_distance, t)
-        if image is not None:
+        columns, polygons = network_columns(lab, membrane, box, mesh.merge_distance, t)
+        if image is None:  # numpy columns: no DataFrame to build here, pickle or read in the main process
+            cells = columns["cells"]
+            cells.update(gamma_arrays(*polygons, polygon_rows(cells["n_sides"] > 0), order.p, order.center))
+            tables = columns
+        else:
             from .intensity import measure_intensity
 
-            tables["cells"], tables["edges"] = measure_intensity(tables["cells"], tables["vertices"], tables["edges"],
-                                                                 lab, image, box)
-        tables.update(_order_tables(tables, box, order))
+            tables = as_tables(columns)
+            cells, tables["edges"] = measure_intensity(tables["cells"], tables["vertices"], tables["edges"],
+                                                       lab, image, box)
+            tables["cells"] = validate(gamma_columns(cells, None, None, box, order.p, order.center, polygons),
+                                       "cells")
+        if order.fields:
+            tables.update(_order_fields(validate(pd.DataFrame(tables["cells"]), "cells"), box, order))
     found = [(w.category, str(w.message)) for w in caught]
     return tables, lab, found
 
 
 def _polygon_job(polygons, t, order):
     """Tables of one frame of cell polygons, its cell ids (for the tracker) and its warnings."""
+    from .order import gamma_columns
     from .polygons import polygon_network
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         tables = polygon_network(polygons, t, where=f"frame {t}")
-        tables.update(_order_tables(tables, None, order))
+        tables["cells"] = validate(gamma_columns(tables["cells"], tables["vertices"], tables["cell_vertices"], None,
+                                                 order.p, order.center), "cells")
+        if order.fields:
+            tables.update(_order_fields(tables["cells"], None, order))
     return tables, polygons.cell, [(w.category, str(w.message)) for w in caught]
 
 
@@ -490,26 +518,19 @@ class _FrameWarnings:
                           stacklevel=user_stacklevel())
 
 
-def _order_tables(tables, box, order):
-    """The order stage of one frame: ``cells`` with gamma_p, and the grid and defects of every p."""
+def _order_fields(cells, box, order):
+    """The fields of one frame's order stage: the grid and defects of every p."""
     from .defects import find_defects
-    from .order import coarse_grain, gamma_columns
+    from .order import coarse_grain
 
-    cells = gamma_columns(tables["cells"], tables["vertices"], tables["cell_vertices"], box, order.p, order.center)
-    out = {"cells": validate(cells, "cells")}
-    if not order.fields:
-        return out
     first = order.p[0]
     usable = interior_mask(cells) & np.isfinite(cells[f"gamma{first}_re"].to_numpy(float))
     if not usable.any():
-        out["grid"], out["defects"] = empty_table("grid", order.p), empty_table("defects")
-        return out
+        return {"grid": empty_table("grid", order.p), "defects": empty_table("defects")}
     grid = coarse_grain(cells, p=order.p, radius=order.radius, spacing=order.spacing, box=box,
                         min_coverage=order.min_coverage, r_cell=order.r_cell, origin=order.origin,
                         shape=order.shape, validity=order.validity)
-    out["grid"] = grid
-    out["defects"] = find_defects(grid, p=order.p, box=box)
-    return out
+    return {"grid": grid, "defects": find_defects(grid, p=order.p, box=box)}
 
 
 # ----------------------------------------------------------------------------

@@ -8,6 +8,7 @@ for one column per symmetry order ``p`` (e.g. ``gamma6_re``).
 """
 from __future__ import annotations
 
+import functools
 import re
 
 import numpy as np
@@ -158,6 +159,7 @@ _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 
 
+@functools.lru_cache(maxsize=None)
 def _pattern(column: str) -> re.Pattern:
     return re.compile("^" + re.escape(column).replace(r"\{p\}", r"\d+") + "$")
 
@@ -183,19 +185,20 @@ def validate(df: pd.DataFrame, table: str) -> pd.DataFrame:
     if not isinstance(df, pd.DataFrame):
         raise InputError(f"{table} table must be a pandas DataFrame; got {type(df).__name__}")
     spec = TABLES[table]
+    dtypes = dict(zip(df.columns, df.dtypes))  # one look at the columns (df[c] per column is slow)
     for column, (kind, _, _) in spec.items():
         if "{p}" in column:
-            matches = [c for c in df.columns if _pattern(column).match(str(c))]
-        elif column in df.columns:
+            matches = [c for c in dtypes if _pattern(column).match(str(c))]
+        elif column in dtypes:
             matches = [column]
         elif column in _OPTIONAL:
             matches = []
         else:
             raise InputError(f"{table} table is missing column {column!r}; expected columns {list(spec)}")
         for c in matches:
-            dkind = df[c].dtype.kind
-            if dkind not in _KIND_OK[kind] and not (kind == "O" and pd.api.types.is_string_dtype(df[c])):
-                raise InputError(f"{table} table column {c!r} has dtype {df[c].dtype}; expected kind {kind!r}")
+            dtype = dtypes[c]
+            if dtype.kind not in _KIND_OK[kind] and not (kind == "O" and pd.api.types.is_string_dtype(df[c])):
+                raise InputError(f"{table} table column {c!r} has dtype {dtype}; expected kind {kind!r}")
     return df
 
 

@@ -16,10 +16,11 @@ membrane; track ids are positive integers.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from numba import njit
 from scipy.optimize import linear_sum_assignment
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -53,28 +54,74 @@ class _Compact:
     index: np.ndarray  # int32 per pixel, -1 for background
     ids: np.ndarray  # label id of each index
     area: np.ndarray  # pixels per index
+    shape: tuple = ()
+    # the overlaps with the previous frame, (previous, (i, j, n)), kept for the other tracker of a movie
+    overlaps: tuple = field(default=(), repr=False)
+
+    def __getstate__(self):  # a pickled tracker (checkpoint) does not carry the previous frame
+        return {**self.__dict__, "overlaps": ()}
 
 
 def _compact(labels: np.ndarray) -> _Compact:
+    if isinstance(labels, _Compact):  # already compacted for the other tracker of a MovieTracker
+        return labels
     compact, ids = compact_labels(labels)
     area = np.bincount(compact.ravel(), minlength=len(ids))
-    return _Compact((compact.ravel() - 1).astype(np.int32), ids[1:].astype(np.int64), area[1:].astype(np.int64))
+    return _Compact((compact.ravel() - 1).astype(np.int32), ids[1:].astype(np.int64), area[1:].astype(np.int64),
+                    labels.shape)
+
+
+@njit(cache=True)
+def _dense_overlaps(ia, ib, na, nb):
+    """Overlap counts of the cell pairs (rows of ``ia`` x columns of ``ib``, -1 = background) that overlap.
+
+    Returns ``i, j, n`` in row-major order of ``(i, j)``, as ``np.nonzero`` of the dense count table.
+    """
+    counts = np.zeros((na + 1, nb + 1), np.int64)  # background in the last row and column
+    for k in range(len(ia)):
+        a = ia[k]
+        b = ib[k]
+        counts[a if a >= 0 else na, b if b >= 0 else nb] += 1
+    m = 0
+    for a in range(na):
+        for b in range(nb):
+            m += counts[a, b] > 0
+    i = np.empty(m, np.int64)
+    j = np.empty(m, np.int64)
+    n = np.empty(m, np.int64)
+    m = 0
+    for a in range(na):
+        for b in range(nb):
+            if counts[a, b] > 0:
+                i[m], j[m], n[m] = a, b, counts[a, b]
+                m += 1
+    return i, j, n
+
+
+def _dense_overlaps_reference(ia, ib, na, nb):
+    """Reference of :func:`_dense_overlaps` (one bincount of the pair index)."""
+    ia = np.where(ia < 0, na, ia).astype(np.int64)
+    counts = np.bincount(ia * (nb + 1) + np.where(ib < 0, nb, ib), minlength=(na + 1) * (nb + 1))
+    counts = counts.reshape(na + 1, nb + 1)[:na, :nb]
+    i, j = np.nonzero(counts)
+    return i.astype(np.int64), j.astype(np.int64), counts[i, j].astype(np.int64)
 
 
 def _contingency(a: _Compact, b: _Compact):
-    """Sparse overlap counts ``(i, j, n)`` between the cells of two compact frames."""
+    """Sparse overlap counts ``(i, j, n)`` between the cells of two compact frames (computed once per pair)."""
+    if b.overlaps and b.overlaps[0] is a:
+        return b.overlaps[1]
     na, nb = len(a.ids), len(b.ids)
     if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
-        # background (-1) wraps to the last row/column: one bincount, no masking
-        ia = np.where(a.index < 0, na, a.index).astype(np.int64)
-        counts = np.bincount(ia * (nb + 1) + np.where(b.index < 0, nb, b.index), minlength=(na + 1) * (nb + 1))
-        counts = counts.reshape(na + 1, nb + 1)[:na, :nb]
-        i, j = np.nonzero(counts)
-        return i.astype(np.int64), j.astype(np.int64), counts[i, j].astype(np.int64)
-    both = (a.index >= 0) & (b.index >= 0)
-    key, n = np.unique(a.index[both].astype(np.int64) * nb + b.index[both], return_counts=True)
-    i, j = np.divmod(key, nb)
-    return i, j, n.astype(np.int64)
+        out = _dense_overlaps(a.index, b.index, na, nb)
+    else:
+        both = (a.index >= 0) & (b.index >= 0)
+        key, n = np.unique(a.index[both].astype(np.int64) * nb + b.index[both], return_counts=True)
+        i, j = np.divmod(key, nb)
+        out = i, j, n.astype(np.int64)
+    a.overlaps = ()  # a's own link to its predecessor is no longer needed: the chain of frames is not kept
+    b.overlaps = (a, out)
+    return out
 
 
 def frame_overlaps(prev, cur) -> pd.DataFrame:
@@ -238,10 +285,11 @@ class _Feed:
     def _next_frame(self, labels, frame):
         """``(frame index, compact labels)`` of the frame being added; checks its shape."""
         frame = self._n if frame is None else int(frame)
-        if self._shape is not None and labels.shape != self._shape:
-            raise InputError(f"labels of frame {frame} have shape {labels.shape}; earlier frames had {self._shape}")
-        self._shape = labels.shape
-        return frame, _compact(labels)
+        cur = _compact(labels)
+        if self._shape is not None and cur.shape != self._shape:
+            raise InputError(f"labels of frame {frame} have shape {cur.shape}; earlier frames had {self._shape}")
+        self._shape = cur.shape
+        return frame, cur
 
 
 class Tracker(_Feed):
@@ -520,6 +568,7 @@ class MovieTracker:
 
     def add_valid(self, labels, frame=None):
         """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`)."""
+        labels = _compact(labels)  # once for both trackers, which share the overlaps too
         self.ids.add_valid(labels, frame)
         for feed in (self.overlap, self.separate):
             if feed is not None:

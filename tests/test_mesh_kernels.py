@@ -442,3 +442,87 @@ def test_reference_equals_kernels_on_random_labels():
         seen += np.bincount(k.kind.ravel(), minlength=7)
         seen[1] += len(k.loops["row"])  # (type 1 does not exist: count loops there)
     assert (seen[[1, 3, 4, 5, 6]] > 0).all()
+
+
+# --- connected components (merged vertices) ---------------------------------------------------------
+
+def test_components_hand_made():
+    """Edges 3-1, 4-0, 0-2 on six vertices: {0, 2, 4} is component 0 (smallest vertex 0), {1, 3} is 1, {5} is 2."""
+    for impl in (K, R):
+        label, first = impl.components(6, np.array([3, 4, 0]), np.array([1, 0, 2]))
+        assert label.tolist() == [0, 1, 0, 1, 0, 2] and first.tolist() == [0, 1, 5]
+
+
+def test_components_equal_reference_and_scipy():
+    """Random graphs (self-loops, repeated edges, no edge): kernel == reference == scipy's numbering."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        n = int(rng.integers(1, 40))
+        m = int(rng.integers(0, 2 * n))
+        a, b = rng.integers(0, n, m), rng.integers(0, n, m)
+        label, first = K.components(n, a, b)
+        ref_label, ref_first = R.components(n, a, b)
+        _, scipy_label = connected_components(coo_matrix((np.ones(m), (a, b)), shape=(n, n)), directed=False)
+        np.testing.assert_array_equal(label, ref_label)
+        np.testing.assert_array_equal(first, ref_first)
+        np.testing.assert_array_equal(label, scipy_label)
+        np.testing.assert_array_equal(first, np.unique(label, return_index=True)[1])
+
+
+def test_present_ids_equal_reference():
+    """Which ids occur, for the label dtypes the mesh sees (uint8, uint16, int32, int64), incl. absent 0 and gaps."""
+    rng = np.random.default_rng(8)
+    for dtype in (np.uint8, np.uint16, np.int32, np.int64):
+        for _ in range(5):
+            labels = rng.choice([1, 3, 4, 9], size=tuple(rng.integers(1, 20, 2))).astype(dtype)
+            top = int(labels.max()) + int(rng.integers(0, 3))
+            np.testing.assert_array_equal(K.present_ids(labels, top), R.present_ids(labels, top))
+    assert K.present_ids(np.array([[0, 2], [2, 5]], np.int32), 5).tolist() == [True, False, True, False, False, True]
+
+
+def test_label_summary_equals_reference():
+    """min, max, any nonzero and equal-neighbour counts for every integer dtype the readers give, and views."""
+    rng = np.random.default_rng(9)
+    for dtype in (np.uint8, np.uint16, np.uint32, np.uint64, np.int8, np.int16, np.int32, np.int64):
+        for _ in range(4):
+            labels = rng.integers(0, 4, tuple(rng.integers(2, 12, 2))).astype(dtype)
+            assert K.label_summary(labels) == R.label_summary(labels)
+            assert K.label_summary(labels[::2, 1:]) == R.label_summary(labels[::2, 1:]) if labels.shape[0] > 3 else True
+    labels = np.array([[0, 0, 5], [0, 2, 5]], np.int32)  # pairs equal: 1 + 0 across, 1 + 0 + 1 down
+    assert K.label_summary(labels) == (0, 5, True, 1, 2)
+    assert K.label_summary(np.zeros((2, 2), np.uint8))[2] is False
+
+
+@pytest.mark.parametrize("spacing", [9, 30])
+def test_cell_moments_equal_reference_on_a_larger_torus(spacing):
+    """64 x 72 periodic Voronoi (small cells, some across the edges; or a few cells wider than half the box)."""
+    labels = voronoi_labels(jittered_seeds((64, 72), spacing, seed=7), (64, 72), True).astype(np.int32)
+    labels = np.roll(labels, (5, 11), axis=(0, 1))  # cells across both edges
+    for periodic in (True, False):
+        moments_both(labels, periodic)
+
+
+def test_arm_intersections_equal_reference():
+    """Random arm lines of random clusters (parallel lines, empty clusters, far intersections): bit for bit."""
+    rng = np.random.default_rng(12)
+    for _ in range(30):
+        nv, n_clusters = int(rng.integers(1, 30)), int(rng.integers(1, 10))
+        cluster = rng.integers(0, n_clusters, nv)
+        off = rng.normal(0, 1, (nv, 2))
+        count = rng.integers(0, 9, (nv, 4))
+        mean = rng.normal(0, 2, (nv, 4, 2))
+        angle = rng.choice([0.0, np.pi / 2, rng.uniform(0, np.pi)], (nv, 4))  # some exactly parallel
+        direction = np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+        m = int(rng.integers(0, 3 * nv))
+        v, arm = rng.integers(0, nv, m), rng.integers(0, 4, m)
+        args = (cluster, off, v, arm, count, mean, direction, n_clusters, 1.5)
+        np.testing.assert_array_equal(K.arm_intersections(*args), R.arm_intersections(*args))
+    # two perpendicular lines through (1, 0.5) relative to the centre of one cluster: the shift is that point
+    direction = np.array([[[1.0, 0.0], [0.0, 1.0], [0, 0], [0, 0]]])
+    mean = np.array([[[0.0, 0.5], [1.0, 0.0], [0, 0], [0, 0]]])
+    shift = K.arm_intersections(np.array([0]), np.zeros((1, 2)), np.array([0, 0]), np.array([0, 1]),
+                                np.ones((1, 4), np.int64), mean, direction, 1, 1.5)
+    np.testing.assert_allclose(shift, [[1.0, 0.5]], atol=1e-15)

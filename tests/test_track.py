@@ -190,6 +190,40 @@ def test_one_border_rule_for_the_mesh_and_the_tracker(periodic):
     assert len(border) > 4
 
 
+def test_dense_overlap_kernel_equals_reference():
+    """Random compact frames with background (-1): the numba overlap counts equal the bincount reference."""
+    rng = np.random.default_rng(5)
+    for _ in range(30):
+        na, nb, size = int(rng.integers(1, 30)), int(rng.integers(1, 30)), int(rng.integers(1, 500))
+        ia = rng.integers(-1, na, size).astype(np.int32)
+        ib = rng.integers(-1, nb, size).astype(np.int32)
+        for a, b in zip(trk._dense_overlaps(ia, ib, na, nb), trk._dense_overlaps_reference(ia, ib, na, nb)):
+            assert a.dtype == b.dtype
+            np.testing.assert_array_equal(a, b)
+    # hand-made: pixels (cell 0, cell 1) twice, (0, background), (background, 0)
+    i, j, n = trk._dense_overlaps(np.array([0, 0, 0, -1], np.int32), np.array([1, 1, -1, 0], np.int32), 1, 2)
+    assert (i.tolist(), j.tolist(), n.tolist()) == ([0], [1], [2])
+
+
+def test_movie_tracker_shares_one_overlap_count_and_pickles_without_it():
+    """Both trackers of a MovieTracker get the same tracks as when run alone; a pickled tracker drops the cache."""
+    import pickle
+
+    movie = np.stack([np.asarray(f) for f in voronoi_movie(30, (64, 72), 5, periodic=True, amplitude=0.3, seed=2)])
+    frames = list(relabel_movie(movie, seed=1)[0][:3]) + list(movie[3:])  # ids relabelled, then kept
+    both = trk.MovieTracker("auto")
+    alone_ids, alone_overlap = trk.IdTracker(), Tracker()
+    for t, lab in enumerate(frames):
+        both.add_valid(lab, t)
+        alone_ids.add_valid(lab, t)
+        alone_overlap.add_valid(lab, t)
+    assert both.ids.tracks().equals(alone_ids.tracks())
+    assert both.overlap.tracks().equals(alone_overlap.tracks())
+    assert both.ids.consistency == alone_ids.consistency
+    assert both.overlap._prev.overlaps  # the cache is there in memory ...
+    assert pickle.loads(pickle.dumps(both)).overlap._prev.overlaps == ()  # ... and not in a checkpoint
+
+
 def test_lineage_roots_follow_parents_to_the_first_ancestor():
     from hexatissue.track import lineage_roots
 

@@ -33,59 +33,49 @@ def corner_types(pad, nci, ncj, image_corners):
     ``image_corners`` the four corners of an open image where a boundary
     turns) as row and column arrays in raster order, the map ``vid`` from
     corners to vertex ids (-1 elsewhere) and the total number of cracks.
+
+    The first pass has no branch (selects only), so it runs on whole vectors
+    of corners; vertices are few and are numbered in a second pass.
     """
-    arms = np.zeros((nci, ncj), dtype=np.uint8)
-    kind = np.zeros((nci, ncj), dtype=np.uint8)
-    vid = np.full((nci, ncj), -1, dtype=np.int32)
-    n_vertices = 0
+    arms = np.empty((nci, ncj), dtype=np.uint8)
+    kind = np.empty((nci, ncj), dtype=np.uint8)
     n_arms = 0
+    n_forks = 0
     for ci in range(nci):
         for cj in range(ncj):
             tl = pad[ci, cj]
             tr = pad[ci, cj + 1]
             bl = pad[ci + 1, cj]
             br = pad[ci + 1, cj + 1]
-            m = 0
-            if tr != br:
-                m |= 1
-            if bl != br:
-                m |= 2
-            if tl != bl:
-                m |= 4
-            if tl != tr:
-                m |= 8
-            arms[ci, cj] = m
-            n = (m & 1) + ((m >> 1) & 1) + ((m >> 2) & 1) + ((m >> 3) & 1)
+            a0 = np.uint8(tr != br)
+            a1 = np.uint8(bl != br)
+            a2 = np.uint8(tl != bl)
+            a3 = np.uint8(tl != tr)
+            n = a0 + a1 + a2 + a3
+            # four arms: 5 when TL == BR connect, 6 when TR == BL do, the smaller id when both; else 4
+            d5 = np.uint8(tl == br)
+            d6 = np.uint8(tr == bl)
+            four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
+            arms[ci, cj] = a0 | (a1 << 1) | (a2 << 2) | (a3 << 3)
+            k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
+            kind[ci, cj] = k
             n_arms += n
-            if n == 0:
-                continue
-            if n == 2:
-                kind[ci, cj] = 2
-            elif n == 3:
-                kind[ci, cj] = 3
-            else:  # n == 4
-                if tl == br and tr == bl:
-                    # two labels in a checkerboard: the smaller id is taken as connected
-                    kind[ci, cj] = 5 if tl < tr else 6
-                elif tl == br:
-                    kind[ci, cj] = 5
-                elif tr == bl:
-                    kind[ci, cj] = 6
-                else:
-                    kind[ci, cj] = 4
-            corner = image_corners and (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1)
-            if kind[ci, cj] == 3 or kind[ci, cj] == 4 or corner:
-                vid[ci, cj] = n_vertices
-                n_vertices += 1
-    vi = np.empty(n_vertices, np.int64)
-    vj = np.empty(n_vertices, np.int64)
+            n_forks += (k == 3) | (k == 4)
+    vid = np.full((nci, ncj), -1, dtype=np.int32)
+    vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
+    vj = np.empty(n_forks + 4, np.int64)
+    n_vertices = 0
     for ci in range(nci):
+        edge_row = image_corners and (ci == 0 or ci == nci - 1)
         for cj in range(ncj):
-            v = vid[ci, cj]
-            if v >= 0:
-                vi[v] = ci
-                vj[v] = cj
-    return arms, kind, vid, vi, vj, n_arms // 2
+            k = kind[ci, cj]
+            corner = edge_row and (cj == 0 or cj == ncj - 1) and k != 0
+            if k == 3 or k == 4 or corner:
+                vid[ci, cj] = n_vertices
+                vi[n_vertices] = ci
+                vj[n_vertices] = cj
+                n_vertices += 1
+    return arms, kind, vid, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
 
 
 @njit(cache=True)
@@ -270,6 +260,46 @@ def trace_loops(pad, arms, kind, visited):
 
 
 @njit(cache=True)
+def _angle_table(n):
+    """cos and sin of ``2 pi k / n`` for k = 0..n-1 (the circular-mean terms of one coordinate)."""
+    c = np.empty(n, np.float64)
+    s = np.empty(n, np.float64)
+    for k in range(n):
+        a = 2.0 * np.pi * k / n
+        c[k] = np.cos(a)
+        s[k] = np.sin(a)
+    return c, s
+
+
+@njit(cache=True)
+def _circular_refs(cx, snx, seen, ref, period):
+    """Circular mean of each label's coordinate (kept at the first pixel's for a band around the torus)."""
+    for k in range(len(ref)):
+        if np.hypot(cx[k], snx[k]) > 1e-6 * seen[k]:
+            ref[k] = (np.arctan2(snx[k], cx[k]) % (2.0 * np.pi)) * period / (2.0 * np.pi)
+
+
+@njit(cache=True)
+def _unwrapped(v, ref, period):
+    """The image of coordinate ``v`` within half a period of ``ref`` (ties not moved)."""
+    if v - ref > 0.5 * period:
+        return v - period
+    if v - ref < -0.5 * period:
+        return v + period
+    return v
+
+
+@njit(cache=True)
+def _run_end(labels, i, j):
+    """End (exclusive) of the run of equal labels that starts at column ``j`` of row ``i``."""
+    lab = labels[i, j]
+    w = labels.shape[1]
+    while j < w and labels[i, j] == lab:
+        j += 1
+    return j
+
+
+@njit(cache=True)
 def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
 
@@ -279,56 +309,127 @@ def cell_moments(labels, n_labels, periodic):
     (a first pass), so cells wider than half the box get the right centroid;
     along an axis a label wraps around completely (a band) its first pixel
     is the reference.
+
+    The image is read along runs of equal labels in a row.  The sums are of
+    whole numbers, exact in any order.  A label spanning less than half the
+    box less a pixel along an axis is never moved along it (its circular
+    mean lies within its span), so circular means are taken only of the
+    wider ones (those touching the box edge, or large): their cos/sin terms
+    come from per-column and per-row tables and are added pixel by pixel in
+    raster order, as a pixel-by-pixel sum does.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
     sx = np.zeros(n_labels, np.float64)
     sy = np.zeros(n_labels, np.float64)
+    lo_x = np.full(n_labels, w, np.int64)
+    hi_x = np.full(n_labels, -1, np.int64)
+    lo_y = np.full(n_labels, h, np.int64)
+    hi_y = np.full(n_labels, -1, np.int64)
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
-    if periodic:
-        cx = np.zeros(n_labels, np.float64)
-        snx = np.zeros(n_labels, np.float64)
-        cy = np.zeros(n_labels, np.float64)
-        sny = np.zeros(n_labels, np.float64)
-        seen = np.zeros(n_labels, np.float64)
-        for i in range(h):
-            ay = 2.0 * np.pi * i / h
-            for j in range(w):
-                lab = labels[i, j]
-                if seen[lab] == 0:  # first pixel: the reference of a band around the whole torus
-                    ref_x[lab] = j
-                    ref_y[lab] = i
-                seen[lab] += 1
-                ax = 2.0 * np.pi * j / w
-                cx[lab] += np.cos(ax)
-                snx[lab] += np.sin(ax)
-                cy[lab] += np.cos(ay)
-                sny[lab] += np.sin(ay)
-        for k in range(n_labels):
-            if np.hypot(cx[k], snx[k]) > 1e-6 * seen[k]:
-                ref_x[k] = (np.arctan2(snx[k], cx[k]) % (2.0 * np.pi)) * w / (2.0 * np.pi)
-            if np.hypot(cy[k], sny[k]) > 1e-6 * seen[k]:
-                ref_y[k] = (np.arctan2(sny[k], cy[k]) % (2.0 * np.pi)) * h / (2.0 * np.pi)
+    for i in range(h):
+        j = 0
+        while j < w:
+            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
+            n = j - j0
+            if count[lab] == 0:  # first pixel: the reference of a band around the whole torus
+                ref_x[lab] = j0
+                ref_y[lab] = i
+                lo_y[lab] = i
+            count[lab] += n
+            sx[lab] += 0.5 * (j0 + j - 1) * n  # the columns j0..j-1 (a whole number)
+            sy[lab] += n * float(i)
+            lo_x[lab] = min(lo_x[lab], j0)
+            hi_x[lab] = max(hi_x[lab], j - 1)
+            hi_y[lab] = i
+    if not periodic:
+        return count, sx, sy
+    wide_x = hi_x - lo_x >= 0.5 * w - 1
+    wide_y = hi_y - lo_y >= 0.5 * h - 1
+    wide = wide_x | wide_y
+    if not wide.any():
+        return count, sx, sy
+    cos_x, sin_x = _angle_table(w)
+    cos_y, sin_y = _angle_table(h)
+    cx = np.zeros(n_labels, np.float64)
+    snx = np.zeros(n_labels, np.float64)
+    cy = np.zeros(n_labels, np.float64)
+    sny = np.zeros(n_labels, np.float64)
+    for i in range(h):
+        j = 0
+        while j < w:
+            lab = labels[i, j]
+            if not wide[lab]:
+                j = _run_end(labels, i, j)
+                continue
+            a = cx[lab]
+            b = snx[lab]
+            c = cy[lab]
+            d = sny[lab]
+            while j < w and labels[i, j] == lab:
+                a += cos_x[j]
+                b += sin_x[j]
+                c += cos_y[i]
+                d += sin_y[i]
+                j += 1
+            cx[lab] = a
+            snx[lab] = b
+            cy[lab] = c
+            sny[lab] = d
+    _circular_refs(cx, snx, count, ref_x, w)
+    _circular_refs(cy, sny, count, ref_y, h)
+    for k in range(n_labels):  # summed again below, unwrapped
+        if wide_x[k]:
+            sx[k] = 0.0
+        if wide_y[k]:
+            sy[k] = 0.0
+    for i in range(h):
+        j = 0
+        while j < w:
+            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
+            n = j - j0
+            if wide_y[lab]:
+                sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
+            if wide_x[lab]:
+                if _unwrapped(float(j0), ref_x[lab], w) != j0 or _unwrapped(float(j - 1), ref_x[lab], w) != j - 1:
+                    for k in range(j0, j):  # the move is monotone in x: only runs whose ends move are split
+                        sx[lab] += _unwrapped(float(k), ref_x[lab], w)
+                else:
+                    sx[lab] += 0.5 * (j0 + j - 1) * n
+    return count, sx, sy
+
+
+@njit(cache=True)
+def label_summary(labels):
+    """One pass over a 2-D integer image: min, max, whether any pixel is nonzero, and the numbers of
+    horizontally and vertically neighbouring pixel pairs that share their value."""
+    h, w = labels.shape
+    lo = labels[0, 0]
+    hi = labels[0, 0]
+    nonzero = False
+    same_h = 0
+    same_v = 0
     for i in range(h):
         for j in range(w):
-            lab = labels[i, j]
-            x = float(j)
-            y = float(i)
-            if periodic:
-                # the image of the pixel nearest the label's circular mean
-                if x - ref_x[lab] > 0.5 * w:
-                    x -= w
-                elif x - ref_x[lab] < -0.5 * w:
-                    x += w
-                if y - ref_y[lab] > 0.5 * h:
-                    y -= h
-                elif y - ref_y[lab] < -0.5 * h:
-                    y += h
-            count[lab] += 1
-            sx[lab] += x
-            sy[lab] += y
-    return count, sx, sy
+            v = labels[i, j]
+            lo = min(lo, v)
+            hi = max(hi, v)
+            nonzero |= v != 0
+            if j > 0:
+                same_h += v == labels[i, j - 1]
+            if i > 0:
+                same_v += v == labels[i - 1, j]
+    return lo, hi, nonzero, same_h, same_v
+
+
+@njit(cache=True)
+def present_ids(labels, top):
+    """Which ids 0..top occur in ``labels`` (any integer image with values in that range)."""
+    present = np.zeros(top + 1, np.bool_)
+    for v in labels.ravel():
+        present[v] = True
+    return present
 
 
 @njit(cache=True)
@@ -384,6 +485,89 @@ def fill_gaps(labels, passes, periodic):
         if not changed:
             break
     return cur
+
+
+@njit(cache=True, error_model="numpy")  # numpy's division: 0 / 0 is NaN, as the checks below expect
+def arm_intersections(cluster, off, v, arm, count, mean, direction, n_clusters, max_shift):
+    """Least-squares intersection of the fitted arm lines of each cluster of vertices, relative to its centre.
+
+    Arm ``arm[k]`` of vertex ``v[k]`` is the line through ``off[v] +
+    mean[v, arm]`` along ``direction[v, arm]``, weighted by its crack
+    ``count``; ``cluster`` maps vertices to clusters.  Minimises
+    sum_k w_k |(I - t t^T)(x - point_k)|^2 per cluster (its normal equations
+    are summed in the order of ``v``).  Clusters whose lines are nearly
+    parallel, or whose intersection is farther than ``max_shift`` px, get 0.
+    """
+    mxx = np.zeros(n_clusters)
+    mxy = np.zeros(n_clusters)
+    myy = np.zeros(n_clusters)
+    rx = np.zeros(n_clusters)
+    ry = np.zeros(n_clusters)
+    for k in range(len(v)):
+        vk = v[k]
+        ak = arm[k]
+        w = float(count[vk, ak])
+        t0 = direction[vk, ak, 0]
+        t1 = direction[vk, ak, 1]
+        p0 = off[vk, 0] + mean[vk, ak, 0]
+        p1 = off[vk, 1] + mean[vk, ak, 1]
+        pxx = 1 - t0 * t0
+        pxy = -t0 * t1
+        pyy = 1 - t1 * t1
+        c = cluster[vk]
+        mxx[c] += w * pxx
+        mxy[c] += w * pxy
+        myy[c] += w * pyy
+        rx[c] += w * (pxx * p0 + pxy * p1)
+        ry[c] += w * (pxy * p0 + pyy * p1)
+    shift = np.zeros((n_clusters, 2))
+    for c in range(n_clusters):
+        det = mxx[c] * myy[c] - mxy[c] * mxy[c]
+        trace = mxx[c] + myy[c]
+        sx = (myy[c] * rx[c] - mxy[c] * ry[c]) / det
+        sy = (mxx[c] * ry[c] - mxy[c] * rx[c]) / det
+        if det > 0.1 * (trace * trace) / 4 and np.hypot(sx, sy) <= max_shift:
+            shift[c, 0] = sx
+            shift[c, 1] = sy
+    return shift
+
+
+@njit(cache=True)
+def components(n, a, b):
+    """Connected components of the graph on vertices 0..n-1 with edges ``(a[k], b[k])``.
+
+    Returns the component id of every vertex, components numbered in the
+    order of their smallest vertex (as scipy's ``connected_components``),
+    and that smallest vertex of each component.
+    """
+    parent = np.arange(n)
+    for k in range(len(a)):
+        ra = a[k]
+        while parent[ra] != ra:
+            parent[ra] = parent[parent[ra]]
+            ra = parent[ra]
+        rb = b[k]
+        while parent[rb] != rb:
+            parent[rb] = parent[parent[rb]]
+            rb = parent[rb]
+        if ra < rb:  # the root is the smallest vertex of its component
+            parent[rb] = ra
+        elif rb < ra:
+            parent[ra] = rb
+    label = np.empty(n, np.int64)
+    first = np.empty(n, np.int64)
+    n_components = 0
+    for v in range(n):  # a root precedes every vertex of its component, so its label is known first
+        r = v
+        while parent[r] != r:
+            r = parent[r]
+        if r == v:
+            label[v] = n_components
+            first[n_components] = v
+            n_components += 1
+        else:
+            label[v] = label[r]
+    return label, first[:n_components].copy()
 
 
 @njit(cache=True)

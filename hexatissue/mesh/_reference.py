@@ -269,6 +269,59 @@ def cell_moments(labels, n_labels, periodic):
     return count, sx, sy
 
 
+def label_summary(labels):
+    """Reference of :func:`._kernels.label_summary`."""
+    return (labels.min(), labels.max(), bool(labels.any()), int((labels[:, 1:] == labels[:, :-1]).sum()),
+            int((labels[1:] == labels[:-1]).sum()))
+
+
+def arm_intersections(cluster, off, v, arm, count, mean, direction, n_clusters, max_shift):
+    """Reference of :func:`._kernels.arm_intersections` (weighted bincounts of the normal equations)."""
+    w = count[v, arm].astype(float)
+    t = direction[v, arm]
+    point = off[v] + mean[v, arm]  # on the line, relative to the cluster centre
+    c = cluster[v]
+    pxx, pxy, pyy = 1 - t[:, 0] ** 2, -t[:, 0] * t[:, 1], 1 - t[:, 1] ** 2
+    mxx, mxy, myy = (np.bincount(c, w * q, n_clusters) for q in (pxx, pxy, pyy))
+    rx = np.bincount(c, w * (pxx * point[:, 0] + pxy * point[:, 1]), n_clusters)
+    ry = np.bincount(c, w * (pxy * point[:, 0] + pyy * point[:, 1]), n_clusters)
+    det = mxx * myy - mxy**2
+    trace = mxx + myy
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shift = np.c_[(myy * rx - mxy * ry) / det, (mxx * ry - mxy * rx) / det]
+        good = (det > 0.1 * trace**2 / 4) & (np.hypot(*shift.T) <= max_shift)
+    shift[~good] = 0.0
+    return shift
+
+
+def present_ids(labels, top):
+    """Reference of :func:`._kernels.present_ids`."""
+    return np.bincount(np.ravel(labels), minlength=top + 1) > 0
+
+
+def components(n, a, b):
+    """Reference of :func:`._kernels.components` (breadth-first search from each vertex in turn)."""
+    adjacent = [[] for _ in range(n)]
+    for u, v in zip(a, b):
+        adjacent[u].append(v)
+        adjacent[v].append(u)
+    label = np.full(n, -1, np.int64)
+    first = []
+    for v in range(n):
+        if label[v] >= 0:
+            continue
+        label[v] = len(first)
+        queue = [v]
+        while queue:
+            u = queue.pop()
+            for w in adjacent[u]:
+                if label[w] < 0:
+                    label[w] = len(first)
+                    queue.append(w)
+        first.append(v)
+    return label, np.array(first, np.int64)
+
+
 def chain_cycles(cell, frm, to):
     """Reference of :func:`._kernels.chain_cycles`.
 

@@ -52,7 +52,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError
-from ._kernels import fill_gaps
+from ._kernels import fill_gaps, label_summary, present_ids
 
 KINDS = ("auto", "touching", "membrane", "skeleton")
 OUTSIDE_RULES = ("auto", "none")
@@ -81,14 +81,17 @@ def validate_labels(labels, name="labels") -> np.ndarray:
         arr = arr.astype(np.int64)
     elif arr.dtype.kind not in "iu":
         raise InputError(f"{name} must hold integer cell ids; got dtype {arr.dtype}")
-    if arr.dtype.kind == "u" and arr.dtype.itemsize == 8 and arr.max() > np.iinfo(np.int64).max:
-        raise InputError(f"{name} has ids up to {arr.max()} (uint64); expected ids below 2**63 (cell ids are "
+    if not arr.dtype.isnative:  # big-endian TIFF data: the kernel needs the machine's byte order
+        arr = arr.astype(arr.dtype.newbyteorder("="))
+    lo, hi, nonzero, same_h, same_v = label_summary(arr)  # one pass instead of one per check
+    if arr.dtype.kind == "u" and arr.dtype.itemsize == 8 and hi > np.iinfo(np.int64).max:
+        raise InputError(f"{name} has ids up to {hi} (uint64); expected ids below 2**63 (cell ids are "
                          f"int64 in the tables): relabel the image")
-    if arr.dtype.kind == "i" and arr.min() < 0:
-        raise InputError(f"{name} has negative ids (min {arr.min()}); expected 0 = background and positive cell ids")
-    if not arr.any():
+    if arr.dtype.kind == "i" and lo < 0:
+        raise InputError(f"{name} has negative ids (min {lo}); expected 0 = background and positive cell ids")
+    if not nonzero:
         raise InputError(f"{name} is all zeros: there are no cells")
-    _check_label_like(arr, name)
+    _check_label_like(arr, name, same_h, same_v)
     return arr
 
 
@@ -99,11 +102,15 @@ MIN_SAME_NEIGHBOUR = 0.7
 LABEL_CHECK_PIXELS = 4096  # smaller images (hand-made test cases) are not checked
 
 
-def _check_label_like(arr, name):
-    """Refuse images whose neighbouring pixels rarely share a value: intensities, not cell labels."""
+def _check_label_like(arr, name, same_h, same_v):
+    """Refuse images whose neighbouring pixels rarely share a value: intensities, not cell labels.
+
+    ``same_h`` and ``same_v`` count the horizontal and vertical pairs of neighbours with equal values.
+    """
     if arr.size < LABEL_CHECK_PIXELS:
         return
-    same = ((arr[:, 1:] == arr[:, :-1]).mean() + (arr[1:] == arr[:-1]).mean()) / 2
+    h, w = arr.shape
+    same = (same_h / (h * (w - 1)) + same_v / ((h - 1) * w)) / 2
     if same < MIN_SAME_NEIGHBOUR:
         raise InputError(f"{name} does not look like a label image: only {same:.0%} of neighbouring pixels share a "
                          f"value (a label image has most pixels inside cells, >= {MIN_SAME_NEIGHBOUR:.0%}); is it a "
@@ -130,15 +137,21 @@ def _direct_and_separating(lab):
     return direct, separating
 
 
+def _at_most_two_values(arr):
+    """Whether ``arr`` holds at most two distinct values (two comparisons, not a sort)."""
+    others = arr[arr != arr.flat[0]]
+    return others.size == 0 or not (others != others[0]).any()
+
+
 def detect_kind(lab, periodic=False) -> str:
     """Guess the convention of a validated label image (see module docstring)."""
-    values = np.unique(lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)])
-    if len(values) <= 2 and len(np.unique(lab)) == 2:
+    sample = lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)]
+    if _at_most_two_values(sample) and len(np.unique(lab)) == 2:
         fg = lab != 0
         interior = ndimage.binary_erosion(fg, border_value=1)
         if fg.mean() < 0.5 and interior.sum() < 0.2 * fg.sum():
             return "skeleton"
-    if not (lab == 0).any():
+    if lab.min() > 0:  # no 0 pixel
         return "touching"
     direct, separating = _direct_and_separating(lab)
     return "membrane" if separating > direct else "touching"
@@ -247,9 +260,9 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
                          "outside the mask")
     membrane = np.zeros(lab.shape, bool)
-    zero = lab == 0
-    if not zero.any():
+    if lab.min() > 0:  # no 0 pixel (ids are non-negative): a min does not build a mask
         return lab, membrane
+    zero = lab == 0
     dtype = np.int32 if lab.max() < 2**31 else np.int64
     lab = np.ascontiguousarray(lab, dtype=dtype)
     if kind in ("membrane", "skeleton") and membrane_width > 0:
@@ -328,7 +341,7 @@ def compact_labels(lab):
     """
     top = int(lab.max())
     if top < 2**24 and top <= 4 * lab.size:
-        present = np.bincount(lab.ravel(), minlength=top + 1) > 0
+        present = present_ids(lab, top)  # no int64 copy of the image, unlike np.bincount
         present[0] = True
         ids = np.flatnonzero(present)
         if len(ids) == top + 1:

@@ -5,8 +5,6 @@ import warnings
 
 import numpy as np
 import pandas as pd
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
@@ -98,22 +96,8 @@ def _subpixel_shift(cluster, off, j, use, lines, n_clusters):
         ends.append((v[ok], arm[ok]))
     v = np.concatenate([e[0] for e in ends])
     arm = np.concatenate([e[1] for e in ends])
-    w = lines["count"][v, arm].astype(float)
-    t = lines["direction"][v, arm]
-    point = off[v] + lines["mean"][v, arm]  # on the line, relative to the cluster centre
-    c = cluster[v]
-    # normal equations of sum_k w_k |(I - t t^T)(x - point_k)|^2
-    pxx, pxy, pyy = 1 - t[:, 0] ** 2, -t[:, 0] * t[:, 1], 1 - t[:, 1] ** 2
-    mxx, mxy, myy = (np.bincount(c, w * q, n_clusters) for q in (pxx, pxy, pyy))
-    rx = np.bincount(c, w * (pxx * point[:, 0] + pxy * point[:, 1]), n_clusters)
-    ry = np.bincount(c, w * (pxy * point[:, 0] + pyy * point[:, 1]), n_clusters)
-    det = mxx * myy - mxy**2
-    trace = mxx + myy
-    with np.errstate(invalid="ignore", divide="ignore"):
-        shift = np.c_[(myy * rx - mxy * ry) / det, (mxx * ry - mxy * rx) / det]
-        good = (det > 0.1 * trace**2 / 4) & (np.hypot(*shift.T) <= MAX_SHIFT)
-    shift[~good] = 0.0
-    return shift
+    return K.arm_intersections(cluster, off, v, arm, lines["count"], lines["mean"], lines["direction"], n_clusters,
+                               MAX_SHIFT)
 
 
 def _merge_short(pos, j, lines, merge_distance, box):
@@ -161,10 +145,7 @@ def _clusters(pos, j, short, lines, box):
     A vertex's position is its cluster's position plus its offset (minimum
     image); cluster positions are refined to the intersection of their arms.
     """
-    n = len(pos)
-    graph = coo_matrix((np.ones(short.sum()), (j["start"][short], j["end"][short])), shape=(n, n))
-    _, cluster = connected_components(graph, directed=False)
-    first = np.unique(cluster, return_index=True)[1]
+    cluster, first = K.components(len(pos), j["start"][short], j["end"][short])
     min_image = box.min_image if box is not None else (lambda d: d)
     off_first = min_image(pos - pos[first[cluster]])
     counts = np.bincount(cluster)
@@ -343,20 +324,44 @@ def network_tables(lab, membrane, box, merge_distance, frame=0) -> dict:
     The checked core of :func:`mesh_from_labels`, for callers that have
     validated and normalised the labels already (the analysis pipeline).
     """
+    columns, _ = network_columns(lab, membrane, box, merge_distance, frame)
+    return as_tables(columns)
+
+
+def network_columns(lab, membrane, box, merge_distance, frame=0):
+    """:func:`network_tables` as numpy columns, and the cells' polygons as the order stage reads them.
+
+    Returns
+    -------
+    columns : dict
+        Table name -> {column name: array}, the columns of
+        :func:`network_tables` in their order (``frame`` first).
+    polygons : (xy, starts)
+        The polygons of the cells with ``n_sides > 0``, in the order of
+        the cells rows, back to back (:mod:`hexatissue.geometry`): the
+        same numbers :func:`hexatissue.geometry.table_polygons` reads back
+        from the tables (vertex position plus its periodic image).
+    """
     periodic = box is not None
     lab32, ids = compact_labels(lab)
     n_labels = len(ids)
     pos, junctions, lines = _trace(lab32, periodic, membrane)
     centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
     poly_start, poly_len, verts, xy, n_cycles = _polygons(centre, kept, n_labels)
-    cells = _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles)
+    cells = _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles)
     centre, kept, verts = _drop_closed_loops(centre, kept, verts)
-    vertices, edges, cell_vertices = _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box)
-    out = {}
-    for name, table in (("cells", cells), ("vertices", vertices), ("edges", edges), ("cell_vertices", cell_vertices)):
-        table.insert(0, "frame", np.full(len(table), frame, dtype=np.int64))
-        out[name] = validate(table, name)
-    return out
+    vertices, edges, cell_vertices, polygons = _network_columns(centre, kept, ids, cells, poly_start, poly_len,
+                                                                verts, xy, box)
+    columns = {"cells": cells, "vertices": vertices, "edges": edges, "cell_vertices": cell_vertices}
+    for name, table in columns.items():
+        n = len(next(iter(table.values())))
+        columns[name] = {"frame": np.full(n, frame, dtype=np.int64), **table}
+    return columns, polygons
+
+
+def as_tables(columns) -> dict:
+    """Validated DataFrames of :func:`network_columns`' ``columns``, each built at once."""
+    return {name: validate(pd.DataFrame(table, copy=False), name) for name, table in columns.items()}
 
 
 def _drop_closed_loops(centre, kept, verts):
@@ -380,7 +385,7 @@ def _drop_closed_loops(centre, kept, verts):
     return centre[used], kept, new[verts]
 
 
-def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles):
+def _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, n_cycles):
     count, sx, sy = K.cell_moments(lab32, len(ids), periodic)
     present = np.flatnonzero(count > 0)
     present = present[present != 0]
@@ -432,7 +437,7 @@ def _cell_table(lab32, ids, periodic, box, junctions, poly_start, poly_len, xy, 
             HexatissueWarning,
             stacklevel=3,
         )
-    return pd.DataFrame(data)
+    return data
 
 
 def _scatter(n, mask, values):
@@ -441,7 +446,7 @@ def _scatter(n, mask, values):
     return out
 
 
-def _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box):
+def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box):
     cell_a = ids[np.minimum(kept["left"], kept["right"])]
     cell_b = ids[np.maximum(kept["left"], kept["right"])]
     degree = np.bincount(kept["a"], minlength=len(centre)) + np.bincount(kept["b"], minlength=len(centre))
@@ -449,44 +454,42 @@ def _network_tables(centre, kept, ids, cells, poly_start, poly_len, verts, xy, b
     outside = cell_a == 0
     vborder[kept["a"][outside]] = True
     vborder[kept["b"][outside]] = True
-    vertices = pd.DataFrame(
-        {
-            "vertex": np.arange(len(centre), dtype=np.int64),
-            "x": centre[:, 0],
-            "y": centre[:, 1],
-            "degree": degree.astype(np.int64),
-            "is_border": vborder,
-        }
-    )
-    edges = pd.DataFrame(
-        {
-            "edge": np.arange(len(cell_a), dtype=np.int64),
-            "vertex_a": kept["a"].astype(np.int64),
-            "vertex_b": kept["b"].astype(np.int64),
-            "cell_a": cell_a.astype(np.int64),
-            "cell_b": cell_b.astype(np.int64),
-            "length": np.hypot(*kept["vec"].T),
-        }
-    )
-    compact = np.searchsorted(ids, cells["cell"].to_numpy())
+    vertices = {
+        "vertex": np.arange(len(centre), dtype=np.int64),
+        "x": centre[:, 0],
+        "y": centre[:, 1],
+        "degree": degree.astype(np.int64),
+        "is_border": vborder,
+    }
+    edges = {
+        "edge": np.arange(len(cell_a), dtype=np.int64),
+        "vertex_a": kept["a"].astype(np.int64),
+        "vertex_b": kept["b"].astype(np.int64),
+        "cell_a": cell_a.astype(np.int64),
+        "cell_b": cell_b.astype(np.int64),
+        "length": np.hypot(*kept["vec"].T),
+    }
+    compact = np.searchsorted(ids, cells["cell"])
     starts, lengths = poly_start[compact], poly_len[compact]
     has = starts >= 0
     starts, lengths = starts[has], lengths[has]
     take = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths) + np.arange(lengths.sum())
-    cell_vertices = pd.DataFrame(
-        {
-            "cell": np.repeat(cells["cell"].to_numpy()[has], lengths),
-            "rank": (np.arange(lengths.sum()) - np.repeat((np.cumsum(lengths) - lengths), lengths)).astype(np.int64),
-            "vertex": verts[take].astype(np.int64),
-        }
-    )
+    first = np.cumsum(lengths) - lengths
+    corners = verts[take].astype(np.int64)
+    cell_vertices = {
+        "cell": np.repeat(cells["cell"][has], lengths),
+        "rank": (np.arange(lengths.sum()) - np.repeat(first, lengths)).astype(np.int64),
+        "vertex": corners,
+    }
     # which periodic image of each vertex the contiguous polygon uses (exact: from the traced displacements),
     # so polygons read back from the tables are right even with a junction longer than half the box
     shift = np.zeros((len(take), 2), np.int64)
+    polygon_xy = centre[corners]
     if box is not None and len(take):
-        shift = np.rint((xy[take] - centre[verts[take]]) / box.lengths).astype(np.int64)
+        shift = np.rint((xy[take] - polygon_xy) / box.lengths).astype(np.int64)
+        polygon_xy = polygon_xy + shift * box.lengths  # as table_polygons computes it from the tables
     cell_vertices["image_x"], cell_vertices["image_y"] = shift[:, 0], shift[:, 1]
-    return vertices, edges, cell_vertices
+    return vertices, edges, cell_vertices, (polygon_xy, first.astype(np.int64))
 
 
 def warm_up() -> None:
@@ -502,3 +505,5 @@ def warm_up() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)  # cell 1 has a hole, on purpose
         mesh_from_labels(labels)
+        # uint16 labels without 0 (the usual movie frame) keep their dtype into the id kernels
+        mesh_from_labels(np.where(labels == 0, 1, labels).astype(np.uint16), box=True)

@@ -1,0 +1,113 @@
+"""The fast paths of the frame job give the tables of the plain paths, exactly.
+
+The frame job (``pipeline._frame_job``) returns the network tables as numpy
+columns and takes gamma_p from the polygons the mesh built; the plain path
+is ``mesh_from_labels`` then ``shape_order`` (polygons read back from the
+tables).  Both run the same kernels, so the tables must be equal bit for
+bit.  The kernels themselves are checked against their plain-Python
+references in ``test_mesh_kernels.py``; here the whole network built with
+the references equals the one built with the kernels.
+"""
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue import Box, OrderOptions, mesh_from_labels, open_source, shape_order
+from hexatissue.mesh import _reference as R
+from hexatissue.mesh import network as N
+from hexatissue.options import MeshOptions
+from hexatissue.pipeline import _frame_job
+from hexatissue.synthetic import voronoi_movie
+
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+TABLES = ("cells", "vertices", "edges", "cell_vertices")
+
+
+def sample_labels():
+    return np.asarray(open_source(SAMPLE).frame(0))
+
+
+def movie_frames(n=4):
+    movie = voronoi_movie(60, (96, 104), n, periodic=True, amplitude=0.3, seed=4)
+    return [np.asarray(movie[t]).astype(np.uint16) for t in range(n)], Box(104.0, 96.0)
+
+
+def plain_tables(labels, box, t, p):
+    frame = shape_order(mesh_from_labels(labels, box=box, frame=t), p=p)
+    return {name: getattr(frame, name) for name in TABLES}
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+@pytest.mark.parametrize("p", [(6, 2), (6,), (2, 3, 4)])
+def test_frame_job_equals_mesh_then_shape_order(p):
+    """Bundled sample (open image) and a periodic synthetic movie: every table identical."""
+    frames, box = movie_frames()
+    cases = [(sample_labels(), None, 0)] + [(f, box, t) for t, f in enumerate(frames)]
+    for labels, b, t in cases:
+        tables, _, _ = _frame_job(labels, t, b, MeshOptions(), OrderOptions(p=p, fields=False))
+        expected = plain_tables(labels, b, t, p)
+        for name in TABLES:
+            assert isinstance(tables[name], dict)  # numpy columns, read without pandas in the main process
+            pd.testing.assert_frame_equal(pd.DataFrame(tables[name]), expected[name], check_exact=True,
+                                          obj=f"{name}, frame {t}")
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_frame_job_with_an_intensity_image_equals_the_plain_path():
+    """With an intensity image the cells table gains its columns first, then gamma_p, as before."""
+    from hexatissue.intensity import measure_intensity
+
+    labels = sample_labels()
+    image = np.random.default_rng(0).random(labels.shape)
+    tables, lab, _ = _frame_job(labels, 0, None, MeshOptions(), OrderOptions(fields=False), None, image)
+    frame = mesh_from_labels(labels)
+    cells, edges = measure_intensity(frame.cells, frame.vertices, frame.edges, lab, image, None)
+    expected = shape_order(frame.replace(cells=cells), p=OrderOptions().p).cells
+    pd.testing.assert_frame_equal(tables["cells"], expected, check_exact=True)
+    pd.testing.assert_frame_equal(tables["edges"], edges, check_exact=True)
+
+
+def reference_kernels():
+    """network's kernel module with every kernel replaced by its plain-Python reference."""
+    names = ("corner_types", "trace_junctions", "trace_loops", "arm_lines", "cell_moments", "chain_cycles",
+             "components", "arm_intersections")
+    return SimpleNamespace(**{name: getattr(R, name) for name in names})
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_network_from_reference_kernels_equals_network_from_kernels(monkeypatch):
+    """A crop of the sample and a periodic frame: the tables from the references equal the kernels' tables.
+
+    The references fit the arm lines by an eigen-decomposition, not the
+    kernels' closed form, so positions agree to rounding (1e-12 px), not bit
+    for bit; every integer column is equal.
+    """
+    frames, box = movie_frames(1)
+    cases = [(sample_labels()[:60, :90], None), (frames[0], box)]
+    fast = [plain_tables(labels, b, 0, (6, 2)) for labels, b in cases]
+    monkeypatch.setattr(N, "K", reference_kernels())
+    for (labels, b), expected in zip(cases, fast):
+        slow = plain_tables(labels, b, 0, (6, 2))
+        for name in TABLES:
+            pd.testing.assert_frame_equal(slow[name], expected[name], check_exact=False, rtol=1e-12, atol=1e-12,
+                                          obj=name)
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_movie_rows_from_columns_equal_concatenated_tables():
+    """_Rows fed the frame job's columns gives pd.concat of the plain per-frame tables (and checks the schema)."""
+    from hexatissue.pipeline import _Rows
+
+    frames, box = movie_frames()
+    rows = {name: _Rows(len(frames)) for name in TABLES}
+    for t, labels in enumerate(frames):
+        tables, _, _ = _frame_job(labels, t, box, MeshOptions(), OrderOptions(fields=False))
+        for name in TABLES:
+            rows[name].append(tables[name])
+    for name in TABLES:
+        expected = pd.concat([plain_tables(f, box, t, OrderOptions().p)[name] for t, f in enumerate(frames)],
+                             ignore_index=True)
+        pd.testing.assert_frame_equal(rows[name].table(name), expected, check_exact=True)
