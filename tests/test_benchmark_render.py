@@ -1,5 +1,4 @@
 """Synthetic benchmarks: truth movies, OpenCV rendering and benchmark folders, against exact truth."""
-import importlib.util
 import json
 from pathlib import Path
 
@@ -18,7 +17,6 @@ from hexatissue.synthetic import t1_movie
 
 # until the Cell Tracking Challenge writer (hexatissue.exchange.ctc, another branch) is merged, make_benchmark
 # warns that it writes no ctc/ folder
-pytestmark = pytest.mark.filterwarnings("ignore:hexatissue.exchange.ctc is not available")
 
 ROOT = Path(__file__).resolve().parents[1]
 RUN = ROOT / "sample_data" / "mpf_small" / "run.zarr"
@@ -248,10 +246,6 @@ def test_cli_make_writes_a_benchmark_folder(tmp_path, capsys):
         main(["benchmark", "make", "--from", "voronio", "--out", str(tmp_path / "bad"), "--debug"])
 
 
-@pytest.mark.skipif(importlib.util.find_spec("hexatissue.exchange") is None
-                    or importlib.util.find_spec("hexatissue.exchange.ctc") is None,
-                    reason="hexatissue.exchange.ctc (the Cell Tracking Challenge writer, another branch) is not "
-                           "in this checkout")
 def test_ctc_folder_passes_its_format_check(periodic, tmp_path):
     from hexatissue.exchange.ctc import check_ctc
 

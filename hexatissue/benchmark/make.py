@@ -14,12 +14,12 @@ Every file is written to a temporary name and renamed (:func:`hexatissue.io.atom
 from __future__ import annotations
 
 import json
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import HexatissueWarning, InputError, check_positive
+from ..errors import InputError, check_positive
+from ..exchange.ctc import write_ctc
 from ..io import write_tiff
 from .render import Renderer, RenderOptions, SNR_DEFINITION
 from .truth import Truth, truth_from_run, truth_from_t1, truth_from_voronoi
@@ -174,12 +174,6 @@ def make_benchmark(source, out, *, render=RenderOptions(), seed=0, crop=None, n_
 
 
 def _write_ctc(truth, folder):
-    """The Cell Tracking Challenge ground truth of ``truth`` (None, with a warning, when that module is absent)."""
-    try:
-        from ..exchange.ctc import write_ctc
-    except ImportError:
-        warnings.warn("hexatissue.exchange.ctc is not available in this installation: no ctc/ folder written",
-                      HexatissueWarning, stacklevel=3)
-        return None
+    """The Cell Tracking Challenge ground truth of ``truth`` (masks + ``TRA/man_track.txt``)."""
     write_ctc(truth.labels, truth.movie.lineage, folder, truth=True)
     return folder.name
