@@ -137,3 +137,19 @@ def test_figure3_needs_both_event_tables_and_valid_controls(runs, tmp_path):
     movie.replace(neighbour_events=None).write(tmp_path / "old")
     with pytest.raises(InputError, match="neighbour_events"):
         figure3({1e-5: tmp_path / "old"}, tmp_path / "fig")
+
+
+def test_net_displacement_per_window_from_the_centroids(summary, runs):
+    """Every cell in every whole window of 4 frames (0-4, 4-8, 8-12 of 14): |sum of minimum-image steps|."""
+    travel = {r["D_r"]: r for r in summary["fig3f"]["net_displacement"]}
+    for value, run in runs.items():
+        movie = read_results(run)
+        xy = movie.cells.sort_values(["cell", "frame"])
+        nets = []
+        for _, c in xy.groupby("cell"):
+            pos = c[["x", "y"]].to_numpy(float)
+            steps = movie.box.min_image(np.diff(pos, axis=0))
+            nets += [np.hypot(*steps[t0:t0 + 4].sum(axis=0)) for t0 in (0, 4, 8)]
+        assert travel[value]["n_cell_windows"] == len(nets) == 3 * movie.cells["cell"].nunique()
+        assert travel[value]["mean_px"] == pytest.approx(np.mean(nets))
+        assert travel[value]["median_px"] == pytest.approx(np.median(nets))

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..analysis.migration import DEFAULT_DL, migration_populations, migration_table
+from ..analysis.migration import DEFAULT_DL, cell_displacements, migration_populations, migration_table
 from ..analysis.plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
 from ..analysis.proximity import compare_distances, t1_defect_proximity
 from ..analysis.timing import cell_timing, timing_across_runs
@@ -159,7 +159,10 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
         The contents of ``summary.json``: ``fig3e`` (main panel) and
         ``fig3e_<suffix>`` (the others), each with ``definition``, ``control``,
         the pooled KS tests (``pooled``, distances in px) and ``per_run``;
-        ``fig3f``, the migration populations pooled over runs; ``fig3g``, one
+        ``fig3f``, the migration populations pooled over runs, and
+        ``net_displacement``: per run, ``n_cell_windows``, ``mean_px`` and
+        ``median_px`` of the cells' net displacement over one window (px);
+        ``fig3g``, one
         record per run, quantity and ``definition`` (the
         :func:`~hexatissue.analysis.timing_across_runs` columns, times in the
         runs' calibrated unit: iterations for MPF runs, the same for every
@@ -178,7 +181,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     parts = {suffix: [] for suffix, _, _ in panels}
-    mig_parts = []
+    mig_parts, travel = [], []
     timing = {d: {} for d in DEFINITIONS}
     timing_frames = {d: {} for d in DEFINITIONS}
     for k, (value, folder) in enumerate(runs.items()):
@@ -205,6 +208,10 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
             mig = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=tables["quartet"],
                                   include_border=include_border)
         mig_parts.append(mig.assign(**{param: value}))
+        # how far cells get in one window (caged or flowing): the net displacement |r(t0 + dt) - r(t0)|
+        net = np.sqrt(cell_displacements(cells, dl=dl, dt=dt, box=box, include_border=include_border)["msd"])
+        travel.append({param: value, "n_cell_windows": len(net), "mean_px": float(net.mean()) if len(net) else np.nan,
+                       "median_px": float(net.median()) if len(net) else np.nan})
         for d in DEFINITIONS:
             timing[d][value] = cell_timing(tables[d], cells, frame_interval=calibration.frame_interval)
             timing_frames[d][value] = cell_timing(tables[d], cells)  # the figures convert frames themselves
@@ -224,7 +231,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
         **{f"fig3e{suffix}": fig3e[suffix] for suffix, _, _ in panels},
         "fig3f": {"n_subregion_windows": len(pops.table), "threshold": pops.threshold, "delta_bic": pops.delta_bic,
                   "verdict": pops.verdict, "spearman_rho": pops.spearman_rho, "spearman_pvalue": pops.spearman_pvalue,
-                  "populations": pops.summary.to_dict("records")},
+                  "populations": pops.summary.to_dict("records"), "net_displacement": travel},
         "fig3g": g_records,
         "trends": trends,
     }
