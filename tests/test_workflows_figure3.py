@@ -153,3 +153,61 @@ def test_net_displacement_per_window_from_the_centroids(summary, runs):
         assert travel[value]["n_cell_windows"] == len(nets) == 3 * movie.cells["cell"].nunique()
         assert travel[value]["mean_px"] == pytest.approx(np.mean(nets))
         assert travel[value]["median_px"] == pytest.approx(np.median(nets))
+
+
+def _hand_movie(contacts_of_frame, n_frames, n_cells=4):
+    """edges and cells tables of a movie given by its contacts per frame (cells 1..n_cells, all present)."""
+    rows = [(f, a, b, 5.0) for f in range(n_frames) for a, b in contacts_of_frame(f)]
+    edges = pd.DataFrame(rows, columns=["frame", "cell_a", "cell_b", "length"])
+    cells = pd.DataFrame([(f, c, 10.0 * c, 0.0) for f in range(n_frames) for c in range(1, n_cells + 1)],
+                         columns=["frame", "cell", "x", "y"])
+    return edges, cells
+
+
+def test_a_coarser_frame_spacing_hides_a_short_cycle_and_keeps_a_lasting_change():
+    """Cells 3, 4 are common neighbours of 1 and 2.  1-2 are apart at frame 3 only (a one-frame cycle of cells 1
+    and 2); 3-4 touch from frame 5 on (an intercalation of 3 and 4).  Every 2nd frame (0, 2, 4, ...): the
+    cycle falls between frames 2 and 4 and vanishes; the contact appears at coarse frame 3 (= frame 6)."""
+    from hexatissue.workflows.figure3 import events_at_spacing
+
+    ring = [(1, 3), (1, 4), (2, 3), (2, 4)]
+    edges, cells = _hand_movie(lambda f: ring + ([] if f == 3 else [(1, 2)]) + ([(3, 4)] if f >= 5 else []), 20)
+    _, full = events_at_spacing(edges, cells, 1, censor=4)
+    per_cell = full["cell_neighbours"].set_index("track")
+    assert per_cell.loc[[1, 2], "kind"].tolist() == ["cycle", "cycle"]
+    assert per_cell.loc[[1, 2], "duration"].tolist() == [1.0, 1.0]
+    assert per_cell.loc[[3, 4], "kind"].tolist() == ["intercalation"] * 2
+    assert per_cell.loc[[3, 4], "frame_start"].tolist() == [5, 5]
+    kept, coarse = events_at_spacing(edges, cells, 2, censor=4)
+    assert sorted(kept["frame"].unique()) == list(range(10))
+    per_cell = coarse["cell_neighbours"]
+    assert sorted(per_cell["track"]) == [3, 4] and set(per_cell["kind"]) == {"intercalation"}
+    assert per_cell["frame_start"].tolist() == [3, 3]
+    # censor is kept in time: 4 full frames = 2 coarse frames; a change at coarse frame 8 of 0..9 is unresolved
+    late = lambda f: ring + [(1, 2)] + ([(3, 4)] if f >= 16 else [])
+    _, coarse = events_at_spacing(*_hand_movie(late, 20), 2, censor=4)
+    assert set(coarse["cell_neighbours"]["kind"]) == {"unresolved"}
+    with pytest.raises(InputError, match="stride"):
+        events_at_spacing(edges, cells, 0)
+
+
+def test_timing_at_stride_one_is_the_analysis_own(tmp_path):
+    """Stride 1 re-detects exactly the tables the analysis wrote (same min_length and censor)."""
+    from hexatissue.analysis import cell_timing, timing_across_runs
+    from hexatissue.synthetic import t1_movie
+    from hexatissue.workflows import timing_vs_frame_spacing
+
+    m = t1_movie(periodic=True, seed=2)
+    np.save(tmp_path / "t1.npy", np.asarray(m.labels))
+    movie = analyze(tmp_path / "t1.npy", box=True, events=EventOptions(min_length=m.min_length, censor=m.censor),
+                    workers=1, progress=False)
+    movie.write(tmp_path / "res")
+    table = timing_vs_frame_spacing({1e-5: tmp_path / "res"}, strides=(1, 3))
+    assert set(table["stride"]) == {1, 3} and set(table["frame_interval"]) == {1.0, 3.0}
+    for definition, name in (("quartet", "events"), ("cell_neighbours", "neighbour_events")):
+        own = timing_across_runs({1e-5: cell_timing(getattr(movie, name), movie.cells)})
+        got = table[(table["stride"] == 1) & (table["definition"] == definition)]
+        np.testing.assert_allclose(got["mean"].to_numpy(float), own["mean"].to_numpy(float))
+        assert got["n_cells"].tolist() == own["n_cells"].tolist()
+        counts = getattr(movie, name)["kind"].value_counts()
+        assert got["n_cycles"].iloc[0] == counts.get("cycle", 0) > 0

@@ -20,11 +20,12 @@ from ..analysis.migration import DEFAULT_DL, cell_displacements, migration_popul
 from ..analysis.plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
 from ..analysis.proximity import compare_distances, t1_defect_proximity
 from ..analysis.timing import cell_timing, timing_across_runs
+from ..events import detect_t1, neighbour_events
 from ..errors import HexatissueWarning, InputError
 from ..frame import read_results
 from ..io import atomic_path, write_table
 
-__all__ = ["figure3", "loglog_slope", "DEFINITIONS"]
+__all__ = ["figure3", "loglog_slope", "DEFINITIONS", "events_at_spacing", "timing_vs_frame_spacing"]
 
 
 def loglog_slope(x, y):
@@ -240,3 +241,81 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
         tmp.write_text(json.dumps(summary, indent=2, default=float))
     summary["written"] = [str(w) for w in written + [path]]
     return summary
+
+
+def events_at_spacing(edges, cells, stride, min_length=0.0, censor=10, box=None):
+    """Both definitions' events of a movie seen only on every ``stride``-th frame.
+
+    Each frame's network does not depend on the other frames (and MPF ids are
+    consistent), so keeping the ``edges`` and ``cells`` rows of frames
+    ``0, stride, 2 stride, ...`` (renumbered ``frame // stride``) is what an
+    analysis of the coarser movie would see.  ``censor`` is in frames of the
+    full movie and is divided by ``stride`` (at least 1), so the censoring
+    window keeps its length in time.
+
+    Returns
+    -------
+    cells : pandas.DataFrame
+        The kept rows of ``cells``, frames renumbered.
+    events : dict
+        ``{"quartet": detect_t1 table, "cell_neighbours": neighbour_events
+        table}``, frames (and durations) in units of the coarse spacing.
+    """
+    stride = int(stride)
+    if stride < 1:
+        raise InputError(f"stride must be a positive integer; got {stride!r}")
+
+    def keep(table):
+        rows = table[table["frame"].to_numpy(np.int64) % stride == 0]
+        return rows.assign(frame=rows["frame"].to_numpy(np.int64) // stride)
+
+    cells, edges = keep(cells), keep(edges)
+    c = max(1, int(round(censor / stride)))
+    return cells, {"quartet": detect_t1(edges, cells, min_length=min_length, censor=c, box=box),
+                   "cell_neighbours": neighbour_events(edges, cells, min_length=min_length, censor=c)}
+
+
+def timing_vs_frame_spacing(runs, strides=(1, 2, 4), param="D_r") -> pd.DataFrame:
+    """Fig. 3g's per-cell means of both definitions when only every ``stride``-th frame is analysed.
+
+    The paper does not state how often it sampled its runs; both definitions
+    see only changes between analysed frames, so the timing can depend on it.
+    Events are re-detected (:func:`events_at_spacing`) with each run's own
+    ``min_length`` and censoring window (``metadata.json``).
+
+    Parameters
+    ----------
+    runs : mapping or pandas.DataFrame
+        As for :func:`figure3`.
+    strides : sequence of int
+        Keep every k-th frame.
+    param : str
+        Name of the swept parameter.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run, stride, definition and quantity: ``param``,
+        ``stride``, ``frame_interval`` (time between analysed frames, the
+        runs' time unit), ``definition``, ``quantity``, ``n_cells``, ``mean``,
+        ``q25``, ``median``, ``q75`` (time unit of the runs), ``t_pvalue``
+        (Welch, intercalation interval vs cycle period), ``n_cycles``,
+        ``n_intercalations`` (events of that definition).
+    """
+    rows = []
+    for value, folder in _runs(runs).items():
+        movie = read_results(folder)
+        options = movie.options["events"]  # censor as resolved by hexatissue.analyze
+        for stride in strides:
+            cells, tables = events_at_spacing(movie.edges, movie.cells, stride, options.min_length, options.censor,
+                                              movie.box)
+            interval = stride * movie.calibration.frame_interval
+            for definition, events in tables.items():
+                counts = events["kind"].value_counts()
+                timing = timing_across_runs({value: cell_timing(events, cells, frame_interval=interval)}, param=param)
+                rows.append(timing.assign(stride=int(stride), frame_interval=interval, definition=definition,
+                                          n_cycles=int(counts.get("cycle", 0)),
+                                          n_intercalations=int(counts.get("intercalation", 0))))
+    cols = [param, "stride", "frame_interval", "definition", "quantity", "n_cells", "mean", "q25", "median", "q75",
+            "t_pvalue", "n_cycles", "n_intercalations"]
+    return pd.concat(rows, ignore_index=True)[cols]
