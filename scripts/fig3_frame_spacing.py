@@ -60,25 +60,23 @@ def main(argv=None):
     ap.add_argument("--strides", type=int, nargs="+", default=[1, 2, 4], help="keep every k-th frame")
     ap.add_argument("--out", required=True)
     args = ap.parse_args(argv)
+    from hexatissue.errors import InputError
     from hexatissue.io import write_table
-
-    sweep = pd.read_csv(Path(args.sweep) / "sweep.csv")
-    runs = dict(zip(sweep["value"], sweep["results"]))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     from hexatissue.workflows import timing_vs_frame_spacing
 
-    table = timing_vs_frame_spacing(runs, args.strides, param=str(sweep["param"].iloc[0]))
+    sweep = pd.read_csv(Path(args.sweep) / "sweep.csv")
+    param = str(sweep["param"].iloc[0])
+    try:
+        table = timing_vs_frame_spacing(dict(zip(sweep["value"], sweep["results"])), args.strides, param=param)
+    except InputError as exc:  # a bad stride or run folder: a message, not a traceback
+        ap.error(str(exc))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     write_table(table, out / "frame_spacing.csv")
-    plot(table, out / "frame_spacing.png", param=str(sweep["param"].iloc[0]))
+    plot(table, out / "frame_spacing.png", param=param)
     print(table.to_string(index=False))
     return 0
 
 
 if __name__ == "__main__":
-    from hexatissue.errors import InputError
-
-    try:
-        sys.exit(main())
-    except InputError as exc:
-        sys.exit(f"error: {exc}")
+    sys.exit(main())

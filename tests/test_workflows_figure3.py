@@ -16,6 +16,8 @@ from hexatissue.schema import validate
 from hexatissue.synthetic import voronoi_movie
 from hexatissue.workflows import figure3
 
+from .test_events import _hand_movie
+
 # Quartet T1s (frames): cell 1 intercalates at 2 and 8 (interval 6); cells 2, 3 intercalate once (no
 # interval); a cycle of 6 frames for cells 2, 3, 8, 9.  Per cell: interval {1: 6}; period {2, 3, 8, 9: 6}.
 QUARTETS = [("intercalation", 2, np.nan, (1, 2, 3, 4)), ("intercalation", 8, np.nan, (1, 5, 6, 7)),
@@ -153,15 +155,6 @@ def test_net_displacement_per_window_from_the_centroids(summary, runs):
         assert travel[value]["n_cell_windows"] == len(nets) == 3 * movie.cells["cell"].nunique()
         assert travel[value]["mean_px"] == pytest.approx(np.mean(nets))
         assert travel[value]["median_px"] == pytest.approx(np.median(nets))
-
-
-def _hand_movie(contacts_of_frame, n_frames, n_cells=4):
-    """edges and cells tables of a movie given by its contacts per frame (cells 1..n_cells, all present)."""
-    rows = [(f, a, b, 5.0) for f in range(n_frames) for a, b in contacts_of_frame(f)]
-    edges = pd.DataFrame(rows, columns=["frame", "cell_a", "cell_b", "length"])
-    cells = pd.DataFrame([(f, c, 10.0 * c, 0.0) for f in range(n_frames) for c in range(1, n_cells + 1)],
-                         columns=["frame", "cell", "x", "y"])
-    return edges, cells
 
 
 def test_a_coarser_frame_spacing_hides_a_short_cycle_and_keeps_a_lasting_change():
