@@ -2,7 +2,7 @@
 
 Usage::
 
-    python scripts/reproduce_fig3.py --out fig3              # reduced settings (~16 min, 2 cores)
+    python scripts/reproduce_fig3.py --out fig3              # reduced settings (~25 min, 2 idle cores)
     python scripts/reproduce_fig3.py --out fig3 --param v0=0.0015   # any simulation parameter changed
     python scripts/reproduce_fig3.py --out fig3 --paper      # the paper's settings (days; use a cluster)
     python scripts/reproduce_fig3.py --out fig3 --tiny       # smoke test (a few minutes)
@@ -28,10 +28,10 @@ save_every         1,000 (window = 25 frames)  500 (window = 50 frames)    100 (
 The reduced box keeps the paper's area per cell (384 * 403 / 440 = 352 px^2)
 and aspect ratio.  The migration window is the paper's 25,000 iterations in
 every preset except ``--tiny`` (1,000 iterations).  Time estimate of the
-reduced preset on the 2-core development machine: 100 cells run at about 670
-steps/s per process with two runs side by side, so each 310,000-step run takes
-about 8 minutes and the four runs about 16 minutes, analysis included
-(32 minutes with the slower simulator kernel before 2026-11-22).
+reduced preset on the idle 2-core development machine: 100 cells ran at about
+670 steps/s per process with central advection; the default upwind3 advection
+costs about 1.6x per step, so each 310,000-step run takes about 12 minutes and
+the four runs about 25 minutes, analysis included.
 """
 from __future__ import annotations
 
