@@ -299,7 +299,10 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
         if len(s):
             x = s[param].to_numpy(float)
             mean, q25, q75 = (cal.time(s[c].to_numpy(float)) for c in ("mean", "q25", "q75"))
-            ax.errorbar(x, mean, yerr=[mean - q25, q75 - mean], color=color, marker="o", capsize=3, label=label)
+            # quartile bars drawn from q25 to q75, not as errors about the mean: the mean of skewed per-cell
+            # means can lie outside its quartiles (e.g. one short interval among long ones)
+            ax.vlines(x, q25, q75, color=color, linewidth=1.5)
+            ax.plot(x, mean, color=color, marker="o", label=label)
     values = summary[param].to_numpy(float)
     if len(values) and (values > 0).all() and values.max() / values.min() >= 3:
         ax.set_xscale("log")
