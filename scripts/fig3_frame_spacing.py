@@ -26,12 +26,14 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 
 def plot(table, path, param="D_r"):
     """Mean intercalation interval (solid) and cycle period (dashed) against the parameter, per spacing."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter
 
     from hexatissue.plot import save_figure
 
@@ -47,6 +49,9 @@ def plot(table, path, param="D_r"):
                         label=f"{quantity.replace('_', ' ')}, frames every {spacing:g}")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ticks = np.unique(t[param].to_numpy(float))  # label the swept values only (minor labels overlap)
+        ax.set_xticks(ticks, [f"{v:g}" for v in ticks])
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(param)
         ax.set_ylabel("per-cell mean (iterations)")
         ax.set_title(definition, fontsize=10)
