@@ -2,7 +2,7 @@
 
 Usage::
 
-    python scripts/reproduce_fig3.py --out fig3              # reduced settings (~16 min, 2 cores)
+    python scripts/reproduce_fig3.py --out fig3              # reduced settings (~25 min, 2 idle cores)
     python scripts/reproduce_fig3.py --out fig3 --param v0=0.0015   # any simulation parameter changed
     python scripts/reproduce_fig3.py --out fig3 --paper      # the paper's settings (days; use a cluster)
     python scripts/reproduce_fig3.py --out fig3 --tiny       # smoke test (a few minutes)
@@ -28,15 +28,14 @@ save_every         1,000 (window = 25 frames)  500 (window = 50 frames)    100 (
 The reduced box keeps the paper's area per cell (384 * 403 / 440 = 352 px^2)
 and aspect ratio.  The migration window is the paper's 25,000 iterations in
 every preset except ``--tiny`` (1,000 iterations).  Time estimate of the
-reduced preset on the 2-core development machine: 100 cells run at about 670
-steps/s per process with two runs side by side, so each 310,000-step run takes
-about 8 minutes and the four runs about 16 minutes, analysis included
-(32 minutes with the slower simulator kernel before 2026-11-22).
+reduced preset on the idle 2-core development machine: 100 cells ran at about
+670 steps/s per process with central advection; the default upwind3 advection
+costs about 1.6x per step, so each 310,000-step run takes about 12 minutes and
+the four runs about 25 minutes, analysis included.
 """
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 
@@ -70,8 +69,9 @@ def parse(argv=None):
                     help="override a simulation parameter of the preset, e.g. --param v0=0.0015 (repeatable)")
     ap.add_argument("--min-length", type=float, default=0.0,
                     help="contacts shorter than this (px) count as four-fold vertices in T1 detection")
-    ap.add_argument("--control", choices=["cells", "vertices"], default="cells",
-                    help="Fig. 3e control: random cells (the paper's) or random vertices (junction level)")
+    ap.add_argument("--control", choices=["cells", "vertices"], nargs="+", default=["cells", "vertices"],
+                    help="Fig. 3e control(s) of the quartet T1s: random cells (the paper's) and/or random vertices "
+                         "(junction level); the first is fig3e.png (default: both, cells first)")
     ap.add_argument("--include-border", action="store_true",
                     help="keep cells next to unassigned gaps (flagged is_border) in the Fig. 3e/3f statistics")
     ap.add_argument("--censor", type=int, default=None,
@@ -94,6 +94,8 @@ def parse_overrides(items):
 
 
 def main(argv=None):
+    import pandas as pd
+
     from hexatissue import EventOptions
     from hexatissue.analysis import frames_per_window
     from hexatissue.workflows import figure3, sweep
@@ -129,17 +131,22 @@ def main(argv=None):
     table.to_csv(f"{args.out}/sweep.csv", index=False)
     summary = figure3(table, args.out, param="D_r", dt=window, seed=args.seed, include_border=args.include_border,
                       control=args.control)
-    e, f, trends = summary["fig3e"]["pooled"], summary["fig3f"], summary["trends"]
+    f = summary["fig3f"]
     print(f"done in {time.perf_counter() - start:.0f} s; statuses {table['status'].value_counts().to_dict()}")
-    print(f"Fig. 3e: {e['n_events']} T1s, median distance to a defect {e['median_dr_events']:.3g} px vs "
-          f"{e['median_dr_control']:.3g} px for random {args.control}; KS p = {e['ks_pvalue']:.3g} "
-          f"(one-sided, T1s closer: {e['ks_pvalue_closer']:.3g})")
+    for key, e in summary.items():
+        if key.startswith("fig3e"):
+            pooled = e["pooled"]
+            print(f"Fig. 3e ({e['definition']} events vs random {e['control']}): {pooled['n_events']} events, "
+                  f"median distance to a defect {pooled['median_dr_events']:.3g} px vs "
+                  f"{pooled['median_dr_control']:.3g} px; KS p = {pooled['ks_pvalue']:.3g} "
+                  f"(one-sided, events closer: {pooled['ks_pvalue_closer']:.3g})")
     print(f"Fig. 3f: {f['n_subregion_windows']} subregion-windows; delta BIC (two vs one population) "
           f"{f['delta_bic']:.3g} ({f['verdict']}); Spearman rho(displacement, defect density) = {f['spearman_rho']:.3g}")
-    print(f"Fig. 3g: log-log slope vs D_r of the intercalation interval "
-          f"{trends['intercalation_interval_loglog_slope']:.3g}, of the T1-cycle period "
-          f"{trends['cycle_period_loglog_slope']:.3g}")
-    print(json.dumps(summary["fig3g"], indent=1, default=float))
+    for definition, trends in summary["trends"].items():
+        print(f"Fig. 3g ({definition}): log-log slope vs D_r of the intercalation interval "
+              f"{trends['intercalation_interval_loglog_slope']:.3g}, of the T1-cycle period "
+              f"{trends['cycle_period_loglog_slope']:.3g}")
+    print(pd.DataFrame(summary["fig3g"]).to_string(index=False))
     return 0
 
 

@@ -444,3 +444,17 @@ def test_figures_show_distances_and_times_in_the_calibration_units(calibrated):
     assert ax.lines[0].get_xdata().max() == 40 * fi  # last event starts at frame 40
     bars = [(b.get_x(), b.get_width(), b.get_height()) for b in ax2.patches if b.get_height() > 0]
     assert bars == [((d - 0.5) * fi, fi, 1.0) for d in (2, 4, 6)]  # cycle durations 2, 4, 6 frames
+
+
+def test_timing_vs_parameter_shows_a_mean_outside_its_quartiles():
+    """Per-cell intervals 1, 10, 10, 10, 10: mean 8.2 below q25 = 10; the bar still spans q25..q75."""
+    from hexatissue.analysis import plot_timing_vs_parameter, timing_across_runs
+
+    table = pd.DataFrame({"mean_intercalation_interval": [1.0, 10.0, 10.0, 10.0, 10.0],
+                          "mean_cycle_period": [np.nan, 4.0, 6.0, np.nan, np.nan]})
+    across = timing_across_runs({1e-5: table, 4e-5: table})
+    ax = plot_timing_vs_parameter(across).axes[0]
+    means = sorted(ln.get_ydata()[0] for ln in ax.lines if ln.get_marker() == "o")
+    assert means == pytest.approx([5.0, 8.2])
+    bars = sorted(tuple(seg[:, 1]) for c in ax.collections for seg in c.get_segments())
+    assert bars == [(4.5, 5.5)] * 2 + [(10.0, 10.0)] * 2

@@ -108,7 +108,8 @@ def test_figure3_from_a_sweep(tmp_path):
     mig = pd.read_csv(fig / "fig3f_migration.csv")
     assert set(mig["D_r"]) == {1e-3, 1e-2} and set(mig["frame_end"] - mig["frame_start"]) == {2}
     across = pd.read_csv(fig / "fig3g_summary.csv")
-    assert sorted(across["D_r"].unique()) == [1e-3, 1e-2] and len(across) == 4
+    assert sorted(across["D_r"].unique()) == [1e-3, 1e-2] and len(across) == 8  # 2 runs x 2 quantities x 2 definitions
+    assert across.groupby("definition").size().to_dict() == {"cell_neighbours": 4, "quartet": 4}
     assert json.loads((fig / "summary.json").read_text())["values"] == [1e-3, 1e-2]
     # the report's default migration window is the paper's 25,000 iterations when the movie spans it
     from hexatissue.workflows.report import default_window

@@ -31,7 +31,9 @@ def _figure(ncols, figsize):
     return fig, [fig.add_subplot(1, ncols, k + 1) for k in range(ncols)]
 
 
-def _finish(fig, path):
+def _finish(fig, path, title=None):
+    if title:
+        fig.suptitle(title, fontsize=10)
     if path is not None:
         save_figure(fig, path, dpi=110)
     return fig
@@ -47,7 +49,7 @@ def _empty(ax, text):
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
 
 
-def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4)):
+def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4), title=None):
     """Distance from T1s and from random cells to the nearest defect (Fig. 3e).
 
     Left: histograms (probability density) of ``|dr|`` for T1 events and the
@@ -65,6 +67,8 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
         Distances are shown in its length unit (px when None).
     figsize : tuple of float
         Width and height in inches (histogram and displacement panels).
+    title : str, optional
+        Heading above both panels (e.g. the event definition and the control).
 
     Returns
     -------
@@ -112,7 +116,7 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
     ax2.set_aspect("equal")
     ax2.set_xlabel(f"dx = x_defect - x_T1 ({unit})")
     ax2.set_ylabel(f"dy ({unit})")
-    return _finish(fig, path)
+    return _finish(fig, path, title)
 
 
 def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
@@ -199,7 +203,7 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
     return _finish(fig, path)
 
 
-def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
+def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None, title=None):
     """Box plots of the per-cell intercalation interval and T1-cycle period (Fig. 3g).
 
     Parameters
@@ -216,6 +220,8 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
         Name of the parameter the runs differ in (tick labels).
     figsize : tuple of float, optional
         Grows with the number of runs when None.
+    title : str, optional
+        Heading above the plot (e.g. the event definition).
 
     Returns
     -------
@@ -259,10 +265,10 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None):
     ax.legend(handles=[Patch(color=SLOW_COLOR, alpha=0.6, label="between intercalations"),
                        Patch(color=FAST_COLOR, alpha=0.6, label="T1-cycle period")], frameon=False, fontsize=8)
     ax.set_title("per-cell means; Welch t-test p = " + ", ".join(pvalues), fontsize=9, wrap=True)
-    return _finish(fig, path)
+    return _finish(fig, path, title)
 
 
-def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, figsize=(5, 4)):
+def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, figsize=(5, 4), title=None):
     """Mean (markers) and quartiles (bars) of both per-cell quantities against a sweep parameter.
 
     Parameters
@@ -277,6 +283,8 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
         Times are shown in its time unit (frames when None).
     figsize : tuple of float
         Width and height in inches.
+    title : str, optional
+        Heading above the plot (e.g. the event definition).
 
     Returns
     -------
@@ -291,7 +299,10 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
         if len(s):
             x = s[param].to_numpy(float)
             mean, q25, q75 = (cal.time(s[c].to_numpy(float)) for c in ("mean", "q25", "q75"))
-            ax.errorbar(x, mean, yerr=[mean - q25, q75 - mean], color=color, marker="o", capsize=3, label=label)
+            # quartile bars drawn from q25 to q75, not as errors about the mean: the mean of skewed per-cell
+            # means can lie outside its quartiles (e.g. one short interval among long ones)
+            ax.vlines(x, q25, q75, color=color, linewidth=1.5)
+            ax.plot(x, mean, color=color, marker="o", label=label)
     values = summary[param].to_numpy(float)
     if len(values) and (values > 0).all() and values.max() / values.min() >= 3:
         ax.set_xscale("log")
@@ -304,7 +315,7 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
     ax.set_xlabel(param)
     ax.set_ylabel(f"time ({cal.time_label})")
     ax.legend(frameon=False)
-    return _finish(fig, path)
+    return _finish(fig, path, title)
 
 
 def plot_event_overview(events, n_frames=None, path=None, calibration=None, figsize=(10, 3.8)):
