@@ -149,6 +149,8 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
+    tracking = _tracking_summary(tracker, cells, parents)
+    del tracker, parents  # its per-cell-frame ids are in cells now; the movie-level stages need the memory
     _release_freed_memory()  # after each movie-level stage: its freed working set would stay under the next
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
@@ -156,13 +158,11 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     _release_freed_memory()
     tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
     _release_freed_memory()
-    summary = {"tracking": _tracking_summary(tracker, cells, parents),
-               "events": _events_summary(tables["events"], events, censor, src.n_frames)}
+    summary = {"tracking": tracking, "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
         linked = summary["tracking"]["resolved"] != "off"
-        tables["defects"], tables["defect_events"] = _defect_tracks(tables.pop("defects"), tables["grid"], order,
-                                                                    box, src.n_frames, linked)
+        _defect_tracks(tables, order, box, src.n_frames, linked)
     else:
         del tables["grid"], tables["defects"]
     _release_freed_memory()
@@ -381,20 +381,43 @@ def _warn_frames_without_field(cells, grid, n_frames):
                       f"or defects there", HexatissueWarning, stacklevel=3)
 
 
-def _defect_tracks(defects, grid, order, box, n_frames, linked=True):
-    """Defects linked over frames per p (``track``) and their pair creation / annihilation events.
+def _median_of_few_values(values, block=1 << 16) -> float:
+    """``np.median(values)`` of a long column holding few distinct values (one grid spacing per frame).
+
+    Counted block by block, so it never holds a sorted copy of the column
+    (``np.median`` would: 12 MB for the grid of a 200-frame 1024^2 movie).
+    """
+    counts = {}
+    for start in range(0, len(values), block):
+        v, c = np.unique(values[start:start + block], return_counts=True)
+        for value, n in zip(v.tolist(), c.tolist()):
+            counts[value] = counts.get(value, 0) + n
+    keys = np.array(sorted(counts))
+    ends = np.cumsum([counts[k] for k in keys])  # rank of the last copy of each value + 1
+    n = int(ends[-1])
+    lo, hi = keys[np.searchsorted(ends, (n - 1) // 2, side="right")], keys[np.searchsorted(ends, n // 2, side="right")]
+    return float((lo + hi) / 2)
+
+
+def _defect_tracks(tables, order, box, n_frames, linked=True):
+    """Link ``tables["defects"]`` over frames per p (``track``); add their pair events as ``tables["defect_events"]``.
 
     With ``linked`` False (frames that are unrelated images) every frame is
     tracked alone: each defect is its own track and there are no pair events.
+    The tables come in a dict so that the untracked defects are freed as soon
+    as they are split by p (an argument would stay referenced by the caller
+    for the whole call).
     """
     from .defects import defect_events, track_defects
+
+    defects, grid = tables.pop("defects"), tables["grid"]
 
     tracked, pair_events = [], []
     groups = [np.arange(n_frames)] if linked else [np.array([t]) for t in range(n_frames)]
     max_distance = order.defect_max_distance
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
-        max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
+        max_distance = DEFECT_SPACINGS * _median_of_few_values(spacing) if len(spacing) else 1.0
     p = defects["p"].to_numpy()
     parts = [defects[p == q].drop(columns="track", errors="ignore") for q in order.p]
     del defects, p  # the caller gave its table away: at most two copies of the defects at a time
@@ -415,8 +438,8 @@ def _defect_tracks(defects, grid, order, box, n_frames, linked=True):
     tracked.clear()
     defects = defects.take(np.lexsort((defects["defect"], defects["p"], defects["frame"])))  # a stable sort
     pair_events = pd.concat(pair_events, ignore_index=True)
-    return (validate(defects.reset_index(drop=True), "defects"),
-            validate(pair_events.astype({"frame": np.int64}), "defect_events"))
+    tables["defects"] = validate(defects.reset_index(drop=True), "defects")
+    tables["defect_events"] = validate(pair_events.astype({"frame": np.int64}), "defect_events")
 
 
 # ----------------------------------------------------------------------------
