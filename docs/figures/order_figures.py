@@ -1,6 +1,6 @@
 """Regenerate the figures and the |Gamma_p|(R) table of docs/order.md.
 
-    python docs/figures/order_figures.py [--real ../shared/data/real]
+    python docs/figures/order_figures.py [--real DIR]   (DIR: a folder holding hexanematic_mdck/)
 
 Uses the published MDCK polygons (Armengol-Collado et al. 2023, not copied into
 the repository) when the real-data folder is there, and synthetic tissues

@@ -1,6 +1,6 @@
 """numba kernels of the multiphase-field model (patch representation).
 
-Data layout (see ../shared/mpf.md):
+Data layout (docs/simulate.md, "Design"):
 
 - ``phi[N, P, P]``: each cell's field on a P x P patch whose node ``(i, j)``
   sits on lattice row ``gy[c, i] = (oy[c] + i) mod Ly`` and column

@@ -15,7 +15,7 @@ and the dynamics ``d_t phi_c + v_c . grad phi_c = -M dF/dphi_c`` with
 column and y = row.
 
 The paper gives no ``phi0``, ``M`` or ``dt``; the defaults (phi0 = 1, M = 0.1,
-dt = 0.5) follow ../shared/mpf.md: M and dt are those of the published MPF
+dt = 0.5) follow docs/simulate.md: M and dt are those of the published MPF
 code of Loewe et al. (PRL 2020), phi0 = 1 the CELADRO convention.  The
 ``loewe`` preset uses that code's phi0 = 2 instead.  phi0 is *not* a free
 rescaling: at fixed alpha, k_phi it halves the interface width
