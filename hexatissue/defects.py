@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import linear_sum_assignment
 
 from .box import Box, as_box
 from .errors import InputError, check_orders, check_p, check_positive
+from .geometry import match_points
 from .schema import require_columns, validate
 
 __all__ = [
@@ -400,31 +400,11 @@ def defect_density(defects, extent, bin_size, time_column="frame", frames=None):
 # ----------------------------------------------------------------------------
 
 
-def _pair_distances(a, b, box):
-    """(len(a), len(b)) distances between points ``a`` and ``b`` (minimum image in a periodic box)."""
-    d = b[None, :, :] - a[:, None, :]
-    if box is not None:
-        d = box.min_image(d)
-    return np.hypot(d[..., 0], d[..., 1])
-
-
 def _match(a, b, max_distance, box):
     """Optimal one-to-one matching of points ``a`` to ``b`` within ``max_distance``; ``(ia, ib)``."""
-    if len(a) == 0 or len(b) == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return _match_cost(_pair_distances(a, b, box), max_distance)
-
-
-def _match_cost(dist, max_distance):
-    """Among the matchings of rows to columns that pair the most entries with ``dist <= max_distance``,
-    the one of least total distance.  Returns index arrays ``(ia, ib)``."""
-    allowed = dist <= max_distance
-    # A forbidden pair costs more than any sum of allowed ones, so the optimum
-    # first maximises the number of allowed pairs, then minimises distance.
-    forbidden_cost = 1.0 + float(min(dist.shape)) * (max_distance + 1.0)
-    ia, ib = linear_sum_assignment(np.where(allowed, dist, forbidden_cost))
-    keep = allowed[ia, ib]
-    return ia[keep], ib[keep]
+    pairs = match_points(a, b, max_distance, box)
+    pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]  # in the order of a
+    return pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
 
 
 def _charge_keys(charge):
@@ -515,13 +495,16 @@ def _track_ends(tracked, time_column, first):
 
 def _pair_ends(xy, charge, pair_distance, box):
     """Positions in one frame's ends: positive matched to negative (charges cancelling) within ``pair_distance``."""
-    pos, neg = np.flatnonzero(charge > 0), np.flatnonzero(charge < 0)
-    if len(pos) == 0 or len(neg) == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    dist = _pair_distances(xy[pos], xy[neg], box)
-    cancel = _charge_keys(charge[pos])[:, None] == -_charge_keys(charge[neg])[None, :]
-    ia, ib = _match_cost(np.where(cancel, dist, np.inf), pair_distance)
-    return pos[ia], neg[ib]
+    keys = _charge_keys(charge)
+    ia, ib = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for key in np.unique(keys[keys > 0]):  # each charge q pairs with -q only: independent matchings
+        pos, neg = np.flatnonzero(keys == key), np.flatnonzero(keys == -key)
+        i, j = _match(xy[pos], xy[neg], pair_distance, box)
+        ia.append(pos[i])
+        ib.append(neg[j])
+    ia, ib = np.concatenate(ia), np.concatenate(ib)
+    order = np.argsort(ia, kind="stable")  # in row order of the positive ends
+    return ia[order], ib[order]
 
 
 def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False, frames=None):

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from hexatissue import OrderOptions, analyze
-from hexatissue.benchmark.score import match_points, score, score_to_folder
+from hexatissue.benchmark.score import score, score_to_folder
 from hexatissue.box import Box
 from hexatissue.cli import main
 from hexatissue.errors import HexatissueWarning, InputError
@@ -259,23 +259,6 @@ def test_one_t1_removed(truth):
     _check(scores.summary, {"t1_recall": (n_t1 - 1) / n_t1})
     missed = scores.tables["t1"].query("status == 'missed'")
     assert missed["event"].tolist() == [removed["event"]]
-
-
-def test_match_points_is_a_maximum_matching_with_periodic_distances():
-    from scipy.optimize import linear_sum_assignment
-
-    box = Box(50.0, 40.0)
-    rng = np.random.default_rng(1)
-    for _ in range(20):
-        a = rng.uniform(0, 1, (30, 2)) * box.lengths
-        b = box.wrap(a[:25] + rng.normal(0, 1.2, (25, 2)))
-        pairs = match_points(a, b, 2.0, box)
-        dist = np.hypot(*box.min_image(a[:, None] - b[None]).transpose(2, 0, 1))
-        assert np.allclose(pairs[:, 2], dist[pairs[:, 0].astype(int), pairs[:, 1].astype(int)])
-        assert (pairs[:, 2] <= 2.0).all() and len(set(pairs[:, 0])) == len(set(pairs[:, 1])) == len(pairs)
-        ok = dist <= 2.0  # brute force: the largest number of pairs within the radius
-        r, c = linear_sum_assignment(np.where(ok, 0.0, 1.0))
-        assert len(pairs) == int(ok[r, c].sum())
 
 
 def test_cli_finds_labels_from_metadata_and_scores(truth, tmp_path, capsys):

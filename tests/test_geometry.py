@@ -56,3 +56,27 @@ def test_polygons_of_cells_wider_than_half_the_box_come_back_exactly():
     # without the recorded images, minimum-image steps fold the long junctions: the areas come out wrong
     _, xy_old, _ = table_polygons(f.vertices, f.cell_vertices.drop(columns=["image_x", "image_y"]), f.box)
     assert not np.allclose(area_of(xy_old, starts)[0], expected)
+
+
+def test_match_points_is_the_dense_optimum_with_periodic_distances():
+    # the one matcher (defect linking and pairing, vertex scores): most pairs within the radius, then the
+    # least total distance, as a dense assignment with forbidden pairs priced out would give
+    from scipy.optimize import linear_sum_assignment
+
+    from hexatissue.geometry import match_points
+
+    box = Box(50.0, 40.0)
+    rng = np.random.default_rng(1)
+    for k in range(20):
+        a = rng.uniform(0, 1, (30, 2)) * box.lengths
+        b = box.wrap(a[:25] + rng.normal(0, 1.2, (25, 2)))
+        pairs = match_points(a, b, 2.0, box if k % 2 else None)
+        d = a[:, None] - b[None]
+        dist = np.hypot(*(box.min_image(d) if k % 2 else d).transpose(2, 0, 1))
+        assert np.allclose(pairs[:, 2], dist[pairs[:, 0].astype(int), pairs[:, 1].astype(int)])
+        assert (pairs[:, 2] <= 2.0).all() and len(set(pairs[:, 0])) == len(set(pairs[:, 1])) == len(pairs)
+        ok = dist <= 2.0
+        r, c = linear_sum_assignment(np.where(ok, dist, 1.0 + 30 * 3.0))
+        assert len(pairs) == int(ok[r, c].sum())
+        assert pairs[:, 2].sum() == pytest.approx(dist[r, c][ok[r, c]].sum(), rel=1e-12)
+    assert match_points(np.zeros((0, 2)), np.ones((3, 2)), 1.0).shape == (0, 3)

@@ -12,9 +12,9 @@
 from .baseline import segment_membranes, segment_movie
 from .make import make_benchmark
 from .render import Renderer, RenderOptions, render
-from .score import SCORE_NAMES, Scores, match_points, plot_scores, score, score_to_folder
+from .score import SCORE_NAMES, Scores, plot_scores, score, score_to_folder
 from .truth import Truth, crop_labels, truth_from_labels, truth_from_run, truth_from_t1, truth_from_voronoi
 
 __all__ = ["Truth", "truth_from_labels", "truth_from_run", "truth_from_voronoi", "truth_from_t1", "crop_labels",
            "RenderOptions", "Renderer", "render", "make_benchmark", "segment_membranes", "segment_movie", "score",
-           "score_to_folder", "plot_scores", "match_points", "Scores", "SCORE_NAMES"]
+           "score_to_folder", "plot_scores", "Scores", "SCORE_NAMES"]

@@ -31,10 +31,11 @@ import pandas as pd
 
 from ..errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from ..frame import Movie, read_results
+from ..geometry import match_points
 from ..progress import progress
 from ..schema import interior_mask, track_ids
 
-__all__ = ["Scores", "score", "score_to_folder", "plot_scores", "match_points", "SCORE_NAMES"]
+__all__ = ["Scores", "score", "score_to_folder", "plot_scores", "SCORE_NAMES"]
 
 #: Every score :func:`score` can report, in the order of the summary and the figure.
 SCORE_NAMES = ("seg_jaccard", "split_score", "merge_score", "missed_score", "extra_score",
@@ -277,57 +278,6 @@ def _neighbour_pairs(truth, pred, to_truth, summary, counts):
     _ratio(summary, "neighbour_pairs_precision", n_match, len(pp))
     _ratio(summary, "neighbour_pairs_recall", n_match, len(tp))
     return table.sort_values(["frame", "cell_a", "cell_b", "pred_a", "pred_b"], ignore_index=True)
-
-
-def match_points(a, b, radius, box=None):
-    """One-to-one matching of two point sets within ``radius`` px.
-
-    The matching has the largest number of pairs closer than ``radius``
-    and, among those, the least total distance: candidate pairs are found
-    with a KD-tree (minimum-image distances in a periodic ``box``) and each
-    cluster of mutually reachable points is solved exactly with
-    :func:`scipy.optimize.linear_sum_assignment`.
-
-    Returns
-    -------
-    (k, 3) array
-        Rows ``(index in a, index in b, distance px)``.
-    """
-    from scipy.optimize import linear_sum_assignment
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    a, b = np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2)
-    if not len(a) or not len(b):
-        return np.empty((0, 3))
-    size = None
-    if box is not None:
-        a, b, size = box.wrap(a), box.wrap(b), box.lengths
-    cand = cKDTree(a, boxsize=size).sparse_distance_matrix(cKDTree(b, boxsize=size), radius, output_type="ndarray")
-    if not len(cand):
-        return np.empty((0, 3))
-    i, j, d = cand["i"], cand["j"], cand["v"]
-    na = len(a)
-    graph = coo_matrix((np.ones(len(i)), (i, na + j)), shape=(na + len(b),) * 2)
-    _, comp = connected_components(graph, directed=False)
-    comp = comp[i]  # the cluster of each candidate pair
-    order = np.argsort(comp, kind="stable")
-    i, j, d, comp = i[order], j[order], d[order], comp[order]
-    starts = np.flatnonzero(np.r_[True, comp[1:] != comp[:-1]])
-    ends = np.r_[starts[1:], len(comp)]
-    single = ends - starts == 1  # one candidate pair: it is the match
-    out = [np.c_[i[starts[single]], j[starts[single]], d[starts[single]]]]
-    for s, e in zip(starts[~single], ends[~single]):
-        ui, ri = np.unique(i[s:e], return_inverse=True)
-        uj, rj = np.unique(j[s:e], return_inverse=True)
-        big = radius * (len(ui) + len(uj)) + 1.0  # more than any set of real pairs: maximise their number first
-        cost = np.full((len(ui), len(uj)), big)
-        cost[ri, rj] = d[s:e]
-        r, c = linear_sum_assignment(cost)
-        ok = cost[r, c] < big
-        out.append(np.c_[ui[r[ok]], uj[c[ok]], cost[r[ok], c[ok]]])
-    return np.concatenate(out)
 
 
 def _vertices(truth, pred, radius, box, summary, counts):
