@@ -381,24 +381,6 @@ def _warn_frames_without_field(cells, grid, n_frames):
                       f"or defects there", HexatissueWarning, stacklevel=3)
 
 
-def _median_of_few_values(values, block=1 << 16) -> float:
-    """``np.median(values)`` of a long column holding few distinct values (one grid spacing per frame).
-
-    Counted block by block, so it never holds a sorted copy of the column
-    (``np.median`` would: 12 MB for the grid of a 200-frame 1024^2 movie).
-    """
-    counts = {}
-    for start in range(0, len(values), block):
-        v, c = np.unique(values[start:start + block], return_counts=True)
-        for value, n in zip(v.tolist(), c.tolist()):
-            counts[value] = counts.get(value, 0) + n
-    keys = np.array(sorted(counts))
-    ends = np.cumsum([counts[k] for k in keys])  # rank of the last copy of each value + 1
-    n = int(ends[-1])
-    lo, hi = keys[np.searchsorted(ends, (n - 1) // 2, side="right")], keys[np.searchsorted(ends, n // 2, side="right")]
-    return float((lo + hi) / 2)
-
-
 def _defect_tracks(tables, order, box, n_frames, linked=True):
     """Link ``tables["defects"]`` over frames per p (``track``); add their pair events as ``tables["defect_events"]``.
 
@@ -417,7 +399,7 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
     max_distance = order.defect_max_distance
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
-        max_distance = DEFECT_SPACINGS * _median_of_few_values(spacing) if len(spacing) else 1.0
+        max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
     p = defects["p"].to_numpy()
     parts = [defects[p == q].drop(columns="track", errors="ignore") for q in order.p]
     del defects, p  # the caller gave its table away: at most two copies of the defects at a time

@@ -250,15 +250,3 @@ def test_a_tqdm_class_draws_the_progress_bar():
     analyze(stack, workers=1, progress=Recorder)
     assert len(made) == 1 and made[0].total == 3 and made[0].seen == 3
 
-
-def test_median_of_few_values_equals_numpy_median():
-    # the defect linking distance comes from the median grid spacing, counted block by block to keep
-    # a long grid column from being copied and sorted (memory of long movies)
-    from hexatissue.pipeline import _median_of_few_values
-
-    rng = np.random.default_rng(0)
-    for n in (1, 2, 3, 4, 11, 1000):
-        for k in (1, 2, 5, 40):
-            values = rng.choice(rng.random(k) * 30, size=n)
-            assert _median_of_few_values(values, block=7) == float(np.median(values))
-            assert _median_of_few_values(values) == float(np.median(values))
