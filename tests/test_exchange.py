@@ -450,3 +450,15 @@ def test_real_mouse_epidermis_exports_to_ctc_and_geff(real_data, tmp_path):
 
     assert len(edges) == len(contact_table(movie.edges))
     assert read_geff(track_store)[0].number_of_nodes() == len(movie.cells)
+
+
+def test_write_ctc_refuses_gap_ids_beyond_16_bits(tmp_path):
+    # a track with a gap gets a new id above every id in use; past 65535 it would wrap in the uint16 masks
+    from hexatissue.exchange.ctc import write_ctc
+
+    masks = np.zeros((3, 4, 4), np.int64)
+    masks[:, 0, 0] = 65535  # present in every frame
+    masks[[0, 2], 2, 2] = 5  # missing from frame 1: its second part needs id 65536
+    lineage = pd.DataFrame({"track": [5, 65535], "frame_start": [0, 0], "frame_end": [2, 2], "parent": [0, 0]})
+    with pytest.raises(InputError, match="16-bit"):
+        write_ctc(masks, lineage, tmp_path / "ctc")

@@ -177,6 +177,9 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
     parents = {int(t): int(p) for t, p in zip(lineage["track"], lineage["parent"]) if p}
     biggest = max([0, *presence, *known])
     rows, renamed = _ctc_tracks(presence, parents, biggest + 1)
+    if rows and max(r[0] for r in rows) > MAX_ID:  # the ids given to tracks continuing after a gap
+        raise InputError(f"splitting tracks at their gaps needs ids up to {max(r[0] for r in rows)}; CTC masks are "
+                         f"16-bit (ids up to {MAX_ID}): relabel the tracks to smaller ids first")
     prefix, track_name = TRUTH if truth else RESULT
     folder = check_output_folder(out, "out")
     folder = folder / "TRA" if truth else folder
