@@ -467,7 +467,9 @@ def track_defects(defects, max_distance, box=None, time_column="frame", frames=N
     keys = _charge_keys(defects["charge"].to_numpy(float))
     sequence = _frame_sequence(times, frames)
     track = np.full(len(defects), -1, np.int64)
-    rows_of = {t: np.flatnonzero(times == t) for t in np.unique(times)}
+    order = np.argsort(times, kind="stable")  # rows of each frame in one pass (not one scan per frame)
+    present, first = np.unique(times[order], return_index=True)
+    rows_of = dict(zip(present, np.split(order, first[1:])))
     empty = np.zeros(0, np.int64)
     previous = empty
     next_id = 0
