@@ -16,7 +16,7 @@ import pandas as pd
 from .box import Box, as_box
 from .errors import InputError, check_orders, check_p, check_positive
 from .geometry import match_points
-from .schema import require_columns, validate
+from .schema import require_columns, rows_by_frame, validate
 
 __all__ = [
     "plaquette_charges",
@@ -467,9 +467,7 @@ def track_defects(defects, max_distance, box=None, time_column="frame", frames=N
     keys = _charge_keys(defects["charge"].to_numpy(float))
     sequence = _frame_sequence(times, frames)
     track = np.full(len(defects), -1, np.int64)
-    order = np.argsort(times, kind="stable")  # rows of each frame in one pass (not one scan per frame)
-    present, first = np.unique(times[order], return_index=True)
-    rows_of = dict(zip(present, np.split(order, first[1:])))
+    rows_of = rows_by_frame(times)
     empty = np.zeros(0, np.int64)
     previous = empty
     next_id = 0
@@ -572,10 +570,7 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         times = ends[time_column].to_numpy()
         xy = ends[["x", "y"]].to_numpy(float)
         charge, track = ends["charge"].to_numpy(float), ends["track"].to_numpy(np.int64)
-        order = np.argsort(times, kind="stable")
-        bounds = np.flatnonzero(np.r_[True, times[order][1:] != times[order][:-1], True]) if len(order) else [0]
-        for lo, hi in zip(bounds[:-1], bounds[1:]):  # one frame's births (or deaths) at a time, as arrays
-            at = order[lo:hi]
+        for at in rows_by_frame(times).values():  # one frame's births (or deaths) at a time, as arrays
             ip, ineg = _pair_ends(xy[at], charge[at], pair_distance, box)
             rows.extend(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
             if include_unpaired:

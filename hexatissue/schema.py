@@ -236,6 +236,19 @@ def track_ids(cells) -> np.ndarray:
     return cells[column].to_numpy(np.int64)
 
 
+def rows_by_frame(times) -> dict:
+    """Row indices of each time point, in row order: ``{t: rows}`` for every ``t`` in ``times``.
+
+    One stable argsort of the whole column, so that per-frame work over a movie
+    costs one pass, not one scan of the table per frame (which grows as
+    frames x rows).
+    """
+    times = np.asarray(times).reshape(-1)
+    order = np.argsort(times, kind="stable")
+    present, first = np.unique(times[order], return_index=True)
+    return dict(zip(present.tolist(), np.split(order, first[1:]))) if len(order) else {}
+
+
 def interior_mask(cells) -> np.ndarray:
     """Rows that are not border cells (all rows when there is no ``is_border`` column)."""
     if "is_border" in cells.columns:

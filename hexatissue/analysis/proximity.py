@@ -22,12 +22,10 @@ import pandas as pd
 from scipy import stats
 from scipy.spatial import cKDTree
 
-from ..errors import InputError
 from ..box import as_box
 from ..defects import charge_mask
-from ..errors import as_generator, check_p, check_positive
-from ..schema import interior_mask, track_ids
-from ..schema import require_columns
+from ..errors import InputError, as_generator, check_p, check_positive
+from ..schema import interior_mask, require_columns, rows_by_frame, track_ids
 
 __all__ = ["nearest_defect", "t1_defect_distances", "random_cell_distances", "random_vertex_distances",
            "t1_defect_proximity", "compare_distances", "ProximityResult", "DISTANCE_COLUMNS"]
@@ -83,8 +81,9 @@ def nearest_defect(frames, xy, defects, p=6, box=None):
     d_frames = d["frame"].to_numpy(np.int64) if has_time else np.zeros(len(d), np.int64)
     q_frames = frames if has_time else np.zeros(len(xy), np.int64)
     d_xy, d_id, d_q = d[["x", "y"]].to_numpy(float), d["defect"].to_numpy(np.int64), d["charge"].to_numpy(float)
-    for t in np.intersect1d(np.unique(q_frames), np.unique(d_frames)):
-        qi, di = np.flatnonzero(q_frames == t), np.flatnonzero(d_frames == t)
+    query_rows, defect_rows = rows_by_frame(q_frames), rows_by_frame(d_frames)
+    for t in query_rows.keys() & defect_rows.keys():
+        qi, di = query_rows[t], defect_rows[t]
         k = _nearest(xy[qi], d_xy[di], box)
         delta = d_xy[di][k] - xy[qi]
         if box is not None:
@@ -213,10 +212,11 @@ def _random_point_distances(points, ids, id_name, use, frames, defects, p, box, 
     c_xy = points[["x", "y"]].to_numpy(float)[use]
     c_id = ids[use]
     want, counts = np.unique(np.asarray(frames, np.int64), return_counts=True)
+    rows_of = rows_by_frame(c_frame)
     picks = []
-    for t, k in zip(want, counts * n_per_frame):
-        pool = np.flatnonzero(c_frame == t)
-        if len(pool) == 0:
+    for t, k in zip(want.tolist(), counts * n_per_frame):
+        pool = rows_of.get(t)
+        if pool is None:
             continue
         picks.append(gen.choice(pool, size=k, replace=k > len(pool)))
     idx = np.concatenate(picks) if picks else np.zeros(0, np.int64)

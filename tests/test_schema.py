@@ -1,0 +1,45 @@
+"""Table helpers of hexatissue.schema."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue.errors import InputError
+from hexatissue.schema import empty_table, interior_mask, require_columns, rows_by_frame, track_ids
+
+
+def test_rows_by_frame_equals_one_scan_per_frame():
+    times = np.random.default_rng(3).integers(0, 7, 200)
+    times[times == 4] = 9  # a gap in the frames
+    rows = rows_by_frame(times)
+    assert sorted(rows) == sorted(np.unique(times).tolist())
+    for t, at in rows.items():
+        np.testing.assert_array_equal(at, np.flatnonzero(times == t))  # in row order
+
+
+def test_rows_by_frame_of_no_rows_is_empty():
+    assert rows_by_frame(np.zeros(0, np.int64)) == {}
+
+
+def test_track_ids_prefers_track_and_interior_mask_reads_is_border():
+    cells = pd.DataFrame({"cell": [4, 5], "track": [10, 11], "is_border": [True, False]})
+    np.testing.assert_array_equal(track_ids(cells), [10, 11])
+    np.testing.assert_array_equal(track_ids(cells.drop(columns="track")), [4, 5])
+    np.testing.assert_array_equal(interior_mask(cells), [False, True])
+    np.testing.assert_array_equal(interior_mask(cells.drop(columns="is_border")), [True, True])
+    with pytest.raises(InputError, match="'track' or 'cell'"):
+        track_ids(pd.DataFrame({"x": [1.0]}))
+
+
+def test_require_columns_names_what_is_missing():
+    with pytest.raises(InputError, match=r"events is missing column\(s\) \['y'\]"):
+        require_columns(pd.DataFrame({"x": [1.0]}), ("x", "y"), "events")
+    with pytest.raises(InputError, match="must be a pandas DataFrame"):
+        require_columns({"x": [1.0]}, ("x",), "events")
+
+
+def test_empty_table_has_the_schema_columns_per_order():
+    cells = empty_table("cells", orders=(2, 6))
+    assert len(cells) == 0
+    assert {"gamma2_re", "gamma2_im", "gamma6_re", "gamma6_im"} <= set(cells.columns)
+    with pytest.raises(InputError, match="table must be one of"):
+        empty_table("nope")
