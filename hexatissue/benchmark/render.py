@@ -489,49 +489,36 @@ class Renderer:
 
     def frame(self, t):
         """Frame ``t`` as recorded by the camera: ``(channels, rows, cols)`` uint16 ADU."""
+        from ._camera_kernels import ZIGGURAT, camera
+
         o = self.options
-        clean = np.maximum(self.clean(t), 0)
-        rng = as_generator(int(self._frame_seeds[int(t)]))
-        z = rng.standard_normal(clean.shape, dtype=np.float32)
-        if o.shot_noise == "poisson":
-            electrons = poisson_counts(clean, rng)
-            electrons += np.float32(o.read_noise) * z
-        else:  # shot and read noise in one normal draw: Normal(clean, clean + read_noise**2)
-            electrons = clean + np.sqrt(clean + np.float32(o.read_noise**2)) * z
-        electrons *= np.float32(o.gain)
-        electrons += np.float32(o.offset + 0.5)  # + 0.5 then truncation: rounding to the nearest ADU
-        return np.clip(electrons, 0, 65535, out=electrons).astype(np.uint16)
+        clean = self.clean(t)
+        adu = camera(clean.reshape(-1), np.uint64(self._frame_seeds[int(t)]), o.shot_noise == "poisson",
+                     float(o.read_noise), float(o.gain), float(o.offset), _poisson_tables(), ZIGGURAT)
+        return adu.reshape(clean.shape)
 
 
 @lru_cache(maxsize=1)
-def _alias_tables():
-    from ._camera_kernels import TABLE_MAX, alias_tables
+def _poisson_tables():
+    """The alias tables of Poisson(n), n < TABLE_MAX, and the reciprocals (built once, ~0.2 s)."""
+    from ._camera_kernels import RECIPROCALS, TABLE_MAX, alias_tables
 
-    return alias_tables(TABLE_MAX - 1)
+    return alias_tables(TABLE_MAX - 1) + (RECIPROCALS,)
 
 
 def poisson_counts(mean, seed=0):
     """Exact Poisson counts of the expected counts ``mean`` (any shape, >= 0), float32.
 
-    Means below :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX` use
-    the alias-table kernel (:mod:`hexatissue.benchmark._camera_kernels`),
-    larger ones numpy's ``Generator.poisson``; both are exact.
+    The camera's sampler (:func:`hexatissue.benchmark._camera_kernels.poisson`):
+    alias tables and inversion below
+    :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX`, transformed
+    rejection above; both exact.
     """
-    from ._camera_kernels import RECIPROCALS, TABLE_MAX, poisson_counts as kernel
+    from ._camera_kernels import poisson_counts as kernel
 
-    rng = as_generator(seed)
+    key = np.uint64(as_generator(seed).integers(0, 2**63))
     lam = np.ascontiguousarray(mean, dtype=np.float32).ravel()
-    u = rng.random((2, lam.size))
-    big = None
-    if lam.size and lam.max() >= TABLE_MAX:
-        big = lam >= TABLE_MAX
-        lam = np.where(big, np.float32(0), lam)
-    whole = np.floor(lam.astype(np.float64))
-    p0 = np.exp(whole - lam, out=whole)  # P(0) of the fractional part of every mean
-    counts = kernel(lam, p0, u[0], u[1], *_alias_tables(), RECIPROCALS)
-    if big is not None:
-        counts[big] = rng.poisson(np.asarray(mean, np.float32).ravel()[big])
-    return counts.reshape(np.shape(mean))
+    return kernel(lam, key, *_poisson_tables()).reshape(np.shape(mean))
 
 
 def render(truth, options=RenderOptions(), *, seed=0, progress=True):
