@@ -391,11 +391,11 @@ class Renderer:
         return np.zeros((rows + 2 * self._pad, cols + 2 * self._pad), np.uint8)
 
     def _membrane(self, t, width=None, aa=True):
-        """Padded float32 drawing of the junctions of frame ``t`` (value = junction intensity)."""
+        """Padded uint8 drawing of the junctions of frame ``t``: the junction intensity in units of 1 / _LEVEL."""
         lines, level = self._junctions(t)
         canvas = self._canvas()
         if not len(lines):
-            return canvas.astype(np.float32)
+            return canvas
         code = np.clip(np.round(level * (_LEVEL / _BUCKET)), 1, 255 // _BUCKET).astype(np.int64) * _BUCKET
         copies, index = self._copies(lines)
         pts = np.round(copies * 2**_SHIFT).astype(np.int32)
@@ -406,7 +406,7 @@ class Renderer:
         values, starts = np.unique(codes[order], return_index=True)
         for value, group in zip(values, np.split(order, starts[1:])):
             cv2.polylines(canvas, pts[group], False, int(value), thickness, kind, _SHIFT)
-        return canvas.astype(np.float32) * np.float32(1.0 / _LEVEL)
+        return canvas
 
     def _pad_image(self, image):
         border = cv2.BORDER_WRAP if self._period is not None else cv2.BORDER_REFLECT_101
@@ -441,7 +441,7 @@ class Renderer:
         """Membrane amplitude giving the requested SNR on frame 0 (module docstring)."""
         o = self.options
         cyto = self._optics(self._cytoplasm(0))
-        drawn = self._optics(self._membrane(0))
+        drawn = self._optics(self._membrane(0).astype(np.float32) * np.float32(1.0 / _LEVEL))
         centre = self._crop(self._membrane(0, width=1, aa=False)) > 0
         far = cv2.distanceTransform((~centre).astype(np.uint8), cv2.DIST_L2, 5)
         inside = (self.truth.labels[0] > 0) & (far > o.membrane_width / 2 + 3 * o.psf_sigma + 1)
@@ -477,15 +477,17 @@ class Renderer:
         if not 0 <= t < len(self):
             raise InputError(f"frame {t} is not in the truth; it has frames 0..{len(self) - 1}")
         o = self.options
-        layers = [self._cytoplasm(t) + np.float32(self.amplitude) * self._membrane(t)]
+        # cytoplasm + A m in one pass (m = the uint8 drawing / _LEVEL)
+        layers = [cv2.addWeighted(self._cytoplasm(t), 1.0, self._membrane(t), self.amplitude / _LEVEL, 0.0,
+                                  dtype=cv2.CV_32F)]
         if o.nuclei:
             layers.append(self._nuclei(t))
         dx, dy = self._walk[t]
         fade = np.float32(np.exp(-o.bleach_rate * t))
-        out = []
-        for layer in layers:
-            out.append(self._optics(layer, dx, dy) * fade)
-        return np.stack(out)
+        out = np.empty((len(layers),) + tuple(self._shape), np.float32)
+        for channel, layer in zip(out, layers):
+            np.multiply(self._optics(layer, dx, dy), fade, out=channel)
+        return out
 
     def frame(self, t):
         """Frame ``t`` as recorded by the camera: ``(channels, rows, cols)`` uint16 ADU."""
