@@ -6,7 +6,11 @@ the nuclei with ``cv2.circle`` and the Gaussian PSF is ``cv2.GaussianBlur``.  Th
 applied together in Fourier space (the PSF's transfer function times the
 phase ramp of an exact, band-limited shift): ``cv2.warpAffine``'s
 interpolation moved fine detail by up to 0.15 px more or less than asked
-(measured by phase correlation).  Noise comes from numpy's Generator.
+(measured by phase correlation).  The camera (shot and read noise, ADU) is
+one numba kernel, :func:`hexatissue.benchmark._camera_kernels.camera`, whose
+random numbers are a counter-based stream (splitmix64 of the frame's seed,
+the pixel and the draw), so a frame's noise depends only on the seed and the
+frame number.
 
 Geometry comes from the truth tables, not the labels: every junction is the
 segment between its two vertices (``edges`` and ``vertices`` tables), in px
@@ -29,7 +33,8 @@ efficiency 1):
 4. ``electrons = Poisson(clean) + Normal(0, read_noise)``, recorded as
    ``ADU = round(gain * electrons + offset)`` clipped to uint16.  The
    Poisson counts are exact (:func:`poisson_counts`: alias tables and
-   inversion, :mod:`hexatissue.benchmark._camera_kernels`).
+   inversion, transformed rejection for means of 1024 and more), the
+   normal deviates too (ziggurat); :mod:`hexatissue.benchmark._camera_kernels`.
 
 **SNR** (frame 0, computed on the noise-free image after the PSF): with J
 the junction centreline pixels (the junction segments rasterised 1 px wide)
