@@ -12,8 +12,11 @@ of pixel ``i`` is the splitmix64 output ``mix64(key + (i * 2**16 + s) *
 GOLDEN)`` (:func:`word`), so every draw is a pure function of (key, pixel,
 stream) and the vectorised reference reproduces the kernel exactly.  Streams
 of a pixel: 0 and 1 the two uniforms of the Poisson draw below, 2, 3, ... the
-normal deviate (:func:`standard_normal`, ziggurat), 32768, 32769, ... the
-rejection sampler of large means (:func:`poisson_large`).
+normal deviate (:func:`standard_normal`, ziggurat; 1.01 words on average),
+32768, 32769, ... the rejection sampler of large means (:func:`poisson_large`,
+2 words an attempt, acceptance above 0.9; only after 16384 rejections in a
+row would it read the next pixel's words).  splitmix64 of a counter is the
+generator of Steele, Lea & Flood (2014): it passes BigCrush.
 
 Poisson(lam) is sampled as Poisson(n) + Poisson(lam - n) with n = floor(lam)
 (the sum of independent Poisson variables is Poisson with the summed mean,
@@ -22,10 +25,12 @@ so this is exact):
 - Poisson(n) by Walker's alias method on a table of Poisson(n) built once
   per n (:func:`alias_tables`; support 0 .. n + 12 sqrt(n) + 20, whose
   left-out tail has probability below 1e-31): one uniform, one table read;
-- Poisson(lam - n), a mean below 1, by inversion (about 1.6 comparisons).
+- Poisson(lam - n), a mean below 1, by inversion (one exp, the first four
+  terms without branches).
 
 This costs about a third of numpy's ``Generator.poisson`` (transformed
-rejection, a logarithm and a log-gamma per sample).  Means of at least
+rejection, a logarithm and a log-gamma per sample).  (The tables are read
+as separate float64 and int64 arrays; one interleaved array was no faster.)  Means of at least
 :data:`TABLE_MAX` (tables would grow as n^2) use that same exact rejection
 sampler (Hoermann's PTRS, as numpy's) on the pixel's own stream.
 """
@@ -36,7 +41,7 @@ import math
 import numpy as np
 from numba import njit, uint64
 
-#: largest floor(lam) with an alias table (the tables hold ~ TABLE_MAX^2 / 2 entries, 12 bytes each)
+#: largest floor(lam) with an alias table (the tables hold ~ TABLE_MAX^2 / 2 entries, 16 bytes each)
 TABLE_MAX = 1024
 
 
