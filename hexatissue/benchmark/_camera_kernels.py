@@ -1,9 +1,10 @@
 """Numba kernels of the camera model (:mod:`hexatissue.benchmark.render`): exact Poisson counts, fast.
 
 Each kernel has a plain-numpy twin of the same name and signature in
-:mod:`hexatissue.benchmark._camera_reference`; the tests compare the two
-(identical outputs for the same key) and the samples against the Poisson
-and normal distributions.
+:mod:`hexatissue.benchmark._camera_reference` (``poisson_small``, inlined
+into its callers, is covered by the twin of :func:`poisson_counts`); the
+tests compare the two (identical outputs for the same key) and the samples
+against the Poisson and normal distributions.
 
 :func:`camera` is the whole camera in one pass over the pixels (shot noise,
 read noise, gain, offset, rounding, clipping to uint16), with no per-pixel

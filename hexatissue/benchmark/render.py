@@ -512,7 +512,7 @@ class Renderer:
 
 @lru_cache(maxsize=1)
 def _poisson_tables():
-    """The alias tables of Poisson(n), n < TABLE_MAX, and the reciprocals (built once, ~0.2 s)."""
+    """The alias tables of Poisson(n), n < TABLE_MAX, and the reciprocals (built once, ~0.1 s)."""
     from ._camera_kernels import RECIPROCALS, TABLE_MAX, alias_tables
 
     return alias_tables(TABLE_MAX - 1) + (RECIPROCALS,)
@@ -521,10 +521,11 @@ def _poisson_tables():
 def poisson_counts(mean, seed=0):
     """Exact Poisson counts of the expected counts ``mean`` (any shape, >= 0), float32.
 
-    The camera's sampler (:func:`hexatissue.benchmark._camera_kernels.poisson`):
+    The camera's sampler (:mod:`hexatissue.benchmark._camera_kernels`):
     alias tables and inversion below
-    :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX`, transformed
-    rejection above; both exact.
+    :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX`
+    (``poisson_small``), transformed rejection above (``poisson_large``);
+    both exact.  ``seed`` (int or Generator) gives the key of the stream.
     """
     from ._camera_kernels import poisson_counts as kernel
 
