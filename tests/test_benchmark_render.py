@@ -281,20 +281,79 @@ def test_alias_tables_encode_the_poisson_distribution():
     np.testing.assert_allclose(pmf, poisson.pmf(np.arange(len(pmf)), 1000), rtol=1e-11, atol=1e-300)
 
 
-def test_poisson_kernel_equals_its_reference_on_the_same_uniforms():
+def _poisson_tables(n_max):
+    from hexatissue.benchmark import _camera_kernels as kernels
+
+    return kernels.alias_tables(n_max) + (kernels.RECIPROCALS,)
+
+
+def test_poisson_kernel_equals_its_reference_on_the_same_key():
     from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
 
     rng = np.random.default_rng(11)
-    lam = np.r_[0.0, 1e-6, 0.999, rng.uniform(0, 200, 20000)].astype(np.float32)
-    u1, u2 = rng.random((2, lam.size))
-    whole = np.floor(lam.astype(np.float64))
-    p0 = np.exp(whole - lam)
-    tables = kernels.alias_tables(200)
-    np.testing.assert_array_equal(kernels.poisson_counts(lam, p0, u1, u2, *tables, kernels.RECIPROCALS),
-                                  reference.poisson_counts(lam, p0, u1, u2, *tables, kernels.RECIPROCALS))
+    # TABLE_MAX and above: the transformed-rejection sampler
+    lam = np.r_[0.0, 1e-6, 0.999, 3.999, 1023.99, 1024.0, rng.uniform(0, 200, 20000), rng.uniform(1e3, 1e5, 2000),
+                rng.uniform(0.5, 1, 5000)].astype(np.float32)  # K >= 4 of the fractional mean sometimes
+    tables = _poisson_tables(kernels.TABLE_MAX - 1)
+    key = np.uint64(0xC0FFEE123456789)
+    np.testing.assert_array_equal(kernels.poisson_counts(lam, key, *tables),
+                                  reference.poisson_counts(lam, key, *tables))
 
 
-@pytest.mark.parametrize("mean", [0.3, 7.5, 63.2, 1500.0])  # 1500: above the tables, numpy's sampler
+def test_camera_kernel_equals_its_reference_on_the_same_key():
+    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+
+    rng = np.random.default_rng(12)
+    # negative and NaN means count as 0; 90000: clipped at 65535; a 0 offset clips read noise at 0
+    clean = np.r_[0.0, -3.0, np.nan, 90000.0, rng.uniform(0, 300, 30000), rng.uniform(1e3, 4e4, 500)].astype(np.float32)
+    tables = _poisson_tables(kernels.TABLE_MAX - 1)
+    for shot_poisson, read_noise, gain, offset in [(True, 2.0, 1.0, 100.0), (True, 3.5, 1.7, 0.0),
+                                                   (False, 2.0, 0.8, 100.0), (False, 0.0, 2.0, 10.0)]:
+        args = (np.uint64(77), shot_poisson, read_noise, gain, offset, tables, kernels.ZIGGURAT)
+        got = kernels.camera(clean, *args)
+        assert got.dtype == np.uint16 and got[3] == 65535
+        np.testing.assert_array_equal(got, reference.camera(clean, *args))
+
+
+def test_ziggurat_tables_close_and_the_normal_deviates_are_normal():
+    from scipy.stats import kstest, norm
+
+    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+
+    k, w, f = kernels.ZIGGURAT
+    x1 = w[1] * 2.0**52  # the top layer's width: its area v = x1 (1 - f(x1)) closes the ziggurat at x0 = 0
+    assert x1 * (1 - f[1]) == pytest.approx(4.92867323399e-3, rel=1e-8)
+    z = reference.standard_normal(np.uint64(99), np.arange(400000), *kernels.ZIGGURAT)
+    assert kstest(z, "norm").pvalue > 1e-3
+    # the rare branches: the tail beyond r = 3.654 and the wedges
+    r = w[-1] * 2.0**52
+    tail = np.abs(z) > r
+    assert tail.sum() == pytest.approx(z.size * 2 * norm.sf(r), abs=5 * np.sqrt(z.size * 2 * norm.sf(r)))
+    assert kstest(np.abs(z[tail]), lambda x: 1 - norm.sf(x) / norm.sf(r)).pvalue > 1e-3
+
+
+def test_camera_records_exact_poisson_counts_and_normal_read_noise():
+    """The fused camera: counts alone (no read noise, gain 1) are Poisson; read noise alone (no light) is normal."""
+    from scipy.stats import chisquare, kstest, poisson
+
+    from hexatissue.benchmark import _camera_kernels as kernels
+
+    tables = _poisson_tables(kernels.TABLE_MAX - 1)
+    for mean in (0.6, 42.3):
+        x = kernels.camera(np.full(200000, mean, np.float32), np.uint64(5), True, 0.0, 1.0, 0.0, tables,
+                           kernels.ZIGGURAT)
+        k = np.arange(poisson.ppf(1e-4, mean), poisson.ppf(1 - 1e-4, mean) + 1)
+        observed = np.r_[(x < k[0]).sum(), np.histogram(x, np.r_[k, k[-1] + 1] - 0.5)[0], (x > k[-1]).sum()]
+        expected = np.r_[poisson.cdf(k[0] - 1, mean), poisson.pmf(k, mean), poisson.sf(k[-1], mean)] * x.size
+        keep = expected > 0
+        assert chisquare(observed[keep], expected[keep]).pvalue > 1e-3
+    # read noise of 1 electron at gain 1000 ADU / electron: ADU = round(1000 z + 30000)
+    adu = kernels.camera(np.zeros(200000, np.float32), np.uint64(6), True, 1.0, 1000.0, 30000.0, tables,
+                         kernels.ZIGGURAT)
+    assert kstest((adu.astype(float) - 30000) / 1000, "norm").pvalue > 1e-3
+
+
+@pytest.mark.parametrize("mean", [0.3, 7.5, 63.2, 1500.0])  # 1500: above the tables, transformed rejection
 def test_poisson_counts_follow_the_poisson_distribution(mean):
     from scipy.stats import chisquare, poisson
 

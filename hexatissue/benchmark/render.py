@@ -6,7 +6,11 @@ the nuclei with ``cv2.circle`` and the Gaussian PSF is ``cv2.GaussianBlur``.  Th
 applied together in Fourier space (the PSF's transfer function times the
 phase ramp of an exact, band-limited shift): ``cv2.warpAffine``'s
 interpolation moved fine detail by up to 0.15 px more or less than asked
-(measured by phase correlation).  Noise comes from numpy's Generator.
+(measured by phase correlation).  The camera (shot and read noise, ADU) is
+one numba kernel, :func:`hexatissue.benchmark._camera_kernels.camera`, whose
+random numbers are a counter-based stream (splitmix64 of the frame's seed,
+the pixel and the draw), so a frame's noise depends only on the seed and the
+frame number.
 
 Geometry comes from the truth tables, not the labels: every junction is the
 segment between its two vertices (``edges`` and ``vertices`` tables), in px
@@ -29,7 +33,8 @@ efficiency 1):
 4. ``electrons = Poisson(clean) + Normal(0, read_noise)``, recorded as
    ``ADU = round(gain * electrons + offset)`` clipped to uint16.  The
    Poisson counts are exact (:func:`poisson_counts`: alias tables and
-   inversion, :mod:`hexatissue.benchmark._camera_kernels`).
+   inversion, transformed rejection for means of 1024 and more), the
+   normal deviates too (ziggurat); :mod:`hexatissue.benchmark._camera_kernels`.
 
 **SNR** (frame 0, computed on the noise-free image after the PSF): with J
 the junction centreline pixels (the junction segments rasterised 1 px wide)
@@ -391,11 +396,11 @@ class Renderer:
         return np.zeros((rows + 2 * self._pad, cols + 2 * self._pad), np.uint8)
 
     def _membrane(self, t, width=None, aa=True):
-        """Padded float32 drawing of the junctions of frame ``t`` (value = junction intensity)."""
+        """Padded uint8 drawing of the junctions of frame ``t``: the junction intensity in units of 1 / _LEVEL."""
         lines, level = self._junctions(t)
         canvas = self._canvas()
         if not len(lines):
-            return canvas.astype(np.float32)
+            return canvas
         code = np.clip(np.round(level * (_LEVEL / _BUCKET)), 1, 255 // _BUCKET).astype(np.int64) * _BUCKET
         copies, index = self._copies(lines)
         pts = np.round(copies * 2**_SHIFT).astype(np.int32)
@@ -406,7 +411,7 @@ class Renderer:
         values, starts = np.unique(codes[order], return_index=True)
         for value, group in zip(values, np.split(order, starts[1:])):
             cv2.polylines(canvas, pts[group], False, int(value), thickness, kind, _SHIFT)
-        return canvas.astype(np.float32) * np.float32(1.0 / _LEVEL)
+        return canvas
 
     def _pad_image(self, image):
         border = cv2.BORDER_WRAP if self._period is not None else cv2.BORDER_REFLECT_101
@@ -424,13 +429,18 @@ class Renderer:
             return self._crop(blurred)
         # periodic: transform exactly one box (the convolution and the shift wrap); open: the padded
         # canvas, whose pad holds the PSF's reach and the largest drift
+        # in single precision (scipy.fft keeps float32; numpy's works in float64, 3 x slower): rounding
+        # errors ~1e-7 of the image's total, far below one photon
+        from scipy import fft
+
         image = self._crop(layer) if self._period is not None else layer
         if image.shape not in self._otf:
-            self._otf[image.shape] = transfer_function(image.shape, o.psf, o.psf_sigma)
-        spectrum = np.fft.rfft2(image) * self._otf[image.shape]
+            self._otf[image.shape] = transfer_function(image.shape, o.psf, o.psf_sigma).astype(np.float32)
+        spectrum = fft.rfft2(image)
+        spectrum *= self._otf[image.shape]
         if dx or dy:
-            spectrum *= _shift_ramp(image.shape, dx, dy)
-        image = np.fft.irfft2(spectrum, s=image.shape).astype(np.float32)
+            spectrum *= _shift_ramp(image.shape, dx, dy).astype(np.complex64)
+        image = fft.irfft2(spectrum, s=image.shape)
         return image if self._period is not None else self._crop(image)
 
     def _crop(self, image):
@@ -441,7 +451,7 @@ class Renderer:
         """Membrane amplitude giving the requested SNR on frame 0 (module docstring)."""
         o = self.options
         cyto = self._optics(self._cytoplasm(0))
-        drawn = self._optics(self._membrane(0))
+        drawn = self._optics(self._membrane(0).astype(np.float32) * np.float32(1.0 / _LEVEL))
         centre = self._crop(self._membrane(0, width=1, aa=False)) > 0
         far = cv2.distanceTransform((~centre).astype(np.uint8), cv2.DIST_L2, 5)
         inside = (self.truth.labels[0] > 0) & (far > o.membrane_width / 2 + 3 * o.psf_sigma + 1)
@@ -477,61 +487,51 @@ class Renderer:
         if not 0 <= t < len(self):
             raise InputError(f"frame {t} is not in the truth; it has frames 0..{len(self) - 1}")
         o = self.options
-        layers = [self._cytoplasm(t) + np.float32(self.amplitude) * self._membrane(t)]
+        # cytoplasm + A m in one pass (m = the uint8 drawing / _LEVEL)
+        layers = [cv2.addWeighted(self._cytoplasm(t), 1.0, self._membrane(t), self.amplitude / _LEVEL, 0.0,
+                                  dtype=cv2.CV_32F)]
         if o.nuclei:
             layers.append(self._nuclei(t))
         dx, dy = self._walk[t]
         fade = np.float32(np.exp(-o.bleach_rate * t))
-        out = []
-        for layer in layers:
-            out.append(self._optics(layer, dx, dy) * fade)
-        return np.stack(out)
+        out = np.empty((len(layers),) + tuple(self._shape), np.float32)
+        for channel, layer in zip(out, layers):
+            np.multiply(self._optics(layer, dx, dy), fade, out=channel)
+        return out
 
     def frame(self, t):
         """Frame ``t`` as recorded by the camera: ``(channels, rows, cols)`` uint16 ADU."""
+        from ._camera_kernels import ZIGGURAT, camera
+
         o = self.options
-        clean = np.maximum(self.clean(t), 0)
-        rng = as_generator(int(self._frame_seeds[int(t)]))
-        z = rng.standard_normal(clean.shape, dtype=np.float32)
-        if o.shot_noise == "poisson":
-            electrons = poisson_counts(clean, rng)
-            electrons += np.float32(o.read_noise) * z
-        else:  # shot and read noise in one normal draw: Normal(clean, clean + read_noise**2)
-            electrons = clean + np.sqrt(clean + np.float32(o.read_noise**2)) * z
-        electrons *= np.float32(o.gain)
-        electrons += np.float32(o.offset + 0.5)  # + 0.5 then truncation: rounding to the nearest ADU
-        return np.clip(electrons, 0, 65535, out=electrons).astype(np.uint16)
+        clean = self.clean(t)
+        adu = camera(clean.reshape(-1), np.uint64(self._frame_seeds[int(t)]), o.shot_noise == "poisson",
+                     float(o.read_noise), float(o.gain), float(o.offset), _poisson_tables(), ZIGGURAT)
+        return adu.reshape(clean.shape)
 
 
 @lru_cache(maxsize=1)
-def _alias_tables():
-    from ._camera_kernels import TABLE_MAX, alias_tables
+def _poisson_tables():
+    """The alias tables of Poisson(n), n < TABLE_MAX, and the reciprocals (built once, ~0.1 s)."""
+    from ._camera_kernels import RECIPROCALS, TABLE_MAX, alias_tables
 
-    return alias_tables(TABLE_MAX - 1)
+    return alias_tables(TABLE_MAX - 1) + (RECIPROCALS,)
 
 
 def poisson_counts(mean, seed=0):
     """Exact Poisson counts of the expected counts ``mean`` (any shape, >= 0), float32.
 
-    Means below :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX` use
-    the alias-table kernel (:mod:`hexatissue.benchmark._camera_kernels`),
-    larger ones numpy's ``Generator.poisson``; both are exact.
+    The camera's sampler (:mod:`hexatissue.benchmark._camera_kernels`):
+    alias tables and inversion below
+    :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX`
+    (``poisson_small``), transformed rejection above (``poisson_large``);
+    both exact.  ``seed`` (int or Generator) gives the key of the stream.
     """
-    from ._camera_kernels import RECIPROCALS, TABLE_MAX, poisson_counts as kernel
+    from ._camera_kernels import poisson_counts as kernel
 
-    rng = as_generator(seed)
+    key = np.uint64(as_generator(seed).integers(0, 2**63))
     lam = np.ascontiguousarray(mean, dtype=np.float32).ravel()
-    u = rng.random((2, lam.size))
-    big = None
-    if lam.size and lam.max() >= TABLE_MAX:
-        big = lam >= TABLE_MAX
-        lam = np.where(big, np.float32(0), lam)
-    whole = np.floor(lam.astype(np.float64))
-    p0 = np.exp(whole - lam, out=whole)  # P(0) of the fractional part of every mean
-    counts = kernel(lam, p0, u[0], u[1], *_alias_tables(), RECIPROCALS)
-    if big is not None:
-        counts[big] = rng.poisson(np.asarray(mean, np.float32).ravel()[big])
-    return counts.reshape(np.shape(mean))
+    return kernel(lam, key, *_poisson_tables()).reshape(np.shape(mean))
 
 
 def render(truth, options=RenderOptions(), *, seed=0, progress=True):
