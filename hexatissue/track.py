@@ -30,7 +30,7 @@ from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
-           "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
+           "compact_frames", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -51,7 +51,7 @@ LINEAGE_COLUMNS = {
 class _Compact:
     """A label image as compact indices 0..n-1 (-1 = background) plus ids and areas."""
 
-    index: np.ndarray  # int32 per pixel, -1 for background
+    index: np.ndarray | None  # int32 per pixel, -1 for background; None once no overlap will be counted here
     ids: np.ndarray  # label id of each index
     area: np.ndarray  # pixels per index
     shape: tuple = ()
@@ -60,6 +60,10 @@ class _Compact:
 
     def __getstate__(self):  # a pickled tracker (checkpoint) does not carry the previous frame
         return {**self.__dict__, "overlaps": ()}
+
+    def without_pixels(self) -> "_Compact":
+        """This frame without its pixel index (ids and areas only): enough once its overlaps are counted."""
+        return _Compact(None, self.ids, self.area, self.shape)
 
 
 def _compact(labels: np.ndarray) -> _Compact:
@@ -110,6 +114,7 @@ def _dense_overlaps_reference(ia, ib, na, nb):
 def _contingency(a: _Compact, b: _Compact):
     """Sparse overlap counts ``(i, j, n)`` between the cells of two compact frames (computed once per pair)."""
     if b.overlaps and b.overlaps[0] is a:
+        a.overlaps = ()
         return b.overlaps[1]
     na, nb = len(a.ids), len(b.ids)
     if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
@@ -121,6 +126,43 @@ def _contingency(a: _Compact, b: _Compact):
         out = i, j, n.astype(np.int64)
     a.overlaps = ()  # a's own link to its predecessor is no longer needed: the chain of frames is not kept
     b.overlaps = (a, out)
+    return out
+
+
+def compact_frames(labels, pixels=False) -> list:
+    """Consecutive frames as a :class:`MovieTracker` takes them, with their overlaps counted here.
+
+    For the process that meshed the frames (:func:`hexatissue.analyze`'s
+    workers), so that the tracker only links them.  The overlaps of the
+    first frame with the one before it are left to the tracker, which holds
+    that one.
+
+    Parameters
+    ----------
+    labels : sequence of (rows, cols) int arrays
+        Consecutive label images (checked by :func:`~hexatissue.mesh.labels.validate_labels`).
+    pixels : bool
+        Keep every frame's pixel index (:attr:`MovieTracker.needs_pixels`);
+        otherwise only the first frame (the tracker counts its overlaps with
+        the frame before) and the last one (the next batch's first frame
+        overlaps it; a checkpoint after it keeps it) keep theirs.
+
+    Returns
+    -------
+    list of (compact frame, overlaps)
+        Arguments of :meth:`MovieTracker.add_valid`; ``overlaps`` is None for the first frame.
+    """
+    out = []
+    for k, lab in enumerate(labels):
+        cur = _compact(lab)
+        overlaps = None
+        if out:
+            previous = out[-1][0]
+            overlaps = _contingency(previous, cur)
+            cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
+            if not pixels and k > 1:
+                out[-1] = previous.without_pixels(), out[-1][1]
+        out.append((cur, overlaps))
     return out
 
 
@@ -566,13 +608,26 @@ class MovieTracker:
         overlap = mode == "always" or (mode == "auto" and not self.ids_consistent and not self.independent)
         self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap) if overlap else None
 
-    def add_valid(self, labels, frame=None):
-        """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`)."""
+    def add_valid(self, labels, frame=None, overlaps=None):
+        """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`).
+
+        ``labels`` and ``overlaps`` may come from :func:`compact_frames` (run
+        ahead, e.g. in the worker that meshed the frames): ``overlaps`` are then
+        the counts with the frame added just before, and ``labels`` may lack
+        its pixels unless gap closing needs them (:attr:`needs_pixels`).
+        """
         labels = _compact(labels)  # once for both trackers, which share the overlaps too
+        if overlaps is not None:
+            labels.overlaps = (self.ids._prev, overlaps)
         self.ids.add_valid(labels, frame)
         for feed in (self.overlap, self.separate):
             if feed is not None:
                 feed.add_valid(labels, frame)
+
+    @property
+    def needs_pixels(self) -> bool:
+        """Whether every frame's pixels are needed (gap closing keeps the masks of ended tracks)."""
+        return self.overlap is not None and self.overlap.max_gap > 0
 
     def add_ids(self, ids, frame):
         """Add the next frame by its cell ids only (polygon input: nothing to overlap)."""
