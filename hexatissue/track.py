@@ -69,6 +69,15 @@ class _Compact:
 def _compact(labels: np.ndarray) -> _Compact:
     if isinstance(labels, _Compact):  # already compacted for the other tracker of a MovieTracker
         return labels
+    top = int(labels.max())
+    if top >= 2**24 or top > 4 * labels.size:  # sparse ids: a table over them would be too large
+        return _compact_reference(labels)
+    index, ids, area = _compact_index(labels.ravel(), top)
+    return _Compact(index, ids, area, labels.shape)
+
+
+def _compact_reference(labels: np.ndarray) -> _Compact:
+    """Reference of :func:`_compact` (and its path for sparse ids): compact labels, then a bincount."""
     compact, ids = compact_labels(labels)
     area = np.bincount(compact.ravel(), minlength=len(ids))
     return _Compact((compact.ravel() - 1).astype(np.int32), ids[1:].astype(np.int64), area[1:].astype(np.int64),
@@ -76,29 +85,70 @@ def _compact(labels: np.ndarray) -> _Compact:
 
 
 @njit(cache=True)
+def _compact_index(flat, top):
+    """Compact index of each pixel of ``flat`` (ids 0..top; -1 for 0), the ids present (sorted) and their areas.
+
+    Two passes over the pixels and one over the ids, with no temporary image
+    (the reference builds the compact image, shifts and casts it, then counts it).
+    """
+    new = np.zeros(top + 1, np.int32)
+    for v in flat:
+        new[v] = 1
+    n = 0
+    for v in range(1, top + 1):
+        if new[v]:
+            new[v] = n
+            n += 1
+        else:
+            new[v] = -1
+    new[0] = -1
+    ids = np.empty(n, np.int64)
+    for v in range(1, top + 1):
+        if new[v] >= 0:
+            ids[new[v]] = v
+    index = np.empty(flat.size, np.int32)
+    area = np.zeros(n, np.int64)
+    for k in range(flat.size):
+        c = new[flat[k]]
+        index[k] = c
+        if c >= 0:
+            area[c] += 1
+    return index, ids, area
+
+
+@njit(cache=True)
 def _dense_overlaps(ia, ib, na, nb):
     """Overlap counts of the cell pairs (rows of ``ia`` x columns of ``ib``, -1 = background) that overlap.
 
     Returns ``i, j, n`` in row-major order of ``(i, j)``, as ``np.nonzero`` of the dense count table.
+    The pairs met are listed as they first occur and sorted, so the (mostly
+    empty) table is not scanned.
     """
-    counts = np.zeros((na + 1, nb + 1), np.int64)  # background in the last row and column
+    width = nb + 1  # background in the last row and column
+    counts = np.zeros((na + 1) * width, np.int64)
+    met = np.empty(min(len(ia), (na + 1) * width), np.int64)
+    m = 0
     for k in range(len(ia)):
         a = ia[k]
         b = ib[k]
-        counts[a if a >= 0 else na, b if b >= 0 else nb] += 1
-    m = 0
-    for a in range(na):
-        for b in range(nb):
-            m += counts[a, b] > 0
-    i = np.empty(m, np.int64)
-    j = np.empty(m, np.int64)
-    n = np.empty(m, np.int64)
-    m = 0
-    for a in range(na):
-        for b in range(nb):
-            if counts[a, b] > 0:
-                i[m], j[m], n[m] = a, b, counts[a, b]
-                m += 1
+        key = (a if a >= 0 else na) * width + (b if b >= 0 else nb)
+        if counts[key] == 0:
+            met[m] = key
+            m += 1
+        counts[key] += 1
+    met = np.sort(met[:m])
+    cells = 0
+    for q in range(m):
+        cells += met[q] // width < na and met[q] % width < nb
+    i = np.empty(cells, np.int64)
+    j = np.empty(cells, np.int64)
+    n = np.empty(cells, np.int64)
+    cells = 0
+    for q in range(m):
+        a, b = met[q] // width, met[q] % width
+        if a < na and b < nb:
+            i[cells], j[cells], n[cells] = a, b, counts[met[q]]
+            cells += 1
     return i, j, n
 
 
