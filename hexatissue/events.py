@@ -249,7 +249,9 @@ class _FrameGraph:
 
     def __init__(self, present, a, b, K):
         self.present, self.K = present, K
-        self.keys = np.unique(np.minimum(a, b) * K + np.maximum(a, b))
+        keys = np.minimum(a, b) * K + np.maximum(a, b)
+        # the contacts of _movie_frames come sorted and unique already: check that instead of sorting again
+        self.keys = keys if bool(np.all(keys[1:] > keys[:-1])) else np.unique(keys)
         a, b = np.divmod(self.keys, K)
         u, v = np.concatenate((a, b)), np.concatenate((b, a))
         order = np.lexsort((v, u))

@@ -9,10 +9,13 @@ One function strings every stage together, frame by frame:
                                           defect tracks and pair events
                       ->  Movie  ->  Movie.write(folder)  <->  read_results(folder)
 
-Frames are read one at a time from the :class:`~hexatissue.Source`; at most
-a few are in flight, so memory does not grow with the movie's length beyond
-its output tables.  The per-frame work runs in a local process pool (default)
-or on a dask.distributed cluster (``client``).  Conventions: label images are
+Frames are read one at a time from the :class:`~hexatissue.Source` and sent
+to the workers in batches of consecutive frames; at most a few batches are
+in flight, so memory does not grow with the movie's length beyond its output
+tables.  The workers also compact each frame's labels and count their
+overlaps with the previous frame, so the tracker only links cells.  The
+per-frame work runs in a local process pool (default) or on a
+dask.distributed cluster (``client``).  Conventions: label images are
 indexed ``[row, col]``; tables use ``x`` = column, ``y`` = row, in px, origin
 at the centre of pixel (0, 0); times in frames.
 """
