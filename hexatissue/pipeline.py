@@ -634,11 +634,13 @@ class _Pool:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
+        from . import track
         from .mesh import warm_up
 
         method = "fork" if "fork" in mp.get_all_start_methods() else None
         if method == "fork":
             warm_up()  # compile the kernels once here; forked workers inherit them
+            track.warm_up()
         self.pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=mp.get_context(method),
                                         initializer=_die_with_parent)
 
