@@ -670,6 +670,7 @@ BATCH_FRAMES = 8
 
 
 def _batch_size(n_frames, shape, max_inflight):
+    """Frames per task for ``n_frames`` frames of ``shape`` with ``max_inflight`` tasks in flight."""
     by_pixels = BATCH_PIXELS // max(int(np.prod(shape)), 1)
     return int(max(1, min(BATCH_FRAMES, by_pixels, n_frames // (2 * max_inflight))))
 
