@@ -249,7 +249,9 @@ class _FrameGraph:
 
     def __init__(self, present, a, b, K):
         self.present, self.K = present, K
-        self.keys = np.unique(np.minimum(a, b) * K + np.maximum(a, b))
+        keys = np.minimum(a, b) * K + np.maximum(a, b)
+        # the contacts of _movie_frames come sorted and unique already: check that instead of sorting again
+        self.keys = keys if bool(np.all(keys[1:] > keys[:-1])) else np.unique(keys)
         a, b = np.divmod(self.keys, K)
         u, v = np.concatenate((a, b)), np.concatenate((b, a))
         order = np.lexsort((v, u))
@@ -646,6 +648,8 @@ class _Lists:
 
     def restricted(self, present):
         """List hashes on the neighbours in the sorted ids ``present`` (all when None), per cell."""
+        if present is not None and np.array_equal(present, self.tracks):  # the same cells: every list whole
+            return self.full
         out = np.zeros(len(self.tracks), np.uint64)
         h = self.h if present is None else np.where(_in_sorted(self.v, present), self.h, np.uint64(0))
         np.add.at(out, self.row, h)
@@ -655,6 +659,11 @@ class _Lists:
         """Directed contacts of each of ``tracks``: (position in ``tracks``, row of ``u``/``v``/``h``)."""
         rows, owner = _expand(np.searchsorted(self.u, tracks, "left"), np.searchsorted(self.u, tracks, "right"))
         return owner, rows
+
+
+#: :class:`_Changes` finds cells by a table over the track ids when the largest id is below this many
+#: times the cell rows (plus 65,536): the table is then no larger than a few columns of the cells table.
+SLOT_TABLE_ROWS = 4
 
 
 class _Changes:
@@ -673,8 +682,11 @@ class _Changes:
     movie; None when every frame has the same cells).
     """
 
-    def __init__(self, present_keys):
+    def __init__(self, present_keys, top=None):
         self.present_keys = present_keys
+        # row of each track id in the current frame (-1: absent), when the ids are few enough for a table:
+        # the open changes (every intercalation stays open) are looked up at every frame
+        self.slot = None if top is None else np.full(int(top) + 1, -1, np.int64)
         self.always = None  # cells present in every frame (None: all of them)
         if present_keys is not None:
             frames, ids = np.divmod(present_keys, row_keys(1, 0))
@@ -733,8 +745,7 @@ class _Changes:
         m = len(self.track)
         if not m or not len(lists.tracks):
             return
-        k = np.minimum(np.searchsorted(lists.tracks, self.track), len(lists.tracks) - 1)
-        here = lists.tracks[k] == self.track
+        k, here = self._rows(lists)
         now, ref = lists.full[k], self.ref.copy()
         if self.always is not None:  # less the neighbours absent from either frame
             rare = np.flatnonzero(self._rare(lists.v))
@@ -758,6 +769,16 @@ class _Changes:
         self.index, self.track = self.index[kept], self.track[kept]
         self.prev_frame, self.ref = self.prev_frame[kept], self.ref[kept]
 
+    def _rows(self, lists):
+        """Row in ``lists`` of each open change's cell (any row if absent) and whether it is there."""
+        if self.slot is None:  # a binary search of every open change
+            k = np.minimum(np.searchsorted(lists.tracks, self.track), len(lists.tracks) - 1)
+            return k, lists.tracks[k] == self.track
+        self.slot[lists.tracks] = np.arange(len(lists.tracks))
+        k = self.slot[self.track]
+        self.slot[lists.tracks] = -1
+        return np.maximum(k, 0), k >= 0
+
     def events(self, last, censor):
         """Events per cell, by the first change of each excursion: (track, kind, start, end, n_lost, n_gained).
 
@@ -767,12 +788,13 @@ class _Changes:
         """
         if not self.found:
             return []
-        track, start, n_lost, n_gained = (np.concatenate(c).tolist() for c in zip(*self.found))
+        track, start, n_lost, n_gained = (np.concatenate(c) for c in zip(*self.found))
+        order = np.lexsort((start, track)).tolist()  # stable: changes of one cell and frame keep their order
+        track, start, n_lost, n_gained = track.tolist(), start.tolist(), n_lost.tolist(), n_gained.tolist()
         back = np.full(self.n, -1, np.int64)
         for index, frame in self.back:
             back[index] = frame
         back = back.tolist()
-        order = sorted(range(self.n), key=lambda i: (track[i], start[i]))
         out, k = [], 0
         while k < len(order):
             i = order[k]
@@ -836,7 +858,9 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
     frames, tracks = cells["frame"].to_numpy(np.int64), track_ids(cells)
     by_frame = _ByFrame(frames)
     constant = _same_cells_every_frame(by_frame, tracks)
-    changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)))
+    top = int(tracks.max()) if len(tracks) else 0
+    changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)),
+                       top if top < SLOT_TABLE_ROWS * len(tracks) + 2**16 else None)
     for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
         changes.add(_Lists(frame, present, a, b))
     rows = changes.events(int(frames.max()) if len(frames) else 0, censor)

@@ -9,10 +9,13 @@ One function strings every stage together, frame by frame:
                                           defect tracks and pair events
                       ->  Movie  ->  Movie.write(folder)  <->  read_results(folder)
 
-Frames are read one at a time from the :class:`~hexatissue.Source`; at most
-a few are in flight, so memory does not grow with the movie's length beyond
-its output tables.  The per-frame work runs in a local process pool (default)
-or on a dask.distributed cluster (``client``).  Conventions: label images are
+Frames are read one at a time from the :class:`~hexatissue.Source` and sent
+to the workers in batches of consecutive frames; at most a few batches are
+in flight, so memory does not grow with the movie's length beyond its output
+tables.  The workers also compact each frame's labels and count their
+overlaps with the previous frame, so the tracker only links cells.  The
+per-frame work runs in a local process pool (default) or on a
+dask.distributed cluster (``client``).  Conventions: label images are
 indexed ``[row, col]``; tables use ``x`` = column, ``y`` = row, in px, origin
 at the centre of pixel (0, 0); times in frames.
 """
@@ -492,6 +495,25 @@ def _polygon_job(polygons, t, order):
     return tables, polygons.cell, [(w.category, str(w.message)) for w in caught]
 
 
+def _batch_job(job, batch, pixels):
+    """``job`` (:func:`_frame_job` or :func:`_polygon_job`) of consecutive frames, in one task.
+
+    ``batch`` holds the job's arguments for each frame.  Label frames come
+    back compacted for the tracker, with their overlaps with the batch's
+    previous frame counted here (:func:`hexatissue.track.compact_frames`;
+    ``pixels``: keep every frame's pixels, for gap closing), so that the main
+    process only links them; polygon frames come back as their cell ids.
+    Returns ``[(tables, labels, overlaps or None, warnings), ...]`` in frame order.
+    """
+    from .track import compact_frames
+
+    done = [job(*args) for args in batch]
+    if job is _polygon_job:
+        return [(tables, ids, None, found) for tables, ids, found in done]
+    tracked = compact_frames([labels for _, labels, _ in done], pixels)
+    return [(tables, labels, overlaps, found) for (tables, _, found), (labels, overlaps) in zip(done, tracked)]
+
+
 def _check_polygon_run(box, mask, intensity, track):
     """Refuse what cell polygons cannot have: a periodic box, a mask, a raw channel, overlap tracking."""
     if box is not None and box is not False:
@@ -612,11 +634,13 @@ class _Pool:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
+        from . import track
         from .mesh import warm_up
 
         method = "fork" if "fork" in mp.get_all_start_methods() else None
         if method == "fork":
             warm_up()  # compile the kernels once here; forked workers inherit them
+            track.warm_up()
         self.pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=mp.get_context(method),
                                         initializer=_die_with_parent)
 
@@ -628,6 +652,7 @@ class _Pool:
 
 
 def _executor(client, workers, n_frames):
+    """``(executor, tasks kept in flight)``: twice the workers, so none waits while the main process collects."""
     if client is not None:
         threads = sum(client.nthreads().values()) if hasattr(client, "nthreads") else 1
         return _Dask(client), max(2, 2 * threads)
@@ -636,6 +661,18 @@ def _executor(client, workers, n_frames):
     if workers == 1:
         return _Serial(), 1
     return _Pool(workers), 2 * workers
+
+
+#: Frames per task: as many as hold about this many pixels (one task's IPC and bookkeeping for several
+#: small frames), at most BATCH_FRAMES, and few enough that every task in flight has frames.
+BATCH_PIXELS = 2**20
+BATCH_FRAMES = 8
+
+
+def _batch_size(n_frames, shape, max_inflight):
+    """Frames per task for ``n_frames`` frames of ``shape`` with ``max_inflight`` tasks in flight."""
+    by_pixels = BATCH_PIXELS // max(int(np.prod(shape)), 1)
+    return int(max(1, min(BATCH_FRAMES, by_pixels, n_frames // (2 * max_inflight))))
 
 
 def _extract(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress):
@@ -653,6 +690,11 @@ def _extract(src, box, mesh, order, mask, raw, tracker, client, workers, store, 
 
 
 def _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress):
+    """The frame loop: batches of consecutive frames go to the executor; their results are tracked in order.
+
+    A batch never spans a checkpoint (its last frame keeps its pixels, which
+    the checkpointed tracker holds for the next frame's overlaps).
+    """
     from .progress import progress as progress_bar
 
     n_frames = src.n_frames
@@ -668,42 +710,50 @@ def _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, 
     if start >= n_frames:
         return rows, tracker
     executor, max_inflight = _executor(client, workers, n_frames - start)
+    batch_size = _batch_size(n_frames - start, src.shape, max_inflight)
     pending: deque = deque()
     due = store.due(start, n_frames) if store is not None else set()
     saved = {name: r.n for name, r in rows.items()}  # rows already in checkpoint files
 
     frame_warnings = _FrameWarnings()
     polygons = src.kind == "polygons"
+    job = _polygon_job if polygons else _frame_job
+    pixels = not polygons and tracker.needs_pixels
 
-    def collect(item):
-        t, future = item
-        tables, labels, found = future.result()
-        frame_warnings.add(t, found)
+    def collect(first, future):
+        for t, (tables, labels, overlaps, found) in enumerate(future.result(), start=first):
+            frame_warnings.add(t, found)
+            if polygons:
+                tracker.add_ids(labels, t)  # the cell ids: polygons have no labels to overlap
+            else:
+                tracker.add_valid(labels, t, overlaps)
+            for name, table in tables.items():
+                rows[name].append(table)
+            del tables, labels, overlaps
+            if t + 1 in due:
+                new = {name: [r.table(start=saved[name])] for name, r in rows.items() if r.n > saved[name]}
+                store.save(t + 1, new, pickle.dumps(tracker))
+                saved.update({name: r.n for name, r in rows.items()})
+
+    def frame_args(t):
         if polygons:
-            tracker.add_ids(labels, t)  # the cell ids: polygons have no labels to overlap
-        else:
-            tracker.add_valid(labels, t)
-        for name, table in tables.items():
-            rows[name].append(table)
-        del tables, labels
-        if t + 1 in due:
-            new = {name: [r.table(start=saved[name])] for name, r in rows.items() if r.n > saved[name]}
-            store.save(t + 1, new, pickle.dumps(tracker))
-            saved.update({name: r.n for name, r in rows.items()})
+            return src.polygons(t), t, order
+        image = None if raw is None else raw.image(t if raw.n_frames > 1 else 0)
+        return src.frame(t), t, box, mesh, order, mask, image
 
     try:
+        batch = []
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,
                               total=n_frames):
-            if polygons:
-                job = executor.submit(_polygon_job, src.polygons(t), t, order)
-            else:
-                image = None if raw is None else raw.image(t if raw.n_frames > 1 else 0)
-                job = executor.submit(_frame_job, src.frame(t), t, box, mesh, order, mask, image)
-            pending.append((t, job))
+            batch.append(frame_args(t))
+            if len(batch) < batch_size and t + 1 not in due and t + 1 < n_frames:
+                continue
+            pending.append((t + 1 - len(batch), executor.submit(_batch_job, job, batch, pixels)))
+            batch = []
             while len(pending) >= max_inflight:
-                collect(pending.popleft())
+                collect(*pending.popleft())
         while pending:
-            collect(pending.popleft())
+            collect(*pending.popleft())
     finally:
         executor.shutdown()
         frame_warnings.emit()

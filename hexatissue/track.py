@@ -30,7 +30,7 @@ from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
-           "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
+           "compact_frames", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -51,7 +51,7 @@ LINEAGE_COLUMNS = {
 class _Compact:
     """A label image as compact indices 0..n-1 (-1 = background) plus ids and areas."""
 
-    index: np.ndarray  # int32 per pixel, -1 for background
+    index: np.ndarray | None  # int32 per pixel, -1 for background; None once no overlap will be counted here
     ids: np.ndarray  # label id of each index
     area: np.ndarray  # pixels per index
     shape: tuple = ()
@@ -61,10 +61,36 @@ class _Compact:
     def __getstate__(self):  # a pickled tracker (checkpoint) does not carry the previous frame
         return {**self.__dict__, "overlaps": ()}
 
+    def without_pixels(self) -> "_Compact":
+        """This frame without its pixel index (ids and areas only): enough once its overlaps are counted."""
+        return _Compact(None, self.ids, self.area, self.shape)
+
 
 def _compact(labels: np.ndarray) -> _Compact:
     if isinstance(labels, _Compact):  # already compacted for the other tracker of a MovieTracker
         return labels
+    top = int(labels.max())
+    if top >= 2**24 or top > 4 * labels.size:  # sparse ids: a table over them would be too large
+        return _compact_reference(labels)
+    index, ids, area = _compact_index(labels.ravel(), top)
+    return _Compact(index, ids, area, labels.shape)
+
+
+def warm_up() -> None:
+    """Compile the kernels the workers of :func:`hexatissue.analyze` run (or load them from numba's cache).
+
+    Called in the parent before it forks the workers (with
+    :func:`hexatissue.mesh.warm_up`), so that they share the compiled code
+    instead of each loading it into memory of its own: for the usual
+    normalised labels, uint16 (touching) and int32 (membranes filled).
+    """
+    for dtype in (np.uint16, np.int32):
+        a, b = _compact(np.array([[1, 2], [0, 2]], dtype)), _compact(np.array([[1, 1], [2, 0]], dtype))
+        _dense_overlaps(a.index, b.index, len(a.ids), len(b.ids))
+
+
+def _compact_reference(labels: np.ndarray) -> _Compact:
+    """Reference of :func:`_compact` (and its path for sparse ids): compact labels, then a bincount."""
     compact, ids = compact_labels(labels)
     area = np.bincount(compact.ravel(), minlength=len(ids))
     return _Compact((compact.ravel() - 1).astype(np.int32), ids[1:].astype(np.int64), area[1:].astype(np.int64),
@@ -72,29 +98,70 @@ def _compact(labels: np.ndarray) -> _Compact:
 
 
 @njit(cache=True)
+def _compact_index(flat, top):
+    """Compact index of each pixel of ``flat`` (ids 0..top; -1 for 0), the ids present (sorted) and their areas.
+
+    Two passes over the pixels and one over the ids, with no temporary image
+    (the reference builds the compact image, shifts and casts it, then counts it).
+    """
+    new = np.zeros(top + 1, np.int32)
+    for v in flat:
+        new[v] = 1
+    n = 0
+    for v in range(1, top + 1):
+        if new[v]:
+            new[v] = n
+            n += 1
+        else:
+            new[v] = -1
+    new[0] = -1
+    ids = np.empty(n, np.int64)
+    for v in range(1, top + 1):
+        if new[v] >= 0:
+            ids[new[v]] = v
+    index = np.empty(flat.size, np.int32)
+    area = np.zeros(n, np.int64)
+    for k in range(flat.size):
+        c = new[flat[k]]
+        index[k] = c
+        if c >= 0:
+            area[c] += 1
+    return index, ids, area
+
+
+@njit(cache=True)
 def _dense_overlaps(ia, ib, na, nb):
     """Overlap counts of the cell pairs (rows of ``ia`` x columns of ``ib``, -1 = background) that overlap.
 
     Returns ``i, j, n`` in row-major order of ``(i, j)``, as ``np.nonzero`` of the dense count table.
+    The pairs met are listed as they first occur and sorted, so the (mostly
+    empty) table is not scanned.
     """
-    counts = np.zeros((na + 1, nb + 1), np.int64)  # background in the last row and column
+    width = nb + 1  # background in the last row and column
+    counts = np.zeros((na + 1) * width, np.int64)
+    met = np.empty(min(len(ia), (na + 1) * width), np.int64)
+    m = 0
     for k in range(len(ia)):
         a = ia[k]
         b = ib[k]
-        counts[a if a >= 0 else na, b if b >= 0 else nb] += 1
-    m = 0
-    for a in range(na):
-        for b in range(nb):
-            m += counts[a, b] > 0
-    i = np.empty(m, np.int64)
-    j = np.empty(m, np.int64)
-    n = np.empty(m, np.int64)
-    m = 0
-    for a in range(na):
-        for b in range(nb):
-            if counts[a, b] > 0:
-                i[m], j[m], n[m] = a, b, counts[a, b]
-                m += 1
+        key = (a if a >= 0 else na) * width + (b if b >= 0 else nb)
+        if counts[key] == 0:
+            met[m] = key
+            m += 1
+        counts[key] += 1
+    met = np.sort(met[:m])
+    cells = 0
+    for q in range(m):
+        cells += met[q] // width < na and met[q] % width < nb
+    i = np.empty(cells, np.int64)
+    j = np.empty(cells, np.int64)
+    n = np.empty(cells, np.int64)
+    cells = 0
+    for q in range(m):
+        a, b = met[q] // width, met[q] % width
+        if a < na and b < nb:
+            i[cells], j[cells], n[cells] = a, b, counts[met[q]]
+            cells += 1
     return i, j, n
 
 
@@ -110,6 +177,7 @@ def _dense_overlaps_reference(ia, ib, na, nb):
 def _contingency(a: _Compact, b: _Compact):
     """Sparse overlap counts ``(i, j, n)`` between the cells of two compact frames (computed once per pair)."""
     if b.overlaps and b.overlaps[0] is a:
+        a.overlaps = ()
         return b.overlaps[1]
     na, nb = len(a.ids), len(b.ids)
     if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
@@ -121,6 +189,43 @@ def _contingency(a: _Compact, b: _Compact):
         out = i, j, n.astype(np.int64)
     a.overlaps = ()  # a's own link to its predecessor is no longer needed: the chain of frames is not kept
     b.overlaps = (a, out)
+    return out
+
+
+def compact_frames(labels, pixels=False) -> list:
+    """Consecutive frames as a :class:`MovieTracker` takes them, with their overlaps counted here.
+
+    For the process that meshed the frames (:func:`hexatissue.analyze`'s
+    workers), so that the tracker only links them.  The overlaps of the
+    first frame with the one before it are left to the tracker, which holds
+    that one.
+
+    Parameters
+    ----------
+    labels : sequence of (rows, cols) int arrays
+        Consecutive label images (checked by :func:`~hexatissue.mesh.labels.validate_labels`).
+    pixels : bool
+        Keep every frame's pixel index (:attr:`MovieTracker.needs_pixels`);
+        otherwise only the first frame (the tracker counts its overlaps with
+        the frame before) and the last one (the next batch's first frame
+        overlaps it; a checkpoint after it keeps it) keep theirs.
+
+    Returns
+    -------
+    list of (compact frame, overlaps)
+        Arguments of :meth:`MovieTracker.add_valid`; ``overlaps`` is None for the first frame.
+    """
+    out = []
+    for k, lab in enumerate(labels):
+        cur = _compact(lab)
+        overlaps = None
+        if out:
+            previous = out[-1][0]
+            overlaps = _contingency(previous, cur)
+            cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
+            if not pixels and k > 1:
+                out[-1] = previous.without_pixels(), out[-1][1]
+        out.append((cur, overlaps))
     return out
 
 
@@ -566,13 +671,26 @@ class MovieTracker:
         overlap = mode == "always" or (mode == "auto" and not self.ids_consistent and not self.independent)
         self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap) if overlap else None
 
-    def add_valid(self, labels, frame=None):
-        """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`)."""
+    def add_valid(self, labels, frame=None, overlaps=None):
+        """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`).
+
+        ``labels`` and ``overlaps`` may come from :func:`compact_frames` (run
+        ahead, e.g. in the worker that meshed the frames): ``overlaps`` are then
+        the counts with the frame added just before, and ``labels`` may lack
+        its pixels unless gap closing needs them (:attr:`needs_pixels`).
+        """
         labels = _compact(labels)  # once for both trackers, which share the overlaps too
+        if overlaps is not None:
+            labels.overlaps = (self.ids._prev, overlaps)
         self.ids.add_valid(labels, frame)
         for feed in (self.overlap, self.separate):
             if feed is not None:
                 feed.add_valid(labels, frame)
+
+    @property
+    def needs_pixels(self) -> bool:
+        """Whether every frame's pixels are needed (gap closing keeps the masks of ended tracks)."""
+        return self.overlap is not None and self.overlap.max_gap > 0
 
     def add_ids(self, ids, frame):
         """Add the next frame by its cell ids only (polygon input: nothing to overlap)."""

@@ -205,6 +205,37 @@ def test_dense_overlap_kernel_equals_reference():
     assert (i.tolist(), j.tolist(), n.tolist()) == ([0], [1], [2])
 
 
+def test_compact_kernel_equals_reference():
+    """Random label images (ids with gaps, with and without 0, several dtypes): the kernel equals the reference."""
+    rng = np.random.default_rng(6)
+    cases = [rng.choice(rng.choice(200, int(rng.integers(1, 20)), replace=False), (int(rng.integers(2, 30)), 7))
+             for _ in range(30)]
+    cases += [np.zeros((4, 5), np.int64), np.full((3, 3), 9)]
+    for lab in cases:
+        for dtype in (np.uint8, np.uint16, np.int32, np.int64):
+            a, b = trk._compact(lab.astype(dtype)), trk._compact_reference(lab.astype(dtype))
+            for name in ("index", "ids", "area"):
+                assert getattr(a, name).dtype == getattr(b, name).dtype
+                np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+            assert a.shape == b.shape
+
+
+def test_compact_frames_gives_the_trackers_the_same_tracks():
+    """Frames compacted and overlapped ahead (as analyze's workers do), in batches: the tracks of add_valid."""
+    movie = np.stack([np.asarray(f) for f in voronoi_movie(30, (64, 72), 9, periodic=True, amplitude=0.3, seed=3)])
+    frames = list(relabel_movie(movie, seed=1)[0])
+    for max_gap in (0, 1):
+        plain, ahead = trk.MovieTracker("always", max_gap=max_gap), trk.MovieTracker("always", max_gap=max_gap)
+        for t, lab in enumerate(frames):
+            plain.add_valid(lab, t)
+        for first in range(0, len(frames), 4):
+            for k, (lab, overlaps) in enumerate(trk.compact_frames(frames[first:first + 4], ahead.needs_pixels)):
+                assert (overlaps is None) == (k == 0) and (lab.index is None) == (0 < k < 3 and not max_gap)
+                ahead.add_valid(lab, first + k, overlaps)
+        assert plain.tracks().equals(ahead.tracks()) and plain.parents == ahead.parents
+        assert plain.ids.consistency == ahead.ids.consistency
+
+
 def test_movie_tracker_shares_one_overlap_count_and_pickles_without_it():
     """Both trackers of a MovieTracker get the same tracks as when run alone; a pickled tracker drops the cache."""
     import pickle
