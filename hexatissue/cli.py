@@ -129,6 +129,7 @@ def _intensity(args):
 
 
 def _run_analyze(args) -> int:
+    from .frame import write_results
     from .io import check_output_folder
     from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
     from .pipeline import analyze
@@ -154,12 +155,15 @@ def _run_analyze(args) -> int:
     finally:
         if client is not None:
             client.close()
-    written = movie.write(args.out, formats=tuple(args.format))
+    line = summary_line(movie)
     if args.figures:
         from .workflows.figures import save_movie_figures
 
+        written = movie.write(args.out, formats=tuple(args.format))
         written += save_movie_figures(movie, Path(args.out) / "figures", source)
-    print(f"{args.input}: {summary_line(movie)}; {len(written)} files in {args.out} "
+    else:  # the tables are not used again: each is freed once written (less memory under the writer)
+        written = write_results(movie, args.out, formats=tuple(args.format), release=True)
+    print(f"{args.input}: {line}; {len(written)} files in {args.out} "
           f"({time.perf_counter() - start:.1f} s)")
     return 0
 

@@ -214,24 +214,44 @@ class Movie:
         passing for one result), then the tables of this Movie are written
         and the old tables it does not have are removed.
         """
-        from .io import atomic_path, check_output_folder, write_tables
+        return write_results(self, directory, formats)
 
-        formats = tuple(formats) if isinstance(formats, (list, tuple)) else (formats,)
-        bad = [f for f in formats if f not in FORMATS]
-        if bad or not formats:
-            raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
-        directory = check_output_folder(directory, "directory")
-        (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
-        written = write_tables(self.tables(), directory, formats=formats)
-        for name in TABLES:
-            for fmt in FORMATS:
-                stale = directory / f"{name}.{fmt}"
-                if stale not in written:
-                    stale.unlink(missing_ok=True)
-        meta = dict(self.metadata(), formats=list(formats))
-        with atomic_path(directory / METADATA) as tmp:
-            tmp.write_text(json.dumps(meta, indent=2))
-        return written + [directory / METADATA]
+
+def write_results(movie, directory, formats=("parquet",), release=False) -> list[Path]:
+    """:meth:`Movie.write`; with ``release``, each table is dropped from ``movie`` once written, smallest first.
+
+    For a caller that does not use the tables afterwards (``hexatissue
+    analyze``): the Parquet writer's buffers then come on top of the tables
+    not yet written, not of all of them (the largest is written last, when
+    the others are freed).  The files are the same either way.
+    """
+    from .io import atomic_path, check_output_folder, write_table
+    from .pipeline import _release_freed_memory
+
+    formats = tuple(formats) if isinstance(formats, (list, tuple)) else (formats,)
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
+    directory = check_output_folder(directory, "directory")
+    meta = dict(movie.metadata(), formats=list(formats))  # before any table is released
+    (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
+    tables = movie.tables()
+    names = sorted(tables, key=lambda n: int(tables[n].memory_usage().sum())) if release else list(tables)
+    written = []
+    for name in names:
+        written += [write_table(tables[name], directory / f"{name}.{fmt}") for fmt in formats]
+        if release:
+            del tables[name]
+            setattr(movie, name, None)
+            _release_freed_memory()  # the freed table's pages, mostly in the C heap, before the next table
+    for name in TABLES:
+        for fmt in FORMATS:
+            stale = directory / f"{name}.{fmt}"
+            if stale not in written:
+                stale.unlink(missing_ok=True)
+    with atomic_path(directory / METADATA) as tmp:
+        tmp.write_text(json.dumps(meta, indent=2))
+    return written + [directory / METADATA]
 
 
 def read_results(directory) -> Movie:

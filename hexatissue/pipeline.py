@@ -334,6 +334,18 @@ class _Rows:
 def _with_tracks(cells, tracker):
     """``cells`` with a ``track`` column after ``cell``, from the tracker's ``(frame, cell) -> track``."""
     ids = tracker.tracks()
+    if all(np.array_equal(ids[c].to_numpy(), cells[c].to_numpy()) for c in ("frame", "cell")):
+        track = ids["track"].to_numpy(np.int64)  # the mesh's rows in the tracker's order (frame, id): no search
+    else:
+        track = _tracks_by_key(cells, ids)
+    del ids
+    cells = cells.drop(columns="track", errors="ignore")
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
+    return cells
+
+
+def _tracks_by_key(cells, ids):
+    """The ``track`` of each row of ``cells`` from the tracker's ``ids`` table (rows in any order)."""
     # one sorted int64 key per (frame, cell), not a merge (which needs several times the column's memory)
     keys = row_keys(ids["frame"].to_numpy(np.int64), ids["cell"].to_numpy(np.int64))
     order = np.argsort(keys)
@@ -343,11 +355,7 @@ def _with_tracks(cells, tracker):
     # the tracker saw the mesh's own labels, once each: anything else is a bug, not bad input
     if len(wanted) and (len(keys) == 0 or (keys[pos] != wanted).any() or (np.diff(keys) == 0).any()):
         raise AssertionError("mesh cells missing from the tracker's labels, or seen twice")
-    track = ids["track"].to_numpy(np.int64)[order[pos]]
-    del keys, order, wanted, pos
-    cells = cells.drop(columns="track", errors="ignore")
-    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
-    return cells
+    return ids["track"].to_numpy(np.int64)[order[pos]]
 
 
 def _tracking_summary(tracker, cells, parents):
@@ -389,41 +397,47 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
 
     With ``linked`` False (frames that are unrelated images) every frame is
     tracked alone: each defect is its own track and there are no pair events.
-    The tables come in a dict so that the untracked defects are freed as soon
-    as they are split by p (an argument would stay referenced by the caller
-    for the whole call).
+    The tables come in a dict so that the untracked defects are freed column
+    by column as the tracked table is built (an argument would stay
+    referenced by the caller for the whole call); tracking reads a copy of
+    four columns of each p, not of the whole table.
     """
     from .defects import defect_events, track_defects
 
     defects, grid = tables.pop("defects"), tables["grid"]
 
-    tracked, pair_events = [], []
     groups = [np.arange(n_frames)] if linked else [np.array([t]) for t in range(n_frames)]
     max_distance = order.defect_max_distance
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
         max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
     p = defects["p"].to_numpy()
-    parts = [defects[p == q].drop(columns="track", errors="ignore") for q in order.p]
-    del defects, p  # the caller gave its table away: at most two copies of the defects at a time
-    for k, q in enumerate(order.p):
-        of_p, parts[k] = parts[k], None
+    track = np.zeros(len(defects), np.int64)
+    pair_events = []
+    for q in order.p:
+        rows = np.flatnonzero(p == q)
+        # only the columns tracking reads, not a copy of the table per p
+        of_p = pd.DataFrame({c: defects[c].to_numpy()[rows] for c in ("frame", "x", "y", "charge")})
         frame = of_p["frame"].to_numpy()
         n_tracks = 0
         for frames in groups:
-            d = of_p if linked else of_p[frame == frames[0]]
-            t = track_defects(d, max_distance, box=box, frames=frames)
+            at = slice(None) if linked else np.flatnonzero(frame == frames[0])
+            t = track_defects(of_p if linked else of_p.iloc[at], max_distance, box=box, frames=frames)
             t["track"] += n_tracks
             n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
-            e = defect_events(t, max_distance, box=box, frames=frames)
-            tracked.append(t)
-            pair_events.append(e.assign(p=np.int64(q)))
-        of_p = frame = d = None  # free this order's defects before the next
-    defects = pd.concat(tracked, ignore_index=True)
-    tracked.clear()
-    defects = defects.take(np.lexsort((defects["defect"], defects["p"], defects["frame"])))  # a stable sort
+            track[rows[at]] = t["track"].to_numpy()
+            pair_events.append(defect_events(t, max_distance, box=box, frames=frames).assign(p=np.int64(q)))
+        del of_p, frame
+    # the rows of every p, by frame, p and defect (a stable sort), taken one column at a time from the
+    # table given away: at most one column more than the defects table in memory
+    rows = np.lexsort((defects["defect"].to_numpy(), p, defects["frame"].to_numpy()))
+    rows = rows[np.isin(p[rows], order.p)]
+    del p
+    columns = {c: defects.pop(c).to_numpy()[rows] for c in list(defects.columns) if c != "track"}
+    del defects
+    columns["track"] = track[rows]
     pair_events = pd.concat(pair_events, ignore_index=True)
-    tables["defects"] = validate(defects.reset_index(drop=True), "defects")
+    tables["defects"] = validate(pd.DataFrame(columns, copy=False), "defects")
     tables["defect_events"] = validate(pair_events.astype({"frame": np.int64}), "defect_events")
 
 

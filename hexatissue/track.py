@@ -57,13 +57,36 @@ class _Compact:
     shape: tuple = ()
     # the overlaps with the previous frame, (previous, (i, j, n)), kept for the other tracker of a movie
     overlaps: tuple = field(default=(), repr=False)
+    _stored: np.ndarray | None = field(default=None, repr=False)
 
     def __getstate__(self):  # a pickled tracker (checkpoint) does not carry the previous frame
         return {**self.__dict__, "overlaps": ()}
 
     def without_pixels(self) -> "_Compact":
         """This frame without its pixel index (ids and areas only): enough once its overlaps are counted."""
-        return _Compact(None, self.ids, self.area, self.shape)
+        return _Compact(None, self.ids, self.area, self.shape, _stored=self._stored)
+
+    def stored_ids(self) -> np.ndarray:
+        """``ids`` as the trackers keep them for every frame: one array (int32 when the ids fit) for both trackers."""
+        if self._stored is None:
+            self._stored = _narrow(self.ids)
+        return self._stored
+
+
+def _narrow(values: np.ndarray) -> np.ndarray:
+    """``values`` as int32 when they fit (half the memory of what the trackers keep per cell-frame), else as given."""
+    small = np.iinfo(np.int32)
+    if len(values) and (values.min() < small.min or values.max() > small.max):
+        return values
+    return values.astype(np.int32)
+
+
+def _stored_rows(frames, cells) -> tuple[np.ndarray, np.ndarray]:
+    """``(frame, cell)`` int64 columns of the rows kept by a tracker: one frame number and one id array per frame."""
+    if not frames:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    frame = np.repeat(np.asarray(frames, np.int64), [len(c) for c in cells])
+    return frame, np.concatenate(cells, dtype=np.int64)
 
 
 def _compact(labels: np.ndarray) -> _Compact:
@@ -499,20 +522,18 @@ class Tracker(_Feed):
         if self._prev is not None:
             for m, (da, db) in zip(mothers.tolist(), daughters.tolist()):
                 self._parent[int(tracks[da])] = self._parent[int(tracks[db])] = int(self._prev_tracks[m])
-        self._frames.append(np.full(len(cur.ids), frame, np.int64))
-        self._cells.append(cur.ids)
-        self._tracks.append(tracks)
+        self._frames.append(frame)
+        self._cells.append(cur.stored_ids())
+        self._tracks.append(_narrow(tracks))
         self._prev, self._prev_tracks, self._prev_frame = cur, tracks, frame
         self._n += 1
         return tracks
 
     def tracks(self) -> pd.DataFrame:
         """``frame``, ``cell`` (label id), ``track`` of every cell added so far."""
-        if not self._frames:
-            return pd.DataFrame({"frame": np.empty(0, np.int64), "cell": np.empty(0, np.int64),
-                                 "track": np.empty(0, np.int64)})
-        return pd.DataFrame({"frame": np.concatenate(self._frames), "cell": np.concatenate(self._cells),
-                             "track": np.concatenate(self._tracks)})
+        frame, cell = _stored_rows(self._frames, self._cells)
+        track = np.concatenate(self._tracks, dtype=np.int64) if self._tracks else np.empty(0, np.int64)
+        return pd.DataFrame({"frame": frame, "cell": cell, "track": track})
 
     @property
     def parents(self) -> dict:
@@ -576,8 +597,8 @@ class IdTracker(_Feed):
                     self._divisions[d] = (m, frame)
         self._seen = np.union1d(self._seen, cur.ids)
         self._last.update(dict.fromkeys(cur.ids.tolist(), frame))
-        self._frames.append(np.full(len(cur.ids), frame, np.int64))
-        self._cells.append(cur.ids)
+        self._frames.append(frame)
+        self._cells.append(cur.stored_ids())
         self._prev = cur
         self._n += 1
         return cur.ids.copy()
@@ -587,8 +608,8 @@ class IdTracker(_Feed):
         ids = np.asarray(ids, np.int64)
         self._seen = np.union1d(self._seen, ids)
         self._last.update(dict.fromkeys(ids.tolist(), int(frame)))
-        self._frames.append(np.full(len(ids), frame, np.int64))
-        self._cells.append(ids)
+        self._frames.append(int(frame))
+        self._cells.append(_narrow(ids))
         self._n += 1
 
     @property
@@ -599,8 +620,7 @@ class IdTracker(_Feed):
 
     def tracks(self) -> pd.DataFrame:
         """``frame``, ``cell`` (label id), ``track`` (= ``cell``) of every cell added so far."""
-        frames = np.concatenate(self._frames) if self._frames else np.empty(0, np.int64)
-        cells = np.concatenate(self._cells) if self._cells else np.empty(0, np.int64)
+        frames, cells = _stored_rows(self._frames, self._cells)
         return pd.DataFrame({"frame": frames, "cell": cells, "track": cells.copy()})
 
     @property
@@ -621,13 +641,12 @@ class SeparateTracker:
 
     def add_ids(self, ids, frame) -> None:
         """Add a frame by its cell ids."""
-        self._frames.append(np.full(len(ids), frame, np.int64))
-        self._cells.append(np.asarray(ids, np.int64))
+        self._frames.append(int(frame))
+        self._cells.append(_narrow(np.asarray(ids, np.int64)))
 
     def tracks(self) -> pd.DataFrame:
         """``frame``, ``cell``, ``track`` (1, 2, ... in frame and cell order)."""
-        frames = np.concatenate(self._frames) if self._frames else np.empty(0, np.int64)
-        cells = np.concatenate(self._cells) if self._cells else np.empty(0, np.int64)
+        frames, cells = _stored_rows(self._frames, self._cells)
         return pd.DataFrame({"frame": frames, "cell": cells, "track": np.arange(1, len(cells) + 1, dtype=np.int64)})
 
     @property

@@ -100,3 +100,16 @@ def test_membrane_and_skeleton_movies_are_tracked_on_the_mesh_labels():
         true = [touching[int(f)][int(round(y)), int(round(x))] for f, x, y in got.cells[["frame", "x", "y"]].to_numpy()]
         pairs = set(zip(got.cells["track"], true))
         assert len(pairs) == got.cells["track"].nunique() == ref.cells["track"].nunique()
+
+
+def test_write_results_releasing_tables_writes_the_same_files(movie, tmp_path):
+    """``write_results(release=True)`` (the CLI's writer) writes the files of Movie.write and drops each table."""
+    from hexatissue.frame import write_results
+
+    kept = movie.write(tmp_path / "kept")
+    copy = movie.replace()
+    released = write_results(copy, tmp_path / "released", release=True)
+    assert sorted(p.name for p in released) == sorted(p.name for p in kept) and released[-1].name == "metadata.json"
+    for path in kept:
+        assert (tmp_path / "released" / path.name).read_bytes() == path.read_bytes(), path.name
+    assert copy.tables() == {} and set(movie.tables()) == set(TABLES)  # the original keeps its tables

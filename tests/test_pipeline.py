@@ -250,3 +250,23 @@ def test_a_tqdm_class_draws_the_progress_bar():
     analyze(stack, workers=1, progress=Recorder)
     assert len(made) == 1 and made[0].total == 3 and made[0].seen == 3
 
+
+
+def test_tracks_are_attached_to_cells_in_any_row_order():
+    """The track of each cell row is the same whether the rows come in the tracker's order or shuffled."""
+    from hexatissue.pipeline import _with_tracks
+    from hexatissue.track import MovieTracker
+
+    movie = np.stack([np.asarray(f) for f in voronoi_movie(20, (40, 48), 4, periodic=True, amplitude=0.3, seed=5)])
+    tracker = MovieTracker("always")
+    for t, lab in enumerate(relabel_movie(movie, seed=2)[0]):  # ids relabelled: tracks differ from ids
+        tracker.add_valid(lab, t)
+    expected = tracker.tracks()
+    cells = expected[["frame", "cell"]].assign(area=np.arange(len(expected), dtype=float))
+    ordered = _with_tracks(cells, tracker)
+    assert ordered.columns.tolist() == ["frame", "cell", "track", "area"]
+    assert ordered["track"].tolist() == expected["track"].tolist()
+    shuffled = cells.sample(frac=1, random_state=0).reset_index(drop=True)
+    pd.testing.assert_frame_equal(_with_tracks(shuffled, tracker).sort_values("area", ignore_index=True), ordered)
+    with pytest.raises(AssertionError, match="missing"):
+        _with_tracks(cells.assign(cell=cells["cell"] + 1000), tracker)

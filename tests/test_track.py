@@ -261,3 +261,23 @@ def test_lineage_roots_follow_parents_to_the_first_ancestor():
     parents = {3: 2, 4: 2, 2: 1, 6: 5}
     assert lineage_roots(parents, [1, 2, 3, 4, 5, 6, 7]) == {1: 1, 2: 1, 3: 1, 4: 1, 5: 5, 6: 5, 7: 7}
     assert lineage_roots({1: 2, 2: 1}, [1]) == {1: 1}  # a cycle stops where it closes
+
+
+def test_trackers_keep_narrow_ids_and_give_int64_tables():
+    """Ids and tracks are kept as int32 when they fit (one frame number per frame), else as given; tables are int64."""
+    ids = trk.IdTracker()
+    ids.add_ids([5, 7], 0)
+    ids.add_ids([5, 2**40], 3)  # an id beyond int32 stays exact
+    out = ids.tracks()
+    assert ids._cells[0].dtype == np.int32 and ids._cells[1].dtype == np.int64 and ids._frames == [0, 3]
+    assert out["frame"].tolist() == [0, 0, 3, 3] and out["cell"].tolist() == [5, 7, 5, 2**40]
+    assert (out.dtypes == np.int64).all()
+    movie = np.stack([np.asarray(f) for f in voronoi_movie(20, (40, 48), 3, periodic=True, amplitude=0.3, seed=4)])
+    both = trk.MovieTracker("always")
+    for t, lab in enumerate(movie):
+        both.add_valid(lab, t)
+    assert both.ids._cells[0] is both.overlap._cells[0]  # one stored id array per frame for both trackers
+    tracks = both.overlap.tracks()
+    assert (tracks.dtypes == np.int64).all() and tracks["frame"].tolist() == np.repeat(
+        [0, 1, 2], [len(np.unique(lab[lab > 0])) for lab in movie]).tolist()
+    assert trk.SeparateTracker().tracks().dtypes.tolist() == [np.int64] * 3
