@@ -146,17 +146,30 @@ def _crack_index(ci, cj, d, nci, ncj):
 
 
 @njit(cache=True)
-def _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj):
+def _walk(arms, kind, vid, visited, membrane, ci, cj, d, nci, ncj, first, last):
     """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
 
-    Returns (end corner row, end corner col, dx, dy, number of cracks, last direction).
+    Stores the fit point of every crack (:func:`_crack_point`, relative to
+    the start corner): the first ``len(first)`` in ``first``, and the last
+    ``len(last)`` in ``last`` (crack k at row ``k % len(last)``), so that the
+    arm fits at both ends need no second walk.  Returns (end corner row,
+    end corner col, dx, dy, number of cracks, last direction).
     """
+    reach = len(first)
     dx = 0
     dy = 0
     n = 0
     while True:
         a, r, c = _crack_index(ci, cj, d, nci, ncj)
         visited[a, r, c] = True
+        mx, my = _crack_point(membrane, ci, cj, d)
+        mx += dx
+        my += dy
+        if n < reach:
+            first[n, 0] = mx
+            first[n, 1] = my
+        last[n % reach, 0] = mx
+        last[n % reach, 1] = my
         dx += DJ[d]
         dy += DI[d]
         n += 1
@@ -167,15 +180,67 @@ def _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj):
 
 
 @njit(cache=True)
-def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
-    """Trace every boundary between the vertices ``(vi, vj)`` (``vid`` maps corners to vertex ids).
+def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
+    """Store the straight-line fit of n points minus (ox, oy) as arm d0 of vertex v.
+
+    The points are rows ``k0, k0 + step, ...`` of ``points``, modulo its length.
+
+    The mean of the points, and the principal axis of their covariance (the
+    arm direction when fewer than 2 points or no spread).  The points are
+    multiples of 0.5 px near the vertex, so their sums are exact in any order.
+    """
+    sx = 0.0
+    sy = 0.0
+    sxx = 0.0
+    sxy = 0.0
+    syy = 0.0
+    for i in range(n):
+        k = (k0 + i * step) % len(points)
+        mx = points[k, 0] - ox
+        my = points[k, 1] - oy
+        sx += mx
+        sy += my
+        sxx += mx * mx
+        sxy += mx * my
+        syy += my * my
+    count[v, d0] = n
+    mx = sx / n
+    my = sy / n
+    mean[v, d0, 0] = mx
+    mean[v, d0, 1] = my
+    cxx = sxx / n - mx * mx
+    cxy = sxy / n - mx * my
+    cyy = syy / n - my * my
+    if n < 2 or cxx + cyy < 1e-12:
+        direction[v, d0, 0] = DJ[d0]
+        direction[v, d0, 1] = DI[d0]
+    else:
+        theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)  # principal axis of the 2x2 covariance
+        direction[v, d0, 0] = np.cos(theta)
+        direction[v, d0, 1] = np.sin(theta)
+
+
+@njit(cache=True)
+def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
+    """Trace every boundary between the vertices ``(vi, vj)`` (``vid`` maps corners to vertex ids), and fit its arms.
 
     Returns arrays over junctions: start vertex, end vertex, the arm
     directions by which the junction leaves its start and enters its end
     vertex, left label, right label, dx, dy (exact displacement start -> end,
-    px), number of cracks; and the ``visited`` crack flags (2, nci, ncj).
+    px), number of cracks; then the arm line fits of every (vertex, arm
+    direction), for sub-pixel vertex positions: the number of cracks fitted
+    (half the junction, 1 to ``max_reach``, so the far end does not bend
+    the fit; 0 = no arm), the mean (dx, dy) of their points relative to the
+    vertex corner and the unit direction of their principal axis; and the
+    ``visited`` crack flags (2, nci, ncj).
+
+    A crack's point is the mean centre of the pixels beside it that were
+    membrane (``membrane``, padded like the labels, True where the input had
+    a 0-valued junction pixel), else the crack midpoint: the fit follows the
+    membrane centreline where the image has membranes.
     """
     nci, ncj = arms.shape
+    nv = len(vi)
     visited = np.zeros((2, nci, ncj), dtype=np.bool_)
     start = np.empty(n_max, np.int64)
     end = np.empty(n_max, np.int64)
@@ -186,8 +251,13 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
     start_arm = np.empty(n_max, np.int64)
     end_arm = np.empty(n_max, np.int64)
     ncrack = np.empty(n_max, np.int64)
+    count = np.zeros((nv, 4), np.int64)
+    mean = np.zeros((nv, 4, 2), np.float64)
+    direction = np.zeros((nv, 4, 2), np.float64)
+    first = np.empty((max_reach, 2), np.float64)
+    last = np.empty((max_reach, 2), np.float64)
     k = 0
-    for v in range(len(vi)):
+    for v in range(nv):
         ci = vi[v]
         cj = vj[v]
         for d in range(4):
@@ -197,7 +267,7 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
             if visited[a, r, c]:
                 continue
             lab_l, lab_r = _sides(pad, ci, cj, d)
-            ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj)
+            ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, visited, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
             end[k] = vid[ei, ej]
             start_arm[k] = d
@@ -207,9 +277,13 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
             ddx[k] = dx
             ddy[k] = dy
             ncrack[k] = n
+            half = min(max(1, (n + 1) // 2), max_reach)
+            _fit_line(first, 0, 1, half, 0.0, 0.0, d, v, count, mean, direction)
+            # the end's arm: the last `half` cracks walked back from the end, relative to the end corner
+            _fit_line(last, n - 1, -1, half, float(dx), float(dy), end_arm[k], end[k], count, mean, direction)
             k += 1
     return (start[:k], end[:k], start_arm[:k], end_arm[:k], left[:k], right[:k], ddx[:k], ddy[:k], ncrack[:k],
-            visited)
+            count, mean, direction, visited)
 
 
 @njit(cache=True)
@@ -306,9 +380,9 @@ def cell_moments(labels, n_labels, periodic):
     Returns count (n,), sum_x (n,), sum_y (n,) as float64 with centroids
     ``sum / count`` in pixel coordinates (x = column, y = row).  On a torus
     the sums are of positions unwrapped around the label's circular mean
-    (a first pass), so cells wider than half the box get the right centroid;
-    along an axis a label wraps around completely (a band) its first pixel
-    is the reference.
+    (a second pass), so cells wider than half the box get the right
+    centroid; along an axis a label wraps around completely (a band) its
+    first pixel is the reference.
 
     The image is read along runs of equal labels in a row.  The sums are of
     whole numbers, exact in any order.  A label spanning less than half the
@@ -316,7 +390,9 @@ def cell_moments(labels, n_labels, periodic):
     mean lies within its span), so circular means are taken only of the
     wider ones (those touching the box edge, or large): their cos/sin terms
     come from per-column and per-row tables and are added pixel by pixel in
-    raster order, as a pixel-by-pixel sum does.
+    raster order, as a pixel-by-pixel sum does.  On a torus the first pass
+    keeps the start column of every run, so the later passes visit only the
+    runs of the wide labels, not the whole image again.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
@@ -328,10 +404,18 @@ def cell_moments(labels, n_labels, periodic):
     hi_y = np.full(n_labels, -1, np.int64)
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
+    # run starts row after row (np.empty: only the pages written become resident); row i's runs are
+    # run_start[row_first[i]:row_first[i + 1]], each ending where the next starts (or at w)
+    run_start = np.empty(h * w if periodic else 0, np.int32)
+    row_first = np.zeros(h + 1, np.int64)
+    n_runs = 0
     for i in range(h):
         j = 0
         while j < w:
             lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
+            if periodic:
+                run_start[n_runs] = j0
+                n_runs += 1
             n = j - j0
             if count[lab] == 0:  # first pixel: the reference of a band around the whole torus
                 ref_x[lab] = j0
@@ -343,6 +427,7 @@ def cell_moments(labels, n_labels, periodic):
             lo_x[lab] = min(lo_x[lab], j0)
             hi_x[lab] = max(hi_x[lab], j - 1)
             hi_y[lab] = i
+        row_first[i + 1] = n_runs
     if not periodic:
         return count, sx, sy
     wide_x = hi_x - lo_x >= 0.5 * w - 1
@@ -357,22 +442,21 @@ def cell_moments(labels, n_labels, periodic):
     cy = np.zeros(n_labels, np.float64)
     sny = np.zeros(n_labels, np.float64)
     for i in range(h):
-        j = 0
-        while j < w:
-            lab = labels[i, j]
+        for r in range(row_first[i], row_first[i + 1]):
+            j0 = run_start[r]
+            lab = labels[i, j0]
             if not wide[lab]:
-                j = _run_end(labels, i, j)
                 continue
+            j1 = run_start[r + 1] if r + 1 < row_first[i + 1] else w
             a = cx[lab]
             b = snx[lab]
             c = cy[lab]
             d = sny[lab]
-            while j < w and labels[i, j] == lab:
+            for j in range(j0, j1):
                 a += cos_x[j]
                 b += sin_x[j]
                 c += cos_y[i]
                 d += sin_y[i]
-                j += 1
             cx[lab] = a
             snx[lab] = b
             cy[lab] = c
@@ -385,9 +469,12 @@ def cell_moments(labels, n_labels, periodic):
         if wide_y[k]:
             sy[k] = 0.0
     for i in range(h):
-        j = 0
-        while j < w:
-            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
+        for r in range(row_first[i], row_first[i + 1]):
+            j0 = run_start[r]
+            lab = labels[i, j0]
+            if not wide[lab]:
+                continue
+            j = run_start[r + 1] if r + 1 < row_first[i + 1] else w
             n = j - j0
             if wide_y[lab]:
                 sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
@@ -657,72 +744,3 @@ def _crack_point(membrane, ci, cj, d):
     if n == 0:
         return 0.5 * DJ[d], 0.5 * DI[d]
     return sx / n, sy / n
-
-
-@njit(cache=True)
-def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
-    """Local straight-line fit of every arm of every vertex, for sub-pixel vertex positions.
-
-    Walks at most ``reach[v, d]`` cracks along arm d of vertex v (half its
-    junction, so the far end does not bend the fit) and fits a line to one point per crack: the mean centre of the
-    pixels beside it that were membrane (``membrane``, padded like the
-    labels, True where the input had a 0-valued junction pixel), else the
-    crack midpoint.  So the fit follows the membrane centreline where the
-    image has membranes.  Returns, per (vertex,
-    arm direction): number of cracks used (0 = no arm), the midpoints' mean
-    (dx, dy) relative to the vertex corner, and the unit direction of the
-    principal axis (the arm direction when fewer than 2 cracks).
-    """
-    nci, ncj = arms.shape
-    nv = len(vi)
-    count = np.zeros((nv, 4), np.int64)
-    mean = np.zeros((nv, 4, 2), np.float64)
-    direction = np.zeros((nv, 4, 2), np.float64)
-    for v in range(nv):
-        for d0 in range(4):
-            if not (arms[vi[v], vj[v]] >> d0) & 1 or reach[v, d0] == 0:
-                continue
-            ci = vi[v]
-            cj = vj[v]
-            d = d0
-            px = 0.0
-            py = 0.0
-            sx = 0.0
-            sy = 0.0
-            sxx = 0.0
-            sxy = 0.0
-            syy = 0.0
-            n = 0
-            while n < reach[v, d0]:
-                mx, my = _crack_point(membrane, ci, cj, d)
-                mx += px
-                my += py
-                sx += mx
-                sy += my
-                sxx += mx * mx
-                sxy += mx * my
-                syy += my * my
-                n += 1
-                px += DJ[d]
-                py += DI[d]
-                ci, cj = _step(ci, cj, d, nci, ncj)
-                if vid[ci, cj] >= 0:
-                    break
-                d = _next_dir(kind[ci, cj], arms[ci, cj], d)
-            count[v, d0] = n
-            mx = sx / n
-            my = sy / n
-            mean[v, d0, 0] = mx
-            mean[v, d0, 1] = my
-            cxx = sxx / n - mx * mx
-            cxy = sxy / n - mx * my
-            cyy = syy / n - my * my
-            if n < 2 or cxx + cyy < 1e-12:
-                direction[v, d0, 0] = DJ[d0]
-                direction[v, d0, 1] = DI[d0]
-            else:
-                # principal axis of the 2x2 covariance
-                theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)
-                direction[v, d0, 0] = np.cos(theta)
-                direction[v, d0, 1] = np.sin(theta)
-    return count, mean, direction

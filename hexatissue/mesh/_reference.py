@@ -138,11 +138,13 @@ def _displacement(cracks):
     return sum(UNIT[d][0] for _, _, d in cracks), sum(UNIT[d][1] for _, _, d in cracks)
 
 
-def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
+def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     """Reference of :func:`._kernels.trace_junctions`.
 
     A junction is listed once, traced from the first of its two ends in
     (vertex id, arm direction) order; junctions come in the order of those ends.
+    Its two arms are then fitted by :func:`arm_lines` over half the junction
+    (1 to ``max_reach`` cracks), walking again from each end.
     """
     nci, ncj = arms.shape
     visited = np.zeros((2, nci, ncj), np.bool_)
@@ -161,7 +163,13 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
         raise ValueError(f"{len(rows)} junctions do not fit in n_max = {n_max}")
     columns = list(zip(*rows)) if rows else [()] * 9
     dtypes = [np.int64] * 4 + [pad.dtype] * 2 + [np.int64] * 3
-    return tuple(np.array(c, t) for c, t in zip(columns, dtypes)) + (visited,)
+    junctions = tuple(np.array(c, t) for c, t in zip(columns, dtypes))
+    start, end, start_arm, end_arm, *_, ncrack = junctions
+    reach = np.zeros((len(vi), 4), np.int64)
+    half = np.clip((ncrack + 1) // 2, 1, max_reach)
+    reach[start, start_arm] = half
+    reach[end, end_arm] = half
+    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane) + (visited,)
 
 
 def trace_loops(pad, arms, kind, visited):
@@ -204,8 +212,8 @@ def _crack_point(membrane, ci, cj, d):
     return np.array([0.5 * ex - 0.5 * ey * side, 0.5 * ey + 0.5 * ex * side])
 
 
-def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
-    """Reference of :func:`._kernels.arm_lines`.
+def _arm_lines(arms, kind, vid, vi, vj, reach, membrane):
+    """The arm line fits of :func:`trace_junctions`, walking ``reach[v, d]`` cracks along arm d of vertex v.
 
     ``direction`` is a line's axis, whose sign has no meaning; here it has
     x >= 0 (y > 0 when x == 0).  Compare up to sign: the kernel's sign for

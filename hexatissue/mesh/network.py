@@ -16,7 +16,7 @@ from .labels import POCKET_AREA, check_mask, compact_labels, normalize_valid, va
 
 __all__ = ["mesh_from_labels", "network_tables", "warm_up"]
 
-ARM_REACH = 8  # cracks per arm in the local line fit of sub-pixel vertex positions
+ARM_REACH = 8  # cracks per arm (at most; half the junction) in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
 MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practically never needed
 
@@ -34,15 +34,6 @@ def _corner_lattice(lab32, membrane, periodic):
     return np.pad(lab32, 1, mode=mode), np.pad(membrane, 1, mode=mode), shape
 
 
-def _arm_reach(n_vertices, start, end, start_arm, end_arm, ncrack):
-    """Cracks fitted on each (vertex, arm): half the junction, 1 to ``ARM_REACH``; 0 where no junction leaves."""
-    reach = np.zeros((n_vertices, 4), np.int64)
-    half = np.clip((ncrack + 1) // 2, 1, ARM_REACH)
-    reach[start, start_arm] = half
-    reach[end, end_arm] = half
-    return reach
-
-
 def _trace(lab32, periodic, membrane):
     """Vertices (corner rows/cols) and junctions of a compact label image, incl. vertex-less loops.
 
@@ -53,11 +44,9 @@ def _trace(lab32, periodic, membrane):
     # on an open image the image corners are vertices, so border polygons follow the image edge
     arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj, not periodic)
     n_max = 4 * len(vi) + 1
-    start, end, sarm, earm, left, right, dx, dy, ncrack, visited = K.trace_junctions(
-        pad, arms, ctype, vid, vi, vj, n_max
+    start, end, sarm, earm, left, right, dx, dy, ncrack, count, mean, direction, visited = K.trace_junctions(
+        pad, arms, ctype, vid, vi, vj, n_max, membrane_pad, ARM_REACH
     )
-    reach = _arm_reach(len(vi), start, end, sarm, earm, ncrack)
-    count, mean, direction = K.arm_lines(arms, ctype, vid, vi, vj, reach, membrane_pad)
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0
