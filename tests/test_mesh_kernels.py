@@ -23,7 +23,7 @@ LOOP_FIELDS = ("row", "col", "left", "right", "dx", "dy", "ncrack")
 
 
 def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
-    """corner_types -> trace_junctions (with the arm fits) -> trace_loops of ``impl`` (kernels or reference).
+    """corner_types -> trace_junctions (with the arm fits) -> mark_junctions -> trace_loops of ``impl`` (kernels or reference).
 
     Inputs are prepared by ``network``'s own helpers (padding, lattice
     shape), as ``network._trace`` does; ``max_reach`` overrides the arm reach.
@@ -32,8 +32,11 @@ def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
     membrane = np.zeros(lab.shape, bool) if membrane is None else membrane
     pad, membrane_pad, (nci, ncj) = N._corner_lattice(lab, membrane, periodic)
     arms, kind, vid, vi, vj, n_cracks = impl.corner_types(pad, nci, ncj, not periodic)
-    *junctions, count, mean, direction, visited = impl.trace_junctions(pad, arms, kind, vid, vi, vj, 4 * len(vi) + 1,
-                                                                       membrane_pad, max_reach)
+    if not membrane.any() and impl is K:  # as network._trace: the kernel then reads no membrane flags
+        membrane_pad = np.zeros((0, 0), bool)
+    *junctions, count, mean, direction = impl.trace_junctions(pad, arms, kind, vid, vi, vj, 4 * len(vi) + 1,
+                                                              membrane_pad, max_reach)
+    visited = impl.mark_junctions(arms, kind, vid, vi, vj, junctions[0], junctions[2])
     loops = impl.trace_loops(pad, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
     return SimpleNamespace(
         arms=arms, kind=kind, vid=vid, vi=vi, vj=vj, n_cracks=n_cracks, visited=visited,

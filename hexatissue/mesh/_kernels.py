@@ -78,31 +78,37 @@ def corner_types(pad, nci, ncj, image_corners):
     return arms, kind, vid, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
 
 
+def _next_dir_table():
+    """NEXT[kind, arms, d_in]: the direction leaving a pass-through corner entered moving in direction d_in.
+
+    Kind 2 leaves by its other arm; kinds 5 and 6 by the arm paired with
+    the one entered ({3, 0} and {1, 2} for 5, {3, 2} and {0, 1} for 6).
+    -1 where no walk arrives.  A table, not branches: the walks are
+    dominated by mispredicted branches on the direction otherwise.
+    """
+    table = np.full((7, 16, 4), -1, np.int8)
+    partner = {5: {3: 0, 0: 3, 1: 2, 2: 1}, 6: {3: 2, 2: 3, 0: 1, 1: 0}}
+    for arms in range(16):
+        for d_in in range(4):
+            back = (d_in + 2) % 4
+            if not (arms >> back) & 1:
+                continue
+            others = [d for d in range(4) if d != back and (arms >> d) & 1]
+            if len(others) == 1:
+                table[2, arms, d_in] = others[0]
+            if arms == 15:
+                for kind in (5, 6):
+                    table[kind, arms, d_in] = partner[kind][back]
+    return table
+
+
+NEXT = _next_dir_table()
+
+
 @njit(cache=True)
 def _next_dir(kind, arms, d_in):
-    """Direction leaving a pass-through corner entered moving in direction ``d_in``."""
-    back = (d_in + 2) % 4
-    if kind == 2:
-        for d in range(4):
-            if d != back and (arms >> d) & 1:
-                return d
-        return -1
-    if kind == 5:  # pairs {3, 0} and {1, 2}
-        if back == 3:
-            return 0
-        if back == 0:
-            return 3
-        if back == 1:
-            return 2
-        return 1
-    # kind == 6: pairs {3, 2} and {0, 1}
-    if back == 3:
-        return 2
-    if back == 2:
-        return 3
-    if back == 0:
-        return 1
-    return 0
+    """Direction leaving a pass-through corner entered moving in direction ``d_in`` (see :func:`_next_dir_table`)."""
+    return np.int64(NEXT[kind, arms, d_in])
 
 
 @njit(cache=True)
@@ -135,46 +141,66 @@ def _step(ci, cj, d, nci, ncj):
 
 @njit(cache=True)
 def _crack_index(ci, cj, d, nci, ncj):
-    """(array 0 = horizontal / 1 = vertical, row, col) of the crack leaving (ci, cj) in direction d."""
-    if d == 0:
-        return 0, ci, cj
-    if d == 1:
-        return 1, ci, cj
-    if d == 2:
-        return 0, ci, cj - 1 if cj > 0 else ncj - 1
-    return 1, ci - 1 if ci > 0 else nci - 1, cj
+    """(array 0 = horizontal / 1 = vertical, row, col) of the crack leaving (ci, cj) in direction d.
+
+    Without a branch on d (selects only): it changes at every turn of a boundary.
+    """
+    r = ci - (d == 3)
+    c = cj - (d == 2)
+    if r < 0:
+        r += nci
+    if c < 0:
+        c += ncj
+    return d & 1, r, c
 
 
 @njit(cache=True)
-def _walk(arms, kind, vid, visited, membrane, ci, cj, d, nci, ncj, first, last):
+def _is_vertex(kind, vid, ci, cj, nci, ncj):
+    """Whether corner (ci, cj) is a vertex: a fork (types 3, 4), or a corner of an open image listed in ``vid``.
+
+    Reads ``kind`` (1 byte a corner), not the 4-byte ``vid``, except at the
+    four lattice corners: the walks touch fewer cache lines.
+    """
+    k = kind[ci, cj]
+    if k == 3 or k == 4:
+        return True
+    return (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1) and vid[ci, cj] >= 0
+
+
+@njit(cache=True)
+def _walk(arms, kind, vid, membrane, ci, cj, d, nci, ncj, first, last):
     """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
 
     Stores the fit point of every crack (:func:`_crack_point`, relative to
     the start corner): the first ``len(first)`` in ``first``, and the last
     ``len(last)`` in ``last`` (crack k at row ``k % len(last)``), so that the
-    arm fits at both ends need no second walk.  Returns (end corner row,
-    end corner col, dx, dy, number of cracks, last direction).
+    arm fits at both ends need no second walk.  ``membrane`` of size 0: no
+    membrane pixels, every point is its crack's midpoint.  Returns (end
+    corner row, end corner col, dx, dy, number of cracks, last direction).
     """
     reach = len(first)
     dx = 0
     dy = 0
     n = 0
+    slot = 0
     while True:
-        a, r, c = _crack_index(ci, cj, d, nci, ncj)
-        visited[a, r, c] = True
-        mx, my = _crack_point(membrane, ci, cj, d)
+        if membrane.size:
+            mx, my = _crack_point(membrane, ci, cj, d)
+        else:
+            mx, my = 0.5 * DJ[d], 0.5 * DI[d]
         mx += dx
         my += dy
         if n < reach:
             first[n, 0] = mx
             first[n, 1] = my
-        last[n % reach, 0] = mx
-        last[n % reach, 1] = my
+        last[slot, 0] = mx
+        last[slot, 1] = my
+        slot = slot + 1 if slot + 1 < reach else 0  # n % reach, without a division per crack
         dx += DJ[d]
         dy += DI[d]
         n += 1
         ci, cj = _step(ci, cj, d, nci, ncj)
-        if vid[ci, cj] >= 0:
+        if _is_vertex(kind, vid, ci, cj, nci, ncj):
             return ci, cj, dx, dy, n, d
         d = _next_dir(kind[ci, cj], arms[ci, cj], d)
 
@@ -231,8 +257,11 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     direction), for sub-pixel vertex positions: the number of cracks fitted
     (half the junction, 1 to ``max_reach``, so the far end does not bend
     the fit; 0 = no arm), the mean (dx, dy) of their points relative to the
-    vertex corner and the unit direction of their principal axis; and the
-    ``visited`` crack flags (2, nci, ncj).
+    vertex corner and the unit direction of their principal axis.
+
+    A junction is traced from its first end in (vertex, arm) order: the
+    ends reached are marked per vertex, not crack by crack (see
+    :func:`mark_junctions` for the cracks, when loops are to be found).
 
     A crack's point is the mean centre of the pixels beside it that were
     membrane (``membrane``, padded like the labels, True where the input had
@@ -241,7 +270,7 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     """
     nci, ncj = arms.shape
     nv = len(vi)
-    visited = np.zeros((2, nci, ncj), dtype=np.bool_)
+    done = np.zeros(nv, np.uint8)  # bit d: the junction on arm d has been traced (from its other end)
     start = np.empty(n_max, np.int64)
     end = np.empty(n_max, np.int64)
     left = np.empty(n_max, pad.dtype)
@@ -261,17 +290,15 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
         ci = vi[v]
         cj = vj[v]
         for d in range(4):
-            if not (arms[ci, cj] >> d) & 1:
-                continue
-            a, r, c = _crack_index(ci, cj, d, nci, ncj)
-            if visited[a, r, c]:
+            if not (arms[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
                 continue
             lab_l, lab_r = _sides(pad, ci, cj, d)
-            ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, visited, membrane, ci, cj, d, nci, ncj, first, last)
+            ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
             end[k] = vid[ei, ej]
             start_arm[k] = d
             end_arm[k] = (d_last + 2) % 4
+            done[end[k]] |= np.uint8(1 << end_arm[k])
             left[k] = lab_l
             right[k] = lab_r
             ddx[k] = dx
@@ -283,12 +310,35 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
             _fit_line(last, n - 1, -1, half, float(dx), float(dy), end_arm[k], end[k], count, mean, direction)
             k += 1
     return (start[:k], end[:k], start_arm[:k], end_arm[:k], left[:k], right[:k], ddx[:k], ddy[:k], ncrack[:k],
-            count, mean, direction, visited)
+            count, mean, direction)
+
+
+@njit(cache=True)
+def mark_junctions(arms, kind, vid, vi, vj, start, start_arm):
+    """Flags (2, nci, ncj) of the cracks on the junctions of :func:`trace_junctions` (its start, start_arm).
+
+    Only needed to find the loops with no vertex (:func:`trace_loops`), so
+    only run when the junctions leave cracks over.
+    """
+    nci, ncj = arms.shape
+    visited = np.zeros((2, nci, ncj), dtype=np.bool_)
+    for k in range(len(start)):
+        ci = vi[start[k]]
+        cj = vj[start[k]]
+        d = start_arm[k]
+        while True:
+            a, r, c = _crack_index(ci, cj, d, nci, ncj)
+            visited[a, r, c] = True
+            ci, cj = _step(ci, cj, d, nci, ncj)
+            if _is_vertex(kind, vid, ci, cj, nci, ncj):
+                break
+            d = _next_dir(kind[ci, cj], arms[ci, cj], d)
+    return visited
 
 
 @njit(cache=True)
 def trace_loops(pad, arms, kind, visited):
-    """Boundaries left unvisited by :func:`trace_junctions`: closed loops with no vertex.
+    """Boundaries left unvisited by the junctions (``visited`` of :func:`mark_junctions`): closed loops with no vertex.
 
     Returns, per loop, the start corner (row, col), left and right labels,
     dx, dy (the loop's net displacement: nonzero only for loops winding

@@ -146,8 +146,6 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     Its two arms are then fitted by :func:`arm_lines` over half the junction
     (1 to ``max_reach`` cracks), walking again from each end.
     """
-    nci, ncj = arms.shape
-    visited = np.zeros((2, nci, ncj), np.bool_)
     rows = []
     for v in range(len(vi)):
         for d in _arm_set(arms[vi[v], vj[v]]):
@@ -155,8 +153,6 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
             end, end_arm = int(vid[end_corner]), (cracks[-1][2] + 2) % 4
             if (end, end_arm) < (v, d):
                 continue  # listed from its other end
-            for crack in cracks:
-                visited[_crack_key(*crack, nci, ncj)] = True
             left, right = _labels_beside(pad, vi[v], vj[v], d)
             rows.append((v, end, d, end_arm, left, right, *_displacement(cracks), len(cracks)))
     if len(rows) > n_max:
@@ -169,7 +165,17 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     half = np.clip((ncrack + 1) // 2, 1, max_reach)
     reach[start, start_arm] = half
     reach[end, end_arm] = half
-    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane) + (visited,)
+    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane)
+
+
+def mark_junctions(arms, kind, vid, vi, vj, start, start_arm):
+    """Reference of :func:`._kernels.mark_junctions`."""
+    nci, ncj = arms.shape
+    visited = np.zeros((2, nci, ncj), np.bool_)
+    for v, d in zip(start, start_arm):
+        for crack in _junction_cracks(arms, kind, vid, vi[v], vj[v], d)[0]:
+            visited[_crack_key(*crack, nci, ncj)] = True
+    return visited
 
 
 def trace_loops(pad, arms, kind, visited):

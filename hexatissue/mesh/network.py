@@ -40,17 +40,20 @@ def _trace(lab32, periodic, membrane):
     ``membrane`` marks the pixels that were 0-valued junction lines in the input.
     """
     pad, membrane_pad, (nci, ncj) = _corner_lattice(lab32, membrane, periodic)
+    if not membrane.any():  # touching labels: every arm fit point is a crack midpoint, no flags to read
+        membrane_pad = np.zeros((0, 0), bool)
     h, w = lab32.shape
     # on an open image the image corners are vertices, so border polygons follow the image edge
     arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj, not periodic)
     n_max = 4 * len(vi) + 1
-    start, end, sarm, earm, left, right, dx, dy, ncrack, count, mean, direction, visited = K.trace_junctions(
+    start, end, sarm, earm, left, right, dx, dy, ncrack, count, mean, direction = K.trace_junctions(
         pad, arms, ctype, vid, vi, vj, n_max, membrane_pad, ARM_REACH
     )
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0
     if ncrack.sum() < n_cracks:  # boundaries with no vertex on them are left
+        visited = K.mark_junctions(arms, ctype, vid, vi, vj, start, sarm)
         lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(pad, arms, ctype, visited)
     else:
         lr = lc = ll = lrt = ldx = ldy = np.zeros(0, np.int64)
