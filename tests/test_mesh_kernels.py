@@ -25,19 +25,16 @@ LOOP_FIELDS = ("row", "col", "left", "right", "dx", "dy", "ncrack")
 def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
     """corner_types -> trace_junctions (with the arm fits) -> mark_junctions -> trace_loops of ``impl`` (kernels or reference).
 
-    Inputs are prepared by ``network``'s own helpers (padding, lattice
-    shape), as ``network._trace`` does; ``max_reach`` overrides the arm reach.
+    ``max_reach`` overrides the network's arm reach.
     """
     lab = np.asarray(labels, np.int32)
     membrane = np.zeros(lab.shape, bool) if membrane is None else membrane
-    pad, membrane_pad, (nci, ncj) = N._corner_lattice(lab, membrane, periodic)
-    arms, kind, vid, vi, vj, n_cracks = impl.corner_types(pad, nci, ncj, not periodic)
-    if not membrane.any() and impl is K:  # as network._trace: the kernel then reads no membrane flags
-        membrane_pad = np.zeros((0, 0), bool)
-    *junctions, count, mean, direction = impl.trace_junctions(pad, arms, kind, vid, vi, vj, 4 * len(vi) + 1,
-                                                              membrane_pad, max_reach)
+    flags = N._membrane_flags(membrane, periodic)  # as network._trace gives them: size 0 for touching labels
+    arms, kind, vid, vi, vj, n_cracks = impl.corner_types(lab, periodic)
+    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, arms, kind, vid, vi, vj, 4 * len(vi) + 1,
+                                                              flags, max_reach)
     visited = impl.mark_junctions(arms, kind, vid, vi, vj, junctions[0], junctions[2])
-    loops = impl.trace_loops(pad, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
+    loops = impl.trace_loops(lab, periodic, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
     return SimpleNamespace(
         arms=arms, kind=kind, vid=vid, vi=vi, vj=vj, n_cracks=n_cracks, visited=visited,
         j=dict(zip(JUNCTION_FIELDS, junctions)), loops=dict(zip(LOOP_FIELDS, loops)),

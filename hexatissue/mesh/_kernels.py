@@ -2,9 +2,13 @@
 
 The boundaries between labels run along pixel edges ("cracks").  They form a
 graph on the lattice of pixel corners: corner ``(ci, cj)`` lies at
-``x = cj - 0.5``, ``y = ci - 0.5`` and is surrounded, in the padded label
-array ``pad``, by TL = ``pad[ci, cj]``, TR = ``pad[ci, cj + 1]``,
-BL = ``pad[ci + 1, cj]`` and BR = ``pad[ci + 1, cj + 1]``.  From a corner a
+``x = cj - 0.5``, ``y = ci - 0.5`` and is surrounded, in the label array
+padded by one pixel ``pad`` (wrapping on a torus, 0 around an open image),
+by TL = ``pad[ci, cj]``, TR = ``pad[ci, cj + 1]``, BL = ``pad[ci + 1, cj]``
+and BR = ``pad[ci + 1, cj + 1]``.  On a torus the lattice has one corner
+per pixel, on an open image one more each way.  The kernels take the
+labels unpadded and read the padding through :func:`_pad_at` and
+:func:`_row_or_zeros` (no padded copy of the image).  From a corner a
 crack "arm" leaves in direction 0 (+x), 1 (+y), 2 (-x) or 3 (-y) when the two
 pixels it separates differ.
 
@@ -26,41 +30,94 @@ DJ = np.array([1, 0, -1, 0], dtype=np.int64)
 
 
 @njit(cache=True)
-def corner_types(pad, nci, ncj, image_corners):
+def _pad_at(labels, periodic, i, j):
+    """``pad[i, j]``: the label of pixel (i - 1, j - 1), wrapped on a torus, 0 outside an open image."""
+    h, w = labels.shape
+    i -= 1
+    j -= 1
+    if periodic:
+        return labels[i % h, j % w]
+    if i < 0 or i >= h or j < 0 or j >= w:
+        return labels[0, 0] - labels[0, 0]  # 0 of the labels' dtype (a literal 0 would be int64)
+    return labels[i, j]
+
+
+@njit(cache=True)
+def lattice_shape(labels, periodic):
+    """(nci, ncj): one corner per pixel on a torus, one more each way on an open image."""
+    h, w = labels.shape
+    return (h, w) if periodic else (h + 1, w + 1)
+
+
+@njit(cache=True)
+def _row_or_zeros(labels, periodic, r, zeros):
+    """Row r of the labels, wrapped on a torus; ``zeros`` (a row of 0) outside an open image."""
+    h = labels.shape[0]
+    if periodic:
+        return labels[r % h]
+    if r < 0 or r >= h:
+        return zeros
+    return labels[r]
+
+
+@njit(cache=True)
+def _corner_code(tl, tr, bl, br):
+    """Arm bit mask and type of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
+    a0 = np.uint8(tr != br)
+    a1 = np.uint8(bl != br)
+    a2 = np.uint8(tl != bl)
+    a3 = np.uint8(tl != tr)
+    n = a0 + a1 + a2 + a3
+    # four arms: 5 when TL == BR connect, 6 when TR == BL do, the smaller id when both; else 4
+    d5 = np.uint8(tl == br)
+    d6 = np.uint8(tr == bl)
+    four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
+    k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
+    return a0 | (a1 << 1) | (a2 << 2) | (a3 << 3), k, n
+
+
+@njit(cache=True)
+def corner_types(labels, periodic):
     """Arm bit masks (bit d = arm in direction d) and type codes of all corners.
 
-    Also returns the vertices (corners of type 3 and 4, and when
-    ``image_corners`` the four corners of an open image where a boundary
-    turns) as row and column arrays in raster order, the map ``vid`` from
-    corners to vertex ids (-1 elsewhere) and the total number of cracks.
+    Also returns the vertices (corners of type 3 and 4, and on an open
+    image the four corners of the image where a boundary turns) as row and
+    column arrays in raster order, the map ``vid`` from corners to vertex
+    ids (-1 elsewhere) and the total number of cracks.
 
-    The first pass has no branch (selects only), so it runs on whole vectors
-    of corners; vertices are few and are numbered in a second pass.
+    The first pass has no branch (selects only) in its inner loop over the
+    corners between two rows of labels, so it runs on whole vectors of
+    corners; the first and last corner of a row (where the padding is) are
+    done apart.  Vertices are few and are numbered in a second pass.
     """
+    h, w = labels.shape
+    nci, ncj = lattice_shape(labels, periodic)
+    zeros = np.zeros(w, labels.dtype)
     arms = np.empty((nci, ncj), dtype=np.uint8)
     kind = np.empty((nci, ncj), dtype=np.uint8)
     n_arms = 0
     n_forks = 0
     for ci in range(nci):
-        for cj in range(ncj):
-            tl = pad[ci, cj]
-            tr = pad[ci, cj + 1]
-            bl = pad[ci + 1, cj]
-            br = pad[ci + 1, cj + 1]
-            a0 = np.uint8(tr != br)
-            a1 = np.uint8(bl != br)
-            a2 = np.uint8(tl != bl)
-            a3 = np.uint8(tl != tr)
-            n = a0 + a1 + a2 + a3
-            # four arms: 5 when TL == BR connect, 6 when TR == BL do, the smaller id when both; else 4
-            d5 = np.uint8(tl == br)
-            d6 = np.uint8(tr == bl)
-            four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
-            arms[ci, cj] = a0 | (a1 << 1) | (a2 << 2) | (a3 << 3)
-            k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
+        top = _row_or_zeros(labels, periodic, ci - 1, zeros)
+        bottom = _row_or_zeros(labels, periodic, ci, zeros)
+        for cj in range(1, w):  # corner cj lies between columns cj - 1 and cj
+            a, k, n = _corner_code(top[cj - 1], top[cj], bottom[cj - 1], bottom[cj])
+            arms[ci, cj] = a
             kind[ci, cj] = k
             n_arms += n
             n_forks += (k == 3) | (k == 4)
+        # corner 0 (left of column 0) and, on an open image, corner w (right of column w - 1)
+        for cj in range(0, ncj, w):  # 0, and w when the lattice has it
+            left = _pad_at(labels, periodic, ci, cj)
+            right = _pad_at(labels, periodic, ci, cj + 1)
+            below_left = _pad_at(labels, periodic, ci + 1, cj)
+            below_right = _pad_at(labels, periodic, ci + 1, cj + 1)
+            a, k, n = _corner_code(left, right, below_left, below_right)
+            arms[ci, cj] = a
+            kind[ci, cj] = k
+            n_arms += n
+            n_forks += (k == 3) | (k == 4)
+    image_corners = not periodic
     vid = np.full((nci, ncj), -1, dtype=np.int32)
     vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
     vj = np.empty(n_forks + 4, np.int64)
@@ -112,15 +169,15 @@ def _next_dir(kind, arms, d_in):
 
 
 @njit(cache=True)
-def _sides(pad, ci, cj, d):
+def _sides(labels, periodic, ci, cj, d):
     """Labels on the left and right of the crack leaving corner (ci, cj) in direction d (left in x-y axes)."""
     if d == 0:
-        return pad[ci + 1, cj + 1], pad[ci, cj + 1]
+        return _pad_at(labels, periodic, ci + 1, cj + 1), _pad_at(labels, periodic, ci, cj + 1)
     if d == 1:
-        return pad[ci + 1, cj], pad[ci + 1, cj + 1]
+        return _pad_at(labels, periodic, ci + 1, cj), _pad_at(labels, periodic, ci + 1, cj + 1)
     if d == 2:
-        return pad[ci, cj], pad[ci + 1, cj]
-    return pad[ci, cj + 1], pad[ci, cj]
+        return _pad_at(labels, periodic, ci, cj), _pad_at(labels, periodic, ci + 1, cj)
+    return _pad_at(labels, periodic, ci, cj + 1), _pad_at(labels, periodic, ci, cj)
 
 
 @njit(cache=True)
@@ -247,7 +304,7 @@ def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
 
 
 @njit(cache=True)
-def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
+def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     """Trace every boundary between the vertices ``(vi, vj)`` (``vid`` maps corners to vertex ids), and fit its arms.
 
     Returns arrays over junctions: start vertex, end vertex, the arm
@@ -273,8 +330,8 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     done = np.zeros(nv, np.uint8)  # bit d: the junction on arm d has been traced (from its other end)
     start = np.empty(n_max, np.int64)
     end = np.empty(n_max, np.int64)
-    left = np.empty(n_max, pad.dtype)
-    right = np.empty(n_max, pad.dtype)
+    left = np.empty(n_max, labels.dtype)
+    right = np.empty(n_max, labels.dtype)
     ddx = np.empty(n_max, np.int64)
     ddy = np.empty(n_max, np.int64)
     start_arm = np.empty(n_max, np.int64)
@@ -292,7 +349,7 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
         for d in range(4):
             if not (arms[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
                 continue
-            lab_l, lab_r = _sides(pad, ci, cj, d)
+            lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
             ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
             end[k] = vid[ei, ej]
@@ -337,7 +394,7 @@ def mark_junctions(arms, kind, vid, vi, vj, start, start_arm):
 
 
 @njit(cache=True)
-def trace_loops(pad, arms, kind, visited):
+def trace_loops(labels, periodic, arms, kind, visited):
     """Boundaries left unvisited by the junctions (``visited`` of :func:`mark_junctions`): closed loops with no vertex.
 
     Returns, per loop, the start corner (row, col), left and right labels,
@@ -357,7 +414,7 @@ def trace_loops(pad, arms, kind, visited):
             for d in range(2):
                 if not (arms[ci, cj] >> d) & 1 or visited[d, ci, cj]:
                     continue
-                lab_l, lab_r = _sides(pad, ci, cj, d)
+                lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
                 dx = 0
                 dy = 0
                 n = 0

@@ -99,8 +99,17 @@ def _corner_kind(tl, tr, bl, br, n_arms):
     return 5 if main else 6
 
 
-def corner_types(pad, nci, ncj, image_corners):
+def _padded(labels, periodic):
+    """The labels padded by one pixel (wrapping on a torus, 0 around an open image) and the lattice shape."""
+    pad = np.pad(labels, 1, mode="wrap" if periodic else "constant")
+    h, w = labels.shape
+    return pad, ((h, w) if periodic else (h + 1, w + 1))
+
+
+def corner_types(labels, periodic):
     """Reference of :func:`._kernels.corner_types`."""
+    pad, (nci, ncj) = _padded(labels, periodic)
+    image_corners = not periodic
     arms = np.zeros((nci, ncj), np.uint8)
     kind = np.zeros((nci, ncj), np.uint8)
     vid = np.full((nci, ncj), -1, np.int32)
@@ -138,14 +147,18 @@ def _displacement(cracks):
     return sum(UNIT[d][0] for _, _, d in cracks), sum(UNIT[d][1] for _, _, d in cracks)
 
 
-def trace_junctions(pad, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
+def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
     """Reference of :func:`._kernels.trace_junctions`.
 
     A junction is listed once, traced from the first of its two ends in
     (vertex id, arm direction) order; junctions come in the order of those ends.
     Its two arms are then fitted by :func:`arm_lines` over half the junction
-    (1 to ``max_reach`` cracks), walking again from each end.
+    (1 to ``max_reach`` cracks), walking again from each end.  A
+    ``membrane`` of size 0 means no membrane pixel.
     """
+    pad, _ = _padded(labels, periodic)
+    if membrane.size == 0:
+        membrane = np.zeros(pad.shape, bool)
     rows = []
     for v in range(len(vi)):
         for d in _arm_set(arms[vi[v], vj[v]]):
@@ -178,13 +191,14 @@ def mark_junctions(arms, kind, vid, vi, vj, start, start_arm):
     return visited
 
 
-def trace_loops(pad, arms, kind, visited):
+def trace_loops(labels, periodic, arms, kind, visited):
     """Reference of :func:`._kernels.trace_loops` (``visited`` is read, not changed).
 
     Each loop starts at its first crack in (corner row, corner col,
     direction) order, run along +x or +y, and ends when the walk is back on
     that crack.
     """
+    pad, _ = _padded(labels, periodic)
     nci, ncj = arms.shape
     left_over = [(ci, cj, d) for ci in range(nci) for cj in range(ncj) for d in _arm_set(arms[ci, cj])
                  if d < 2 and not visited[d, ci, cj]]

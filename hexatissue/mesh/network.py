@@ -21,17 +21,15 @@ MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner i
 MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practically never needed
 
 
-def _corner_lattice(lab32, membrane, periodic):
-    """Labels and membrane flags padded by one pixel for the corner kernels, and the lattice shape (nci, ncj).
+def _membrane_flags(membrane, periodic):
+    """The membrane flags as the arm fits read them: padded by one pixel like the corner lattice's labels.
 
-    On a torus the padding wraps and the lattice has one corner per pixel;
-    on an open image the padding is 0 (outside) and the lattice is one
-    corner larger each way.
+    Of size 0 for touching labels (no membrane): every fit point is then a
+    crack midpoint and the kernel reads no flags.
     """
-    mode = "wrap" if periodic else "constant"
-    h, w = lab32.shape
-    shape = (h, w) if periodic else (h + 1, w + 1)
-    return np.pad(lab32, 1, mode=mode), np.pad(membrane, 1, mode=mode), shape
+    if not membrane.any():
+        return np.zeros((0, 0), bool)
+    return np.pad(membrane, 1, mode="wrap" if periodic else "constant")
 
 
 def _trace(lab32, periodic, membrane):
@@ -39,22 +37,19 @@ def _trace(lab32, periodic, membrane):
 
     ``membrane`` marks the pixels that were 0-valued junction lines in the input.
     """
-    pad, membrane_pad, (nci, ncj) = _corner_lattice(lab32, membrane, periodic)
-    if not membrane.any():  # touching labels: every arm fit point is a crack midpoint, no flags to read
-        membrane_pad = np.zeros((0, 0), bool)
     h, w = lab32.shape
     # on an open image the image corners are vertices, so border polygons follow the image edge
-    arms, ctype, vid, vi, vj, n_cracks = K.corner_types(pad, nci, ncj, not periodic)
+    arms, ctype, vid, vi, vj, n_cracks = K.corner_types(lab32, periodic)
     n_max = 4 * len(vi) + 1
     start, end, sarm, earm, left, right, dx, dy, ncrack, count, mean, direction = K.trace_junctions(
-        pad, arms, ctype, vid, vi, vj, n_max, membrane_pad, ARM_REACH
+        lab32, periodic, arms, ctype, vid, vi, vj, n_max, _membrane_flags(membrane, periodic), ARM_REACH
     )
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0
     if ncrack.sum() < n_cracks:  # boundaries with no vertex on them are left
         visited = K.mark_junctions(arms, ctype, vid, vi, vj, start, sarm)
-        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(pad, arms, ctype, visited)
+        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(lab32, periodic, arms, ctype, visited)
     else:
         lr = lc = ll = lrt = ldx = ldy = np.zeros(0, np.int64)
     n_loops = len(lr)
