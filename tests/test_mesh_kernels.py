@@ -383,8 +383,23 @@ def chain_traced(k):
     frm, to = np.r_[a, b], np.r_[b, a]
     inside = cell != 0
     cell, frm, to = cell[inside], frm[inside], to[inside]
-    order = np.lexsort((frm, cell))
+    order = order_both(cell, frm)
     return chain_both(cell[order], frm[order], to[order]), cell
+
+
+def order_both(cell, frm):
+    """half_edge_order of the kernel, checked against its reference."""
+    cell, frm = np.asarray(cell, np.int64), np.asarray(frm, np.int64)
+    n_cells = int(cell.max()) + 1 if len(cell) else 0
+    order = K.half_edge_order(cell, frm, n_cells)
+    np.testing.assert_array_equal(order, R.half_edge_order(cell, frm, n_cells))
+    return order
+
+
+def test_half_edge_order_hand_made():
+    """Cells 2 0 2 1 2 from vertices 5 3 1 4 1: cell 0 (index 1), cell 1 (3), cell 2 by vertex with the tie 2 < 4 kept."""
+    assert order_both([2, 0, 2, 1, 2], [5, 3, 1, 4, 1]).tolist() == [1, 3, 2, 4, 0]
+    assert order_both([], []).tolist() == []
 
 
 def moments_both(labels, periodic):

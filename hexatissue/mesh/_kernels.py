@@ -765,6 +765,35 @@ def components(n, a, b):
 
 
 @njit(cache=True)
+def half_edge_order(cell, frm, n_cells):
+    """The order that sorts half-edges by (cell, frm), ties kept in input order (``np.lexsort((frm, cell))``).
+
+    A counting sort by cell (ids 0..n_cells-1), then an insertion sort of
+    each cell's few half-edges by ``frm``: linear, where a general sort of
+    the keys is not.
+    """
+    first = np.zeros(n_cells + 1, np.int64)
+    for c in cell:
+        first[c + 1] += 1
+    for c in range(n_cells):
+        first[c + 1] += first[c]
+    fill = first[:-1].copy()
+    order = np.empty(len(cell), np.int64)
+    for h in range(len(cell)):
+        order[fill[cell[h]]] = h
+        fill[cell[h]] += 1
+    for c in range(n_cells):
+        for i in range(first[c] + 1, first[c + 1]):
+            h = order[i]
+            j = i - 1
+            while j >= first[c] and frm[order[j]] > frm[h]:  # strict: equal keys keep their order
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = h
+    return order
+
+
+@njit(cache=True)
 def chain_cycles(cell, frm, to):
     """Boundary cycles of every cell from its half-edges.
 

@@ -374,3 +374,8 @@ def chain_cycles(cell, frm, to):
                 h = next((k for k in mine if cycle[k] < 0 and frm[k] == to[h]), None)
             starts.append(len(order))
     return cycle, np.array(order, np.int64), np.array(starts, np.int64)
+
+
+def half_edge_order(cell, frm, n_cells):
+    """Reference of :func:`._kernels.half_edge_order`."""
+    return np.lexsort((frm, cell))

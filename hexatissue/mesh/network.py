@@ -155,7 +155,7 @@ def _polygons(centre, kept, n_labels):
     vec = np.r_[kept["vec"], -kept["vec"]]
     inside = cell != 0
     cell, frm, to, vec = cell[inside], frm[inside], to[inside], vec[inside]
-    order = np.lexsort((frm, cell))
+    order = K.half_edge_order(cell, frm, n_labels)
     cell, frm, to, vec = cell[order], frm[order], to[order], vec[order]
     _, seq, cstart = K.chain_cycles(cell, frm, to)
     clen = np.diff(cstart)
