@@ -30,10 +30,11 @@ def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
     lab = np.asarray(labels, np.int32)
     membrane = np.zeros(lab.shape, bool) if membrane is None else membrane
     flags = N._membrane_flags(membrane, periodic)  # as network._trace gives them: size 0 for touching labels
-    arms, kind, vid, vi, vj, n_cracks = impl.corner_types(lab, periodic)
-    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, arms, kind, vid, vi, vj, 4 * len(vi) + 1,
+    arms, kind, vi, vj, n_cracks = impl.corner_types(lab, periodic)
+    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, arms, kind, vi, vj, 4 * len(vi) + 1,
                                                               flags, max_reach)
-    visited = impl.mark_junctions(arms, kind, vid, vi, vj, junctions[0], junctions[2])
+    visited = impl.mark_junctions(periodic, arms, kind, vi, vj, junctions[0], junctions[2])
+    vid = R._vertex_map(arms.shape, vi, vj)  # vertex ids are the ranks of the vertices in raster order
     loops = impl.trace_loops(lab, periodic, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
     return SimpleNamespace(
         arms=arms, kind=kind, vid=vid, vi=vi, vj=vj, n_cracks=n_cracks, visited=visited,
@@ -49,7 +50,7 @@ def assert_same_axis(a, b):
 
 
 def assert_kernels_match_reference(k, r):
-    for name in ("arms", "kind", "vid", "vi", "vj", "visited", "count"):
+    for name in ("arms", "kind", "vi", "vj", "visited", "count"):
         a, b = getattr(k, name), getattr(r, name)
         assert a.dtype == b.dtype, name
         np.testing.assert_array_equal(a, b, err_msg=name)

@@ -82,8 +82,8 @@ def corner_types(labels, periodic):
 
     Also returns the vertices (corners of type 3 and 4, and on an open
     image the four corners of the image where a boundary turns) as row and
-    column arrays in raster order, the map ``vid`` from corners to vertex
-    ids (-1 elsewhere) and the total number of cracks.
+    column arrays in raster order (vertex ids are their ranks: see
+    :func:`_vertex_id`) and the total number of cracks.
 
     The first pass has no branch (selects only) in its inner loop over the
     corners between two rows of labels, so it runs on whole vectors of
@@ -118,7 +118,6 @@ def corner_types(labels, periodic):
             n_arms += n
             n_forks += (k == 3) | (k == 4)
     image_corners = not periodic
-    vid = np.full((nci, ncj), -1, dtype=np.int32)
     vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
     vj = np.empty(n_forks + 4, np.int64)
     n_vertices = 0
@@ -128,11 +127,10 @@ def corner_types(labels, periodic):
             k = kind[ci, cj]
             corner = edge_row and (cj == 0 or cj == ncj - 1) and k != 0
             if k == 3 or k == 4 or corner:
-                vid[ci, cj] = n_vertices
                 vi[n_vertices] = ci
                 vj[n_vertices] = cj
                 n_vertices += 1
-    return arms, kind, vid, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
+    return arms, kind, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
 
 
 def _next_dir_table():
@@ -212,20 +210,35 @@ def _crack_index(ci, cj, d, nci, ncj):
 
 
 @njit(cache=True)
-def _is_vertex(kind, vid, ci, cj, nci, ncj):
-    """Whether corner (ci, cj) is a vertex: a fork (types 3, 4), or a corner of an open image listed in ``vid``.
+def _is_vertex(kind, ci, cj, nci, ncj, image_corners):
+    """Whether corner (ci, cj) is a vertex: a fork (types 3, 4), or with ``image_corners`` a corner of the image
+    where a boundary turns.
 
-    Reads ``kind`` (1 byte a corner), not the 4-byte ``vid``, except at the
-    four lattice corners: the walks touch fewer cache lines.
+    The walks read 1 byte a corner to know where they end (a 4-byte map of
+    vertex ids would be touched at every step and is not kept at all).
     """
     k = kind[ci, cj]
     if k == 3 or k == 4:
         return True
-    return (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1) and vid[ci, cj] >= 0
+    return image_corners and (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1) and k != 0
 
 
 @njit(cache=True)
-def _walk(arms, kind, vid, membrane, ci, cj, d, nci, ncj, first, last):
+def _vertex_id(keys, key):
+    """Id of the vertex at corner key ``ci * ncj + cj``: its rank in the sorted ``keys`` (vertices in raster order)."""
+    lo = 0
+    hi = len(keys)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def _walk(arms, kind, image_corners, membrane, ci, cj, d, nci, ncj, first, last):
     """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
 
     Stores the fit point of every crack (:func:`_crack_point`, relative to
@@ -257,7 +270,7 @@ def _walk(arms, kind, vid, membrane, ci, cj, d, nci, ncj, first, last):
         dy += DI[d]
         n += 1
         ci, cj = _step(ci, cj, d, nci, ncj)
-        if _is_vertex(kind, vid, ci, cj, nci, ncj):
+        if _is_vertex(kind, ci, cj, nci, ncj, image_corners):
             return ci, cj, dx, dy, n, d
         d = _next_dir(kind[ci, cj], arms[ci, cj], d)
 
@@ -304,8 +317,8 @@ def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
 
 
 @njit(cache=True)
-def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
-    """Trace every boundary between the vertices ``(vi, vj)`` (``vid`` maps corners to vertex ids), and fit its arms.
+def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_reach):
+    """Trace every boundary between the vertices ``(vi, vj)`` of :func:`corner_types`, and fit its arms.
 
     Returns arrays over junctions: start vertex, end vertex, the arm
     directions by which the junction leaves its start and enters its end
@@ -328,6 +341,7 @@ def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, 
     nci, ncj = arms.shape
     nv = len(vi)
     done = np.zeros(nv, np.uint8)  # bit d: the junction on arm d has been traced (from its other end)
+    keys = vi * ncj + vj
     start = np.empty(n_max, np.int64)
     end = np.empty(n_max, np.int64)
     left = np.empty(n_max, labels.dtype)
@@ -350,9 +364,9 @@ def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, 
             if not (arms[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
                 continue
             lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
-            ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, membrane, ci, cj, d, nci, ncj, first, last)
+            ei, ej, dx, dy, n, d_last = _walk(arms, kind, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
-            end[k] = vid[ei, ej]
+            end[k] = _vertex_id(keys, ei * ncj + ej)
             start_arm[k] = d
             end_arm[k] = (d_last + 2) % 4
             done[end[k]] |= np.uint8(1 << end_arm[k])
@@ -371,7 +385,7 @@ def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, 
 
 
 @njit(cache=True)
-def mark_junctions(arms, kind, vid, vi, vj, start, start_arm):
+def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
     """Flags (2, nci, ncj) of the cracks on the junctions of :func:`trace_junctions` (its start, start_arm).
 
     Only needed to find the loops with no vertex (:func:`trace_loops`), so
@@ -387,7 +401,7 @@ def mark_junctions(arms, kind, vid, vi, vj, start, start_arm):
             a, r, c = _crack_index(ci, cj, d, nci, ncj)
             visited[a, r, c] = True
             ci, cj = _step(ci, cj, d, nci, ncj)
-            if _is_vertex(kind, vid, ci, cj, nci, ncj):
+            if _is_vertex(kind, ci, cj, nci, ncj, not periodic):
                 break
             d = _next_dir(kind[ci, cj], arms[ci, cj], d)
     return visited

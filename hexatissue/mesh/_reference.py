@@ -112,7 +112,6 @@ def corner_types(labels, periodic):
     image_corners = not periodic
     arms = np.zeros((nci, ncj), np.uint8)
     kind = np.zeros((nci, ncj), np.uint8)
-    vid = np.full((nci, ncj), -1, np.int32)
     cracks = set()
     vertices = []
     for ci in range(nci):
@@ -125,11 +124,16 @@ def corner_types(labels, periodic):
             image_corner = image_corners and ci in (0, nci - 1) and cj in (0, ncj - 1)
             if kind[ci, cj] in (3, 4) or (image_corner and present):
                 vertices.append((ci, cj))
-    for v, (ci, cj) in enumerate(vertices):
-        vid[ci, cj] = v
     vi = np.array([c[0] for c in vertices], np.int64)
     vj = np.array([c[1] for c in vertices], np.int64)
-    return arms, kind, vid, vi, vj, len(cracks)
+    return arms, kind, vi, vj, len(cracks)
+
+
+def _vertex_map(shape, vi, vj):
+    """Vertex id of every corner of the lattice (-1 where none): the vertices numbered in their order."""
+    vid = np.full(shape, -1, np.int64)
+    vid[vi, vj] = np.arange(len(vi))
+    return vid
 
 
 def _junction_cracks(arms, kind, vid, ci, cj, d):
@@ -147,7 +151,7 @@ def _displacement(cracks):
     return sum(UNIT[d][0] for _, _, d in cracks), sum(UNIT[d][1] for _, _, d in cracks)
 
 
-def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, max_reach):
+def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_reach):
     """Reference of :func:`._kernels.trace_junctions`.
 
     A junction is listed once, traced from the first of its two ends in
@@ -159,6 +163,7 @@ def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, 
     pad, _ = _padded(labels, periodic)
     if membrane.size == 0:
         membrane = np.zeros(pad.shape, bool)
+    vid = _vertex_map(arms.shape, vi, vj)
     rows = []
     for v in range(len(vi)):
         for d in _arm_set(arms[vi[v], vj[v]]):
@@ -181,8 +186,9 @@ def trace_junctions(labels, periodic, arms, kind, vid, vi, vj, n_max, membrane, 
     return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane)
 
 
-def mark_junctions(arms, kind, vid, vi, vj, start, start_arm):
+def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
     """Reference of :func:`._kernels.mark_junctions`."""
+    vid = _vertex_map(arms.shape, vi, vj)
     nci, ncj = arms.shape
     visited = np.zeros((2, nci, ncj), np.bool_)
     for v, d in zip(start, start_arm):
