@@ -175,9 +175,7 @@ def _polygons(centre, kept, n_labels):
     xy = centre[np.repeat(frm[seq[cstart]], clen)] + cum - base if len(seq) else np.zeros((0, 2))
     area, _ = polygon_area_centroid(xy, cstart)
     n_cycles = np.bincount(ccell, minlength=n_labels)
-    # the cycle with the largest (positive) area represents its cell
-    best = np.lexsort((-area, ccell))
-    best = best[cat([True], ccell[best][1:] != ccell[best][:-1])] if len(best) else best
+    best = _largest_cycles(ccell, area)
     poly_start = np.full(n_labels, -1, np.int64)
     poly_len = np.zeros(n_labels, np.int64)
     good = area[best] > 0
@@ -186,6 +184,19 @@ def _polygons(centre, kept, n_labels):
     poly_area = np.full(n_labels, np.nan)
     poly_area[ccell[best[good]]] = area[best[good]]
     return poly_start, poly_len, poly_area, frm[seq], xy, n_cycles
+
+
+def _largest_cycles(ccell, area):
+    """Per cell, its cycle with the largest area (the first of equal ones); cycles come cell after cell.
+
+    Most cells have one cycle: only the runs of several are searched.
+    """
+    first = np.flatnonzero(cat([True], ccell[1:] != ccell[:-1])) if len(ccell) else np.zeros(0, np.int64)
+    end = cat(first[1:], [len(ccell)])
+    best = first.copy()
+    for r in np.flatnonzero(end - first > 1):
+        best[r] = first[r] + np.argmax(area[first[r]:end[r]])
+    return best
 
 
 def mesh_from_labels(
