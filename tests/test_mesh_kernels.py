@@ -23,7 +23,7 @@ LOOP_FIELDS = ("row", "col", "left", "right", "dx", "dy", "ncrack")
 
 
 def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
-    """corner_types -> trace_junctions (with the arm fits) -> mark_junctions -> trace_loops of ``impl`` (kernels or reference).
+    """corner_types -> trace_junctions (+ arm fits) -> mark_junctions -> trace_loops of ``impl`` (kernel or reference).
 
     ``max_reach`` overrides the network's arm reach.
     """
@@ -398,7 +398,7 @@ def order_both(cell, frm):
 
 
 def test_half_edge_order_hand_made():
-    """Cells 2 0 2 1 2 from vertices 5 3 1 4 1: cell 0 (index 1), cell 1 (3), cell 2 by vertex with the tie 2 < 4 kept."""
+    """Cells 2 0 2 1 2 from vertices 5 3 1 4 1: cell 0 (index 1), cell 1 (3), cell 2 by vertex, the tie kept 2, 4."""
     assert order_both([2, 0, 2, 1, 2], [5, 3, 1, 4, 1]).tolist() == [1, 3, 2, 4, 0]
     assert order_both([], []).tolist() == []
 
@@ -427,7 +427,7 @@ def test_reference_equals_kernels_on_voronoi(periodic, seed):
 
 
 def test_reference_equals_kernels_on_random_labels():
-    """Tiny images of random labels 0-4 (pixel noise and 2 x 2 blocks), open and periodic, random membranes and arm reach.
+    """Tiny images of random labels 0-4 (pixel noise and 2 x 2 blocks), open and periodic, random membranes, any reach.
 
     They are full of what Voronoi tissues rarely have: four-fold and
     diagonal corners, loops, cells in pieces or pinched, background 0.

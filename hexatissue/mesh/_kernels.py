@@ -43,7 +43,7 @@ def _pad_at(labels, periodic, i, j):
 
 
 @njit(cache=True)
-def lattice_shape(labels, periodic):
+def _lattice_shape(labels, periodic):
     """(nci, ncj): one corner per pixel on a torus, one more each way on an open image."""
     h, w = labels.shape
     return (h, w) if periodic else (h + 1, w + 1)
@@ -91,7 +91,7 @@ def corner_types(labels, periodic):
     done apart.  Vertices are few and are numbered in a second pass.
     """
     h, w = labels.shape
-    nci, ncj = lattice_shape(labels, periodic)
+    nci, ncj = _lattice_shape(labels, periodic)
     zeros = np.zeros(w, labels.dtype)
     arms = np.empty((nci, ncj), dtype=np.uint8)
     kind = np.empty((nci, ncj), dtype=np.uint8)
