@@ -141,8 +141,8 @@ def _clusters(pos, j, short, lines, box):
     min_image = box.min_image if box is not None else (lambda d: d)
     off_first = min_image(pos - pos[first[cluster]])
     counts = np.bincount(cluster)
-    mean_off = np.column_stack((np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])))
-    mean_off /= counts[:, None]
+    sums = np.column_stack((np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])))
+    mean_off = sums / counts[:, None]
     centre = pos[first] + mean_off
     off = off_first - mean_off[cluster]
     shift = _subpixel_shift(cluster, off, j, ~short, lines, len(centre))
