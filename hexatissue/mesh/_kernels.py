@@ -485,16 +485,6 @@ def _unwrapped(v, ref, period):
 
 
 @njit(cache=True)
-def _run_end(labels, i, j):
-    """End (exclusive) of the run of equal labels that starts at column ``j`` of row ``i``."""
-    lab = labels[i, j]
-    w = labels.shape[1]
-    while j < w and labels[i, j] == lab:
-        j += 1
-    return j
-
-
-@njit(cache=True)
 def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
 
@@ -511,9 +501,10 @@ def cell_moments(labels, n_labels, periodic):
     mean lies within its span), so circular means are taken only of the
     wider ones (those touching the box edge, or large): their cos/sin terms
     come from per-column and per-row tables and are added pixel by pixel in
-    raster order, as a pixel-by-pixel sum does.  On a torus the first pass
-    keeps the start column of every run, so the later passes visit only the
-    runs of the wide labels, not the whole image again.
+    raster order, as a pixel-by-pixel sum does.  The first pass finds the
+    runs without a branch per pixel and keeps the start column of every
+    run, so the later passes (torus) visit only the runs of the wide
+    labels, not the whole image again.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
@@ -527,16 +518,21 @@ def cell_moments(labels, n_labels, periodic):
     ref_y = np.zeros(n_labels, np.float64)
     # run starts row after row (np.empty: only the pages written become resident); row i's runs are
     # run_start[row_first[i]:row_first[i + 1]], each ending where the next starts (or at w)
-    run_start = np.empty(h * w if periodic else 0, np.int32)
+    run_start = np.empty(h * w, np.int64)
     row_first = np.zeros(h + 1, np.int64)
     n_runs = 0
     for i in range(h):
-        j = 0
-        while j < w:
-            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
-            if periodic:
-                run_start[n_runs] = j0
-                n_runs += 1
+        row = labels[i]
+        run_start[n_runs] = 0
+        m = n_runs + 1
+        for j in range(1, w):  # no branch: every column is written, the count moves on where a run starts
+            run_start[m] = j
+            m += row[j] != row[j - 1]
+        row_first[i + 1] = m
+        for r in range(n_runs, m):
+            j0 = run_start[r]
+            j = run_start[r + 1] if r + 1 < m else w
+            lab = row[j0]
             n = j - j0
             if count[lab] == 0:  # first pixel: the reference of a band around the whole torus
                 ref_x[lab] = j0
@@ -548,7 +544,7 @@ def cell_moments(labels, n_labels, periodic):
             lo_x[lab] = min(lo_x[lab], j0)
             hi_x[lab] = max(hi_x[lab], j - 1)
             hi_y[lab] = i
-        row_first[i + 1] = n_runs
+        n_runs = m
     if not periodic:
         return count, sx, sy
     wide_x = hi_x - lo_x >= 0.5 * w - 1
