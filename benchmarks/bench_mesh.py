@@ -3,16 +3,24 @@
 Compares, in the same run and on one core, hexatissue.mesh_from_labels with the per-cell
 scikit-image route people use today (regionprops, then find_contours and approximate_polygon per
 cell, then gamma6 of that polygon).  Peak memory is the peak resident set size of a fresh process
-running each route once, minus its size just before (numba allocations are invisible to
-tracemalloc); the label image itself (16 MB as int32) is not included.  CPU times (process time)
+running each route once (the kernel's high-water mark, reset before the run), minus its size just
+before (numba allocations are invisible to tracemalloc); the label image itself (16 MB as int32) is
+not included.  CPU times (process time)
 are printed beside wall times: on a shared machine they are the steadier figure.
 
-Run:  python benchmarks/bench_mesh.py [--size 2048] [--spacing 20.5] [--repeats 5]
+With ``--against TREE`` (another checkout, e.g. a worktree of main) the route of that tree's
+package runs in the same process, calls alternating with this tree's, and the medians and the
+per-pair CPU ratio are added: on a shared machine whose speed drifts from minute to minute this is
+the steadiest comparison.
+
+Run:  python benchmarks/bench_mesh.py [--size 2048] [--spacing 20.5] [--repeats 5] [--against TREE]
 """
 import argparse
+import importlib
 import json
 import os
 import platform
+import shutil
 import subprocess
 import tempfile
 import sys
@@ -32,11 +40,38 @@ def make_labels(size, spacing):
     return voronoi_labels(seeds, (size, size), periodic=True)
 
 
-def hexatissue_route(labels):
-    from hexatissue import Box, mesh_from_labels, shape_order
-
-    frame = shape_order(mesh_from_labels(labels, box=Box.from_shape(labels.shape)), p=6)
+def hexatissue_route(labels, package=None):
+    """gamma6 of every cell by ``shape_order(mesh_from_labels(labels, box), p=6)`` of ``package`` (default this tree's)."""
+    ht = package or importlib.import_module("hexatissue")
+    frame = ht.shape_order(ht.mesh_from_labels(labels, box=ht.Box.from_shape(labels.shape)), p=6)
     return frame.cells["gamma6_re"].to_numpy() + 1j * frame.cells["gamma6_im"].to_numpy()
+
+
+def import_other_tree(tree):
+    """The ``hexatissue`` package of another checkout, imported beside this one as ``hexatissue_base``.
+
+    A copy under that name (its modules import each other relatively; the few absolute
+    ``hexatissue`` imports, outside the mesh route, get this tree's modules).
+    """
+    where = tempfile.mkdtemp()
+    shutil.copytree(os.path.join(tree, "hexatissue"), os.path.join(where, "hexatissue_base"),
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    sys.path.insert(0, where)
+    return importlib.import_module("hexatissue_base")
+
+
+def alternate(labels, other, repeats):
+    """CPU seconds of this tree's route and of ``other``'s, calls alternating; medians and per-pair ratio."""
+    hexatissue_route(labels, other)  # compile the other tree's kernels
+    mine, theirs = [], []
+    for _ in range(repeats):
+        for package, out in ((other, theirs), (None, mine)):
+            c = time.process_time()
+            hexatissue_route(labels, package)
+            out.append(time.process_time() - c)
+    mine, theirs = np.array(mine), np.array(theirs)
+    return {"against_cpu_s_median": float(np.median(theirs)), "this_cpu_s_median": float(np.median(mine)),
+            "cpu_ratio_this_over_against": float(np.median(mine / theirs))}
 
 
 def skimage_route(labels):
@@ -52,16 +87,35 @@ def skimage_route(labels):
 
 
 def peak_rss_mb(route, labels_path):
-    """Run one route in a fresh process: peak RSS minus the RSS before the run (MB)."""
+    """Run one route in a fresh process: its peak RSS during the run minus the RSS before the run (MB).
+
+    The peak is the kernel's high-water mark (VmHWM), reset just before the run: ``ru_maxrss``
+    cannot be used, as a process started from a large parent inherits the parent's resident size
+    as its ``ru_maxrss`` across exec (it printed 131 MB here after the other routes had run in the
+    parent, against 60 MB run from a small parent).
+    """
     code = (
-        "import sys, resource, numpy as np, psutil; sys.path.insert(0, %r);"
+        "import sys, numpy as np, psutil; sys.path.insert(0, %r);"
         "import bench_mesh as b; labels = np.load(%r);"
         "b.%s(np.ascontiguousarray(labels[:256, :256]));"
-        "base = psutil.Process().memory_info().rss; b.%s(labels);"
-        "print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - base) / 2**20)"
+        "base = psutil.Process().memory_info().rss; b.reset_peak_rss(); b.%s(labels);"
+        "print((b.peak_rss() - base) / 2**20)"
     ) % (os.path.dirname(os.path.abspath(__file__)), str(labels_path), route, route)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return float(out.stdout.strip().splitlines()[-1])
+
+
+def reset_peak_rss():
+    """Reset this process's peak resident size to its current size (Linux >= 4.0)."""
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+
+
+def peak_rss():
+    """Peak resident size of this process since the last :func:`reset_peak_rss` (bytes)."""
+    with open("/proc/self/status") as f:
+        line = next(line for line in f if line.startswith("VmHWM:"))
+    return int(line.split()[1]) * 1024
 
 
 def main():
@@ -69,6 +123,7 @@ def main():
     parser.add_argument("--size", type=int, default=2048)
     parser.add_argument("--spacing", type=float, default=20.5, help="seed lattice pitch, px (20.5 -> ~10,000 cells)")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--against", help="another checkout whose route runs alternately in this process")
     args = parser.parse_args()
 
     labels = make_labels(args.size, args.spacing)
@@ -103,6 +158,8 @@ def main():
         "skimage_peak_rss_mb": peak_rss_mb("skimage_route", labels_path),
         "mean_abs_gamma6": [float(np.nanmean(np.abs(g6))), float(np.nanmean(np.abs(g6_sk)))],
     }
+    if args.against:
+        result.update(against=args.against, **alternate(labels, import_other_tree(args.against), 3 * args.repeats))
     print(json.dumps(result, indent=2))
 
 

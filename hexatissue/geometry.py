@@ -173,7 +173,10 @@ def lookup(keys, values, wanted, missing=None):
             raise InputError(missing)
         return values[:0] if missing is not None else np.full(len(wanted), -1, np.int64)
     if np.all(keys[1:] > keys[:-1]):  # sorted already (tables in key order): no argsort, no indirect search
-        at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
+        if keys[-1] - keys[0] == len(keys) - 1:  # consecutive (ids 0..n-1 of one frame): the key is the row
+            at = np.clip(wanted - keys[0], 0, len(keys) - 1)
+        else:
+            at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
     else:
         order = np.argsort(keys, kind="stable")
         at = order[np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)]

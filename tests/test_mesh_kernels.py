@@ -22,21 +22,20 @@ JUNCTION_FIELDS = ("start", "end", "start_arm", "end_arm", "left", "right", "dx"
 LOOP_FIELDS = ("row", "col", "left", "right", "dx", "dy", "ncrack")
 
 
-def run(impl, labels, periodic=False, membrane=None, reach=None):
-    """corner_types -> trace_junctions -> trace_loops -> arm_lines of ``impl`` (kernels or reference).
+def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
+    """corner_types -> trace_junctions (+ arm fits) -> mark_junctions -> trace_loops of ``impl`` (kernel or reference).
 
-    Inputs are prepared by ``network``'s own helpers (padding, lattice shape,
-    arm reach), as ``network._trace`` does; ``reach`` overrides the arm reach.
+    ``max_reach`` overrides the network's arm reach.
     """
     lab = np.asarray(labels, np.int32)
     membrane = np.zeros(lab.shape, bool) if membrane is None else membrane
-    pad, membrane_pad, (nci, ncj) = N._corner_lattice(lab, membrane, periodic)
-    arms, kind, vid, vi, vj, n_cracks = impl.corner_types(pad, nci, ncj, not periodic)
-    *junctions, visited = impl.trace_junctions(pad, arms, kind, vid, vi, vj, 4 * len(vi) + 1)
-    loops = impl.trace_loops(pad, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
-    if reach is None:
-        reach = N._arm_reach(len(vi), *junctions[:4], junctions[8])
-    count, mean, direction = impl.arm_lines(arms, kind, vid, vi, vj, reach, membrane_pad)
+    flags = N._membrane_flags(membrane, periodic)  # as network._trace gives them: size 0 for touching labels
+    arms, kind, vi, vj, n_cracks = impl.corner_types(lab, periodic)
+    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, arms, kind, vi, vj, 4 * len(vi) + 1,
+                                                              flags, max_reach)
+    visited = impl.mark_junctions(periodic, arms, kind, vi, vj, junctions[0], junctions[2])
+    vid = R._vertex_map(arms.shape, vi, vj)  # vertex ids are the ranks of the vertices in raster order
+    loops = impl.trace_loops(lab, periodic, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
     return SimpleNamespace(
         arms=arms, kind=kind, vid=vid, vi=vi, vj=vj, n_cracks=n_cracks, visited=visited,
         j=dict(zip(JUNCTION_FIELDS, junctions)), loops=dict(zip(LOOP_FIELDS, loops)),
@@ -51,7 +50,7 @@ def assert_same_axis(a, b):
 
 
 def assert_kernels_match_reference(k, r):
-    for name in ("arms", "kind", "vid", "vi", "vj", "visited", "count"):
+    for name in ("arms", "kind", "vi", "vj", "visited", "count"):
         a, b = getattr(k, name), getattr(r, name)
         assert a.dtype == b.dtype, name
         np.testing.assert_array_equal(a, b, err_msg=name)
@@ -68,10 +67,10 @@ def assert_kernels_match_reference(k, r):
     assert not k.direction[~used].any() and not k.mean[~used].any()
 
 
-def both(labels, periodic=False, membrane=None, reach=None):
+def both(labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
     """The kernels' outputs, after checking that the reference gives the same."""
-    k = run(K, labels, periodic, membrane, reach)
-    assert_kernels_match_reference(k, run(R, labels, periodic, membrane, reach))
+    k = run(K, labels, periodic, membrane, max_reach)
+    assert_kernels_match_reference(k, run(R, labels, periodic, membrane, max_reach))
     return k
 
 
@@ -272,13 +271,10 @@ def test_arm_lines_on_a_straight_junction(straight):
     assert_same_axis(direction, np.array([0.0, 1.0]))
     assert fit(k, 10, 3, 3)[:2] == (5, (0.0, -2.5))
 
-    v = vertex(k, 0, 3)
-    for r, expect in [(1, (1, (0.0, 0.5))), (4, (4, (0.0, 2.0))), (30, (10, (0.0, 5.0)))]:  # 30: stops at (10, 3)
-        reach = np.zeros((len(k.vi), 4), np.int64)
-        reach[v, 1] = r
-        kr = both(straight, reach=reach)
-        assert fit(kr, 0, 3, 1)[:2] == expect
-        assert kr.count.sum() == expect[0]  # no other arm fitted
+    for r, expect in [(1, (1, 0.5)), (4, (4, 2.0)), (30, (5, 2.5))]:  # at most r cracks, at most half the junction
+        kr = both(straight, max_reach=r)
+        assert fit(kr, 0, 3, 1)[:2] == (expect[0], (0.0, expect[1]))
+        assert fit(kr, 10, 3, 3)[:2] == (expect[0], (0.0, -expect[1]))
         assert_same_axis(fit(kr, 0, 3, 1)[2], np.array([0.0, 1.0]))
         if r == 1:  # a single crack: exactly the arm direction
             assert fit(kr, 0, 3, 1)[2].tolist() == [0.0, 1.0]
@@ -286,41 +282,35 @@ def test_arm_lines_on_a_straight_junction(straight):
 
 def test_arm_lines_follow_membrane_pixels(straight):
     """Membrane pixels beside a crack move its fit point to their centre: column 2 -> x = -0.5; both sides -> midpoint."""
-    k = both(straight)
-    reach = np.zeros((len(k.vi), 4), np.int64)
-    reach[vertex(k, 0, 3), 1] = 4
     for cols, x in [((2,), -0.5), ((3,), 0.5), ((2, 3), 0.0)]:
         membrane = np.zeros(straight.shape, bool)
         membrane[:, list(cols)] = True
-        n, mean, direction = fit(both(straight, membrane=membrane, reach=reach), 0, 3, 1)
+        k = both(straight, membrane=membrane, max_reach=4)
+        n, mean, direction = fit(k, 0, 3, 1)
         assert (n, mean) == (4, (x, 2.0))
         assert_same_axis(direction, np.array([0.0, 1.0]))
+        assert fit(k, 10, 3, 3)[:2] == (4, (x, -2.0))  # fitted from the junction's end: the same points
 
 
 def test_arm_lines_on_a_bent_junction():
-    """8 x 8 image of 1 with cell 2 in the bottom-right 4 x 4: the junction (4, 8) -> (4, 4) -> (8, 4) bends 90 degrees.
+    """12 x 12 image of 1 with cell 2 in rows 4.. and columns 10..: the junction (4, 12) -> (4, 10) -> (12, 10) bends.
 
-    From (4, 8) along -x the 8 midpoints are (-0.5 .. -3.5, 0) and
-    (-4, 0.5 .. 3.5): mean (-3, 1), symmetric about the bisector, so the
-    axis is (1, -1) / sqrt 2 (variance 1.625 each way, covariance -1).  From
-    (8, 4) along -y: mean (1, -3), same axis.  With the network's reach (4 =
-    half) each arm is straight.
+    It has 2 + 8 = 10 cracks, so each arm fits 5.  From (4, 12) along -x
+    the points are (-0.5, 0), (-1.5, 0), (-2, 0.5), (-2, 1.5), (-2, 2.5):
+    mean (-1.6, 0.9), an axis between the two legs (covariance xx 0.34,
+    xy -0.36, yy 0.94: theta = atan2(-0.72, -0.6) / 2).  From (12, 10) along -y
+    the 5 points are straight: mean (0, -2.5), axis (0, 1).
     """
-    labels = np.ones((8, 8), int)
-    labels[4:, 4:] = 2
+    labels = np.ones((12, 12), int)
+    labels[4:, 10:] = 2
     k = both(labels)
-    assert k.kind[4, 4] == 2 and k.vid[4, 4] == -1
-    assert fit(k, 4, 8, 2)[:2] == (4, (-2.0, 0.0)) and fit(k, 8, 4, 3)[:2] == (4, (0.0, -2.0))
-    assert_same_axis(fit(k, 4, 8, 2)[2], np.array([1.0, 0.0]))
-
-    reach = np.zeros((len(k.vi), 4), np.int64)
-    reach[vertex(k, 4, 8), 2] = reach[vertex(k, 8, 4), 3] = 8
-    k = both(labels, reach=reach)
-    diagonal = np.array([1.0, -1.0]) / np.sqrt(2)
-    for corner, d, mean in [((4, 8), 2, (-3.0, 1.0)), ((8, 4), 3, (1.0, -3.0))]:
-        n, m, direction = fit(k, *corner, d)
-        assert (n, m) == (8, mean)
-        assert_same_axis(direction, diagonal)
+    n, mean, direction = fit(k, 4, 12, 2)
+    assert n == 5
+    np.testing.assert_allclose(mean, (-1.6, 0.9), rtol=0, atol=1e-15)
+    theta = np.arctan2(-0.72, -0.6) / 2
+    assert_same_axis(direction, np.array([np.cos(theta), np.sin(theta)]))
+    assert fit(k, 12, 10, 3)[:2] == (5, (0.0, -2.5))
+    assert_same_axis(fit(k, 12, 10, 3)[2], np.array([0.0, 1.0]))
 
 
 # --- chaining half-edges into cycles -----------------------------------------------------------
@@ -394,8 +384,23 @@ def chain_traced(k):
     frm, to = np.r_[a, b], np.r_[b, a]
     inside = cell != 0
     cell, frm, to = cell[inside], frm[inside], to[inside]
-    order = np.lexsort((frm, cell))
+    order = order_both(cell, frm)
     return chain_both(cell[order], frm[order], to[order]), cell
+
+
+def order_both(cell, frm):
+    """half_edge_order of the kernel, checked against its reference."""
+    cell, frm = np.asarray(cell, np.int64), np.asarray(frm, np.int64)
+    n_cells = int(cell.max()) + 1 if len(cell) else 0
+    order = K.half_edge_order(cell, frm, n_cells)
+    np.testing.assert_array_equal(order, R.half_edge_order(cell, frm, n_cells))
+    return order
+
+
+def test_half_edge_order_hand_made():
+    """Cells 2 0 2 1 2 from vertices 5 3 1 4 1: cell 0 (index 1), cell 1 (3), cell 2 by vertex, the tie kept 2, 4."""
+    assert order_both([2, 0, 2, 1, 2], [5, 3, 1, 4, 1]).tolist() == [1, 3, 2, 4, 0]
+    assert order_both([], []).tolist() == []
 
 
 def moments_both(labels, periodic):
@@ -422,21 +427,21 @@ def test_reference_equals_kernels_on_voronoi(periodic, seed):
 
 
 def test_reference_equals_kernels_on_random_labels():
-    """Tiny images of random labels 0-4 (pixel noise and 2 x 2 blocks), open and periodic, random membranes and reach.
+    """Tiny images of random labels 0-4 (pixel noise and 2 x 2 blocks), open and periodic, random membranes, any reach.
 
     They are full of what Voronoi tissues rarely have: four-fold and
     diagonal corners, loops, cells in pieces or pinched, background 0.
     """
     rng = np.random.default_rng(11)
     seen = np.zeros(7, int)
-    for _ in range(40):
+    for case in range(40):
         labels = rng.integers(0, rng.integers(1, 5) + 1, rng.integers(2, 7, 2))
         if rng.random() < 0.5:
             labels = np.repeat(np.repeat(labels, 2, axis=0), 2, axis=1)
         periodic = bool(rng.random() < 0.5)
         membrane = rng.random(labels.shape) < 0.3
         k = both(labels, periodic, membrane)
-        both(labels, periodic, membrane, reach=rng.integers(0, 6, (len(k.vi), 4)))
+        both(labels, periodic, membrane, max_reach=1 + case % 5)
         chain_traced(k)
         moments_both(labels, periodic)
         seen += np.bincount(k.kind.ravel(), minlength=7)

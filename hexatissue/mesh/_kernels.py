@@ -2,9 +2,13 @@
 
 The boundaries between labels run along pixel edges ("cracks").  They form a
 graph on the lattice of pixel corners: corner ``(ci, cj)`` lies at
-``x = cj - 0.5``, ``y = ci - 0.5`` and is surrounded, in the padded label
-array ``pad``, by TL = ``pad[ci, cj]``, TR = ``pad[ci, cj + 1]``,
-BL = ``pad[ci + 1, cj]`` and BR = ``pad[ci + 1, cj + 1]``.  From a corner a
+``x = cj - 0.5``, ``y = ci - 0.5`` and is surrounded, in the label array
+padded by one pixel ``pad`` (wrapping on a torus, 0 around an open image),
+by TL = ``pad[ci, cj]``, TR = ``pad[ci, cj + 1]``, BL = ``pad[ci + 1, cj]``
+and BR = ``pad[ci + 1, cj + 1]``.  On a torus the lattice has one corner
+per pixel, on an open image one more each way.  The kernels take the
+labels unpadded and read the padding through :func:`_pad_at` and
+:func:`_row_or_zeros` (no padded copy of the image).  From a corner a
 crack "arm" leaves in direction 0 (+x), 1 (+y), 2 (-x) or 3 (-y) when the two
 pixels it separates differ.
 
@@ -26,42 +30,94 @@ DJ = np.array([1, 0, -1, 0], dtype=np.int64)
 
 
 @njit(cache=True)
-def corner_types(pad, nci, ncj, image_corners):
+def _pad_at(labels, periodic, i, j):
+    """``pad[i, j]``: the label of pixel (i - 1, j - 1), wrapped on a torus, 0 outside an open image."""
+    h, w = labels.shape
+    i -= 1
+    j -= 1
+    if periodic:
+        return labels[i % h, j % w]
+    if i < 0 or i >= h or j < 0 or j >= w:
+        return labels[0, 0] - labels[0, 0]  # 0 of the labels' dtype (a literal 0 would be int64)
+    return labels[i, j]
+
+
+@njit(cache=True)
+def _lattice_shape(labels, periodic):
+    """(nci, ncj): one corner per pixel on a torus, one more each way on an open image."""
+    h, w = labels.shape
+    return (h, w) if periodic else (h + 1, w + 1)
+
+
+@njit(cache=True)
+def _row_or_zeros(labels, periodic, r, zeros):
+    """Row r of the labels, wrapped on a torus; ``zeros`` (a row of 0) outside an open image."""
+    h = labels.shape[0]
+    if periodic:
+        return labels[r % h]
+    if r < 0 or r >= h:
+        return zeros
+    return labels[r]
+
+
+@njit(cache=True)
+def _corner_code(tl, tr, bl, br):
+    """Arm bit mask and type of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
+    a0 = np.uint8(tr != br)
+    a1 = np.uint8(bl != br)
+    a2 = np.uint8(tl != bl)
+    a3 = np.uint8(tl != tr)
+    n = a0 + a1 + a2 + a3
+    # four arms: 5 when TL == BR connect, 6 when TR == BL do, the smaller id when both; else 4
+    d5 = np.uint8(tl == br)
+    d6 = np.uint8(tr == bl)
+    four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
+    k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
+    return a0 | (a1 << 1) | (a2 << 2) | (a3 << 3), k, n
+
+
+@njit(cache=True)
+def corner_types(labels, periodic):
     """Arm bit masks (bit d = arm in direction d) and type codes of all corners.
 
-    Also returns the vertices (corners of type 3 and 4, and when
-    ``image_corners`` the four corners of an open image where a boundary
-    turns) as row and column arrays in raster order, the map ``vid`` from
-    corners to vertex ids (-1 elsewhere) and the total number of cracks.
+    Also returns the vertices (corners of type 3 and 4, and on an open
+    image the four corners of the image where a boundary turns) as row and
+    column arrays in raster order (vertex ids are their ranks: see
+    :func:`_vertex_id`) and the total number of cracks.
 
-    The first pass has no branch (selects only), so it runs on whole vectors
-    of corners; vertices are few and are numbered in a second pass.
+    The first pass has no branch (selects only) in its inner loop over the
+    corners between two rows of labels, so it runs on whole vectors of
+    corners; the first and last corner of a row (where the padding is) are
+    done apart.  Vertices are few and are numbered in a second pass.
     """
+    h, w = labels.shape
+    nci, ncj = _lattice_shape(labels, periodic)
+    zeros = np.zeros(w, labels.dtype)
     arms = np.empty((nci, ncj), dtype=np.uint8)
     kind = np.empty((nci, ncj), dtype=np.uint8)
     n_arms = 0
     n_forks = 0
     for ci in range(nci):
-        for cj in range(ncj):
-            tl = pad[ci, cj]
-            tr = pad[ci, cj + 1]
-            bl = pad[ci + 1, cj]
-            br = pad[ci + 1, cj + 1]
-            a0 = np.uint8(tr != br)
-            a1 = np.uint8(bl != br)
-            a2 = np.uint8(tl != bl)
-            a3 = np.uint8(tl != tr)
-            n = a0 + a1 + a2 + a3
-            # four arms: 5 when TL == BR connect, 6 when TR == BL do, the smaller id when both; else 4
-            d5 = np.uint8(tl == br)
-            d6 = np.uint8(tr == bl)
-            four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
-            arms[ci, cj] = a0 | (a1 << 1) | (a2 << 2) | (a3 << 3)
-            k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
+        top = _row_or_zeros(labels, periodic, ci - 1, zeros)
+        bottom = _row_or_zeros(labels, periodic, ci, zeros)
+        for cj in range(1, w):  # corner cj lies between columns cj - 1 and cj
+            a, k, n = _corner_code(top[cj - 1], top[cj], bottom[cj - 1], bottom[cj])
+            arms[ci, cj] = a
             kind[ci, cj] = k
             n_arms += n
             n_forks += (k == 3) | (k == 4)
-    vid = np.full((nci, ncj), -1, dtype=np.int32)
+        # corner 0 (left of column 0) and, on an open image, corner w (right of column w - 1)
+        for cj in range(0, ncj, w):  # 0, and w when the lattice has it
+            left = _pad_at(labels, periodic, ci, cj)
+            right = _pad_at(labels, periodic, ci, cj + 1)
+            below_left = _pad_at(labels, periodic, ci + 1, cj)
+            below_right = _pad_at(labels, periodic, ci + 1, cj + 1)
+            a, k, n = _corner_code(left, right, below_left, below_right)
+            arms[ci, cj] = a
+            kind[ci, cj] = k
+            n_arms += n
+            n_forks += (k == 3) | (k == 4)
+    image_corners = not periodic
     vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
     vj = np.empty(n_forks + 4, np.int64)
     n_vertices = 0
@@ -71,50 +127,55 @@ def corner_types(pad, nci, ncj, image_corners):
             k = kind[ci, cj]
             corner = edge_row and (cj == 0 or cj == ncj - 1) and k != 0
             if k == 3 or k == 4 or corner:
-                vid[ci, cj] = n_vertices
                 vi[n_vertices] = ci
                 vj[n_vertices] = cj
                 n_vertices += 1
-    return arms, kind, vid, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
+    return arms, kind, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
+
+
+def _next_dir_table():
+    """NEXT[kind, arms, d_in]: the direction leaving a pass-through corner entered moving in direction d_in.
+
+    Kind 2 leaves by its other arm; kinds 5 and 6 by the arm paired with
+    the one entered ({3, 0} and {1, 2} for 5, {3, 2} and {0, 1} for 6).
+    -1 where no walk arrives.  A table, not branches: the walks are
+    dominated by mispredicted branches on the direction otherwise.
+    """
+    table = np.full((7, 16, 4), -1, np.int8)
+    partner = {5: {3: 0, 0: 3, 1: 2, 2: 1}, 6: {3: 2, 2: 3, 0: 1, 1: 0}}
+    for arms in range(16):
+        for d_in in range(4):
+            back = (d_in + 2) % 4
+            if not (arms >> back) & 1:
+                continue
+            others = [d for d in range(4) if d != back and (arms >> d) & 1]
+            if len(others) == 1:
+                table[2, arms, d_in] = others[0]
+            if arms == 15:
+                for kind in (5, 6):
+                    table[kind, arms, d_in] = partner[kind][back]
+    return table
+
+
+NEXT = _next_dir_table()
 
 
 @njit(cache=True)
 def _next_dir(kind, arms, d_in):
-    """Direction leaving a pass-through corner entered moving in direction ``d_in``."""
-    back = (d_in + 2) % 4
-    if kind == 2:
-        for d in range(4):
-            if d != back and (arms >> d) & 1:
-                return d
-        return -1
-    if kind == 5:  # pairs {3, 0} and {1, 2}
-        if back == 3:
-            return 0
-        if back == 0:
-            return 3
-        if back == 1:
-            return 2
-        return 1
-    # kind == 6: pairs {3, 2} and {0, 1}
-    if back == 3:
-        return 2
-    if back == 2:
-        return 3
-    if back == 0:
-        return 1
-    return 0
+    """Direction leaving a pass-through corner entered moving in direction ``d_in`` (see :func:`_next_dir_table`)."""
+    return np.int64(NEXT[kind, arms, d_in])
 
 
 @njit(cache=True)
-def _sides(pad, ci, cj, d):
+def _sides(labels, periodic, ci, cj, d):
     """Labels on the left and right of the crack leaving corner (ci, cj) in direction d (left in x-y axes)."""
     if d == 0:
-        return pad[ci + 1, cj + 1], pad[ci, cj + 1]
+        return _pad_at(labels, periodic, ci + 1, cj + 1), _pad_at(labels, periodic, ci, cj + 1)
     if d == 1:
-        return pad[ci + 1, cj], pad[ci + 1, cj + 1]
+        return _pad_at(labels, periodic, ci + 1, cj), _pad_at(labels, periodic, ci + 1, cj + 1)
     if d == 2:
-        return pad[ci, cj], pad[ci + 1, cj]
-    return pad[ci, cj + 1], pad[ci, cj]
+        return _pad_at(labels, periodic, ci, cj), _pad_at(labels, periodic, ci + 1, cj)
+    return _pad_at(labels, periodic, ci, cj + 1), _pad_at(labels, periodic, ci, cj)
 
 
 @njit(cache=True)
@@ -135,86 +196,220 @@ def _step(ci, cj, d, nci, ncj):
 
 @njit(cache=True)
 def _crack_index(ci, cj, d, nci, ncj):
-    """(array 0 = horizontal / 1 = vertical, row, col) of the crack leaving (ci, cj) in direction d."""
-    if d == 0:
-        return 0, ci, cj
-    if d == 1:
-        return 1, ci, cj
-    if d == 2:
-        return 0, ci, cj - 1 if cj > 0 else ncj - 1
-    return 1, ci - 1 if ci > 0 else nci - 1, cj
+    """(array 0 = horizontal / 1 = vertical, row, col) of the crack leaving (ci, cj) in direction d.
+
+    Without a branch on d (selects only): it changes at every turn of a boundary.
+    """
+    r = ci - (d == 3)
+    c = cj - (d == 2)
+    if r < 0:
+        r += nci
+    if c < 0:
+        c += ncj
+    return d & 1, r, c
 
 
 @njit(cache=True)
-def _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj):
+def _is_vertex(kind, ci, cj, nci, ncj, image_corners):
+    """Whether corner (ci, cj) is a vertex: a fork (types 3, 4), or with ``image_corners`` a corner of the image
+    where a boundary turns.
+
+    The walks read 1 byte a corner to know where they end (a 4-byte map of
+    vertex ids would be touched at every step and is not kept at all).
+    """
+    k = kind[ci, cj]
+    if k == 3 or k == 4:
+        return True
+    return image_corners and (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1) and k != 0
+
+
+@njit(cache=True)
+def _vertex_id(keys, key):
+    """Id of the vertex at corner key ``ci * ncj + cj``: its rank in the sorted ``keys`` (vertices in raster order)."""
+    lo = 0
+    hi = len(keys)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def _walk(arms, kind, image_corners, membrane, ci, cj, d, nci, ncj, first, last):
     """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
 
-    Returns (end corner row, end corner col, dx, dy, number of cracks, last direction).
+    Stores the fit point of every crack (:func:`_crack_point`, relative to
+    the start corner): the first ``len(first)`` in ``first``, and the last
+    ``len(last)`` in ``last`` (crack k at row ``k % len(last)``), so that the
+    arm fits at both ends need no second walk.  ``membrane`` of size 0: no
+    membrane pixels, every point is its crack's midpoint.  Returns (end
+    corner row, end corner col, dx, dy, number of cracks, last direction).
     """
+    reach = len(first)
     dx = 0
     dy = 0
     n = 0
+    slot = 0
     while True:
-        a, r, c = _crack_index(ci, cj, d, nci, ncj)
-        visited[a, r, c] = True
+        if membrane.size:
+            mx, my = _crack_point(membrane, ci, cj, d)
+        else:
+            mx, my = 0.5 * DJ[d], 0.5 * DI[d]
+        mx += dx
+        my += dy
+        if n < reach:
+            first[n, 0] = mx
+            first[n, 1] = my
+        last[slot, 0] = mx
+        last[slot, 1] = my
+        slot = slot + 1 if slot + 1 < reach else 0  # n % reach, without a division per crack
         dx += DJ[d]
         dy += DI[d]
         n += 1
         ci, cj = _step(ci, cj, d, nci, ncj)
-        if vid[ci, cj] >= 0:
+        if _is_vertex(kind, ci, cj, nci, ncj, image_corners):
             return ci, cj, dx, dy, n, d
         d = _next_dir(kind[ci, cj], arms[ci, cj], d)
 
 
 @njit(cache=True)
-def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
-    """Trace every boundary between the vertices ``(vi, vj)`` (``vid`` maps corners to vertex ids).
+def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
+    """Store the straight-line fit of n points minus (ox, oy) as arm d0 of vertex v.
+
+    The points are rows ``k0, k0 + step, ...`` of ``points``, modulo its length.
+
+    The mean of the points, and the principal axis of their covariance (the
+    arm direction when fewer than 2 points or no spread).  The points are
+    multiples of 0.5 px near the vertex, so their sums are exact in any order.
+    """
+    sx = 0.0
+    sy = 0.0
+    sxx = 0.0
+    sxy = 0.0
+    syy = 0.0
+    for i in range(n):
+        k = (k0 + i * step) % len(points)
+        mx = points[k, 0] - ox
+        my = points[k, 1] - oy
+        sx += mx
+        sy += my
+        sxx += mx * mx
+        sxy += mx * my
+        syy += my * my
+    count[v, d0] = n
+    mx = sx / n
+    my = sy / n
+    mean[v, d0, 0] = mx
+    mean[v, d0, 1] = my
+    cxx = sxx / n - mx * mx
+    cxy = sxy / n - mx * my
+    cyy = syy / n - my * my
+    if n < 2 or cxx + cyy < 1e-12:
+        direction[v, d0, 0] = DJ[d0]
+        direction[v, d0, 1] = DI[d0]
+    else:
+        theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)  # principal axis of the 2x2 covariance
+        direction[v, d0, 0] = np.cos(theta)
+        direction[v, d0, 1] = np.sin(theta)
+
+
+@njit(cache=True)
+def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_reach):
+    """Trace every boundary between the vertices ``(vi, vj)`` of :func:`corner_types`, and fit its arms.
 
     Returns arrays over junctions: start vertex, end vertex, the arm
     directions by which the junction leaves its start and enters its end
     vertex, left label, right label, dx, dy (exact displacement start -> end,
-    px), number of cracks; and the ``visited`` crack flags (2, nci, ncj).
+    px), number of cracks; then the arm line fits of every (vertex, arm
+    direction), for sub-pixel vertex positions: the number of cracks fitted
+    (half the junction, 1 to ``max_reach``, so the far end does not bend
+    the fit; 0 = no arm), the mean (dx, dy) of their points relative to the
+    vertex corner and the unit direction of their principal axis.
+
+    A junction is traced from its first end in (vertex, arm) order: the
+    ends reached are marked per vertex, not crack by crack (see
+    :func:`mark_junctions` for the cracks, when loops are to be found).
+
+    A crack's point is the mean centre of the pixels beside it that were
+    membrane (``membrane``, padded like the labels, True where the input had
+    a 0-valued junction pixel), else the crack midpoint: the fit follows the
+    membrane centreline where the image has membranes.
     """
     nci, ncj = arms.shape
-    visited = np.zeros((2, nci, ncj), dtype=np.bool_)
+    nv = len(vi)
+    done = np.zeros(nv, np.uint8)  # bit d: the junction on arm d has been traced (from its other end)
+    keys = vi * ncj + vj
     start = np.empty(n_max, np.int64)
     end = np.empty(n_max, np.int64)
-    left = np.empty(n_max, pad.dtype)
-    right = np.empty(n_max, pad.dtype)
+    left = np.empty(n_max, labels.dtype)
+    right = np.empty(n_max, labels.dtype)
     ddx = np.empty(n_max, np.int64)
     ddy = np.empty(n_max, np.int64)
     start_arm = np.empty(n_max, np.int64)
     end_arm = np.empty(n_max, np.int64)
     ncrack = np.empty(n_max, np.int64)
+    count = np.zeros((nv, 4), np.int64)
+    mean = np.zeros((nv, 4, 2), np.float64)
+    direction = np.zeros((nv, 4, 2), np.float64)
+    first = np.empty((max_reach, 2), np.float64)
+    last = np.empty((max_reach, 2), np.float64)
     k = 0
-    for v in range(len(vi)):
+    for v in range(nv):
         ci = vi[v]
         cj = vj[v]
         for d in range(4):
-            if not (arms[ci, cj] >> d) & 1:
+            if not (arms[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
                 continue
-            a, r, c = _crack_index(ci, cj, d, nci, ncj)
-            if visited[a, r, c]:
-                continue
-            lab_l, lab_r = _sides(pad, ci, cj, d)
-            ei, ej, dx, dy, n, d_last = _walk(arms, kind, vid, visited, ci, cj, d, nci, ncj)
+            lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
+            ei, ej, dx, dy, n, d_last = _walk(arms, kind, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
-            end[k] = vid[ei, ej]
+            end[k] = _vertex_id(keys, ei * ncj + ej)
             start_arm[k] = d
             end_arm[k] = (d_last + 2) % 4
+            done[end[k]] |= np.uint8(1 << end_arm[k])
             left[k] = lab_l
             right[k] = lab_r
             ddx[k] = dx
             ddy[k] = dy
             ncrack[k] = n
+            half = min(max(1, (n + 1) // 2), max_reach)
+            _fit_line(first, 0, 1, half, 0.0, 0.0, d, v, count, mean, direction)
+            # the end's arm: the last `half` cracks walked back from the end, relative to the end corner
+            _fit_line(last, n - 1, -1, half, float(dx), float(dy), end_arm[k], end[k], count, mean, direction)
             k += 1
     return (start[:k], end[:k], start_arm[:k], end_arm[:k], left[:k], right[:k], ddx[:k], ddy[:k], ncrack[:k],
-            visited)
+            count, mean, direction)
 
 
 @njit(cache=True)
-def trace_loops(pad, arms, kind, visited):
-    """Boundaries left unvisited by :func:`trace_junctions`: closed loops with no vertex.
+def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
+    """Flags (2, nci, ncj) of the cracks on the junctions of :func:`trace_junctions` (its start, start_arm).
+
+    Only needed to find the loops with no vertex (:func:`trace_loops`), so
+    only run when the junctions leave cracks over.
+    """
+    nci, ncj = arms.shape
+    visited = np.zeros((2, nci, ncj), dtype=np.bool_)
+    for k in range(len(start)):
+        ci = vi[start[k]]
+        cj = vj[start[k]]
+        d = start_arm[k]
+        while True:
+            a, r, c = _crack_index(ci, cj, d, nci, ncj)
+            visited[a, r, c] = True
+            ci, cj = _step(ci, cj, d, nci, ncj)
+            if _is_vertex(kind, ci, cj, nci, ncj, not periodic):
+                break
+            d = _next_dir(kind[ci, cj], arms[ci, cj], d)
+    return visited
+
+
+@njit(cache=True)
+def trace_loops(labels, periodic, arms, kind, visited):
+    """Boundaries left unvisited by the junctions (``visited`` of :func:`mark_junctions`): closed loops with no vertex.
 
     Returns, per loop, the start corner (row, col), left and right labels,
     dx, dy (the loop's net displacement: nonzero only for loops winding
@@ -233,7 +428,7 @@ def trace_loops(pad, arms, kind, visited):
             for d in range(2):
                 if not (arms[ci, cj] >> d) & 1 or visited[d, ci, cj]:
                     continue
-                lab_l, lab_r = _sides(pad, ci, cj, d)
+                lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
                 dx = 0
                 dy = 0
                 n = 0
@@ -290,25 +485,15 @@ def _unwrapped(v, ref, period):
 
 
 @njit(cache=True)
-def _run_end(labels, i, j):
-    """End (exclusive) of the run of equal labels that starts at column ``j`` of row ``i``."""
-    lab = labels[i, j]
-    w = labels.shape[1]
-    while j < w and labels[i, j] == lab:
-        j += 1
-    return j
-
-
-@njit(cache=True)
 def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
 
     Returns count (n,), sum_x (n,), sum_y (n,) as float64 with centroids
     ``sum / count`` in pixel coordinates (x = column, y = row).  On a torus
     the sums are of positions unwrapped around the label's circular mean
-    (a first pass), so cells wider than half the box get the right centroid;
-    along an axis a label wraps around completely (a band) its first pixel
-    is the reference.
+    (a second pass), so cells wider than half the box get the right
+    centroid; along an axis a label wraps around completely (a band) its
+    first pixel is the reference.
 
     The image is read along runs of equal labels in a row.  The sums are of
     whole numbers, exact in any order.  A label spanning less than half the
@@ -316,7 +501,10 @@ def cell_moments(labels, n_labels, periodic):
     mean lies within its span), so circular means are taken only of the
     wider ones (those touching the box edge, or large): their cos/sin terms
     come from per-column and per-row tables and are added pixel by pixel in
-    raster order, as a pixel-by-pixel sum does.
+    raster order, as a pixel-by-pixel sum does.  The first pass finds the
+    runs without a branch per pixel and keeps the start column of every
+    run, so the later passes (torus) visit only the runs of the wide
+    labels, not the whole image again.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
@@ -328,10 +516,23 @@ def cell_moments(labels, n_labels, periodic):
     hi_y = np.full(n_labels, -1, np.int64)
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
+    # run starts row after row (np.empty: only the pages written become resident); row i's runs are
+    # run_start[row_first[i]:row_first[i + 1]], each ending where the next starts (or at w)
+    run_start = np.empty(h * w, np.int64)
+    row_first = np.zeros(h + 1, np.int64)
+    n_runs = 0
     for i in range(h):
-        j = 0
-        while j < w:
-            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
+        row = labels[i]
+        run_start[n_runs] = 0
+        m = n_runs + 1
+        for j in range(1, w):  # no branch: every column is written, the count moves on where a run starts
+            run_start[m] = j
+            m += row[j] != row[j - 1]
+        row_first[i + 1] = m
+        for r in range(n_runs, m):
+            j0 = run_start[r]
+            j = run_start[r + 1] if r + 1 < m else w
+            lab = row[j0]
             n = j - j0
             if count[lab] == 0:  # first pixel: the reference of a band around the whole torus
                 ref_x[lab] = j0
@@ -343,6 +544,7 @@ def cell_moments(labels, n_labels, periodic):
             lo_x[lab] = min(lo_x[lab], j0)
             hi_x[lab] = max(hi_x[lab], j - 1)
             hi_y[lab] = i
+        n_runs = m
     if not periodic:
         return count, sx, sy
     wide_x = hi_x - lo_x >= 0.5 * w - 1
@@ -357,22 +559,21 @@ def cell_moments(labels, n_labels, periodic):
     cy = np.zeros(n_labels, np.float64)
     sny = np.zeros(n_labels, np.float64)
     for i in range(h):
-        j = 0
-        while j < w:
-            lab = labels[i, j]
+        for r in range(row_first[i], row_first[i + 1]):
+            j0 = run_start[r]
+            lab = labels[i, j0]
             if not wide[lab]:
-                j = _run_end(labels, i, j)
                 continue
+            j1 = run_start[r + 1] if r + 1 < row_first[i + 1] else w
             a = cx[lab]
             b = snx[lab]
             c = cy[lab]
             d = sny[lab]
-            while j < w and labels[i, j] == lab:
+            for j in range(j0, j1):
                 a += cos_x[j]
                 b += sin_x[j]
                 c += cos_y[i]
                 d += sin_y[i]
-                j += 1
             cx[lab] = a
             snx[lab] = b
             cy[lab] = c
@@ -385,9 +586,12 @@ def cell_moments(labels, n_labels, periodic):
         if wide_y[k]:
             sy[k] = 0.0
     for i in range(h):
-        j = 0
-        while j < w:
-            lab, j0, j = labels[i, j], j, _run_end(labels, i, j)
+        for r in range(row_first[i], row_first[i + 1]):
+            j0 = run_start[r]
+            lab = labels[i, j0]
+            if not wide[lab]:
+                continue
+            j = run_start[r + 1] if r + 1 < row_first[i + 1] else w
             n = j - j0
             if wide_y[lab]:
                 sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
@@ -571,6 +775,35 @@ def components(n, a, b):
 
 
 @njit(cache=True)
+def half_edge_order(cell, frm, n_cells):
+    """The order that sorts half-edges by (cell, frm), ties kept in input order (``np.lexsort((frm, cell))``).
+
+    A counting sort by cell (ids 0..n_cells-1), then an insertion sort of
+    each cell's few half-edges by ``frm``: linear, where a general sort of
+    the keys is not.
+    """
+    first = np.zeros(n_cells + 1, np.int64)
+    for c in cell:
+        first[c + 1] += 1
+    for c in range(n_cells):
+        first[c + 1] += first[c]
+    fill = first[:-1].copy()
+    order = np.empty(len(cell), np.int64)
+    for h in range(len(cell)):
+        order[fill[cell[h]]] = h
+        fill[cell[h]] += 1
+    for c in range(n_cells):
+        for i in range(first[c] + 1, first[c + 1]):
+            h = order[i]
+            j = i - 1
+            while j >= first[c] and frm[order[j]] > frm[h]:  # strict: equal keys keep their order
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = h
+    return order
+
+
+@njit(cache=True)
 def chain_cycles(cell, frm, to):
     """Boundary cycles of every cell from its half-edges.
 
@@ -657,72 +890,3 @@ def _crack_point(membrane, ci, cj, d):
     if n == 0:
         return 0.5 * DJ[d], 0.5 * DI[d]
     return sx / n, sy / n
-
-
-@njit(cache=True)
-def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
-    """Local straight-line fit of every arm of every vertex, for sub-pixel vertex positions.
-
-    Walks at most ``reach[v, d]`` cracks along arm d of vertex v (half its
-    junction, so the far end does not bend the fit) and fits a line to one point per crack: the mean centre of the
-    pixels beside it that were membrane (``membrane``, padded like the
-    labels, True where the input had a 0-valued junction pixel), else the
-    crack midpoint.  So the fit follows the membrane centreline where the
-    image has membranes.  Returns, per (vertex,
-    arm direction): number of cracks used (0 = no arm), the midpoints' mean
-    (dx, dy) relative to the vertex corner, and the unit direction of the
-    principal axis (the arm direction when fewer than 2 cracks).
-    """
-    nci, ncj = arms.shape
-    nv = len(vi)
-    count = np.zeros((nv, 4), np.int64)
-    mean = np.zeros((nv, 4, 2), np.float64)
-    direction = np.zeros((nv, 4, 2), np.float64)
-    for v in range(nv):
-        for d0 in range(4):
-            if not (arms[vi[v], vj[v]] >> d0) & 1 or reach[v, d0] == 0:
-                continue
-            ci = vi[v]
-            cj = vj[v]
-            d = d0
-            px = 0.0
-            py = 0.0
-            sx = 0.0
-            sy = 0.0
-            sxx = 0.0
-            sxy = 0.0
-            syy = 0.0
-            n = 0
-            while n < reach[v, d0]:
-                mx, my = _crack_point(membrane, ci, cj, d)
-                mx += px
-                my += py
-                sx += mx
-                sy += my
-                sxx += mx * mx
-                sxy += mx * my
-                syy += my * my
-                n += 1
-                px += DJ[d]
-                py += DI[d]
-                ci, cj = _step(ci, cj, d, nci, ncj)
-                if vid[ci, cj] >= 0:
-                    break
-                d = _next_dir(kind[ci, cj], arms[ci, cj], d)
-            count[v, d0] = n
-            mx = sx / n
-            my = sy / n
-            mean[v, d0, 0] = mx
-            mean[v, d0, 1] = my
-            cxx = sxx / n - mx * mx
-            cxy = sxy / n - mx * my
-            cyy = syy / n - my * my
-            if n < 2 or cxx + cyy < 1e-12:
-                direction[v, d0, 0] = DJ[d0]
-                direction[v, d0, 1] = DI[d0]
-            else:
-                # principal axis of the 2x2 covariance
-                theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)
-                direction[v, d0, 0] = np.cos(theta)
-                direction[v, d0, 1] = np.sin(theta)
-    return count, mean, direction

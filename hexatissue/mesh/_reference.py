@@ -99,11 +99,19 @@ def _corner_kind(tl, tr, bl, br, n_arms):
     return 5 if main else 6
 
 
-def corner_types(pad, nci, ncj, image_corners):
+def _padded(labels, periodic):
+    """The labels padded by one pixel (wrapping on a torus, 0 around an open image) and the lattice shape."""
+    pad = np.pad(labels, 1, mode="wrap" if periodic else "constant")
+    h, w = labels.shape
+    return pad, ((h, w) if periodic else (h + 1, w + 1))
+
+
+def corner_types(labels, periodic):
     """Reference of :func:`._kernels.corner_types`."""
+    pad, (nci, ncj) = _padded(labels, periodic)
+    image_corners = not periodic
     arms = np.zeros((nci, ncj), np.uint8)
     kind = np.zeros((nci, ncj), np.uint8)
-    vid = np.full((nci, ncj), -1, np.int32)
     cracks = set()
     vertices = []
     for ci in range(nci):
@@ -116,11 +124,16 @@ def corner_types(pad, nci, ncj, image_corners):
             image_corner = image_corners and ci in (0, nci - 1) and cj in (0, ncj - 1)
             if kind[ci, cj] in (3, 4) or (image_corner and present):
                 vertices.append((ci, cj))
-    for v, (ci, cj) in enumerate(vertices):
-        vid[ci, cj] = v
     vi = np.array([c[0] for c in vertices], np.int64)
     vj = np.array([c[1] for c in vertices], np.int64)
-    return arms, kind, vid, vi, vj, len(cracks)
+    return arms, kind, vi, vj, len(cracks)
+
+
+def _vertex_map(shape, vi, vj):
+    """Vertex id of every corner of the lattice (-1 where none): the vertices numbered in their order."""
+    vid = np.full(shape, -1, np.int64)
+    vid[vi, vj] = np.arange(len(vi))
+    return vid
 
 
 def _junction_cracks(arms, kind, vid, ci, cj, d):
@@ -138,14 +151,19 @@ def _displacement(cracks):
     return sum(UNIT[d][0] for _, _, d in cracks), sum(UNIT[d][1] for _, _, d in cracks)
 
 
-def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
+def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_reach):
     """Reference of :func:`._kernels.trace_junctions`.
 
     A junction is listed once, traced from the first of its two ends in
     (vertex id, arm direction) order; junctions come in the order of those ends.
+    Its two arms are then fitted by :func:`arm_lines` over half the junction
+    (1 to ``max_reach`` cracks), walking again from each end.  A
+    ``membrane`` of size 0 means no membrane pixel.
     """
-    nci, ncj = arms.shape
-    visited = np.zeros((2, nci, ncj), np.bool_)
+    pad, _ = _padded(labels, periodic)
+    if membrane.size == 0:
+        membrane = np.zeros(pad.shape, bool)
+    vid = _vertex_map(arms.shape, vi, vj)
     rows = []
     for v in range(len(vi)):
         for d in _arm_set(arms[vi[v], vj[v]]):
@@ -153,24 +171,40 @@ def trace_junctions(pad, arms, kind, vid, vi, vj, n_max):
             end, end_arm = int(vid[end_corner]), (cracks[-1][2] + 2) % 4
             if (end, end_arm) < (v, d):
                 continue  # listed from its other end
-            for crack in cracks:
-                visited[_crack_key(*crack, nci, ncj)] = True
             left, right = _labels_beside(pad, vi[v], vj[v], d)
             rows.append((v, end, d, end_arm, left, right, *_displacement(cracks), len(cracks)))
     if len(rows) > n_max:
         raise ValueError(f"{len(rows)} junctions do not fit in n_max = {n_max}")
     columns = list(zip(*rows)) if rows else [()] * 9
     dtypes = [np.int64] * 4 + [pad.dtype] * 2 + [np.int64] * 3
-    return tuple(np.array(c, t) for c, t in zip(columns, dtypes)) + (visited,)
+    junctions = tuple(np.array(c, t) for c, t in zip(columns, dtypes))
+    start, end, start_arm, end_arm, *_, ncrack = junctions
+    reach = np.zeros((len(vi), 4), np.int64)
+    half = np.clip((ncrack + 1) // 2, 1, max_reach)
+    reach[start, start_arm] = half
+    reach[end, end_arm] = half
+    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane)
 
 
-def trace_loops(pad, arms, kind, visited):
+def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
+    """Reference of :func:`._kernels.mark_junctions`."""
+    vid = _vertex_map(arms.shape, vi, vj)
+    nci, ncj = arms.shape
+    visited = np.zeros((2, nci, ncj), np.bool_)
+    for v, d in zip(start, start_arm):
+        for crack in _junction_cracks(arms, kind, vid, vi[v], vj[v], d)[0]:
+            visited[_crack_key(*crack, nci, ncj)] = True
+    return visited
+
+
+def trace_loops(labels, periodic, arms, kind, visited):
     """Reference of :func:`._kernels.trace_loops` (``visited`` is read, not changed).
 
     Each loop starts at its first crack in (corner row, corner col,
     direction) order, run along +x or +y, and ends when the walk is back on
     that crack.
     """
+    pad, _ = _padded(labels, periodic)
     nci, ncj = arms.shape
     left_over = [(ci, cj, d) for ci in range(nci) for cj in range(ncj) for d in _arm_set(arms[ci, cj])
                  if d < 2 and not visited[d, ci, cj]]
@@ -204,8 +238,8 @@ def _crack_point(membrane, ci, cj, d):
     return np.array([0.5 * ex - 0.5 * ey * side, 0.5 * ey + 0.5 * ex * side])
 
 
-def arm_lines(arms, kind, vid, vi, vj, reach, membrane):
-    """Reference of :func:`._kernels.arm_lines`.
+def _arm_lines(arms, kind, vid, vi, vj, reach, membrane):
+    """The arm line fits of :func:`trace_junctions`, walking ``reach[v, d]`` cracks along arm d of vertex v.
 
     ``direction`` is a line's axis, whose sign has no meaning; here it has
     x >= 0 (y > 0 when x == 0).  Compare up to sign: the kernel's sign for
@@ -346,3 +380,8 @@ def chain_cycles(cell, frm, to):
                 h = next((k for k in mine if cycle[k] < 0 and frm[k] == to[h]), None)
             starts.append(len(order))
     return cycle, np.array(order, np.int64), np.array(starts, np.int64)
+
+
+def half_edge_order(cell, frm, n_cells):
+    """Reference of :func:`._kernels.half_edge_order`."""
+    return np.lexsort((frm, cell))
