@@ -135,6 +135,22 @@ def test_numba_step_equals_numpy_reference(k_ad, advection):
     assert np.max(np.abs(expected - fields)) > 1e-3
 
 
+@pytest.mark.parametrize("advection", ["upwind3", "central"])
+def test_euler_steps_equal_numpy_reference(advection):
+    """Explicit Euler (Params.integrator): 3 active steps, an odd number (phi and its scratch swap every step)."""
+    p = Params(n_cells=6, Lx=60, Ly=52, dtype="float64", v0=0.05, D_r=0.0, recentre_every=10**6,
+               advection=advection, integrator="euler")
+    sim = _perturbed(p)
+    sim.theta[:] = [0.3, 2.0, 3.5, 5.0, 0.5 * np.pi, np.pi]
+    masks = ref.patch_masks(sim.ox, sim.oy, p.patch, p.shape)
+    fields = expected = sim.full_fields()
+    for _ in range(3):
+        expected = ref.euler_step(expected, p, sim.theta, p.v0, masks)
+    sim.advance(3, active=True)
+    assert np.max(np.abs(sim.full_fields() - expected)) < 1e-13 * np.max(np.abs(expected))
+    assert np.max(np.abs(expected - fields)) > 1e-3
+
+
 def test_upwind_stencils_are_third_order():
     """The upwind3 stencils (reference and kernel) are exact for cubics and err by -+f''''/12 on quartics."""
     x = np.arange(32.0)

@@ -114,10 +114,12 @@ def lattice_sums(phi, oy, gx, ptr, cells, S1, S2):
                 if i < 1 or i > P - 2:
                     continue
                 if straight:
-                    for j in range(1, P - 1):
+                    # unsigned lattice column: a signed one gets numba's negative-index wraparound (no vectorising)
+                    for j in range(np.uint64(1), np.uint64(P - 1)):
                         v = phi[c, i, j]
-                        S1[r, q0 + j] += v
-                        S2[r, q0 + j] += v * v
+                        q = np.uint64(q0) + j
+                        S1[r, q] += v
+                        S2[r, q] += v * v
                 else:
                     for j in range(1, P - 1):
                         q = gx[c, j]
@@ -463,10 +465,10 @@ def set_velocity(theta, v0, vx, vy):
 
 @njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
 def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
-            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme):
-    """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).
+            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme, euler):
+    """``nsteps`` Heun steps (explicit Euler steps if ``euler``) from global step ``step0``.
 
-    Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
+    Fields, origins and theta are updated in place.  Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
     (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
     for passive steps).  After every step whose global index ``step0 + s + 1``
     is a multiple of ``recentre_every`` the patches are re-centred (``phis``
@@ -476,14 +478,18 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
     Lx, Ly = S1.shape[1], S1.shape[0]
     P = phi.shape[1]
     moves = 0
+    result = phi  # Euler steps swap phi and phis (no copy per step); the result goes back here at the end
     for s in range(nsteps):
         set_velocity(theta, v0, vx, vy)
         lattice_sums(phi, oy, gx, ptr, cells, S1, S2)
         lattice_laplacian(S1, ptr, L)
         _stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False, scheme)
-        lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
-        lattice_laplacian(S1, ptr, L)
-        _stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme)
+        if euler:
+            phi, phis = phis, phi
+        else:
+            lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
+            lattice_laplacian(S1, ptr, L)
+            _stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme)
         if sigma > 0:
             for c in range(theta.shape[0]):
                 theta[c] += sigma * noise[s, c]
@@ -494,6 +500,8 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
                 index_rows(ox, Lx, P, gx)
                 index_rows(oy, Ly, P, gy)
                 build_bands(oy, Ly, P, ptr, cells)
+    if phi.ctypes.data != result.ctypes.data:
+        result[:] = phi
     return moves
 
 

@@ -153,7 +153,7 @@ class Simulation:
 
     # -- dynamics ---------------------------------------------------------------
     def advance(self, nsteps: int, active: bool = True) -> int:
-        """Advance ``nsteps`` Heun steps; returns the number of patch re-centrings.
+        """Advance ``nsteps`` steps (``params.integrator``); returns the number of patch re-centrings.
 
         ``active=False`` gives passive relaxation: ``v0 = 0`` and theta frozen
         (no random numbers are drawn).  Active steps draw ``nsteps x N``
@@ -173,7 +173,7 @@ class Simulation:
             self.phi, self._phis, self._S1, self._S2, self._L, self.ox, self.oy, self._gx, self._gy,
             self._ptr, self._cells, self.theta, noise, self._coef, self._vx, self._vy, self._area, self.leak,
             self._par, 1.0 / p.target_area, 4.0 * p.lam, v0, sigma, self.step, nsteps,
-            p.recentre_every, RECENTRE_THRESHOLD, K.SCHEMES[p.advection],
+            p.recentre_every, RECENTRE_THRESHOLD, K.SCHEMES[p.advection], p.integrator == "euler",
         )
         self.step += nsteps
         return int(moves)
