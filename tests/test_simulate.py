@@ -18,6 +18,7 @@ from hexatissue.simulate import (
     stability_limit,
 )
 from hexatissue.simulate import _kernels as K
+from hexatissue.simulate.model import ThreadTuner
 from hexatissue.simulate import reference as ref
 
 @pytest.fixture(autouse=True)
@@ -593,3 +594,27 @@ def test_holes_smaller_than_a_cell_are_filled_larger_space_is_background():
     assert (labels[10:14, 28:33] > 0).all() and (labels[14:25, 30] > 0).all()
     assert (labels[25:40, 40:60] == 0).all()
     assert (labels_from_max(vmax, imax, vsum, 1.0)[10:14, 28:33] == 0).all()  # no filling without max_hole
+
+
+def test_thread_tuner_uses_the_faster_count_and_remeasures_the_other():
+    tuner = ThreadTuner((1, 2), reprobe_seconds=30.0)
+    assert tuner.choose(0.0) == 1
+    tuner.record(1, 100.0, 0.0)
+    assert tuner.choose(1.0) == 2
+    tuner.record(2, 40.0, 1.0)  # two threads slower (a busy machine)
+    assert tuner.choose(2.0) == 1 and tuner.choose(30.9) == 1
+    assert tuner.choose(31.0) == 2  # 30 s after its last chunk, 2 threads are timed again
+    tuner.record(2, 180.0, 31.0)  # now faster (the machine got quieter)
+    assert tuner.choose(31.5) == 1  # 1 thread was last timed at 0 s: timed again once
+    tuner.record(1, 100.0, 31.5)
+    assert tuner.choose(32.0) == 2 and tuner.choose(61.0) == 2 and tuner.choose(61.5) == 1
+
+
+def test_auto_threads_run_equals_one_thread_run(tmp_path):
+    p = Params(**SMALL)
+    a = run_simulation(tmp_path / "a.zarr", p, steps=40, save_every=5, relax=10, seed=3, threads="auto", progress=False)
+    b = run_simulation(tmp_path / "b.zarr", p, steps=40, save_every=5, relax=10, seed=3, threads=1, progress=False)
+    assert a.frames == b.frames
+    ra, rb = read_run(a.path), read_run(b.path)
+    assert np.array_equal(np.asarray(ra.labels[:]), np.asarray(rb.labels[:]))
+    assert ra.cells.equals(rb.cells)

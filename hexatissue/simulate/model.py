@@ -16,7 +16,7 @@ from ..errors import HexatissueWarning, InputError, as_generator
 from . import _kernels as K
 from .params import Params
 
-__all__ = ["Simulation", "initial_state", "select_threading_layer", "set_threads", "auto_threads"]
+__all__ = ["Simulation", "initial_state", "select_threading_layer", "set_threads", "auto_threads", "ThreadTuner"]
 
 LEAK_LIMIT = 1e-3  # fraction of int phi^2 allowed on the two rings next to a patch's zero ring
 RECENTRE_THRESHOLD = 1.0  # px of centroid drift before a patch is shifted
@@ -73,6 +73,49 @@ def set_threads(n: int | str | None) -> int:
             raise InputError(f"threads must be an integer in 1..{numba.config.NUMBA_NUM_THREADS}; got {n!r}")
         numba.set_num_threads(int(n))
     return numba.get_num_threads()
+
+
+class ThreadTuner:
+    """Thread count chosen chunk by chunk from measured step rates (``threads="auto"`` of a run).
+
+    The load average lags and ignores how a shared machine's cores are split: with other processes
+    busy, two threads ran 2-5x slower than one (``benchmarks/results_mpf.md``).  So each candidate
+    count (1 and numba's maximum) is timed on a chunk of the run, the faster one is used, and the
+    other is timed again on one chunk every ``reprobe_seconds``.  Results do not depend on the count.
+
+    Parameters
+    ----------
+    counts : sequence of int
+        Candidate thread counts, tried in this order.
+    reprobe_seconds : float
+        Time after which a count that is not in use is measured again.
+    """
+
+    def __init__(self, counts, reprobe_seconds: float = 30.0):
+        self.counts = tuple(dict.fromkeys(int(n) for n in counts))
+        self.reprobe_seconds = float(reprobe_seconds)
+        self.rate = {}  # count -> steps/s of its latest chunk
+        self.when = {}  # count -> time of that measurement
+
+    @classmethod
+    def for_machine(cls) -> "ThreadTuner":
+        import numba
+
+        return cls((1, numba.config.NUMBA_NUM_THREADS))
+
+    def choose(self, now: float) -> int:
+        """Count for the next chunk (``now``: a monotonic clock, seconds)."""
+        for n in self.counts:
+            if n not in self.rate:
+                return n
+        best = max(self.counts, key=self.rate.__getitem__)
+        stale = [n for n in self.counts if n != best and now - self.when[n] >= self.reprobe_seconds]
+        return stale[0] if stale else best
+
+    def record(self, n: int, steps_per_second: float, now: float):
+        """Store the rate of a chunk run with ``n`` threads."""
+        self.rate[n] = float(steps_per_second)
+        self.when[n] = now
 
 
 class Simulation:
