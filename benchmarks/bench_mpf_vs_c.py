@@ -14,7 +14,9 @@ For every repeat and every thread count, the C code runs ``--steps`` steps (its 
 run, ``omp_get_wtime``, excludes start-up; CPU time is the child's rusage) and hexatissue runs the same
 number of active steps in this process (after a short compiled warm-up), back to back, the order
 alternating between repeats.  Thread counts: ``1``, ``2`` and ``auto`` (hexatissue's
-``set_threads("auto")``, compared with the C code at 2 OpenMP threads, its default on this machine).
+``threads="auto"`` as in ``run_simulation``: the load-based count for the first chunk of 100 steps,
+then a fresh ``ThreadTuner`` per timed run; compared with the C code at 2 OpenMP threads, its default
+on this machine; the table lists the count used for each chunk).
 The C code runs with the OpenMP environment the script was started with (libgomp's default spinning
 waits unless ``OMP_WAIT_POLICY`` is set); hexatissue with its default (passive waits).
 
@@ -46,6 +48,7 @@ C_ENV = dict(os.environ)  # before hexatissue sets OMP_WAIT_POLICY for itself
 from _timing import emit  # noqa: E402  (benchmarks/_timing.py)
 from compare_c_code import build_c_code, common_params, hexatissue_sim, initial_fields, write_c_inputs  # noqa: E402
 from hexatissue.simulate import set_threads  # noqa: E402
+from hexatissue.simulate.model import ThreadTuner  # noqa: E402
 
 
 def uptime() -> str:
@@ -63,18 +66,32 @@ def run_c(exe: Path, run: Path, threads: int, steps: int):
     return steps / wall, steps / cpu
 
 
-def run_ours(sim, threads, steps: int):
-    """(steps/s wall, steps per CPU-second, thread count used) for ``steps`` active steps of ``sim``."""
-    used = set_threads(threads)
+def run_ours(sim, threads, steps: int, chunk: int = 100):
+    """(steps/s wall, steps per CPU-second, thread counts used) for ``steps`` active steps of ``sim``.
+
+    ``threads="auto"`` does what ``run_simulation`` does: the load-based count for the first chunk of
+    ``chunk`` steps, then a fresh :class:`ThreadTuner` (so every timed run pays for its probes).
+    """
     t0, c0 = time.perf_counter(), time.process_time()
-    sim.advance(steps)
+    if threads != "auto":
+        used = [set_threads(threads)]
+        sim.advance(steps)
+    else:
+        tuner, used = ThreadTuner.for_machine(), [set_threads("auto")]
+        sim.advance(chunk)
+        for _ in range(chunk, steps, chunk):
+            n = set_threads(tuner.choose(time.monotonic()))
+            t = time.perf_counter()
+            sim.advance(chunk)
+            tuner.record(n, chunk / (time.perf_counter() - t), time.monotonic())
+            used.append(n)
     return steps / (time.perf_counter() - t0), steps / (time.process_time() - c0), used
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--c-code", required=True, type=Path, help="checkout or bare clone of mchchiang/phase_field_benjamin")
-    ap.add_argument("--steps", type=int, default=600, help="steps per timed run of each code")
+    ap.add_argument("--steps", type=int, default=600, help="steps per timed run of each code (a multiple of 100)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--threads", nargs="+", default=["1", "2", "auto"], help="thread counts: integers or 'auto'")
     ap.add_argument("--integrators", nargs="+", default=["heun"], choices=["heun", "euler"])
@@ -83,6 +100,8 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=None, help="append the markdown report here")
     args = ap.parse_args(argv)
     threads = [t if t == "auto" else int(t) for t in args.threads]
+    if args.steps % 100 or args.steps < 200:
+        raise SystemExit("--steps must be a multiple of 100, at least 200 (the chunks of --threads auto)")
 
     work = Path(tempfile.mkdtemp(prefix="hexatissue-speed-vs-c-"))
     try:
@@ -124,7 +143,8 @@ def main(argv=None):
                     used.append(n)
                 if not c_first:
                     c = run_c(exe, run, c_threads, args.steps)
-                row = f"| {rep + 1} | {c_threads} / {t}{'->' + str(used[0]) if t == 'auto' else ''} | {os.getloadavg()[0]:.1f} | {c[0]:.0f}; {c[1]:.0f} |"
+                shown = f"{t} ({'/'.join(str(n) for n in used[0])})" if t == "auto" else str(t)
+                row = f"| {rep + 1} | {c_threads} / {shown} | {os.getloadavg()[0]:.1f} | {c[0]:.0f}; {c[1]:.0f} |"
                 for integ, (w, cpu) in zip(args.integrators, cells):
                     ratios[str(t), integ].append(w / c[0])
                     row += f" {w:.0f}; {cpu:.0f} | {w / c[0]:.2f} |"

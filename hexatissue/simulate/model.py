@@ -81,7 +81,9 @@ class ThreadTuner:
     The load average lags and ignores how a shared machine's cores are split: with other processes
     busy, two threads ran 2-5x slower than one (``benchmarks/results_mpf.md``).  So each candidate
     count (1 and numba's maximum) is timed on a chunk of the run, the faster one is used, and the
-    other is timed again on one chunk every ``reprobe_seconds``.  Results do not depend on the count.
+    other is timed again on one chunk ``reprobe_seconds`` after its last chunk; each time it loses
+    again that wait doubles (up to 16x), since a probe of a collapsed count is expensive.  Results
+    do not depend on the count.
 
     Parameters
     ----------
@@ -96,6 +98,7 @@ class ThreadTuner:
         self.reprobe_seconds = float(reprobe_seconds)
         self.rate = {}  # count -> steps/s of its latest chunk
         self.when = {}  # count -> time of that measurement
+        self.wait = {n: self.reprobe_seconds for n in self.counts}  # count -> wait before timing it again
 
     @classmethod
     def for_machine(cls) -> "ThreadTuner":
@@ -109,13 +112,18 @@ class ThreadTuner:
             if n not in self.rate:
                 return n
         best = max(self.counts, key=self.rate.__getitem__)
-        stale = [n for n in self.counts if n != best and now - self.when[n] >= self.reprobe_seconds]
+        stale = [n for n in self.counts if n != best and now - self.when[n] >= self.wait[n]]
         return stale[0] if stale else best
 
     def record(self, n: int, steps_per_second: float, now: float):
         """Store the rate of a chunk run with ``n`` threads."""
         self.rate[n] = float(steps_per_second)
         self.when[n] = now
+        if all(m in self.rate for m in self.counts):
+            if max(self.counts, key=self.rate.__getitem__) == n:
+                self.wait[n] = self.reprobe_seconds
+            elif self.wait[n] < 16 * self.reprobe_seconds:
+                self.wait[n] *= 2
 
 
 class Simulation:
