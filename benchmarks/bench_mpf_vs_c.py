@@ -77,7 +77,8 @@ def run_ours(sim, threads, steps: int, chunk: int = 100):
         used = [set_threads(threads)]
         sim.advance(steps)
     else:
-        tuner, used = ThreadTuner.for_machine(), [set_threads("auto")]
+        used = [set_threads("auto")]
+        tuner = ThreadTuner.for_machine(used[0])
         sim.advance(chunk)
         for _ in range(chunk, steps, chunk):
             n = set_threads(tuner.choose(time.monotonic()))

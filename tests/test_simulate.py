@@ -600,14 +600,15 @@ def test_thread_tuner_uses_the_faster_count_and_remeasures_the_other():
     tuner = ThreadTuner((1, 2), reprobe_seconds=30.0)
     assert tuner.choose(0.0) == 1
     tuner.record(1, 100.0, 0.0)
-    assert tuner.choose(1.0) == 2
-    tuner.record(2, 40.0, 1.0)  # two threads slower (a busy machine): next probe after 60 s
-    assert tuner.choose(2.0) == 1 and tuner.choose(60.9) == 1
-    assert tuner.choose(61.0) == 2
-    tuner.record(2, 180.0, 61.0)  # now faster (the machine got quieter): its wait is 30 s again
-    assert tuner.choose(61.5) == 1  # 1 thread was last timed at 0 s: timed again once
-    tuner.record(1, 100.0, 61.5)  # it lost: next probe after 60 s
-    assert tuner.choose(62.0) == 2 and tuner.choose(121.0) == 2 and tuner.choose(121.5) == 1
+    assert tuner.choose(1.0) == 1 and tuner.choose(30.0) == 2  # the other count is first timed after 30 s
+    tuner.record(2, 40.0, 30.0)  # two threads slower (a busy machine): next probe after 60 s
+    assert tuner.choose(31.0) == 1 and tuner.choose(89.9) == 1
+    assert tuner.choose(90.0) == 2
+    tuner.record(2, 180.0, 90.0)  # now faster (the machine got quieter): its wait is 30 s again
+    assert tuner.choose(90.5) == 1  # 1 thread was last timed at 0 s: timed again once
+    tuner.record(1, 100.0, 90.5)  # it lost: next probe after 60 s
+    assert tuner.choose(91.0) == 2 and tuner.choose(150.0) == 2 and tuner.choose(150.5) == 1
+    assert ThreadTuner((2, 1, 2)).counts == (2, 1)
 
 
 def test_auto_threads_run_equals_one_thread_run(tmp_path):

@@ -79,16 +79,16 @@ class ThreadTuner:
     """Thread count chosen chunk by chunk from measured step rates (``threads="auto"`` of a run).
 
     The load average lags and ignores how a shared machine's cores are split: with other processes
-    busy, two threads ran 2-5x slower than one (``benchmarks/results_mpf.md``).  So each candidate
-    count (1 and numba's maximum) is timed on a chunk of the run, the faster one is used, and the
-    other is timed again on one chunk ``reprobe_seconds`` after its last chunk; each time it loses
-    again that wait doubles (up to 16x), since a probe of a collapsed count is expensive.  Results
-    do not depend on the count.
+    busy, two threads ran 2-5x slower than one (``benchmarks/results_mpf.md``).  So the run starts
+    with the first candidate (the load-based guess), times the other one on a chunk after
+    ``reprobe_seconds``, and then uses the faster; the one not in use is timed again
+    ``reprobe_seconds`` after its last chunk, and each time it loses again that wait doubles (up to
+    16x), since a chunk at a collapsed count is expensive.  Results do not depend on the count.
 
     Parameters
     ----------
     counts : sequence of int
-        Candidate thread counts, tried in this order.
+        Candidate thread counts; the first is used until the others are due.
     reprobe_seconds : float
         Time after which a count that is not in use is measured again.
     """
@@ -99,21 +99,25 @@ class ThreadTuner:
         self.rate = {}  # count -> steps/s of its latest chunk
         self.when = {}  # count -> time of that measurement
         self.wait = {n: self.reprobe_seconds for n in self.counts}  # count -> wait before timing it again
+        self.start = None  # time of the first choice
 
     @classmethod
-    def for_machine(cls) -> "ThreadTuner":
+    def for_machine(cls, first: int) -> "ThreadTuner":
+        """Candidates ``first`` (e.g. :func:`auto_threads`), then the other of 1 and numba's maximum."""
         import numba
 
-        return cls((1, numba.config.NUMBA_NUM_THREADS))
+        return cls((first, 1, numba.config.NUMBA_NUM_THREADS))
 
     def choose(self, now: float) -> int:
         """Count for the next chunk (``now``: a monotonic clock, seconds)."""
-        for n in self.counts:
-            if n not in self.rate:
-                return n
-        best = max(self.counts, key=self.rate.__getitem__)
-        stale = [n for n in self.counts if n != best and now - self.when[n] >= self.wait[n]]
-        return stale[0] if stale else best
+        if self.start is None:
+            self.start = now
+        measured = [n for n in self.counts if n in self.rate]
+        if not measured:
+            return self.counts[0]
+        best = max(measured, key=self.rate.__getitem__)
+        due = [n for n in self.counts if n != best and now - self.when.get(n, self.start) >= self.wait[n]]
+        return due[0] if due else best
 
     def record(self, n: int, steps_per_second: float, now: float):
         """Store the rate of a chunk run with ``n`` threads."""

@@ -186,7 +186,7 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
     store.reserve(n_frames_total, (n_frames_total - 1) // patches_every + 1 if patches_every else 0)
     n_threads = set_threads(threads)
     # "auto": the load-based count for the first chunk (it includes compiling), then measured counts
-    tuner = ThreadTuner.for_machine() if isinstance(threads, str) and threads == "auto" else None
+    tuner = ThreadTuner.for_machine(n_threads) if isinstance(threads, str) and threads == "auto" else None
     first_chunk = True
 
     bar = None
