@@ -44,7 +44,8 @@ def add_parser(subparsers):
     p.add_argument("--float64", action="store_true", help="double-precision fields (default float32)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--threads", default="auto",
-                   help="numba threads, or 'auto' = cores left idle by the current load (default auto)")
+                   help="numba threads, or 'auto' = cores left idle by the current load, then the faster of 1 and "
+                        "all threads, timed on chunks of the run (default auto)")
     p.add_argument("--patches-every", type=int, default=0, help="save full patch fields every K frames (default 0 = never)")
     p.add_argument("--checkpoint-seconds", type=float, default=60.0,
                    help="least wall time between checkpoints, s (default 60; 0 = after every frame)")
