@@ -91,7 +91,8 @@ def run_ours(sim, threads, steps: int, chunk: int = 100):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--c-code", required=True, type=Path, help="checkout or bare clone of mchchiang/phase_field_benjamin")
+    ap.add_argument("--c-code", required=True, type=Path,
+                    help="checkout or bare clone of mchchiang/phase_field_benjamin")
     ap.add_argument("--steps", type=int, default=600, help="steps per timed run of each code (a multiple of 100)")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--threads", nargs="+", default=["1", "2", "auto"], help="thread counts: integers or 'auto'")
@@ -117,7 +118,7 @@ def main(argv=None):
         (run / "params.txt").write_text("\n".join(ln for ln in text.splitlines() if not ln.startswith("dump_")) + "\n")
         sims = {}
         for integ in args.integrators:
-            sim = hexatissue_sim(base.replace(**_integrator(integ)), template, ox, oy, theta, args.seed)
+            sim = hexatissue_sim(base.replace(integrator=integ), template, ox, oy, theta, args.seed)
             sim.advance(4)  # compile (or load the cache) outside the timed runs
             sims[integ] = sim
         lines = [f"## hexatissue vs the C code, speed, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}", "",
@@ -128,7 +129,8 @@ def main(argv=None):
                  f"hexatissue: {os.environ.get('OMP_WAIT_POLICY')}",
                  f"- {uptime()} before", "",
                  "| repeat | threads (C / ours) | load | C steps/s (wall; per CPU-s) | "
-                 + " | ".join(f"hexatissue {i} steps/s (wall; per CPU-s) | {i} / C (wall)" for i in args.integrators) + " |",
+                 + " | ".join(f"hexatissue {i} steps/s (wall; per CPU-s) | {i} / C (wall)"
+                              for i in args.integrators) + " |",
                  "|---|---|---|---|" + "---|---|" * len(args.integrators)]
         ratios = {(str(t), i): [] for t in threads for i in args.integrators}
         for rep in range(args.repeats):
@@ -157,11 +159,6 @@ def main(argv=None):
         emit(lines, uptime(), args.out)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-
-
-def _integrator(name: str) -> dict:
-    """Params overrides for ``--integrators`` (``heun`` is the default scheme)."""
-    return {} if name == "heun" else {"integrator": name}
 
 
 if __name__ == "__main__":

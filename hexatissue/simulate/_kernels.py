@@ -268,7 +268,7 @@ def _rate_upwind3(f, s2, lap_s1, b, dn2, ds2, P, w, par, ca):
 def _span_upwind3(o, src, f, s2, lap_s1, k0, k1, dn2, ds2, P, w, par, ca, second):
     """Stage update of the flat patch nodes ``k0 .. k1 - 1`` (whole rows, their ring columns included).
 
-    First stage: ``o = src + dt f``; second: ``o = (o + f) / 2 + dt/2 rate(f)`` (``src`` unused: ``o``
+    First stage: ``o = src + dt rate(f)``; second: ``o = (o + f) / 2 + dt/2 rate(f)`` (``src`` unused: ``o``
     is read and written at the same node only, which LLVM can see, so it still vectorises).
     All indices are unsigned: they are >= 0 here, and numba's negative-index wraparound of signed
     indices turns the loads into gathers.
@@ -468,8 +468,8 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
             par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme, euler):
     """``nsteps`` Heun steps (explicit Euler steps if ``euler``) from global step ``step0``.
 
-    Fields, origins and theta are updated in place.  Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
-    (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
+    Fields, origins and theta are updated in place.  Step s uses theta_s (for both
+    stages), then ``theta += sigma * noise[s]`` (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
     for passive steps).  After every step whose global index ``step0 + s + 1``
     is a multiple of ``recentre_every`` the patches are re-centred (``phis``
     is their scratch space).  ``scheme`` selects the advection stencil (``CENTRAL``, ``UPWIND3``).
