@@ -114,10 +114,12 @@ def lattice_sums(phi, oy, gx, ptr, cells, S1, S2):
                 if i < 1 or i > P - 2:
                     continue
                 if straight:
-                    for j in range(1, P - 1):
+                    # unsigned lattice column: a signed one gets numba's negative-index wraparound (no vectorising)
+                    for j in range(np.uint64(1), np.uint64(P - 1)):
                         v = phi[c, i, j]
-                        S1[r, q0 + j] += v
-                        S2[r, q0 + j] += v * v
+                        q = np.uint64(q0) + j
+                        S1[r, q] += v
+                        S2[r, q] += v * v
                 else:
                     for j in range(1, P - 1):
                         q = gx[c, j]
@@ -208,16 +210,15 @@ def upwind3_weights(velocity):
 
 @njit(cache=True, fastmath=True)
 def _upwind3_weights(velocity, par):
-    """:func:`upwind3_weights` in the field dtype, without its zero weight.
+    """:func:`upwind3_weights` in the field dtype, without a branch: ``(w_m2, w_m1, w_0, w_p1, w_p2)``.
 
-    Returns ``(far, w_far, w_m1, w_0, w_p1)``: the offset (-2 or +2) of the one second neighbour
-    the stencil uses and the weights of it, ``f[-1]``, ``f[0]`` and ``f[+1]`` (``par`` holds the
-    constants).
+    Both one-sided stencils are blended with the weights ``max(velocity, 0)`` and ``min(velocity, 0)``
+    (one of them is 0), so the node loop reads all five nodes at fixed offsets and vectorises.
     """
-    s = velocity * par[SIXTH]
-    if velocity > 0:
-        return -2, s, -par[SIX] * s, par[THREE] * s, par[TWO] * s
-    return 2, -s, -par[TWO] * s, -par[THREE] * s, par[SIX] * s
+    zero = velocity - velocity  # 0 in the field dtype (a literal 0 would promote float32 to float64)
+    pos = max(velocity, zero) * par[SIXTH]
+    neg = min(velocity, zero) * par[SIXTH]
+    return (pos, -par[SIX] * pos - par[TWO] * neg, par[THREE] * (pos - neg), par[TWO] * pos + par[SIX] * neg, -neg)
 
 
 @njit(cache=True, fastmath=True)
@@ -243,45 +244,89 @@ def _stage_central(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, seco
 
 
 @njit(cache=True, fastmath=True)
-def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, second):
-    """One Heun stage of cell c with third-order upwind advection (see :func:`heun_stage`).
+def _rate_upwind3(f, s2, lap_s1, b, dn2, ds2, P, w, par, ca):
+    """``d phi / dt`` at node ``b`` of a flat patch ``f`` (upwind3); ``b - dn2``, ``b + ds2``: its far row neighbours.
 
-    Next to the patch's zero ring the second neighbours ``i -+ 2``, ``j -+ 2`` are ring nodes, so
-    there the stencil reads 0, as the field beyond the patch is: the row index is clamped onto the
-    ring (0 or P - 1); along a row the patch is read flat (``i P + j -+ 2``), where the second
-    neighbour of the first or last interior column is the ring node at the end of the row before
-    or the start of the row after (0 too), which keeps the node loop free of clamps.
+    ``s2``, ``lap_s1``: ``S2`` and ``lap S1`` in the patch layout; ``w``: the 9 advection weights
+    (node, x -2..+2 without 0, y -2..+2 without 0).  Indices are unsigned (see :func:`_span_upwind3`).
     """
-    P = phi.shape[1]
-    Lx = S2.shape[1]
+    w0, xm2, xm1, xp1, xp2, ym2, ym1, yp1, yp2 = w
+    one = np.uint64(1)  # unsigned offsets: an int literal would make the index signed
+    two = np.uint64(2)
+    v = f[b]
+    vn = f[b - P]
+    vs = f[b + P]
+    vw = f[b - one]
+    ve = f[b + one]
+    mu = _mu_node(v, vn, vs, vw, ve, s2[b], lap_s1[b], par, ca)
+    adv = (w0 * v + xm1 * vw + xp1 * ve + ym1 * vn + yp1 * vs
+           + xm2 * f[b - two] + xp2 * f[b + two] + ym2 * f[b - dn2] + yp2 * f[b + ds2])
+    return -par[MOB] * mu - adv
+
+
+@njit(cache=True, fastmath=True)
+def _span_upwind3(o, src, f, s2, lap_s1, k0, k1, dn2, ds2, P, w, par, ca, second):
+    """Stage update of the flat patch nodes ``k0 .. k1 - 1`` (whole rows, their ring columns included).
+
+    First stage: ``o = src + dt rate(f)``; second: ``o = (o + f) / 2 + dt/2 rate(f)`` (``src`` unused: ``o``
+    is read and written at the same node only, which LLVM can see, so it still vectorises).
+    All indices are unsigned: they are >= 0 here, and numba's negative-index wraparound of signed
+    indices turns the loads into gathers.
+    """
     dt = par[DT]
     half = par[HALF]
     half_dt = half * dt
-    # v . grad f = sum of weights x f at the node, its 4 neighbours and one second neighbour per axis
-    jfar, xf, xm1, x0, xp1 = _upwind3_weights(cvx, par)
-    ifar, yf, ym1, y0, yp1 = _upwind3_weights(cvy, par)
-    w0 = x0 + y0
-    flat = phi_eval[c].reshape(P * P)
+    uP = np.uint64(P)
+    udn, uds = np.uint64(dn2), np.uint64(ds2)
+    if second:
+        for b in range(np.uint64(k0), np.uint64(k1)):
+            o[b] = half * (o[b] + f[b]) + half_dt * _rate_upwind3(f, s2, lap_s1, b, udn, uds, uP, w, par, ca)
+    else:
+        for b in range(np.uint64(k0), np.uint64(k1)):
+            o[b] = src[b] + dt * _rate_upwind3(f, s2, lap_s1, b, udn, uds, uP, w, par, ca)
+
+
+@njit(cache=True, fastmath=True)
+def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, second):
+    """One Heun stage of cell c with third-order upwind advection (see :func:`heun_stage`).
+
+    The patch is swept flat (node ``k = i P + j``) in three spans of whole rows: row 1, rows 2..P-3
+    and row P-2, so every load has a fixed offset and the loop vectorises.  Beyond the zero ring
+    the field is 0: the far row neighbour of rows 1 and P-2 is the ring row next to them, and
+    along a row the far neighbour of the first or last interior column is the ring node at the end
+    of the row before or the start of the row after.  The ring columns are swept too (their
+    results are discarded: reset to 0 afterwards).  ``S2`` and ``lap S1`` are first copied into
+    the patch layout.
+    """
+    P = phi.shape[1]
+    Lx = S2.shape[1]
+    xm2, xm1, x0, xp1, xp2 = _upwind3_weights(cvx, par)
+    ym2, ym1, y0, yp1, yp2 = _upwind3_weights(cvy, par)
+    w = (x0 + y0, xm2, xm1, xp1, xp2, ym2, ym1, yp1, yp2)
+    s2 = np.empty(P * P, dtype=S2.dtype)
+    lap_s1 = np.empty(P * P, dtype=L.dtype)
     q0 = gx[c, 0]
     straight = q0 + P <= Lx
     for i in range(1, P - 1):
         r = gy[c, i]
-        i2 = min(max(i + ifar, 0), P - 1)
-        row = i * P + jfar
-        for j in range(1, P - 1):
-            q = q0 + j if straight else gx[c, j]
-            v = phi_eval[c, i, j]
-            vn = phi_eval[c, i - 1, j]
-            vs = phi_eval[c, i + 1, j]
-            vw = phi_eval[c, i, j - 1]
-            ve = phi_eval[c, i, j + 1]
-            mu = _mu_node(v, vn, vs, vw, ve, S2[r, q], L[r, q], par, ca)
-            adv = w0 * v + xm1 * vw + xp1 * ve + ym1 * vn + yp1 * vs + xf * flat[row + j] + yf * phi_eval[c, i2, j]
-            k = -par[MOB] * mu - adv
-            if second:
-                out[c, i, j] = half * (phi[c, i, j] + v) + half_dt * k
-            else:
-                out[c, i, j] = phi[c, i, j] + dt * k
+        if straight:
+            s2[i * P:(i + 1) * P] = S2[r, q0:q0 + P]
+            lap_s1[i * P:(i + 1) * P] = L[r, q0:q0 + P]
+        else:
+            for j in range(P):
+                s2[i * P + j] = S2[r, gx[c, j]]
+                lap_s1[i * P + j] = L[r, gx[c, j]]
+    if second and out.ctypes.data != phi.ctypes.data:
+        out[c] = phi[c]  # the second stage updates out in place from phi (advance passes out = phi)
+    f = phi_eval[c].reshape(P * P)
+    o = out[c].reshape(P * P)
+    src = phi[c].reshape(P * P)
+    _span_upwind3(o, src, f, s2, lap_s1, P, 2 * P, P, 2 * P, P, w, par, ca, second)
+    _span_upwind3(o, src, f, s2, lap_s1, 2 * P, (P - 2) * P, 2 * P, 2 * P, P, w, par, ca, second)
+    _span_upwind3(o, src, f, s2, lap_s1, (P - 2) * P, (P - 1) * P, 2 * P, P, P, w, par, ca, second)
+    for i in range(1, P - 1):
+        out[c, i, 0] = 0
+        out[c, i, P - 1] = 0
 
 
 @njit(cache=True, parallel=True, fastmath=True)
@@ -420,11 +465,11 @@ def set_velocity(theta, v0, vx, vy):
 
 @njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
 def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
-            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme):
-    """``nsteps`` Heun steps from global step ``step0`` (fields, origins and theta updated in place).
+            par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme, euler):
+    """``nsteps`` Heun steps (explicit Euler steps if ``euler``) from global step ``step0``.
 
-    Step s uses theta_s for both stages, then ``theta += sigma * noise[s]``
-    (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
+    Fields, origins and theta are updated in place.  Step s uses theta_s (for both
+    stages), then ``theta += sigma * noise[s]`` (``sigma = sqrt(2 D_r dt)``; pass an empty ``noise`` with ``sigma = 0``
     for passive steps).  After every step whose global index ``step0 + s + 1``
     is a multiple of ``recentre_every`` the patches are re-centred (``phis``
     is their scratch space).  ``scheme`` selects the advection stencil (``CENTRAL``, ``UPWIND3``).
@@ -433,14 +478,18 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
     Lx, Ly = S1.shape[1], S1.shape[0]
     P = phi.shape[1]
     moves = 0
+    result = phi  # Euler steps swap phi and phis (no copy per step); the result goes back here at the end
     for s in range(nsteps):
         set_velocity(theta, v0, vx, vy)
         lattice_sums(phi, oy, gx, ptr, cells, S1, S2)
         lattice_laplacian(S1, ptr, L)
         _stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False, scheme)
-        lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
-        lattice_laplacian(S1, ptr, L)
-        _stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme)
+        if euler:
+            phi, phis = phis, phi
+        else:
+            lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
+            lattice_laplacian(S1, ptr, L)
+            _stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme)
         if sigma > 0:
             for c in range(theta.shape[0]):
                 theta[c] += sigma * noise[s, c]
@@ -451,6 +500,8 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
                 index_rows(ox, Lx, P, gx)
                 index_rows(oy, Ly, P, gy)
                 build_bands(oy, Ly, P, ptr, cells)
+    if phi.ctypes.data != result.ctypes.data:
+        result[:] = phi
     return moves
 
 

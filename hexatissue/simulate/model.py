@@ -16,7 +16,7 @@ from ..errors import HexatissueWarning, InputError, as_generator
 from . import _kernels as K
 from .params import Params
 
-__all__ = ["Simulation", "initial_state", "select_threading_layer", "set_threads", "auto_threads"]
+__all__ = ["Simulation", "initial_state", "select_threading_layer", "set_threads", "auto_threads", "ThreadTuner"]
 
 LEAK_LIMIT = 1e-3  # fraction of int phi^2 allowed on the two rings next to a patch's zero ring
 RECENTRE_THRESHOLD = 1.0  # px of centroid drift before a patch is shifted
@@ -73,6 +73,61 @@ def set_threads(n: int | str | None) -> int:
             raise InputError(f"threads must be an integer in 1..{numba.config.NUMBA_NUM_THREADS}; got {n!r}")
         numba.set_num_threads(int(n))
     return numba.get_num_threads()
+
+
+class ThreadTuner:
+    """Thread count chosen chunk by chunk from measured step rates (``threads="auto"`` of a run).
+
+    The load average lags and ignores how a shared machine's cores are split: with other processes
+    busy, two threads ran 2-5x slower than one (``benchmarks/results_mpf.md``).  So the run starts
+    with the first candidate (the load-based guess), times the other one on a chunk after
+    ``reprobe_seconds``, and then uses the faster; the one not in use is timed again
+    ``reprobe_seconds`` after its last chunk, and each time it loses again that wait doubles (up to
+    16x), since a chunk at a collapsed count is expensive.  Results do not depend on the count.
+
+    Parameters
+    ----------
+    counts : sequence of int
+        Candidate thread counts; the first is used until the others are due.
+    reprobe_seconds : float
+        Time after which a count that is not in use is measured again.
+    """
+
+    def __init__(self, counts, reprobe_seconds: float = 30.0):
+        self.counts = tuple(dict.fromkeys(int(n) for n in counts))
+        self.reprobe_seconds = float(reprobe_seconds)
+        self.rate = {}  # count -> steps/s of its latest chunk
+        self.when = {}  # count -> time of that measurement
+        self.wait = {n: self.reprobe_seconds for n in self.counts}  # count -> wait before timing it again
+        self.start = None  # time of the first choice
+
+    @classmethod
+    def for_machine(cls, first: int) -> "ThreadTuner":
+        """Candidates ``first`` (e.g. :func:`auto_threads`), then the other of 1 and numba's maximum."""
+        import numba
+
+        return cls((first, 1, numba.config.NUMBA_NUM_THREADS))
+
+    def choose(self, now: float) -> int:
+        """Count for the next chunk (``now``: a monotonic clock, seconds)."""
+        if self.start is None:
+            self.start = now
+        measured = [n for n in self.counts if n in self.rate]
+        if not measured:
+            return self.counts[0]
+        best = max(measured, key=self.rate.__getitem__)
+        due = [n for n in self.counts if n != best and now - self.when.get(n, self.start) >= self.wait[n]]
+        return due[0] if due else best
+
+    def record(self, n: int, steps_per_second: float, now: float):
+        """Store the rate of a chunk run with ``n`` threads."""
+        self.rate[n] = float(steps_per_second)
+        self.when[n] = now
+        if all(m in self.rate for m in self.counts):
+            if max(self.counts, key=self.rate.__getitem__) == n:
+                self.wait[n] = self.reprobe_seconds
+            elif self.wait[n] < 16 * self.reprobe_seconds:
+                self.wait[n] *= 2
 
 
 class Simulation:
@@ -153,7 +208,7 @@ class Simulation:
 
     # -- dynamics ---------------------------------------------------------------
     def advance(self, nsteps: int, active: bool = True) -> int:
-        """Advance ``nsteps`` Heun steps; returns the number of patch re-centrings.
+        """Advance ``nsteps`` steps (``params.integrator``); returns the number of patch re-centrings.
 
         ``active=False`` gives passive relaxation: ``v0 = 0`` and theta frozen
         (no random numbers are drawn).  Active steps draw ``nsteps x N``
@@ -173,7 +228,7 @@ class Simulation:
             self.phi, self._phis, self._S1, self._S2, self._L, self.ox, self.oy, self._gx, self._gy,
             self._ptr, self._cells, self.theta, noise, self._coef, self._vx, self._vy, self._area, self.leak,
             self._par, 1.0 / p.target_area, 4.0 * p.lam, v0, sigma, self.step, nsteps,
-            p.recentre_every, RECENTRE_THRESHOLD, K.SCHEMES[p.advection],
+            p.recentre_every, RECENTRE_THRESHOLD, K.SCHEMES[p.advection], p.integrator == "euler",
         )
         self.step += nsteps
         return int(moves)

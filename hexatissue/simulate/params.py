@@ -32,9 +32,10 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["Params", "stability_limit", "ADVECTION_SCHEMES"]
+__all__ = ["Params", "stability_limit", "ADVECTION_SCHEMES", "INTEGRATORS"]
 
 ADVECTION_SCHEMES = ("upwind3", "central")  # discretisations of v . grad phi (Params.advection)
+INTEGRATORS = ("heun", "euler")  # time steppers (Params.integrator)
 
 _POSITIVE = ("alpha", "k_phi", "R", "phi0", "M", "dt")
 _NONNEGATIVE = ("eps", "k_ad", "lam", "v0", "D_r")
@@ -87,6 +88,11 @@ class Params:
         comparison and for runs made before it existed: its numerical
         dispersion slows a free cell to ~0.99 v0 at phi0 = 1 and ~0.94 v0 at
         phi0 = 2 (docs/simulate.md).
+    integrator : {"heun", "euler"}
+        Time stepper.  ``"heun"`` (default): predictor-corrector, second order,
+        two right-hand sides per step.  ``"euler"``: explicit Euler, first
+        order, one right-hand side per step (about twice as fast), the scheme
+        of the published MPF code; same stability limit.
     """
 
     n_cells: int = 440
@@ -107,6 +113,7 @@ class Params:
     dtype: str = "float32"
     recentre_every: int = 10
     advection: str = "upwind3"
+    integrator: str = "heun"
 
     def __post_init__(self):
         self._validate()
@@ -184,6 +191,10 @@ class Params:
             raise InputError(
                 f"Params.advection must be one of {', '.join(repr(a) for a in ADVECTION_SCHEMES)}; "
                 f"got {self.advection!r}"
+            )
+        if self.integrator not in INTEGRATORS:
+            raise InputError(
+                f"Params.integrator must be one of {', '.join(repr(a) for a in INTEGRATORS)}; got {self.integrator!r}"
             )
         if self.dtype not in ("float32", "float64"):
             raise InputError(f"Params.dtype must be 'float32' or 'float64'; got {self.dtype!r}")

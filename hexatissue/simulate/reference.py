@@ -18,7 +18,7 @@ import numpy as np
 
 from .params import Params
 
-__all__ = ["patches_to_full", "patch_masks", "advection", "rhs", "heun_step", "free_energy"]
+__all__ = ["patches_to_full", "patch_masks", "advection", "rhs", "heun_step", "euler_step", "free_energy"]
 
 
 def _index(o, L, P):
@@ -110,6 +110,11 @@ def heun_step(fields, params: Params, theta, v0, masks=None) -> np.ndarray:
     pred = fields + params.dt * k1
     k2 = rhs(pred, params, theta, v0, masks)
     return fields + 0.5 * params.dt * (k1 + k2)
+
+
+def euler_step(fields, params: Params, theta, v0, masks=None) -> np.ndarray:
+    """One explicit Euler step of the full-lattice model."""
+    return fields + params.dt * rhs(fields, params, theta, v0, masks)
 
 
 def free_energy(fields, params: Params, masks=None) -> float:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, is_real
-from .model import initial_state, set_threads
+from .model import ThreadTuner, initial_state, set_threads
 from .params import Params
 from .segment import segment
 from .store import RunStore
@@ -123,7 +123,10 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
         Save the full patch fields every this many frames (0 = never).
     threads : int or "auto", optional
         numba threads (default: keep numba's current setting; "auto": the
-        cores left idle by the current load).  Results do not depend on it.
+        cores left idle by the current load for the first chunk, then the
+        faster of 1 and all threads, measured on chunks of the run and
+        re-measured every 30 s: :class:`~hexatissue.simulate.model.ThreadTuner`).
+        Results do not depend on it.
     labels : (Ly, Lx) int array, optional
         Initial segmentation instead of the jittered lattice.
     resume : bool
@@ -182,6 +185,9 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
     n_frames_total = steps // save_every + 1
     store.reserve(n_frames_total, (n_frames_total - 1) // patches_every + 1 if patches_every else 0)
     n_threads = set_threads(threads)
+    # "auto": the load-based count for the first chunk (it includes compiling), then measured counts
+    tuner = ThreadTuner.for_machine(n_threads) if isinstance(threads, str) and threads == "auto" else None
+    first_chunk = True
 
     bar = None
     if progress:
@@ -211,9 +217,15 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
                     store.write_checkpoint(sim)
                     last_ckpt = time.monotonic()
                 n = min(save_every, -s) if s < 0 else min(save_every - s % save_every, steps - s)
+                if tuner is not None and not first_chunk:
+                    n_threads = set_threads(tuner.choose(time.monotonic()))
                 t0 = time.perf_counter()
                 sim.advance(n, active=s >= 0)
-                seconds += time.perf_counter() - t0
+                dt = time.perf_counter() - t0
+                seconds += dt
+                if tuner is not None and not first_chunk:
+                    tuner.record(n_threads, n / max(dt, 1e-9), time.monotonic())
+                first_chunk = False
                 done += n
                 if bar is not None:
                     bar.update(n)
