@@ -454,6 +454,10 @@ def trace_loops(labels, periodic, arms, kind, visited):
             np.array(rights, np.int64), np.array(dxs, np.int64), np.array(dys, np.int64), np.array(ns, np.int64))
 
 
+#: Relative tolerance of a tie at half a period in the torus unwrap of :func:`cell_moments`.
+UNWRAP_TIE = 1e-9
+
+
 @njit(cache=True)
 def _angle_table(n):
     """cos and sin of ``2 pi k / n`` for k = 0..n-1 (the circular-mean terms of one coordinate)."""
@@ -476,10 +480,17 @@ def _circular_refs(cx, snx, seen, ref, period):
 
 @njit(cache=True)
 def _unwrapped(v, ref, period):
-    """The image of coordinate ``v`` within half a period of ``ref`` (ties not moved)."""
-    if v - ref > 0.5 * period:
+    """The image of coordinate ``v`` within half a period of ``ref`` (ties not moved).
+
+    A tie is a distance within ``UNWRAP_TIE * period`` of half a period: the
+    circular mean ``ref`` carries the last-bit differences of the libm's
+    cos/sin (numba's and numpy's differ), which must not decide which image
+    of a pixel exactly half a box away is taken.
+    """
+    half = (0.5 + UNWRAP_TIE) * period
+    if v - ref > half:
         return v - period
-    if v - ref < -0.5 * period:
+    if v - ref < -half:
         return v + period
     return v
 

@@ -22,6 +22,8 @@ meant for the small images of ``tests/test_mesh_kernels.py``.  Conventions
 """
 import numpy as np
 
+from ._kernels import UNWRAP_TIE  # a convention shared with the kernels, not code
+
 # direction d -> unit step (x, y) = (column, row) on the corner lattice: +x, +y, -x, -y
 UNIT = ((1, 0), (0, 1), (-1, 0), (0, -1))
 # at a corner where two boundaries touch diagonally (types 5 and 6), the arms that form one boundary
@@ -297,8 +299,9 @@ def cell_moments(labels, n_labels, periodic):
         x, y = x.astype(float), y.astype(float)
         if periodic:  # the image of each pixel within half a box of the circular mean (ties not moved)
             rx, ry = _circular_mean(x, w), _circular_mean(y, h)
-            x -= w * np.where(x - rx > w / 2, 1, np.where(x - rx < -w / 2, -1, 0))
-            y -= h * np.where(y - ry > h / 2, 1, np.where(y - ry < -h / 2, -1, 0))
+            hw, hh = (0.5 + UNWRAP_TIE) * w, (0.5 + UNWRAP_TIE) * h
+            x -= w * np.where(x - rx > hw, 1, np.where(x - rx < -hw, -1, 0))
+            y -= h * np.where(y - ry > hh, 1, np.where(y - ry < -hh, -1, 0))
         count[lab], sx[lab], sy[lab] = len(x), x.sum(), y.sum()
     return count, sx, sy
 
