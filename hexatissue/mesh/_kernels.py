@@ -224,17 +224,21 @@ def _is_vertex(kind, ci, cj, nci, ncj, image_corners):
 
 
 @njit(cache=True)
-def _vertex_id(keys, key):
-    """Id of the vertex at corner key ``ci * ncj + cj``: its rank in the sorted ``keys`` (vertices in raster order)."""
-    lo = 0
-    hi = len(keys)
+def _lower_bound(values, lo, hi, key):
+    """First index in ``lo..hi`` of the sorted ``values[lo:hi]`` whose value is not below ``key`` (binary search)."""
     while lo < hi:
         mid = (lo + hi) // 2
-        if keys[mid] < key:
+        if values[mid] < key:
             lo = mid + 1
         else:
             hi = mid
     return lo
+
+
+@njit(cache=True)
+def _vertex_id(keys, key):
+    """Id of the vertex at corner key ``ci * ncj + cj``: its rank in the sorted ``keys`` (vertices in raster order)."""
+    return _lower_bound(keys, 0, len(keys), key)
 
 
 @njit(cache=True)
@@ -847,15 +851,7 @@ def chain_cycles(cell, frm, to):
                 order[pos] = cur
                 pos += 1
                 target = to[cur]
-                # binary search for the first half-edge of this cell leaving `target`
-                lo = s
-                hi = e
-                while lo < hi:
-                    mid = (lo + hi) // 2
-                    if frm[mid] < target:
-                        lo = mid + 1
-                    else:
-                        hi = mid
+                lo = _lower_bound(frm, s, e, target)  # the first half-edge of this cell leaving `target`
                 nxt = -1
                 while lo < e and frm[lo] == target:
                     if not used[lo]:
