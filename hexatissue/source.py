@@ -986,8 +986,10 @@ def _open_folder(path: Path, channel) -> Source:
     images = sorted((p for p in files if p.suffix.lower() in IMAGE_SUFFIXES), key=lambda p: _natural_key(p.name))
     if not images:
         found = sorted({p.suffix.lower() or p.name for p in path.iterdir()})
+        inside = sorted(str(p) for p in path.iterdir() if p.suffix.lower() == ".zarr")
+        hint = f"; to open a zarr store inside it, pass its path ({', '.join(inside)})" if inside else ""
         raise InputError(f"folder {str(path)!r} holds no .tif/.tiff/.png files (found {found}); expected one label "
-                         f"image per frame")
+                         f"image per frame{hint}")
     kinds = {"png" if p.suffix.lower() == ".png" else "tiff" for p in images}
     if len(kinds) > 1:
         raise InputError(f"folder {str(path)!r} mixes .png and .tif files; expected one kind of image file per "

@@ -8,6 +8,8 @@ is computed here from the truth's tables and the label images.
 """
 import json
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -285,6 +287,21 @@ def test_without_labels_only_vertex_scores_and_a_warning(truth):
     with pytest.warns(HexatissueWarning, match="no label images"):
         scores = score(bare, bare, show_progress=False)
     assert set(scores.summary) == {"vertex_precision", "vertex_recall"}
+
+
+def test_periodic_truth_against_an_open_analysis_warns_and_scores_lower(truth):
+    # a user who forgets --periodic for the prediction: the scores drop at the box edge, and the
+    # scorer says why instead of leaving a silently low vertex precision
+    folder, result, labels = truth
+    open_pred = analyze(labels, order=ORDER, workers=1, progress=False)
+    with pytest.warns(HexatissueWarning, match="analyse the prediction with .*--periodic"):
+        scores = score(open_pred, folder, pred_labels=labels, show_progress=False)
+    assert any("open image" in note for note in scores.notes)
+    assert scores.summary["vertex_precision"] < 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HexatissueWarning)  # same boxes: no such warning
+        same = score(result, folder, pred_labels=labels, show_progress=False)
+    assert same.summary["vertex_precision"] == 1.0
 
 
 def test_bad_input(truth):

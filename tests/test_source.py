@@ -228,6 +228,10 @@ def test_folder_errors(tmp_path):
     empty.mkdir()
     with pytest.raises(InputError, match="holds no .tif/.tiff/.png files"):
         open_source(empty)
+    beside = tmp_path / "run_folder"  # a folder holding an MPF run, as sample_data/mpf_small does
+    (beside / "run.zarr").mkdir(parents=True)
+    with pytest.raises(InputError, match=r"pass its path \(.*run\.zarr\)"):
+        open_source(beside)
     mixed = tmp_path / "mixed"
     mixed.mkdir()
     tifffile.imwrite(mixed / "a.tif", movie(1)[0])

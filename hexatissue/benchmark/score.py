@@ -466,6 +466,11 @@ def _t1_scores(truth, pred, lookup, tolerance, summary, counts):
 # ---------------------------------------------------------------------------------------------------------
 # the public functions
 # ---------------------------------------------------------------------------------------------------------
+def _box_lengths(box):
+    """``(Lx, Ly)`` of a periodic box, None for an open image (how the two sides' boxes are compared)."""
+    return None if box is None else (float(box.Lx), float(box.Ly))
+
+
 def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radius=3.0, frame_tolerance=2,
           show_progress=True) -> Scores:
     """Score a prediction against exact truth (segmentation, network, tracking, T1 events, gamma_p).
@@ -504,7 +509,9 @@ def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radi
     Warns
     -----
     HexatissueWarning
-        No labels were found for a side (matching-based scores left out).
+        No labels were found for a side (matching-based scores left out), or
+        the two sides' tables were computed with different boxes (a periodic
+        truth against a prediction analysed as an open image).
     """
     vertex_radius = check_positive(vertex_radius, "vertex_radius", unit="px")
     if isinstance(frame_tolerance, bool) or not isinstance(frame_tolerance, (int, np.integer)) or frame_tolerance < 0:
@@ -515,6 +522,12 @@ def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radi
         raise InputError(f"the prediction has {len(p_movie)} frame(s) of {tuple(p_movie.shape)} and the truth "
                          f"{len(t_movie)} of {tuple(t_movie.shape)}; expected the same frames and image size")
     notes = []
+    if _box_lengths(p_movie.box) != _box_lengths(t_movie.box):
+        notes.append(f"the prediction was analysed with box {_box_lengths(p_movie.box)} and the truth with "
+                     f"{_box_lengths(t_movie.box)} (None = an open image): cells crossing the box edge and "
+                     f"the vertices there do not match; for a periodic truth analyse the prediction with "
+                     f"`hexatissue analyze LABELS --periodic` (or box=)")
+        warnings.warn(notes[-1], HexatissueWarning, stacklevel=user_stacklevel())
     for name, movie, lab, where in (("prediction", p_movie, p_labels, p_where), ("truth", t_movie, t_labels, t_where)):
         if lab is None:
             continue
