@@ -226,7 +226,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     the others are freed).  The files are the same either way.
     """
     from .io import atomic_path, check_output_folder, write_table
-    from .pipeline import _release_freed_memory
+    from ._system import release_freed_memory
 
     formats = tuple(formats) if isinstance(formats, (list, tuple)) else (formats,)
     bad = [f for f in formats if f not in FORMATS]
@@ -243,7 +243,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
         if release:
             del tables[name]
             setattr(movie, name, None)
-            _release_freed_memory()  # the freed table's pages, mostly in the C heap, before the next table
+            release_freed_memory()  # the freed table's pages, mostly in the C heap, before the next table
     for name in TABLES:
         for fmt in FORMATS:
             stale = directory / f"{name}.{fmt}"

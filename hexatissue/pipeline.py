@@ -21,18 +21,16 @@ at the centre of pixel (0, 0); times in frames.
 """
 from __future__ import annotations
 
-import ctypes
 import json
 import os
 import pickle
-import sys
 import warnings
 from collections import deque
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from ._system import libc, release_freed_memory
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from .events import cell_event_stats, default_censor, detect_t1, neighbour_events
@@ -144,7 +142,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
                    intensity=None if raw is None else raw.description)
         store = _Checkpoint(checkpoint, key, checkpoint_every)
     rows, tracker = _extract(src, box, mesh, order, mask, raw, tracker, client, workers, store, progress)
-    _release_freed_memory()  # the frames' freed temporaries, before the movie-level stages
+    release_freed_memory()  # the frames' freed temporaries, before the movie-level stages
     tables = {name: rows.pop(name).table(name, order.p) for name in FRAME_TABLES}
     cells = _with_tracks(tables["cells"], tracker)
     tables["cells"] = cells
@@ -154,13 +152,13 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
     tracking = _tracking_summary(tracker, cells, parents)
     del tracker, parents  # its per-cell-frame ids are in cells now; the movie-level stages need the memory
-    _release_freed_memory()  # after each movie-level stage: its freed working set would stay under the next
+    release_freed_memory()  # after each movie-level stage: its freed working set would stay under the next
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
-    _release_freed_memory()
+    release_freed_memory()
     tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
-    _release_freed_memory()
+    release_freed_memory()
     summary = {"tracking": tracking, "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     if order.fields:
         _warn_frames_without_field(cells, tables["grid"], src.n_frames)
@@ -168,7 +166,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         _defect_tracks(tables, order, box, src.n_frames, linked)
     else:
         del tables["grid"], tables["defects"]
-    _release_freed_memory()
+    release_freed_memory()
     options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),
                "events": events.replace(censor=censor)}
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
@@ -236,29 +234,6 @@ def _intensity_source(intensity, src):
         raise InputError(f"intensity has {raw.n_frames} frame(s) of {raw.shape}; expected {src.n_frames} frame(s) "
                          f"(or one) of the labels' shape {src.shape}")
     return raw
-
-
-def _release_freed_memory():
-    """Return the C heap's free pages to the OS (glibc's ``malloc_trim``; a no-op elsewhere).
-
-    glibc keeps memory freed in the middle of its heap resident: without
-    this, the temporaries of a thousand frames' jobs (tens of MB of holes
-    between the growing tables) stay in the process under the movie-level
-    stages and the writing of the tables.
-    """
-    global _malloc_trim
-    if _malloc_trim is None:
-        _malloc_trim = False
-        if sys.platform.startswith("linux"):
-            try:
-                _malloc_trim = ctypes.CDLL(None).malloc_trim  # absent from musl
-            except (OSError, AttributeError):
-                pass
-    if _malloc_trim:
-        _malloc_trim(0)
-
-
-_malloc_trim = None
 
 
 class _Rows:
@@ -616,18 +591,12 @@ def _die_with_parent():
     Linux-only; elsewhere this does nothing (workers then notice the broken
     pipe at their next task).
     """
-    import sys
-
-    if not sys.platform.startswith("linux"):
-        return
-    import ctypes
     import signal
 
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    except (OSError, AttributeError):
+    prctl = getattr(libc(), "prctl", None)
+    if prctl is None:
         return
+    prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
     if os.getppid() == 1:  # the parent died before prctl took effect
         os._exit(1)
 
