@@ -29,7 +29,7 @@ import pandas as pd
 
 from .errors import HexatissueWarning, InputError
 from .geometry import next_vertex, pack_polygons, polygon_area_centroid, polygon_cells
-from .schema import validate
+from .schema import rows_by_frame, validate
 
 __all__ = ["Polygons", "SHARED_TOLERANCE", "polygon_network", "mesh_from_polygons", "read_vertices_table",
            "read_tissue_analyzer", "read_polygon_mat", "POLYGON_SUFFIXES"]
@@ -359,8 +359,7 @@ def read_vertices_table(path) -> tuple[list, list]:
     cell = table["cell"].to_numpy(np.int64)
     xy = table[["x", "y"]].to_numpy(float)
     frames, values = [], []
-    for value in np.unique(frame):
-        rows = np.flatnonzero(frame == value)
+    for value, rows in rows_by_frame(frame).items():
         ids, first, counts = _runs(cell[rows])
         at = f"{path.name!r}" + (f", frame {value}" if "frame" in table.columns else "")
         if len(np.unique(ids)) < len(ids):

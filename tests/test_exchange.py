@@ -452,6 +452,17 @@ def test_real_mouse_epidermis_exports_to_ctc_and_geff(real_data, tmp_path):
     assert read_geff(track_store)[0].number_of_nodes() == len(movie.cells)
 
 
+def test_write_ctc_ignores_lineage_ids_absent_from_the_masks(tmp_path):
+    # only the ids written count against 16 bits: a lineage row of a track beyond 65535 that is not in
+    # these masks (e.g. a crop in time) used to make the export refuse
+    masks = np.zeros((2, 4, 4), np.int64)
+    masks[:, 0, 0] = 1
+    lineage = pd.DataFrame({"track": [1, 70000], "frame_start": [0, 5], "frame_end": [1, 6], "parent": [0, 0]})
+    write_ctc(masks, lineage, tmp_path / "ctc")
+    check_ctc(tmp_path / "ctc")
+    np.testing.assert_array_equal(read_ctc(tmp_path / "ctc")[0], masks)
+
+
 def test_write_ctc_refuses_gap_ids_beyond_16_bits(tmp_path):
     # a track with a gap gets a new id above every id in use; past 65535 it would wrap in the uint16 masks
     from hexatissue.exchange.ctc import write_ctc

@@ -66,6 +66,7 @@ import pandas as pd
 
 from ..errors import InputError, as_generator
 from ..options import _fail, _Options
+from ..schema import rows_by_frame
 
 __all__ = ["RenderOptions", "Renderer", "render", "poisson_counts", "transfer_function", "PSFS", "SHOT_NOISE", "SNR_DEFINITION"]
 
@@ -204,12 +205,8 @@ def _lognormal(u, cv):
 
 def _by_frame(table, columns):
     """``{frame: {column: numpy array}}`` of a table (rows of each frame in table order)."""
-    frames = table["frame"].to_numpy()
-    order = np.argsort(frames, kind="stable")
-    values, starts = np.unique(frames[order], return_index=True)
-    parts = np.split(order, starts[1:])
     data = {c: table[c].to_numpy() for c in columns}
-    return {int(f): {c: data[c][rows] for c in columns} for f, rows in zip(values, parts)}
+    return {int(f): {c: data[c][rows] for c in columns} for f, rows in rows_by_frame(table["frame"]).items()}
 
 
 def transfer_function(shape, psf, sigma):

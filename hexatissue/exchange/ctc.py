@@ -113,9 +113,6 @@ def _ctc_tracks(presence, parents, first_new):
             else:
                 parent = 0
             rows.append((new, start, end, parent))
-    if next_id - 1 > MAX_ID:
-        raise InputError(f"masks: splitting tracks at their gaps needs ids up to {next_id - 1}; CTC ids are "
-                         f"16-bit (<= {MAX_ID}): relabel the tracks 1..n first")
     return sorted(rows), renamed
 
 
