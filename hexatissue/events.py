@@ -169,9 +169,10 @@ def _movie_frames(edges, cells, min_length):
     """Each frame of ``cells`` in turn: ``(frame, tracks, a, b, length)``.
 
     ``tracks``: the track ids present (sorted, unique); ``a`` < ``b``: its contacts
-    in track ids, sorted, with their summed junction ``length`` (px).  Only
-    one frame's contacts exist at a time: the movie-level stages stream the
-    movie instead of holding every contact of it (three per cell-frame).
+    in track ids, sorted, with their summed junction ``length`` (px).  The
+    contacts exist one block of about ``BLOCK_ROWS`` cell rows at a time: the
+    movie-level stages stream the movie instead of holding every contact of
+    it (three per cell-frame).
     """
     for col in ("frame", "cell_a", "cell_b", "length"):
         if col not in edges.columns:

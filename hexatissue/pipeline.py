@@ -451,7 +451,7 @@ def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
         warnings.simplefilter("always")
         lab, membrane = mesh_labels(labels, box, mesh, mask)
         columns, polygons = network_columns(lab, membrane, box, mesh.merge_distance, t)
-        if image is None:  # numpy columns: no DataFrame to build here, pickle or read in the main process
+        if image is None:  # numpy columns: no network DataFrame to build here, pickle or read in the main process
             cells = columns["cells"]
             cells.update(gamma_arrays(*polygons, polygon_rows(cells["n_sides"] > 0), order.p, order.center))
             tables = columns

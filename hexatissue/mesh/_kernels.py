@@ -122,11 +122,8 @@ def corner_types(labels, periodic):
     vj = np.empty(n_forks + 4, np.int64)
     n_vertices = 0
     for ci in range(nci):
-        edge_row = image_corners and (ci == 0 or ci == nci - 1)
         for cj in range(ncj):
-            k = kind[ci, cj]
-            corner = edge_row and (cj == 0 or cj == ncj - 1) and k != 0
-            if k == 3 or k == 4 or corner:
+            if _is_vertex(kind, ci, cj, nci, ncj, image_corners):  # the walks' own rule of where they end
                 vi[n_vertices] = ci
                 vj[n_vertices] = cj
                 n_vertices += 1
@@ -247,7 +244,7 @@ def _walk(arms, kind, image_corners, membrane, ci, cj, d, nci, ncj, first, last)
 
     Stores the fit point of every crack (:func:`_crack_point`, relative to
     the start corner): the first ``len(first)`` in ``first``, and the last
-    ``len(last)`` in ``last`` (crack k at row ``k % len(last)``), so that the
+    ``len(last)`` in ``last`` (crack k at row ``k % len(first)``; both hold ``max_reach`` rows), so that the
     arm fits at both ends need no second walk.  ``membrane`` of size 0: no
     membrane pixels, every point is its crack's midpoint.  Returns (end
     corner row, end corner col, dx, dy, number of cracks, last direction).
@@ -338,7 +335,7 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
     :func:`mark_junctions` for the cracks, when loops are to be found).
 
     A crack's point is the mean centre of the pixels beside it that were
-    membrane (``membrane``, padded like the labels, True where the input had
+    membrane (``membrane``, padded by one pixel on each side, True where the input had
     a 0-valued junction pixel), else the crack midpoint: the fit follows the
     membrane centreline where the image has membranes.
     """

@@ -4,6 +4,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
+from .params import INTEGRATORS
 
 __all__ = ["add_parser", "main"]
 
@@ -38,13 +39,13 @@ def add_parser(subparsers):
                    help="stencil of v . grad phi: upwind3 = third-order upwind as in the published MPF code "
                         "(default); central = central differences (slower free cells; runs made before "
                         "this option used it)"),
-    p.add_argument("--integrator", choices=("heun", "euler"), default="heun",
+    p.add_argument("--integrator", choices=INTEGRATORS, default="heun",
                    help="time stepper: heun = second order, 2 right-hand sides per step (default); "
                         "euler = first order, 1 per step, about 2x faster (the published MPF code's scheme)")
     p.add_argument("--float64", action="store_true", help="double-precision fields (default float32)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--threads", default="auto",
-                   help="numba threads, or 'auto' = cores left idle by the current load, then the faster of 1 and "
+                   help="numba threads, or 'auto' = cores left idle by the current load, then the fastest of that, 1 and "
                         "all threads, timed on chunks of the run (default auto)")
     p.add_argument("--patches-every", type=int, default=0, help="save full patch fields every K frames (default 0 = never)")
     p.add_argument("--checkpoint-seconds", type=float, default=60.0,

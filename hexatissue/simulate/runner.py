@@ -124,8 +124,9 @@ def run_simulation(out, params: Params | None = None, *, steps: int | None = Non
     threads : int or "auto", optional
         numba threads (default: keep numba's current setting; "auto": the
         cores left idle by the current load for the first chunk, then the
-        faster of 1 and all threads, measured on chunks of the run and
-        re-measured every 30 s: :class:`~hexatissue.simulate.model.ThreadTuner`).
+        fastest of that count, 1 and all threads, measured on chunks of the
+        run; a count not in use is timed again after 30 s, the wait doubling
+        (up to 8 min) each time it loses: :class:`~hexatissue.simulate.model.ThreadTuner`).
         Results do not depend on it.
     labels : (Ly, Lx) int array, optional
         Initial segmentation instead of the jittered lattice.
