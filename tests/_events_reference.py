@@ -11,7 +11,7 @@ import bisect
 import numpy as np
 import pandas as pd
 
-from hexatissue.events import _events_table, _expand, _mix, default_censor
+from hexatissue.events import _expand, _mix, classify_t1, default_censor
 from hexatissue.geometry import lookup, row_keys
 from hexatissue.graph import contact_table as graph_contacts
 from hexatissue.schema import interior_mask, track_ids, validate
@@ -137,6 +137,28 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     return out.sort_values(["frame_lost", "cell_a", "cell_b"], ignore_index=True)
 
 
+def _positions(events, cells, box):
+    """Quartet centre (x, y) and border flag at frame_start, from the cells table."""
+    if events.empty:
+        return np.empty(0), np.empty(0), np.empty(0, bool)
+    border = ~interior_mask(cells)
+    keys = row_keys(cells["frame"].to_numpy(np.int64), track_ids(cells))
+    pos = np.c_[cells["x"].to_numpy(float), cells["y"].to_numpy(float)]
+    frame = events["frame_start"].to_numpy(np.int64)
+    xy, flag = [], np.zeros(len(events), bool)
+    for col in ("cell_a", "cell_b", "cell_c", "cell_d"):
+        row = lookup(keys, None, row_keys(frame, events[col].to_numpy(np.int64)))
+        xy.append(np.where(row[:, None] >= 0, pos[np.maximum(row, 0)], np.nan))
+        flag |= (row >= 0) & border[np.maximum(row, 0)]
+    xy = np.stack(xy, axis=1)
+    if box is not None:
+        xy = xy[:, :1] + box.min_image(xy - xy[:, :1])
+        centre = box.wrap(np.nanmean(xy, axis=1))
+    else:
+        centre = np.nanmean(xy, axis=1)
+    return centre[:, 0], centre[:, 1], flag
+
+
 def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int | None = None,
               box=None) -> pd.DataFrame:
     """T1 events of a movie, classified as ``cycle``, ``intercalation`` or ``unresolved``. (reference)"""
@@ -144,7 +166,13 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     contacts = track_contacts(edges, cells, min_length)
     raw = find_t1(contacts, presence)
     last = int(presence["frame"].max()) if len(presence) else 0
-    return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
+    events = classify_t1(raw, last, default_censor(last + 1) if censor is None else censor)
+    x, y, border = _positions(events, cells, box)  # the reference's own placement, not the package's
+    events.insert(8, "x", x)
+    events.insert(9, "y", y)
+    events["is_border"] = border
+    events.insert(0, "event", np.arange(len(events), dtype=np.int64))
+    return validate(events, "events")
 
 
 class _Lists:
