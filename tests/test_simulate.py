@@ -616,7 +616,21 @@ def test_thread_tuner_uses_the_faster_count_and_remeasures_the_other():
     assert ThreadTuner((2, 1, 2)).counts == (2, 1)
 
 
-def test_auto_threads_run_equals_one_thread_run(tmp_path):
+def test_auto_threads_run_equals_one_thread_run(tmp_path, monkeypatch):
+    import numba
+
+    import hexatissue.simulate.runner as runner
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("needs 2 numba threads to switch between")
+    used = []
+
+    class Switching(ThreadTuner):  # re-times the other count after every chunk: the run switches counts
+        def record(self, n, steps_per_second, now):
+            used.append(n)
+            super().record(n, steps_per_second, now)
+
+    monkeypatch.setattr(runner.ThreadTuner, "for_machine", classmethod(lambda cls, first: Switching((1, 2), 0.0)))
     p = Params(**SMALL)
     a = run_simulation(tmp_path / "a.zarr", p, steps=40, save_every=5, relax=10, seed=3, threads="auto", progress=False)
     b = run_simulation(tmp_path / "b.zarr", p, steps=40, save_every=5, relax=10, seed=3, threads=1, progress=False)
@@ -624,3 +638,4 @@ def test_auto_threads_run_equals_one_thread_run(tmp_path):
     ra, rb = read_run(a.path), read_run(b.path)
     assert np.array_equal(np.asarray(ra.labels[:]), np.asarray(rb.labels[:]))
     assert ra.cells.equals(rb.cells)
+    assert set(used) == {1, 2}  # both counts ran chunks of the same run
