@@ -232,8 +232,8 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
         raise InputError(f"is_border must have shape ({len(starts)},); got {border.shape}")
     table.insert(0, "frame", np.zeros(len(starts), np.int64))
     table["is_border"] = border
-    for order in check_orders(p):
-        gamma = shape_function_flat(xy, starts, p=order, center=center)
+    orders = check_orders(p)
+    for order, gamma in zip(orders, shape_functions_flat(xy, starts, orders, center)):
         table[f"gamma{order}_re"], table[f"gamma{order}_im"] = gamma.real, gamma.imag
     return validate(table, "cells")
 
