@@ -37,7 +37,7 @@ from .events import cell_event_stats, default_censor, detect_t1, neighbour_event
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
 from .geometry import row_keys
-from .schema import empty_table, interior_mask, validate
+from .schema import empty_table, interior_mask, rows_by_frame, validate
 from .track import MovieTracker, lineage_table
 
 __all__ = ["analyze"]
@@ -393,16 +393,16 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
         rows = np.flatnonzero(p == q)
         # only the columns tracking reads, not a copy of the table per p
         of_p = pd.DataFrame({c: defects[c].to_numpy()[rows] for c in ("frame", "x", "y", "charge")})
-        frame = of_p["frame"].to_numpy()
+        rows_of = None if linked else rows_by_frame(of_p["frame"].to_numpy())  # not one scan per frame
         n_tracks = 0
         for frames in groups:
-            at = slice(None) if linked else np.flatnonzero(frame == frames[0])
+            at = slice(None) if linked else rows_of.get(int(frames[0]), np.zeros(0, np.int64))
             t = track_defects(of_p if linked else of_p.iloc[at], max_distance, box=box, frames=frames)
             t["track"] += n_tracks
             n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
             track[rows[at]] = t["track"].to_numpy()
             pair_events.append(defect_events(t, max_distance, box=box, frames=frames).assign(p=np.int64(q)))
-        del of_p, frame
+        del of_p, rows_of
     # the rows of every p, by frame, p and defect (a stable sort), taken one column at a time from the
     # table given away: at most one column more than the defects table in memory
     rows = np.lexsort((defects["defect"].to_numpy(), p, defects["frame"].to_numpy()))
