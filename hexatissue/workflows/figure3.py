@@ -208,9 +208,9 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
             warnings.simplefilter("ignore", HexatissueWarning)
             mig = migration_table(cells, defects, dl=dl, dt=dt, box=box, p=p, events=tables["quartet"],
                                   include_border=include_border)
+            # how far cells get in one window (caged or flowing): the net displacement |r(t0 + dt) - r(t0)|
+            net = np.sqrt(cell_displacements(cells, dl=dl, dt=dt, box=box, include_border=include_border)["msd"])
         mig_parts.append(mig.assign(**{param: value}))
-        # how far cells get in one window (caged or flowing): the net displacement |r(t0 + dt) - r(t0)|
-        net = np.sqrt(cell_displacements(cells, dl=dl, dt=dt, box=box, include_border=include_border)["msd"])
         travel.append({param: value, "n_cell_windows": len(net), "mean_px": float(net.mean()) if len(net) else np.nan,
                        "median_px": float(net.median()) if len(net) else np.nan})
         for d in DEFINITIONS:
