@@ -304,6 +304,13 @@ def test_periodic_truth_against_an_open_analysis_warns_and_scores_lower(truth):
     assert same.summary["vertex_precision"] == 1.0
 
 
+def test_a_mask_the_results_do_not_hold_is_said_not_dropped_silently(truth):
+    folder, result, labels = truth
+    masked = result.replace(source={**result.source, "mask": {"kind": "array", "path": None}})
+    with pytest.warns(HexatissueWarning, match="mask given as an array"):
+        score(masked, folder, pred_labels=labels, show_progress=False)
+
+
 def test_bad_input(truth):
     folder, result, labels = truth
     with pytest.raises(InputError, match="frame_tolerance"):

@@ -109,18 +109,18 @@ class _Labels:
         from ..options import MeshOptions
         from ..pipeline import read_mask
 
-        self.source, self.mesh = source, movie.options.get("mesh", MeshOptions())
-        self.periodic = movie.box is not None
+        self.source, self.mesh, self.box = source, movie.options.get("mesh", MeshOptions()), movie.box
         mask = movie.source.get("mask") if isinstance(movie.source, dict) else None
         self.mask = read_mask(mask["path"], source.shape)[0] if mask and mask.get("path") else None
+        if mask and not mask.get("path"):
+            warnings.warn("these results were computed with a mask given as an array, which the results folder "
+                          "does not hold: the labels are scored without it (cells outside it count as extra or "
+                          "missed)", HexatissueWarning, stacklevel=user_stacklevel())
 
     def __call__(self, t) -> np.ndarray:
-        from ..mesh.labels import normalize_labels
+        from ..pipeline import mesh_labels
 
-        m = self.mesh
-        return normalize_labels(self.source.frame(t), m.kind, self.periodic, m.membrane_width, m.min_area,
-                                background=m.background, fill_holes=m.fill_holes, outside=m.outside,
-                                mask=self.mask)[0]
+        return mesh_labels(self.source.frame(t), self.box, self.mesh, self.mask)[0]  # as the analysis saw them
 
 
 def _side(obj, labels, name, box):
