@@ -398,8 +398,13 @@ def _division_scores(truth, pred, lookup, tolerance, summary, counts):
     if td is None or pd_ is None:
         return None
     cand = []
+    t_frame = td["frame"].to_numpy(np.int64)
+    order = np.argsort(t_frame, kind="stable")
     for k, p in enumerate(pd_.itertuples()):
-        for m, t in enumerate(td.itertuples()):
+        # only the truth divisions within the frame tolerance (not every one)
+        lo, hi = np.searchsorted(t_frame[order], [int(p.frame) - tolerance, int(p.frame) + tolerance + 1])
+        for m in order[lo:hi].tolist():
+            t = td.iloc[m]
             gap = abs(int(p.frame) - int(t.frame))
             # the predicted mother before either side's division, mapped to a truth track
             if gap <= tolerance and lookup.get((min(p.frame, t.frame) - 1, p.parent)) == t.parent:
@@ -430,17 +435,27 @@ def _mapped_quartet(event, lookup):
     return out
 
 
+def _quartet_key(a, b, c, d):
+    """The T1 quartet {a, b} -> {c, d} as a key (each pair unordered)."""
+    return min(a, b), max(a, b), min(c, d), max(c, d)
+
+
 def _t1_scores(truth, pred, lookup, tolerance, summary, counts):
     te, pe = truth.events, pred.events
     if te is None or pe is None:
         return None
+    # truth events by quartet (the pair losing, the pair gaining contact): each prediction meets only its own,
+    # not every truth event
+    by_quartet = {}
+    for m, t in enumerate(te.itertuples()):
+        key = _quartet_key(int(t.cell_a), int(t.cell_b), int(t.cell_c), int(t.cell_d))
+        by_quartet.setdefault(key, []).append((m, int(t.frame_start)))
     cand = []
     mapped = [_mapped_quartet(e, lookup) for e in pe.itertuples()]
-    for k, (p, (a, b, c, d)) in enumerate(zip(pe.itertuples(), mapped)):
-        for m, t in enumerate(te.itertuples()):
-            gap = abs(int(p.frame_start) - int(t.frame_start))
-            if (gap <= tolerance and {a, b} == {int(t.cell_a), int(t.cell_b)}
-                    and {c, d} == {int(t.cell_c), int(t.cell_d)}):
+    for k, (p, quartet) in enumerate(zip(pe.itertuples(), mapped)):
+        for m, frame in by_quartet.get(_quartet_key(*quartet), ()):
+            gap = abs(int(p.frame_start) - frame)
+            if gap <= tolerance:
                 cand.append((gap, k, m))
     chosen = _greedy(cand)
     by_truth = {m: k for k, m in chosen.items()}
