@@ -82,9 +82,12 @@ def neighbour_edges(cells: pd.DataFrame, edges: pd.DataFrame) -> pd.DataFrame:
     One row per pair of cells sharing junctions in a frame (the outside,
     cell 0, left out); ``source`` is the cell with the smaller id.
     """
+    return _neighbour_edges(_nodes(cells), edges)
+
+
+def _neighbour_edges(nodes, edges):
     from ..graph import contact_table
 
-    nodes = _nodes(cells)
     pairs = contact_table(edges)
     return pd.DataFrame({"source": _node_of(nodes, pairs["frame"], pairs["cell_a"], "edges"),
                          "target": _node_of(nodes, pairs["frame"], pairs["cell_b"], "edges"),
@@ -94,7 +97,10 @@ def neighbour_edges(cells: pd.DataFrame, edges: pd.DataFrame) -> pd.DataFrame:
 
 def track_edges(cells: pd.DataFrame, lineage: pd.DataFrame | None) -> pd.DataFrame:
     """Edges of the track graph: ``source``, ``target`` (node ids), ``is_division``, ``frame_gap`` (frames)."""
-    nodes = _nodes(cells)
+    return _track_edges(_nodes(cells), lineage)
+
+
+def _track_edges(nodes, lineage):
     by_track = nodes.sort_values(["track", "frame"], kind="stable")
     track, node, frame = (by_track[c].to_numpy(np.int64) for c in ("track", "node", "frame"))
     same = track[1:] == track[:-1]
@@ -218,10 +224,10 @@ def write_geff(movie, out) -> list[Path]:
     nodes = _nodes(movie.cells)
     extra = {"version": movie.version or __version__, "calibration": movie.calibration.to_dict(),
              "box": None if movie.box is None else movie.box.to_list(), "shape": [int(s) for s in movie.shape]}
-    neighbours = _write_store(folder / NEIGHBOURS, nodes, neighbour_edges(movie.cells, movie.edges), False,
+    neighbours = _write_store(folder / NEIGHBOURS, nodes, _neighbour_edges(nodes, movie.edges), False,
                               movie.calibration, {**extra, "graph": "neighbours"}, tracklet=False)
     tracked = nodes.assign(lineage=_lineage_roots(nodes, movie.lineage))
-    tracks = _write_store(folder / TRACKS, tracked, track_edges(movie.cells, movie.lineage), True,
+    tracks = _write_store(folder / TRACKS, tracked, _track_edges(nodes, movie.lineage), True,
                           movie.calibration, {**extra, "graph": "tracks"}, tracklet=True)
     return [neighbours, tracks]
 
