@@ -207,9 +207,9 @@ def match_points(a, b, radius, box=None):
         Rows ``(index in a, index in b, distance px)``.
     """
     from scipy.optimize import linear_sum_assignment
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
+
+    from ._components import components
 
     a, b = np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2)
     if not len(a) or not len(b):
@@ -222,9 +222,7 @@ def match_points(a, b, radius, box=None):
         return np.empty((0, 3))
     i, j, d = cand["i"], cand["j"], cand["v"]
     na = len(a)
-    graph = coo_matrix((np.ones(len(i)), (i, na + j)), shape=(na + len(b),) * 2)
-    _, comp = connected_components(graph, directed=False)
-    comp = comp[i]  # the cluster of each candidate pair
+    comp = components(na + len(b), i, na + j)[i]  # the cluster of each candidate pair
     order = np.argsort(comp, kind="stable")
     i, j, d, comp = i[order], j[order], d[order], comp[order]
     starts = np.flatnonzero(np.r_[True, comp[1:] != comp[:-1]])
