@@ -21,7 +21,8 @@ rotation: its figures and ``ours / baseline`` come from the same repeat.  Thread
 then a fresh ``ThreadTuner`` per timed run; compared with the C code at 2 OpenMP threads, its default
 on this machine; the table lists the count used for each chunk).
 The C code runs with the OpenMP environment the script was started with (libgomp's default spinning
-waits unless ``OMP_WAIT_POLICY`` is set); hexatissue with its default (passive waits).
+waits unless ``OMP_WAIT_POLICY`` is set); hexatissue and the baseline with their own defaults (passive
+waits, after a short spin since this branch).
 
 Usage::
 
@@ -47,7 +48,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-C_ENV = dict(os.environ)  # before hexatissue sets OMP_WAIT_POLICY for itself
+START_ENV = dict(os.environ)  # before hexatissue sets its OpenMP waits: the C code's and the baseline's
 
 from _timing import emit  # noqa: E402  (benchmarks/_timing.py)
 from compare_c_code import build_c_code, common_params, hexatissue_sim, initial_fields, write_c_inputs  # noqa: E402
@@ -61,7 +62,7 @@ def uptime() -> str:
 
 def run_c(exe: Path, run: Path, threads: int, steps: int):
     """(steps/s by the C code's own timer of the main run, steps per CPU-second of the child process)."""
-    env = dict(C_ENV, OMP_NUM_THREADS=str(threads))
+    env = dict(START_ENV, OMP_NUM_THREADS=str(threads))
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     out = subprocess.run([str(exe), "params.txt"], cwd=run, env=env, capture_output=True, text=True, check=True).stdout
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -124,7 +125,7 @@ class Baseline:
     """Another hexatissue checkout timing the same runs in a worker process (see ``BASELINE_WORKER``)."""
 
     def __init__(self, root: Path, dtype: str, seed: int, integrators):
-        env = dict(os.environ, PYTHONPATH=str(root))
+        env = dict(START_ENV, PYTHONPATH=str(root))  # it sets its own OpenMP waits
         self.proc = subprocess.Popen([sys.executable, "-c", BASELINE_WORKER, str(root)], cwd=root, env=env,
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         self._ask({"dtype": dtype, "seed": seed, "integrators": list(integrators)})
@@ -185,8 +186,9 @@ def main(argv=None):
                  f"- {base.n_cells} cells, {base.Lx} x {base.Ly}, patch {base.patch}, phi0 = {base.phi0:g}, "
                  f"dt = {base.dt:g}, k_ad = 0, active; hexatissue {args.dtype} upwind3, C code float64 Euler; "
                  f"{args.steps} steps per run, {args.repeats} repeats, back to back (order alternating)",
-                 f"- C code OMP_WAIT_POLICY: {C_ENV.get('OMP_WAIT_POLICY', '(unset: libgomp default)')}; "
-                 f"hexatissue: {os.environ.get('OMP_WAIT_POLICY')}",
+                 f"- C code OMP_WAIT_POLICY: {START_ENV.get('OMP_WAIT_POLICY', '(unset: libgomp default)')}; "
+                 f"hexatissue: {os.environ.get('OMP_WAIT_POLICY')}, GOMP_SPINCOUNT "
+                 f"{os.environ.get('GOMP_SPINCOUNT', '(unset)')}",
                  *([f"- baseline: {args.baseline} ({_describe(args.baseline)})"] if baseline else []),
                  f"- {uptime()} before", "",
                  "| repeat | threads (C / ours) | load | C steps/s (wall; per CPU-s) | "
