@@ -1,5 +1,6 @@
 """Tests of the MPF simulator against the numpy reference, exact invariants and analytic limits."""
 import math
+import os
 import signal
 
 import numpy as np
@@ -18,7 +19,7 @@ from hexatissue.simulate import (
     stability_limit,
 )
 from hexatissue.simulate import _kernels as K
-from hexatissue.simulate.model import ThreadTuner
+from hexatissue.simulate.model import OMP_SPIN_COUNT, ThreadTuner
 from hexatissue.simulate import reference as ref
 
 @pytest.fixture(autouse=True)
@@ -651,3 +652,24 @@ def test_auto_threads_run_equals_one_thread_run(tmp_path, monkeypatch):
     assert np.array_equal(np.asarray(ra.labels[:]), np.asarray(rb.labels[:]))
     assert ra.cells.equals(rb.cells)
     assert set(used) == {1, 2}  # both counts ran chunks of the same run
+
+
+def test_threading_layer_waits_passively_after_a_short_spin(monkeypatch):
+    """Unless the user chose a policy: PASSIVE with a short spin; a chosen policy is left alone."""
+    import numba
+    from numba.np.ufunc import parallel
+
+    from hexatissue.simulate.model import select_threading_layer
+
+    monkeypatch.setattr(parallel, "_is_initialized", False)  # as before numba starts its threads
+    monkeypatch.setattr(numba.config, "THREADING_LAYER", "default")
+    for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "NUMBA_THREADING_LAYER"):
+        monkeypatch.delenv(name, raising=False)
+    if select_threading_layer() != "omp":
+        pytest.skip("libgomp is not available")
+    assert (os.environ["OMP_WAIT_POLICY"], os.environ["GOMP_SPINCOUNT"]) == ("PASSIVE", str(OMP_SPIN_COUNT))
+    monkeypatch.setenv("OMP_WAIT_POLICY", "ACTIVE")
+    monkeypatch.delenv("GOMP_SPINCOUNT")
+    monkeypatch.setattr(numba.config, "THREADING_LAYER", "default")
+    select_threading_layer()
+    assert os.environ["OMP_WAIT_POLICY"] == "ACTIVE" and "GOMP_SPINCOUNT" not in os.environ
