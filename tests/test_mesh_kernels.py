@@ -544,3 +544,50 @@ def test_cell_moments_pixels_half_a_box_away_tie_alike(labels):
     n = int(labels.max()) + 1
     for a, b in zip(K.cell_moments(labels, n, True), R.cell_moments(labels, n, True)):
         np.testing.assert_array_equal(a, b)
+
+
+def test_merge_clusters_hand_made():
+    """Vertices 0 (0, 0), 1 (1.5, 0), 2 (0.5, 1.9), 3 (0.5, 6), no arm lines (no sub-pixel shift), merge 2 px.
+
+    Round 1 contracts 0-1 (1.5 px); junction 1-2 (2.15 px) then runs from the
+    merged vertex (0.75, 0) to vertex 2: (-0.25, 1.9), 1.92 px, so round 2
+    contracts it too.  The cluster {0, 1, 2} sits at the mean (2/3, 1.9/3);
+    junction 2-3 is kept, from there to vertex 3: (0.5 - 2/3, 6 - 1.9/3).
+    """
+    pos = np.array([[0.0, 0.0], [1.5, 0.0], [0.5, 1.9], [0.5, 6.0]])
+    start, end = np.array([0, 1, 2]), np.array([1, 2, 3])
+    vec = pos[end] - pos[start]
+    no_arm = -np.ones(3, np.int64)
+    short = np.hypot(*vec.T) < 2.0
+    args = (pos, start, end, no_arm, no_arm, vec, short, np.zeros((4, 4), np.int64), np.zeros((4, 4, 2)),
+            np.zeros((4, 4, 2)), np.zeros(2), 2.0, N.MAX_MERGE_ROUNDS, N.MAX_SHIFT)
+    centre, keep, a, b, kvec = K.merge_clusters(*args)
+    np.testing.assert_allclose(centre, [[2 / 3, 1.9 / 3], [0.5, 6.0]], atol=1e-15)
+    np.testing.assert_array_equal(keep, [False, False, True])
+    np.testing.assert_array_equal(a, [0])
+    np.testing.assert_array_equal(b, [1])
+    np.testing.assert_allclose(kvec, [[0.5 - 2 / 3, 6 - 1.9 / 3]], atol=1e-15)
+    for x, y in zip(K.merge_clusters(*args), R.merge_clusters(*args)):
+        np.testing.assert_array_equal(x, y)
+    # one round only: junction 1-2 stays although it became shorter
+    centre, keep, a, b, kvec = K.merge_clusters(*args[:-2], 1, N.MAX_SHIFT)
+    np.testing.assert_array_equal(keep, [False, True, True])
+    np.testing.assert_allclose(centre, [[0.75, 0.0], [0.5, 1.9], [0.5, 6.0]], atol=1e-15)
+
+
+@pytest.mark.parametrize("periodic", [False, True], ids=["open", "periodic"])
+def test_merge_clusters_equal_reference_on_voronoi(periodic):
+    """Traced jittered Voronoi images (with their arm lines), merge distances 0-3.5 px: every output equal."""
+    from hexatissue.box import Box
+
+    for seed in range(3):
+        shape = (40, 46)
+        labels = voronoi_labels(jittered_seeds(shape, 5, seed=seed), shape, periodic).astype(np.int32)
+        pos, j, lines = N._trace(labels, periodic, np.zeros(shape, bool))
+        lengths = Box.from_shape(shape).lengths if periodic else np.zeros(2)
+        for merge_distance in (0.0, 1.0, 2.0, 3.5):
+            short = (j["start"] != j["end"]) & (np.hypot(*j["vec"].T) < merge_distance)
+            args = (pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"], short, lines["count"],
+                    lines["mean"], lines["direction"], lengths, merge_distance, N.MAX_MERGE_ROUNDS, N.MAX_SHIFT)
+            for x, y in zip(K.merge_clusters(*args), R.merge_clusters(*args)):
+                np.testing.assert_array_equal(x, y)

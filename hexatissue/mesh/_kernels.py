@@ -749,6 +749,116 @@ def arm_intersections(cluster, off, v, arm, count, mean, direction, n_clusters, 
 
 
 @njit(cache=True)
+def _min_image(d, period):
+    """``d - period * round(d / period)`` (:meth:`hexatissue.Box.min_image`); period 0 (open image): ``d``."""
+    if period == 0.0:
+        return d
+    return d - period * np.rint(d / period)
+
+
+@njit(cache=True, error_model="numpy")
+def _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean, direction, lengths, max_shift):
+    """Vertices joined by ``short`` junctions: cluster of each vertex, cluster positions, vertex offsets.
+
+    A vertex's position is its cluster's position plus its offset (minimum
+    image from the cluster's first vertex, then centred on the mean); the
+    cluster positions are moved to the intersection of the arm lines of the
+    junctions that stay (:func:`arm_intersections`, start ends then end
+    ends, in junction order).  Sums run in vertex order, as ``np.bincount``.
+    """
+    nv = len(pos)
+    cluster, first = components(nv, start[short], end[short])
+    nc = len(first)
+    off = np.empty((nv, 2))
+    counts = np.zeros(nc, np.int64)
+    sums = np.zeros((nc, 2))
+    for v in range(nv):
+        c = cluster[v]
+        for a in range(2):
+            off[v, a] = _min_image(pos[v, a] - pos[first[c], a], lengths[a])
+            sums[c, a] += off[v, a]
+        counts[c] += 1
+    centre = np.empty((nc, 2))
+    for c in range(nc):
+        for a in range(2):
+            sums[c, a] = sums[c, a] / counts[c]  # the mean offset from the first vertex
+            centre[c, a] = pos[first[c], a] + sums[c, a]
+    for v in range(nv):
+        for a in range(2):
+            off[v, a] -= sums[cluster[v], a]
+    n_ends = 0
+    for k in range(len(start)):
+        n_ends += (not short[k]) * ((start_arm[k] >= 0) + (end_arm[k] >= 0))
+    vs = np.empty(n_ends, np.int64)
+    arms = np.empty(n_ends, np.int64)
+    e = 0
+    for ends, ends_arm in ((start, start_arm), (end, end_arm)):
+        for k in range(len(start)):
+            if not short[k] and ends_arm[k] >= 0:
+                vs[e] = ends[k]
+                arms[e] = ends_arm[k]
+                e += 1
+    shift = arm_intersections(cluster, off, vs, arms, count, mean, direction, nc, max_shift)
+    for c in range(nc):
+        for a in range(2):
+            centre[c, a] += shift[c, a]
+    for v in range(nv):
+        for a in range(2):
+            off[v, a] -= shift[cluster[v], a]
+    return cluster, centre, off
+
+
+@njit(cache=True, error_model="numpy")
+def merge_clusters(pos, start, end, start_arm, end_arm, vec, short, count, mean, direction, lengths,
+                   merge_distance, max_rounds, max_shift):
+    """Contract the ``short`` junctions, in rounds, until no other is shorter than ``merge_distance``.
+
+    Junction lengths are measured between the sub-pixel positions of the
+    merged vertices (:func:`_cluster_positions`), which depend on what was
+    merged: a junction that becomes shorter than ``merge_distance`` is
+    contracted in the next round, up to ``max_rounds`` rounds.  ``lengths``:
+    the periodic box's (Lx, Ly), zeros for an open image.
+
+    Returns the cluster positions, which junctions are kept (not
+    contracted), and for the kept ones their end clusters and their vectors
+    between the merged positions (in junction order).
+    """
+    nj = len(start)
+    short = short.copy()
+    again = np.zeros(nj, np.bool_)
+    keep = ~short
+    for _ in range(max_rounds):
+        cluster, centre, off = _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean,
+                                                  direction, lengths, max_shift)
+        keep = ~short
+        n_keep = 0
+        any_again = False
+        for k in range(nj):
+            if keep[k]:
+                n_keep += 1
+                vx = vec[k, 0] + off[start[k], 0] - off[end[k], 0]
+                vy = vec[k, 1] + off[start[k], 1] - off[end[k], 1]
+                again[k] = cluster[start[k]] != cluster[end[k]] and np.hypot(vx, vy) < merge_distance
+                any_again |= again[k]
+        if not any_again:
+            break
+        for k in range(nj):
+            short[k] |= again[k]
+    a = np.empty(n_keep, np.int64)
+    b = np.empty(n_keep, np.int64)
+    kvec = np.empty((n_keep, 2))
+    i = 0
+    for k in range(nj):
+        if keep[k]:
+            a[i] = cluster[start[k]]
+            b[i] = cluster[end[k]]
+            for x in range(2):
+                kvec[i, x] = vec[k, x] + off[start[k], x] - off[end[k], x]
+            i += 1
+    return centre, keep, a, b, kvec
+
+
+@njit(cache=True)
 def components(n, a, b):
     """Connected components of the graph on vertices 0..n-1 with edges ``(a[k], b[k])``.
 

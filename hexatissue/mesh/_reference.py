@@ -388,3 +388,35 @@ def chain_cycles(cell, frm, to):
 def half_edge_order(cell, frm, n_cells):
     """Reference of :func:`._kernels.half_edge_order`."""
     return np.lexsort((frm, cell))
+
+
+def merge_clusters(pos, start, end, start_arm, end_arm, vec, short, count, mean, direction, lengths,
+                   merge_distance, max_rounds, max_shift):
+    """Reference of :func:`._kernels.merge_clusters` (whole-array rounds, weighted bincounts)."""
+    def min_image(d):
+        return d - lengths * np.round(d / lengths) if lengths.any() else d
+
+    def positions(short):
+        cluster, first = components(len(pos), start[short], end[short])
+        off_first = min_image(pos - pos[first[cluster]])
+        counts = np.bincount(cluster)
+        mean_off = np.column_stack([np.bincount(cluster, off_first[:, a]) for a in range(2)]) / counts[:, None]
+        off = off_first - mean_off[cluster]
+        use_start = ~short & (start_arm >= 0)
+        use_end = ~short & (end_arm >= 0)
+        v = np.concatenate((start[use_start], end[use_end]))
+        arm = np.concatenate((start_arm[use_start], end_arm[use_end]))
+        shift = arm_intersections(cluster, off, v, arm, count, mean, direction, len(first), max_shift)
+        return cluster, pos[first] + mean_off + shift, off - shift[cluster]
+
+    short = short.copy()
+    for _ in range(max_rounds):
+        cluster, centre, off = positions(short)
+        keep = ~short
+        kvec = vec[keep] + off[start[keep]] - off[end[keep]]
+        a, b = cluster[start[keep]], cluster[end[keep]]
+        again = (a != b) & (np.hypot(*kvec.T) < merge_distance)
+        if not again.any():
+            break
+        short[np.flatnonzero(keep)[again]] = True
+    return centre, keep, a, b, kvec

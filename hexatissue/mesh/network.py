@@ -74,42 +74,19 @@ def _trace(lab32, periodic, membrane):
     return pos, junctions, lines
 
 
-def _subpixel_shift(cluster, off, j, use, lines, n_clusters):
-    """Least-squares intersection of the fitted arm lines of each merged vertex, relative to its centre.
-
-    Only the arms of junctions in ``use`` count (contracted ones are inside
-    the merged vertex).  Clusters whose lines are nearly parallel, or whose
-    intersection lies more than ``MAX_SHIFT`` px away, are not moved.
-    """
-    ends = []
-    for vkey, akey in (("start", "start_arm"), ("end", "end_arm")):
-        v, arm = j[vkey][use], j[akey][use]
-        ok = arm >= 0
-        ends.append((v[ok], arm[ok]))
-    v = np.concatenate([e[0] for e in ends])
-    arm = np.concatenate([e[1] for e in ends])
-    return K.arm_intersections(cluster, off, v, arm, lines["count"], lines["mean"], lines["direction"], n_clusters,
-                               MAX_SHIFT)
-
-
 def _merge_short(pos, j, lines, merge_distance, box):
     """Contract junctions shorter than ``merge_distance``; returns merged positions and kept junctions.
 
     Lengths are measured between sub-pixel vertex positions, which depend on
     what was merged, so contraction is repeated until no kept junction is
-    shorter than ``merge_distance``.
+    shorter than ``merge_distance`` (:func:`._kernels.merge_clusters`).
     """
     loop = j["start"] == j["end"]
     short = ~loop & (np.hypot(*j["vec"].T) < merge_distance)
-    for _ in range(MAX_MERGE_ROUNDS):
-        cluster, centre, off = _clusters(pos, j, short, lines, box)
-        keep = ~short
-        vec = j["vec"][keep] + off[j["start"][keep]] - off[j["end"][keep]]
-        a, b = cluster[j["start"][keep]], cluster[j["end"][keep]]
-        again = (a != b) & (np.hypot(*vec.T) < merge_distance)
-        if not again.any():
-            break
-        short[np.flatnonzero(keep)[again]] = True
+    lengths = box.lengths if box is not None else np.zeros(2)
+    centre, keep, a, b, vec = K.merge_clusters(pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"],
+                                               short, lines["count"], lines["mean"], lines["direction"], lengths,
+                                               float(merge_distance), MAX_MERGE_ROUNDS, MAX_SHIFT)
     collapsed = (a == b) & ~loop[keep]
     if collapsed.any():
         # constant text: Python then shows it once per place, not once per frame of a movie
@@ -129,24 +106,6 @@ def _merge_short(pos, j, lines, merge_distance, box):
     if box is not None:
         centre = box.wrap(centre)
     return centre, kept
-
-
-def _clusters(pos, j, short, lines, box):
-    """Vertices joined by ``short`` junctions: cluster id per vertex, cluster positions, vertex offsets.
-
-    A vertex's position is its cluster's position plus its offset (minimum
-    image); cluster positions are refined to the intersection of their arms.
-    """
-    cluster, first = K.components(len(pos), j["start"][short], j["end"][short])
-    min_image = box.min_image if box is not None else (lambda d: d)
-    off_first = min_image(pos - pos[first[cluster]])
-    counts = np.bincount(cluster)
-    sums = np.column_stack((np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])))
-    mean_off = sums / counts[:, None]
-    centre = pos[first] + mean_off
-    off = off_first - mean_off[cluster]
-    shift = _subpixel_shift(cluster, off, j, ~short, lines, len(centre))
-    return cluster, centre + shift, off - shift[cluster]
 
 
 def _polygons(centre, kept, n_labels):
