@@ -31,15 +31,29 @@ DJ = np.array([1, 0, -1, 0], dtype=np.int64)
 
 @njit(cache=True)
 def _pad_at(labels, periodic, i, j):
-    """``pad[i, j]``: the label of pixel (i - 1, j - 1), wrapped on a torus, 0 outside an open image."""
+    """``pad[i, j]``: the label of pixel (i - 1, j - 1), wrapped on a torus, 0 outside an open image.
+
+    ``i`` and ``j`` lie within the padded image (0..h + 1, 0..w + 1), so
+    wrapping is one add or subtract, not a division.
+    """
     h, w = labels.shape
     i -= 1
     j -= 1
     if periodic:
-        return labels[i % h, j % w]
+        return labels[_wrap(i, h), _wrap(j, w)]
     if i < 0 or i >= h or j < 0 or j >= w:
         return labels[0, 0] - labels[0, 0]  # 0 of the labels' dtype (a literal 0 would be int64)
     return labels[i, j]
+
+
+@njit(cache=True)
+def _wrap(i, n):
+    """``i % n`` for ``-n <= i < 2 n`` (an index at most one period outside ``0..n-1``)."""
+    if i < 0:
+        return i + n
+    if i >= n:
+        return i - n
+    return i
 
 
 @njit(cache=True)
@@ -233,9 +247,20 @@ def _lower_bound(values, lo, hi, key):
 
 
 @njit(cache=True)
-def _vertex_id(keys, key):
-    """Id of the vertex at corner key ``ci * ncj + cj``: its rank in the sorted ``keys`` (vertices in raster order)."""
-    return _lower_bound(keys, 0, len(keys), key)
+def _row_starts(vi, nci):
+    """Index of the first vertex of every corner row 0..nci (vertices in raster order; ``nci`` = their number)."""
+    first = np.zeros(nci + 1, np.int64)
+    for ci in vi:
+        first[ci + 1] += 1
+    for ci in range(nci):
+        first[ci + 1] += first[ci]
+    return first
+
+
+@njit(cache=True)
+def _vertex_id(row_first, vj, ci, cj):
+    """Id of the vertex at corner (ci, cj): its rank in raster order, searched among the vertices of row ``ci``."""
+    return _lower_bound(vj, row_first[ci], row_first[ci + 1], cj)
 
 
 @njit(cache=True)
@@ -291,8 +316,8 @@ def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
     sxx = 0.0
     sxy = 0.0
     syy = 0.0
+    k = k0 % len(points)
     for i in range(n):
-        k = (k0 + i * step) % len(points)
         mx = points[k, 0] - ox
         my = points[k, 1] - oy
         sx += mx
@@ -300,6 +325,7 @@ def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
         sxx += mx * mx
         sxy += mx * my
         syy += my * my
+        k = _wrap(k + step, len(points))  # the next row, without a division per point
     count[v, d0] = n
     mx = sx / n
     my = sy / n
@@ -342,7 +368,7 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
     nci, ncj = arms.shape
     nv = len(vi)
     done = np.zeros(nv, np.uint8)  # bit d: the junction on arm d has been traced (from its other end)
-    keys = vi * ncj + vj
+    row_first = _row_starts(vi, nci)
     start = np.empty(n_max, np.int64)
     end = np.empty(n_max, np.int64)
     left = np.empty(n_max, labels.dtype)
@@ -367,7 +393,7 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
             lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
             ei, ej, dx, dy, n, d_last = _walk(arms, kind, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
-            end[k] = _vertex_id(keys, ei * ncj + ej)
+            end[k] = _vertex_id(row_first, vj, ei, ej)
             start_arm[k] = d
             end_arm[k] = (d_last + 2) % 4
             done[end[k]] |= np.uint8(1 << end_arm[k])
