@@ -7,6 +7,7 @@ Voronoi tissues.  Corner (ci, cj) is at x = cj - 0.5, y = ci - 0.5;
 directions 0 +x, 1 +y, 2 -x, 3 -y; left and right in x-y axes (see
 ``_kernels``).  Vertex ids are corners in raster order.
 """
+import warnings
 from types import SimpleNamespace
 
 import numpy as np
@@ -377,7 +378,7 @@ def test_cell_moments_unwrap_on_the_torus():
 # --- randomized ---------------------------------------------------------------------------------
 
 def chain_traced(k):
-    """Chain the half-edges of every traced junction and loop point (its cell on the left), as network._polygons does."""
+    """Chain the half-edges of every traced junction and loop point (its cell on the left), as the polygons kernel does."""
     loop_v = len(k.vi) + np.arange(len(k.loops["row"]))
     a, b = np.r_[k.j["start"], loop_v], np.r_[k.j["end"], loop_v]
     cell = np.r_[k.j["left"], k.loops["left"], k.j["right"], k.loops["right"]].astype(np.int64)
@@ -591,3 +592,58 @@ def test_merge_clusters_equal_reference_on_voronoi(periodic):
                     lines["mean"], lines["direction"], lengths, merge_distance, N.MAX_MERGE_ROUNDS, N.MAX_SHIFT)
             for x, y in zip(K.merge_clusters(*args), R.merge_clusters(*args)):
                 np.testing.assert_array_equal(x, y)
+
+
+def test_segment_total_equals_numpy_reduceat():
+    """Sums of 1..300 values of mixed magnitudes (numpy's pairwise blocks of 8 and its split above 128): bit for bit."""
+    rng = np.random.default_rng(3)
+    for n in range(1, 301):
+        values = rng.normal(size=n + 5) * 10.0 ** rng.uniform(-4, 4, n + 5)
+        assert K.segment_total(values, 3, n) == np.add.reduceat(values[3:3 + n], [0])[0] == R.segment_total(values, 3, n)
+
+
+def polygons_both(centre, kept, n_labels):
+    args = (centre, kept["a"], kept["b"], kept["left"], kept["right"], kept["vec"], n_labels)
+    out = K.polygons(*args)
+    for x, y in zip(out, R.polygons(*args)):
+        assert x.dtype == y.dtype
+        np.testing.assert_array_equal(x, y)
+    return out
+
+
+def test_polygons_two_unit_squares():
+    """Cells 1 = [0, 1] x [0, 1] and 2 = [1, 2] x [0, 1]: one counter-clockwise square each, from its lowest vertex.
+
+    Vertices 0 (0, 0), 1 (1, 0), 2 (2, 0), 3 (2, 1), 4 (1, 1), 5 (0, 1); each
+    junction has its left cell on its left in x-y axes (1 -> 4 between cells 1 and 2).
+    """
+    centre = np.array([[0.0, 0.0], [1, 0], [2, 0], [2, 1], [1, 1], [0, 1]])
+    a, b = np.array([0, 1, 4, 5, 1, 2, 3]), np.array([1, 4, 5, 0, 2, 3, 4])
+    kept = dict(a=a, b=b, left=np.array([1, 1, 1, 1, 2, 2, 2]), right=np.array([0, 2, 0, 0, 0, 0, 0]),
+                vec=centre[b] - centre[a])
+    poly_start, poly_len, poly_area, verts, xy, n_cycles = polygons_both(centre, kept, 3)
+    np.testing.assert_array_equal(poly_start, [-1, 0, 4])
+    np.testing.assert_array_equal(poly_len, [0, 4, 4])
+    np.testing.assert_array_equal(poly_area, [np.nan, 1.0, 1.0])
+    np.testing.assert_array_equal(verts, [0, 1, 4, 5, 1, 2, 3, 4])
+    np.testing.assert_array_equal(xy, centre[verts])
+    np.testing.assert_array_equal(n_cycles, [0, 1, 1])
+
+
+@pytest.mark.parametrize("periodic", [False, True], ids=["open", "periodic"])
+def test_polygons_equal_reference(periodic):
+    """Networks of jittered Voronoi images (merge distances 0-3.5 px) and of tiny random label images."""
+    from hexatissue.box import Box
+
+    rng = np.random.default_rng(5)
+    images = [voronoi_labels(jittered_seeds((40, 46), 5, seed=s), (40, 46), periodic) for s in range(3)]
+    images += [rng.integers(0, 4, (int(rng.integers(3, 12)), int(rng.integers(3, 12)))) for _ in range(40)]
+    for labels in images:
+        labels = np.asarray(labels, np.int32)
+        box = Box.from_shape(labels.shape) if periodic else None
+        pos, j, lines = N._trace(labels, periodic, np.zeros(labels.shape, bool))
+        for merge_distance in (0.0, 2.0, 3.5):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                centre, kept = N._merge_short(pos, j, lines, merge_distance, box)
+            polygons_both(centre, kept, int(labels.max()) + 1)

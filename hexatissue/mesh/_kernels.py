@@ -1001,6 +1001,134 @@ def chain_cycles(cell, frm, to):
 
 
 @njit(cache=True)
+def _pairwise_sum(a, s, n):
+    """Sum of ``a[s:s + n]`` in numpy's pairwise order (``pairwise_sum`` of numpy's ``loops_utils.h.src``).
+
+    So that a sum over a polygon equals numpy's to the last bit
+    (``tests/test_mesh_kernels.py`` checks it against ``np.add.reduceat``).
+    """
+    if n < 8:
+        r = -0.0
+        for i in range(n):
+            r += a[s + i]
+        return r
+    if n <= 128:
+        r = np.empty(8)
+        for u in range(8):
+            r[u] = a[s + u]
+        i = 8
+        while i < n - n % 8:
+            for u in range(8):
+                r[u] += a[s + i + u]
+            i += 8
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        while i < n:
+            res += a[s + i]
+            i += 1
+        return res
+    half = n // 2
+    half -= half % 8
+    return _pairwise_sum(a, s, half) + _pairwise_sum(a, s + half, n - half)
+
+
+@njit(cache=True)
+def segment_total(a, s, n):
+    """``np.add.reduceat`` over the segment ``a[s:s + n]`` (n >= 1): its first value plus the pairwise sum of the rest."""
+    return a[s] + _pairwise_sum(a, s + 1, n - 1)
+
+
+@njit(cache=True)
+def polygons(centre, a, b, left, right, vec, n_labels):
+    """Counter-clockwise boundary cycles of every cell from the kept junctions; the largest per cell.
+
+    Half-edges are the junctions seen from their left cell (a -> b) then
+    from their right cell (b -> a, reversed vector), cell 0 left out, sorted
+    by (cell, start vertex) (:func:`half_edge_order`) and chained
+    (:func:`chain_cycles`).  Each cycle is unwrapped from its first vertex's
+    position by the exact junction vectors: a running sum over all cycles,
+    as ``np.cumsum`` computes it, less its value at the cycle's start.
+    Signed shoelace areas are summed as ``np.add.reduceat`` does.
+
+    Returns per cell (compact id) the start offset, length and signed area
+    (NaN without a polygon) of its polygon (the largest cycle, the first of
+    equal ones, if its area is positive) in ``verts``/``xy`` (vertex ids and
+    unwrapped (x, y) of every cycle back to back), and its number of cycles.
+    """
+    nk = len(a)
+    nh = 0
+    for k in range(nk):
+        nh += (left[k] != 0) + (right[k] != 0)
+    cell = np.empty(nh, np.int64)
+    frm = np.empty(nh, np.int64)
+    to = np.empty(nh, np.int64)
+    hvec = np.empty((nh, 2))
+    h = 0
+    for side in range(2):
+        for k in range(nk):
+            c = left[k] if side == 0 else right[k]
+            if c == 0:
+                continue
+            cell[h] = c
+            frm[h] = a[k] if side == 0 else b[k]
+            to[h] = b[k] if side == 0 else a[k]
+            sign = 1.0 if side == 0 else -1.0
+            hvec[h, 0] = sign * vec[k, 0]
+            hvec[h, 1] = sign * vec[k, 1]
+            h += 1
+    order = half_edge_order(cell, frm, n_labels)
+    cell = cell[order]
+    frm = frm[order]
+    to = to[order]
+    hvec = hvec[order]
+    _, seq, cstart = chain_cycles(cell, frm, to)
+    n_cyc = len(cstart) - 1
+    xy = np.empty((nh, 2))
+    verts = np.empty(nh, np.int64)
+    cross = np.empty(nh)
+    area = np.empty(n_cyc)
+    run_x = 0.0
+    run_y = 0.0
+    for q in range(n_cyc):
+        s, e = cstart[q], cstart[q + 1]
+        v0 = frm[seq[s]]
+        for i in range(s, e):
+            hx, hy = hvec[seq[i], 0], hvec[seq[i], 1]
+            run_x += hx
+            run_y += hy
+            xy[i, 0] = run_x - hx  # the running sum before this step, as np.cumsum(step) - step gives it
+            xy[i, 1] = run_y - hy
+            verts[i] = frm[seq[i]]
+        bx, by = xy[s, 0], xy[s, 1]
+        for i in range(s, e):
+            xy[i, 0] = centre[v0, 0] + xy[i, 0] - bx
+            xy[i, 1] = centre[v0, 1] + xy[i, 1] - by
+        for i in range(s, e):
+            j = i + 1 if i + 1 < e else s
+            cross[i] = xy[i, 0] * xy[j, 1] - xy[j, 0] * xy[i, 1]
+        area[q] = 0.5 * segment_total(cross, s, e - s)
+    poly_start = np.full(n_labels, -1, np.int64)
+    poly_len = np.zeros(n_labels, np.int64)
+    poly_area = np.full(n_labels, np.nan)
+    n_cycles = np.zeros(n_labels, np.int64)
+    q = 0
+    while q < n_cyc:  # the cycles of a cell are consecutive
+        c = cell[seq[cstart[q]]]
+        best = q
+        r = q
+        while r < n_cyc and cell[seq[cstart[r]]] == c:
+            if area[r] > area[best]:
+                best = r
+            r += 1
+        n_cycles[c] = r - q
+        if area[best] > 0:
+            poly_start[c] = cstart[best]
+            poly_len[c] = cstart[best + 1] - cstart[best]
+            poly_area[c] = area[best]
+        q = r
+    return poly_start, poly_len, poly_area, verts, xy, n_cycles
+
+
+@njit(cache=True)
 def _crack_point(membrane, ci, cj, d):
     """Point representing the crack leaving corner (ci, cj) in direction d, relative to the corner.
 

@@ -420,3 +420,40 @@ def merge_clusters(pos, start, end, start_arm, end_arm, vec, short, count, mean,
             break
         short[np.flatnonzero(keep)[again]] = True
     return centre, keep, a, b, kvec
+
+
+def segment_total(a, s, n):
+    """Reference of :func:`._kernels.segment_total`."""
+    return np.add.reduceat(a[s:s + n], [0])[0]
+
+
+def polygons(centre, a, b, left, right, vec, n_labels):
+    """Reference of :func:`._kernels.polygons` (whole-array numpy: cumulative sums, shoelace by reduceat)."""
+    from ..geometry import polygon_area_centroid
+
+    cell = np.concatenate((left, right))
+    frm = np.concatenate((a, b))
+    to = np.concatenate((b, a))
+    hvec = np.concatenate((vec, -vec))
+    inside = cell != 0
+    cell, frm, to, hvec = cell[inside], frm[inside], to[inside], hvec[inside]
+    order = half_edge_order(cell, frm, n_labels)
+    cell, frm, to, hvec = cell[order], frm[order], to[order], hvec[order]
+    _, seq, cstart = chain_cycles(cell, frm, to)
+    clen = np.diff(cstart)
+    cstart = cstart[:-1]
+    step = hvec[seq].reshape(-1, 2)
+    cum = np.cumsum(step, axis=0) - step
+    first = np.repeat(cstart, clen)
+    xy = centre[frm[seq[first]]] + cum - cum[first] if len(seq) else np.zeros((0, 2))
+    area = polygon_area_centroid(xy, cstart)[0]
+    ccell = cell[seq[cstart]]
+    poly_start = np.full(n_labels, -1, np.int64)
+    poly_len = np.zeros(n_labels, np.int64)
+    poly_area = np.full(n_labels, np.nan)
+    for c in np.unique(ccell):
+        mine = np.flatnonzero(ccell == c)
+        best = mine[np.argmax(area[mine])]
+        if area[best] > 0:
+            poly_start[c], poly_len[c], poly_area[c] = cstart[best], clen[best], area[best]
+    return poly_start, poly_len, poly_area, frm[seq], xy, np.bincount(ccell, minlength=n_labels)

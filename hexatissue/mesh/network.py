@@ -9,7 +9,7 @@ import pandas as pd
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
 from ..frame import Frame
-from ..geometry import polygon_area_centroid, polygon_perimeter
+from ..geometry import polygon_perimeter
 from ..schema import validate
 from . import _kernels as K
 from .labels import POCKET_AREA, check_mask, compact_labels, normalize_valid, validate_labels
@@ -106,56 +106,6 @@ def _merge_short(pos, j, lines, merge_distance, box):
     if box is not None:
         centre = box.wrap(centre)
     return centre, kept
-
-
-def _polygons(centre, kept, n_labels):
-    """Counter-clockwise boundary cycle of every cell (the largest when a cell has several).
-
-    Returns per cell (compact id): start offset, length and signed area (NaN
-    without a polygon) of its polygon in ``verts``/``xy`` (vertex ids and
-    unwrapped (x, y) back to back), and the number of cycles.
-    """
-    cell = cat(kept["left"], kept["right"])
-    frm = cat(kept["a"], kept["b"])
-    to = cat(kept["b"], kept["a"])
-    vec = cat(kept["vec"], -kept["vec"])
-    inside = cell != 0
-    cell, frm, to, vec = cell[inside], frm[inside], to[inside], vec[inside]
-    order = K.half_edge_order(cell, frm, n_labels)
-    cell, frm, to, vec = cell[order], frm[order], to[order], vec[order]
-    _, seq, cstart = K.chain_cycles(cell, frm, to)
-    clen = np.diff(cstart)
-    cstart = cstart[:-1]
-    ccell = cell[seq[cstart]] if len(seq) else np.zeros(0, np.int64)
-    # unwrapped coordinates: first vertex at its position, then the exact junction vectors
-    step = vec[seq]
-    cum = np.cumsum(step, axis=0) - step
-    base = np.repeat(cum[cstart], clen, axis=0) if len(seq) else cum
-    xy = centre[np.repeat(frm[seq[cstart]], clen)] + cum - base if len(seq) else np.zeros((0, 2))
-    area, _ = polygon_area_centroid(xy, cstart)
-    n_cycles = np.bincount(ccell, minlength=n_labels)
-    best = _largest_cycles(ccell, area)
-    poly_start = np.full(n_labels, -1, np.int64)
-    poly_len = np.zeros(n_labels, np.int64)
-    good = area[best] > 0
-    poly_start[ccell[best[good]]] = cstart[best[good]]
-    poly_len[ccell[best[good]]] = clen[best[good]]
-    poly_area = np.full(n_labels, np.nan)
-    poly_area[ccell[best[good]]] = area[best[good]]
-    return poly_start, poly_len, poly_area, frm[seq], xy, n_cycles
-
-
-def _largest_cycles(ccell, area):
-    """Per cell, its cycle with the largest area (the first of equal ones); cycles come cell after cell.
-
-    Most cells have one cycle: only the runs of several are searched.
-    """
-    first = np.flatnonzero(cat([True], ccell[1:] != ccell[:-1])) if len(ccell) else np.zeros(0, np.int64)
-    end = cat(first[1:], [len(ccell)])
-    best = first.copy()
-    for r in np.flatnonzero(end - first > 1):
-        best[r] = first[r] + np.argmax(area[first[r]:end[r]])
-    return best
 
 
 def mesh_from_labels(
@@ -313,7 +263,8 @@ def network_columns(lab, membrane, box, merge_distance, frame=0):
     n_labels = len(ids)
     pos, junctions, lines = _trace(lab32, periodic, membrane)
     centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
-    poly_start, poly_len, poly_area, verts, xy, n_cycles = _polygons(centre, kept, n_labels)
+    poly_start, poly_len, poly_area, verts, xy, n_cycles = K.polygons(
+        centre, kept["a"], kept["b"], kept["left"], kept["right"], kept["vec"], n_labels)
     cells = _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, poly_area, xy, n_cycles)
     centre, kept, verts = _drop_closed_loops(centre, kept, verts)
     vertices, edges, cell_vertices, polygons = _network_columns(centre, kept, ids, cells, poly_start, poly_len,
