@@ -621,10 +621,11 @@ def test_polygons_two_unit_squares():
     a, b = np.array([0, 1, 4, 5, 1, 2, 3]), np.array([1, 4, 5, 0, 2, 3, 4])
     kept = dict(a=a, b=b, left=np.array([1, 1, 1, 1, 2, 2, 2]), right=np.array([0, 2, 0, 0, 0, 0, 0]),
                 vec=centre[b] - centre[a])
-    poly_start, poly_len, poly_area, verts, xy, n_cycles = polygons_both(centre, kept, 3)
+    poly_start, poly_len, poly_area, poly_perimeter, verts, xy, n_cycles = polygons_both(centre, kept, 3)
     np.testing.assert_array_equal(poly_start, [-1, 0, 4])
     np.testing.assert_array_equal(poly_len, [0, 4, 4])
     np.testing.assert_array_equal(poly_area, [np.nan, 1.0, 1.0])
+    np.testing.assert_array_equal(poly_perimeter, [np.nan, 4.0, 4.0])
     np.testing.assert_array_equal(verts, [0, 1, 4, 5, 1, 2, 3, 4])
     np.testing.assert_array_equal(xy, centre[verts])
     np.testing.assert_array_equal(n_cycles, [0, 1, 1])

@@ -1049,10 +1049,11 @@ def polygons(centre, a, b, left, right, vec, n_labels):
     as ``np.cumsum`` computes it, less its value at the cycle's start.
     Signed shoelace areas are summed as ``np.add.reduceat`` does.
 
-    Returns per cell (compact id) the start offset, length and signed area
-    (NaN without a polygon) of its polygon (the largest cycle, the first of
-    equal ones, if its area is positive) in ``verts``/``xy`` (vertex ids and
-    unwrapped (x, y) of every cycle back to back), and its number of cycles.
+    Returns per cell (compact id) the start offset, length, signed area and
+    perimeter (NaN without a polygon; summed as ``np.add.reduceat`` does) of
+    its polygon (the largest cycle, the first of equal ones, if its area is
+    positive) in ``verts``/``xy`` (vertex ids and unwrapped (x, y) of every
+    cycle back to back), and its number of cycles.
     """
     nk = len(a)
     nh = 0
@@ -1109,6 +1110,7 @@ def polygons(centre, a, b, left, right, vec, n_labels):
     poly_start = np.full(n_labels, -1, np.int64)
     poly_len = np.zeros(n_labels, np.int64)
     poly_area = np.full(n_labels, np.nan)
+    poly_perimeter = np.full(n_labels, np.nan)
     n_cycles = np.zeros(n_labels, np.int64)
     q = 0
     while q < n_cyc:  # the cycles of a cell are consecutive
@@ -1121,11 +1123,16 @@ def polygons(centre, a, b, left, right, vec, n_labels):
             r += 1
         n_cycles[c] = r - q
         if area[best] > 0:
-            poly_start[c] = cstart[best]
-            poly_len[c] = cstart[best + 1] - cstart[best]
+            s, e = cstart[best], cstart[best + 1]
+            poly_start[c] = s
+            poly_len[c] = e - s
             poly_area[c] = area[best]
+            for i in range(s, e):  # side lengths (the cross products are not needed any more)
+                j = i + 1 if i + 1 < e else s
+                cross[i] = np.hypot(xy[j, 0] - xy[i, 0], xy[j, 1] - xy[i, 1])
+            poly_perimeter[c] = segment_total(cross, s, e - s)
         q = r
-    return poly_start, poly_len, poly_area, verts, xy, n_cycles
+    return poly_start, poly_len, poly_area, poly_perimeter, verts, xy, n_cycles
 
 
 @njit(cache=True)

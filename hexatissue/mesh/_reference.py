@@ -429,7 +429,7 @@ def segment_total(a, s, n):
 
 def polygons(centre, a, b, left, right, vec, n_labels):
     """Reference of :func:`._kernels.polygons` (whole-array numpy: cumulative sums, shoelace by reduceat)."""
-    from ..geometry import polygon_area_centroid
+    from ..geometry import polygon_area_centroid, polygon_perimeter
 
     cell = np.concatenate((left, right))
     frm = np.concatenate((a, b))
@@ -451,9 +451,13 @@ def polygons(centre, a, b, left, right, vec, n_labels):
     poly_start = np.full(n_labels, -1, np.int64)
     poly_len = np.zeros(n_labels, np.int64)
     poly_area = np.full(n_labels, np.nan)
+    perimeter = polygon_perimeter(xy, cstart)
+    poly_perimeter = np.full(n_labels, np.nan)
     for c in np.unique(ccell):
         mine = np.flatnonzero(ccell == c)
         best = mine[np.argmax(area[mine])]
         if area[best] > 0:
             poly_start[c], poly_len[c], poly_area[c] = cstart[best], clen[best], area[best]
-    return poly_start, poly_len, poly_area, frm[seq], xy, np.bincount(ccell, minlength=n_labels)
+            poly_perimeter[c] = perimeter[best]
+    return (poly_start, poly_len, poly_area, poly_perimeter, frm[seq], xy,
+            np.bincount(ccell, minlength=n_labels))

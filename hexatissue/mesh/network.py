@@ -9,7 +9,6 @@ import pandas as pd
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
 from ..frame import Frame
-from ..geometry import polygon_perimeter
 from ..schema import validate
 from . import _kernels as K
 from .labels import POCKET_AREA, check_mask, compact_labels, normalize_valid, validate_labels
@@ -263,9 +262,9 @@ def network_columns(lab, membrane, box, merge_distance, frame=0):
     n_labels = len(ids)
     pos, junctions, lines = _trace(lab32, periodic, membrane)
     centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
-    poly_start, poly_len, poly_area, verts, xy, n_cycles = K.polygons(
+    poly_start, poly_len, poly_area, poly_perimeter, verts, xy, n_cycles = K.polygons(
         centre, kept["a"], kept["b"], kept["left"], kept["right"], kept["vec"], n_labels)
-    cells = _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, poly_area, xy, n_cycles)
+    cells = _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, poly_perimeter, n_cycles)
     centre, kept, verts = _drop_closed_loops(centre, kept, verts)
     vertices, edges, cell_vertices, polygons = _network_columns(centre, kept, ids, cells, poly_start, poly_len,
                                                                 verts, xy, box)
@@ -302,7 +301,7 @@ def _drop_closed_loops(centre, kept, verts):
     return centre[used], kept, new[verts]
 
 
-def _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, poly_area, xy, n_cycles):
+def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, poly_perimeter, n_cycles):
     count, sx, sy = K.cell_moments(lab32, len(ids), periodic)
     present = np.flatnonzero(count > 0)
     present = present[present != 0]
@@ -314,23 +313,14 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, po
     border[junctions["left"][touches_zero]] = True
     border[junctions["right"][touches_zero]] = True
 
-    has_poly = poly_start[present] >= 0
-    starts = poly_start[present][has_poly]
-    lengths = poly_len[present][has_poly]
-    # polygons back to back, in cell order
-    take = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths) + np.arange(lengths.sum())
-    pxy = xy[take]
-    pstart = (np.cumsum(lengths) - lengths).astype(np.int64)
-    perim = polygon_perimeter(pxy, pstart)
-
-    n = len(present)
+    has_poly = poly_len[present] > 0
     data = {
         "cell": ids[present].astype(np.int64),
         "x": centroid[:, 0],
         "y": centroid[:, 1],
         "area": count[present],
         "polygon_area": poly_area[present],
-        "perimeter": _scatter(n, has_poly, perim),
+        "perimeter": poly_perimeter[present],
         "n_sides": poly_len[present].astype(np.int64),
         "n_boundaries": n_cycles[present].astype(np.int64),
         "is_border": border[present],
@@ -354,12 +344,6 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, po
             stacklevel=3,
         )
     return data
-
-
-def _scatter(n, mask, values):
-    out = np.full(n, np.nan)
-    out[mask] = values
-    return out
 
 
 def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box):
