@@ -648,3 +648,28 @@ def test_polygons_equal_reference(periodic):
                 warnings.simplefilter("ignore")
                 centre, kept = N._merge_short(pos, j, lines, merge_distance, box)
             polygons_both(centre, kept, int(labels.max()) + 1)
+
+
+def test_cell_vertex_rows_hand_made():
+    """Rows 2, 0, 1 of three cells; cell 1 has no polygon; cell 2's polygon crosses the edge of a 10 x 10 box.
+
+    Cell 0: vertices 3, 1, 2 at rows 0-2 of ``verts``; cell 2: vertices 0, 4
+    at rows 3-4, unwrapped at x = 10.5 and 9.5 while vertex 0 sits at x = 0.5:
+    image (1, 0) for vertex 0, (0, 0) for vertex 4.
+    """
+    centre = np.array([[0.5, 5.0], [1, 1], [2, 1], [1, 2], [9.5, 5.0]])
+    verts = np.array([3, 1, 2, 0, 4])
+    xy = np.array([[1.0, 2], [1, 1], [2, 1], [10.5, 5.0], [9.5, 6.0]])
+    poly_start, poly_len = np.array([0, -1, 3]), np.array([3, 0, 2])
+    args = (np.array([2, 0, 1]), poly_start, poly_len, verts, xy, centre, np.array([10.0, 10.0]))
+    row, rank, vertex, image, polygon_xy, first = K.cell_vertex_rows(*args)
+    np.testing.assert_array_equal(row, [0, 0, 1, 1, 1])
+    np.testing.assert_array_equal(rank, [0, 1, 0, 1, 2])
+    np.testing.assert_array_equal(vertex, [0, 4, 3, 1, 2])
+    np.testing.assert_array_equal(image, [[1, 0], [0, 0], [0, 0], [0, 0], [0, 0]])
+    np.testing.assert_array_equal(polygon_xy, [[10.5, 5.0], [9.5, 5.0], [1, 2], [1, 1], [2, 1]])
+    np.testing.assert_array_equal(first, [0, 2])
+    for lengths in (args[-1], np.zeros(2)):  # periodic and open
+        for x, y in zip(K.cell_vertex_rows(*args[:-1], lengths), R.cell_vertex_rows(*args[:-1], lengths)):
+            assert x.dtype == y.dtype
+            np.testing.assert_array_equal(x, y)

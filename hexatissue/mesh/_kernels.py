@@ -1136,6 +1136,52 @@ def polygons(centre, a, b, left, right, vec, n_labels):
 
 
 @njit(cache=True)
+def cell_vertex_rows(rows, poly_start, poly_len, verts, xy, centre, lengths):
+    """The ``cell_vertices`` rows of the cells ``rows`` (compact ids, in table order), and their polygons.
+
+    Returns, over the polygon vertices of the rows with a polygon, back to
+    back: the row's index in ``rows``, the rank, the vertex id, and the
+    periodic image (x, y) of the vertex that makes the polygon contiguous
+    (``rint((xy - centre[vertex]) / lengths)``; 0 on an open image, where
+    ``lengths`` is 0); the polygons' vertex positions (the vertex's
+    position plus its image, as the tables give it back) and the first row of each polygon.
+    """
+    n = 0
+    n_poly = 0
+    for r in range(len(rows)):
+        if poly_start[rows[r]] >= 0:
+            n += poly_len[rows[r]]
+            n_poly += 1
+    row = np.empty(n, np.int64)
+    rank = np.empty(n, np.int64)
+    vertex = np.empty(n, np.int64)
+    image = np.zeros((n, 2), np.int64)
+    polygon_xy = np.empty((n, 2))
+    first = np.empty(n_poly, np.int64)
+    periodic = lengths[0] > 0
+    i = 0
+    q = 0
+    for r in range(len(rows)):
+        s = poly_start[rows[r]]
+        if s < 0:
+            continue
+        first[q] = i
+        q += 1
+        for k in range(poly_len[rows[r]]):
+            v = verts[s + k]
+            row[i] = r
+            rank[i] = k
+            vertex[i] = v
+            for a in range(2):
+                polygon_xy[i, a] = centre[v, a]
+                if periodic:
+                    image[i, a] = np.int64(np.rint((xy[s + k, a] - centre[v, a]) / lengths[a]))
+                    polygon_xy[i, a] = centre[v, a] + image[i, a] * lengths[a]
+            i += 1
+    return row, rank, vertex, image, polygon_xy, first
+
+
+@njit(cache=True)
 def _crack_point(membrane, ci, cj, d):
     """Point representing the crack leaving corner (ci, cj) in direction d, relative to the corner.
 

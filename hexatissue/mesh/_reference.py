@@ -461,3 +461,20 @@ def polygons(centre, a, b, left, right, vec, n_labels):
             poly_perimeter[c] = perimeter[best]
     return (poly_start, poly_len, poly_area, poly_perimeter, frm[seq], xy,
             np.bincount(ccell, minlength=n_labels))
+
+
+def cell_vertex_rows(rows, poly_start, poly_len, verts, xy, centre, lengths):
+    """Reference of :func:`._kernels.cell_vertex_rows` (repeats and gathers)."""
+    starts, sizes = poly_start[rows], poly_len[rows]
+    has = starts >= 0
+    starts, sizes = starts[has], sizes[has]
+    first = np.cumsum(sizes) - sizes
+    take = np.repeat(starts - first, sizes) + np.arange(sizes.sum())
+    vertex = verts[take].astype(np.int64)
+    image = np.zeros((len(take), 2), np.int64)
+    polygon_xy = centre[vertex]
+    if lengths[0] > 0 and len(take):
+        image = np.rint((xy[take] - polygon_xy) / lengths).astype(np.int64)
+        polygon_xy = polygon_xy + image * lengths
+    row = np.repeat(np.flatnonzero(has), sizes)
+    return row, np.arange(len(take)) - np.repeat(first, sizes), vertex, image, polygon_xy, first

@@ -256,11 +256,12 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = _drop_small(lab, min_area)
     if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
         lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
-    if not lab.any():
+    positive = lab.min() > 0  # no 0 pixel (ids are non-negative): a min does not build a mask
+    if not positive and not lab.any():
         raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
                          "outside the mask")
     membrane = np.zeros(lab.shape, bool)
-    if lab.min() > 0:  # no 0 pixel (ids are non-negative): a min does not build a mask
+    if positive:
         return lab, membrane
     zero = lab == 0
     dtype = np.int32 if lab.max() < 2**31 else np.int64

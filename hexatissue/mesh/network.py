@@ -369,27 +369,15 @@ def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, 
         "cell_b": cell_b.astype(np.int64),
         "length": np.hypot(*kept["vec"].T),
     }
-    compact = np.searchsorted(ids, cells["cell"])
-    starts, lengths = poly_start[compact], poly_len[compact]
-    has = starts >= 0
-    starts, lengths = starts[has], lengths[has]
-    take = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths) + np.arange(lengths.sum())
-    first = np.cumsum(lengths) - lengths
-    corners = verts[take].astype(np.int64)
-    cell_vertices = {
-        "cell": np.repeat(cells["cell"][has], lengths),
-        "rank": (np.arange(lengths.sum()) - np.repeat(first, lengths)).astype(np.int64),
-        "vertex": corners,
-    }
-    # which periodic image of each vertex the contiguous polygon uses (exact: from the traced displacements),
-    # so polygons read back from the tables are right even with a junction longer than half the box
-    shift = np.zeros((len(take), 2), np.int64)
-    polygon_xy = centre[corners]
-    if box is not None and len(take):
-        shift = np.rint((xy[take] - polygon_xy) / box.lengths).astype(np.int64)
-        polygon_xy = polygon_xy + shift * box.lengths  # as table_polygons computes it from the tables
-    cell_vertices["image_x"], cell_vertices["image_y"] = shift[:, 0], shift[:, 1]
-    return vertices, edges, cell_vertices, (polygon_xy, first.astype(np.int64))
+    lengths = box.lengths if box is not None else np.zeros(2)
+    row, rank, vertex, image, polygon_xy, first = K.cell_vertex_rows(np.searchsorted(ids, cells["cell"]), poly_start,
+                                                                     poly_len, verts, xy, centre, lengths)
+    # image_x, image_y: which periodic image of each vertex the contiguous polygon uses (exact: from the
+    # traced displacements), so polygons read back from the tables are right even with a junction longer
+    # than half the box
+    cell_vertices = {"cell": cells["cell"][row], "rank": rank, "vertex": vertex,
+                     "image_x": image[:, 0], "image_y": image[:, 1]}
+    return vertices, edges, cell_vertices, (polygon_xy, first)
 
 
 def warm_up() -> None:
