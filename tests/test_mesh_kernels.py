@@ -559,8 +559,7 @@ def test_merge_clusters_hand_made():
     start, end = np.array([0, 1, 2]), np.array([1, 2, 3])
     vec = pos[end] - pos[start]
     no_arm = -np.ones(3, np.int64)
-    short = np.hypot(*vec.T) < 2.0
-    args = (pos, start, end, no_arm, no_arm, vec, short, np.zeros((4, 4), np.int64), np.zeros((4, 4, 2)),
+    args = (pos, start, end, no_arm, no_arm, vec, np.zeros((4, 4), np.int64), np.zeros((4, 4, 2)),
             np.zeros((4, 4, 2)), np.zeros(2), 2.0, N.MAX_MERGE_ROUNDS, N.MAX_SHIFT)
     centre, keep, a, b, kvec = K.merge_clusters(*args)
     np.testing.assert_allclose(centre, [[2 / 3, 1.9 / 3], [0.5, 6.0]], atol=1e-15)
@@ -586,9 +585,8 @@ def test_merge_clusters_equal_reference_on_voronoi(periodic):
         labels = voronoi_labels(jittered_seeds(shape, 5, seed=seed), shape, periodic).astype(np.int32)
         pos, j, lines = N._trace(labels, periodic, np.zeros(shape, bool))
         lengths = Box.from_shape(shape).lengths if periodic else np.zeros(2)
-        for merge_distance in (0.0, 1.0, 2.0, 3.5):
-            short = (j["start"] != j["end"]) & (np.hypot(*j["vec"].T) < merge_distance)
-            args = (pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"], short, lines["count"],
+        for merge_distance in (0.0, 1.0, 2.0, 3.5, np.sqrt(2.0), np.sqrt(5.0)):  # some on the lengths (ties)
+            args = (pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"], lines["count"],
                     lines["mean"], lines["direction"], lengths, merge_distance, N.MAX_MERGE_ROUNDS, N.MAX_SHIFT)
             for x, y in zip(K.merge_clusters(*args), R.merge_clusters(*args)):
                 np.testing.assert_array_equal(x, y)
@@ -673,3 +671,18 @@ def test_cell_vertex_rows_hand_made():
         for x, y in zip(K.cell_vertex_rows(*args[:-1], lengths), R.cell_vertex_rows(*args[:-1], lengths)):
             assert x.dtype == y.dtype
             np.testing.assert_array_equal(x, y)
+
+
+def test_length_below_decides_as_hypot():
+    """A 3-4-5 triangle exactly on the limit, just either side of it, zero, and random near ties."""
+    below = K._length_below.py_func
+    assert not below(3.0, 4.0, 5.0, False) and below(3.0, 4.0, 5.0, True)
+    assert below(3.0, 4.0, np.nextafter(5.0, 6.0), False) and not below(3.0, 4.0, np.nextafter(5.0, 4.0), True)
+    assert not below(0.0, 0.0, 0.0, False) and below(0.0, 0.0, 0.0, True)
+    rng = np.random.default_rng(8)
+    xy = rng.normal(0, 3, (2000, 2))
+    for limit in (np.hypot(*xy.T) * (1 + rng.normal(0, 1e-15, 2000)), np.full(2000, 2.0)):
+        for or_equal in (False, True):
+            got = [K._length_below(x, y, lim, or_equal) for (x, y), lim in zip(xy, limit)]
+            want = np.hypot(*xy.T) <= limit if or_equal else np.hypot(*xy.T) < limit
+            np.testing.assert_array_equal(got, want)

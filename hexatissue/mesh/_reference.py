@@ -390,8 +390,8 @@ def half_edge_order(cell, frm, n_cells):
     return np.lexsort((frm, cell))
 
 
-def merge_clusters(pos, start, end, start_arm, end_arm, vec, short, count, mean, direction, lengths,
-                   merge_distance, max_rounds, max_shift):
+def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direction, lengths, merge_distance,
+                   max_rounds, max_shift):
     """Reference of :func:`._kernels.merge_clusters` (whole-array rounds, weighted bincounts)."""
     def min_image(d):
         return d - lengths * np.round(d / lengths) if lengths.any() else d
@@ -409,7 +409,7 @@ def merge_clusters(pos, start, end, start_arm, end_arm, vec, short, count, mean,
         shift = arm_intersections(cluster, off, v, arm, count, mean, direction, len(first), max_shift)
         return cluster, pos[first] + mean_off + shift, off - shift[cluster]
 
-    short = short.copy()
+    short = (start != end) & (np.hypot(*vec.T) < merge_distance)
     for _ in range(max_rounds):
         cluster, centre, off = positions(short)
         keep = ~short

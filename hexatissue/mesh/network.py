@@ -80,13 +80,11 @@ def _merge_short(pos, j, lines, merge_distance, box):
     what was merged, so contraction is repeated until no kept junction is
     shorter than ``merge_distance`` (:func:`._kernels.merge_clusters`).
     """
-    loop = j["start"] == j["end"]
-    short = ~loop & (np.hypot(*j["vec"].T) < merge_distance)
     lengths = box.lengths if box is not None else np.zeros(2)
     centre, keep, a, b, vec = K.merge_clusters(pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"],
-                                               short, lines["count"], lines["mean"], lines["direction"], lengths,
+                                               lines["count"], lines["mean"], lines["direction"], lengths,
                                                float(merge_distance), MAX_MERGE_ROUNDS, MAX_SHIFT)
-    collapsed = (a == b) & ~loop[keep]
+    collapsed = (a == b) & (j["start"] != j["end"])[keep]
     if collapsed.any():
         # constant text: Python then shows it once per place, not once per frame of a movie
         warnings.warn(
