@@ -686,3 +686,35 @@ def test_length_below_decides_as_hypot():
             got = [K._length_below(x, y, lim, or_equal) for (x, y), lim in zip(xy, limit)]
             want = np.hypot(*xy.T) <= limit if or_equal else np.hypot(*xy.T) < limit
             np.testing.assert_array_equal(got, want)
+
+
+def test_at_most_two_values():
+    """One value, two values, a third in the last pixel, strided samples and random tiny images (against the reference)."""
+    image = np.zeros((5, 7), np.uint16)
+    assert K.at_most_two_values(image)
+    image[2, 3] = 9
+    assert K.at_most_two_values(image)
+    image[-1, -1] = 4
+    assert not K.at_most_two_values(image) and K.at_most_two_values(image[:, :-1])
+    assert K.at_most_two_values(image[::2, ::3]) == R.at_most_two_values(image[::2, ::3])
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        labels = rng.integers(0, int(rng.integers(1, 4)), (int(rng.integers(1, 5)), int(rng.integers(1, 5))))
+        assert K.at_most_two_values(labels) == R.at_most_two_values(labels)
+
+
+@pytest.mark.parametrize("scale, chosen", [(1.0, 0), (2.0, 4)], ids=["tie: the first", "the larger"])
+def test_polygons_largest_cycle_of_a_cell_in_two_pieces(scale, chosen):
+    """Cell 1 in two pieces: a unit square (vertices 0-3) and a square of side ``scale`` (vertices 4-7).
+
+    Its polygon is the cycle of larger area; of two equal ones the first
+    (the one from the lowest vertex).  Both count in its cycles.
+    """
+    square = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
+    centre = np.vstack([square, [5.0, 0] + scale * square])
+    a, b = np.arange(8), np.array([1, 2, 3, 0, 5, 6, 7, 4])
+    kept = dict(a=a, b=b, left=np.ones(8, np.int64), right=np.zeros(8, np.int64), vec=centre[b] - centre[a])
+    poly_start, poly_len, poly_area, _, verts, _, n_cycles = polygons_both(centre, kept, 2)
+    assert poly_start[1] == chosen and poly_len[1] == 4 and poly_area[1] == (1.0 if chosen == 0 else scale**2)
+    np.testing.assert_array_equal(verts, np.arange(8))
+    assert n_cycles[1] == 2

@@ -666,6 +666,22 @@ def label_summary(labels):
 
 
 @njit(cache=True)
+def at_most_two_values(labels):
+    """Whether a 2-D image holds at most two distinct values; stops at the third (at once in a label image)."""
+    h, w = labels.shape
+    first = labels[0, 0]
+    second = first
+    for i in range(h):
+        for j in range(w):
+            v = labels[i, j]
+            if v != first and v != second:
+                if second != first:
+                    return False
+                second = v
+    return True
+
+
+@njit(cache=True)
 def present_ids(labels, top):
     """Which ids 0..top occur in ``labels`` (any integer image with values in that range)."""
     present = np.zeros(top + 1, np.bool_)

@@ -478,3 +478,9 @@ def cell_vertex_rows(rows, poly_start, poly_len, verts, xy, centre, lengths):
         polygon_xy = polygon_xy + image * lengths
     row = np.repeat(np.flatnonzero(has), sizes)
     return row, np.arange(len(take)) - np.repeat(first, sizes), vertex, image, polygon_xy, first
+
+
+def at_most_two_values(labels):
+    """Reference of :func:`._kernels.at_most_two_values` (two comparisons, not a sort)."""
+    others = labels[labels != labels.flat[0]]
+    return others.size == 0 or not (others != others[0]).any()
