@@ -139,7 +139,8 @@ def _direct_and_separating(lab):
 
 def detect_kind(lab, periodic=False) -> str:
     """Guess the convention of a validated label image (see module docstring)."""
-    sample = lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)]
+    # a contiguous copy (of ~256 x 256 px): the kernel then has one layout, compiled by mesh.warm_up
+    sample = np.ascontiguousarray(lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)])
     if at_most_two_values(sample) and len(np.unique(lab)) == 2:
         fg = lab != 0
         interior = ndimage.binary_erosion(fg, border_value=1)
