@@ -287,6 +287,66 @@ def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou
     it (``n_ij >= mother_fraction * area_i``), and that is not the best
     successor (highest IoU, at least ``min_iou / 2``) of another cell: a
     neighbour that took over part of ``i`` is not its daughter.  A mother with
+    two or more candidates divided; its two largest overlaps are the daughters
+    (ties: the earlier pair of ``i, j, n``).
+
+    Returns
+    -------
+    mothers : (m,) int64 array
+        Indices into ``area_a``, ascending.
+    daughters : (m, 2) int64 array
+        Indices into ``area_b``, the larger overlap first.
+    """
+    i, j, n = (np.ascontiguousarray(x, np.int64) for x in (i, j, n))
+    mothers, first, second = _division_kernel(i, j, n, np.asarray(area_a, np.int64), np.asarray(area_b, np.int64),
+                                              float(child_fraction), float(mother_fraction), float(min_iou))
+    return mothers, np.stack((first, second), axis=1)
+
+
+@njit(cache=True)
+def _division_kernel(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
+    """:func:`_divisions` in three passes over the pairs (the reference sorts them twice): mothers and daughters."""
+    na, nb = len(area_a), len(area_b)
+    best = np.full(na, -1, np.int64)  # pair of the highest IoU of each cell of a (the first of ties)
+    best_iou = np.full(na, -1.0)
+    for k in range(len(i)):
+        iou = n[k] / (area_a[i[k]] + area_b[j[k]] - n[k])
+        if iou > best_iou[i[k]]:
+            best_iou[i[k]], best[i[k]] = iou, k
+    n_best = np.zeros(nb, np.int64)  # cells of a whose best successor (IoU >= min_iou / 2) is this cell of b
+    for a in range(na):
+        if best[a] >= 0 and best_iou[a] >= min_iou / 2:
+            n_best[j[best[a]]] += 1
+    top = np.full((na, 2), -1, np.int64)  # the two largest candidate overlaps of each mother (pairs)
+    for k in range(len(i)):
+        a, b = i[k], j[k]
+        own = 1 if best[a] >= 0 and best_iou[a] >= min_iou / 2 and j[best[a]] == b else 0
+        if n[k] < child_fraction * area_b[b] or n[k] < mother_fraction * area_a[a] or n_best[b] - own != 0:
+            continue
+        if top[a, 0] < 0 or n[k] > n[top[a, 0]]:
+            top[a, 1], top[a, 0] = top[a, 0], k
+        elif top[a, 1] < 0 or n[k] > n[top[a, 1]]:
+            top[a, 1] = k
+    m = 0
+    for a in range(na):
+        m += top[a, 1] >= 0
+    mothers, first, second = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
+    m = 0
+    for a in range(na):
+        if top[a, 1] >= 0:
+            mothers[m], first[m], second[m] = a, j[top[a, 0]], j[top[a, 1]]
+            m += 1
+    return mothers, first, second
+
+
+def _divisions_reference(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
+    """Reference of :func:`_divisions` (sorts and bincounts): mother index -> two daughter indices, from overlaps.
+
+    A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
+    ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
+    it (``n_ij >= mother_fraction * area_i``), and that is not the best
+    successor (highest IoU, at least ``min_iou / 2``) of another cell: a
+    neighbour that took over part of ``i`` is not its daughter.  A mother with
     two or more candidates divided; its two largest overlaps are the daughters.
     """
     iou = n / (area_a[i] + area_b[j] - n)
@@ -510,7 +570,9 @@ class Tracker(_Feed):
                                               self.mother_fraction)
             tracks[c] = self._prev_tracks[r]
             new[c] = False
-            ended = np.setdiff1d(np.arange(len(self._prev.ids)), np.r_[r, mothers])
+            linked = np.zeros(len(self._prev.ids), bool)  # a mask, not setdiff1d (two hash uniques per frame)
+            linked[r] = linked[mothers] = True
+            ended = np.flatnonzero(~linked)
             if self.max_gap:
                 # cells starting at this frame (not daughters) may continue a track seen before t-1
                 starting = new.copy()
@@ -595,7 +657,8 @@ class IdTracker(_Feed):
             for m, pair in zip(a.ids[mothers].tolist(), cur.ids[daughters].tolist()):
                 for d in pair:
                     self._divisions[d] = (m, frame)
-        self._seen = np.union1d(self._seen, cur.ids)
+        if self._prev is None or new.any():  # else every id was seen: no union (a hash unique) to make
+            self._seen = np.union1d(self._seen, cur.ids)
         self._last.update(dict.fromkeys(cur.ids.tolist(), frame))
         self._frames.append(frame)
         self._cells.append(cur.stored_ids())

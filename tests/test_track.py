@@ -205,6 +205,28 @@ def test_dense_overlap_kernel_equals_reference():
     assert (i.tolist(), j.tolist(), n.tolist()) == ([0], [1], [2])
 
 
+def test_division_kernel_equals_reference():
+    """Random overlap tables (pairs sorted or not, thresholds varied): the division kernel equals the reference."""
+    rng = np.random.default_rng(8)
+    found = 0
+    for _ in range(500):
+        na, nb = (int(x) for x in rng.integers(1, 12, 2))
+        keys = rng.choice(na * nb, int(rng.integers(0, na * nb + 1)), replace=False)
+        i, j = np.divmod(np.sort(keys) if rng.random() < 0.5 else keys, nb)
+        area_a, area_b = rng.integers(1, 30, na), rng.integers(1, 30, nb)
+        n = np.minimum(rng.integers(1, 30, len(i)), np.minimum(area_a[i], area_b[j]))  # ties in n and IoU
+        args = (i, j, n, area_a, area_b, rng.choice([0.3, 0.6, 1.0]), rng.choice([0.1, 0.2]), rng.choice([0.2, 0.5]))
+        for a, b in zip(trk._divisions(*args), trk._divisions_reference(*args)):
+            assert a.dtype == b.dtype and a.shape == b.shape
+            np.testing.assert_array_equal(a, b)
+        found += len(b) > 0
+    assert found > 50
+    # hand-made: mother 0 (area 10) split into cells 0 and 1 (4 and 5 px inside it); cell 1 of a moved to cell 2
+    mothers, daughters = trk._divisions(np.array([0, 0, 1]), np.array([0, 1, 2]), np.array([4, 5, 8]),
+                                        np.array([10, 9]), np.array([4, 5, 9]), 0.6, 0.2, 0.2)
+    assert mothers.tolist() == [0] and daughters.tolist() == [[1, 0]]
+
+
 def test_compact_kernel_equals_reference():
     """Random label images (ids with gaps, with and without 0, several dtypes): the kernel equals the reference."""
     rng = np.random.default_rng(6)
