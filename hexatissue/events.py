@@ -35,7 +35,7 @@ from .geometry import lookup, row_keys
 from .graph import pair_groups
 from .schema import interior_mask, track_ids, validate
 
-__all__ = ["detect_t1", "neighbour_events", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
+__all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
            "cell_event_stats", "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
 
 # Columns of the events table beyond the schema's.
@@ -245,6 +245,22 @@ def _expand(lo, hi):
     return np.arange(count.sum()) + start, owner
 
 
+def _directed(a, b):
+    """Both directions ``u -> v`` of the contacts ``a - b``, sorted by ``(u, v)``.
+
+    One argsort of the key ``u * top + v`` when the ids are small non-negative
+    integers (a third of a two-key lexsort's time); the values are the same
+    either way, as each ``(u, v)`` has one value.
+    """
+    u, v = np.concatenate((a, b)), np.concatenate((b, a))
+    if not len(u):
+        return u, v
+    top = int(max(u.max(), v.max())) + 1
+    small = top < 2**31 and min(u.min(), v.min()) >= 0
+    order = np.argsort(u * top + v) if small else np.lexsort((v, u))
+    return u[order], v[order]
+
+
 class _FrameGraph:
     """One frame's contacts and cells in compact ids: sorted pair keys ``a * K + b`` and adjacency."""
 
@@ -253,10 +269,7 @@ class _FrameGraph:
         keys = np.minimum(a, b) * K + np.maximum(a, b)
         # the contacts of _movie_frames come sorted and unique already: check that instead of sorting again
         self.keys = keys if bool(np.all(keys[1:] > keys[:-1])) else np.unique(keys)
-        a, b = np.divmod(self.keys, K)
-        u, v = np.concatenate((a, b)), np.concatenate((b, a))
-        order = np.lexsort((v, u))
-        self.u, self.v = u[order], v[order]
+        self.u, self.v = _directed(*np.divmod(self.keys, K))
 
     def has_pair(self, a, b):
         return _in_sorted(np.minimum(a, b) * self.K + np.maximum(a, b), self.keys)
@@ -408,8 +421,7 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
         ``kind``, ``frame_start``, ``frame_end``, ``duration``, ``cell_a``..``cell_d``,
         ``frame_gain``, ``frame_undo`` (see :data:`EVENT_EXTRA_COLUMNS`).
     """
-    if int(censor) != censor or censor < 0:
-        raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
+    _check_censor(censor)
     df = t1.copy()
     K = np.int64(max([int(df[c].max()) if len(df) else 0 for c in ("cell_a", "cell_b", "cell_c", "cell_d")]) + 1)
     ab = df["cell_a"].to_numpy(np.int64) * K + df["cell_b"].to_numpy(np.int64)
@@ -531,13 +543,47 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
         ``frame_start``, px; x = column, y = row), ``frame_gain``,
         ``frame_undo``, ``is_border`` (see :data:`EVENT_EXTRA_COLUMNS`).
     """
-    for col in ("frame", "cell", "x", "y"):
-        if col not in cells.columns:
-            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+    _check_cells(cells)
     frames = _movie_frames(edges, cells, min_length)
     raw = _find_t1(((f, tracks, a, b) for f, tracks, a, b, _ in frames), _ids(edges, cells))
     last = int(cells["frame"].max()) if len(cells) else 0
     return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
+
+
+def _check_cells(cells):
+    for col in ("frame", "cell", "x", "y"):
+        if col not in cells.columns:
+            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+
+
+def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10,
+              box: Box | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """:func:`detect_t1` and :func:`neighbour_events` of one movie, from one pass over its contacts.
+
+    What :func:`hexatissue.analyze` needs: the two tables equal those of the
+    two functions called apart, but the contacts of every frame (the larger
+    part of either stage's cost) are found once and given to both.
+
+    Parameters
+    ----------
+    edges, cells, min_length, censor, box
+        As for :func:`detect_t1` (``censor`` given, no default here).
+
+    Returns
+    -------
+    events, neighbour_events : pandas.DataFrame
+    """
+    _check_cells(cells)
+    _check_censor(censor)
+    changes, by_frame = _changes(cells)
+
+    def contacts():  # each frame's contacts, to the per-cell lists as they go to the quartet search
+        for f, tracks, a, b, _ in _movie_frames(edges, cells, min_length):
+            changes.add(_Lists(f, tracks, a, b))
+            yield f, tracks, a, b
+
+    raw = _find_t1(contacts(), _ids(edges, cells))
+    return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, by_frame, censor)
 
 
 def _participants(events: pd.DataFrame) -> pd.DataFrame:
@@ -638,9 +684,7 @@ class _Lists:
 
     def __init__(self, frame, tracks, a, b):
         self.frame, self.tracks = frame, tracks
-        u, v = np.concatenate((a, b)), np.concatenate((b, a))
-        order = np.lexsort((v, u))
-        u, v = u[order], v[order]
+        u, v = _directed(a, b)
         ok = _in_sorted(u, tracks)  # a list belongs to a cell present in the frame
         self.u, self.v = u[ok], v[ok]
         self.row = np.searchsorted(tracks, self.u)
@@ -851,19 +895,33 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
         cell's centroid at ``frame_start``, px; x = column, y = row),
         ``is_border`` (a border cell at ``frame_start``).
     """
-    for col in ("frame", "cell", "x", "y"):
-        if col not in cells.columns:
-            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+    _check_cells(cells)
+    _check_censor(censor)
+    changes, by_frame = _changes(cells)
+    for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
+        changes.add(_Lists(frame, present, a, b))
+    return _neighbour_table(changes, cells, by_frame, censor)
+
+
+def _check_censor(censor):
     if int(censor) != censor or censor < 0:
         raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
+
+
+def _changes(cells):
+    """An empty :class:`_Changes` for the cells of a movie, and their rows by frame."""
     frames, tracks = cells["frame"].to_numpy(np.int64), track_ids(cells)
     by_frame = _ByFrame(frames)
     constant = _same_cells_every_frame(by_frame, tracks)
     top = int(tracks.max()) if len(tracks) else 0
     changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)),
                        top if top < SLOT_TABLE_ROWS * len(tracks) + 2**16 else None)
-    for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
-        changes.add(_Lists(frame, present, a, b))
+    return changes, by_frame
+
+
+def _neighbour_table(changes, cells, by_frame, censor):
+    """The ``neighbour_events`` table of the changes of every frame of ``cells``."""
+    frames = cells["frame"].to_numpy(np.int64)
     rows = changes.events(int(frames.max()) if len(frames) else 0, censor)
     out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
     out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,
