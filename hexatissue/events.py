@@ -942,7 +942,9 @@ def _same_cells_every_frame(by_frame, tracks):
     """Whether every frame has the same set of cells (then neighbour lists compare by hash alone)."""
     first = None
     for _, rows in by_frame:
-        here = np.unique(tracks[rows])
+        here = tracks[rows]
+        if len(here) > 1 and not bool(np.all(here[1:] > here[:-1])):  # sorted unique already: no hash unique
+            here = np.unique(here)
         if first is None:
             first = here
         elif not np.array_equal(first, here):
