@@ -216,9 +216,10 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
             a = lookup(keys, track, row_keys(frame, a), MISSING_CELLS)
             b = lookup(keys, track, row_keys(frame, b), MISSING_CELLS)
             a, b = np.minimum(a, b), np.maximum(a, b)
-            order = np.lexsort((b, a, frame))  # track ids need not keep the label order
-            frame, a, b, length = frame[order], a[order], b[order], length[order]
-        present = np.unique(row_keys(here, tracks[rows]))
+            if not _increasing(frame, a, b):  # track ids need not keep the label order (they do when ids are kept)
+                order = np.lexsort((b, a, frame))
+                frame, a, b, length = frame[order], a[order], b[order], length[order]
+        present = _unique(row_keys(here, tracks[rows]))
         p_bounds = np.searchsorted(present, row_keys(frames, 0))
         c_bounds = np.searchsorted(frame, frames)
         ids = present - row_keys(np.repeat(frames, np.diff(np.append(p_bounds, len(present)))), 0)
@@ -226,6 +227,17 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
             lo, hi = c_bounds[k], c_bounds[k + 1] if k + 1 < len(frames) else len(frame)
             p_hi = p_bounds[k + 1] if k + 1 < len(frames) else len(present)
             yield f, ids[p_bounds[k]:p_hi], a[lo:hi], b[lo:hi], length[lo:hi]
+
+
+def _unique(values):
+    """``np.unique(values)``, without its sort (a hash unique) when ``values`` are strictly increasing already."""
+    return values if len(values) < 2 or bool(np.all(values[1:] > values[:-1])) else np.unique(values)
+
+
+def _increasing(frame, a, b):
+    """Whether the rows ``(frame, a, b)`` are in strictly increasing lexicographic order (a lexsort keeps them)."""
+    df, da, db = np.diff(frame), np.diff(a), np.diff(b)
+    return bool(np.all((df > 0) | ((df == 0) & ((da > 0) | ((da == 0) & (db > 0))))))
 
 
 def _ids(edges, cells):
@@ -267,8 +279,7 @@ class _FrameGraph:
     def __init__(self, present, a, b, K):
         self.present, self.K = present, K
         keys = np.minimum(a, b) * K + np.maximum(a, b)
-        # the contacts of _movie_frames come sorted and unique already: check that instead of sorting again
-        self.keys = keys if bool(np.all(keys[1:] > keys[:-1])) else np.unique(keys)
+        self.keys = _unique(keys)  # the contacts of _movie_frames come sorted and unique already
         self.u, self.v = _directed(*np.divmod(self.keys, K))
 
     def has_pair(self, a, b):
@@ -942,9 +953,7 @@ def _same_cells_every_frame(by_frame, tracks):
     """Whether every frame has the same set of cells (then neighbour lists compare by hash alone)."""
     first = None
     for _, rows in by_frame:
-        here = tracks[rows]
-        if len(here) > 1 and not bool(np.all(here[1:] > here[:-1])):  # sorted unique already: no hash unique
-            here = np.unique(here)
+        here = _unique(tracks[rows])
         if first is None:
             first = here
         elif not np.array_equal(first, here):
