@@ -346,8 +346,9 @@ def _find_t1(frames, ids):
     K = np.int64(len(ids) + 1)
     starts, stops, losses, gains, values = [], [], [], [], []
     prev = None
+    index = _index_of(ids)
     for i, (frame, tracks, a, b) in enumerate(frames):
-        cur = _FrameGraph(np.searchsorted(ids, tracks), np.searchsorted(ids, a), np.searchsorted(ids, b), K)
+        cur = _FrameGraph(index(tracks), index(a), index(b), K)
         values.append(frame)
         if prev is None:
             starts.append((cur.keys, 0))
@@ -393,6 +394,19 @@ def _find_t1(frames, ids):
         "cell_a": ids[ab // K], "cell_b": ids[ab % K], "cell_c": ids[cd // K], "cell_d": ids[cd % K],
     })
     return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
+
+
+def _index_of(ids):
+    """The function giving the position in the sorted ``ids`` of values that are among them.
+
+    A table over the ids when they are few enough (:data:`SLOT_TABLE_ROWS`): a
+    gather instead of a binary search of every contact at every frame.
+    """
+    if not len(ids) or ids[0] < 0 or ids[-1] >= SLOT_TABLE_ROWS * len(ids) + 2**16:
+        return lambda values: np.searchsorted(ids, values)
+    table = np.zeros(int(ids[-1]) + 1, np.int64)
+    table[ids] = np.arange(len(ids))
+    return table.__getitem__
 
 
 def _runs(starts, stops):

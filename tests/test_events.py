@@ -382,6 +382,19 @@ def _assert_as_reference(edges, cells, box, censor, min_lengths=(0.0, 2.0)):
     return n
 
 
+def test_index_of_ids_equals_a_binary_search():
+    """Dense ids (a table), sparse or negative ids (a binary search): the position of each value in the ids."""
+    from hexatissue.events import _index_of
+
+    rng = np.random.default_rng(5)
+    for ids in (np.unique(rng.integers(1, 900, 300)), np.unique(rng.integers(0, 2**40, 300)),
+                np.unique(rng.integers(-50, 50, 60)), np.zeros(0, np.int64)):
+        values = rng.choice(ids, 500) if len(ids) else ids
+        got = _index_of(ids)(values)
+        assert got.dtype == np.int64
+        np.testing.assert_array_equal(got, np.searchsorted(ids, values))
+
+
 def test_directed_contacts_equal_a_two_key_lexsort():
     """Small non-negative ids (one argsort of a key), large or negative ones (lexsort): sorted by (u, v)."""
     from hexatissue.events import _directed
