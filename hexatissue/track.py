@@ -410,9 +410,9 @@ def _assign(i, j, iou):
 def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
     i, j, n = _contingency(a, b)
     mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction, min_iou)
-    # Mothers and daughters leave the one-to-one assignment.
-    free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
-    i, j, n = i[free], j[free], n[free]
+    if len(mothers):  # mothers and daughters leave the one-to-one assignment
+        free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
+        i, j, n = i[free], j[free], n[free]
     iou = n / (a.area[i] + b.area[j] - n)
     cand = iou >= min_iou
     r, c, _ = _assign(i[cand], j[cand], iou[cand])
