@@ -110,6 +110,7 @@ def warm_up() -> None:
     for dtype in (np.uint16, np.int32):
         a, b = _compact(np.array([[1, 2], [0, 2]], dtype)), _compact(np.array([[1, 1], [2, 0]], dtype))
         _dense_overlaps(a.index, b.index, len(a.ids), len(b.ids))
+        _compact_after(a, np.array([[1, 1], [2, 0]], dtype))
 
 
 def _compact_reference(labels: np.ndarray) -> _Compact:
@@ -121,12 +122,8 @@ def _compact_reference(labels: np.ndarray) -> _Compact:
 
 
 @njit(cache=True)
-def _compact_index(flat, top):
-    """Compact index of each pixel of ``flat`` (ids 0..top; -1 for 0), the ids present (sorted) and their areas.
-
-    Two passes over the pixels and one over the ids, with no temporary image
-    (the reference builds the compact image, shifts and casts it, then counts it).
-    """
+def _id_table(flat, top):
+    """Compact id of each value 0..top of ``flat`` (-1 for 0 and for values absent) and the ids present (sorted)."""
     new = np.zeros(top + 1, np.int32)
     for v in flat:
         new[v] = 1
@@ -142,14 +139,55 @@ def _compact_index(flat, top):
     for v in range(1, top + 1):
         if new[v] >= 0:
             ids[new[v]] = v
+    return new, ids
+
+
+@njit(cache=True)
+def _compact_index(flat, top):
+    """Compact index of each pixel of ``flat`` (ids 0..top; -1 for 0), the ids present (sorted) and their areas.
+
+    Two passes over the pixels and one over the ids, with no temporary image
+    (the reference builds the compact image, shifts and casts it, then counts it).
+    """
+    new, ids = _id_table(flat, top)
     index = np.empty(flat.size, np.int32)
-    area = np.zeros(n, np.int64)
+    area = np.zeros(len(ids), np.int64)
     for k in range(flat.size):
         c = new[flat[k]]
         index[k] = c
         if c >= 0:
             area[c] += 1
     return index, ids, area
+
+
+@njit(cache=True)
+def _compact_overlaps(flat, top, prev, n_prev):
+    """:func:`_compact_index` of ``flat`` and its :func:`_dense_overlaps` with ``prev`` (``n_prev`` cells).
+
+    One pass over the pixels for both (the two kernels apart read the new
+    index again, and their count table is touched in a second pass).
+    """
+    new, ids = _id_table(flat, top)
+    n = len(ids)
+    index = np.empty(flat.size, np.int32)
+    area = np.zeros(n, np.int64)
+    width = n + 1  # background in the last row and column, as in _dense_overlaps
+    counts = np.zeros((n_prev + 1) * width, np.int64)
+    met = np.empty(min(flat.size, (n_prev + 1) * width), np.int64)
+    m = 0
+    for k in range(flat.size):
+        c = new[flat[k]]
+        index[k] = c
+        if c >= 0:
+            area[c] += 1
+        a = prev[k]
+        key = (a if a >= 0 else n_prev) * width + (c if c >= 0 else n)
+        if counts[key] == 0:
+            met[m] = key
+            m += 1
+        counts[key] += 1
+    i, j, count = _cell_pairs(counts, met[:m], width, n_prev, n)
+    return index, ids, area, i, j, count
 
 
 @njit(cache=True)
@@ -172,7 +210,14 @@ def _dense_overlaps(ia, ib, na, nb):
             met[m] = key
             m += 1
         counts[key] += 1
-    met = np.sort(met[:m])
+    return _cell_pairs(counts, met[:m], width, na, nb)
+
+
+@njit(cache=True)
+def _cell_pairs(counts, met, width, na, nb):
+    """``i, j, n`` of the keys ``met`` of the count table that are pairs of cells (not background), sorted."""
+    met = np.sort(met)
+    m = len(met)
     cells = 0
     for q in range(m):
         cells += met[q] // width < na and met[q] % width < nb
@@ -215,6 +260,18 @@ def _contingency(a: _Compact, b: _Compact):
     return out
 
 
+def _compact_after(previous: _Compact, labels: np.ndarray):
+    """``(_compact(labels), its overlaps with previous)``, in one pass over the pixels when the kernels allow it."""
+    top = int(labels.max())
+    fused = (top < 2**24 and top <= 4 * labels.size and (len(previous.ids) + 1) * (top + 1) <= _DENSE_LIMIT
+             and previous.index is not None and previous.index.size == labels.size)
+    if not fused:
+        cur = _compact(labels)
+        return cur, _contingency(previous, cur)
+    index, ids, area, i, j, n = _compact_overlaps(labels.ravel(), top, previous.index, len(previous.ids))
+    return _Compact(index, ids, area, labels.shape), (i, j, n)
+
+
 def compact_frames(labels, pixels=False) -> list:
     """Consecutive frames as a :class:`MovieTracker` takes them, with their overlaps counted here.
 
@@ -240,14 +297,14 @@ def compact_frames(labels, pixels=False) -> list:
     """
     out = []
     for k, lab in enumerate(labels):
-        cur = _compact(lab)
-        overlaps = None
-        if out:
-            previous = out[-1][0]
-            overlaps = _contingency(previous, cur)
-            cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
-            if not pixels and k > 1:
-                out[-1] = previous.without_pixels(), out[-1][1]
+        if not out:
+            out.append((_compact(lab), None))
+            continue
+        previous = out[-1][0]
+        cur, overlaps = _compact_after(previous, lab)
+        cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
+        if not pixels and k > 1:
+            out[-1] = previous.without_pixels(), out[-1][1]
         out.append((cur, overlaps))
     return out
 

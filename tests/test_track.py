@@ -227,6 +227,28 @@ def test_division_kernel_equals_reference():
     assert mothers.tolist() == [0] and daughters.tolist() == [[1, 0]]
 
 
+def test_fused_compaction_and_overlaps_equal_the_two_kernels():
+    """Random frames (ids with gaps, background, several dtypes): one pass gives what compaction then counting give."""
+    rng = np.random.default_rng(9)
+    for _ in range(40):
+        shape = (int(rng.integers(2, 30)), int(rng.integers(2, 30)))
+        prev = rng.choice(rng.choice(60, int(rng.integers(1, 15)), replace=False), shape)
+        cur = rng.choice(rng.choice(60, int(rng.integers(1, 15)), replace=False), shape)
+        if rng.random() < 0.5:  # runs of equal labels, as in real frames
+            cur = np.repeat(cur[:, : max(shape[1] // 3, 1)], 3, axis=1)[:, : shape[1]]
+            cur = np.pad(cur, ((0, 0), (0, shape[1] - cur.shape[1])))
+        for dtype in (np.uint8, np.uint16, np.int32, np.int64):
+            a = trk._compact(prev.astype(dtype))
+            got, overlaps = trk._compact_after(a, cur.astype(dtype))
+            want = trk._compact_reference(cur.astype(dtype))
+            for name in ("index", "ids", "area"):
+                assert getattr(got, name).dtype == getattr(want, name).dtype
+                np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+            for x, y in zip(overlaps, trk._dense_overlaps_reference(a.index, want.index, len(a.ids), len(want.ids))):
+                assert x.dtype == y.dtype
+                np.testing.assert_array_equal(x, y)
+
+
 def test_compact_kernel_equals_reference():
     """Random label images (ids with gaps, with and without 0, several dtypes): the kernel equals the reference."""
     rng = np.random.default_rng(6)
