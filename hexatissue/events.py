@@ -591,8 +591,10 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
 
     Parameters
     ----------
-    edges, cells, min_length, censor, box
-        As for :func:`detect_t1` (``censor`` given, no default here).
+    edges, cells, min_length, box
+        As for :func:`detect_t1`.
+    censor : int
+        Right-censoring window of both tables, frames (:func:`classify_t1`).
 
     Returns
     -------
