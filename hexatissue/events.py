@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ._hashing import GOLDEN, mix64
 from .box import Box
 from .errors import InputError, is_real
 from .geometry import lookup, row_keys
@@ -696,10 +697,7 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
 
 def _mix(ids):
     """A 64-bit hash of each id (splitmix64): sums of them identify neighbour sets (order-free)."""
-    z = ids.astype(np.uint64) + np.uint64(0x9E3779B97F4A7C15)
-    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return z ^ (z >> np.uint64(31))
+    return mix64(ids.astype(np.uint64) + np.uint64(GOLDEN))
 
 
 class _Lists:

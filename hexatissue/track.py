@@ -22,9 +22,8 @@ import numpy as np
 import pandas as pd
 from numba import njit
 from scipy.optimize import linear_sum_assignment
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
+from ._components import components
 from .errors import InputError
 from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
@@ -448,8 +447,7 @@ def _assign(i, j, iou):
         if len(rows) * len(cols) <= _DENSE_LIMIT:
             groups = [np.arange(len(i))]
         else:  # large problem: the candidate graph splits into independent components
-            graph = coo_matrix((np.ones(len(i)), (ri, len(rows) + cj)), shape=(len(rows) + len(cols),) * 2)
-            comp = connected_components(graph, directed=False)[1][ri]
+            comp = components(len(rows) + len(cols), ri, len(rows) + cj)[ri]
             order = np.argsort(comp, kind="stable")
             groups = np.split(order, np.flatnonzero(np.diff(comp[order])) + 1)
         for sel in groups:

@@ -48,9 +48,8 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
+from .._components import components
 from ..errors import InputError
 from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
 
@@ -165,8 +164,7 @@ def _regions(foreground, periodic):
         a = np.r_[cells[:, 0], cells[0, :]]
         b = np.r_[cells[:, -1], cells[-1, :]]
         keep = (a > 0) & (b > 0)
-        graph = coo_matrix((np.ones(keep.sum()), (a[keep], b[keep])), shape=(n + 1, n + 1))
-        _, comp = connected_components(graph, directed=False)
+        comp = components(n + 1, a[keep], b[keep])
         new_id = np.zeros(n + 1, np.int64)
         new_id[1:] = np.unique(comp[1:], return_inverse=True)[1] + 1
         cells = new_id[cells]
