@@ -28,3 +28,29 @@ def release_freed_memory():
     trim = getattr(libc(), "malloc_trim", None)
     if trim is not None:
         trim(0)
+
+
+M_MMAP_THRESHOLD = -3  # from glibc's <malloc.h>
+#: Blocks from this size up get their own mapping, returned to the OS when freed (glibc's initial threshold).
+MMAP_THRESHOLD = 128 * 1024
+
+
+def return_freed_memory_early():
+    """Make freed large blocks leave the process at once, for a run that holds large tables (``hexatissue analyze``).
+
+    Process-wide, so only the command line calls it (a library user's
+    process keeps its own settings).  Two allocators keep freed memory
+    resident under the tables: glibc raises its mmap threshold to the largest
+    block freed (up to 32 MB), after which such blocks come from the heap and
+    their pages stay when freed between live ones; a fixed threshold
+    (``mallopt(M_MMAP_THRESHOLD)``) keeps every block of 128 KiB and more in
+    a mapping of its own.  Arrow (pandas' string columns, the Parquet writer)
+    allocates from mimalloc by default, which keeps freed pages for reuse;
+    its system pool allocates from glibc.  Forked pool workers inherit both.
+    """
+    mallopt = getattr(libc(), "mallopt", None)
+    if mallopt is not None:
+        mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)
+    import pyarrow
+
+    pyarrow.set_memory_pool(pyarrow.system_memory_pool())

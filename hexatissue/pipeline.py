@@ -153,6 +153,12 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tracking = _tracking_summary(tracker, cells, parents)
     del tracker, parents  # its per-cell-frame ids are in cells now; the movie-level stages need the memory
     release_freed_memory()  # after each movie-level stage: its freed working set would stay under the next
+    if order.fields:  # first of the movie-level stages: each leaves some memory resident, and it needs the most
+        _warn_frames_without_field(cells, tables["grid"], src.n_frames)
+        _defect_tracks(tables, order, box, src.n_frames, linked=tracking["resolved"] != "off")
+        release_freed_memory()
+    else:
+        del tables["grid"], tables["defects"]
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
@@ -160,13 +166,6 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
     release_freed_memory()
     summary = {"tracking": tracking, "events": _events_summary(tables["events"], events, censor, src.n_frames)}
-    if order.fields:
-        _warn_frames_without_field(cells, tables["grid"], src.n_frames)
-        linked = summary["tracking"]["resolved"] != "off"
-        _defect_tracks(tables, order, box, src.n_frames, linked)
-    else:
-        del tables["grid"], tables["defects"]
-    release_freed_memory()
     options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),
                "events": events.replace(censor=censor)}
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
@@ -402,7 +401,9 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
             n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
             track[rows[at]] = t["track"].to_numpy()
             pair_events.append(defect_events(t, max_distance, box=box, frames=frames).assign(p=np.int64(q)))
+            del t
         del of_p, rows_of
+        release_freed_memory()  # tracking and pairing leave freed memory resident under the next p
     # the rows of every p, by frame, p and defect (a stable sort), taken one column at a time from the
     # table given away: at most one column more than the defects table in memory
     rows = np.lexsort((defects["defect"].to_numpy(), p, defects["frame"].to_numpy()))
