@@ -115,9 +115,10 @@ def wrapped(module, name, label=None):
             STAGES.append(rec)
     setattr(module, name, call)
 
-for name in ("_extract", "_with_tracks", "lineage_table", "detect_t1", "cell_event_stats", "neighbour_events",
-             "_defect_tracks"):
+for name in ("_extract", "_with_tracks", "lineage_table", "_tracking_summary", "detect_t1", "cell_event_stats",
+             "neighbour_events", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
     wrapped(pipeline, name)
+wrapped(pipeline._Rows, "table", label=lambda args: "table " + str(args[1]))
 wrapped(io_mod, "write_table", label=lambda args: "write " + str(args[1]).rsplit("/", 1)[-1])
 report = sys.argv[1]
 sys.argv[1] = report + ".cli"

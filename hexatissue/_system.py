@@ -18,7 +18,7 @@ def libc():
 
 
 def release_freed_memory():
-    """Return the C heap's free pages to the OS (glibc's ``malloc_trim``; a no-op elsewhere, musl included).
+    """Return the C heap's and Arrow's free pages to the OS (glibc's ``malloc_trim``, Arrow's ``release_unused``).
 
     glibc keeps memory freed in the middle of its heap resident: without
     this, the temporaries of a thousand frames' jobs (tens of MB of holes
@@ -28,6 +28,9 @@ def release_freed_memory():
     trim = getattr(libc(), "malloc_trim", None)
     if trim is not None:
         trim(0)
+    arrow = sys.modules.get("pyarrow")  # pandas' string columns and the Parquet writer allocate from Arrow's pool
+    if arrow is not None:
+        arrow.default_memory_pool().release_unused()  # mimalloc by default, which keeps freed pages for reuse
 
 
 M_MMAP_THRESHOLD = -3  # from glibc's <malloc.h>
@@ -51,6 +54,3 @@ def return_freed_memory_early():
     mallopt = getattr(libc(), "mallopt", None)
     if mallopt is not None:
         mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)
-    import pyarrow
-
-    pyarrow.set_memory_pool(pyarrow.system_memory_pool())
