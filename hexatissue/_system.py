@@ -1,4 +1,4 @@
-"""The C library, where the package needs it directly (Linux only; a no-op elsewhere)."""
+"""The C library and the allocators, where the package needs them directly (Linux only; a no-op elsewhere)."""
 from __future__ import annotations
 
 import ctypes
@@ -18,19 +18,20 @@ def libc():
 
 
 def release_freed_memory():
-    """Return the C heap's and Arrow's free pages to the OS (glibc's ``malloc_trim``, Arrow's ``release_unused``).
+    """Return freed memory to the OS: glibc's ``malloc_trim`` (a no-op elsewhere, musl included) and Arrow's pools.
 
     glibc keeps memory freed in the middle of its heap resident: without
     this, the temporaries of a thousand frames' jobs (tens of MB of holes
     between the growing tables) stay in the process under the movie-level
-    stages and the writing of the tables.
+    stages and the writing of the tables.  Arrow's pools (``release_unused``)
+    likewise keep what pandas' string columns and the Parquet writer freed.
     """
     trim = getattr(libc(), "malloc_trim", None)
     if trim is not None:
         trim(0)
     arrow = sys.modules.get("pyarrow")  # pandas' string columns and the Parquet writer allocate from Arrow's pool
     if arrow is not None:
-        arrow.default_memory_pool().release_unused()  # mimalloc by default, which keeps freed pages for reuse
+        arrow.default_memory_pool().release_unused()
 
 
 M_MMAP_THRESHOLD = -3  # from glibc's <malloc.h>
@@ -42,14 +43,14 @@ def return_freed_memory_early():
     """Make freed large blocks leave the process at once, for a run that holds large tables (``hexatissue analyze``).
 
     Process-wide, so only the command line calls it (a library user's
-    process keeps its own settings).  Two allocators keep freed memory
-    resident under the tables: glibc raises its mmap threshold to the largest
-    block freed (up to 32 MB), after which such blocks come from the heap and
-    their pages stay when freed between live ones; a fixed threshold
-    (``mallopt(M_MMAP_THRESHOLD)``) keeps every block of 128 KiB and more in
-    a mapping of its own.  Arrow (pandas' string columns, the Parquet writer)
-    allocates from mimalloc by default, which keeps freed pages for reuse;
-    its system pool allocates from glibc.  Forked pool workers inherit both.
+    process keeps its own settings).  glibc raises its mmap threshold to the
+    largest block freed (up to 32 MB), after which such blocks come from the
+    heap and their pages stay resident when freed between live ones; a fixed
+    threshold (``mallopt(M_MMAP_THRESHOLD)``) keeps every block of 128 KiB
+    and more in a mapping of its own, unmapped when freed.  Forked pool
+    workers inherit it.  (Arrow's system pool instead of mimalloc was tried
+    too: no gain in the CLI run, the Parquet writer's own buffers stay with
+    mimalloc.)
     """
     mallopt = getattr(libc(), "mallopt", None)
     if mallopt is not None:
