@@ -1,4 +1,4 @@
-"""The C library and the allocators, where the package needs them directly (Linux only; a no-op elsewhere)."""
+"""The C library, where the package needs it directly (Linux only; a no-op elsewhere)."""
 from __future__ import annotations
 
 import ctypes
@@ -33,25 +33,3 @@ def release_freed_memory():
     if arrow is not None:
         arrow.default_memory_pool().release_unused()
 
-
-M_MMAP_THRESHOLD = -3  # from glibc's <malloc.h>
-#: Blocks from this size up get their own mapping, returned to the OS when freed (glibc's initial threshold).
-MMAP_THRESHOLD = 128 * 1024
-
-
-def return_freed_memory_early():
-    """Make freed large blocks leave the process at once, for a run that holds large tables (``hexatissue analyze``).
-
-    Process-wide, so only the command line calls it (a library user's
-    process keeps its own settings).  glibc raises its mmap threshold to the
-    largest block freed (up to 32 MB), after which such blocks come from the
-    heap and their pages stay resident when freed between live ones; a fixed
-    threshold (``mallopt(M_MMAP_THRESHOLD)``) keeps every block of 128 KiB
-    and more in a mapping of its own, unmapped when freed.  Forked pool
-    workers inherit it.  (Arrow's system pool instead of mimalloc was tried
-    too: no gain in the CLI run, the Parquet writer's own buffers stay with
-    mimalloc.)
-    """
-    mallopt = getattr(libc(), "mallopt", None)
-    if mallopt is not None:
-        mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)

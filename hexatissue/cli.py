@@ -129,7 +129,6 @@ def _intensity(args):
 
 
 def _run_analyze(args) -> int:
-    from ._system import return_freed_memory_early
     from .frame import write_results
     from .io import check_output_folder
     from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
@@ -149,7 +148,6 @@ def _run_analyze(args) -> int:
     if args.checkpoint is not None:
         check_output_folder(args.checkpoint, "--checkpoint")
     client = connect_scheduler(args.scheduler) if args.scheduler else None
-    return_freed_memory_early()  # this process holds the movie's tables: freed working sets must not stay under them
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
