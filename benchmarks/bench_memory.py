@@ -83,7 +83,7 @@ sys.exit(rc)
 #: at its start; an enclosing stage keeps the larger of its own and its inner stages' marks).
 STAGES_RUNNER = r"""
 import json, sys
-import hexatissue.frame as frame_mod
+import hexatissue.cli as cli_mod
 import hexatissue.io as io_mod
 import hexatissue.pipeline as pipeline
 
@@ -119,6 +119,7 @@ for name in ("_extract", "_with_tracks", "lineage_table", "_tracking_summary", "
              "neighbour_events", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
     wrapped(pipeline, name)
 wrapped(pipeline._Rows, "table", label=lambda args: "table " + str(args[1]))
+wrapped(cli_mod, "summary_line")
 wrapped(io_mod, "write_table", label=lambda args: "write " + str(args[1]).rsplit("/", 1)[-1])
 report = sys.argv[1]
 sys.argv[1] = report + ".cli"

@@ -32,4 +32,3 @@ def release_freed_memory():
     arrow = sys.modules.get("pyarrow")  # pandas' string columns and the Parquet writer allocate from Arrow's pool
     if arrow is not None:
         arrow.default_memory_pool().release_unused()
-

@@ -335,9 +335,8 @@ def _tracks_by_key(cells, ids):
 def _tracking_summary(tracker, cells, parents):
     """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
     out = tracker.summary()
-    # distinct values by a sort of one column (nunique's hash table costs twice the memory: 8.7 MB for 500,000)
     out.update(rows_track_not_cell=int((cells["track"].to_numpy() != cells["cell"].to_numpy()).sum()),
-               n_ids=len(np.unique(cells["cell"].to_numpy())), n_tracks=len(np.unique(cells["track"].to_numpy())),
+               n_ids=int(cells["cell"].nunique()), n_tracks=int(cells["track"].nunique()),
                n_divisions=len(set(parents.values())))
     return out
 
