@@ -39,6 +39,7 @@ Usage::
 
     PYTHONPATH=$PWD python benchmarks/bench_memory.py                  # 200 x 1024^2, ~2,500 cells
     PYTHONPATH=$PWD python benchmarks/bench_memory.py --frames 20 --size 512   # quick check
+    PYTHONPATH=$PWD python benchmarks/bench_memory.py --workers 1 --stages     # RSS per stage of each run
 
 Default (200 frames, 1024^2, workers 2 and 1): 6.5 minutes on the shared 2-core machine at load
 3-8, plus about 2 minutes the first time to build the 419 MB stack.  Under load the sampler
