@@ -13,21 +13,26 @@ the C code integrates with explicit Euler (one right-hand side per step) in floa
 For every repeat and every thread count, the C code runs ``--steps`` steps (its own timer of the main
 run, ``omp_get_wtime``, excludes start-up; CPU time is the child's rusage) and hexatissue runs the same
 number of active steps in this process (after a short compiled warm-up), back to back, the order
-alternating between repeats.  Thread counts: ``1``, ``2`` and ``auto`` (hexatissue's
+alternating between repeats.  With ``--baseline DIR`` (a checkout of another hexatissue version, e.g.
+``git worktree add /tmp/base main``) that version runs the same steps too, in a worker process started
+once (compiled and warmed up before the timed runs; same state, same environment), in the same
+rotation: its figures and ``ours / baseline`` come from the same repeat.  Thread counts: ``1``, ``2`` and ``auto`` (hexatissue's
 ``threads="auto"`` as in ``run_simulation``: the load-based count for the first chunk of 100 steps,
 then a fresh ``ThreadTuner`` per timed run; compared with the C code at 2 OpenMP threads, its default
 on this machine; the table lists the count used for each chunk).
 The C code runs with the OpenMP environment the script was started with (libgomp's default spinning
-waits unless ``OMP_WAIT_POLICY`` is set); hexatissue with its default (passive waits).
+waits unless ``OMP_WAIT_POLICY`` is set); hexatissue and the baseline with their own defaults (passive
+waits, after a short spin since this branch).
 
 Usage::
 
     PYTHONPATH=. python benchmarks/bench_mpf_vs_c.py --c-code /path/to/phase_field_benjamin \\
-        [--steps 600] [--repeats 3] [--threads 1 2 auto] [--integrators heun euler] [--out FILE]
+        [--steps 600] [--repeats 3] [--threads 1 2 auto] [--integrators heun euler] [--baseline DIR] [--out FILE]
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import resource
@@ -43,7 +48,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-C_ENV = dict(os.environ)  # before hexatissue sets OMP_WAIT_POLICY for itself
+START_ENV = dict(os.environ)  # before hexatissue sets its OpenMP waits: the C code's and the baseline's
 
 from _timing import emit  # noqa: E402  (benchmarks/_timing.py)
 from compare_c_code import build_c_code, common_params, hexatissue_sim, initial_fields, write_c_inputs  # noqa: E402
@@ -57,13 +62,19 @@ def uptime() -> str:
 
 def run_c(exe: Path, run: Path, threads: int, steps: int):
     """(steps/s by the C code's own timer of the main run, steps per CPU-second of the child process)."""
-    env = dict(C_ENV, OMP_NUM_THREADS=str(threads))
+    env = dict(START_ENV, OMP_NUM_THREADS=str(threads))
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     out = subprocess.run([str(exe), "params.txt"], cwd=run, env=env, capture_output=True, text=True, check=True).stdout
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     wall = float(re.findall(r"Time taken \(sec\): ([0-9.]+)", out)[-1])  # the last one is the main run
     return steps / wall, steps / cpu
+
+
+def _describe(root: Path) -> str:
+    """The commit of a checkout, for the report."""
+    return subprocess.run(["git", "-C", str(root), "log", "-1", "--format=%h %s"], capture_output=True,
+                          text=True).stdout.strip()[:60]
 
 
 def run_ours(sim, threads, steps: int, chunk: int = 100):
@@ -89,6 +100,53 @@ def run_ours(sim, threads, steps: int, chunk: int = 100):
     return steps / (time.perf_counter() - t0), steps / (time.process_time() - c0), used
 
 
+# The baseline's side: its own benchmarks/ and package first on the path, so that run_ours, the state
+# and the simulator are all the baseline's.  Protocol: one JSON line per request on stdin, one reply each.
+BASELINE_WORKER = r"""
+import json, sys
+sys.path[:0] = [sys.argv[1] + "/benchmarks", sys.argv[1]]
+from bench_mpf_vs_c import run_ours
+from compare_c_code import common_params, hexatissue_sim, initial_fields
+cfg = json.loads(sys.stdin.readline())
+base = common_params(dtype=cfg["dtype"])
+template, ox, oy, theta = initial_fields(base, cfg["seed"])
+sims = {}
+for integ in cfg["integrators"]:
+    sims[integ] = hexatissue_sim(base.replace(integrator=integ), template, ox, oy, theta, cfg["seed"])
+    sims[integ].advance(4)
+print(json.dumps("ready"), flush=True)
+for line in sys.stdin:
+    integ, threads, steps = json.loads(line)
+    print(json.dumps(run_ours(sims[integ], threads, steps)), flush=True)
+"""
+
+
+class Baseline:
+    """Another hexatissue checkout timing the same runs in a worker process (see ``BASELINE_WORKER``)."""
+
+    def __init__(self, root: Path, dtype: str, seed: int, integrators):
+        env = dict(START_ENV, PYTHONPATH=str(root))  # it sets its own OpenMP waits
+        self.proc = subprocess.Popen([sys.executable, "-c", BASELINE_WORKER, str(root)], cwd=root, env=env,
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        self._ask({"dtype": dtype, "seed": seed, "integrators": list(integrators)})
+
+    def _ask(self, request):
+        self.proc.stdin.write(json.dumps(request) + "\n")
+        self.proc.stdin.flush()
+        reply = self.proc.stdout.readline()
+        if not reply:
+            raise SystemExit("the baseline worker stopped (its error is above)")
+        return json.loads(reply)
+
+    def run(self, integ: str, threads, steps: int):
+        """(steps/s wall, steps per CPU-second, thread counts used), as :func:`run_ours`."""
+        return tuple(self._ask([integ, threads, steps]))
+
+    def close(self):
+        self.proc.stdin.close()
+        self.proc.wait()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--c-code", required=True, type=Path,
@@ -99,6 +157,8 @@ def main(argv=None):
     ap.add_argument("--integrators", nargs="+", default=["heun"], choices=["heun", "euler"])
     ap.add_argument("--dtype", default="float32", choices=["float32", "float64"])
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="checkout of another hexatissue version (e.g. main) to time in the same run")
     ap.add_argument("--out", type=Path, default=None, help="append the markdown report here")
     args = ap.parse_args(argv)
     threads = [t if t == "auto" else int(t) for t in args.threads]
@@ -121,41 +181,54 @@ def main(argv=None):
             sim = hexatissue_sim(base.replace(integrator=integ), template, ox, oy, theta, args.seed)
             sim.advance(4)  # compile (or load the cache) outside the timed runs
             sims[integ] = sim
+        baseline = Baseline(args.baseline, args.dtype, args.seed, args.integrators) if args.baseline else None
         lines = [f"## hexatissue vs the C code, speed, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}", "",
                  f"- {base.n_cells} cells, {base.Lx} x {base.Ly}, patch {base.patch}, phi0 = {base.phi0:g}, "
                  f"dt = {base.dt:g}, k_ad = 0, active; hexatissue {args.dtype} upwind3, C code float64 Euler; "
                  f"{args.steps} steps per run, {args.repeats} repeats, back to back (order alternating)",
-                 f"- C code OMP_WAIT_POLICY: {C_ENV.get('OMP_WAIT_POLICY', '(unset: libgomp default)')}; "
-                 f"hexatissue: {os.environ.get('OMP_WAIT_POLICY')}",
+                 f"- C code OMP_WAIT_POLICY: {START_ENV.get('OMP_WAIT_POLICY', '(unset: libgomp default)')}; "
+                 f"hexatissue: {os.environ.get('OMP_WAIT_POLICY')}, GOMP_SPINCOUNT "
+                 f"{os.environ.get('GOMP_SPINCOUNT', '(unset)')}",
+                 *([f"- baseline: {args.baseline} ({_describe(args.baseline)})"] if baseline else []),
                  f"- {uptime()} before", "",
                  "| repeat | threads (C / ours) | load | C steps/s (wall; per CPU-s) | "
                  + " | ".join(f"hexatissue {i} steps/s (wall; per CPU-s) | {i} / C (wall)"
+                              + (f" | baseline {i} steps/s (wall; per CPU-s) | {i} ours / baseline" if baseline else "")
                               for i in args.integrators) + " |",
-                 "|---|---|---|---|" + "---|---|" * len(args.integrators)]
-        ratios = {(str(t), i): [] for t in threads for i in args.integrators}
+                 "|---|---|---|---|" + ("---|---|" * (2 if baseline else 1)) * len(args.integrators)]
+        ratios = {(str(t), i, who): [] for t in threads for i in args.integrators for who in ("C", "baseline")}
         for rep in range(args.repeats):
             for t in threads:
                 c_threads = 2 if t == "auto" else t
-                cells, used = [], []
-                c_first = rep % 2 == 0
-                if c_first:
-                    c = run_c(exe, run, c_threads, args.steps)
+                got = {}
+                runs = [("C", None, lambda: run_c(exe, run, c_threads, args.steps))]
                 for integ in args.integrators:
-                    w, cpu, n = run_ours(sims[integ], t, args.steps)
-                    cells.append((w, cpu))
-                    used.append(n)
-                if not c_first:
-                    c = run_c(exe, run, c_threads, args.steps)
-                shown = f"{t} ({'/'.join(str(n) for n in used[0])})" if t == "auto" else str(t)
+                    runs.append(("ours", integ, lambda integ=integ: run_ours(sims[integ], t, args.steps)))
+                    if baseline:
+                        runs.append(("baseline", integ, lambda integ=integ: baseline.run(integ, t, args.steps)))
+                for who, integ, fn in (runs if rep % 2 == 0 else runs[::-1]):
+                    got[who, integ] = fn()
+                c = got["C", None]
+                used = got["ours", args.integrators[0]][2]
+                shown = f"{t} ({'/'.join(str(n) for n in used)})" if t == "auto" else str(t)
                 row = f"| {rep + 1} | {c_threads} / {shown} | {os.getloadavg()[0]:.1f} | {c[0]:.0f}; {c[1]:.0f} |"
-                for integ, (w, cpu) in zip(args.integrators, cells):
-                    ratios[str(t), integ].append(w / c[0])
+                for integ in args.integrators:
+                    w, cpu = got["ours", integ][:2]
+                    ratios[str(t), integ, "C"].append(w / c[0])
                     row += f" {w:.0f}; {cpu:.0f} | {w / c[0]:.2f} |"
+                    if baseline:
+                        bw, bcpu = got["baseline", integ][:2]
+                        ratios[str(t), integ, "baseline"].append(w / bw)
+                        row += f" {bw:.0f}; {bcpu:.0f} | {w / bw:.2f} |"
                 print(row, flush=True)
                 lines.append(row)
-        lines += ["", "Median ratio hexatissue / C code (wall steps/s, same repeat):", ""]
-        for (t, integ), r in ratios.items():
-            lines.append(f"- threads {t}, {integ}: {np.median(r):.2f} (" + ", ".join(f"{x:.2f}" for x in r) + ")")
+        if baseline:
+            baseline.close()
+        lines += ["", "Median ratios (wall steps/s, same repeat):", ""]
+        for (t, integ, who), r in ratios.items():
+            if r:
+                lines.append(f"- threads {t}, {integ}, ours / {who}: {np.median(r):.2f} ("
+                             + ", ".join(f"{x:.2f}" for x in r) + ")")
         emit(lines, uptime(), args.out)
     finally:
         shutil.rmtree(work, ignore_errors=True)

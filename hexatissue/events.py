@@ -35,7 +35,7 @@ from .geometry import lookup, row_keys
 from .graph import pair_groups
 from .schema import interior_mask, track_ids, validate
 
-__all__ = ["detect_t1", "neighbour_events", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
+__all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
            "cell_event_stats", "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
 
 # Columns of the events table beyond the schema's.
@@ -216,9 +216,10 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
             a = lookup(keys, track, row_keys(frame, a), MISSING_CELLS)
             b = lookup(keys, track, row_keys(frame, b), MISSING_CELLS)
             a, b = np.minimum(a, b), np.maximum(a, b)
-            order = np.lexsort((b, a, frame))  # track ids need not keep the label order
-            frame, a, b, length = frame[order], a[order], b[order], length[order]
-        present = np.unique(row_keys(here, tracks[rows]))
+            if not _increasing(frame, a, b):  # track ids need not keep the label order (they do when ids are kept)
+                order = np.lexsort((b, a, frame))
+                frame, a, b, length = frame[order], a[order], b[order], length[order]
+        present = _unique(row_keys(here, tracks[rows]))
         p_bounds = np.searchsorted(present, row_keys(frames, 0))
         c_bounds = np.searchsorted(frame, frames)
         ids = present - row_keys(np.repeat(frames, np.diff(np.append(p_bounds, len(present)))), 0)
@@ -226,6 +227,17 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
             lo, hi = c_bounds[k], c_bounds[k + 1] if k + 1 < len(frames) else len(frame)
             p_hi = p_bounds[k + 1] if k + 1 < len(frames) else len(present)
             yield f, ids[p_bounds[k]:p_hi], a[lo:hi], b[lo:hi], length[lo:hi]
+
+
+def _unique(values):
+    """``np.unique(values)``, without its sort (a hash unique) when ``values`` are strictly increasing already."""
+    return values if len(values) < 2 or bool(np.all(values[1:] > values[:-1])) else np.unique(values)
+
+
+def _increasing(frame, a, b):
+    """Whether the rows ``(frame, a, b)`` are in strictly increasing lexicographic order (a lexsort keeps them)."""
+    df, da, db = np.diff(frame), np.diff(a), np.diff(b)
+    return bool(np.all((df > 0) | ((df == 0) & ((da > 0) | ((da == 0) & (db > 0))))))
 
 
 def _ids(edges, cells):
@@ -245,18 +257,30 @@ def _expand(lo, hi):
     return np.arange(count.sum()) + start, owner
 
 
+def _directed(a, b):
+    """Both directions ``u -> v`` of the contacts ``a - b``, sorted by ``(u, v)``.
+
+    One argsort of the key ``u * top + v`` when the ids are small non-negative
+    integers (a third of a two-key lexsort's time); the values are the same
+    either way, as each ``(u, v)`` has one value.
+    """
+    u, v = np.concatenate((a, b)), np.concatenate((b, a))
+    if not len(u):
+        return u, v
+    top = int(max(u.max(), v.max())) + 1
+    small = top < 2**31 and min(u.min(), v.min()) >= 0
+    order = np.argsort(u * top + v) if small else np.lexsort((v, u))
+    return u[order], v[order]
+
+
 class _FrameGraph:
     """One frame's contacts and cells in compact ids: sorted pair keys ``a * K + b`` and adjacency."""
 
     def __init__(self, present, a, b, K):
         self.present, self.K = present, K
         keys = np.minimum(a, b) * K + np.maximum(a, b)
-        # the contacts of _movie_frames come sorted and unique already: check that instead of sorting again
-        self.keys = keys if bool(np.all(keys[1:] > keys[:-1])) else np.unique(keys)
-        a, b = np.divmod(self.keys, K)
-        u, v = np.concatenate((a, b)), np.concatenate((b, a))
-        order = np.lexsort((v, u))
-        self.u, self.v = u[order], v[order]
+        self.keys = _unique(keys)  # the contacts of _movie_frames come sorted and unique already
+        self.u, self.v = _directed(*np.divmod(self.keys, K))
 
     def has_pair(self, a, b):
         return _in_sorted(np.minimum(a, b) * self.K + np.maximum(a, b), self.keys)
@@ -322,8 +346,9 @@ def _find_t1(frames, ids):
     K = np.int64(len(ids) + 1)
     starts, stops, losses, gains, values = [], [], [], [], []
     prev = None
+    index = _index_of(ids)
     for i, (frame, tracks, a, b) in enumerate(frames):
-        cur = _FrameGraph(np.searchsorted(ids, tracks), np.searchsorted(ids, a), np.searchsorted(ids, b), K)
+        cur = _FrameGraph(index(tracks), index(a), index(b), K)
         values.append(frame)
         if prev is None:
             starts.append((cur.keys, 0))
@@ -371,6 +396,19 @@ def _find_t1(frames, ids):
     return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
 
 
+def _index_of(ids):
+    """The function giving the position in the sorted ``ids`` of values that are among them.
+
+    A table over the ids when they are few enough (:data:`SLOT_TABLE_ROWS`): a
+    gather instead of a binary search of every contact at every frame.
+    """
+    if not len(ids) or ids[0] < 0 or ids[-1] >= SLOT_TABLE_ROWS * len(ids) + 2**16:
+        return lambda values: np.searchsorted(ids, values)
+    table = np.zeros(int(ids[-1]) + 1, np.int64)
+    table[ids] = np.arange(len(ids))
+    return table.__getitem__
+
+
 def _runs(starts, stops):
     """Runs of consecutive frames of each contact: ``pair``, ``start``, ``stop`` (first frame without it),
     ``next_start`` (of its next run, or a frame past every frame) and ``prev_stop`` (of its previous run, or -1)."""
@@ -408,8 +446,7 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
         ``kind``, ``frame_start``, ``frame_end``, ``duration``, ``cell_a``..``cell_d``,
         ``frame_gain``, ``frame_undo`` (see :data:`EVENT_EXTRA_COLUMNS`).
     """
-    if int(censor) != censor or censor < 0:
-        raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
+    _check_censor(censor)
     df = t1.copy()
     K = np.int64(max([int(df[c].max()) if len(df) else 0 for c in ("cell_a", "cell_b", "cell_c", "cell_d")]) + 1)
     ab = df["cell_a"].to_numpy(np.int64) * K + df["cell_b"].to_numpy(np.int64)
@@ -531,13 +568,49 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
         ``frame_start``, px; x = column, y = row), ``frame_gain``,
         ``frame_undo``, ``is_border`` (see :data:`EVENT_EXTRA_COLUMNS`).
     """
-    for col in ("frame", "cell", "x", "y"):
-        if col not in cells.columns:
-            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+    _check_cells(cells)
     frames = _movie_frames(edges, cells, min_length)
     raw = _find_t1(((f, tracks, a, b) for f, tracks, a, b, _ in frames), _ids(edges, cells))
     last = int(cells["frame"].max()) if len(cells) else 0
     return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
+
+
+def _check_cells(cells):
+    for col in ("frame", "cell", "x", "y"):
+        if col not in cells.columns:
+            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+
+
+def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10,
+              box: Box | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """:func:`detect_t1` and :func:`neighbour_events` of one movie, from one pass over its contacts.
+
+    What :func:`hexatissue.analyze` needs: the two tables equal those of the
+    two functions called apart, but the contacts of every frame (the larger
+    part of either stage's cost) are found once and given to both.
+
+    Parameters
+    ----------
+    edges, cells, min_length, box
+        As for :func:`detect_t1`.
+    censor : int
+        Right-censoring window of both tables, frames (:func:`classify_t1`).
+
+    Returns
+    -------
+    events, neighbour_events : pandas.DataFrame
+    """
+    _check_cells(cells)
+    _check_censor(censor)
+    changes, by_frame = _changes(cells)
+
+    def contacts():  # each frame's contacts, to the per-cell lists as they go to the quartet search
+        for f, tracks, a, b, _ in _movie_frames(edges, cells, min_length):
+            changes.add(_Lists(f, tracks, a, b))
+            yield f, tracks, a, b
+
+    raw = _find_t1(contacts(), _ids(edges, cells))
+    return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, by_frame, censor)
 
 
 def _participants(events: pd.DataFrame) -> pd.DataFrame:
@@ -638,9 +711,7 @@ class _Lists:
 
     def __init__(self, frame, tracks, a, b):
         self.frame, self.tracks = frame, tracks
-        u, v = np.concatenate((a, b)), np.concatenate((b, a))
-        order = np.lexsort((v, u))
-        u, v = u[order], v[order]
+        u, v = _directed(a, b)
         ok = _in_sorted(u, tracks)  # a list belongs to a cell present in the frame
         self.u, self.v = u[ok], v[ok]
         self.row = np.searchsorted(tracks, self.u)
@@ -851,19 +922,33 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
         cell's centroid at ``frame_start``, px; x = column, y = row),
         ``is_border`` (a border cell at ``frame_start``).
     """
-    for col in ("frame", "cell", "x", "y"):
-        if col not in cells.columns:
-            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
+    _check_cells(cells)
+    _check_censor(censor)
+    changes, by_frame = _changes(cells)
+    for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
+        changes.add(_Lists(frame, present, a, b))
+    return _neighbour_table(changes, cells, by_frame, censor)
+
+
+def _check_censor(censor):
     if int(censor) != censor or censor < 0:
         raise InputError(f"censor must be a non-negative integer number of frames; got {censor!r}")
+
+
+def _changes(cells):
+    """An empty :class:`_Changes` for the cells of a movie, and their rows by frame."""
     frames, tracks = cells["frame"].to_numpy(np.int64), track_ids(cells)
     by_frame = _ByFrame(frames)
     constant = _same_cells_every_frame(by_frame, tracks)
     top = int(tracks.max()) if len(tracks) else 0
     changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)),
                        top if top < SLOT_TABLE_ROWS * len(tracks) + 2**16 else None)
-    for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
-        changes.add(_Lists(frame, present, a, b))
+    return changes, by_frame
+
+
+def _neighbour_table(changes, cells, by_frame, censor):
+    """The ``neighbour_events`` table of the changes of every frame of ``cells``."""
+    frames = cells["frame"].to_numpy(np.int64)
     rows = changes.events(int(frames.max()) if len(frames) else 0, censor)
     out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
     out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,
@@ -884,7 +969,7 @@ def _same_cells_every_frame(by_frame, tracks):
     """Whether every frame has the same set of cells (then neighbour lists compare by hash alone)."""
     first = None
     for _, rows in by_frame:
-        here = np.unique(tracks[rows])
+        here = _unique(tracks[rows])
         if first is None:
             first = here
         elif not np.array_equal(first, here):

@@ -126,7 +126,8 @@ def gamma_columns(cells, vertices, cell_vertices, box=None, p=(6, 2), center="ve
     ``n_sides > 0`` in their order (as :func:`hexatissue.mesh.network.network_columns`
     gives them), saves reading them back from the tables.
     """
-    out = cells.drop(columns=[c for c in cells.columns if c.startswith("gamma")])
+    old = [c for c in cells.columns if c.startswith("gamma")]
+    out = cells.drop(columns=old) if old else cells.copy(deep=False)  # (pandas copies on write: cells stays)
     if polygons is None:
         keys, xy, starts = table_polygons(vertices, cell_vertices, box)
         take = lookup(row_keys(keys["frame"], keys["cell"]), None,

@@ -33,7 +33,7 @@ import pandas as pd
 from ._system import libc, release_freed_memory
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
-from .events import cell_event_stats, default_censor, detect_t1, neighbour_events
+from .events import cell_event_stats, default_censor, t1_tables
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
 from .geometry import row_keys
@@ -160,10 +160,9 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     else:
         del tables["grid"], tables["defects"]
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
-    tables["events"] = detect_t1(tables["edges"], cells, min_length=events.min_length, censor=censor, box=box)
+    # quartet T1s and per-cell neighbour changes from one pass over the contacts
+    tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], cells, events.min_length, censor, box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
-    release_freed_memory()
-    tables["neighbour_events"] = neighbour_events(tables["edges"], cells, min_length=events.min_length, censor=censor)
     release_freed_memory()
     summary = {"tracking": tracking, "events": _events_summary(tables["events"], events, censor, src.n_frames)}
     options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),

@@ -214,9 +214,9 @@ def _check_ids(cell, at):
 
 def _shared_vertices(xy, tolerance):
     """Network vertex of every polygon vertex (numbered in order of first appearance) and their positions."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
+
+    from ._components import components
 
     if isinstance(tolerance, (bool, np.bool_)) or not np.isscalar(tolerance) or not tolerance >= 0:
         raise InputError(f"tolerance must be a distance >= 0 in px; got {tolerance!r}")
@@ -225,8 +225,7 @@ def _shared_vertices(xy, tolerance):
     merged = np.arange(len(points))
     if tolerance > 0 and len(points) > 1:
         pairs = cKDTree(points).query_pairs(tolerance, output_type="ndarray")
-        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
-        merged = connected_components(graph, directed=False)[1]
+        merged = components(len(points), pairs[:, 0], pairs[:, 1])
     group = merged[group]
     # renumber by first appearance, so vertex ids follow the file
     n = int(merged.max()) + 1 if len(merged) else 0

@@ -111,6 +111,7 @@ def warm_up() -> None:
         a, b = _compact(np.array([[1, 2], [0, 2]], dtype)), _compact(np.array([[1, 1], [2, 0]], dtype))
         _dense_overlaps(a.index, b.index, len(a.ids), len(b.ids))
         _sparse_overlaps(a.index, b.index, len(a.ids), len(b.ids))
+        _compact_after(a, np.array([[1, 1], [2, 0]], dtype))
 
 
 def _compact_reference(labels: np.ndarray) -> _Compact:
@@ -122,12 +123,8 @@ def _compact_reference(labels: np.ndarray) -> _Compact:
 
 
 @njit(cache=True)
-def _compact_index(flat, top):
-    """Compact index of each pixel of ``flat`` (ids 0..top; -1 for 0), the ids present (sorted) and their areas.
-
-    Two passes over the pixels and one over the ids, with no temporary image
-    (the reference builds the compact image, shifts and casts it, then counts it).
-    """
+def _id_table(flat, top):
+    """Compact id of each value 0..top of ``flat`` (-1 for 0 and for values absent) and the ids present (sorted)."""
     new = np.zeros(top + 1, np.int32)
     for v in flat:
         new[v] = 1
@@ -143,14 +140,55 @@ def _compact_index(flat, top):
     for v in range(1, top + 1):
         if new[v] >= 0:
             ids[new[v]] = v
+    return new, ids
+
+
+@njit(cache=True)
+def _compact_index(flat, top):
+    """Compact index of each pixel of ``flat`` (ids 0..top; -1 for 0), the ids present (sorted) and their areas.
+
+    Two passes over the pixels and one over the ids, with no temporary image
+    (the reference builds the compact image, shifts and casts it, then counts it).
+    """
+    new, ids = _id_table(flat, top)
     index = np.empty(flat.size, np.int32)
-    area = np.zeros(n, np.int64)
+    area = np.zeros(len(ids), np.int64)
     for k in range(flat.size):
         c = new[flat[k]]
         index[k] = c
         if c >= 0:
             area[c] += 1
     return index, ids, area
+
+
+@njit(cache=True)
+def _compact_overlaps(flat, top, prev, n_prev):
+    """:func:`_compact_index` of ``flat`` and its :func:`_dense_overlaps` with ``prev`` (``n_prev`` cells).
+
+    One pass over the pixels for both (the two kernels apart read the new
+    index again, and their count table is touched in a second pass).
+    """
+    new, ids = _id_table(flat, top)
+    n = len(ids)
+    index = np.empty(flat.size, np.int32)
+    area = np.zeros(n, np.int64)
+    width = n + 1  # background in the last row and column, as in _dense_overlaps
+    counts = np.zeros((n_prev + 1) * width, np.int64)
+    met = np.empty(min(flat.size, (n_prev + 1) * width), np.int64)
+    m = 0
+    for k in range(flat.size):
+        c = new[flat[k]]
+        index[k] = c
+        if c >= 0:
+            area[c] += 1
+        a = prev[k]
+        key = (a if a >= 0 else n_prev) * width + (c if c >= 0 else n)
+        if counts[key] == 0:
+            met[m] = key
+            m += 1
+        counts[key] += 1
+    i, j, count = _cell_pairs(counts, met[:m], width, n_prev, n)
+    return index, ids, area, i, j, count
 
 
 @njit(cache=True)
@@ -173,7 +211,14 @@ def _dense_overlaps(ia, ib, na, nb):
             met[m] = key
             m += 1
         counts[key] += 1
-    met = np.sort(met[:m])
+    return _cell_pairs(counts, met[:m], width, na, nb)
+
+
+@njit(cache=True)
+def _cell_pairs(counts, met, width, na, nb):
+    """``i, j, n`` of the keys ``met`` of the count table that are pairs of cells (not background), sorted."""
+    met = np.sort(met)
+    m = len(met)
     cells = 0
     for q in range(m):
         cells += met[q] // width < na and met[q] % width < nb
@@ -272,6 +317,18 @@ def _contingency(a: _Compact, b: _Compact):
     return out
 
 
+def _compact_after(previous: _Compact, labels: np.ndarray):
+    """``(_compact(labels), its overlaps with previous)``, in one pass over the pixels when the kernels allow it."""
+    top = int(labels.max())
+    fused = (top < 2**24 and top <= 4 * labels.size and (len(previous.ids) + 1) * (top + 1) <= _DENSE_LIMIT
+             and previous.index is not None and previous.index.size == labels.size)
+    if not fused:
+        cur = _compact(labels)
+        return cur, _contingency(previous, cur)
+    index, ids, area, i, j, n = _compact_overlaps(labels.ravel(), top, previous.index, len(previous.ids))
+    return _Compact(index, ids, area, labels.shape), (i, j, n)
+
+
 def compact_frames(labels, pixels=False) -> list:
     """Consecutive frames as a :class:`MovieTracker` takes them, with their overlaps counted here.
 
@@ -297,14 +354,14 @@ def compact_frames(labels, pixels=False) -> list:
     """
     out = []
     for k, lab in enumerate(labels):
-        cur = _compact(lab)
-        overlaps = None
-        if out:
-            previous = out[-1][0]
-            overlaps = _contingency(previous, cur)
-            cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
-            if not pixels and k > 1:
-                out[-1] = previous.without_pixels(), out[-1][1]
+        if not out:
+            out.append((_compact(lab), None))
+            continue
+        previous = out[-1][0]
+        cur, overlaps = _compact_after(previous, lab)
+        cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
+        if not pixels and k > 1:
+            out[-1] = previous.without_pixels(), out[-1][1]
         out.append((cur, overlaps))
     return out
 
@@ -338,6 +395,66 @@ def frame_overlaps(prev, cur) -> pd.DataFrame:
 
 def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
     """Mother index -> two daughter indices, from overlaps.
+
+    A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
+    ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
+    it (``n_ij >= mother_fraction * area_i``), and that is not the best
+    successor (highest IoU, at least ``min_iou / 2``) of another cell: a
+    neighbour that took over part of ``i`` is not its daughter.  A mother with
+    two or more candidates divided; its two largest overlaps are the daughters
+    (ties: the earlier pair of ``i, j, n``).
+
+    Returns
+    -------
+    mothers : (m,) int64 array
+        Indices into ``area_a``, ascending.
+    daughters : (m, 2) int64 array
+        Indices into ``area_b``, the larger overlap first.
+    """
+    i, j, n = (np.ascontiguousarray(x, np.int64) for x in (i, j, n))
+    mothers, first, second = _division_kernel(i, j, n, np.asarray(area_a, np.int64), np.asarray(area_b, np.int64),
+                                              float(child_fraction), float(mother_fraction), float(min_iou))
+    return mothers, np.stack((first, second), axis=1)
+
+
+@njit(cache=True)
+def _division_kernel(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
+    """:func:`_divisions` in three passes over the pairs (the reference sorts them twice): mothers and daughters."""
+    na, nb = len(area_a), len(area_b)
+    best = np.full(na, -1, np.int64)  # pair of the highest IoU of each cell of a (the first of ties)
+    best_iou = np.full(na, -1.0)
+    for k in range(len(i)):
+        iou = n[k] / (area_a[i[k]] + area_b[j[k]] - n[k])
+        if iou > best_iou[i[k]]:
+            best_iou[i[k]], best[i[k]] = iou, k
+    n_best = np.zeros(nb, np.int64)  # cells of a whose best successor (IoU >= min_iou / 2) is this cell of b
+    for a in range(na):
+        if best[a] >= 0 and best_iou[a] >= min_iou / 2:
+            n_best[j[best[a]]] += 1
+    top = np.full((na, 2), -1, np.int64)  # the two largest candidate overlaps of each mother (pairs)
+    for k in range(len(i)):
+        a, b = i[k], j[k]
+        own = 1 if best[a] >= 0 and best_iou[a] >= min_iou / 2 and j[best[a]] == b else 0
+        if n[k] < child_fraction * area_b[b] or n[k] < mother_fraction * area_a[a] or n_best[b] - own != 0:
+            continue
+        if top[a, 0] < 0 or n[k] > n[top[a, 0]]:
+            top[a, 1], top[a, 0] = top[a, 0], k
+        elif top[a, 1] < 0 or n[k] > n[top[a, 1]]:
+            top[a, 1] = k
+    m = 0
+    for a in range(na):
+        m += top[a, 1] >= 0
+    mothers, first, second = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
+    m = 0
+    for a in range(na):
+        if top[a, 1] >= 0:
+            mothers[m], first[m], second[m] = a, j[top[a, 0]], j[top[a, 1]]
+            m += 1
+    return mothers, first, second
+
+
+def _divisions_reference(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
+    """Reference of :func:`_divisions` (sorts and bincounts): mother index -> two daughter indices, from overlaps.
 
     A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
     ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
@@ -407,9 +524,9 @@ def _assign(i, j, iou):
 def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
     i, j, n = _contingency(a, b)
     mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction, min_iou)
-    # Mothers and daughters leave the one-to-one assignment.
-    free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
-    i, j, n = i[free], j[free], n[free]
+    if len(mothers):  # mothers and daughters leave the one-to-one assignment
+        free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
+        i, j, n = i[free], j[free], n[free]
     iou = n / (a.area[i] + b.area[j] - n)
     cand = iou >= min_iou
     r, c, _ = _assign(i[cand], j[cand], iou[cand])
@@ -567,7 +684,9 @@ class Tracker(_Feed):
                                               self.mother_fraction)
             tracks[c] = self._prev_tracks[r]
             new[c] = False
-            ended = np.setdiff1d(np.arange(len(self._prev.ids)), np.r_[r, mothers])
+            linked = np.zeros(len(self._prev.ids), bool)  # a mask, not setdiff1d (two hash uniques per frame)
+            linked[r] = linked[mothers] = True
+            ended = np.flatnonzero(~linked)
             if self.max_gap:
                 # cells starting at this frame (not daughters) may continue a track seen before t-1
                 starting = new.copy()
@@ -652,7 +771,8 @@ class IdTracker(_Feed):
             for m, pair in zip(a.ids[mothers].tolist(), cur.ids[daughters].tolist()):
                 for d in pair:
                     self._divisions[d] = (m, frame)
-        self._seen = np.union1d(self._seen, cur.ids)
+        if self._prev is None or new.any():  # else every id was seen: no union (a hash unique) to make
+            self._seen = np.union1d(self._seen, cur.ids)
         self._last.update(dict.fromkeys(cur.ids.tolist(), frame))
         self._frames.append(frame)
         self._cells.append(cur.stored_ids())

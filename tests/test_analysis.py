@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from hexatissue.analysis import (cell_displacements, cell_steps, cell_timing, fit_gaussian_mixture,
+from hexatissue.analysis import (cell_displacements, cell_steps, cell_timing, in_time_units, fit_gaussian_mixture,
                                  frames_per_window, migration_populations, migration_table, nearest_defect,
                                  random_cell_distances, random_vertex_distances, t1_defect_distances,
                                  t1_defect_proximity, timing_across_runs, timing_summary, timing_test)
@@ -341,6 +341,11 @@ def test_prescribed_event_times_give_exact_means():
     assert np.isnan(t.loc[3, "mean_intercalation_interval"])
     scaled = cell_timing(_timing_events(), frame_interval=500).set_index("track")
     assert scaled.loc[1, "mean_intercalation_interval"] == 3000.0
+    frames = cell_timing(_timing_events())
+    pd.testing.assert_frame_equal(in_time_units(frames, 500), scaled.reset_index())
+    pd.testing.assert_frame_equal(frames, cell_timing(_timing_events()))  # the input is not changed
+    with pytest.raises(InputError, match="frame_interval"):
+        in_time_units(frames, 0)
     pd.testing.assert_frame_equal(cell_timing(_timing_events()), cell_event_stats(_timing_events()))
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from hexatissue.errors import InputError
 from hexatissue.events import (cell_event_stats, classify_t1, neighbour_events, track_contacts, detect_t1, find_t1,
-                               intercalation_intervals)
+                               intercalation_intervals, t1_tables)
 from hexatissue.synthetic import movie_contacts, t1_movie, voronoi_movie
 
 KEY = ["kind", "frame_start", "frame_end", "duration", "cell_a", "cell_b", "cell_c", "cell_d", "frame_gain"]
@@ -374,9 +374,44 @@ def _assert_as_reference(edges, cells, box, censor, min_lengths=(0.0, 2.0)):
         pd.testing.assert_frame_equal(got, ref.detect_t1(edges, cells, min_length, censor, box))
         per_cell = neighbour_events(edges, cells, min_length, censor)
         pd.testing.assert_frame_equal(per_cell, ref.neighbour_events(edges, cells, min_length, censor))
+        both = t1_tables(edges, cells, min_length, censor, box)  # one pass over the contacts for both tables
+        pd.testing.assert_frame_equal(both[0], got)
+        pd.testing.assert_frame_equal(both[1], per_cell)
         n["t1"] += len(got)
         n["neighbour"] += len(per_cell)
     return n
+
+
+def test_index_of_ids_equals_a_binary_search():
+    """Dense ids (a table), sparse or negative ids (a binary search): the position of each value in the ids."""
+    from hexatissue.events import _index_of
+
+    rng = np.random.default_rng(5)
+    for ids in (np.unique(rng.integers(1, 900, 300)), np.unique(rng.integers(0, 2**40, 300)),
+                np.unique(rng.integers(-50, 50, 60)), np.zeros(0, np.int64)):
+        values = rng.choice(ids, 500) if len(ids) else ids
+        got = _index_of(ids)(values)
+        assert got.dtype == np.int64
+        np.testing.assert_array_equal(got, np.searchsorted(ids, values))
+
+
+def test_directed_contacts_equal_a_two_key_lexsort():
+    """Small non-negative ids (one argsort of a key), large or negative ones (lexsort): sorted by (u, v)."""
+    from hexatissue.events import _directed
+
+    rng = np.random.default_rng(4)
+    for low, high in ((0, 50), (0, 2**40), (-30, 30)):
+        keys = np.unique(rng.integers(low, high, (300, 2)), axis=0)
+        a, b = keys.min(axis=1), keys.max(axis=1)
+        keep = a < b
+        a, b = a[keep], b[keep]
+        u, v = np.concatenate((a, b)), np.concatenate((b, a))
+        order = np.lexsort((v, u))
+        got = _directed(a, b)
+        np.testing.assert_array_equal(got[0], u[order])
+        np.testing.assert_array_equal(got[1], v[order])
+    assert [x.tolist() for x in _directed(np.array([2, 0]), np.array([3, 2]))] == [[0, 2, 2, 3], [2, 0, 3, 2]]
+    assert all(len(x) == 0 for x in _directed(np.zeros(0, np.int64), np.zeros(0, np.int64)))
 
 
 @pytest.mark.parametrize("periodic", [True, False], ids=["periodic", "open"])

@@ -356,16 +356,3 @@ def test_white_membranes_are_refused_with_the_fix_in_the_message():
     big_id = labels.astype(np.uint8).copy()  # a real cell with id 255 among many: still a cell
     big_id[big_id == big_id.max()] = 255
     assert 255 in mesh_from_labels(big_id).cells["cell"].tolist()
-
-
-def test_largest_cycles_equal_the_stable_sort_rule():
-    """Per cell the cycle of largest area, the first of equal ones: as a stable sort by (cell, -area) picks it."""
-    from hexatissue.mesh.network import _largest_cycles
-
-    rng = np.random.default_rng(4)
-    ccell = np.sort(rng.integers(0, 30, 200))
-    area = rng.integers(-3, 4, 200).astype(float)  # many ties
-    order = np.lexsort((-area, ccell))
-    expected = order[np.r_[True, ccell[order][1:] != ccell[order][:-1]]]
-    np.testing.assert_array_equal(_largest_cycles(ccell, area), expected)
-    assert len(_largest_cycles(np.zeros(0, np.int64), np.zeros(0))) == 0

@@ -7,6 +7,7 @@ Voronoi tissues.  Corner (ci, cj) is at x = cj - 0.5, y = ci - 0.5;
 directions 0 +x, 1 +y, 2 -x, 3 -y; left and right in x-y axes (see
 ``_kernels``).  Vertex ids are corners in raster order.
 """
+import warnings
 from types import SimpleNamespace
 
 import numpy as np
@@ -377,7 +378,7 @@ def test_cell_moments_unwrap_on_the_torus():
 # --- randomized ---------------------------------------------------------------------------------
 
 def chain_traced(k):
-    """Chain the half-edges of every traced junction and loop point (its cell on the left), as network._polygons does."""
+    """Chain the half-edges of every traced junction and loop point (its cell on the left), as the polygons kernel does."""
     loop_v = len(k.vi) + np.arange(len(k.loops["row"]))
     a, b = np.r_[k.j["start"], loop_v], np.r_[k.j["end"], loop_v]
     cell = np.r_[k.j["left"], k.loops["left"], k.j["right"], k.loops["right"]].astype(np.int64)
@@ -544,3 +545,176 @@ def test_cell_moments_pixels_half_a_box_away_tie_alike(labels):
     n = int(labels.max()) + 1
     for a, b in zip(K.cell_moments(labels, n, True), R.cell_moments(labels, n, True)):
         np.testing.assert_array_equal(a, b)
+
+
+def test_merge_clusters_hand_made():
+    """Vertices 0 (0, 0), 1 (1.5, 0), 2 (0.5, 1.9), 3 (0.5, 6), no arm lines (no sub-pixel shift), merge 2 px.
+
+    Round 1 contracts 0-1 (1.5 px); junction 1-2 (2.15 px) then runs from the
+    merged vertex (0.75, 0) to vertex 2: (-0.25, 1.9), 1.92 px, so round 2
+    contracts it too.  The cluster {0, 1, 2} sits at the mean (2/3, 1.9/3);
+    junction 2-3 is kept, from there to vertex 3: (0.5 - 2/3, 6 - 1.9/3).
+    """
+    pos = np.array([[0.0, 0.0], [1.5, 0.0], [0.5, 1.9], [0.5, 6.0]])
+    start, end = np.array([0, 1, 2]), np.array([1, 2, 3])
+    vec = pos[end] - pos[start]
+    no_arm = -np.ones(3, np.int64)
+    args = (pos, start, end, no_arm, no_arm, vec, np.zeros((4, 4), np.int64), np.zeros((4, 4, 2)),
+            np.zeros((4, 4, 2)), np.zeros(2), 2.0, N.MAX_MERGE_ROUNDS, N.MAX_SHIFT)
+    centre, keep, a, b, kvec = K.merge_clusters(*args)
+    np.testing.assert_allclose(centre, [[2 / 3, 1.9 / 3], [0.5, 6.0]], atol=1e-15)
+    np.testing.assert_array_equal(keep, [False, False, True])
+    np.testing.assert_array_equal(a, [0])
+    np.testing.assert_array_equal(b, [1])
+    np.testing.assert_allclose(kvec, [[0.5 - 2 / 3, 6 - 1.9 / 3]], atol=1e-15)
+    for x, y in zip(K.merge_clusters(*args), R.merge_clusters(*args)):
+        np.testing.assert_array_equal(x, y)
+    # one round only: junction 1-2 stays although it became shorter
+    centre, keep, a, b, kvec = K.merge_clusters(*args[:-2], 1, N.MAX_SHIFT)
+    np.testing.assert_array_equal(keep, [False, True, True])
+    np.testing.assert_allclose(centre, [[0.75, 0.0], [0.5, 1.9], [0.5, 6.0]], atol=1e-15)
+
+
+@pytest.mark.parametrize("periodic", [False, True], ids=["open", "periodic"])
+def test_merge_clusters_equal_reference_on_voronoi(periodic):
+    """Traced jittered Voronoi images (with their arm lines), merge distances 0-3.5 px: every output equal."""
+    from hexatissue.box import Box
+
+    for seed in range(3):
+        shape = (40, 46)
+        labels = voronoi_labels(jittered_seeds(shape, 5, seed=seed), shape, periodic).astype(np.int32)
+        pos, j, lines = N._trace(labels, periodic, np.zeros(shape, bool))
+        lengths = Box.from_shape(shape).lengths if periodic else np.zeros(2)
+        for merge_distance in (0.0, 1.0, 2.0, 3.5, np.sqrt(2.0), np.sqrt(5.0)):  # some on the lengths (ties)
+            args = (pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"], lines["count"],
+                    lines["mean"], lines["direction"], lengths, merge_distance, N.MAX_MERGE_ROUNDS, N.MAX_SHIFT)
+            for x, y in zip(K.merge_clusters(*args), R.merge_clusters(*args)):
+                np.testing.assert_array_equal(x, y)
+
+
+def test_segment_total_equals_numpy_reduceat():
+    """Sums of 1..300 values of mixed magnitudes (numpy's pairwise blocks of 8 and its split above 128): bit for bit."""
+    rng = np.random.default_rng(3)
+    for n in range(1, 301):
+        values = rng.normal(size=n + 5) * 10.0 ** rng.uniform(-4, 4, n + 5)
+        assert K.segment_total(values, 3, n) == np.add.reduceat(values[3:3 + n], [0])[0] == R.segment_total(values, 3, n)
+
+
+def polygons_both(centre, kept, n_labels):
+    args = (centre, kept["a"], kept["b"], kept["left"], kept["right"], kept["vec"], n_labels)
+    out = K.polygons(*args)
+    for x, y in zip(out, R.polygons(*args)):
+        assert x.dtype == y.dtype
+        np.testing.assert_array_equal(x, y)
+    return out
+
+
+def test_polygons_two_unit_squares():
+    """Cells 1 = [0, 1] x [0, 1] and 2 = [1, 2] x [0, 1]: one counter-clockwise square each, from its lowest vertex.
+
+    Vertices 0 (0, 0), 1 (1, 0), 2 (2, 0), 3 (2, 1), 4 (1, 1), 5 (0, 1); each
+    junction has its left cell on its left in x-y axes (1 -> 4 between cells 1 and 2).
+    """
+    centre = np.array([[0.0, 0.0], [1, 0], [2, 0], [2, 1], [1, 1], [0, 1]])
+    a, b = np.array([0, 1, 4, 5, 1, 2, 3]), np.array([1, 4, 5, 0, 2, 3, 4])
+    kept = dict(a=a, b=b, left=np.array([1, 1, 1, 1, 2, 2, 2]), right=np.array([0, 2, 0, 0, 0, 0, 0]),
+                vec=centre[b] - centre[a])
+    poly_start, poly_len, poly_area, poly_perimeter, verts, xy, n_cycles = polygons_both(centre, kept, 3)
+    np.testing.assert_array_equal(poly_start, [-1, 0, 4])
+    np.testing.assert_array_equal(poly_len, [0, 4, 4])
+    np.testing.assert_array_equal(poly_area, [np.nan, 1.0, 1.0])
+    np.testing.assert_array_equal(poly_perimeter, [np.nan, 4.0, 4.0])
+    np.testing.assert_array_equal(verts, [0, 1, 4, 5, 1, 2, 3, 4])
+    np.testing.assert_array_equal(xy, centre[verts])
+    np.testing.assert_array_equal(n_cycles, [0, 1, 1])
+
+
+@pytest.mark.parametrize("periodic", [False, True], ids=["open", "periodic"])
+def test_polygons_equal_reference(periodic):
+    """Networks of jittered Voronoi images (merge distances 0-3.5 px) and of tiny random label images."""
+    from hexatissue.box import Box
+
+    rng = np.random.default_rng(5)
+    images = [voronoi_labels(jittered_seeds((40, 46), 5, seed=s), (40, 46), periodic) for s in range(3)]
+    images += [rng.integers(0, 4, (int(rng.integers(3, 12)), int(rng.integers(3, 12)))) for _ in range(40)]
+    for labels in images:
+        labels = np.asarray(labels, np.int32)
+        box = Box.from_shape(labels.shape) if periodic else None
+        pos, j, lines = N._trace(labels, periodic, np.zeros(labels.shape, bool))
+        for merge_distance in (0.0, 2.0, 3.5):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                centre, kept = N._merge_short(pos, j, lines, merge_distance, box)
+            polygons_both(centre, kept, int(labels.max()) + 1)
+
+
+def test_cell_vertex_rows_hand_made():
+    """Rows 2, 0, 1 of three cells; cell 1 has no polygon; cell 2's polygon crosses the edge of a 10 x 10 box.
+
+    Cell 0: vertices 3, 1, 2 at rows 0-2 of ``verts``; cell 2: vertices 0, 4
+    at rows 3-4, unwrapped at x = 10.5 and 9.5 while vertex 0 sits at x = 0.5:
+    image (1, 0) for vertex 0, (0, 0) for vertex 4.
+    """
+    centre = np.array([[0.5, 5.0], [1, 1], [2, 1], [1, 2], [9.5, 5.0]])
+    verts = np.array([3, 1, 2, 0, 4])
+    xy = np.array([[1.0, 2], [1, 1], [2, 1], [10.5, 5.0], [9.5, 6.0]])
+    poly_start, poly_len = np.array([0, -1, 3]), np.array([3, 0, 2])
+    args = (np.array([2, 0, 1]), poly_start, poly_len, verts, xy, centre, np.array([10.0, 10.0]))
+    row, rank, vertex, image, polygon_xy, first = K.cell_vertex_rows(*args)
+    np.testing.assert_array_equal(row, [0, 0, 1, 1, 1])
+    np.testing.assert_array_equal(rank, [0, 1, 0, 1, 2])
+    np.testing.assert_array_equal(vertex, [0, 4, 3, 1, 2])
+    np.testing.assert_array_equal(image, [[1, 0], [0, 0], [0, 0], [0, 0], [0, 0]])
+    np.testing.assert_array_equal(polygon_xy, [[10.5, 5.0], [9.5, 5.0], [1, 2], [1, 1], [2, 1]])
+    np.testing.assert_array_equal(first, [0, 2])
+    for lengths in (args[-1], np.zeros(2)):  # periodic and open
+        for x, y in zip(K.cell_vertex_rows(*args[:-1], lengths), R.cell_vertex_rows(*args[:-1], lengths)):
+            assert x.dtype == y.dtype
+            np.testing.assert_array_equal(x, y)
+
+
+def test_length_below_decides_as_hypot():
+    """A 3-4-5 triangle exactly on the limit, just either side of it, zero, and random near ties."""
+    below = K._length_below.py_func
+    assert not below(3.0, 4.0, 5.0, False) and below(3.0, 4.0, 5.0, True)
+    assert below(3.0, 4.0, np.nextafter(5.0, 6.0), False) and not below(3.0, 4.0, np.nextafter(5.0, 4.0), True)
+    assert not below(0.0, 0.0, 0.0, False) and below(0.0, 0.0, 0.0, True)
+    rng = np.random.default_rng(8)
+    xy = rng.normal(0, 3, (2000, 2))
+    for limit in (np.hypot(*xy.T) * (1 + rng.normal(0, 1e-15, 2000)), np.full(2000, 2.0)):
+        for or_equal in (False, True):
+            got = [K._length_below(x, y, lim, or_equal) for (x, y), lim in zip(xy, limit)]
+            want = np.hypot(*xy.T) <= limit if or_equal else np.hypot(*xy.T) < limit
+            np.testing.assert_array_equal(got, want)
+
+
+def test_at_most_two_values():
+    """One value, two values, a third in the last pixel, strided samples and random tiny images (against the reference)."""
+    image = np.zeros((5, 7), np.uint16)
+    assert K.at_most_two_values(image)
+    image[2, 3] = 9
+    assert K.at_most_two_values(image)
+    image[-1, -1] = 4
+    assert not K.at_most_two_values(image) and K.at_most_two_values(image[:, :-1])
+    assert K.at_most_two_values(image[::2, ::3]) == R.at_most_two_values(image[::2, ::3])
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        labels = rng.integers(0, int(rng.integers(1, 4)), (int(rng.integers(1, 5)), int(rng.integers(1, 5))))
+        assert K.at_most_two_values(labels) == R.at_most_two_values(labels)
+
+
+@pytest.mark.parametrize("scale, chosen", [(1.0, 0), (2.0, 4)], ids=["tie: the first", "the larger"])
+def test_polygons_largest_cycle_of_a_cell_in_two_pieces(scale, chosen):
+    """Cell 1 in two pieces: a unit square (vertices 0-3) and a square of side ``scale`` (vertices 4-7).
+
+    Its polygon is the cycle of larger area; of two equal ones the first
+    (the one from the lowest vertex).  Both count in its cycles.
+    """
+    square = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
+    centre = np.vstack([square, [5.0, 0] + scale * square])
+    a, b = np.arange(8), np.array([1, 2, 3, 0, 5, 6, 7, 4])
+    kept = dict(a=a, b=b, left=np.ones(8, np.int64), right=np.zeros(8, np.int64), vec=centre[b] - centre[a])
+    poly_start, poly_len, poly_area, _, verts, _, n_cycles = polygons_both(centre, kept, 2)
+    assert poly_start[1] == chosen and poly_len[1] == 4 and poly_area[1] == (1.0 if chosen == 0 else scale**2)
+    np.testing.assert_array_equal(verts, np.arange(8))
+    assert n_cycles[1] == 2

@@ -1,5 +1,6 @@
 """Tests of the MPF simulator against the numpy reference, exact invariants and analytic limits."""
 import math
+import os
 import signal
 
 import numpy as np
@@ -18,7 +19,7 @@ from hexatissue.simulate import (
     stability_limit,
 )
 from hexatissue.simulate import _kernels as K
-from hexatissue.simulate.model import ThreadTuner
+from hexatissue.simulate.model import OMP_SPIN_COUNT, ThreadTuner
 from hexatissue.simulate import reference as ref
 
 @pytest.fixture(autouse=True)
@@ -117,7 +118,8 @@ def test_bad_run_arguments_raise_input_error(tmp_path):
 
 
 # -- numba kernels == numpy reference ---------------------------------------------------------
-@pytest.mark.parametrize("k_ad, advection", [(0.005, "upwind3"), (0.05, "upwind3"), (0.005, "central")])
+@pytest.mark.parametrize("k_ad, advection", [(0.005, "upwind3"), (0.05, "upwind3"), (0.005, "central"),
+                                             (0.0, "upwind3"), (0.0, "central")])
 def test_numba_step_equals_numpy_reference(k_ad, advection):
     # 6 cells in a 60 x 52 box: 41-px patches overlap heavily and wrap across both box edges
     p = Params(n_cells=6, Lx=60, Ly=52, dtype="float64", k_ad=k_ad, v0=0.05, recentre_every=10**6,
@@ -207,6 +209,17 @@ def test_lattice_sums_and_moments_equal_reference():
     np.testing.assert_allclose(sim._S2, (fields**2).sum(0), rtol=0, atol=1e-13)
     K.lattice_laplacian(sim._S1, sim._ptr, sim._L)
     np.testing.assert_allclose(sim._L, ref._lap(fields.sum(0)), rtol=0, atol=1e-13)
+    # without adhesion S1 is left as it was and S2 is the same
+    S1, S2 = np.full(p.shape, 7.0), np.zeros(p.shape)
+    K.lattice_sums(sim.phi, sim.oy, sim._gx, sim._ptr, sim._cells, S1, S2, False)
+    assert (S1 == 7.0).all() and np.array_equal(S2, sim._S2)
+    # the patch-layout gather of a lattice array (the stage's copy of S2 and lap S1)
+    P = p.patch
+    for c in range(p.n_cells):
+        got = np.full(P * P, -1.0)
+        K._gather(sim._L, sim._gx, sim._gy, c, got)
+        expected = sim._L[np.ix_(sim._gy[c], sim._gx[c])]
+        assert np.array_equal(got.reshape(P, P)[1:-1], expected[1:-1])
     m = sim.moments()
     np.testing.assert_allclose(m[:, 0], (fields**2).sum((1, 2)) / p.phi0**2, rtol=1e-13)
     # centroid: unwrapped patch coordinates, compared through the periodic images
@@ -639,3 +652,24 @@ def test_auto_threads_run_equals_one_thread_run(tmp_path, monkeypatch):
     assert np.array_equal(np.asarray(ra.labels[:]), np.asarray(rb.labels[:]))
     assert ra.cells.equals(rb.cells)
     assert set(used) == {1, 2}  # both counts ran chunks of the same run
+
+
+def test_threading_layer_waits_passively_after_a_short_spin(monkeypatch):
+    """Unless the user chose a policy: PASSIVE with a short spin; a chosen policy is left alone."""
+    import numba
+    from numba.np.ufunc import parallel
+
+    from hexatissue.simulate.model import select_threading_layer
+
+    monkeypatch.setattr(parallel, "_is_initialized", False)  # as before numba starts its threads
+    monkeypatch.setattr(numba.config, "THREADING_LAYER", "default")
+    for name in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "NUMBA_THREADING_LAYER"):
+        monkeypatch.delenv(name, raising=False)
+    if select_threading_layer() != "omp":
+        pytest.skip("libgomp is not available")
+    assert (os.environ["OMP_WAIT_POLICY"], os.environ["GOMP_SPINCOUNT"]) == ("PASSIVE", str(OMP_SPIN_COUNT))
+    monkeypatch.setenv("OMP_WAIT_POLICY", "ACTIVE")
+    monkeypatch.delenv("GOMP_SPINCOUNT")
+    monkeypatch.setattr(numba.config, "THREADING_LAYER", "default")
+    select_threading_layer()
+    assert os.environ["OMP_WAIT_POLICY"] == "ACTIVE" and "GOMP_SPINCOUNT" not in os.environ

@@ -225,6 +225,50 @@ def test_sparse_overlap_kernel_equals_reference():
     assert (i.tolist(), j.tolist(), n.tolist()) == ([0, 1, 1], [2, 0, 2], [1, 1, 2])
 
 
+def test_division_kernel_equals_reference():
+    """Random overlap tables (pairs sorted or not, thresholds varied): the division kernel equals the reference."""
+    rng = np.random.default_rng(8)
+    found = 0
+    for _ in range(500):
+        na, nb = (int(x) for x in rng.integers(1, 12, 2))
+        keys = rng.choice(na * nb, int(rng.integers(0, na * nb + 1)), replace=False)
+        i, j = np.divmod(np.sort(keys) if rng.random() < 0.5 else keys, nb)
+        area_a, area_b = rng.integers(1, 30, na), rng.integers(1, 30, nb)
+        n = np.minimum(rng.integers(1, 30, len(i)), np.minimum(area_a[i], area_b[j]))  # ties in n and IoU
+        args = (i, j, n, area_a, area_b, rng.choice([0.3, 0.6, 1.0]), rng.choice([0.1, 0.2]), rng.choice([0.2, 0.5]))
+        for a, b in zip(trk._divisions(*args), trk._divisions_reference(*args)):
+            assert a.dtype == b.dtype and a.shape == b.shape
+            np.testing.assert_array_equal(a, b)
+        found += len(b) > 0
+    assert found > 50
+    # hand-made: mother 0 (area 10) split into cells 0 and 1 (4 and 5 px inside it); cell 1 of a moved to cell 2
+    mothers, daughters = trk._divisions(np.array([0, 0, 1]), np.array([0, 1, 2]), np.array([4, 5, 8]),
+                                        np.array([10, 9]), np.array([4, 5, 9]), 0.6, 0.2, 0.2)
+    assert mothers.tolist() == [0] and daughters.tolist() == [[1, 0]]
+
+
+def test_fused_compaction_and_overlaps_equal_the_two_kernels():
+    """Random frames (ids with gaps, background, several dtypes): one pass gives what compaction then counting give."""
+    rng = np.random.default_rng(9)
+    for _ in range(40):
+        shape = (int(rng.integers(2, 30)), int(rng.integers(2, 30)))
+        prev = rng.choice(rng.choice(60, int(rng.integers(1, 15)), replace=False), shape)
+        cur = rng.choice(rng.choice(60, int(rng.integers(1, 15)), replace=False), shape)
+        if rng.random() < 0.5:  # runs of equal labels, as in real frames
+            cur = np.repeat(cur[:, : max(shape[1] // 3, 1)], 3, axis=1)[:, : shape[1]]
+            cur = np.pad(cur, ((0, 0), (0, shape[1] - cur.shape[1])))
+        for dtype in (np.uint8, np.uint16, np.int32, np.int64):
+            a = trk._compact(prev.astype(dtype))
+            got, overlaps = trk._compact_after(a, cur.astype(dtype))
+            want = trk._compact_reference(cur.astype(dtype))
+            for name in ("index", "ids", "area"):
+                assert getattr(got, name).dtype == getattr(want, name).dtype
+                np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+            for x, y in zip(overlaps, trk._dense_overlaps_reference(a.index, want.index, len(a.ids), len(want.ids))):
+                assert x.dtype == y.dtype
+                np.testing.assert_array_equal(x, y)
+
+
 def test_compact_kernel_equals_reference():
     """Random label images (ids with gaps, with and without 0, several dtypes): the kernel equals the reference."""
     rng = np.random.default_rng(6)

@@ -18,7 +18,7 @@ from .plots import (plot_event_overview, plot_migration, plot_t1_defect_distance
                     plot_timing_vs_parameter)
 from .proximity import (ProximityResult, compare_distances, nearest_defect, random_cell_distances,
                         random_vertex_distances, t1_defect_distances, t1_defect_proximity)
-from .timing import cell_timing, timing_across_runs, timing_summary, timing_test
+from .timing import cell_timing, in_time_units, timing_across_runs, timing_summary, timing_test
 
 __all__ = [
     "nearest_defect", "t1_defect_distances", "random_cell_distances", "random_vertex_distances",
@@ -26,6 +26,6 @@ __all__ = [
     "frames_per_window", "cell_steps", "cell_displacements", "migration_table", "migration_populations",
     "MigrationPopulations", "DEFAULT_DL", "PAPER_WINDOW_ITERATIONS",
     "GaussianMixture1D", "fit_gaussian_mixture",
-    "cell_timing", "timing_summary", "timing_test", "timing_across_runs",
+    "cell_timing", "in_time_units", "timing_summary", "timing_test", "timing_across_runs",
     "plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter", "plot_event_overview",
 ]

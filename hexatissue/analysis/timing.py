@@ -24,7 +24,7 @@ from ..events import cell_event_stats
 from ..errors import check_positive
 from ..schema import require_columns
 
-__all__ = ["cell_timing", "timing_test", "timing_summary", "timing_across_runs", "TIMING_QUANTITIES"]
+__all__ = ["cell_timing", "in_time_units", "timing_test", "timing_summary", "timing_across_runs", "TIMING_QUANTITIES"]
 
 #: The two per-cell quantities compared: column of cell_event_stats -> short name.
 TIMING_QUANTITIES = {"mean_intercalation_interval": "intercalation_interval", "mean_cycle_period": "cycle_period"}
@@ -55,8 +55,19 @@ def cell_timing(events, cells=None, frame_interval=1.0):
     per_cell = "track" in events.columns and "cell_a" not in events.columns  # neighbour_events
     cells_of = ("track",) if per_cell else ("cell_a", "cell_b", "cell_c", "cell_d")
     require_columns(events, ("kind", "frame_start", "duration") + cells_of, "events")
+    return in_time_units(cell_event_stats(events, cells), frame_interval)
+
+
+def in_time_units(stats_table, frame_interval):
+    """A copy of a per-cell table in frames with its two time columns multiplied by ``frame_interval``.
+
+    The figures take tables in frames and convert them themselves; the CSV
+    tables are in the user's time unit. Both come from one
+    :func:`cell_timing` call this way.
+    """
+    require_columns(stats_table, tuple(TIMING_QUANTITIES), "stats_table")
     frame_interval = check_positive(frame_interval, "frame_interval")
-    out = cell_event_stats(events, cells)
+    out = stats_table.copy()
     for col in TIMING_QUANTITIES:
         out[col] = out[col] * frame_interval
     return out

@@ -42,6 +42,8 @@ import math
 import numpy as np
 from numba import njit, uint64
 
+from .._hashing import GOLDEN
+
 #: largest floor(lam) with an alias table (the tables hold ~ TABLE_MAX^2 / 2 entries, 16 bytes each)
 TABLE_MAX = 1024
 
@@ -109,8 +111,6 @@ def alias_tables(n_max):
 
 #: 1 / k for the inversion loop (index 0 unused): a multiplication is cheaper than a division
 RECIPROCALS = np.r_[0.0, 1.0 / np.arange(1, 65)]
-#: the splitmix64 increment (2**64 / golden ratio)
-GOLDEN = 0x9E3779B97F4A7C15
 #: streams per pixel (counter = pixel * STREAMS + stream); the first of the large-mean sampler's
 STREAMS, LARGE_STREAM = 2**16, 2**15
 #: the normal deviate's first stream

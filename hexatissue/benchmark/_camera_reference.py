@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import gammaln
 
-from ._camera_kernels import GOLDEN, LARGE_STREAM, NORMAL_STREAM, STREAMS, TABLE_MAX, table_size
+from .._hashing import GOLDEN, mix64
+from ._camera_kernels import LARGE_STREAM, NORMAL_STREAM, STREAMS, TABLE_MAX, table_size
 
 
 def alias_tables(n_max):
@@ -43,15 +44,7 @@ def word(key, i, s):
     """Reference of :func:`hexatissue.benchmark._camera_kernels.word` (arrays of pixels ``i`` and streams ``s``)."""
     u = np.uint64
     with np.errstate(over="ignore"):  # uint64 arithmetic wraps around, as it should
-        return _mix(u(key) + (np.asarray(i).astype(u) * u(STREAMS) + np.asarray(s).astype(u)) * u(GOLDEN))
-
-
-def _mix(z):
-    """splitmix64's finaliser."""
-    u = np.uint64
-    z = (z ^ (z >> u(30))) * u(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> u(27))) * u(0x94D049BB133111EB)
-    return z ^ (z >> u(31))
+        return mix64(u(key) + (np.asarray(i).astype(u) * u(STREAMS) + np.asarray(s).astype(u)) * u(GOLDEN))
 
 
 def uniform(key, i, s):

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._components import components
 from ..errors import InputError, check_positive
 from ..progress import progress
 
@@ -108,9 +109,6 @@ def _periodic(image, **parameters):
     copies within half the padding of the image are used (the watershed near
     the padding's outer edge lacks context and may merge cells).
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     rows, cols = image.shape
     pad = max(8, min(rows, cols) // 4)
     lab = segment_membranes(np.pad(image, pad, mode="wrap"), **parameters).astype(np.int64)
@@ -128,8 +126,7 @@ def _periodic(image, **parameters):
             b.append(lab[np.ix_(r + dy + pad, c + dx + pad)].ravel())
     a, b = np.concatenate(a), np.concatenate(b)
     n = int(lab.max()) + 1
-    _, joined = connected_components(coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n)), directed=False)
-    _, out = np.unique(joined[centre], return_inverse=True)
+    _, out = np.unique(components(n, a, b)[centre], return_inverse=True)
     return (out.reshape(centre.shape) + 1).astype(np.uint32)
 
 

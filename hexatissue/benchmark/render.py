@@ -64,6 +64,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
+from .._hashing import GOLDEN, mix64
 from ..errors import InputError, as_generator
 from ..options import _fail, _Options
 from ..schema import rows_by_frame
@@ -183,15 +184,10 @@ def _hash_uniform(key, *ids):
     Junction and cell properties are functions of the cells' ids, so they
     are the same in every frame and independent of table order.
     """
-    with np.errstate(over="ignore"):
-        h = np.full(np.shape(ids[0]), np.uint64(key), dtype=np.uint64)
-        for i, v in enumerate(ids):
-            h ^= (np.asarray(v).astype(np.uint64) + np.uint64(0x9E3779B97F4A7C15 * (i + 1) % 2**64))
-            h ^= h >> np.uint64(30)
-            h *= np.uint64(0xBF58476D1CE4E5B9)
-            h ^= h >> np.uint64(27)
-            h *= np.uint64(0x94D049BB133111EB)
-            h ^= h >> np.uint64(31)
+    h = np.full(np.shape(ids[0]), np.uint64(key), dtype=np.uint64)
+    for i, v in enumerate(ids):
+        with np.errstate(over="ignore"):
+            h = mix64(h ^ (np.asarray(v).astype(np.uint64) + np.uint64(GOLDEN * (i + 1) % 2**64)))
     return ((h >> np.uint64(11)).astype(np.float64) + 0.5) / 2.0**53
 
 

@@ -236,12 +236,17 @@ def _to_truth(cells):
 def _map(table, columns, to_truth):
     """``table`` with ``t_<column>`` for each predicted cell id column: its matched truth cell in the row's
     frame (0 if none)."""
-    lookup = dict(zip(zip(to_truth["frame"].to_numpy(), to_truth["pred"].to_numpy()), to_truth["truth"].to_numpy()))
+    known = _keys(to_truth["frame"], to_truth["pred"])  # unique: one truth cell per predicted cell and frame
+    truth = np.r_[to_truth["truth"].to_numpy(np.int64), 0]  # index -1 (not matched) reads the 0 at the end
     out = table.copy()
-    frames = out["frame"].to_numpy()
     for col in columns:
-        out[f"t_{col}"] = np.array([lookup.get(k, 0) for k in zip(frames, out[col].to_numpy())], dtype=np.int64)
+        out[f"t_{col}"] = truth[known.get_indexer(_keys(out["frame"], out[col]))]
     return out
+
+
+def _keys(*columns):
+    """Rows of equal-length columns as one index of tuples (vectorised lookups and membership)."""
+    return pd.MultiIndex.from_arrays([np.asarray(c, np.int64) for c in columns])
 
 
 def _ratio(summary, name, num, den):
@@ -346,12 +351,11 @@ def _tracking(truth, pred, to_truth, summary, counts):
     tl, pl = _links(truth.cells), _links(pred.cells)
     pl = _map(pl, ["cell"], to_truth)
     pl["t_cell_next"] = _map(pl.assign(frame=pl["frame"] + 1), ["cell_next"], to_truth)["t_cell_next"]
-    truth_links = set(zip(tl["frame"], tl["cell"], tl["cell_next"]))
-    hit = np.array([k in truth_links for k in zip(pl["frame"], pl["t_cell"], pl["t_cell_next"])], bool)
-    found = set(zip(pl["frame"][hit], pl["t_cell"][hit], pl["t_cell_next"][hit]))
+    truth_links, pred_links = _keys(tl["frame"], tl["cell"], tl["cell_next"]), _keys(
+        pl["frame"], pl["t_cell"], pl["t_cell_next"])
+    hit = pred_links.isin(truth_links)
     table = pd.concat([
-        tl.assign(status=["matched" if k in found else "missed"
-                          for k in zip(tl["frame"], tl["cell"], tl["cell_next"])]),
+        tl.assign(status=np.where(truth_links.isin(pred_links[hit]), "matched", "missed")),
         pd.DataFrame({"frame": pl["frame"][~hit], "track": 0, "cell": pl["t_cell"][~hit],
                       "cell_next": pl["t_cell_next"][~hit], "pred_track": pl["track"][~hit],
                       "pred_cell": pl["cell"][~hit], "pred_cell_next": pl["cell_next"][~hit], "status": "extra"})],

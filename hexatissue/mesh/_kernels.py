@@ -31,15 +31,29 @@ DJ = np.array([1, 0, -1, 0], dtype=np.int64)
 
 @njit(cache=True)
 def _pad_at(labels, periodic, i, j):
-    """``pad[i, j]``: the label of pixel (i - 1, j - 1), wrapped on a torus, 0 outside an open image."""
+    """``pad[i, j]``: the label of pixel (i - 1, j - 1), wrapped on a torus, 0 outside an open image.
+
+    ``i`` and ``j`` lie within the padded image (0..h + 1, 0..w + 1), so
+    wrapping is one add or subtract, not a division.
+    """
     h, w = labels.shape
     i -= 1
     j -= 1
     if periodic:
-        return labels[i % h, j % w]
+        return labels[_wrap(i, h), _wrap(j, w)]
     if i < 0 or i >= h or j < 0 or j >= w:
         return labels[0, 0] - labels[0, 0]  # 0 of the labels' dtype (a literal 0 would be int64)
     return labels[i, j]
+
+
+@njit(cache=True)
+def _wrap(i, n):
+    """``i % n`` for ``-n <= i < 2 n`` (an index at most one period outside ``0..n-1``)."""
+    if i < 0:
+        return i + n
+    if i >= n:
+        return i - n
+    return i
 
 
 @njit(cache=True)
@@ -233,9 +247,20 @@ def _lower_bound(values, lo, hi, key):
 
 
 @njit(cache=True)
-def _vertex_id(keys, key):
-    """Id of the vertex at corner key ``ci * ncj + cj``: its rank in the sorted ``keys`` (vertices in raster order)."""
-    return _lower_bound(keys, 0, len(keys), key)
+def _row_starts(vi, nci):
+    """Index of the first vertex of every corner row 0..nci (vertices in raster order; ``nci`` = their number)."""
+    first = np.zeros(nci + 1, np.int64)
+    for ci in vi:
+        first[ci + 1] += 1
+    for ci in range(nci):
+        first[ci + 1] += first[ci]
+    return first
+
+
+@njit(cache=True)
+def _vertex_id(row_first, vj, ci, cj):
+    """Id of the vertex at corner (ci, cj): its rank in raster order, searched among the vertices of row ``ci``."""
+    return _lower_bound(vj, row_first[ci], row_first[ci + 1], cj)
 
 
 @njit(cache=True)
@@ -291,8 +316,8 @@ def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
     sxx = 0.0
     sxy = 0.0
     syy = 0.0
+    k = k0 % len(points)
     for i in range(n):
-        k = (k0 + i * step) % len(points)
         mx = points[k, 0] - ox
         my = points[k, 1] - oy
         sx += mx
@@ -300,6 +325,7 @@ def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
         sxx += mx * mx
         sxy += mx * my
         syy += my * my
+        k = _wrap(k + step, len(points))  # the next row, without a division per point
     count[v, d0] = n
     mx = sx / n
     my = sy / n
@@ -342,7 +368,7 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
     nci, ncj = arms.shape
     nv = len(vi)
     done = np.zeros(nv, np.uint8)  # bit d: the junction on arm d has been traced (from its other end)
-    keys = vi * ncj + vj
+    row_first = _row_starts(vi, nci)
     start = np.empty(n_max, np.int64)
     end = np.empty(n_max, np.int64)
     left = np.empty(n_max, labels.dtype)
@@ -367,7 +393,7 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
             lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
             ei, ej, dx, dy, n, d_last = _walk(arms, kind, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
-            end[k] = _vertex_id(keys, ei * ncj + ej)
+            end[k] = _vertex_id(row_first, vj, ei, ej)
             start_arm[k] = d
             end_arm[k] = (d_last + 2) % 4
             done[end[k]] |= np.uint8(1 << end_arm[k])
@@ -640,6 +666,22 @@ def label_summary(labels):
 
 
 @njit(cache=True)
+def at_most_two_values(labels):
+    """Whether a 2-D image holds at most two distinct values; stops at the third (at once in a label image)."""
+    h, w = labels.shape
+    first = labels[0, 0]
+    second = first
+    for i in range(h):
+        for j in range(w):
+            v = labels[i, j]
+            if v != first and v != second:
+                if second != first:
+                    return False
+                second = v
+    return True
+
+
+@njit(cache=True)
 def present_ids(labels, top):
     """Which ids 0..top occur in ``labels`` (any integer image with values in that range)."""
     present = np.zeros(top + 1, np.bool_)
@@ -742,10 +784,141 @@ def arm_intersections(cluster, off, v, arm, count, mean, direction, n_clusters, 
         trace = mxx[c] + myy[c]
         sx = (myy[c] * rx[c] - mxy[c] * ry[c]) / det
         sy = (mxx[c] * ry[c] - mxy[c] * rx[c]) / det
-        if det > 0.1 * (trace * trace) / 4 and np.hypot(sx, sy) <= max_shift:
+        if det > 0.1 * (trace * trace) / 4 and _length_below(sx, sy, max_shift, True):
             shift[c, 0] = sx
             shift[c, 1] = sy
     return shift
+
+
+@njit(cache=True)
+def _length_below(x, y, limit, or_equal):
+    """``np.hypot(x, y) < limit`` (``<=`` with ``or_equal``), decided from ``x * x + y * y`` unless it is a near tie.
+
+    The libm's hypot costs ~20 ns; the sum of squares is within a few
+    ulps of the true square length and hypot within one ulp of the true
+    length, so outside a relative band of 1e-9 the two agree; inside it
+    (and for inf or NaN) hypot decides.
+    """
+    q = x * x + y * y
+    l2 = limit * limit
+    if q < l2 * (1.0 - 1e-9):
+        return True
+    if q > l2 * (1.0 + 1e-9):
+        return False
+    h = np.hypot(x, y)
+    return h <= limit if or_equal else h < limit
+
+
+@njit(cache=True)
+def _min_image(d, period):
+    """``d - period * round(d / period)`` (:meth:`hexatissue.Box.min_image`); period 0 (open image): ``d``."""
+    if period == 0.0:
+        return d
+    return d - period * np.rint(d / period)
+
+
+@njit(cache=True, error_model="numpy")
+def _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean, direction, lengths, max_shift):
+    """Vertices joined by ``short`` junctions: cluster of each vertex, cluster positions, vertex offsets.
+
+    A vertex's position is its cluster's position plus its offset (minimum
+    image from the cluster's first vertex, then centred on the mean); the
+    cluster positions are moved to the intersection of the arm lines of the
+    junctions that stay (:func:`arm_intersections`, start ends then end
+    ends, in junction order).  Sums run in vertex order, as ``np.bincount``.
+    """
+    nv = len(pos)
+    cluster, first = components(nv, start[short], end[short])
+    nc = len(first)
+    off = np.empty((nv, 2))
+    counts = np.zeros(nc, np.int64)
+    sums = np.zeros((nc, 2))
+    for v in range(nv):
+        c = cluster[v]
+        for a in range(2):
+            off[v, a] = _min_image(pos[v, a] - pos[first[c], a], lengths[a])
+            sums[c, a] += off[v, a]
+        counts[c] += 1
+    centre = np.empty((nc, 2))
+    for c in range(nc):
+        for a in range(2):
+            sums[c, a] = sums[c, a] / counts[c]  # the mean offset from the first vertex
+            centre[c, a] = pos[first[c], a] + sums[c, a]
+    for v in range(nv):
+        for a in range(2):
+            off[v, a] -= sums[cluster[v], a]
+    n_ends = 0
+    for k in range(len(start)):
+        n_ends += (not short[k]) * ((start_arm[k] >= 0) + (end_arm[k] >= 0))
+    vs = np.empty(n_ends, np.int64)
+    arms = np.empty(n_ends, np.int64)
+    e = 0
+    for ends, ends_arm in ((start, start_arm), (end, end_arm)):
+        for k in range(len(start)):
+            if not short[k] and ends_arm[k] >= 0:
+                vs[e] = ends[k]
+                arms[e] = ends_arm[k]
+                e += 1
+    shift = arm_intersections(cluster, off, vs, arms, count, mean, direction, nc, max_shift)
+    for c in range(nc):
+        for a in range(2):
+            centre[c, a] += shift[c, a]
+    for v in range(nv):
+        for a in range(2):
+            off[v, a] -= shift[cluster[v], a]
+    return cluster, centre, off
+
+
+@njit(cache=True, error_model="numpy")
+def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direction, lengths, merge_distance,
+                   max_rounds, max_shift):
+    """Contract the junctions shorter than ``merge_distance``, in rounds, until no other is (loops never are).
+
+    Junction lengths are measured between the sub-pixel positions of the
+    merged vertices (:func:`_cluster_positions`), which depend on what was
+    merged: a junction that becomes shorter than ``merge_distance`` is
+    contracted in the next round, up to ``max_rounds`` rounds.  ``lengths``:
+    the periodic box's (Lx, Ly), zeros for an open image.
+
+    Returns the cluster positions, which junctions are kept (not
+    contracted), and for the kept ones their end clusters and their vectors
+    between the merged positions (in junction order).
+    """
+    nj = len(start)
+    short = np.empty(nj, np.bool_)
+    for k in range(nj):
+        short[k] = start[k] != end[k] and _length_below(vec[k, 0], vec[k, 1], merge_distance, False)
+    again = np.zeros(nj, np.bool_)
+    keep = ~short
+    for _ in range(max_rounds):
+        cluster, centre, off = _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean,
+                                                  direction, lengths, max_shift)
+        keep = ~short
+        n_keep = 0
+        any_again = False
+        for k in range(nj):
+            if keep[k]:
+                n_keep += 1
+                vx = vec[k, 0] + off[start[k], 0] - off[end[k], 0]
+                vy = vec[k, 1] + off[start[k], 1] - off[end[k], 1]
+                again[k] = cluster[start[k]] != cluster[end[k]] and _length_below(vx, vy, merge_distance, False)
+                any_again |= again[k]
+        if not any_again:
+            break
+        for k in range(nj):
+            short[k] |= again[k]
+    a = np.empty(n_keep, np.int64)
+    b = np.empty(n_keep, np.int64)
+    kvec = np.empty((n_keep, 2))
+    i = 0
+    for k in range(nj):
+        if keep[k]:
+            a[i] = cluster[start[k]]
+            b[i] = cluster[end[k]]
+            for x in range(2):
+                kvec[i, x] = vec[k, x] + off[start[k], x] - off[end[k], x]
+            i += 1
+    return centre, keep, a, b, kvec
 
 
 @njit(cache=True)
@@ -862,6 +1035,187 @@ def chain_cycles(cell, frm, to):
         s = e
     starts[n_cycles] = pos
     return cycle, order, starts[: n_cycles + 1]
+
+
+@njit(cache=True)
+def _pairwise_sum(a, s, n):
+    """Sum of ``a[s:s + n]`` in numpy's pairwise order (``pairwise_sum`` of numpy's ``loops_utils.h.src``).
+
+    So that a sum over a polygon equals numpy's to the last bit
+    (``tests/test_mesh_kernels.py`` checks it against ``np.add.reduceat``).
+    """
+    if n < 8:
+        r = -0.0
+        for i in range(n):
+            r += a[s + i]
+        return r
+    if n <= 128:
+        r = np.empty(8)
+        for u in range(8):
+            r[u] = a[s + u]
+        i = 8
+        while i < n - n % 8:
+            for u in range(8):
+                r[u] += a[s + i + u]
+            i += 8
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+        while i < n:
+            res += a[s + i]
+            i += 1
+        return res
+    half = n // 2
+    half -= half % 8
+    return _pairwise_sum(a, s, half) + _pairwise_sum(a, s + half, n - half)
+
+
+@njit(cache=True)
+def segment_total(a, s, n):
+    """``np.add.reduceat`` over the segment ``a[s:s + n]`` (n >= 1): its first value plus the pairwise sum of the rest."""
+    return a[s] + _pairwise_sum(a, s + 1, n - 1)
+
+
+@njit(cache=True)
+def polygons(centre, a, b, left, right, vec, n_labels):
+    """Counter-clockwise boundary cycles of every cell from the kept junctions; the largest per cell.
+
+    Half-edges are the junctions seen from their left cell (a -> b) then
+    from their right cell (b -> a, reversed vector), cell 0 left out, sorted
+    by (cell, start vertex) (:func:`half_edge_order`) and chained
+    (:func:`chain_cycles`).  Each cycle is unwrapped from its first vertex's
+    position by the exact junction vectors: a running sum over all cycles,
+    as ``np.cumsum`` computes it, less its value at the cycle's start.
+    Signed shoelace areas are summed as ``np.add.reduceat`` does.
+
+    Returns per cell (compact id) the start offset, length, signed area and
+    perimeter (NaN without a polygon; summed as ``np.add.reduceat`` does) of
+    its polygon (the largest cycle, the first of equal ones, if its area is
+    positive) in ``verts``/``xy`` (vertex ids and unwrapped (x, y) of every
+    cycle back to back), and its number of cycles.
+    """
+    nk = len(a)
+    nh = 0
+    for k in range(nk):
+        nh += (left[k] != 0) + (right[k] != 0)
+    cell = np.empty(nh, np.int64)
+    frm = np.empty(nh, np.int64)
+    to = np.empty(nh, np.int64)
+    hvec = np.empty((nh, 2))
+    h = 0
+    for side in range(2):
+        for k in range(nk):
+            c = left[k] if side == 0 else right[k]
+            if c == 0:
+                continue
+            cell[h] = c
+            frm[h] = a[k] if side == 0 else b[k]
+            to[h] = b[k] if side == 0 else a[k]
+            sign = 1.0 if side == 0 else -1.0
+            hvec[h, 0] = sign * vec[k, 0]
+            hvec[h, 1] = sign * vec[k, 1]
+            h += 1
+    order = half_edge_order(cell, frm, n_labels)
+    cell = cell[order]
+    frm = frm[order]
+    to = to[order]
+    hvec = hvec[order]
+    _, seq, cstart = chain_cycles(cell, frm, to)
+    n_cyc = len(cstart) - 1
+    xy = np.empty((nh, 2))
+    verts = np.empty(nh, np.int64)
+    cross = np.empty(nh)
+    area = np.empty(n_cyc)
+    run_x = 0.0
+    run_y = 0.0
+    for q in range(n_cyc):
+        s, e = cstart[q], cstart[q + 1]
+        v0 = frm[seq[s]]
+        for i in range(s, e):
+            hx, hy = hvec[seq[i], 0], hvec[seq[i], 1]
+            run_x += hx
+            run_y += hy
+            xy[i, 0] = run_x - hx  # the running sum before this step, as np.cumsum(step) - step gives it
+            xy[i, 1] = run_y - hy
+            verts[i] = frm[seq[i]]
+        bx, by = xy[s, 0], xy[s, 1]
+        for i in range(s, e):
+            xy[i, 0] = centre[v0, 0] + xy[i, 0] - bx
+            xy[i, 1] = centre[v0, 1] + xy[i, 1] - by
+        for i in range(s, e):
+            j = i + 1 if i + 1 < e else s
+            cross[i] = xy[i, 0] * xy[j, 1] - xy[j, 0] * xy[i, 1]
+        area[q] = 0.5 * segment_total(cross, s, e - s)
+    poly_start = np.full(n_labels, -1, np.int64)
+    poly_len = np.zeros(n_labels, np.int64)
+    poly_area = np.full(n_labels, np.nan)
+    poly_perimeter = np.full(n_labels, np.nan)
+    n_cycles = np.zeros(n_labels, np.int64)
+    q = 0
+    while q < n_cyc:  # the cycles of a cell are consecutive
+        c = cell[seq[cstart[q]]]
+        best = q
+        r = q
+        while r < n_cyc and cell[seq[cstart[r]]] == c:
+            if area[r] > area[best]:
+                best = r
+            r += 1
+        n_cycles[c] = r - q
+        if area[best] > 0:
+            s, e = cstart[best], cstart[best + 1]
+            poly_start[c] = s
+            poly_len[c] = e - s
+            poly_area[c] = area[best]
+            for i in range(s, e):  # side lengths (the cross products are not needed any more)
+                j = i + 1 if i + 1 < e else s
+                cross[i] = np.hypot(xy[j, 0] - xy[i, 0], xy[j, 1] - xy[i, 1])
+            poly_perimeter[c] = segment_total(cross, s, e - s)
+        q = r
+    return poly_start, poly_len, poly_area, poly_perimeter, verts, xy, n_cycles
+
+
+@njit(cache=True)
+def cell_vertex_rows(rows, poly_start, poly_len, verts, xy, centre, lengths):
+    """The ``cell_vertices`` rows of the cells ``rows`` (compact ids, in table order), and their polygons.
+
+    Returns, over the polygon vertices of the rows with a polygon, back to
+    back: the row's index in ``rows``, the rank, the vertex id, and the
+    periodic image (x, y) of the vertex that makes the polygon contiguous
+    (``rint((xy - centre[vertex]) / lengths)``; 0 on an open image, where
+    ``lengths`` is 0); the polygons' vertex positions (the vertex's
+    position plus its image, as the tables give it back) and the first row of each polygon.
+    """
+    n = 0
+    n_poly = 0
+    for r in range(len(rows)):
+        if poly_start[rows[r]] >= 0:
+            n += poly_len[rows[r]]
+            n_poly += 1
+    row = np.empty(n, np.int64)
+    rank = np.empty(n, np.int64)
+    vertex = np.empty(n, np.int64)
+    image = np.zeros((n, 2), np.int64)
+    polygon_xy = np.empty((n, 2))
+    first = np.empty(n_poly, np.int64)
+    periodic = lengths[0] > 0
+    i = 0
+    q = 0
+    for r in range(len(rows)):
+        s = poly_start[rows[r]]
+        if s < 0:
+            continue
+        first[q] = i
+        q += 1
+        for k in range(poly_len[rows[r]]):
+            v = verts[s + k]
+            row[i] = r
+            rank[i] = k
+            vertex[i] = v
+            for a in range(2):
+                polygon_xy[i, a] = centre[v, a]
+                if periodic:
+                    image[i, a] = np.int64(np.rint((xy[s + k, a] - centre[v, a]) / lengths[a]))
+                    polygon_xy[i, a] = centre[v, a] + image[i, a] * lengths[a]
+            i += 1
+    return row, rank, vertex, image, polygon_xy, first
 
 
 @njit(cache=True)

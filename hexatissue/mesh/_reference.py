@@ -388,3 +388,99 @@ def chain_cycles(cell, frm, to):
 def half_edge_order(cell, frm, n_cells):
     """Reference of :func:`._kernels.half_edge_order`."""
     return np.lexsort((frm, cell))
+
+
+def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direction, lengths, merge_distance,
+                   max_rounds, max_shift):
+    """Reference of :func:`._kernels.merge_clusters` (whole-array rounds, weighted bincounts)."""
+    def min_image(d):
+        return d - lengths * np.round(d / lengths) if lengths.any() else d
+
+    def positions(short):
+        cluster, first = components(len(pos), start[short], end[short])
+        off_first = min_image(pos - pos[first[cluster]])
+        counts = np.bincount(cluster)
+        mean_off = np.column_stack([np.bincount(cluster, off_first[:, a]) for a in range(2)]) / counts[:, None]
+        off = off_first - mean_off[cluster]
+        use_start = ~short & (start_arm >= 0)
+        use_end = ~short & (end_arm >= 0)
+        v = np.concatenate((start[use_start], end[use_end]))
+        arm = np.concatenate((start_arm[use_start], end_arm[use_end]))
+        shift = arm_intersections(cluster, off, v, arm, count, mean, direction, len(first), max_shift)
+        return cluster, pos[first] + mean_off + shift, off - shift[cluster]
+
+    short = (start != end) & (np.hypot(*vec.T) < merge_distance)
+    for _ in range(max_rounds):
+        cluster, centre, off = positions(short)
+        keep = ~short
+        kvec = vec[keep] + off[start[keep]] - off[end[keep]]
+        a, b = cluster[start[keep]], cluster[end[keep]]
+        again = (a != b) & (np.hypot(*kvec.T) < merge_distance)
+        if not again.any():
+            break
+        short[np.flatnonzero(keep)[again]] = True
+    return centre, keep, a, b, kvec
+
+
+def segment_total(a, s, n):
+    """Reference of :func:`._kernels.segment_total`."""
+    return np.add.reduceat(a[s:s + n], [0])[0]
+
+
+def polygons(centre, a, b, left, right, vec, n_labels):
+    """Reference of :func:`._kernels.polygons` (whole-array numpy: cumulative sums, shoelace by reduceat)."""
+    from ..geometry import polygon_area_centroid, polygon_perimeter
+
+    cell = np.concatenate((left, right))
+    frm = np.concatenate((a, b))
+    to = np.concatenate((b, a))
+    hvec = np.concatenate((vec, -vec))
+    inside = cell != 0
+    cell, frm, to, hvec = cell[inside], frm[inside], to[inside], hvec[inside]
+    order = half_edge_order(cell, frm, n_labels)
+    cell, frm, to, hvec = cell[order], frm[order], to[order], hvec[order]
+    _, seq, cstart = chain_cycles(cell, frm, to)
+    clen = np.diff(cstart)
+    cstart = cstart[:-1]
+    step = hvec[seq].reshape(-1, 2)
+    cum = np.cumsum(step, axis=0) - step
+    first = np.repeat(cstart, clen)
+    xy = centre[frm[seq[first]]] + cum - cum[first] if len(seq) else np.zeros((0, 2))
+    area = polygon_area_centroid(xy, cstart)[0]
+    ccell = cell[seq[cstart]]
+    poly_start = np.full(n_labels, -1, np.int64)
+    poly_len = np.zeros(n_labels, np.int64)
+    poly_area = np.full(n_labels, np.nan)
+    perimeter = polygon_perimeter(xy, cstart)
+    poly_perimeter = np.full(n_labels, np.nan)
+    for c in np.unique(ccell):
+        mine = np.flatnonzero(ccell == c)
+        best = mine[np.argmax(area[mine])]
+        if area[best] > 0:
+            poly_start[c], poly_len[c], poly_area[c] = cstart[best], clen[best], area[best]
+            poly_perimeter[c] = perimeter[best]
+    return (poly_start, poly_len, poly_area, poly_perimeter, frm[seq], xy,
+            np.bincount(ccell, minlength=n_labels))
+
+
+def cell_vertex_rows(rows, poly_start, poly_len, verts, xy, centre, lengths):
+    """Reference of :func:`._kernels.cell_vertex_rows` (repeats and gathers)."""
+    starts, sizes = poly_start[rows], poly_len[rows]
+    has = starts >= 0
+    starts, sizes = starts[has], sizes[has]
+    first = np.cumsum(sizes) - sizes
+    take = np.repeat(starts - first, sizes) + np.arange(sizes.sum())
+    vertex = verts[take].astype(np.int64)
+    image = np.zeros((len(take), 2), np.int64)
+    polygon_xy = centre[vertex]
+    if lengths[0] > 0 and len(take):
+        image = np.rint((xy[take] - polygon_xy) / lengths).astype(np.int64)
+        polygon_xy = polygon_xy + image * lengths
+    row = np.repeat(np.flatnonzero(has), sizes)
+    return row, np.arange(len(take)) - np.repeat(first, sizes), vertex, image, polygon_xy, first
+
+
+def at_most_two_values(labels):
+    """Reference of :func:`._kernels.at_most_two_values` (two comparisons, not a sort)."""
+    others = labels[labels != labels.flat[0]]
+    return others.size == 0 or not (others != others[0]).any()

@@ -52,7 +52,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError
-from ._kernels import fill_gaps, label_summary, present_ids
+from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
 
 KINDS = ("auto", "touching", "membrane", "skeleton")
 OUTSIDE_RULES = ("auto", "none")
@@ -137,16 +137,11 @@ def _direct_and_separating(lab):
     return direct, separating
 
 
-def _at_most_two_values(arr):
-    """Whether ``arr`` holds at most two distinct values (two comparisons, not a sort)."""
-    others = arr[arr != arr.flat[0]]
-    return others.size == 0 or not (others != others[0]).any()
-
-
 def detect_kind(lab, periodic=False) -> str:
     """Guess the convention of a validated label image (see module docstring)."""
-    sample = lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)]
-    if _at_most_two_values(sample) and len(np.unique(lab)) == 2:
+    # a contiguous copy (of ~256 x 256 px): the kernel then has one layout, compiled by mesh.warm_up
+    sample = np.ascontiguousarray(lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)])
+    if at_most_two_values(sample) and len(np.unique(lab)) == 2:
         fg = lab != 0
         interior = ndimage.binary_erosion(fg, border_value=1)
         if fg.mean() < 0.5 and interior.sum() < 0.2 * fg.sum():
@@ -256,11 +251,12 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = _drop_small(lab, min_area)
     if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
         lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
-    if not lab.any():
+    positive = lab.min() > 0  # no 0 pixel (ids are non-negative): a min does not build a mask
+    if not positive and not lab.any():
         raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
                          "outside the mask")
     membrane = np.zeros(lab.shape, bool)
-    if lab.min() > 0:  # no 0 pixel (ids are non-negative): a min does not build a mask
+    if positive:
         return lab, membrane
     zero = lab == 0
     dtype = np.int32 if lab.max() < 2**31 else np.int64

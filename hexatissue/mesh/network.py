@@ -9,7 +9,6 @@ import pandas as pd
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
 from ..frame import Frame
-from ..geometry import polygon_area_centroid, polygon_perimeter
 from ..schema import validate
 from . import _kernels as K
 from .labels import POCKET_AREA, check_mask, compact_labels, normalize_valid, validate_labels
@@ -74,43 +73,18 @@ def _trace(lab32, periodic, membrane):
     return pos, junctions, lines
 
 
-def _subpixel_shift(cluster, off, j, use, lines, n_clusters):
-    """Least-squares intersection of the fitted arm lines of each merged vertex, relative to its centre.
-
-    Only the arms of junctions in ``use`` count (contracted ones are inside
-    the merged vertex).  Clusters whose lines are nearly parallel, or whose
-    intersection lies more than ``MAX_SHIFT`` px away, are not moved.
-    """
-    ends = []
-    for vkey, akey in (("start", "start_arm"), ("end", "end_arm")):
-        v, arm = j[vkey][use], j[akey][use]
-        ok = arm >= 0
-        ends.append((v[ok], arm[ok]))
-    v = np.concatenate([e[0] for e in ends])
-    arm = np.concatenate([e[1] for e in ends])
-    return K.arm_intersections(cluster, off, v, arm, lines["count"], lines["mean"], lines["direction"], n_clusters,
-                               MAX_SHIFT)
-
-
 def _merge_short(pos, j, lines, merge_distance, box):
     """Contract junctions shorter than ``merge_distance``; returns merged positions and kept junctions.
 
     Lengths are measured between sub-pixel vertex positions, which depend on
     what was merged, so contraction is repeated until no kept junction is
-    shorter than ``merge_distance``.
+    shorter than ``merge_distance`` (:func:`._kernels.merge_clusters`).
     """
-    loop = j["start"] == j["end"]
-    short = ~loop & (np.hypot(*j["vec"].T) < merge_distance)
-    for _ in range(MAX_MERGE_ROUNDS):
-        cluster, centre, off = _clusters(pos, j, short, lines, box)
-        keep = ~short
-        vec = j["vec"][keep] + off[j["start"][keep]] - off[j["end"][keep]]
-        a, b = cluster[j["start"][keep]], cluster[j["end"][keep]]
-        again = (a != b) & (np.hypot(*vec.T) < merge_distance)
-        if not again.any():
-            break
-        short[np.flatnonzero(keep)[again]] = True
-    collapsed = (a == b) & ~loop[keep]
+    lengths = box.lengths if box is not None else np.zeros(2)
+    centre, keep, a, b, vec = K.merge_clusters(pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"],
+                                               lines["count"], lines["mean"], lines["direction"], lengths,
+                                               float(merge_distance), MAX_MERGE_ROUNDS, MAX_SHIFT)
+    collapsed = (a == b) & (j["start"] != j["end"])[keep]
     if collapsed.any():
         # constant text: Python then shows it once per place, not once per frame of a movie
         warnings.warn(
@@ -129,74 +103,6 @@ def _merge_short(pos, j, lines, merge_distance, box):
     if box is not None:
         centre = box.wrap(centre)
     return centre, kept
-
-
-def _clusters(pos, j, short, lines, box):
-    """Vertices joined by ``short`` junctions: cluster id per vertex, cluster positions, vertex offsets.
-
-    A vertex's position is its cluster's position plus its offset (minimum
-    image); cluster positions are refined to the intersection of their arms.
-    """
-    cluster, first = K.components(len(pos), j["start"][short], j["end"][short])
-    min_image = box.min_image if box is not None else (lambda d: d)
-    off_first = min_image(pos - pos[first[cluster]])
-    counts = np.bincount(cluster)
-    sums = np.column_stack((np.bincount(cluster, off_first[:, 0]), np.bincount(cluster, off_first[:, 1])))
-    mean_off = sums / counts[:, None]
-    centre = pos[first] + mean_off
-    off = off_first - mean_off[cluster]
-    shift = _subpixel_shift(cluster, off, j, ~short, lines, len(centre))
-    return cluster, centre + shift, off - shift[cluster]
-
-
-def _polygons(centre, kept, n_labels):
-    """Counter-clockwise boundary cycle of every cell (the largest when a cell has several).
-
-    Returns per cell (compact id): start offset, length and signed area (NaN
-    without a polygon) of its polygon in ``verts``/``xy`` (vertex ids and
-    unwrapped (x, y) back to back), and the number of cycles.
-    """
-    cell = cat(kept["left"], kept["right"])
-    frm = cat(kept["a"], kept["b"])
-    to = cat(kept["b"], kept["a"])
-    vec = cat(kept["vec"], -kept["vec"])
-    inside = cell != 0
-    cell, frm, to, vec = cell[inside], frm[inside], to[inside], vec[inside]
-    order = K.half_edge_order(cell, frm, n_labels)
-    cell, frm, to, vec = cell[order], frm[order], to[order], vec[order]
-    _, seq, cstart = K.chain_cycles(cell, frm, to)
-    clen = np.diff(cstart)
-    cstart = cstart[:-1]
-    ccell = cell[seq[cstart]] if len(seq) else np.zeros(0, np.int64)
-    # unwrapped coordinates: first vertex at its position, then the exact junction vectors
-    step = vec[seq]
-    cum = np.cumsum(step, axis=0) - step
-    base = np.repeat(cum[cstart], clen, axis=0) if len(seq) else cum
-    xy = centre[np.repeat(frm[seq[cstart]], clen)] + cum - base if len(seq) else np.zeros((0, 2))
-    area, _ = polygon_area_centroid(xy, cstart)
-    n_cycles = np.bincount(ccell, minlength=n_labels)
-    best = _largest_cycles(ccell, area)
-    poly_start = np.full(n_labels, -1, np.int64)
-    poly_len = np.zeros(n_labels, np.int64)
-    good = area[best] > 0
-    poly_start[ccell[best[good]]] = cstart[best[good]]
-    poly_len[ccell[best[good]]] = clen[best[good]]
-    poly_area = np.full(n_labels, np.nan)
-    poly_area[ccell[best[good]]] = area[best[good]]
-    return poly_start, poly_len, poly_area, frm[seq], xy, n_cycles
-
-
-def _largest_cycles(ccell, area):
-    """Per cell, its cycle with the largest area (the first of equal ones); cycles come cell after cell.
-
-    Most cells have one cycle: only the runs of several are searched.
-    """
-    first = np.flatnonzero(cat([True], ccell[1:] != ccell[:-1])) if len(ccell) else np.zeros(0, np.int64)
-    end = cat(first[1:], [len(ccell)])
-    best = first.copy()
-    for r in np.flatnonzero(end - first > 1):
-        best[r] = first[r] + np.argmax(area[first[r]:end[r]])
-    return best
 
 
 def mesh_from_labels(
@@ -354,8 +260,9 @@ def network_columns(lab, membrane, box, merge_distance, frame=0):
     n_labels = len(ids)
     pos, junctions, lines = _trace(lab32, periodic, membrane)
     centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
-    poly_start, poly_len, poly_area, verts, xy, n_cycles = _polygons(centre, kept, n_labels)
-    cells = _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, poly_area, xy, n_cycles)
+    poly_start, poly_len, poly_area, poly_perimeter, verts, xy, n_cycles = K.polygons(
+        centre, kept["a"], kept["b"], kept["left"], kept["right"], kept["vec"], n_labels)
+    cells = _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, poly_perimeter, n_cycles)
     centre, kept, verts = _drop_closed_loops(centre, kept, verts)
     vertices, edges, cell_vertices, polygons = _network_columns(centre, kept, ids, cells, poly_start, poly_len,
                                                                 verts, xy, box)
@@ -392,7 +299,7 @@ def _drop_closed_loops(centre, kept, verts):
     return centre[used], kept, new[verts]
 
 
-def _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, poly_area, xy, n_cycles):
+def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, poly_perimeter, n_cycles):
     count, sx, sy = K.cell_moments(lab32, len(ids), periodic)
     present = np.flatnonzero(count > 0)
     present = present[present != 0]
@@ -404,23 +311,14 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, po
     border[junctions["left"][touches_zero]] = True
     border[junctions["right"][touches_zero]] = True
 
-    has_poly = poly_start[present] >= 0
-    starts = poly_start[present][has_poly]
-    lengths = poly_len[present][has_poly]
-    # polygons back to back, in cell order
-    take = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths) + np.arange(lengths.sum())
-    pxy = xy[take]
-    pstart = (np.cumsum(lengths) - lengths).astype(np.int64)
-    perim = polygon_perimeter(pxy, pstart)
-
-    n = len(present)
+    has_poly = poly_len[present] > 0
     data = {
         "cell": ids[present].astype(np.int64),
         "x": centroid[:, 0],
         "y": centroid[:, 1],
         "area": count[present],
         "polygon_area": poly_area[present],
-        "perimeter": _scatter(n, has_poly, perim),
+        "perimeter": poly_perimeter[present],
         "n_sides": poly_len[present].astype(np.int64),
         "n_boundaries": n_cycles[present].astype(np.int64),
         "is_border": border[present],
@@ -446,12 +344,6 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_start, poly_len, po
     return data
 
 
-def _scatter(n, mask, values):
-    out = np.full(n, np.nan)
-    out[mask] = values
-    return out
-
-
 def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box):
     cell_a = ids[np.minimum(kept["left"], kept["right"])]
     cell_b = ids[np.maximum(kept["left"], kept["right"])]
@@ -475,27 +367,15 @@ def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, 
         "cell_b": cell_b.astype(np.int64),
         "length": np.hypot(*kept["vec"].T),
     }
-    compact = np.searchsorted(ids, cells["cell"])
-    starts, lengths = poly_start[compact], poly_len[compact]
-    has = starts >= 0
-    starts, lengths = starts[has], lengths[has]
-    take = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths) + np.arange(lengths.sum())
-    first = np.cumsum(lengths) - lengths
-    corners = verts[take].astype(np.int64)
-    cell_vertices = {
-        "cell": np.repeat(cells["cell"][has], lengths),
-        "rank": (np.arange(lengths.sum()) - np.repeat(first, lengths)).astype(np.int64),
-        "vertex": corners,
-    }
-    # which periodic image of each vertex the contiguous polygon uses (exact: from the traced displacements),
-    # so polygons read back from the tables are right even with a junction longer than half the box
-    shift = np.zeros((len(take), 2), np.int64)
-    polygon_xy = centre[corners]
-    if box is not None and len(take):
-        shift = np.rint((xy[take] - polygon_xy) / box.lengths).astype(np.int64)
-        polygon_xy = polygon_xy + shift * box.lengths  # as table_polygons computes it from the tables
-    cell_vertices["image_x"], cell_vertices["image_y"] = shift[:, 0], shift[:, 1]
-    return vertices, edges, cell_vertices, (polygon_xy, first.astype(np.int64))
+    lengths = box.lengths if box is not None else np.zeros(2)
+    row, rank, vertex, image, polygon_xy, first = K.cell_vertex_rows(np.searchsorted(ids, cells["cell"]), poly_start,
+                                                                     poly_len, verts, xy, centre, lengths)
+    # image_x, image_y: which periodic image of each vertex the contiguous polygon uses (exact: from the
+    # traced displacements), so polygons read back from the tables are right even with a junction longer
+    # than half the box
+    cell_vertices = {"cell": cells["cell"][row], "rank": rank, "vertex": vertex,
+                     "image_x": image[:, 0], "image_y": image[:, 1]}
+    return vertices, edges, cell_vertices, (polygon_xy, first)
 
 
 def warm_up() -> None:

@@ -198,11 +198,13 @@ def _cell_polygons(movie):
     keys = keys.assign(_start=starts, _end=ends)
     rows = movie.cells.reset_index(drop=True).merge(keys, on=["frame", "cell"], how="inner", sort=False)
     rows = rows[(rows["_end"] - rows["_start"]).to_numpy() >= 3]
-    polys = [xy[s:e] for s, e in zip(rows["_start"].to_numpy(), rows["_end"].to_numpy())]
-    if movie.box is not None:  # the periodic image of each polygon nearest its cell's centroid
-        centres = rows[["x", "y"]].to_numpy(float)
-        polys = [poly + movie.box.min_image(poly.mean(axis=0) - c) - (poly.mean(axis=0) - c)
-                 for poly, c in zip(polys, centres)]
+    start, n = rows["_start"].to_numpy(), (rows["_end"] - rows["_start"]).to_numpy()
+    offsets = np.cumsum(n) - n  # where each kept polygon starts in the gathered vertices
+    flat = xy[np.repeat(start - offsets, n) + np.arange(n.sum())]
+    if movie.box is not None and len(rows):  # the periodic image of each polygon nearest its cell's centroid
+        d = np.add.reduceat(flat, offsets, axis=0) / n[:, None] - rows[["x", "y"]].to_numpy(float)
+        flat = flat - np.repeat(movie.box.lengths * np.round(d / movie.box.lengths), n, axis=0)
+    polys = np.split(flat, offsets[1:]) if len(rows) else []
     return rows.drop(columns=["_start", "_end"]).reset_index(drop=True), polys
 
 

@@ -95,15 +95,19 @@ def build_bands(oy, Ly, P, ptr, cells):
 
 
 @njit(cache=True, parallel=True, fastmath=True)
-def lattice_sums(phi, oy, gx, ptr, cells, S1, S2):
-    """``S1 = sum_c phi_c``, ``S2 = sum_c phi_c^2`` on the lattice, gathered band by band."""
+def lattice_sums(phi, oy, gx, ptr, cells, S1, S2, adhesion=True):
+    """``S1 = sum_c phi_c``, ``S2 = sum_c phi_c^2`` on the lattice, gathered band by band.
+
+    ``adhesion=False`` leaves ``S1`` untouched: only the adhesion term reads it (through ``lap S1``).
+    """
     Ly, Lx = S1.shape[0], S1.shape[1]
     P = phi.shape[1]
     nb = ptr.shape[0] - 1
     for b in prange(nb):
         r0 = b * CHUNK_ROWS
         r1 = min(r0 + CHUNK_ROWS, Ly)
-        S1[r0:r1, :] = 0
+        if adhesion:
+            S1[r0:r1, :] = 0
         S2[r0:r1, :] = 0
         for k in range(ptr[b], ptr[b + 1]):
             c = cells[k]
@@ -113,18 +117,23 @@ def lattice_sums(phi, oy, gx, ptr, cells, S1, S2):
                 i = (r - oy[c]) % Ly
                 if i < 1 or i > P - 2:
                     continue
-                if straight:
+                if straight and adhesion:
                     # unsigned lattice column: a signed one gets numba's negative-index wraparound (no vectorising)
                     for j in range(np.uint64(1), np.uint64(P - 1)):
                         v = phi[c, i, j]
                         q = np.uint64(q0) + j
                         S1[r, q] += v
                         S2[r, q] += v * v
+                elif straight:
+                    for j in range(np.uint64(1), np.uint64(P - 1)):
+                        v = phi[c, i, j]
+                        S2[r, np.uint64(q0) + j] += v * v
                 else:
                     for j in range(1, P - 1):
                         q = gx[c, j]
                         v = phi[c, i, j]
-                        S1[r, q] += v
+                        if adhesion:
+                            S1[r, q] += v
                         S2[r, q] += v * v
 
 
@@ -286,8 +295,31 @@ def _span_upwind3(o, src, f, s2, lap_s1, k0, k1, dn2, ds2, P, w, par, ca, second
             o[b] = src[b] + dt * _rate_upwind3(f, s2, lap_s1, b, udn, uds, uP, w, par, ca)
 
 
+@njit(cache=True)
+def _gather(A, gx, gy, c, out):
+    """``out[i P + j] = A[gy[c, i], gx[c, j]]`` on the interior rows ``i = 1 .. P-2`` (all columns).
+
+    Explicit loops with unsigned indices: numba's slice assignment costs more than the copy itself
+    for rows this short (a quarter of the stage's time).
+    """
+    P = gx.shape[1]
+    Lx = A.shape[1]
+    q0 = gx[c, 0]
+    for i in range(1, P - 1):
+        r = gy[c, i]
+        base = np.uint64(i * P)
+        if q0 + P <= Lx:
+            row = A[r]
+            uq0 = np.uint64(q0)
+            for j in range(np.uint64(0), np.uint64(P)):
+                out[base + j] = row[uq0 + j]
+        else:
+            for j in range(P):
+                out[base + j] = A[r, gx[c, j]]
+
+
 @njit(cache=True, fastmath=True)
-def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, second):
+def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, second, adhesion):
     """One Heun stage of cell c with third-order upwind advection (see :func:`heun_stage`).
 
     The patch is swept flat (node ``k = i P + j``) in three spans of whole rows: row 1, rows 2..P-3
@@ -296,26 +328,18 @@ def _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, ca, cvx, cvy, seco
     along a row the far neighbour of the first or last interior column is the ring node at the end
     of the row before or the start of the row after.  The ring columns are swept too (their
     results are discarded: reset to 0 afterwards).  ``S2`` and ``lap S1`` are first copied into
-    the patch layout.
+    the patch layout; without ``adhesion`` (``k_ad = 0``) ``lap S1`` is not read (0 in its place:
+    its only term is ``k_ad`` times it).
     """
     P = phi.shape[1]
-    Lx = S2.shape[1]
     xm2, xm1, x0, xp1, xp2 = _upwind3_weights(cvx, par)
     ym2, ym1, y0, yp1, yp2 = _upwind3_weights(cvy, par)
     w = (x0 + y0, xm2, xm1, xp1, xp2, ym2, ym1, yp1, yp2)
     s2 = np.empty(P * P, dtype=S2.dtype)
-    lap_s1 = np.empty(P * P, dtype=L.dtype)
-    q0 = gx[c, 0]
-    straight = q0 + P <= Lx
-    for i in range(1, P - 1):
-        r = gy[c, i]
-        if straight:
-            s2[i * P:(i + 1) * P] = S2[r, q0:q0 + P]
-            lap_s1[i * P:(i + 1) * P] = L[r, q0:q0 + P]
-        else:
-            for j in range(P):
-                s2[i * P + j] = S2[r, gx[c, j]]
-                lap_s1[i * P + j] = L[r, gx[c, j]]
+    lap_s1 = np.empty(P * P, dtype=L.dtype) if adhesion else np.zeros(P * P, dtype=L.dtype)
+    _gather(S2, gx, gy, c, s2)
+    if adhesion:
+        _gather(L, gx, gy, c, lap_s1)
     if second and out.ctypes.data != phi.ctypes.data:
         out[c] = phi[c]  # the second stage updates out in place from phi (advance passes out = phi)
     f = phi_eval[c].reshape(P * P)
@@ -355,21 +379,22 @@ def heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a
 
 
 @njit(cache=True, parallel=True, fastmath=True)
-def heun_stage_upwind3(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second):
-    """:func:`heun_stage` with third-order upwind advection (:func:`_stage_upwind3`)."""
+def heun_stage_upwind3(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second,
+                       adhesion=True):
+    """:func:`heun_stage` with third-order upwind advection (:func:`_stage_upwind3`; ``adhesion=False``: ``L`` unread)."""
     N = phi.shape[0]
     for c in prange(N):
         a = _area(phi_eval, c)
         area[c] = a
         coef[c] = lam4 * inv_a0 * (1.0 - a * inv_a0)
-        _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, coef[c], vx[c], vy[c], second)
+        _stage_upwind3(phi_eval, phi, out, c, S2, L, gx, gy, par, coef[c], vx[c], vy[c], second, adhesion)
 
 
 @njit(cache=True)
-def _stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second, scheme):
+def _stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second, scheme, adhesion):
     """:func:`heun_stage` or :func:`heun_stage_upwind3`, by ``scheme`` (``CENTRAL``, ``UPWIND3``)."""
     if scheme == UPWIND3:
-        heun_stage_upwind3(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second)
+        heun_stage_upwind3(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second, adhesion)
     else:
         heun_stage(phi_eval, phi, out, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, second)
 
@@ -463,6 +488,14 @@ def set_velocity(theta, v0, vx, vy):
         vy[c] = v0 * np.sin(theta[c])
 
 
+@njit(cache=True)
+def _sums(phi, oy, gx, ptr, cells, S1, S2, L, adhesion):
+    """The lattice sums a stage reads: ``S2``, and with ``adhesion`` ``S1`` and ``L = lap S1``."""
+    lattice_sums(phi, oy, gx, ptr, cells, S1, S2, adhesion)
+    if adhesion:
+        lattice_laplacian(S1, ptr, L)
+
+
 @njit(cache=True, nogil=True)  # nogil: the run's writer thread stores frames meanwhile
 def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef, vx, vy, area, leak,
             par, inv_a0, lam4, v0, sigma, step0, nsteps, recentre_every, threshold, scheme, euler):
@@ -477,19 +510,20 @@ def advance(phi, phis, S1, S2, L, ox, oy, gx, gy, ptr, cells, theta, noise, coef
     """
     Lx, Ly = S1.shape[1], S1.shape[0]
     P = phi.shape[1]
+    # k_ad = 0 (e.g. the C code's functional): S1 and lap S1 only feed the adhesion term, skip them
+    # (exact: the term is 0 times a finite number either way; L stays as it is)
+    adhesion = par[K_AD] != 0
     moves = 0
     result = phi  # Euler steps swap phi and phis (no copy per step); the result goes back here at the end
     for s in range(nsteps):
         set_velocity(theta, v0, vx, vy)
-        lattice_sums(phi, oy, gx, ptr, cells, S1, S2)
-        lattice_laplacian(S1, ptr, L)
-        _stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False, scheme)
+        _sums(phi, oy, gx, ptr, cells, S1, S2, L, adhesion)
+        _stage(phi, phi, phis, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, False, scheme, adhesion)
         if euler:
             phi, phis = phis, phi
         else:
-            lattice_sums(phis, oy, gx, ptr, cells, S1, S2)
-            lattice_laplacian(S1, ptr, L)
-            _stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme)
+            _sums(phis, oy, gx, ptr, cells, S1, S2, L, adhesion)
+            _stage(phis, phi, phi, S2, L, gx, gy, coef, vx, vy, area, par, inv_a0, lam4, True, scheme, adhesion)
         if sigma > 0:
             for c in range(theta.shape[0]):
                 theta[c] += sigma * noise[s, c]

@@ -20,6 +20,7 @@ __all__ = ["Simulation", "initial_state", "select_threading_layer", "set_threads
 
 LEAK_LIMIT = 1e-3  # fraction of int phi^2 allowed on the two rings next to a patch's zero ring
 RECENTRE_THRESHOLD = 1.0  # px of centroid drift before a patch is shifted
+OMP_SPIN_COUNT = 5000  # libgomp spins before a waiting thread sleeps (select_threading_layer)
 
 
 def select_threading_layer() -> str:
@@ -41,8 +42,13 @@ def select_threading_layer() -> str:
     except Exception:
         return "default"
     # Spinning OpenMP threads collapse on a shared, oversubscribed machine (measured 15-60x slower at
-    # load 13 on 2 cores); sleeping ones cost a few % when idle.  The user's setting wins.
-    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    # load 13 on 2 cores).  Threads that sleep at once collapse too, less: every parallel region (4 per
+    # Heun step) then wakes a thread that waits for the scheduler (2 threads at load 6-7: 35-67 ms per
+    # step, 10 ms with a short spin).  So wait passively after a short spin (GOMP_SPINCOUNT, ~0.05 ms),
+    # which covers the gap between back-to-back regions.  The user's settings win.
+    if "OMP_WAIT_POLICY" not in os.environ:
+        os.environ["OMP_WAIT_POLICY"] = "PASSIVE"
+        os.environ.setdefault("GOMP_SPINCOUNT", str(OMP_SPIN_COUNT))
     numba.config.THREADING_LAYER = "omp"
     return "omp"
 

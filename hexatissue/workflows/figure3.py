@@ -19,7 +19,7 @@ import pandas as pd
 from ..analysis.migration import DEFAULT_DL, cell_displacements, migration_populations, migration_table
 from ..analysis.plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
 from ..analysis.proximity import compare_distances, t1_defect_proximity
-from ..analysis.timing import cell_timing, timing_across_runs
+from ..analysis.timing import cell_timing, in_time_units, timing_across_runs
 from ..events import detect_t1, neighbour_events
 from ..errors import HexatissueWarning, InputError
 from ..frame import read_results
@@ -214,8 +214,8 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
         travel.append({param: value, "n_cell_windows": len(net), "mean_px": float(net.mean()) if len(net) else np.nan,
                        "median_px": float(net.median()) if len(net) else np.nan})
         for d in DEFINITIONS:
-            timing[d][value] = cell_timing(tables[d], cells, frame_interval=calibration.frame_interval)
             timing_frames[d][value] = cell_timing(tables[d], cells)  # the figures convert frames themselves
+            timing[d][value] = in_time_units(timing_frames[d][value], calibration.frame_interval)
     written, fig3e = _fig3e(parts, panels, out)
 
     pops = migration_populations(pd.concat(mig_parts, ignore_index=True), seed=seed)

@@ -17,7 +17,7 @@ import pandas as pd
 
 from ..analysis.migration import DEFAULT_DL, PAPER_WINDOW_ITERATIONS, migration_populations, migration_table
 from ..analysis.proximity import t1_defect_proximity
-from ..analysis.timing import cell_timing, timing_summary, timing_test
+from ..analysis.timing import cell_timing, in_time_units, timing_summary, timing_test
 from ..errors import HexatissueWarning, InputError
 from ..frame import Movie, read_results
 from ..io import atomic_path, write_table
@@ -331,11 +331,12 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     lines += _figure_line(path, out, "migration")
 
     # Fig. 3g
-    timing = cell_timing(events, cells, frame_interval=frame_interval)
+    timing_frames = cell_timing(events, cells)  # the figures convert frames themselves
+    timing = in_time_units(timing_frames, frame_interval)
     summ, test = timing_summary(timing), timing_test(timing)
     numbers["timing"] = {"summary": summ.to_dict("records"), **test}
     path = out / "timing.png"
-    plot_timing(cell_timing(events, cells), path=path, calibration=cal)  # figures convert frames
+    plot_timing(timing_frames, path=path, calibration=cal)
     written += [path, write_table(timing, out / "cell_timing.csv")]
     lines += ["## Event timing (Fig. 3g)", "", f"Per-cell means, in {time_unit}:", "", _md_table(summ), "",
               f"- Welch two-sided t-test: t = {test['t_statistic']:.3g}, p = {test['pvalue']:.3g}", ""]
