@@ -39,6 +39,7 @@ Usage::
 
     PYTHONPATH=$PWD python benchmarks/bench_memory.py                  # 200 x 1024^2, ~2,500 cells
     PYTHONPATH=$PWD python benchmarks/bench_memory.py --frames 20 --size 512   # quick check
+    PYTHONPATH=$PWD python benchmarks/bench_memory.py --workers 1 --stages     # RSS per stage of each run
 
 Default (200 frames, 1024^2, workers 2 and 1): 6.5 minutes on the shared 2-core machine at load
 3-8, plus about 2 minutes the first time to build the 419 MB stack.  Under load the sampler
@@ -76,6 +77,59 @@ with open(sys.argv[1], "w") as fh:
     json.dump({"rc": rc, "wall": wall, "self_hwm_kb": hwm,
                "children_maxrss_kb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss}, fh)
 sys.exit(rc)
+"""
+
+#: The CLI run of CLI_RUNNER with every stage of the analysis (and every table written) wrapped:
+#: RSS at its start and end, and the high-water mark during it (reset by /proc/self/clear_refs
+#: at its start; an enclosing stage keeps the larger of its own and its inner stages' marks).
+STAGES_RUNNER = r"""
+import json, sys
+import hexatissue.cli as cli_mod
+import hexatissue.io as io_mod
+import hexatissue.pipeline as pipeline
+
+STAGES, OPEN = [], []
+
+def _kb(key):
+    return [int(l.split()[1]) for l in open("/proc/self/status") if l.startswith(key + ":")][0]
+
+def _fold():
+    hwm = _kb("VmHWM")
+    for rec in OPEN:
+        rec["hwm_kb"] = max(rec["hwm_kb"], hwm)
+
+def wrapped(module, name, label=None):
+    func = getattr(module, name)
+    def call(*args, **kw):
+        _fold()
+        what = label(args) if label else name
+        rec = {"stage": what, "rss_start_kb": _kb("VmRSS"), "hwm_kb": 0}
+        OPEN.append(rec)
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+        try:
+            return func(*args, **kw)
+        finally:
+            _fold()
+            OPEN.pop()
+            rec["rss_end_kb"] = _kb("VmRSS")
+            STAGES.append(rec)
+    setattr(module, name, call)
+
+for name in ("_extract", "_with_tracks", "lineage_table", "_tracking_summary", "detect_t1", "cell_event_stats",
+             "neighbour_events", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
+    wrapped(pipeline, name)
+wrapped(pipeline._Rows, "table", label=lambda args: "table " + str(args[1]))
+wrapped(cli_mod, "summary_line")
+wrapped(io_mod, "write_table", label=lambda args: "write " + str(args[1]).rsplit("/", 1)[-1])
+report = sys.argv[1]
+sys.argv[1] = report + ".cli"
+try:
+    exec(CLI)
+finally:
+    rep = json.load(open(report + ".cli"))
+    rep["stages"] = STAGES
+    json.dump(rep, open(report, "w"))
 """
 
 #: The old CLI's reading: the whole stack with tifffile.imread.
@@ -220,7 +274,8 @@ def measure(cmd, report: Path, interval: float, env) -> dict:
     return {
         "wall_s": wall,
         "inner_wall_s": rep["wall"],
-        "main_peak_mb": rep["self_hwm_kb"] * kb,  # the main process's VmHWM, read by itself at its end: exact
+        # the main process's VmHWM, read by itself at its end: exact (with --stages: the largest stage's)
+        "main_peak_mb": max([rep["self_hwm_kb"]] + [st["hwm_kb"] for st in rep.get("stages", [])]) * kb,
         # the largest pool worker's VmHWM as polled (0: no worker)
         "worker_peak_mb": max([v for pid, v in sampler.hwm.items() if pid != proc.pid], default=0) * kb,
         "polled_main_peak_mb": sampler.peak["main_rss"] * kb,
@@ -232,7 +287,7 @@ def measure(cmd, report: Path, interval: float, env) -> dict:
         "max_procs": sampler.peak["max_procs"],
         "samples": sampler.samples,
         "output": output.strip().splitlines()[-1] if output.strip() else "",
-        **{k: v for k, v in rep.items() if k in ("nbytes", "shape")},
+        **{k: v for k, v in rep.items() if k in ("nbytes", "shape", "stages")},
     }
 
 
@@ -267,6 +322,9 @@ def main(argv=None) -> int:
     ap.add_argument("--poll", type=float, default=0.05, help="sampling interval of the process tree, s (default 0.05)")
     ap.add_argument("--no-baseline", action="store_true", help="skip the tifffile.imread baseline")
     ap.add_argument("--json", type=Path, help="also write every number to this JSON file")
+    ap.add_argument("--stages", action="store_true",
+                    help="also record RSS and high-water mark per stage of each run (the main peak is then the "
+                         "largest stage mark: the kernel's own is reset at every stage)")
     args = ap.parse_args(argv)
 
     import hexatissue
@@ -300,7 +358,8 @@ def main(argv=None) -> int:
         for name, path, workers in cases:
             out = work / f"out_{name.replace(' ', '_')}_{workers}"
             report = work / "report.json"
-            cmd = [sys.executable, "-c", CLI_RUNNER, str(report), "analyze", str(path), "--out", str(out)]
+            runner = f"CLI = {CLI_RUNNER!r}\n" + STAGES_RUNNER if args.stages else CLI_RUNNER
+            cmd = [sys.executable, "-c", runner, str(report), "analyze", str(path), "--out", str(out)]
             if workers is not None:
                 cmd += ["--workers", str(workers)]
             load_before = _load()[0]
@@ -315,6 +374,10 @@ def main(argv=None) -> int:
                   f"tables {run['tables_mb']:.1f} MB in memory / {run['disk_mb']:.1f} MB on disk, "
                   f"{run['bytes_per_cell_frame']:.0f} B per cell-frame; load {load_before:.2f} -> "
                   f"{run['load_after']:.2f}", flush=True)
+            for st in run.get("stages", []):
+                start, end, hwm = (st[k] * 1024 / MB for k in ("rss_start_kb", "rss_end_kb", "hwm_kb"))
+                print(f"    {st['stage']:28s} RSS {start:6.1f} -> {end:6.1f} MB, high-water mark {hwm:6.1f} MB",
+                      flush=True)
             shutil.rmtree(out, ignore_errors=True)
         if not args.no_baseline:
             report = work / "report.json"

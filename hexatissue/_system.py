@@ -18,13 +18,17 @@ def libc():
 
 
 def release_freed_memory():
-    """Return the C heap's free pages to the OS (glibc's ``malloc_trim``; a no-op elsewhere, musl included).
+    """Return freed memory to the OS: glibc's ``malloc_trim`` (a no-op elsewhere, musl included) and Arrow's pools.
 
     glibc keeps memory freed in the middle of its heap resident: without
     this, the temporaries of a thousand frames' jobs (tens of MB of holes
     between the growing tables) stay in the process under the movie-level
-    stages and the writing of the tables.
+    stages and the writing of the tables.  Arrow's pools (``release_unused``)
+    likewise keep what pandas' string columns and the Parquet writer freed.
     """
     trim = getattr(libc(), "malloc_trim", None)
     if trim is not None:
         trim(0)
+    arrow = sys.modules.get("pyarrow")  # pandas' string columns and the Parquet writer allocate from Arrow's pool
+    if arrow is not None:
+        arrow.default_memory_pool().release_unused()

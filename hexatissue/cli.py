@@ -200,10 +200,13 @@ def summary_line(movie) -> str:
         censor = movie.summary.get("events", {}).get("censor")
         parts.append("T1 events " + (", ".join(f"{k} {v}" for k, v in counts.items()) or "none")
                      + (f" (censor {censor})" if censor is not None else ""))
-    if movie.defects is not None:
-        d = movie.defects
-        parts.append("defects " + (", ".join(f"p={q}: +{int((g['charge'] > 0).sum())}/-{int((g['charge'] < 0).sum())}"
-                                             for q, g in d.groupby("p")) or "none"))
+    if movie.defects is not None:  # counts per p from two columns (a groupby copies every column of each p)
+        import numpy as np
+
+        p, charge = movie.defects["p"].to_numpy(), movie.defects["charge"].to_numpy()
+        counts = [(q, charge[p == q]) for q in np.unique(p)]
+        parts.append("defects " + (", ".join(f"p={q}: +{int((c > 0).sum())}/-{int((c < 0).sum())}" for q, c in counts)
+                                   or "none"))
     return "; ".join(parts)
 
 

@@ -482,9 +482,7 @@ def track_defects(defects, max_distance, box=None, time_column="frame", frames=N
         track[new] = np.arange(next_id, next_id + len(new))
         next_id += len(new)
         previous = current
-    out = defects.copy()
-    out["track"] = track
-    return out
+    return defects.assign(track=track)  # a new table sharing the given columns until either is modified
 
 
 def _track_ends(tracked, time_column, first):
@@ -563,7 +561,7 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
     if len(span) == 0:
         raise InputError("frames must list at least one time point")
     t_first, t_last = span.min(), span.max()
-    rows = []
+    parts = []  # the columns of each frame's events of each kind: arrays, not a Python tuple per event
     for first, kind, lone in ((True, "creation", "appearance"), (False, "annihilation", "disappearance")):
         ends = _track_ends(tracked, time_column, first).reset_index(drop=True)
         ends = ends[ends[time_column] != (t_first if first else t_last)]
@@ -572,16 +570,21 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         charge, track = ends["charge"].to_numpy(float), ends["track"].to_numpy(np.int64)
         for at in rows_by_frame(times).values():  # one frame's births (or deaths) at a time, as arrays
             ip, ineg = _pair_ends(xy[at], charge[at], pair_distance, box)
-            rows.extend(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
+            parts.append(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
             if include_unpaired:
                 alone = np.setdiff1d(np.arange(len(at)), np.r_[ip, ineg])
-                rows.extend(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]], lone))
-    if not rows:
+                parts.append(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]], lone))
+    if not sum(len(part[0]) for part in parts):
         return _empty_events(columns, time_column)
-    out = pd.DataFrame(rows, columns=columns)
+    out = pd.DataFrame({c: np.concatenate([part[k] for part in parts]) for k, c in enumerate(columns)}, copy=False)
     out["kind"] = out["kind"].astype("string")
     out = out.sort_values([time_column, "kind", "x", "y"], kind="stable").reset_index(drop=True)
     return validate(out, "defect_events") if time_column == "frame" else out
+
+
+def _event_columns(t, kind, x, y, track_plus, track_minus, separation):
+    """One frame's events of one kind as the columns of :func:`defect_events` (``t`` and ``kind`` repeated)."""
+    return (np.full(len(x), t), np.full(len(x), kind, dtype=object), x, y, track_plus, track_minus, separation)
 
 
 def _pair_rows(xy, track, ip, ineg, t, kind, box):
@@ -591,13 +594,13 @@ def _pair_rows(xy, track, ip, ineg, t, kind, box):
     mid = xy[ip] + d / 2
     if box is not None:
         mid = box.wrap(mid)
-    return [(t, kind, float(m[0]), float(m[1]), int(a), int(b), float(sep))
-            for m, a, b, sep in zip(mid, track[ip], track[ineg], np.hypot(d[:, 0], d[:, 1]) if len(d) else [])]
+    return _event_columns(t, kind, mid[:, 0], mid[:, 1], track[ip], track[ineg], np.hypot(d[:, 0], d[:, 1]))
 
 
 def _lone_rows(xy, charge, track, t, kind):
-    return [(t, kind, float(x), float(y), int(tr) if q > 0 else -1, -1 if q > 0 else int(tr), np.nan)
-            for (x, y), q, tr in zip(xy, charge, track)]
+    plus = charge > 0
+    return _event_columns(t, kind, xy[:, 0], xy[:, 1], np.where(plus, track, -1), np.where(plus, -1, track),
+                          np.full(len(xy), np.nan))
 
 
 def _empty_events(columns, time_column):

@@ -153,19 +153,18 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     tracking = _tracking_summary(tracker, cells, parents)
     del tracker, parents  # its per-cell-frame ids are in cells now; the movie-level stages need the memory
     release_freed_memory()  # after each movie-level stage: its freed working set would stay under the next
+    if order.fields:  # first of the movie-level stages: each leaves some memory resident, and it needs the most
+        _warn_frames_without_field(cells, tables["grid"], src.n_frames)
+        _defect_tracks(tables, order, box, src.n_frames, linked=tracking["resolved"] != "off")
+        release_freed_memory()
+    else:
+        del tables["grid"], tables["defects"]
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     # quartet T1s and per-cell neighbour changes from one pass over the contacts
     tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], cells, events.min_length, censor, box)
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
     release_freed_memory()
     summary = {"tracking": tracking, "events": _events_summary(tables["events"], events, censor, src.n_frames)}
-    if order.fields:
-        _warn_frames_without_field(cells, tables["grid"], src.n_frames)
-        linked = summary["tracking"]["resolved"] != "off"
-        _defect_tracks(tables, order, box, src.n_frames, linked)
-    else:
-        del tables["grid"], tables["defects"]
-    release_freed_memory()
     options = {"mesh": mesh, "order": order, "track": track.replace(mode=summary["tracking"]["resolved"]),
                "events": events.replace(censor=censor)}
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
@@ -360,7 +359,8 @@ def _events_summary(events, options, censor, n_frames):
 
 
 def _warn_frames_without_field(cells, grid, n_frames):
-    missing = n_frames - len(np.unique(grid["frame"].to_numpy())) if len(cells) else 0
+    # frames with grid rows by a count per frame number (np.unique would sort a copy of the 1.5 M-row column)
+    missing = n_frames - np.count_nonzero(np.bincount(grid["frame"].to_numpy(np.int64))) if len(cells) else 0
     if missing:
         warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
                       f"or defects there", HexatissueWarning, stacklevel=3)
@@ -401,7 +401,9 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
             n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
             track[rows[at]] = t["track"].to_numpy()
             pair_events.append(defect_events(t, max_distance, box=box, frames=frames).assign(p=np.int64(q)))
+            del t
         del of_p, rows_of
+        release_freed_memory()  # tracking and pairing leave freed memory resident under the next p
     # the rows of every p, by frame, p and defect (a stable sort), taken one column at a time from the
     # table given away: at most one column more than the defects table in memory
     rows = np.lexsort((defects["defect"].to_numpy(), p, defects["frame"].to_numpy()))

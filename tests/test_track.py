@@ -1,12 +1,14 @@
 """Overlap tracking: exact overlaps, identity recovery, divisions, gaps, lineage, real curated data."""
 import numpy as np
+import pandas as pd
 import pytest
 
 from hexatissue import track as trk
 from hexatissue.errors import InputError
 from hexatissue.synthetic import jittered_seeds, relabel_movie, voronoi_labels, voronoi_movie
 from hexatissue.mesh.labels import touches_outside
-from hexatissue.track import Tracker, frame_overlaps, match_frames, track_labels
+from hexatissue.schema import validate
+from hexatissue.track import Tracker, frame_overlaps, lineage_table, match_frames, track_labels
 from tests.conftest import real_subdir
 
 SHAPE = (90, 130)
@@ -205,6 +207,24 @@ def test_dense_overlap_kernel_equals_reference():
     assert (i.tolist(), j.tolist(), n.tolist()) == ([0], [1], [2])
 
 
+def test_sparse_overlap_kernel_equals_reference():
+    """Random compact frames with background (-1): the bucketed counts equal the key sort and the dense kernel."""
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        na, nb, size = int(rng.integers(1, 40)), int(rng.integers(1, 40)), int(rng.integers(0, 600))
+        ia = rng.integers(-1, na, size).astype(np.int32)
+        ib = rng.integers(-1, nb, size).astype(np.int32)
+        got = trk._sparse_overlaps(ia, ib, na, nb)
+        for want in (trk._sparse_overlaps_reference(ia, ib, na, nb), trk._dense_overlaps(ia, ib, na, nb)):
+            for a, b in zip(got, want):
+                assert a.dtype == b.dtype
+                np.testing.assert_array_equal(a, b)
+    # hand-made: cell 1 meets cells 2 (twice) and 0; cell 0 meets cell 2; background pixels count nowhere
+    i, j, n = trk._sparse_overlaps(np.array([1, 1, 0, 1, -1, 1], np.int32), np.array([2, 2, 2, 0, 1, -1], np.int32),
+                                   2, 3)
+    assert (i.tolist(), j.tolist(), n.tolist()) == ([0, 1, 1], [2, 0, 2], [1, 1, 2])
+
+
 def test_division_kernel_equals_reference():
     """Random overlap tables (pairs sorted or not, thresholds varied): the division kernel equals the reference."""
     rng = np.random.default_rng(8)
@@ -325,3 +345,42 @@ def test_trackers_keep_narrow_ids_and_give_int64_tables():
     assert (tracks.dtypes == np.int64).all() and tracks["frame"].tolist() == np.repeat(
         [0, 1, 2], [len(np.unique(lab[lab > 0])) for lab in movie]).tolist()
     assert trk.SeparateTracker().tracks().dtypes.tolist() == [np.int64] * 3
+
+
+
+def _lineage_table_reference(tracks, parents=None, is_border=None):
+    """lineage_table as it was with pandas: a stable sorted copy by (track, frame), then groupby first / last / size."""
+    parents = parents or {}
+    df = pd.DataFrame({"frame": tracks["frame"].to_numpy(np.int64), "track": tracks["track"].to_numpy(np.int64)})
+    df["is_border"] = False if is_border is None else np.asarray(is_border, bool)
+    df = df.sort_values(["track", "frame"], kind="stable")
+    g = df.groupby("track", sort=True)
+    first, last = g.first(), g.last()
+    out = pd.DataFrame({"track": first.index.to_numpy(np.int64), "frame_start": first["frame"].to_numpy(np.int64),
+                        "frame_end": last["frame"].to_numpy(np.int64)})
+    out["n_frames"] = g.size().to_numpy(np.int64)
+    out["parent"] = out["track"].map(parents).fillna(0).astype(np.int64)
+    t0, t1 = df["frame"].min(), df["frame"].max()
+    begin = np.where(first["is_border"].to_numpy(bool), "border", "appearance").astype(object)
+    begin[out["parent"].to_numpy() > 0] = "division"
+    begin[out["frame_start"].to_numpy() == t0] = "movie_start"
+    end = np.where(last["is_border"].to_numpy(bool), "border", "extrusion").astype(object)
+    end[out["track"].isin(set(parents.values())).to_numpy()] = "division"
+    end[out["frame_end"].to_numpy() == t1] = "movie_end"
+    out["begin"] = pd.array(begin, dtype="string")
+    out["end"] = pd.array(end, dtype="string")
+    return validate(out.reset_index(drop=True), "lineage")
+
+
+def test_lineage_table_equals_the_pandas_groupby_reference():
+    """Random rows in any order (gaps, repeated (track, frame) rows, divisions, no border given): identical tables."""
+    rng = np.random.default_rng(8)
+    for n in [0, 1, 2, 5, 40, 300]:
+        frame = rng.integers(0, 12, n)
+        track = rng.integers(1, 1 + max(n // 4, 1), n)
+        border = rng.random(n) < 0.3
+        parents = {int(t): int(t) - 1 for t in np.unique(track)[1::3] if t > 1}
+        tracks = pd.DataFrame({"frame": frame, "track": track})
+        for args in ((parents, border), (None, None)):
+            pd.testing.assert_frame_equal(lineage_table(tracks, *args), _lineage_table_reference(tracks, *args),
+                                          check_exact=True)
