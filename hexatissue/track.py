@@ -180,6 +180,8 @@ def _compact_overlaps(flat, top, prev, n_prev):
         index[k] = c
         if c >= 0:
             area[c] += 1
+        # the count of _dense_overlaps, written out again: a shared per-pixel helper (even inline="always")
+        # measured 8x slower for both kernels (reference counting of the arrays on every call)
         a = prev[k]
         key = (a if a >= 0 else n_prev) * width + (c if c >= 0 else n)
         if counts[key] == 0:
