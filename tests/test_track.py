@@ -192,13 +192,17 @@ def test_one_border_rule_for_the_mesh_and_the_tracker(periodic):
     assert len(border) > 4
 
 
+def _random_compact_pairs(seed, n, max_cells, sizes):
+    """``n`` random pairs of compact frames ``(ia, ib, na, nb)`` with background (-1), ``sizes`` = (low, high) pixels."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        na, nb, size = int(rng.integers(1, max_cells)), int(rng.integers(1, max_cells)), int(rng.integers(*sizes))
+        yield rng.integers(-1, na, size).astype(np.int32), rng.integers(-1, nb, size).astype(np.int32), na, nb
+
+
 def test_dense_overlap_kernel_equals_reference():
     """Random compact frames with background (-1): the numba overlap counts equal the bincount reference."""
-    rng = np.random.default_rng(5)
-    for _ in range(30):
-        na, nb, size = int(rng.integers(1, 30)), int(rng.integers(1, 30)), int(rng.integers(1, 500))
-        ia = rng.integers(-1, na, size).astype(np.int32)
-        ib = rng.integers(-1, nb, size).astype(np.int32)
+    for ia, ib, na, nb in _random_compact_pairs(5, 30, 30, (1, 500)):
         for a, b in zip(trk._dense_overlaps(ia, ib, na, nb), trk._dense_overlaps_reference(ia, ib, na, nb)):
             assert a.dtype == b.dtype
             np.testing.assert_array_equal(a, b)
@@ -209,11 +213,7 @@ def test_dense_overlap_kernel_equals_reference():
 
 def test_sparse_overlap_kernel_equals_reference():
     """Random compact frames with background (-1): the bucketed counts equal the key sort and the dense kernel."""
-    rng = np.random.default_rng(7)
-    for _ in range(40):
-        na, nb, size = int(rng.integers(1, 40)), int(rng.integers(1, 40)), int(rng.integers(0, 600))
-        ia = rng.integers(-1, na, size).astype(np.int32)
-        ib = rng.integers(-1, nb, size).astype(np.int32)
+    for ia, ib, na, nb in _random_compact_pairs(7, 40, 40, (0, 600)):
         got = trk._sparse_overlaps(ia, ib, na, nb)
         for want in (trk._sparse_overlaps_reference(ia, ib, na, nb), trk._dense_overlaps(ia, ib, na, nb)):
             for a, b in zip(got, want):
