@@ -400,10 +400,10 @@ def _find_t1(frames, ids):
 def _index_of(ids):
     """The function giving the position in the sorted ``ids`` of values that are among them.
 
-    A table over the ids when they are few enough (:data:`SLOT_TABLE_ROWS`): a
+    A table over the ids when it is small enough (:func:`_table_fits`): a
     gather instead of a binary search of every contact at every frame.
     """
-    if not len(ids) or ids[0] < 0 or ids[-1] >= SLOT_TABLE_ROWS * len(ids) + 2**16:
+    if not len(ids) or ids[0] < 0 or not _table_fits(int(ids[-1]), len(ids)):
         return lambda values: np.searchsorted(ids, values)
     table = np.zeros(int(ids[-1]) + 1, np.int64)
     table[ids] = np.arange(len(ids))
@@ -731,9 +731,15 @@ class _Lists:
         return owner, rows
 
 
-#: :class:`_Changes` finds cells by a table over the track ids when the largest id is below this many
-#: times the cell rows (plus 65,536): the table is then no larger than a few columns of the cells table.
+#: :class:`_Changes` and :func:`_index_of` find cells by a table over the track ids when the largest id
+#: is below this many times the ids (plus 65,536): the table is then no larger than a few columns of the
+#: cells table (:func:`_table_fits`).
 SLOT_TABLE_ROWS = 4
+
+
+def _table_fits(top, n):
+    """Whether a lookup table over ids 0..``top`` is small enough for ``n`` ids (:data:`SLOT_TABLE_ROWS`)."""
+    return top < SLOT_TABLE_ROWS * n + 2**16
 
 
 class _Changes:
@@ -940,7 +946,7 @@ def _changes(cells):
     constant = _same_cells_every_frame(by_frame, tracks)
     top = int(tracks.max()) if len(tracks) else 0
     changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)),
-                       top if top < SLOT_TABLE_ROWS * len(tracks) + 2**16 else None)
+                       top if _table_fits(top, len(tracks)) else None)
     return changes, by_frame
 
 

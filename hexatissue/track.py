@@ -92,10 +92,15 @@ def _compact(labels: np.ndarray) -> _Compact:
     if isinstance(labels, _Compact):  # already compacted for the other tracker of a MovieTracker
         return labels
     top = int(labels.max())
-    if top >= 2**24 or top > 4 * labels.size:  # sparse ids: a table over them would be too large
+    if not _id_table_fits(top, labels.size):
         return _compact_reference(labels)
     index, ids, area = _compact_index(labels.ravel(), top)
     return _Compact(index, ids, area, labels.shape)
+
+
+def _id_table_fits(top, n_pixels):
+    """Whether the compaction kernels may index a table over ids 0..``top`` (else the ids are too sparse)."""
+    return top < 2**24 and top <= 4 * n_pixels
 
 
 def warm_up() -> None:
@@ -321,7 +326,7 @@ def _contingency(a: _Compact, b: _Compact):
 def _compact_after(previous: _Compact, labels: np.ndarray):
     """``(_compact(labels), its overlaps with previous)``, in one pass over the pixels when the kernels allow it."""
     top = int(labels.max())
-    fused = (top < 2**24 and top <= 4 * labels.size and (len(previous.ids) + 1) * (top + 1) <= _DENSE_LIMIT
+    fused = (_id_table_fits(top, labels.size) and (len(previous.ids) + 1) * (top + 1) <= _DENSE_LIMIT
              and previous.index is not None and previous.index.size == labels.size)
     if not fused:
         cur = _compact(labels)
