@@ -11,6 +11,7 @@ import warnings
 from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from hexatissue.mesh import _kernels as K
@@ -718,3 +719,33 @@ def test_polygons_largest_cycle_of_a_cell_in_two_pieces(scale, chosen):
     assert poly_start[1] == chosen and poly_len[1] == 4 and poly_area[1] == (1.0 if chosen == 0 else scale**2)
     np.testing.assert_array_equal(verts, np.arange(8))
     assert n_cycles[1] == 2
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("dtype", [np.int32, np.uint16, np.int64])
+def test_few_sparse_ids_give_the_tables_of_compacted_labels(monkeypatch, periodic, dtype):
+    """Labels with few ids, gaps between them and 0 pixels, used as they are (no compaction pass), give the
+    tables of the compacted route exactly; ``checked_labels`` reports the image's min and max id."""
+    from hexatissue import Box, mesh_from_labels
+    from hexatissue.mesh.labels import checked_labels
+
+    seeds = jittered_seeds((200, 240), 20.0, seed=4)
+    labels = voronoi_labels(seeds, (200, 240), periodic=periodic)
+    labels = (labels * 3 + 2).astype(dtype)  # ids 5, 8, ...: gaps, and no id 1..4
+    labels[:3, :3] = 0
+    lab, lowest, top = checked_labels(labels)
+    assert (lowest, top) == (0, int(labels.max()))
+    assert top + 1 <= labels.size // N.PIXELS_PER_ID  # few ids: kept as they are
+    box = Box.from_shape(labels.shape) if periodic else None
+    kept = mesh_from_labels(labels, box=box)
+    monkeypatch.setattr(N, "PIXELS_PER_ID", labels.size + 1)  # every image compacted
+    compacted = mesh_from_labels(labels, box=box)
+    for name in ("cells", "vertices", "edges", "cell_vertices"):
+        pd.testing.assert_frame_equal(getattr(kept, name), getattr(compacted, name))
+
+
+def test_checked_labels_of_a_bool_image_are_not_summarised():
+    from hexatissue.mesh.labels import checked_labels
+
+    lab, lowest, top = checked_labels(np.eye(4, dtype=bool))
+    assert lab.dtype == np.uint8 and lowest is None and top is None
