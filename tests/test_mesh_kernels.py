@@ -32,12 +32,13 @@ def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
     lab = np.asarray(labels, np.int32)
     membrane = np.zeros(lab.shape, bool) if membrane is None else membrane
     flags = N._membrane_flags(membrane, periodic)  # as network._trace gives them: size 0 for touching labels
-    arms, kind, vi, vj, n_cracks = impl.corner_types(lab, periodic)
-    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, arms, kind, vi, vj, 4 * len(vi) + 1,
+    corners, vi, vj, n_cracks = impl.corner_types(lab, periodic)
+    arms, kind = corners & 15, corners >> 4  # one byte per corner: arm bits | type << 4
+    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, corners, vi, vj, 4 * len(vi) + 1,
                                                               flags, max_reach)
-    visited = impl.mark_junctions(periodic, arms, kind, vi, vj, junctions[0], junctions[2])
+    visited = impl.mark_junctions(periodic, corners, vi, vj, junctions[0], junctions[2])
     vid = R._vertex_map(arms.shape, vi, vj)  # vertex ids are the ranks of the vertices in raster order
-    loops = impl.trace_loops(lab, periodic, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
+    loops = impl.trace_loops(lab, periodic, corners, visited.copy())  # the kernel marks the loops in `visited`
     return SimpleNamespace(
         arms=arms, kind=kind, vid=vid, vi=vi, vj=vj, n_cracks=n_cracks, visited=visited,
         j=dict(zip(JUNCTION_FIELDS, junctions)), loops=dict(zip(LOOP_FIELDS, loops)),

@@ -47,17 +47,17 @@ def _trace(lab32, periodic, membrane):
     """
     h, w = lab32.shape
     # on an open image the image corners are vertices, so border polygons follow the image edge
-    arms, ctype, vi, vj, n_cracks = K.corner_types(lab32, periodic)
+    corners, vi, vj, n_cracks = K.corner_types(lab32, periodic)
     n_max = 4 * len(vi) + 1
     start, end, sarm, earm, left, right, dx, dy, ncrack, count, mean, direction = K.trace_junctions(
-        lab32, periodic, arms, ctype, vi, vj, n_max, _membrane_flags(membrane, periodic), ARM_REACH
+        lab32, periodic, corners, vi, vj, n_max, _membrane_flags(membrane, periodic), ARM_REACH
     )
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0
     if ncrack.sum() < n_cracks:  # boundaries with no vertex on them are left
-        visited = K.mark_junctions(periodic, arms, ctype, vi, vj, start, sarm)
-        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(lab32, periodic, arms, ctype, visited)
+        visited = K.mark_junctions(periodic, corners, vi, vj, start, sarm)
+        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(lab32, periodic, corners, visited)
     else:
         lr = lc = ll = lrt = ldx = ldy = np.zeros(0, np.int64)
     n_loops = len(lr)
