@@ -750,3 +750,28 @@ def test_checked_labels_of_a_bool_image_are_not_summarised():
 
     lab, lowest, top = checked_labels(np.eye(4, dtype=bool))
     assert lab.dtype == np.uint8 and lowest is None and top is None
+
+
+def test_fork_bytes_marks_the_corners_of_type_3_and_4():
+    """Every corner code (arm bits | type << 4, types 0..6) in every byte of a word: bit 0 of the byte is set
+    exactly for types 3 and 4."""
+    rng = np.random.default_rng(5)
+    codes = rng.integers(0, 16, (2000, 8)) | (rng.integers(0, 7, (2000, 8)) << 4)
+    codes[:112, 0] = np.arange(112)  # every code once
+    for row in codes.astype(np.uint8):
+        got = int(K._fork_bytes(row.view(np.uint64)[0]))
+        want = sum(1 << (8 * b) for b in range(8) if row[b] >> 4 in (3, 4))
+        assert got == want
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (7, 9), (16, 16)])
+def test_corner_types_vertices_on_small_lattices(shape):
+    """Lattices whose corner count is not a multiple of 8, open and periodic, with image corners: the word scan
+    finds the reference's vertices."""
+    rng = np.random.default_rng(shape[0] * shape[1])
+    for periodic in (False, True):
+        for _ in range(20):
+            lab = rng.integers(0, 4, shape).astype(np.int32)
+            got, want = K.corner_types(lab, periodic), R.corner_types(lab, periodic)
+            for g, w in zip(got, want):
+                np.testing.assert_array_equal(g, w)
