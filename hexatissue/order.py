@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 from . import _coarse_kernels as K
+from ._shape_kernels import shape_sums
 from .box import as_box
 from .errors import InputError, check_orders, check_p, check_positive
-from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, segment_sum,
-                       table_polygons)
+from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
 from .schema import interior_mask, validate
 
 __all__ = [
@@ -49,42 +49,28 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
 
 
 def shape_functions_flat(xy, starts, orders, center="vertex_mean"):
-    """:func:`shape_function_flat` for each p of ``orders`` (a list of arrays), sharing the geometry."""
-    xy = np.asarray(xy, dtype=float)
-    starts = np.asarray(starts, dtype=np.int64)
+    """:func:`shape_function_flat` for each p of ``orders`` (a list of arrays), in one pass over the polygons.
+
+    The numba kernel :func:`hexatissue._shape_kernels.shape_sums` computes
+    gamma_p without transcendental functions (``sum z^p / sum |z|^p``).
+    """
+    xy = np.ascontiguousarray(xy, dtype=float)
+    starts = np.ascontiguousarray(starts, dtype=np.int64)
     n = len(starts)
-    lengths = np.diff(np.r_[starts, len(xy)])
-    if isinstance(center, str):
-        if center == "vertex_mean":
-            with np.errstate(invalid="ignore", divide="ignore"):
-                c = segment_sum(xy, starts, n) / lengths[:, None]
-        elif center == "area_centroid":
-            c = polygon_area_centroid(xy, starts)[1]
-        else:
+    own_centre = isinstance(center, str) and center == "vertex_mean"
+    if own_centre:
+        c = np.zeros((0, 2))
+    elif isinstance(center, str):
+        if center != "area_centroid":
             raise InputError(f"center must be one of {CENTERS} or an (n_cells, 2) array; got {center!r}")
+        c = polygon_area_centroid(xy, starts)[1]
     else:
         c = np.asarray(center, dtype=float)
         if c.shape != (n, 2):
             raise InputError(f"center array must have shape ({n}, 2), one (x, y) per polygon; got {c.shape}")
-    owner = np.repeat(np.arange(n), lengths)
-    r = xy - c[owner]
-    z = r[:, 0] + 1j * r[:, 1]
-    radius, angle = np.abs(z), np.angle(z)
-    # degenerate polygons (collinear or collapsed vertices, area ~ 0) have no shape
-    area = np.abs(polygon_area_centroid(xy, starts)[0]) if n else np.zeros(0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        size2 = segment_sum(radius**2, starts, n) / lengths
-    degenerate = (lengths < 3) | ~(area > DEGENERATE_AREA * size2)
-    out = []
-    for p in orders:
-        weight = radius**p
-        num = segment_sum(weight * np.exp(1j * p * angle), starts, n)
-        den = segment_sum(weight, starts, n)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            gamma = num / den
-        gamma[degenerate | ~(den > 0)] = np.nan
-        out.append(gamma)
-    return out
+    gamma = shape_sums(xy, starts, np.ascontiguousarray(c), own_centre,
+                       np.array(orders, np.int64), DEGENERATE_AREA)
+    return list(gamma)
 
 
 def shape_function(polygons, p=6, center="vertex_mean"):

@@ -11,6 +11,7 @@ import warnings
 from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from hexatissue.mesh import _kernels as K
@@ -31,12 +32,13 @@ def run(impl, labels, periodic=False, membrane=None, max_reach=N.ARM_REACH):
     lab = np.asarray(labels, np.int32)
     membrane = np.zeros(lab.shape, bool) if membrane is None else membrane
     flags = N._membrane_flags(membrane, periodic)  # as network._trace gives them: size 0 for touching labels
-    arms, kind, vi, vj, n_cracks = impl.corner_types(lab, periodic)
-    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, arms, kind, vi, vj, 4 * len(vi) + 1,
+    corners, vi, vj, n_cracks = impl.corner_types(lab, periodic)
+    arms, kind = corners & 15, corners >> 4  # one byte per corner: arm bits | type << 4
+    *junctions, count, mean, direction = impl.trace_junctions(lab, periodic, corners, vi, vj, 4 * len(vi) + 1,
                                                               flags, max_reach)
-    visited = impl.mark_junctions(periodic, arms, kind, vi, vj, junctions[0], junctions[2])
+    visited = impl.mark_junctions(periodic, corners, vi, vj, junctions[0], junctions[2])
     vid = R._vertex_map(arms.shape, vi, vj)  # vertex ids are the ranks of the vertices in raster order
-    loops = impl.trace_loops(lab, periodic, arms, kind, visited.copy())  # the kernel marks the loops in `visited`
+    loops = impl.trace_loops(lab, periodic, corners, visited.copy())  # the kernel marks the loops in `visited`
     return SimpleNamespace(
         arms=arms, kind=kind, vid=vid, vi=vi, vj=vj, n_cracks=n_cracks, visited=visited,
         j=dict(zip(JUNCTION_FIELDS, junctions)), loops=dict(zip(LOOP_FIELDS, loops)),
@@ -718,3 +720,58 @@ def test_polygons_largest_cycle_of_a_cell_in_two_pieces(scale, chosen):
     assert poly_start[1] == chosen and poly_len[1] == 4 and poly_area[1] == (1.0 if chosen == 0 else scale**2)
     np.testing.assert_array_equal(verts, np.arange(8))
     assert n_cycles[1] == 2
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("dtype", [np.int32, np.uint16, np.int64])
+def test_few_sparse_ids_give_the_tables_of_compacted_labels(monkeypatch, periodic, dtype):
+    """Labels with few ids, gaps between them and 0 pixels, used as they are (no compaction pass), give the
+    tables of the compacted route exactly; ``checked_labels`` reports the image's min and max id."""
+    from hexatissue import Box, mesh_from_labels
+    from hexatissue.mesh.labels import checked_labels
+
+    seeds = jittered_seeds((200, 240), 20.0, seed=4)
+    labels = voronoi_labels(seeds, (200, 240), periodic=periodic)
+    labels = (labels * 3 + 2).astype(dtype)  # ids 5, 8, ...: gaps, and no id 1..4
+    labels[:3, :3] = 0
+    lab, lowest, top = checked_labels(labels)
+    assert (lowest, top) == (0, int(labels.max()))
+    assert top + 1 <= labels.size // N.PIXELS_PER_ID  # few ids: kept as they are
+    box = Box.from_shape(labels.shape) if periodic else None
+    kept = mesh_from_labels(labels, box=box)
+    monkeypatch.setattr(N, "PIXELS_PER_ID", labels.size + 1)  # every image compacted
+    compacted = mesh_from_labels(labels, box=box)
+    for name in ("cells", "vertices", "edges", "cell_vertices"):
+        pd.testing.assert_frame_equal(getattr(kept, name), getattr(compacted, name))
+
+
+def test_checked_labels_of_a_bool_image_are_not_summarised():
+    from hexatissue.mesh.labels import checked_labels
+
+    lab, lowest, top = checked_labels(np.eye(4, dtype=bool))
+    assert lab.dtype == np.uint8 and lowest is None and top is None
+
+
+def test_fork_bytes_marks_the_corners_of_type_3_and_4():
+    """Every corner code (arm bits | type << 4, types 0..6) in every byte of a word: bit 0 of the byte is set
+    exactly for types 3 and 4."""
+    rng = np.random.default_rng(5)
+    codes = rng.integers(0, 16, (2000, 8)) | (rng.integers(0, 7, (2000, 8)) << 4)
+    codes[:112, 0] = np.arange(112)  # every code once
+    for row in codes.astype(np.uint8):
+        got = int(K._fork_bytes(row.view(np.uint64)[0]))
+        want = sum(1 << (8 * b) for b in range(8) if row[b] >> 4 in (3, 4))
+        assert got == want
+
+
+@pytest.mark.parametrize("shape", [(2, 2), (3, 5), (7, 9), (16, 16)])
+def test_corner_types_vertices_on_small_lattices(shape):
+    """Lattices whose corner count is not a multiple of 8, open and periodic, with image corners: the word scan
+    finds the reference's vertices."""
+    rng = np.random.default_rng(shape[0] * shape[1])
+    for periodic in (False, True):
+        for _ in range(20):
+            lab = rng.integers(0, 4, shape).astype(np.int32)
+            got, want = K.corner_types(lab, periodic), R.corner_types(lab, periodic)
+            for g, w in zip(got, want):
+                np.testing.assert_array_equal(g, w)

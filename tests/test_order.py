@@ -6,7 +6,9 @@ import pytest
 
 from hexatissue import Box, InputError, shape_function
 from hexatissue.defects import defect_events, find_defects, track_defects
-from hexatissue.order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius
+from hexatissue._shape_kernels import shape_sums
+from hexatissue.geometry import polygon_area_centroid, segment_sum
+from hexatissue.order import DEGENERATE_AREA, cell_radius, cells_from_polygons, coarse_grain, order_vs_radius
 
 from .conftest import mdck_published_gamma, real_subdir
 
@@ -48,6 +50,55 @@ def test_closing_vertex_and_centres():
 def test_degenerate_polygons_are_nan():
     g = shape_function([np.zeros((2, 2)), regular(6)])
     assert np.isnan(g[0]) and abs(g[1]) == pytest.approx(1)
+
+
+def reference_shape_functions(xy, starts, orders, center):
+    """Plain-numpy reference of :func:`hexatissue._shape_kernels.shape_sums`: the transcendental form
+    ``sum |r|^p exp(i p phi) / sum |r|^p`` (the package's formula up to session 7)."""
+    n = len(starts)
+    lengths = np.diff(np.r_[starts, len(xy)])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c = segment_sum(xy, starts, n) / lengths[:, None] if center is None else center
+        owner = np.repeat(np.arange(n), lengths)
+        z = (xy[:, 0] - c[owner, 0]) + 1j * (xy[:, 1] - c[owner, 1])
+        radius, angle = np.abs(z), np.angle(z)
+        area = np.abs(polygon_area_centroid(xy, starts)[0])
+        degenerate = (lengths < 3) | ~(area > DEGENERATE_AREA * segment_sum(radius**2, starts, n) / lengths)
+        out = []
+        for p in orders:
+            den = segment_sum(radius**p, starts, n)
+            gamma = segment_sum(radius**p * np.exp(1j * p * angle), starts, n) / den
+            gamma[degenerate | ~(den > 0)] = np.nan
+            out.append(gamma)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("own_centre", [True, False])
+def test_shape_kernel_matches_reference(own_centre):
+    """The kernel's sum z^p / sum |z|^p equals the transcendental form to 1e-12 (|gamma| <= 1), NaN alike.
+
+    With the vertex mean as centre, the centres are near the origin: far from it, the mean's rounding
+    (~|x| eps, summed in another order than numpy's) over a small radius dominates either form's error.
+    """
+    rng = np.random.default_rng(3)
+    sizes = rng.integers(0, 12, 400)
+    sizes[:4] = (0, 1, 2, 3)
+    far = 50 if own_centre else 2000
+    polys = [regular(k, radius=rng.uniform(0.5, 30), phase=rng.uniform(0, 6), center=rng.uniform(-50, far, 2))
+             + rng.normal(scale=0.3, size=(k, 2)) for k in sizes]
+    polys[5] = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]])  # collinear: degenerate
+    polys[6] = np.full((5, 2), 7.0)  # collapsed
+    lengths = np.array([len(q) for q in polys])
+    xy, starts = np.concatenate(polys), np.cumsum(lengths) - lengths
+    centre = None if own_centre else np.concatenate([q.mean(axis=0, keepdims=True) if len(q) else np.zeros((1, 2))
+                                                      for q in polys]) + rng.normal(scale=0.2, size=(len(polys), 2))
+    orders = np.arange(1, 13)
+    got = shape_sums(xy, starts, np.zeros((0, 2)) if own_centre else centre, own_centre, orders, DEGENERATE_AREA)
+    want = reference_shape_functions(xy, starts, orders, centre)
+    assert np.array_equal(np.isnan(got), np.isnan(want))
+    assert np.isnan(got[:, [0, 1, 2, 5, 6]]).all() and not np.isnan(got[:, 3]).any()
+    ok = ~np.isnan(want)
+    np.testing.assert_allclose(got[ok], want[ok], rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("bad", [dict(p=0), dict(p=2.5), dict(center="middle")])

@@ -15,7 +15,8 @@ pixels it separates differ.
 Corner types: 0 no arm; 2 a boundary passes; 3 three-fold vertex; 4 four-fold
 vertex (four distinct labels); 5 and 6 two boundaries touching diagonally
 (pairs of arms {3, 0}, {1, 2} for type 5, where TL == BR is the connected
-label; {3, 2}, {0, 1} for type 6, where TR == BL is connected).
+label; {3, 2}, {0, 1} for type 6, where TR == BL is connected).  A corner is one byte, its
+"code": arm bits | type << 4 (:func:`corner_types`), so that a walk reads one byte per step.
 
 Each kernel has an independently written plain-Python reference of the same
 name and outputs in :mod:`._reference` (tests only; ``tests/test_mesh_kernels.py``
@@ -76,7 +77,7 @@ def _row_or_zeros(labels, periodic, r, zeros):
 
 @njit(cache=True)
 def _corner_code(tl, tr, bl, br):
-    """Arm bit mask and type of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
+    """Arm bit mask, type and number of arms of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
     a0 = np.uint8(tr != br)
     a1 = np.uint8(bl != br)
     a2 = np.uint8(tl != bl)
@@ -92,7 +93,7 @@ def _corner_code(tl, tr, bl, br):
 
 @njit(cache=True)
 def corner_types(labels, periodic):
-    """Arm bit masks (bit d = arm in direction d) and type codes of all corners.
+    """The code of every corner: its arm bits (bit d = arm in direction d) | its type << 4 (uint8).
 
     Also returns the vertices (corners of type 3 and 4, and on an open
     image the four corners of the image where a boundary turns) as row and
@@ -102,13 +103,17 @@ def corner_types(labels, periodic):
     The first pass has no branch (selects only) in its inner loop over the
     corners between two rows of labels, so it runs on whole vectors of
     corners; the first and last corner of a row (where the padding is) are
-    done apart.  Vertices are few and are numbered in a second pass.
+    done apart.  Vertices are few and are numbered in a second pass, which
+    reads the codes 8 at a time (:func:`_fork_bytes`) and looks closer only
+    at the words with a fork (or an image corner).
     """
     h, w = labels.shape
     nci, ncj = _lattice_shape(labels, periodic)
     zeros = np.zeros(w, labels.dtype)
-    arms = np.empty((nci, ncj), dtype=np.uint8)
-    kind = np.empty((nci, ncj), dtype=np.uint8)
+    n_corners = nci * ncj
+    words = np.empty((n_corners + 7) // 8, np.uint64)  # the codes, also as 8-byte words for the vertex scan
+    words[-1] = 0
+    corners = words.view(np.uint8)[:n_corners].reshape((nci, ncj))
     n_arms = 0
     n_forks = 0
     for ci in range(nci):
@@ -116,8 +121,7 @@ def corner_types(labels, periodic):
         bottom = _row_or_zeros(labels, periodic, ci, zeros)
         for cj in range(1, w):  # corner cj lies between columns cj - 1 and cj
             a, k, n = _corner_code(top[cj - 1], top[cj], bottom[cj - 1], bottom[cj])
-            arms[ci, cj] = a
-            kind[ci, cj] = k
+            corners[ci, cj] = a | (np.uint8(k) << 4)
             n_arms += n
             n_forks += (k == 3) | (k == 4)
         # corner 0 (left of column 0) and, on an open image, corner w (right of column w - 1)
@@ -127,32 +131,54 @@ def corner_types(labels, periodic):
             below_left = _pad_at(labels, periodic, ci + 1, cj)
             below_right = _pad_at(labels, periodic, ci + 1, cj + 1)
             a, k, n = _corner_code(left, right, below_left, below_right)
-            arms[ci, cj] = a
-            kind[ci, cj] = k
+            corners[ci, cj] = a | (np.uint8(k) << 4)
             n_arms += n
             n_forks += (k == 3) | (k == 4)
     image_corners = not periodic
     vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
     vj = np.empty(n_forks + 4, np.int64)
+    # the image corners of an open image (flat indices, ascending) are looked at whatever their type
+    extra = np.array([0, ncj - 1, n_corners - ncj, n_corners - 1]) if image_corners else np.zeros(0, np.int64)
+    x = 0
     n_vertices = 0
-    for ci in range(nci):
-        for cj in range(ncj):
-            if _is_vertex(kind, ci, cj, nci, ncj, image_corners):  # the walks' own rule of where they end
-                vi[n_vertices] = ci
-                vj[n_vertices] = cj
-                n_vertices += 1
-    return arms, kind, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
+    for wi in range(len(words)):
+        hit = _fork_bytes(words[wi])
+        while x < len(extra) and extra[x] // 8 == wi:
+            hit |= np.uint64(1) << np.uint64(8 * (extra[x] - 8 * wi))
+            x += 1
+        if hit == 0:  # most words: no vertex among their 8 corners
+            continue
+        for b in range(8):
+            if (hit >> np.uint64(8 * b)) & np.uint64(1):
+                ci, cj = divmod(8 * wi + b, ncj)
+                if _is_vertex(corners, ci, cj, nci, ncj, image_corners):  # the walks' own rule of where they end
+                    vi[n_vertices] = ci
+                    vj[n_vertices] = cj
+                    n_vertices += 1
+    return corners, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
+
+
+@njit(cache=True)
+def _fork_bytes(word):
+    """Bit 0 of each byte of a word of 8 corner codes set where the corner's type is 3 or 4 (a fork).
+
+    Per byte, type + 5 is 5..11 (no carry into the next byte) and has bit 3
+    set and bit 1 clear exactly for types 3 and 4 (8 = 0b1000, 9 = 0b1001).
+    """
+    y = ((word >> np.uint64(4)) & np.uint64(0x0F0F0F0F0F0F0F0F)) + np.uint64(0x0505050505050505)
+    return (y >> np.uint64(3)) & ~(y >> np.uint64(1)) & np.uint64(0x0101010101010101)
 
 
 def _next_dir_table():
-    """NEXT[kind, arms, d_in]: the direction leaving a pass-through corner entered moving in direction d_in.
+    """NEXT[code, d_in]: the direction leaving a pass-through corner of code ``arms | kind << 4`` entered
+    moving in direction d_in.
 
     Kind 2 leaves by its other arm; kinds 5 and 6 by the arm paired with
     the one entered ({3, 0} and {1, 2} for 5, {3, 2} and {0, 1} for 6).
     -1 where no walk arrives.  A table, not branches: the walks are
     dominated by mispredicted branches on the direction otherwise.
     """
-    table = np.full((7, 16, 4), -1, np.int8)
+    table = np.full((256, 4), -1, np.int8)
     partner = {5: {3: 0, 0: 3, 1: 2, 2: 1}, 6: {3: 2, 2: 3, 0: 1, 1: 0}}
     for arms in range(16):
         for d_in in range(4):
@@ -161,10 +187,10 @@ def _next_dir_table():
                 continue
             others = [d for d in range(4) if d != back and (arms >> d) & 1]
             if len(others) == 1:
-                table[2, arms, d_in] = others[0]
+                table[arms | 2 << 4, d_in] = others[0]
             if arms == 15:
                 for kind in (5, 6):
-                    table[kind, arms, d_in] = partner[kind][back]
+                    table[arms | kind << 4, d_in] = partner[kind][back]
     return table
 
 
@@ -172,9 +198,9 @@ NEXT = _next_dir_table()
 
 
 @njit(cache=True)
-def _next_dir(kind, arms, d_in):
-    """Direction leaving a pass-through corner entered moving in direction ``d_in`` (see :func:`_next_dir_table`)."""
-    return np.int64(NEXT[kind, arms, d_in])
+def _next_dir(code, d_in):
+    """Direction leaving a pass-through corner of ``code`` entered moving in direction ``d_in`` (see :func:`_next_dir_table`)."""
+    return np.int64(NEXT[code, d_in])
 
 
 @njit(cache=True)
@@ -221,14 +247,14 @@ def _crack_index(ci, cj, d, nci, ncj):
 
 
 @njit(cache=True)
-def _is_vertex(kind, ci, cj, nci, ncj, image_corners):
+def _is_vertex(corners, ci, cj, nci, ncj, image_corners):
     """Whether corner (ci, cj) is a vertex: a fork (types 3, 4), or with ``image_corners`` a corner of the image
     where a boundary turns.
 
     The walks read 1 byte a corner to know where they end (a 4-byte map of
     vertex ids would be touched at every step and is not kept at all).
     """
-    k = kind[ci, cj]
+    k = corners[ci, cj] >> 4
     if k == 3 or k == 4:
         return True
     return image_corners and (ci == 0 or ci == nci - 1) and (cj == 0 or cj == ncj - 1) and k != 0
@@ -264,7 +290,7 @@ def _vertex_id(row_first, vj, ci, cj):
 
 
 @njit(cache=True)
-def _walk(arms, kind, image_corners, membrane, ci, cj, d, nci, ncj, first, last):
+def _walk(corners, image_corners, membrane, ci, cj, d, nci, ncj, first, last):
     """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
 
     Stores the fit point of every crack (:func:`_crack_point`, relative to
@@ -296,9 +322,9 @@ def _walk(arms, kind, image_corners, membrane, ci, cj, d, nci, ncj, first, last)
         dy += DI[d]
         n += 1
         ci, cj = _step(ci, cj, d, nci, ncj)
-        if _is_vertex(kind, ci, cj, nci, ncj, image_corners):
+        if _is_vertex(corners, ci, cj, nci, ncj, image_corners):
             return ci, cj, dx, dy, n, d
-        d = _next_dir(kind[ci, cj], arms[ci, cj], d)
+        d = _next_dir(corners[ci, cj], d)
 
 
 @njit(cache=True)
@@ -344,7 +370,7 @@ def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
 
 
 @njit(cache=True)
-def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_reach):
+def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reach):
     """Trace every boundary between the vertices ``(vi, vj)`` of :func:`corner_types`, and fit its arms.
 
     Returns arrays over junctions: start vertex, end vertex, the arm
@@ -365,7 +391,7 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
     a 0-valued junction pixel), else the crack midpoint: the fit follows the
     membrane centreline where the image has membranes.
     """
-    nci, ncj = arms.shape
+    nci, ncj = corners.shape
     nv = len(vi)
     done = np.zeros(nv, np.uint8)  # bit d: the junction on arm d has been traced (from its other end)
     row_first = _row_starts(vi, nci)
@@ -388,10 +414,10 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
         ci = vi[v]
         cj = vj[v]
         for d in range(4):
-            if not (arms[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
+            if not (corners[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
                 continue
             lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
-            ei, ej, dx, dy, n, d_last = _walk(arms, kind, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
+            ei, ej, dx, dy, n, d_last = _walk(corners, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
             start[k] = v
             end[k] = _vertex_id(row_first, vj, ei, ej)
             start_arm[k] = d
@@ -412,13 +438,13 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
 
 
 @njit(cache=True)
-def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
+def mark_junctions(periodic, corners, vi, vj, start, start_arm):
     """Flags (2, nci, ncj) of the cracks on the junctions of :func:`trace_junctions` (its start, start_arm).
 
     Only needed to find the loops with no vertex (:func:`trace_loops`), so
     only run when the junctions leave cracks over.
     """
-    nci, ncj = arms.shape
+    nci, ncj = corners.shape
     visited = np.zeros((2, nci, ncj), dtype=np.bool_)
     for k in range(len(start)):
         ci = vi[start[k]]
@@ -428,21 +454,21 @@ def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
             a, r, c = _crack_index(ci, cj, d, nci, ncj)
             visited[a, r, c] = True
             ci, cj = _step(ci, cj, d, nci, ncj)
-            if _is_vertex(kind, ci, cj, nci, ncj, not periodic):
+            if _is_vertex(corners, ci, cj, nci, ncj, not periodic):
                 break
-            d = _next_dir(kind[ci, cj], arms[ci, cj], d)
+            d = _next_dir(corners[ci, cj], d)
     return visited
 
 
 @njit(cache=True)
-def trace_loops(labels, periodic, arms, kind, visited):
+def trace_loops(labels, periodic, corners, visited):
     """Boundaries left unvisited by the junctions (``visited`` of :func:`mark_junctions`): closed loops with no vertex.
 
     Returns, per loop, the start corner (row, col), left and right labels,
     dx, dy (the loop's net displacement: nonzero only for loops winding
     around a torus) and crack count.
     """
-    nci, ncj = arms.shape
+    nci, ncj = corners.shape
     rows = []
     cols = []
     lefts = []
@@ -453,7 +479,7 @@ def trace_loops(labels, periodic, arms, kind, visited):
     for ci in range(nci):
         for cj in range(ncj):
             for d in range(2):
-                if not (arms[ci, cj] >> d) & 1 or visited[d, ci, cj]:
+                if not (corners[ci, cj] >> d) & 1 or visited[d, ci, cj]:
                     continue
                 lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
                 dx = 0
@@ -469,7 +495,7 @@ def trace_loops(labels, periodic, arms, kind, visited):
                     dy += DI[dd]
                     n += 1
                     i, j = _step(i, j, dd, nci, ncj)
-                    dd = _next_dir(kind[i, j], arms[i, j], dd)
+                    dd = _next_dir(corners[i, j], dd)
                 rows.append(ci)
                 cols.append(cj)
                 lefts.append(lab_l)

@@ -128,7 +128,12 @@ def corner_types(labels, periodic):
                 vertices.append((ci, cj))
     vi = np.array([c[0] for c in vertices], np.int64)
     vj = np.array([c[1] for c in vertices], np.int64)
-    return arms, kind, vi, vj, len(cracks)
+    return arms | (kind << 4), vi, vj, len(cracks)
+
+
+def _split(corners):
+    """The arm bit masks and the types of corner codes (``arms | kind << 4``)."""
+    return corners & 15, corners >> 4
 
 
 def _vertex_map(shape, vi, vj):
@@ -153,7 +158,7 @@ def _displacement(cracks):
     return sum(UNIT[d][0] for _, _, d in cracks), sum(UNIT[d][1] for _, _, d in cracks)
 
 
-def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_reach):
+def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reach):
     """Reference of :func:`._kernels.trace_junctions`.
 
     A junction is listed once, traced from the first of its two ends in
@@ -162,6 +167,7 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
     (1 to ``max_reach`` cracks), walking again from each end.  A
     ``membrane`` of size 0 means no membrane pixel.
     """
+    arms, kind = _split(corners)
     pad, _ = _padded(labels, periodic)
     if membrane.size == 0:
         membrane = np.zeros(pad.shape, bool)
@@ -188,8 +194,9 @@ def trace_junctions(labels, periodic, arms, kind, vi, vj, n_max, membrane, max_r
     return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane)
 
 
-def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
+def mark_junctions(periodic, corners, vi, vj, start, start_arm):
     """Reference of :func:`._kernels.mark_junctions`."""
+    arms, kind = _split(corners)
     vid = _vertex_map(arms.shape, vi, vj)
     nci, ncj = arms.shape
     visited = np.zeros((2, nci, ncj), np.bool_)
@@ -199,13 +206,14 @@ def mark_junctions(periodic, arms, kind, vi, vj, start, start_arm):
     return visited
 
 
-def trace_loops(labels, periodic, arms, kind, visited):
+def trace_loops(labels, periodic, corners, visited):
     """Reference of :func:`._kernels.trace_loops` (``visited`` is read, not changed).
 
     Each loop starts at its first crack in (corner row, corner col,
     direction) order, run along +x or +y, and ends when the walk is back on
     that crack.
     """
+    arms, kind = _split(corners)
     pad, _ = _padded(labels, periodic)
     nci, ncj = arms.shape
     left_over = [(ci, cj, d) for ci in range(nci) for cj in range(ncj) for d in _arm_set(arms[ci, cj])

@@ -62,14 +62,22 @@ POCKET_AREA = 16  # px: smaller 0-valued pockets in touching labels are holes (e
 
 def validate_labels(labels, name="labels") -> np.ndarray:
     """Check a 2-D label image and return it as a non-negative integer array."""
+    return checked_labels(labels, name)[0]
+
+
+def checked_labels(labels, name="labels"):
+    """:func:`validate_labels`, and the smallest and largest id of the image it returns (found on the way).
+
+    The ids are None for a bool image (not summarised).
+    """
     arr = np.asarray(labels)
     if arr.ndim != 2:
         hint = " (for a T x Y x X stack use hexatissue.analyze)" if arr.ndim == 3 else ""
         raise InputError(f"{name} must be a 2-D image indexed [row, col]; got an array of shape {arr.shape}{hint}")
     if arr.size == 0 or min(arr.shape) < 2:
         raise InputError(f"{name} must be at least 2 x 2 pixels; got shape {arr.shape}")
-    if arr.dtype == bool:
-        return arr.astype(np.uint8)
+    if arr.dtype == bool:  # not summarised (skeletons and masks): ids unknown
+        return arr.astype(np.uint8), None, None
     if arr.dtype.kind == "f":
         if not np.all(np.isfinite(arr)):
             raise InputError(f"{name} contains NaN or infinite values; expected integer cell ids")
@@ -91,7 +99,7 @@ def validate_labels(labels, name="labels") -> np.ndarray:
     if not nonzero:
         raise InputError(f"{name} is all zeros: there are no cells")
     _check_label_like(arr, name, same_h, same_v)
-    return arr
+    return arr, int(lo), int(hi)
 
 
 #: A label image has most pixels inside cells, so most pairs of neighbouring pixels share a label:
@@ -136,8 +144,11 @@ def _direct_and_separating(lab):
     return direct, separating
 
 
-def detect_kind(lab, periodic=False) -> str:
-    """Guess the convention of a validated label image (see module docstring)."""
+def detect_kind(lab, periodic=False, lowest=None) -> str:
+    """Guess the convention of a validated label image (see module docstring).
+
+    ``lowest``: ``lab.min()`` if the caller knows it already (saves a pass over the image).
+    """
     # a contiguous copy (of ~256 x 256 px): the kernel then has one layout, compiled by mesh.warm_up
     sample = np.ascontiguousarray(lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)])
     if at_most_two_values(sample) and len(np.unique(lab)) == 2:
@@ -145,7 +156,7 @@ def detect_kind(lab, periodic=False) -> str:
         interior = ndimage.binary_erosion(fg, border_value=1)
         if fg.mean() < 0.5 and interior.sum() < 0.2 * fg.sum():
             return "skeleton"
-    if lab.min() > 0:  # no 0 pixel
+    if (lab.min() if lowest is None else lowest) > 0:  # no 0 pixel
         return "touching"
     direct, separating = _direct_and_separating(lab)
     return "membrane" if separating > direct else "touching"
@@ -219,9 +230,13 @@ def check_background(background, name="background"):
 
 
 def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area=None, *, background=(),
-                    fill_holes=POCKET_AREA, outside="auto", mask=None):
+                    fill_holes=POCKET_AREA, outside="auto", mask=None, lowest=None):
     """:func:`normalize_labels` of labels already checked by :func:`validate_labels` (and ``mask`` by
-    :func:`check_mask`)."""
+    :func:`check_mask`).
+
+    ``lowest``: ``lab.min()`` if the caller knows it already (:func:`checked_labels`).  The labels
+    come back as the same array object exactly when they are unchanged.
+    """
     if kind not in KINDS:
         raise InputError(f"kind must be one of {KINDS}; got {kind!r}")
     if outside not in OUTSIDE_RULES:
@@ -233,8 +248,9 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
     background = check_background(background)
     if kind != "skeleton":
         _refuse_white_membranes(lab, background)
+    given = lab
     if kind == "auto":
-        kind = detect_kind(lab, periodic)
+        kind = detect_kind(lab, periodic, lowest)
     if kind == "skeleton":
         lab = label_skeleton(lab, periodic)
         if lab.max() == 0:
@@ -249,7 +265,8 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = _drop_small(lab, min_area)
     if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
         lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
-    positive = lab.min() > 0  # no 0 pixel (ids are non-negative): a min does not build a mask
+    # no 0 pixel (ids are non-negative): a min does not build a mask
+    positive = (lab.min() if lowest is None or lab is not given else lowest) > 0
     if not positive and not lab.any():
         raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
                          "outside the mask")
@@ -324,8 +341,10 @@ def _drop_outer_regions(lab, counts):
     return np.where(np.isin(lab, outer), 0, lab) if len(outer) else lab
 
 
-def compact_labels(lab):
+def compact_labels(lab, top=None):
     """Labels renumbered 0..n in the order of their ids (0 stays 0 = background), as int32.
+
+    ``top``: ``lab.max()`` if the caller knows it already.
 
     Returns
     -------
@@ -333,7 +352,7 @@ def compact_labels(lab):
     ids : (n + 1,) int array
         Original id of each compact id; ``ids[0] == 0`` whether or not 0 occurs.
     """
-    top = int(lab.max())
+    top = int(lab.max()) if top is None else top
     if top < 2**24 and top <= 4 * lab.size:
         present = present_ids(lab, top)  # no int64 copy of the image, unlike np.bincount
         present[0] = True

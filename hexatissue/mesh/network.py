@@ -9,15 +9,19 @@ import pandas as pd
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
 from ..frame import Frame
+from .._shape_kernels import shape_sums
 from ..schema import validate
 from . import _kernels as K
-from .labels import POCKET_AREA, check_mask, compact_labels, normalize_valid, validate_labels
+from .labels import POCKET_AREA, check_mask, checked_labels, compact_labels, normalize_valid
 
 __all__ = ["mesh_from_labels", "network_tables", "warm_up"]
 
 ARM_REACH = 8  # cracks per arm (at most; half the junction) in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
 MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practically never needed
+#: Labels with ids up to one per this many pixels are used as they are, not compacted: the tables
+#: over ids (~130 B per id) then stay below 2 B/px, and the pass that finds which ids occur is saved.
+PIXELS_PER_ID = 64
 
 
 def _cat(*arrays):
@@ -43,17 +47,17 @@ def _trace(lab32, periodic, membrane):
     """
     h, w = lab32.shape
     # on an open image the image corners are vertices, so border polygons follow the image edge
-    arms, ctype, vi, vj, n_cracks = K.corner_types(lab32, periodic)
+    corners, vi, vj, n_cracks = K.corner_types(lab32, periodic)
     n_max = 4 * len(vi) + 1
     start, end, sarm, earm, left, right, dx, dy, ncrack, count, mean, direction = K.trace_junctions(
-        lab32, periodic, arms, ctype, vi, vj, n_max, _membrane_flags(membrane, periodic), ARM_REACH
+        lab32, periodic, corners, vi, vj, n_max, _membrane_flags(membrane, periodic), ARM_REACH
     )
     if not periodic:  # vertices on the image edge: the edge bends their arms; keep them at the pixel corner
         on_edge = (vi == 0) | (vj == 0) | (vi == h) | (vj == w)
         count[on_edge] = 0
     if ncrack.sum() < n_cracks:  # boundaries with no vertex on them are left
-        visited = K.mark_junctions(periodic, arms, ctype, vi, vj, start, sarm)
-        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(lab32, periodic, arms, ctype, visited)
+        visited = K.mark_junctions(periodic, corners, vi, vj, start, sarm)
+        lr, lc, ll, lrt, ldx, ldy, _ = K.trace_loops(lab32, periodic, corners, visited)
     else:
         lr = lc = ll = lrt = ldx = ldy = np.zeros(0, np.int64)
     n_loops = len(lr)
@@ -220,28 +224,30 @@ def mesh_from_labels(
         ``merge_distance`` collapse to a point, and when cells are left
         without a boundary polygon (``n_sides`` 0).
     """
-    lab = validate_labels(labels)
+    lab, lowest, top = checked_labels(labels)
     box = as_box(box, lab.shape)
     if not (is_real(merge_distance) and merge_distance >= 0):
         raise InputError(f"merge_distance must be a non-negative length in px; got {merge_distance!r}")
     normalized, membrane = normalize_valid(lab, kind, box is not None, membrane_width, min_area,
                                            background=background, fill_holes=fill_holes, outside=outside,
-                                           mask=check_mask(mask, lab.shape))
-    tables = network_tables(normalized, membrane, box, merge_distance, frame)
+                                           mask=check_mask(mask, lab.shape), lowest=lowest)
+    # the largest id is known while the labels are the ones checked
+    tables = network_tables(normalized, membrane, box, merge_distance, frame, top if normalized is lab else None)
     return Frame(**tables, frame=int(frame), box=box, shape=tuple(lab.shape))
 
 
-def network_tables(lab, membrane, box, merge_distance, frame=0) -> dict:
+def network_tables(lab, membrane, box, merge_distance, frame=0, top=None) -> dict:
     """The four network tables of touching labels (output of :func:`hexatissue.mesh.normalize_labels`).
 
     The checked core of :func:`mesh_from_labels`, for callers that have
     validated and normalised the labels already (the analysis pipeline).
+    ``top``: ``lab.max()`` if the caller knows it already.
     """
-    columns, _ = network_columns(lab, membrane, box, merge_distance, frame)
+    columns, _ = network_columns(lab, membrane, box, merge_distance, frame, top)
     return as_tables(columns)
 
 
-def network_columns(lab, membrane, box, merge_distance, frame=0):
+def network_columns(lab, membrane, box, merge_distance, frame=0, top=None):
     """:func:`network_tables` as numpy columns, and the cells' polygons as the order stage reads them.
 
     Returns
@@ -256,7 +262,7 @@ def network_columns(lab, membrane, box, merge_distance, frame=0):
         from the tables (vertex position plus its periodic image).
     """
     periodic = box is not None
-    lab32, ids = compact_labels(lab)
+    lab32, ids = _label_ids(lab, top)
     n_labels = len(ids)
     pos, junctions, lines = _trace(lab32, periodic, membrane)
     centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
@@ -271,6 +277,20 @@ def network_columns(lab, membrane, box, merge_distance, frame=0):
         n = len(next(iter(table.values())))
         columns[name] = {"frame": np.full(n, frame, dtype=np.int64), **table}
     return columns, polygons
+
+
+def _label_ids(lab, top=None):
+    """Labels as int32 and the id of each of their values (``ids[0] == 0``), as :func:`.labels.compact_labels`.
+
+    Few ids (up to one per ``PIXELS_PER_ID`` px) are kept as they are, ids
+    that do not occur included: the cells table takes the ids with pixels
+    (:func:`_cell_columns`), and no pass over the image looks for them.
+    ``top``: ``lab.max()`` if the caller knows it already.
+    """
+    top = int(lab.max()) if top is None else top
+    if top + 1 <= lab.size // PIXELS_PER_ID:
+        return lab.astype(np.int32, copy=False), np.arange(top + 1)
+    return compact_labels(lab, top)
 
 
 def as_tables(columns) -> dict:
@@ -381,8 +401,9 @@ def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, 
 def warm_up() -> None:
     """Compile every mesh kernel once (or load it from numba's cache), on a tiny image.
 
-    Call it in a parent process before forking workers, so that they inherit
-    the compiled code instead of each compiling it again.
+    Also the shape-function kernel of the order stage (:mod:`hexatissue._shape_kernels`). Call it
+    in a parent process before forking workers, so that they inherit the compiled code instead of
+    each compiling it again.
     """
     labels = np.ones((12, 12), np.int32)
     labels[:, 6:] = 2
@@ -393,3 +414,5 @@ def warm_up() -> None:
         mesh_from_labels(labels)
         # uint16 labels without 0 (the usual movie frame) keep their dtype into the id kernels
         mesh_from_labels(np.where(labels == 0, 1, labels).astype(np.uint16), box=True)
+    # and the shape-function kernel, which every frame job runs on the mesh's polygons next
+    shape_sums(np.zeros((3, 2)), np.zeros(1, np.int64), np.zeros((0, 2)), True, np.ones(1, np.int64), 1.0)
