@@ -457,3 +457,38 @@ def test_streaming_events_equal_the_whole_movie_reference_on_the_whole_mpf_sampl
     edges, cells, box = _analysed(run)
     n = _assert_as_reference(edges, cells, box, censor=10, min_lengths=(0.0,))
     assert n["t1"] > 300
+
+
+@pytest.mark.parametrize("case", ["t1-movie", "voronoi", "cells-leaving", "large-ids"])
+def test_change_kernels_equal_the_numpy_reference(case):
+    """:class:`_Changes` (numba kernels) and :class:`_ChangesReference` (numpy): the same changes, returns, events."""
+    from hexatissue.events import _Changes, _ChangesReference, _Lists, _movie_frames, _same_cells_every_frame
+    from hexatissue.events import _ByFrame
+    from hexatissue.geometry import row_keys
+
+    if case == "t1-movie":
+        m = t1_movie(periodic=True, seed=1)
+        edges, cells = m.edges, m.cells.assign(track=m.cells["cell"])
+    else:
+        edges, cells, _ = _voronoi_tables(periodic=True, seed=3, leave=case == "cells-leaving")
+        if case == "large-ids":  # ids too large for a table over them: binary searches
+            cells["track"] += 2**35
+    frames, tracks = cells["frame"].to_numpy(np.int64), cells["track"].to_numpy(np.int64)
+    constant = _same_cells_every_frame(_ByFrame(frames), tracks)
+    keys = None if constant else np.unique(row_keys(frames, tracks))
+    assert constant == (case != "cells-leaving")
+    top = None if case == "large-ids" else int(tracks.max())
+    got, want = _Changes(keys, top), _ChangesReference(keys, top)
+    for frame, present, a, b, _ in _movie_frames(edges, cells, 0.0):
+        got.add(_Lists(frame, present, a, b))
+        want.add(_Lists(frame, present, a, b))
+        assert got.n == want.n and got.m == len(want.track)
+        np.testing.assert_array_equal(got.open[:, :got.m], np.stack((want.index, want.track, want.prev_frame)))
+        np.testing.assert_array_equal(got.ref[:got.m], want.ref)
+    for mine, theirs in ((got.found, want.found), (got.back, want.back)):
+        assert len(mine) == len(theirs)
+        for x, y in zip(mine, theirs):
+            for p, q in zip(x, y):
+                np.testing.assert_array_equal(p, q)
+    assert got.events(int(frames.max()), 4) == want.events(int(frames.max()), 4)
+    assert want.found and (case != "t1-movie" or want.back) and (case != "cells-leaving" or got.k > 0)
