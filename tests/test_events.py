@@ -492,3 +492,30 @@ def test_change_kernels_equal_the_numpy_reference(case):
                 np.testing.assert_array_equal(p, q)
     assert got.events(int(frames.max()), 4) == want.events(int(frames.max()), 4)
     assert want.found and (case != "t1-movie" or want.back) and (case != "cells-leaving" or got.k > 0)
+
+
+@pytest.mark.parametrize("case", ["t1-movie", "cells-leaving", "large-ids"])
+def test_t1_kernel_equals_the_numpy_reference(case):
+    """:func:`_t1_step` (numba) and :func:`_t1_step_reference` (numpy) on every pair of consecutive frames."""
+    from hexatissue.events import _FrameGraph, _ids, _index_of, _movie_frames, _t1_step, _t1_step_reference
+
+    if case == "t1-movie":
+        m = t1_movie(periodic=False, seed=1)
+        edges, cells = m.edges, m.cells.assign(track=m.cells["cell"])
+    else:
+        edges, cells, _ = _voronoi_tables(periodic=True, seed=3, leave=case == "cells-leaving")
+        if case == "large-ids":
+            cells["track"] += 2**35
+    ids = _ids(edges, cells)
+    index, K = _index_of(ids), np.int64(len(ids) + 1)
+    prev, n = None, np.zeros(6, int)
+    for _, tracks, a, b, _ in _movie_frames(edges, cells, 0.0):
+        cur = _FrameGraph(index(tracks), index(a), index(b), K)
+        if prev is not None:
+            got, want = _t1_step(prev, cur), _t1_step_reference(prev, cur)
+            for x, y in zip(got, want):
+                assert x.dtype == np.int64
+                np.testing.assert_array_equal(x, y)
+            n += [len(x) for x in got]
+        prev = cur
+    assert n.min() > 0  # contacts gained and lost, quartets of both
