@@ -776,11 +776,11 @@ def _mix(ids):
     return mix64(ids.astype(np.uint64) + np.uint64(GOLDEN))
 
 
-class _Lists:
+class _ListsReference:
     """One frame's neighbour lists: directed contacts ``u -> v`` sorted by (u, v), hashed per cell.
 
     ``full[k]`` hashes the list of ``tracks[k]`` (a sum of :func:`_mix` of its neighbours, so it
-    does not depend on their order).
+    does not depend on their order).  The plain-numpy reference of :class:`_Lists`.
     """
 
     def __init__(self, frame, tracks, a, b):
@@ -805,6 +805,62 @@ class _Lists:
         """Directed contacts of each of ``tracks``: (position in ``tracks``, row of ``u``/``v``/``h``)."""
         rows, owner = _expand(np.searchsorted(self.u, tracks, "left"), np.searchsorted(self.u, tracks, "right"))
         return owner, rows
+
+
+class _Lists(_ListsReference):
+    """:class:`_ListsReference` built by one numba kernel (:func:`_lists_kernel`): no sort, no numpy call."""
+
+    def __init__(self, frame, tracks, a, b):
+        self.frame, self.tracks = frame, tracks
+        self.u, self.v, self.row, self.h, self.full = _lists_kernel(tracks, a, b, np.uint64(GOLDEN))
+
+
+@njit(cache=True)
+def _lists_kernel(tracks, a, b, golden):
+    """``u, v, row, h, full`` of :class:`_ListsReference` from the contacts ``a - b`` (any order).
+
+    Each contact goes to the lists of its cells present in ``tracks``
+    (a counting sort by cell); each list, a few neighbours long, is then
+    sorted in place, and its hashes (splitmix64 of ``v + golden``, as
+    :func:`hexatissue._hashing.mix64`) summed.
+    """
+    n = len(tracks)
+    ra, rb = np.searchsorted(tracks, a), np.searchsorted(tracks, b)
+    start = np.zeros(n + 1, np.int64)
+    for k in range(len(a)):
+        if ra[k] < n and tracks[ra[k]] == a[k]:
+            start[ra[k] + 1] += 1
+        if rb[k] < n and tracks[rb[k]] == b[k]:
+            start[rb[k] + 1] += 1
+    for r in range(n):
+        start[r + 1] += start[r]
+    fill = start[:n].copy()
+    v = np.empty(start[n], np.int64)
+    for k in range(len(a)):  # in the order of _directed: each contact a -> b, then each b -> a
+        if ra[k] < n and tracks[ra[k]] == a[k]:
+            v[fill[ra[k]]] = b[k]
+            fill[ra[k]] += 1
+    for k in range(len(a)):
+        if rb[k] < n and tracks[rb[k]] == b[k]:
+            v[fill[rb[k]]] = a[k]
+            fill[rb[k]] += 1
+    row = np.empty(start[n], np.int64)
+    h = np.empty(start[n], np.uint64)
+    full = np.zeros(n, np.uint64)
+    for r in range(n):
+        for q in range(start[r] + 1, start[r + 1]):  # insertion sort of the list
+            x, p = v[q], q
+            while p > start[r] and v[p - 1] > x:
+                v[p] = v[p - 1]
+                p -= 1
+            v[p] = x
+        for q in range(start[r], start[r + 1]):
+            z = np.uint64(v[q]) + golden
+            z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+            z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+            row[q], h[q] = r, z ^ (z >> np.uint64(31))
+            full[r] += h[q]
+    return tracks[row], v, row, h, full
 
 
 #: :class:`_ChangesReference` and :func:`_index_of` find cells by a table over the track ids when the largest id

@@ -519,3 +519,23 @@ def test_t1_kernel_equals_the_numpy_reference(case):
             n += [len(x) for x in got]
         prev = cur
     assert n.min() > 0  # contacts gained and lost, quartets of both
+
+
+def test_lists_kernel_equals_the_numpy_reference():
+    """:class:`_Lists` (numba) and :class:`_ListsReference` (numpy): the same sorted lists, rows and hashes."""
+    from hexatissue.events import _Lists, _ListsReference
+
+    rng = np.random.default_rng(7)
+    cases = [(np.arange(1, 9), np.array([1, 1, 2, 3]), np.array([2, 5, 3, 8]))]  # hand-made, sorted
+    for high in (30, 2**40):  # small and large ids; contacts unsorted, a > b, repeated, of absent cells
+        ids = np.unique(rng.integers(0, high, 40))
+        tracks = np.sort(rng.choice(ids, len(ids) - 5, replace=False))
+        a, b = rng.choice(ids, 120), rng.choice(ids, 120)
+        cases += [(tracks, a, b), (tracks, a[:0], b[:0])]
+    for tracks, a, b in cases:
+        got, want = _Lists(3, tracks, a, b), _ListsReference(3, tracks, a, b)
+        for name in ("u", "v", "row", "h", "full"):
+            x, y = getattr(got, name), getattr(want, name)
+            assert x.dtype == y.dtype, name
+            np.testing.assert_array_equal(x, y, err_msg=name)
+    assert _Lists(0, *cases[0]).v.tolist() == [2, 5, 1, 3, 2, 8, 1, 3]
