@@ -282,7 +282,12 @@ class _FrameGraph:
         self.present, self.K = present, K
         keys = np.minimum(a, b) * K + np.maximum(a, b)
         self.keys = _unique(keys)  # the contacts of _movie_frames come sorted and unique already
-        self.u, self.v = _directed(*np.divmod(self.keys, K))
+        lo, hi = np.divmod(self.keys, K)
+        # both directions sorted by (u, v): the neighbour lists of the present cells (a kernel, no sort;
+        # their hashes are not used) when they hold every contact, else a sort of them all
+        self.u, self.v = _lists_kernel(present, lo, hi, np.uint64(GOLDEN))[:2]
+        if len(self.v) != 2 * len(self.keys):
+            self.u, self.v = _directed(lo, hi)
 
     def has_pair(self, a, b):
         return _in_sorted(np.minimum(a, b) * self.K + np.maximum(a, b), self.keys)
@@ -1060,7 +1065,7 @@ class _Changes(_ChangeLog):
         self.prev = lists
         if prev is None or prev.frame != lists.frame - 1 or not len(prev.tracks):
             return
-        self._reserve(len(lists.tracks), len(prev.v))
+        self._reserve(len(lists.tracks), len(prev.v) if self.rare_ids else 0)
         track, n_lost, n_gained, self.m, self.k = _change_kernel(
             prev.frame, prev.tracks, prev.v, prev.h, prev.full, prev.row, lists.tracks, lists.v, lists.h, lists.full,
             lists.row, self.open, self.ref, self.m, self.n, self.rare, self.rare_h, self.k, self.common, self.rare_ids)
@@ -1216,7 +1221,8 @@ def _change_kernel(prev_frame, p_tracks, p_v, p_h, p_full, p_row, tracks, v, h, 
         cells[new], n_lost[new], n_gained[new] = cell, lost, gained
         new += 1
         m += 1
-    return cells[:new], n_lost[:new], n_gained[:new], m, k
+    # copies: views would keep the frame-sized arrays of every frame with changes alive
+    return cells[:new].copy(), n_lost[:new].copy(), n_gained[:new].copy(), m, k
 
 def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10
                      ) -> pd.DataFrame:

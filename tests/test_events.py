@@ -497,7 +497,7 @@ def test_change_kernels_equal_the_numpy_reference(case):
 @pytest.mark.parametrize("case", ["t1-movie", "cells-leaving", "large-ids"])
 def test_t1_kernel_equals_the_numpy_reference(case):
     """:func:`_t1_step` (numba) and :func:`_t1_step_reference` (numpy) on every pair of consecutive frames."""
-    from hexatissue.events import _FrameGraph, _ids, _index_of, _movie_frames, _t1_step, _t1_step_reference
+    from hexatissue.events import _FrameGraph, _directed, _ids, _index_of, _movie_frames, _t1_step, _t1_step_reference
 
     if case == "t1-movie":
         m = t1_movie(periodic=False, seed=1)
@@ -511,6 +511,8 @@ def test_t1_kernel_equals_the_numpy_reference(case):
     prev, n = None, np.zeros(6, int)
     for _, tracks, a, b, _ in _movie_frames(edges, cells, 0.0):
         cur = _FrameGraph(index(tracks), index(a), index(b), K)
+        for x, y in zip((cur.u, cur.v), _directed(*np.divmod(cur.keys, K))):  # the graph's directed contacts
+            np.testing.assert_array_equal(x, y)
         if prev is not None:
             got, want = _t1_step(prev, cur), _t1_step_reference(prev, cur)
             for x, y in zip(got, want):
@@ -519,6 +521,8 @@ def test_t1_kernel_equals_the_numpy_reference(case):
             n += [len(x) for x in got]
         prev = cur
     assert n.min() > 0  # contacts gained and lost, quartets of both
+    absent = _FrameGraph(np.array([1, 2]), np.array([1, 1]), np.array([2, 3]), np.int64(5))  # cell 3 is absent
+    assert absent.u.tolist() == [1, 1, 2, 3] and absent.v.tolist() == [2, 3, 1, 1]
 
 
 def test_lists_kernel_equals_the_numpy_reference():
