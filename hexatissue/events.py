@@ -868,9 +868,9 @@ def _lists_kernel(tracks, a, b, golden):
     return tracks[row], v, row, h, full
 
 
-#: :class:`_ChangesReference` and :func:`_index_of` find cells by a table over the track ids when the largest id
-#: is below this many times the ids (plus 65,536): the table is then no larger than a few columns of the
-#: cells table (:func:`_table_fits`).
+#: :class:`_Changes` (and its reference) and :func:`_index_of` find cells by a table over the track ids when
+#: the largest id is below this many times the ids (plus 65,536): the table is then no larger than a few
+#: columns of the cells table (:func:`_table_fits`).
 SLOT_TABLE_ROWS = 4
 
 
