@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from numba import njit
 
 from ._hashing import GOLDEN, mix64
 from .box import Box
@@ -281,7 +282,12 @@ class _FrameGraph:
         self.present, self.K = present, K
         keys = np.minimum(a, b) * K + np.maximum(a, b)
         self.keys = _unique(keys)  # the contacts of _movie_frames come sorted and unique already
-        self.u, self.v = _directed(*np.divmod(self.keys, K))
+        lo, hi = np.divmod(self.keys, K)
+        # both directions sorted by (u, v): the neighbour lists of the present cells (a kernel, no sort;
+        # their hashes are not used) when they hold every contact, else a sort of them all
+        self.u, self.v = _lists_kernel(present, lo, hi, np.uint64(GOLDEN))[:2]
+        if len(self.v) != 2 * len(self.keys):
+            self.u, self.v = _directed(lo, hi)
 
     def has_pair(self, a, b):
         return _in_sorted(np.minimum(a, b) * self.K + np.maximum(a, b), self.keys)
@@ -354,15 +360,11 @@ def _find_t1(frames, ids):
         if prev is None:
             starts.append((cur.keys, 0))
         else:
-            new, gone = cur.keys[~_in_sorted(cur.keys, prev.keys)], prev.keys[~_in_sorted(prev.keys, cur.keys)]
+            new, gone, loss_ab, loss_cd, gain_ab, gain_cd = _t1_step(prev, cur)
             starts.append((new, i))
             stops.append((gone, i))
-            la, lb = np.divmod(gone, K)  # losses: both cells still present; quartets of the frame before
-            ab, cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
-            losses.append((ab, cd, np.full(len(ab), i)))
-            ga, gb = np.divmod(new, K)  # gains: both cells present before; quartets of this frame
-            cd, ab = cur.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
-            gains.append((ab, cd, np.full(len(ab), i)))
+            losses.append((loss_ab, loss_cd, np.full(len(loss_ab), i)))
+            gains.append((gain_ab, gain_cd, np.full(len(gain_ab), i)))
         prev = cur
     empty = pd.DataFrame({c: np.empty(0, np.int64) for c in
                           ("frame_lost", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d")})
@@ -395,6 +397,85 @@ def _find_t1(frames, ids):
         "cell_a": ids[ab // K], "cell_b": ids[ab % K], "cell_c": ids[cd // K], "cell_d": ids[cd % K],
     })
     return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
+
+
+def _t1_step(prev, cur):
+    """What :func:`_find_t1` takes from two consecutive frames (:class:`_FrameGraph`), in one numba kernel.
+
+    Returns ``new``, ``gone`` (contact keys gained and lost), ``loss_ab``, ``loss_cd`` (each contact lost
+    whose cells are both still present, with each pair of its common neighbours before) and ``gain_ab``,
+    ``gain_cd`` (each pair of common neighbours of each contact gained whose cells were both present
+    before, with that contact).  :func:`_t1_step_reference` is the same in numpy.
+    """
+    return _t1_kernel(prev.keys, prev.u, prev.v, prev.present, cur.keys, cur.u, cur.v, cur.present, cur.K)
+
+
+def _t1_step_reference(prev, cur):
+    """:func:`_t1_step` in numpy (about 40 calls on a few hundred values)."""
+    new, gone = cur.keys[~_in_sorted(cur.keys, prev.keys)], prev.keys[~_in_sorted(prev.keys, cur.keys)]
+    la, lb = np.divmod(gone, cur.K)  # losses: both cells still present; quartets of the frame before
+    loss_ab, loss_cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
+    ga, gb = np.divmod(new, cur.K)  # gains: both cells present before; quartets of this frame
+    gain_cd, gain_ab = cur.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
+    return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
+
+
+@njit(cache=True)
+def _t1_kernel(p_keys, p_u, p_v, p_present, keys, u, v, present, K):
+    """:func:`_t1_step` on the two frames' sorted keys, directed contacts and cells."""
+    new, gone = keys[_missing(keys, p_keys)], p_keys[_missing(p_keys, keys)]
+    loss_ab, loss_cd = _quartet_kernel(gone[_both_in(gone, present, K)], p_keys, p_u, p_v, K)
+    gain_cd, gain_ab = _quartet_kernel(new[_both_in(new, p_present, K)], keys, u, v, K)
+    return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
+
+
+@njit(cache=True)
+def _both_in(keys, present, K):
+    """Which contacts ``a * K + b`` have both cells in the sorted ``present``."""
+    out = np.empty(len(keys), np.bool_)
+    for i in range(len(keys)):
+        out[i] = _contains(present, keys[i] // K) and _contains(present, keys[i] % K)
+    return out
+
+
+@njit(cache=True)
+def _missing(a, b):
+    """Which of the sorted unique ``a`` are not in the sorted unique ``b`` (a merge)."""
+    out = np.ones(len(a), np.bool_)
+    j = 0
+    for i in range(len(a)):
+        while j < len(b) and b[j] < a[i]:
+            j += 1
+        out[i] = j == len(b) or b[j] != a[i]
+    return out
+
+
+@njit(cache=True)
+def _quartet_kernel(pairs, keys, u, v, K):
+    """:meth:`_FrameGraph.quartets` of a frame's keys and directed contacts: arrays (pair, c * K + d)."""
+    lo, hi = np.searchsorted(u, pairs // K), np.searchsorted(u, pairs // K, side="right")  # neighbours of a
+    common = np.empty((hi - lo).sum(), np.int64)
+    found = np.empty(len(pairs) + 1, np.int64)  # first common neighbour of each pair, and the end
+    found[0] = 0
+    for p in range(len(pairs)):  # the common neighbours of each pair, in order
+        b, n = pairs[p] % K, found[p]
+        for r in range(lo[p], hi[p]):
+            if v[r] != b and _contains(keys, min(b, v[r]) * K + max(b, v[r])):
+                common[n] = v[r]
+                n += 1
+        found[p + 1] = n
+    size = 0
+    for p in range(len(pairs)):
+        n = found[p + 1] - found[p]
+        size += n * (n - 1) // 2
+    ab, cd = np.empty(size, np.int64), np.empty(size, np.int64)
+    q = 0
+    for p in range(len(pairs)):  # every pair c < d of them
+        for x in range(found[p], found[p + 1]):
+            for y in range(x + 1, found[p + 1]):
+                ab[q], cd[q] = pairs[p], common[x] * K + common[y]
+                q += 1
+    return ab, cd
 
 
 def _index_of(ids):
@@ -700,11 +781,11 @@ def _mix(ids):
     return mix64(ids.astype(np.uint64) + np.uint64(GOLDEN))
 
 
-class _Lists:
+class _ListsReference:
     """One frame's neighbour lists: directed contacts ``u -> v`` sorted by (u, v), hashed per cell.
 
     ``full[k]`` hashes the list of ``tracks[k]`` (a sum of :func:`_mix` of its neighbours, so it
-    does not depend on their order).
+    does not depend on their order).  The plain-numpy reference of :class:`_Lists`.
     """
 
     def __init__(self, frame, tracks, a, b):
@@ -731,9 +812,65 @@ class _Lists:
         return owner, rows
 
 
-#: :class:`_Changes` and :func:`_index_of` find cells by a table over the track ids when the largest id
-#: is below this many times the ids (plus 65,536): the table is then no larger than a few columns of the
-#: cells table (:func:`_table_fits`).
+class _Lists(_ListsReference):
+    """:class:`_ListsReference` built by one numba kernel (:func:`_lists_kernel`): no sort, no numpy call."""
+
+    def __init__(self, frame, tracks, a, b):
+        self.frame, self.tracks = frame, tracks
+        self.u, self.v, self.row, self.h, self.full = _lists_kernel(tracks, a, b, np.uint64(GOLDEN))
+
+
+@njit(cache=True)
+def _lists_kernel(tracks, a, b, golden):
+    """``u, v, row, h, full`` of :class:`_ListsReference` from the contacts ``a - b`` (any order).
+
+    Each contact goes to the lists of its cells present in ``tracks``
+    (a counting sort by cell); each list, a few neighbours long, is then
+    sorted in place, and its hashes (splitmix64 of ``v + golden``, as
+    :func:`hexatissue._hashing.mix64`) summed.
+    """
+    n = len(tracks)
+    ra, rb = np.searchsorted(tracks, a), np.searchsorted(tracks, b)
+    start = np.zeros(n + 1, np.int64)
+    for k in range(len(a)):
+        if ra[k] < n and tracks[ra[k]] == a[k]:
+            start[ra[k] + 1] += 1
+        if rb[k] < n and tracks[rb[k]] == b[k]:
+            start[rb[k] + 1] += 1
+    for r in range(n):
+        start[r + 1] += start[r]
+    fill = start[:n].copy()
+    v = np.empty(start[n], np.int64)
+    for k in range(len(a)):  # in the order of _directed: each contact a -> b, then each b -> a
+        if ra[k] < n and tracks[ra[k]] == a[k]:
+            v[fill[ra[k]]] = b[k]
+            fill[ra[k]] += 1
+    for k in range(len(a)):
+        if rb[k] < n and tracks[rb[k]] == b[k]:
+            v[fill[rb[k]]] = a[k]
+            fill[rb[k]] += 1
+    row = np.empty(start[n], np.int64)
+    h = np.empty(start[n], np.uint64)
+    full = np.zeros(n, np.uint64)
+    for r in range(n):
+        for q in range(start[r] + 1, start[r + 1]):  # insertion sort of the list
+            x, p = v[q], q
+            while p > start[r] and v[p - 1] > x:
+                v[p] = v[p - 1]
+                p -= 1
+            v[p] = x
+        for q in range(start[r], start[r + 1]):
+            z = np.uint64(v[q]) + golden
+            z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+            z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+            row[q], h[q] = r, z ^ (z >> np.uint64(31))
+            full[r] += h[q]
+    return tracks[row], v, row, h, full
+
+
+#: :class:`_Changes` (and its reference) and :func:`_index_of` find cells by a table over the track ids when
+#: the largest id is below this many times the ids (plus 65,536): the table is then no larger than a few
+#: columns of the cells table (:func:`_table_fits`).
 SLOT_TABLE_ROWS = 4
 
 
@@ -742,10 +879,10 @@ def _table_fits(top, n):
     return top < SLOT_TABLE_ROWS * n + 2**16
 
 
-class _Changes:
+class _ChangeLog:
     """Every change of a cell's neighbour list between consecutive frames, and when the list comes back.
 
-    Frames are added in order; only the previous frame's lists are kept.  A
+    Frames are added in order (``add``); only the previous frame's lists are kept.  A
     change of cell ``t`` at frame ``f`` (its list at ``f`` differs from the
     one at ``f - 1`` on the cells present in both frames) stays open until a
     later frame ``g`` where its list agrees with the one of ``f - 1`` again on
@@ -755,14 +892,13 @@ class _Changes:
     that are not present in every frame can be absent, so only those are
     kept and looked up, in ``present_keys`` (sorted
     :func:`~hexatissue.geometry.row_keys` of every (frame, cell) of the
-    movie; None when every frame has the same cells).
+    movie; None when every frame has the same cells).  What the two
+    implementations (:class:`_Changes`, :class:`_ChangesReference`) share:
+    the changes found, the returns, and :meth:`events` of them.
     """
 
-    def __init__(self, present_keys, top=None):
+    def __init__(self, present_keys):
         self.present_keys = present_keys
-        # row of each track id in the current frame (-1: absent), when the ids are few enough for a table:
-        # the open changes (every intercalation stays open) are looked up at every frame
-        self.slot = None if top is None else np.full(int(top) + 1, -1, np.int64)
         self.always = None  # cells present in every frame (None: all of them)
         if present_keys is not None:
             frames, ids = np.divmod(present_keys, row_keys(1, 0))
@@ -771,11 +907,51 @@ class _Changes:
         self.found = []  # per frame with changes: (track, frame, n_lost, n_gained) arrays
         self.back = []  # per frame with returns: (change index, frame) arrays
         self.n = 0  # changes so far
+        self.prev = None
+
+    def events(self, last, censor):
+        """Events per cell, by the first change of each excursion: (track, kind, start, end, n_lost, n_gained).
+
+        A change whose list comes back is a cycle and the changes up to the
+        return belong to it; one that never does is an intercalation
+        (``unresolved`` within ``censor`` frames of ``last``).
+        """
+        if not self.found:
+            return []
+        track, start, n_lost, n_gained = (np.concatenate(c) for c in zip(*self.found))
+        order = np.lexsort((start, track)).tolist()  # stable: changes of one cell and frame keep their order
+        track, start, n_lost, n_gained = track.tolist(), start.tolist(), n_lost.tolist(), n_gained.tolist()
+        back = np.full(self.n, -1, np.int64)
+        for index, frame in self.back:
+            back[index] = frame
+        back = back.tolist()
+        out, k = [], 0
+        while k < len(order):
+            i = order[k]
+            k += 1
+            if back[i] >= 0:
+                out.append((track[i], "cycle", start[i], float(back[i]), n_lost[i], n_gained[i]))
+                while k < len(order) and track[order[k]] == track[i] and start[order[k]] <= back[i]:
+                    k += 1
+            else:
+                kind = "unresolved" if last - start[i] < censor else "intercalation"
+                out.append((track[i], kind, start[i], np.nan, n_lost[i], n_gained[i]))
+        return out
+
+
+
+class _ChangesReference(_ChangeLog):
+    """The plain-numpy reference of :class:`_Changes`: the open changes in arrays, about 60 numpy calls a frame."""
+
+    def __init__(self, present_keys, top=None):
+        super().__init__(present_keys)
+        # row of each track id in the current frame (-1: absent), when the ids are few enough for a table:
+        # the open changes (every intercalation stays open) are looked up at every frame
+        self.slot = None if top is None else np.full(int(top) + 1, -1, np.int64)
         empty = np.zeros(0, np.int64)
         # open changes: index, cell, frame before the change, hash of the list left there
         self.index, self.track, self.prev_frame, self.ref = empty, empty, empty, np.zeros(0, np.uint64)
         self.owner, self.before = empty, empty  # the neighbours of that list not present in every frame
-        self.prev = None
 
     def _rare(self, cells):
         """Which ``cells`` are not present in every frame."""
@@ -855,35 +1031,198 @@ class _Changes:
         self.slot[lists.tracks] = -1
         return np.maximum(k, 0), k >= 0
 
-    def events(self, last, censor):
-        """Events per cell, by the first change of each excursion: (track, kind, start, end, n_lost, n_gained).
 
-        A change whose list comes back is a cycle and the changes up to the
-        return belong to it; one that never does is an intercalation
-        (``unresolved`` within ``censor`` frames of ``last``).
-        """
-        if not self.found:
-            return []
-        track, start, n_lost, n_gained = (np.concatenate(c) for c in zip(*self.found))
-        order = np.lexsort((start, track)).tolist()  # stable: changes of one cell and frame keep their order
-        track, start, n_lost, n_gained = track.tolist(), start.tolist(), n_lost.tolist(), n_gained.tolist()
-        back = np.full(self.n, -1, np.int64)
-        for index, frame in self.back:
-            back[index] = frame
-        back = back.tolist()
-        out, k = [], 0
-        while k < len(order):
-            i = order[k]
-            k += 1
-            if back[i] >= 0:
-                out.append((track[i], "cycle", start[i], float(back[i]), n_lost[i], n_gained[i]))
-                while k < len(order) and track[order[k]] == track[i] and start[order[k]] <= back[i]:
-                    k += 1
-            else:
-                kind = "unresolved" if last - start[i] < censor else "intercalation"
-                out.append((track[i], kind, start[i], np.nan, n_lost[i], n_gained[i]))
-        return out
+class _Changes(_ChangeLog):
+    """:class:`_ChangesReference` in two numba kernels a frame (:func:`_close_kernel`, :func:`_change_kernel`).
 
+    The reference's ~60 numpy calls a frame (each on a few hundred values) cost more than their work.
+    The open changes live in buffers that grow by doubling, filled to ``m`` columns: ``open`` (change
+    index, cell, frame before the change) and ``ref`` (hash of the list left there); and, filled to ``k``
+    columns, the neighbours of those lists not present in every frame: ``rare`` (column of the change
+    in ``open``, id) and ``rare_h`` (their hashes), in the order of their changes.
+    """
+
+    def __init__(self, present_keys, top=None):
+        super().__init__(present_keys)
+        # row of each track id in the current frame (-1: absent), when the ids are few enough for a table
+        self.slot = np.zeros(0, np.int64) if top is None else np.full(int(top) + 1, -1, np.int64)
+        self.m = self.k = 0
+        self.open, self.ref = np.zeros((3, 64), np.int64), np.zeros(64, np.uint64)
+        self.rare, self.rare_h = np.zeros((2, 64), np.int64), np.zeros(64, np.uint64)
+        self.rare_ids = self.always is not None
+        # the kernels take arrays whether or not some cells are missing from some frames
+        self.keys = np.zeros(0, np.int64) if present_keys is None else present_keys
+        self.common = np.zeros(0, np.int64) if self.always is None else self.always
+
+    def add(self, lists):
+        if self.m and len(lists.tracks):  # close the open changes whose list is back at this frame
+            done, self.m, self.k = _close_kernel(lists.tracks, lists.u, lists.v, lists.h, lists.full, self.open,
+                                                 self.ref, self.m, self.rare, self.rare_h, self.k, self.common,
+                                                 self.keys, self.rare_ids, self.slot)
+            if len(done):
+                self.back.append((done, np.full(len(done), lists.frame)))
+        prev = self.prev
+        self.prev = lists
+        if prev is None or prev.frame != lists.frame - 1 or not len(prev.tracks):
+            return
+        self._reserve(len(lists.tracks), len(prev.v) if self.rare_ids else 0)
+        track, n_lost, n_gained, self.m, self.k = _change_kernel(
+            prev.frame, prev.tracks, prev.v, prev.h, prev.full, prev.row, lists.tracks, lists.v, lists.h, lists.full,
+            lists.row, self.open, self.ref, self.m, self.n, self.rare, self.rare_h, self.k, self.common, self.rare_ids)
+        if len(track):
+            self.found.append((track, np.full(len(track), lists.frame), n_lost, n_gained))
+            self.n += len(track)
+
+    def _reserve(self, changes, rare):
+        """Room for ``changes`` more open changes and ``rare`` more neighbours (buffers doubled when full)."""
+        if self.m + changes > self.ref.size:
+            size = max(2 * self.ref.size, self.m + changes)
+            self.open, self.ref = _grown(self.open, size), _grown(self.ref, size)
+        if self.k + rare > self.rare_h.size:
+            size = max(2 * self.rare_h.size, self.k + rare)
+            self.rare, self.rare_h = _grown(self.rare, size), _grown(self.rare_h, size)
+
+
+def _grown(buffer, size):
+    """``buffer`` (1-D, or 2-D by columns) copied into one of ``size`` columns."""
+    out = np.zeros(buffer.shape[:-1] + (size,), buffer.dtype)
+    out[..., :buffer.shape[-1]] = buffer
+    return out
+
+
+@njit(cache=True)
+def _contains(values, x):
+    """Whether ``x`` is in the sorted array ``values``."""
+    i = np.searchsorted(values, x)
+    return i < len(values) and values[i] == x
+
+
+@njit(cache=True)
+def _absent(cell, frame, tracks, keys):
+    """Whether ``cell`` is absent from the frame of ``tracks`` or from ``frame`` (``keys``: every row key)."""
+    return not (_contains(tracks, cell) and _contains(keys, frame * (1 << 40) + cell))
+
+
+@njit(cache=True)
+def _starts(row, n):
+    """First directed contact of each of ``n`` cells (``row``: the cell of each, sorted), and the end."""
+    out = np.zeros(n + 1, np.int64)
+    for r in range(len(row)):
+        out[row[r] + 1] += 1
+    for i in range(n):
+        out[i + 1] += out[i]
+    return out
+
+
+@njit(cache=True)
+def _hash_on(v, h, lo, hi, present):
+    """Hash of the list ``v[lo:hi]`` restricted to the sorted ids ``present``."""
+    out = np.uint64(0)
+    for r in range(lo, hi):
+        if _contains(present, v[r]):
+            out += h[r]
+    return out
+
+
+@njit(cache=True)
+def _close_kernel(tracks, u, v, h, full, open_, ref, m, rare, rare_h, k, common, keys, rare_ids, slot):
+    """:meth:`_ChangesReference._close` in place on the buffers: (indices of the changes closed, new m, new k).
+
+    ``slot``: a table over the track ids (-1 everywhere) to find the rows of the open changes' cells, or
+    empty (a binary search).  Every open change is compared at every frame (one lookup and one comparison
+    each); the buffers are rewritten only from the first change closed on.
+    """
+    if len(slot):
+        slot[tracks] = np.arange(len(tracks))
+    back = np.zeros(m, np.bool_)
+    first, first_rare, o = m, k, 0  # the first change closed, its first rare neighbour; next rare neighbour
+    for c in range(m):
+        cell, before, lo = open_[1, c], open_[2, c], o
+        while o < k and rare[0, o] == c:
+            o += 1
+        if len(slot):
+            row = slot[cell]
+        else:
+            row = np.searchsorted(tracks, cell)
+            row = row if row < len(tracks) and tracks[row] == cell else -1
+        if row < 0:
+            continue
+        now, was = full[row], ref[c]
+        if rare_ids:  # less the neighbours absent from either frame
+            r = np.searchsorted(u, cell)
+            while r < len(u) and u[r] == cell:
+                if not _contains(common, v[r]) and _absent(v[r], before, tracks, keys):
+                    now -= h[r]
+                r += 1
+            for q in range(lo, o):
+                if _absent(rare[1, q], before, tracks, keys):
+                    was -= rare_h[q]
+        if now == was:
+            back[c] = True
+            if first == m:
+                first, first_rare = c, lo
+    if len(slot):
+        slot[tracks] = -1
+    done = open_[0, first:m][back[first:m]].copy()
+    w, wk, o = first, first_rare, first_rare  # open changes and rare neighbours kept; next rare neighbour
+    for c in range(first, m):
+        lo = o
+        while o < k and rare[0, o] == c:
+            o += 1
+        if back[c]:
+            continue
+        for q in range(lo, o):
+            rare[0, wk], rare[1, wk], rare_h[wk] = w, rare[1, q], rare_h[q]
+            wk += 1
+        open_[0, w], open_[1, w], open_[2, w], ref[w] = open_[0, c], open_[1, c], open_[2, c], ref[c]
+        w += 1
+    return done, w, wk
+
+
+@njit(cache=True)
+def _change_kernel(prev_frame, p_tracks, p_v, p_h, p_full, p_row, tracks, v, h, full, row, open_, ref, m, n, rare,
+                   rare_h, k, common, rare_ids):
+    """The changes of :meth:`_ChangesReference.add` appended in place: (cell, n_lost, n_gained) of each, new m, k.
+
+    The buffers have room for one change per cell and one rare neighbour per directed contact of the
+    frame before.
+    """
+    same = len(p_tracks) == len(tracks) and np.all(p_tracks == tracks)  # then every list is compared whole
+    p_start, start = _starts(p_row, len(p_tracks)), _starts(row, len(tracks))
+    cells, n_lost, n_gained = np.empty(len(tracks), np.int64), np.empty(len(tracks), np.int64), np.empty(
+        len(tracks), np.int64)
+    new = j = 0
+    for i in range(len(tracks)):
+        cell = tracks[i]
+        while j < len(p_tracks) and p_tracks[j] < cell:
+            j += 1
+        if j == len(p_tracks) or p_tracks[j] != cell:
+            continue
+        lo, hi, p_lo, p_hi = start[i], start[i + 1], p_start[j], p_start[j + 1]
+        if same:
+            was, now = p_full[j], full[i]
+        else:  # on the cells present in both frames
+            was, now = _hash_on(p_v, p_h, p_lo, p_hi, tracks), _hash_on(v, h, lo, hi, p_tracks)
+        if was == now:
+            continue
+        lost = gained = 0
+        for r in range(p_lo, p_hi):  # lost: neighbours before that are not now but are present now
+            x = p_v[r]
+            if not _contains(v[lo:hi], x) and _contains(tracks, x):
+                lost += 1
+            if rare_ids and not _contains(common, x):
+                rare[0, k], rare[1, k], rare_h[k] = m, x, p_h[r]
+                k += 1
+        for r in range(lo, hi):  # gained: the other way round
+            x = v[r]
+            if not _contains(p_v[p_lo:p_hi], x) and _contains(p_tracks, x):
+                gained += 1
+        open_[0, m], open_[1, m], open_[2, m], ref[m] = n + new, cell, prev_frame, p_full[j]
+        cells[new], n_lost[new], n_gained[new] = cell, lost, gained
+        new += 1
+        m += 1
+    # copies: views would keep the frame-sized arrays of every frame with changes alive
+    return cells[:new].copy(), n_lost[:new].copy(), n_gained[:new].copy(), m, k
 
 def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10
                      ) -> pd.DataFrame:

@@ -25,6 +25,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ._components import components
 from .errors import InputError
+from .events import _in_sorted
 from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
@@ -751,7 +752,6 @@ class IdTracker(_Feed):
         self._prev: _Compact | None = None
         self._shape = None
         self._seen = np.empty(0, np.int64)  # sorted ids seen so far
-        self._last: dict[int, int] = {}  # id -> last frame present
         self._divisions: dict[int, tuple[int, int]] = {}  # daughter -> (mother, frame of the daughters)
         self._frames, self._cells = [], []
         self.n_linked = 0  # cells of frame t overlapping a cell of frame t+1 with IoU >= min_iou
@@ -768,8 +768,8 @@ class IdTracker(_Feed):
             good = iou >= self.min_iou
             self.n_linked += len(np.unique(i[good]))
             self.n_same += int((good & (a.ids[i] == cur.ids[j])).sum())
-            ended = ~np.isin(a.ids, cur.ids)
-            new = ~np.isin(cur.ids, self._seen, assume_unique=True)
+            ended = ~_in_sorted(a.ids, cur.ids)  # both sorted: binary searches, not isin's sort or table
+            new = ~_in_sorted(cur.ids, self._seen)
             sel = ended[i] & new[j]
             mothers, daughters = _divisions(i[sel], j[sel], n[sel], a.area, cur.area, self.child_fraction,
                                             self.mother_fraction, self.min_iou)
@@ -778,7 +778,6 @@ class IdTracker(_Feed):
                     self._divisions[d] = (m, frame)
         if self._prev is None or new.any():  # else every id was seen: no union (a hash unique) to make
             self._seen = np.union1d(self._seen, cur.ids)
-        self._last.update(dict.fromkeys(cur.ids.tolist(), frame))
         self._frames.append(frame)
         self._cells.append(cur.stored_ids())
         self._prev = cur
@@ -789,7 +788,6 @@ class IdTracker(_Feed):
         """Add a frame known only by its cell ids (polygon input): track = id; no overlaps, so no divisions."""
         ids = np.asarray(ids, np.int64)
         self._seen = np.union1d(self._seen, ids)
-        self._last.update(dict.fromkeys(ids.tolist(), int(frame)))
         self._frames.append(int(frame))
         self._cells.append(_narrow(ids))
         self._n += 1
@@ -808,7 +806,18 @@ class IdTracker(_Feed):
     @property
     def parents(self) -> dict:
         """``{daughter track: mother track}`` of the divisions found (mothers that never come back)."""
-        return {d: m for d, (m, t) in self._divisions.items() if self._last[m] < t}
+        last = self._last_frames({m for m, _ in self._divisions.values()})
+        return {d: m for d, (m, t) in self._divisions.items() if last[m] < t}
+
+    def _last_frames(self, ids) -> dict:
+        """``{id: frame}`` of the last frame added that holds each of ``ids`` (asked once, at the end, for
+        the mothers only: no per-frame dictionary of every id)."""
+        if not ids:
+            return {}
+        frame, cell = _stored_rows(self._frames, self._cells)
+        rows = np.flatnonzero(np.isin(cell, np.fromiter(ids, np.int64)))[::-1]  # the latest rows first
+        found, first = np.unique(cell[rows], return_index=True)
+        return dict(zip(found.tolist(), frame[rows[first]].tolist()))
 
 
 class SeparateTracker:

@@ -457,3 +457,89 @@ def test_streaming_events_equal_the_whole_movie_reference_on_the_whole_mpf_sampl
     edges, cells, box = _analysed(run)
     n = _assert_as_reference(edges, cells, box, censor=10, min_lengths=(0.0,))
     assert n["t1"] > 300
+
+
+@pytest.mark.parametrize("case", ["t1-movie", "voronoi", "cells-leaving", "large-ids"])
+def test_change_kernels_equal_the_numpy_reference(case):
+    """:class:`_Changes` (numba kernels) and :class:`_ChangesReference` (numpy): the same changes, returns, events."""
+    from hexatissue.events import _Changes, _ChangesReference, _Lists, _movie_frames, _same_cells_every_frame
+    from hexatissue.events import _ByFrame
+    from hexatissue.geometry import row_keys
+
+    if case == "t1-movie":
+        m = t1_movie(periodic=True, seed=1)
+        edges, cells = m.edges, m.cells.assign(track=m.cells["cell"])
+    else:
+        edges, cells, _ = _voronoi_tables(periodic=True, seed=3, leave=case == "cells-leaving")
+        if case == "large-ids":  # ids too large for a table over them: binary searches
+            cells["track"] += 2**35
+    frames, tracks = cells["frame"].to_numpy(np.int64), cells["track"].to_numpy(np.int64)
+    constant = _same_cells_every_frame(_ByFrame(frames), tracks)
+    keys = None if constant else np.unique(row_keys(frames, tracks))
+    assert constant == (case != "cells-leaving")
+    top = None if case == "large-ids" else int(tracks.max())
+    got, want = _Changes(keys, top), _ChangesReference(keys, top)
+    for frame, present, a, b, _ in _movie_frames(edges, cells, 0.0):
+        got.add(_Lists(frame, present, a, b))
+        want.add(_Lists(frame, present, a, b))
+        assert got.n == want.n and got.m == len(want.track)
+        np.testing.assert_array_equal(got.open[:, :got.m], np.stack((want.index, want.track, want.prev_frame)))
+        np.testing.assert_array_equal(got.ref[:got.m], want.ref)
+    for mine, theirs in ((got.found, want.found), (got.back, want.back)):
+        assert len(mine) == len(theirs)
+        for x, y in zip(mine, theirs):
+            for p, q in zip(x, y):
+                np.testing.assert_array_equal(p, q)
+    assert got.events(int(frames.max()), 4) == want.events(int(frames.max()), 4)
+    assert want.found and (case != "t1-movie" or want.back) and (case != "cells-leaving" or got.k > 0)
+
+
+@pytest.mark.parametrize("case", ["t1-movie", "cells-leaving", "large-ids"])
+def test_t1_kernel_equals_the_numpy_reference(case):
+    """:func:`_t1_step` (numba) and :func:`_t1_step_reference` (numpy) on every pair of consecutive frames."""
+    from hexatissue.events import _FrameGraph, _directed, _ids, _index_of, _movie_frames, _t1_step, _t1_step_reference
+
+    if case == "t1-movie":
+        m = t1_movie(periodic=False, seed=1)
+        edges, cells = m.edges, m.cells.assign(track=m.cells["cell"])
+    else:
+        edges, cells, _ = _voronoi_tables(periodic=True, seed=3, leave=case == "cells-leaving")
+        if case == "large-ids":
+            cells["track"] += 2**35
+    ids = _ids(edges, cells)
+    index, K = _index_of(ids), np.int64(len(ids) + 1)
+    prev, n = None, np.zeros(6, int)
+    for _, tracks, a, b, _ in _movie_frames(edges, cells, 0.0):
+        cur = _FrameGraph(index(tracks), index(a), index(b), K)
+        for x, y in zip((cur.u, cur.v), _directed(*np.divmod(cur.keys, K))):  # the graph's directed contacts
+            np.testing.assert_array_equal(x, y)
+        if prev is not None:
+            got, want = _t1_step(prev, cur), _t1_step_reference(prev, cur)
+            for x, y in zip(got, want):
+                assert x.dtype == np.int64
+                np.testing.assert_array_equal(x, y)
+            n += [len(x) for x in got]
+        prev = cur
+    assert n.min() > 0  # contacts gained and lost, quartets of both
+    absent = _FrameGraph(np.array([1, 2]), np.array([1, 1]), np.array([2, 3]), np.int64(5))  # cell 3 is absent
+    assert absent.u.tolist() == [1, 1, 2, 3] and absent.v.tolist() == [2, 3, 1, 1]
+
+
+def test_lists_kernel_equals_the_numpy_reference():
+    """:class:`_Lists` (numba) and :class:`_ListsReference` (numpy): the same sorted lists, rows and hashes."""
+    from hexatissue.events import _Lists, _ListsReference
+
+    rng = np.random.default_rng(7)
+    cases = [(np.arange(1, 9), np.array([1, 1, 2, 3]), np.array([2, 5, 3, 8]))]  # hand-made, sorted
+    for high in (30, 2**40):  # small and large ids; contacts unsorted, a > b, repeated, of absent cells
+        ids = np.unique(rng.integers(0, high, 40))
+        tracks = np.sort(rng.choice(ids, len(ids) - 5, replace=False))
+        a, b = rng.choice(ids, 120), rng.choice(ids, 120)
+        cases += [(tracks, a, b), (tracks, a[:0], b[:0])]
+    for tracks, a, b in cases:
+        got, want = _Lists(3, tracks, a, b), _ListsReference(3, tracks, a, b)
+        for name in ("u", "v", "row", "h", "full"):
+            x, y = getattr(got, name), getattr(want, name)
+            assert x.dtype == y.dtype, name
+            np.testing.assert_array_equal(x, y, err_msg=name)
+    assert _Lists(0, *cases[0]).v.tolist() == [2, 5, 1, 3, 2, 8, 1, 3]
