@@ -116,8 +116,8 @@ def wrapped(module, name, label=None):
             STAGES.append(rec)
     setattr(module, name, call)
 
-for name in ("_extract", "_with_tracks", "lineage_table", "_tracking_summary", "detect_t1", "cell_event_stats",
-             "neighbour_events", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
+for name in ("_extract", "release_freed_memory", "_with_tracks", "lineage_table", "_tracking_summary", "t1_tables",
+             "cell_event_stats", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
     wrapped(pipeline, name)
 wrapped(pipeline._Rows, "table", label=lambda args: "table " + str(args[1]))
 wrapped(cli_mod, "summary_line")

@@ -30,7 +30,7 @@ from collections import deque
 import numpy as np
 import pandas as pd
 
-from ._system import libc, release_freed_memory
+from ._system import libc, release_freed_memory, reserve
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from .events import cell_event_stats, default_censor, t1_tables
@@ -244,7 +244,8 @@ class _Rows:
     then concatenating them, holds the movie twice at the end, and the C
     heap keeps the freed parts resident.)  Buffers are reserved for the
     expected number of rows and doubled when full; the reserved tail is
-    never written, so it costs address space, not memory.  Frames whose
+    never written, so it costs address space, not memory
+    (:func:`~hexatissue._system.reserve`).  Frames whose
     columns or dtypes differ from the first one's (or non-NumPy dtypes) fall
     back to ``pd.concat``.
     """
@@ -276,7 +277,7 @@ class _Rows:
                 return
             self.names, self.dtypes = names, dtypes
             capacity = int(1.1 * max(n_rows, 1) / max(frames, 1) * self.expected_frames) + 16
-            self.buffers = [np.empty(capacity, dt) for dt in self.dtypes]
+            self.buffers = [reserve(capacity, dt) for dt in self.dtypes]
         elif names != self.names or dtypes != self.dtypes:
             self.parts = [self.table(), pd.DataFrame(df)]
             self.names = self.dtypes = self.buffers = None
@@ -285,7 +286,7 @@ class _Rows:
         if end > len(self.buffers[0]):
             capacity = max(end, 2 * len(self.buffers[0]))
             for k, old in enumerate(self.buffers):  # one column at a time
-                new = np.empty(capacity, old.dtype)
+                new = reserve(capacity, old.dtype)
                 new[:self.n] = old[:self.n]
                 self.buffers[k] = new
                 del old, new
