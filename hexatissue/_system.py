@@ -54,7 +54,10 @@ def reserve(n, dtype):
     dtype = np.dtype(dtype)
     if dtype.hasobject:  # references cannot live in raw memory
         return np.empty(n, dtype)
-    mem = mmap.mmap(-1, max(n * dtype.itemsize, 1))
+    size = max(n * dtype.itemsize, 1)
+    # private: a forked pool worker must not share it (mmap's default on Unix is a shared map)
+    mem = mmap.mmap(-1, size, flags=mmap.MAP_PRIVATE | mmap.MAP_ANONYMOUS) if hasattr(mmap, "MAP_PRIVATE") \
+        else mmap.mmap(-1, size)
     if hasattr(mmap, "MADV_NOHUGEPAGE"):  # Linux; the flag is a no-op where huge pages are off
         mem.madvise(mmap.MADV_NOHUGEPAGE)
     return np.frombuffer(mem, dtype, count=n)

@@ -162,6 +162,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     # quartet T1s and per-cell neighbour changes from one pass over the contacts
     tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], cells, events.min_length, censor, box)
+    release_freed_memory()
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
     release_freed_memory()
     summary = {"tracking": tracking, "events": _events_summary(tables["events"], events, censor, src.n_frames)}
@@ -386,6 +387,7 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
         max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
+        release_freed_memory()  # np.median's sorted copy of the grid column would stay resident under the tracking
     p = defects["p"].to_numpy()
     track = np.zeros(len(defects), np.int64)
     pair_events = []
