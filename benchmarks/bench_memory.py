@@ -257,10 +257,14 @@ class TreeSampler(threading.Thread):
         self.samples += 1
 
 
-def measure(cmd, report: Path, interval: float, env) -> dict:
-    """Run ``cmd`` (which writes ``report``), sampling its process tree; peaks in MB."""
+def measure(cmd, report: Path, interval: float, env, cwd) -> dict:
+    """Run ``cmd`` (which writes ``report``) in ``cwd``, sampling its process tree; peaks in MB.
+
+    ``cwd`` is the checkout whose package is measured: ``python -c`` puts
+    the working directory first on ``sys.path``, before ``PYTHONPATH``.
+    """
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(cmd, env=env, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     sampler = TreeSampler(proc.pid, interval)
     sampler.start()
     output = proc.communicate()[0]
@@ -363,7 +367,7 @@ def main(argv=None) -> int:
             if workers is not None:
                 cmd += ["--workers", str(workers)]
             load_before = _load()[0]
-            run = measure(cmd, report, args.poll, env)
+            run = measure(cmd, report, args.poll, env, pkg.parent)
             run.update(table_sizes(out), case=name, workers=workers, load_before=load_before,
                        load_after=_load()[0])
             results["runs"].append(run)
@@ -382,7 +386,8 @@ def main(argv=None) -> int:
         if not args.no_baseline:
             report = work / "report.json"
             load_before = _load()[0]
-            run = measure([sys.executable, "-c", IMREAD_RUNNER, str(report), str(stack)], report, args.poll, env)
+            run = measure([sys.executable, "-c", IMREAD_RUNNER, str(report), str(stack)], report, args.poll, env,
+                          pkg.parent)
             run.update(case="tifffile.imread (old CLI)", workers=None, load_before=load_before,
                        load_after=_load()[0])
             results["runs"].append(run)
