@@ -116,8 +116,8 @@ def wrapped(module, name, label=None):
             STAGES.append(rec)
     setattr(module, name, call)
 
-for name in ("_extract", "_with_tracks", "lineage_table", "_tracking_summary", "detect_t1", "cell_event_stats",
-             "neighbour_events", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
+for name in ("_extract", "release_freed_memory", "_with_tracks", "lineage_table", "_tracking_summary", "t1_tables",
+             "cell_event_stats", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
     wrapped(pipeline, name)
 wrapped(pipeline._Rows, "table", label=lambda args: "table " + str(args[1]))
 wrapped(cli_mod, "summary_line")
@@ -257,10 +257,14 @@ class TreeSampler(threading.Thread):
         self.samples += 1
 
 
-def measure(cmd, report: Path, interval: float, env) -> dict:
-    """Run ``cmd`` (which writes ``report``), sampling its process tree; peaks in MB."""
+def measure(cmd, report: Path, interval: float, env, cwd) -> dict:
+    """Run ``cmd`` (which writes ``report``) in ``cwd``, sampling its process tree; peaks in MB.
+
+    ``cwd`` is the checkout whose package is measured: ``python -c`` puts
+    the working directory first on ``sys.path``, before ``PYTHONPATH``.
+    """
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(cmd, env=env, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     sampler = TreeSampler(proc.pid, interval)
     sampler.start()
     output = proc.communicate()[0]
@@ -363,7 +367,7 @@ def main(argv=None) -> int:
             if workers is not None:
                 cmd += ["--workers", str(workers)]
             load_before = _load()[0]
-            run = measure(cmd, report, args.poll, env)
+            run = measure(cmd, report, args.poll, env, pkg.parent)
             run.update(table_sizes(out), case=name, workers=workers, load_before=load_before,
                        load_after=_load()[0])
             results["runs"].append(run)
@@ -382,7 +386,8 @@ def main(argv=None) -> int:
         if not args.no_baseline:
             report = work / "report.json"
             load_before = _load()[0]
-            run = measure([sys.executable, "-c", IMREAD_RUNNER, str(report), str(stack)], report, args.poll, env)
+            run = measure([sys.executable, "-c", IMREAD_RUNNER, str(report), str(stack)], report, args.poll, env,
+                          pkg.parent)
             run.update(case="tifffile.imread (old CLI)", workers=None, load_before=load_before,
                        load_after=_load()[0])
             results["runs"].append(run)

@@ -486,9 +486,20 @@ def track_defects(defects, max_distance, box=None, time_column="frame", frames=N
 
 
 def _track_ends(tracked, time_column, first):
-    """One row per track: its first (``first=True``) or last frame, position and charge."""
-    groups = tracked.sort_values([time_column], kind="stable").groupby("track")
-    return groups.head(1) if first else groups.tail(1)
+    """One row per track: its first (``first=True``) or last frame, position and charge.
+
+    The rows of ``tracked`` (index kept) in the order of a stable sort by
+    time.  Found from one argsort of the time column, not a sorted copy of
+    the table and a groupby (several copies of its columns on a movie's
+    defects).
+    """
+    order = np.argsort(tracked[time_column].to_numpy(), kind="stable")
+    track = tracked["track"].to_numpy()[order]
+    if first:
+        at = np.unique(track, return_index=True)[1]
+    else:
+        at = len(track) - 1 - np.unique(track[::-1], return_index=True)[1]
+    return tracked.iloc[order[np.sort(at)]]
 
 
 def _pair_ends(xy, charge, pair_distance, box):

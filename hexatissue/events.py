@@ -31,6 +31,7 @@ import pandas as pd
 from numba import njit
 
 from ._hashing import GOLDEN, mix64
+from ._system import release_freed_memory
 from .box import Box
 from .errors import InputError, is_real
 from .geometry import lookup, row_keys
@@ -692,6 +693,7 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
             yield f, tracks, a, b
 
     raw = _find_t1(contacts(), _ids(edges, cells))
+    release_freed_memory()  # the contacts' freed working set would stay resident under the two tables' own
     return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, by_frame, censor)
 
 

@@ -239,11 +239,12 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     names = sorted(tables, key=lambda n: int(tables[n].memory_usage().sum())) if release else list(tables)
     written = []
     for name in names:
+        if release:  # the previous table's pages (and what the caller freed last), before this table's buffers
+            release_freed_memory()
         written += [write_table(tables[name], directory / f"{name}.{fmt}") for fmt in formats]
         if release:
             del tables[name]
             setattr(movie, name, None)
-            release_freed_memory()  # the freed table's pages, mostly in the C heap, before the next table
     for name in TABLES:
         for fmt in FORMATS:
             stale = directory / f"{name}.{fmt}"

@@ -30,7 +30,7 @@ from collections import deque
 import numpy as np
 import pandas as pd
 
-from ._system import libc, release_freed_memory
+from ._system import libc, release_freed_memory, reserve
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from .events import cell_event_stats, default_censor, t1_tables
@@ -162,6 +162,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     censor = default_censor(src.n_frames) if events.censor is None else events.censor
     # quartet T1s and per-cell neighbour changes from one pass over the contacts
     tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], cells, events.min_length, censor, box)
+    release_freed_memory()  # else the statistics' working set comes on top of the T1 stage's freed ~20 MB
     tables["cell_events"] = cell_event_stats(tables["events"], cells)
     release_freed_memory()
     summary = {"tracking": tracking, "events": _events_summary(tables["events"], events, censor, src.n_frames)}
@@ -244,7 +245,8 @@ class _Rows:
     then concatenating them, holds the movie twice at the end, and the C
     heap keeps the freed parts resident.)  Buffers are reserved for the
     expected number of rows and doubled when full; the reserved tail is
-    never written, so it costs address space, not memory.  Frames whose
+    never written, so it costs address space, not memory
+    (:func:`~hexatissue._system.reserve`).  Frames whose
     columns or dtypes differ from the first one's (or non-NumPy dtypes) fall
     back to ``pd.concat``.
     """
@@ -276,7 +278,7 @@ class _Rows:
                 return
             self.names, self.dtypes = names, dtypes
             capacity = int(1.1 * max(n_rows, 1) / max(frames, 1) * self.expected_frames) + 16
-            self.buffers = [np.empty(capacity, dt) for dt in self.dtypes]
+            self.buffers = [reserve(capacity, dt) for dt in self.dtypes]
         elif names != self.names or dtypes != self.dtypes:
             self.parts = [self.table(), pd.DataFrame(df)]
             self.names = self.dtypes = self.buffers = None
@@ -285,7 +287,7 @@ class _Rows:
         if end > len(self.buffers[0]):
             capacity = max(end, 2 * len(self.buffers[0]))
             for k, old in enumerate(self.buffers):  # one column at a time
-                new = np.empty(capacity, old.dtype)
+                new = reserve(capacity, old.dtype)
                 new[:self.n] = old[:self.n]
                 self.buffers[k] = new
                 del old, new
@@ -385,6 +387,7 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
     if max_distance is None:
         spacing = grid["spacing"].to_numpy(float)
         max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
+        release_freed_memory()  # np.median's sorted copy of the grid column would stay resident under the tracking
     p = defects["p"].to_numpy()
     track = np.zeros(len(defects), np.int64)
     pair_events = []

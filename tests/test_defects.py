@@ -205,3 +205,26 @@ def test_defect_density_on_an_image_shape_without_frames():
         defect_density(table, (60, 100), bin_size=0)
     with pytest.raises(InputError, match="extent"):
         defect_density(table, (60,), bin_size=5)
+
+
+def _track_ends_reference(tracked, time_column, first):
+    """The former pandas code of ``defects._track_ends``: a stably sorted copy and a groupby."""
+    groups = tracked.sort_values([time_column], kind="stable").groupby("track")
+    return groups.head(1) if first else groups.tail(1)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_track_ends_match_the_groupby_reference(seed):
+    """First and last rows of each track, rows and index as the sorted groupby gives, rows in any order."""
+    from hexatissue.defects import _track_ends
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    tracked = pd.DataFrame({"frame": rng.integers(0, 12, n), "x": rng.random(n), "y": rng.random(n),
+                            "charge": rng.choice([-1 / 6, 1 / 6], n), "track": rng.integers(0, 40, n)},
+                           index=rng.permutation(n) + 7)
+    for first in (True, False):
+        pd.testing.assert_frame_equal(_track_ends(tracked, "frame", first),
+                                      _track_ends_reference(tracked, "frame", first))
+    empty = tracked.iloc[:0]
+    pd.testing.assert_frame_equal(_track_ends(empty, "frame", True), _track_ends_reference(empty, "frame", True))

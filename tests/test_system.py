@@ -13,3 +13,31 @@ def test_release_freed_memory_runs_and_keeps_memory_usable():
     del big, strings
     _system.release_freed_memory()
     assert np.ones(1_000_000).sum() == 1_000_000
+
+
+def test_reserve_gives_writable_private_arrays_of_any_dtype():
+    """``reserve``: n items of the dtype, writable, own memory (not shared with another array), freed with it."""
+    for dtype in (np.int64, np.float32, bool, np.int8):
+        a, b = _system.reserve(1000, dtype), _system.reserve(1000, dtype)
+        assert a.shape == (1000,) and a.dtype == np.dtype(dtype) and a.flags.writeable
+        a[:] = 1
+        b[:] = 0
+        assert a.all() and not b.any()
+    assert _system.reserve(0, np.int64).shape == (0,)
+    objects = _system.reserve(3, object)  # references cannot live in a raw map: a plain array
+    objects[:] = ["a", None, 1]
+    assert list(objects) == ["a", None, 1]
+
+
+def test_reserved_buffer_is_not_shared_with_a_forked_child():
+    """The map is private: a child's writes do not reach the parent (pool workers are forked)."""
+    import multiprocessing as mp
+
+    if "fork" not in mp.get_all_start_methods():
+        return
+    a = _system.reserve(10, np.int64)
+    a[:] = 7
+    child = mp.get_context("fork").Process(target=a.fill, args=(0,))
+    child.start()
+    child.join()
+    assert child.exitcode == 0 and (a == 7).all()
