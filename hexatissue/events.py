@@ -34,7 +34,7 @@ from ._hashing import GOLDEN, mix64
 from ._system import release_freed_memory
 from .box import Box
 from .errors import InputError, is_real
-from .geometry import lookup, row_keys
+from .geometry import in_sorted, lookup, row_keys
 from .graph import pair_groups
 from .schema import interior_mask, track_ids, validate
 
@@ -162,12 +162,6 @@ class _ByFrame:
         return slice(lo, hi) if self.order is None else self.order[lo:hi]
 
 
-def _in_sorted(values, sorted_keys):
-    """Which ``values`` are in the sorted array ``sorted_keys``."""
-    pos = np.minimum(np.searchsorted(sorted_keys, values), max(len(sorted_keys) - 1, 0))
-    return sorted_keys[pos] == values if len(sorted_keys) else np.zeros(len(values), bool)
-
-
 def _movie_frames(edges, cells, min_length):
     """Each frame of ``cells`` in turn: ``(frame, tracks, a, b, length)``.
 
@@ -291,10 +285,10 @@ class _FrameGraph:
             self.u, self.v = _directed(lo, hi)
 
     def has_pair(self, a, b):
-        return _in_sorted(np.minimum(a, b) * self.K + np.maximum(a, b), self.keys)
+        return in_sorted(np.minimum(a, b) * self.K + np.maximum(a, b), self.keys)
 
     def is_present(self, cell):
-        return _in_sorted(cell, self.present)
+        return in_sorted(cell, self.present)
 
     def quartets(self, pairs):
         """Each contact a-b of ``pairs`` with each pair c < d of common neighbours: arrays (pair, c * K + d)."""
@@ -413,7 +407,7 @@ def _t1_step(prev, cur):
 
 def _t1_step_reference(prev, cur):
     """:func:`_t1_step` in numpy (about 40 calls on a few hundred values)."""
-    new, gone = cur.keys[~_in_sorted(cur.keys, prev.keys)], prev.keys[~_in_sorted(prev.keys, cur.keys)]
+    new, gone = cur.keys[~in_sorted(cur.keys, prev.keys)], prev.keys[~in_sorted(prev.keys, cur.keys)]
     la, lb = np.divmod(gone, cur.K)  # losses: both cells still present; quartets of the frame before
     loss_ab, loss_cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
     ga, gb = np.divmod(new, cur.K)  # gains: both cells present before; quartets of this frame
@@ -793,7 +787,7 @@ class _ListsReference:
     def __init__(self, frame, tracks, a, b):
         self.frame, self.tracks = frame, tracks
         u, v = _directed(a, b)
-        ok = _in_sorted(u, tracks)  # a list belongs to a cell present in the frame
+        ok = in_sorted(u, tracks)  # a list belongs to a cell present in the frame
         self.u, self.v = u[ok], v[ok]
         self.row = np.searchsorted(tracks, self.u)
         self.h = _mix(self.v)
@@ -804,7 +798,7 @@ class _ListsReference:
         if present is not None and np.array_equal(present, self.tracks):  # the same cells: every list whole
             return self.full
         out = np.zeros(len(self.tracks), np.uint64)
-        h = self.h if present is None else np.where(_in_sorted(self.v, present), self.h, np.uint64(0))
+        h = self.h if present is None else np.where(in_sorted(self.v, present), self.h, np.uint64(0))
         np.add.at(out, self.row, h)
         return out
 
@@ -957,11 +951,11 @@ class _ChangesReference(_ChangeLog):
 
     def _rare(self, cells):
         """Which ``cells`` are not present in every frame."""
-        return np.zeros(len(cells), bool) if self.always is None else ~_in_sorted(cells, self.always)
+        return np.zeros(len(cells), bool) if self.always is None else ~in_sorted(cells, self.always)
 
     def _absent(self, frame, cells, lists):
         """Which ``cells`` (not present in every frame) are absent from ``lists``' frame or from ``frame``."""
-        return ~(_in_sorted(cells, lists.tracks) & _in_sorted(row_keys(frame, cells), self.present_keys))
+        return ~(in_sorted(cells, lists.tracks) & in_sorted(row_keys(frame, cells), self.present_keys))
 
     def add(self, lists):
         self._close(lists)
@@ -980,8 +974,8 @@ class _ChangesReference(_ChangeLog):
         a_owner, rows = lists.neighbours(track)
         after = lists.v[rows]
         # lost: neighbours at f - 1 that are not at f but present at f; gained: the other way round
-        lost = ~_in_sorted(row_keys(b_owner, before), row_keys(a_owner, after)) & _in_sorted(before, lists.tracks)
-        gained = ~_in_sorted(row_keys(a_owner, after), row_keys(b_owner, before)) & _in_sorted(after, prev.tracks)
+        lost = ~in_sorted(row_keys(b_owner, before), row_keys(a_owner, after)) & in_sorted(before, lists.tracks)
+        gained = ~in_sorted(row_keys(a_owner, after), row_keys(b_owner, before)) & in_sorted(after, prev.tracks)
         m = len(track)
         self.found.append((track, np.full(m, lists.frame), np.bincount(b_owner[lost], minlength=m),
                            np.bincount(a_owner[gained], minlength=m)))

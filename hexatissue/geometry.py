@@ -171,6 +171,12 @@ def _columns(table, *names):
     return np.column_stack([table[name].to_numpy(float) for name in names])
 
 
+def in_sorted(values, sorted_keys):
+    """Which ``values`` are in the sorted array ``sorted_keys`` (binary searches: no sort, no table over the ids)."""
+    pos = np.minimum(np.searchsorted(sorted_keys, values), max(len(sorted_keys) - 1, 0))
+    return sorted_keys[pos] == values if len(sorted_keys) else np.zeros(len(values), bool)
+
+
 def lookup(keys, values, wanted, missing=None):
     """``values`` at the rows whose key is ``wanted`` (keys unique); rows not found raise (``missing``) or give -1."""
     if len(keys) == 0:

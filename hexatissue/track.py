@@ -25,7 +25,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ._components import components
 from .errors import InputError
-from .events import _in_sorted
+from .geometry import in_sorted
 from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
@@ -768,8 +768,8 @@ class IdTracker(_Feed):
             good = iou >= self.min_iou
             self.n_linked += len(np.unique(i[good]))
             self.n_same += int((good & (a.ids[i] == cur.ids[j])).sum())
-            ended = ~_in_sorted(a.ids, cur.ids)  # both sorted: binary searches, not isin's sort or table
-            new = ~_in_sorted(cur.ids, self._seen)
+            ended = ~in_sorted(a.ids, cur.ids)  # both sorted: binary searches, not isin's sort or table
+            new = ~in_sorted(cur.ids, self._seen)
             sel = ended[i] & new[j]
             mothers, daughters = _divisions(i[sel], j[sel], n[sel], a.area, cur.area, self.child_fraction,
                                             self.mother_fraction, self.min_iou)

@@ -459,6 +459,19 @@ def test_streaming_events_equal_the_whole_movie_reference_on_the_whole_mpf_sampl
     assert n["t1"] > 300
 
 
+def _kernel_case(case, t1_periodic):
+    """Edges and cells (with ``track``) of a kernel-vs-reference case: the scripted T1 movie, a Voronoi movie
+    (``"voronoi"``), one whose cells leave (``"cells-leaving"``) or one with ids too large for a table over them
+    (``"large-ids"``: binary searches)."""
+    if case == "t1-movie":
+        m = t1_movie(periodic=t1_periodic, seed=1)
+        return m.edges, m.cells.assign(track=m.cells["cell"])
+    edges, cells, _ = _voronoi_tables(periodic=True, seed=3, leave=case == "cells-leaving")
+    if case == "large-ids":
+        cells["track"] += 2**35
+    return edges, cells
+
+
 @pytest.mark.parametrize("case", ["t1-movie", "voronoi", "cells-leaving", "large-ids"])
 def test_change_kernels_equal_the_numpy_reference(case):
     """:class:`_Changes` (numba kernels) and :class:`_ChangesReference` (numpy): the same changes, returns, events."""
@@ -466,13 +479,7 @@ def test_change_kernels_equal_the_numpy_reference(case):
     from hexatissue.events import _ByFrame
     from hexatissue.geometry import row_keys
 
-    if case == "t1-movie":
-        m = t1_movie(periodic=True, seed=1)
-        edges, cells = m.edges, m.cells.assign(track=m.cells["cell"])
-    else:
-        edges, cells, _ = _voronoi_tables(periodic=True, seed=3, leave=case == "cells-leaving")
-        if case == "large-ids":  # ids too large for a table over them: binary searches
-            cells["track"] += 2**35
+    edges, cells = _kernel_case(case, t1_periodic=True)
     frames, tracks = cells["frame"].to_numpy(np.int64), cells["track"].to_numpy(np.int64)
     constant = _same_cells_every_frame(_ByFrame(frames), tracks)
     keys = None if constant else np.unique(row_keys(frames, tracks))
@@ -499,13 +506,7 @@ def test_t1_kernel_equals_the_numpy_reference(case):
     """:func:`_t1_step` (numba) and :func:`_t1_step_reference` (numpy) on every pair of consecutive frames."""
     from hexatissue.events import _FrameGraph, _directed, _ids, _index_of, _movie_frames, _t1_step, _t1_step_reference
 
-    if case == "t1-movie":
-        m = t1_movie(periodic=False, seed=1)
-        edges, cells = m.edges, m.cells.assign(track=m.cells["cell"])
-    else:
-        edges, cells, _ = _voronoi_tables(periodic=True, seed=3, leave=case == "cells-leaving")
-        if case == "large-ids":
-            cells["track"] += 2**35
+    edges, cells = _kernel_case(case, t1_periodic=False)
     ids = _ids(edges, cells)
     index, K = _index_of(ids), np.int64(len(ids) + 1)
     prev, n = None, np.zeros(6, int)
