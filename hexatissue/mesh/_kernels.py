@@ -566,9 +566,9 @@ def cell_moments(labels, n_labels, periodic):
     wider ones (those touching the box edge, or large): their cos/sin terms
     come from per-column and per-row tables and are added pixel by pixel in
     raster order, as a pixel-by-pixel sum does.  The first pass finds the
-    runs without a branch per pixel and keeps the start column of every
-    run, so the later passes (torus) visit only the runs of the wide
-    labels, not the whole image again.
+    runs without a branch per pixel and keeps the start column and label of
+    every run; on a torus one pass over those picks out the runs of the wide
+    labels, and the two later passes visit only them, not every run again.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.float64)
@@ -583,6 +583,7 @@ def cell_moments(labels, n_labels, periodic):
     # run starts row after row (np.empty: only the pages written become resident); row i's runs are
     # run_start[row_first[i]:row_first[i + 1]], each ending where the next starts (or at w)
     run_start = np.empty(h * w, np.int64)
+    run_label = np.empty(h * w, labels.dtype)  # the label of every run (read again by the torus passes)
     row_first = np.zeros(h + 1, np.int64)
     n_runs = 0
     for i in range(h):
@@ -597,6 +598,7 @@ def cell_moments(labels, n_labels, periodic):
             j0 = run_start[r]
             j = run_start[r + 1] if r + 1 < m else w
             lab = row[j0]
+            run_label[r] = lab
             n = j - j0
             if count[lab] == 0:  # first pixel: the reference of a band around the whole torus
                 ref_x[lab] = j0
@@ -622,26 +624,35 @@ def cell_moments(labels, n_labels, periodic):
     snx = np.zeros(n_labels, np.float64)
     cy = np.zeros(n_labels, np.float64)
     sny = np.zeros(n_labels, np.float64)
+    # the runs of the wide labels (few), in raster order: the two passes below visit only them
+    wide_run = np.empty(n_runs, np.int64)
+    wide_row = np.empty(n_runs, np.int64)
+    n_wide = 0
     for i in range(h):
         for r in range(row_first[i], row_first[i + 1]):
-            j0 = run_start[r]
-            lab = labels[i, j0]
-            if not wide[lab]:
-                continue
-            j1 = run_start[r + 1] if r + 1 < row_first[i + 1] else w
-            a = cx[lab]
-            b = snx[lab]
-            c = cy[lab]
-            d = sny[lab]
-            for j in range(j0, j1):
-                a += cos_x[j]
-                b += sin_x[j]
-                c += cos_y[i]
-                d += sin_y[i]
-            cx[lab] = a
-            snx[lab] = b
-            cy[lab] = c
-            sny[lab] = d
+            if wide[run_label[r]]:
+                wide_run[n_wide] = r
+                wide_row[n_wide] = i
+                n_wide += 1
+    for q in range(n_wide):
+        r = wide_run[q]
+        i = wide_row[q]
+        lab = run_label[r]
+        j0 = run_start[r]
+        j1 = run_start[r + 1] if r + 1 < row_first[i + 1] else w
+        a = cx[lab]
+        b = snx[lab]
+        c = cy[lab]
+        d = sny[lab]
+        for j in range(j0, j1):
+            a += cos_x[j]
+            b += sin_x[j]
+            c += cos_y[i]
+            d += sin_y[i]
+        cx[lab] = a
+        snx[lab] = b
+        cy[lab] = c
+        sny[lab] = d
     _circular_refs(cx, snx, count, ref_x, w)
     _circular_refs(cy, sny, count, ref_y, h)
     for k in range(n_labels):  # summed again below, unwrapped
@@ -649,22 +660,21 @@ def cell_moments(labels, n_labels, periodic):
             sx[k] = 0.0
         if wide_y[k]:
             sy[k] = 0.0
-    for i in range(h):
-        for r in range(row_first[i], row_first[i + 1]):
-            j0 = run_start[r]
-            lab = labels[i, j0]
-            if not wide[lab]:
-                continue
-            j = run_start[r + 1] if r + 1 < row_first[i + 1] else w
-            n = j - j0
-            if wide_y[lab]:
-                sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
-            if wide_x[lab]:
-                if _unwrapped(float(j0), ref_x[lab], w) != j0 or _unwrapped(float(j - 1), ref_x[lab], w) != j - 1:
-                    for k in range(j0, j):  # the move is monotone in x: only runs whose ends move are split
-                        sx[lab] += _unwrapped(float(k), ref_x[lab], w)
-                else:
-                    sx[lab] += 0.5 * (j0 + j - 1) * n
+    for q in range(n_wide):
+        r = wide_run[q]
+        i = wide_row[q]
+        lab = run_label[r]
+        j0 = run_start[r]
+        j = run_start[r + 1] if r + 1 < row_first[i + 1] else w
+        n = j - j0
+        if wide_y[lab]:
+            sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
+        if wide_x[lab]:
+            if _unwrapped(float(j0), ref_x[lab], w) != j0 or _unwrapped(float(j - 1), ref_x[lab], w) != j - 1:
+                for k in range(j0, j):  # the move is monotone in x: only runs whose ends move are split
+                    sx[lab] += _unwrapped(float(k), ref_x[lab], w)
+            else:
+                sx[lab] += 0.5 * (j0 + j - 1) * n
     return count, sx, sy
 
 
