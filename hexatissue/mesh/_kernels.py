@@ -625,21 +625,24 @@ def cell_moments(labels, n_labels, periodic):
     cy = np.zeros(n_labels, np.float64)
     sny = np.zeros(n_labels, np.float64)
     # the runs of the wide labels (few), in raster order: the two passes below visit only them
-    wide_run = np.empty(n_runs, np.int64)
     wide_row = np.empty(n_runs, np.int64)
+    wide_label = np.empty(n_runs, labels.dtype)
+    wide_start = np.empty(n_runs, np.int64)  # columns wide_start .. wide_end - 1
+    wide_end = np.empty(n_runs, np.int64)
     n_wide = 0
     for i in range(h):
         for r in range(row_first[i], row_first[i + 1]):
             if wide[run_label[r]]:
-                wide_run[n_wide] = r
                 wide_row[n_wide] = i
+                wide_label[n_wide] = run_label[r]
+                wide_start[n_wide] = run_start[r]
+                wide_end[n_wide] = run_start[r + 1] if r + 1 < row_first[i + 1] else w
                 n_wide += 1
     for q in range(n_wide):
-        r = wide_run[q]
         i = wide_row[q]
-        lab = run_label[r]
-        j0 = run_start[r]
-        j1 = run_start[r + 1] if r + 1 < row_first[i + 1] else w
+        lab = wide_label[q]
+        j0 = wide_start[q]
+        j1 = wide_end[q]
         a = cx[lab]
         b = snx[lab]
         c = cy[lab]
@@ -661,11 +664,10 @@ def cell_moments(labels, n_labels, periodic):
         if wide_y[k]:
             sy[k] = 0.0
     for q in range(n_wide):
-        r = wide_run[q]
         i = wide_row[q]
-        lab = run_label[r]
-        j0 = run_start[r]
-        j = run_start[r + 1] if r + 1 < row_first[i + 1] else w
+        lab = wide_label[q]
+        j0 = wide_start[q]
+        j = wide_end[q]
         n = j - j0
         if wide_y[lab]:
             sy[lab] += n * _unwrapped(float(i), ref_y[lab], h)
