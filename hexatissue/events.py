@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 from numba import njit
 
-from ._hashing import GOLDEN, mix64
+from ._hashing import GOLDEN, mix64, mix64_word
 from ._system import release_freed_memory
 from .box import Box
 from .errors import InputError, is_real
@@ -822,8 +822,8 @@ def _lists_kernel(tracks, a, b, golden):
 
     Each contact goes to the lists of its cells present in ``tracks``
     (a counting sort by cell); each list, a few neighbours long, is then
-    sorted in place, and its hashes (splitmix64 of ``v + golden``, as
-    :func:`hexatissue._hashing.mix64`) summed.
+    sorted in place, and its hashes (:func:`hexatissue._hashing.mix64_word`
+    of ``v + golden``) summed.
     """
     n = len(tracks)
     ra, rb = np.searchsorted(tracks, a), np.searchsorted(tracks, b)
@@ -856,10 +856,7 @@ def _lists_kernel(tracks, a, b, golden):
                 p -= 1
             v[p] = x
         for q in range(start[r], start[r + 1]):
-            z = np.uint64(v[q]) + golden
-            z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-            z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-            row[q], h[q] = r, z ^ (z >> np.uint64(31))
+            row[q], h[q] = r, mix64_word(np.uint64(v[q]) + golden)
             full[r] += h[q]
     return tracks[row], v, row, h, full
 
@@ -933,7 +930,6 @@ class _ChangeLog:
                 kind = "unresolved" if last - start[i] < censor else "intercalation"
                 out.append((track[i], kind, start[i], np.nan, n_lost[i], n_gained[i]))
         return out
-
 
 
 class _ChangesReference(_ChangeLog):

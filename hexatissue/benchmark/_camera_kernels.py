@@ -42,7 +42,7 @@ import math
 import numpy as np
 from numba import njit, uint64
 
-from .._hashing import GOLDEN
+from .._hashing import GOLDEN, mix64_word
 
 #: largest floor(lam) with an alias table (the tables hold ~ TABLE_MAX^2 / 2 entries, 16 bytes each)
 TABLE_MAX = 1024
@@ -145,10 +145,7 @@ ZIGGURAT = ziggurat_tables()
 @njit(cache=True, inline="always")
 def word(key, i, s):
     """The ``s``-th random 64-bit word of pixel ``i``: splitmix64 of counter ``i * STREAMS + s``."""
-    z = key + (uint64(i) * uint64(STREAMS) + uint64(s)) * uint64(GOLDEN)
-    z = (z ^ (z >> uint64(30))) * uint64(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> uint64(27))) * uint64(0x94D049BB133111EB)
-    return z ^ (z >> uint64(31))
+    return mix64_word(key + (uint64(i) * uint64(STREAMS) + uint64(s)) * uint64(GOLDEN))
 
 
 @njit(cache=True, inline="always")
