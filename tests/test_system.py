@@ -1,4 +1,6 @@
 """hexatissue._system: the C library and allocator calls (no-ops where the platform lacks them)."""
+import sys
+
 import numpy as np
 
 from hexatissue import _system
@@ -13,6 +15,31 @@ def test_release_freed_memory_runs_and_keeps_memory_usable():
     del big, strings
     _system.release_freed_memory()
     assert np.ones(1_000_000).sum() == 1_000_000
+
+
+def test_release_freed_memory_trims_the_c_heap_and_arrows_pool(monkeypatch):
+    """Both releases happen: glibc's ``malloc_trim(0)``, and Arrow's ``release_unused`` once pyarrow is loaded."""
+    calls = []
+
+    class Libc:
+        def malloc_trim(self, pad):
+            calls.append(("malloc_trim", pad))
+
+    class Pool:
+        def release_unused(self):
+            calls.append(("release_unused",))
+
+    class Arrow:
+        def default_memory_pool(self):
+            return Pool()
+
+    monkeypatch.setattr(_system, "libc", Libc)
+    monkeypatch.delitem(sys.modules, "pyarrow", raising=False)
+    _system.release_freed_memory()
+    assert calls == [("malloc_trim", 0)]  # no pyarrow loaded: nothing to release there (and no import of it)
+    monkeypatch.setitem(sys.modules, "pyarrow", Arrow())
+    _system.release_freed_memory()
+    assert calls == [("malloc_trim", 0), ("malloc_trim", 0), ("release_unused",)]
 
 
 def test_reserve_gives_writable_private_arrays_of_any_dtype():
