@@ -9,6 +9,12 @@ not hold the stack in memory either.  It then runs, each in a fresh subprocess,
 
 * ``hexatissue analyze STACK --out D --workers W`` for every W of ``--workers``,
 * ``hexatissue analyze FIRST --out D1`` (one frame: always runs in the calling process),
+* the same in a process that first analysed a small movie (``one frame, warm``: the scripted T1
+  movie of :func:`hexatissue.synthetic.t1_movie`, 36 frames of 260 x 360 px), then reset its
+  high-water mark (``/proc/self/clear_refs``): a movie loads code a single frame never runs
+  (tracking, defect tracks, the T1 kernels: numba functions and modules, ~10-20 MB that do not
+  grow with the movie), so this is the one frame with the movie's fixed cost paid; only its main
+  peak is used (the polled tree figures include the warm-up),
 * ``hexatissue analyze SHORT --out D2 --workers W``, SHORT = the first ``--ref-frames`` (10)
   frames: the same pool as the long run, so the difference of the two is what the movie's length
   costs, with the pool's fixed cost cancelled,
@@ -33,7 +39,10 @@ and records for each
 The criterion is checked as ``tree peak(stack) - tree peak(one frame) <= tables in memory +
 a few frames``, a few frames = (2 x workers in flight + 2) raw frames of S x S x 2 bytes, and
 again with the short stack as the reference (``tree peak(stack) - tree peak(short) <= tables(stack)
-- tables(short) + a few frames``), for the polled RSS sum, the PSS sum and the main process.
+- tables(short) + a few frames``), for the polled RSS sum, the PSS sum and the main process, and
+with the warm one frame as the reference (main process only).  The issue's criterion is the
+first (a cold single frame); the other two separate what the movie's length costs from what
+being a movie at all costs.
 
 Usage::
 
@@ -68,8 +77,18 @@ MB = 1e6
 #: Runs the hexatissue CLI in this subprocess and reports its own and its children's peak RSS.
 CLI_RUNNER = r"""
 import json, resource, sys, time
-t0 = time.perf_counter()
 from hexatissue.cli import main
+if sys.argv[2] == "--warm-up":  # a small movie first, then the high-water mark reset to the RSS: see WARM_UP
+    import gc
+    from hexatissue._system import release_freed_memory
+    main(["analyze", sys.argv[3], "--out", sys.argv[4], "--workers", "1"])  # its code in this process
+    gc.collect()
+    release_freed_memory()
+    with open("/proc/self/clear_refs", "w") as fh:
+        fh.write("5")
+    del sys.argv[2:5]
+    globals().get("STAGES", []).clear()  # with --stages: only the measured run's stages
+t0 = time.perf_counter()
 rc = main(sys.argv[2:])
 wall = time.perf_counter() - t0
 hwm = [int(l.split()[1]) for l in open("/proc/self/status") if l.startswith("VmHWM:")][0]
@@ -180,6 +199,25 @@ def build_inputs(folder: Path, n_frames: int, size: int, n_cells: int, amplitude
     tmp.replace(stack)
     tmp_short.replace(short)
     return stack, first, short, time.perf_counter() - t0
+
+
+def build_warm_up(folder: Path) -> Path:
+    """The cached warm-up movie of the ``one frame, warm`` case: :func:`hexatissue.synthetic.t1_movie`, open image.
+
+    36 frames of 260 x 360 px with scripted T1s, divisions-free tracking,
+    defects that move: every movie-level stage (tracking, defect tracks,
+    the T1 kernels, the event statistics) runs on it, so its code is loaded.
+    """
+    import tifffile
+
+    from hexatissue.synthetic import t1_movie
+
+    path = folder / "warm_up_t1_movie.tif"
+    if not path.exists():
+        tmp = path.with_suffix(".tif.part")
+        tifffile.imwrite(tmp, np.asarray(t1_movie(periodic=False).labels).astype(np.uint16))
+        tmp.replace(path)
+    return path
 
 
 # ----------------------------------------------------------------------------------------------
@@ -356,14 +394,17 @@ def main(argv=None) -> int:
                           "date": time.strftime("%Y-%m-%d %H:%M %Z")},
                "runs": []}
     try:
-        cases = [("one frame", first, None)]
+        cases = [("one frame", first, None), ("one frame, warm", first, None)]
         for w in args.workers:
             cases += [(f"first {ref_frames}", short, w), ("stack", stack, w)]
         for name, path, workers in cases:
             out = work / f"out_{name.replace(' ', '_')}_{workers}"
             report = work / "report.json"
             runner = f"CLI = {CLI_RUNNER!r}\n" + STAGES_RUNNER if args.stages else CLI_RUNNER
-            cmd = [sys.executable, "-c", runner, str(report), "analyze", str(path), "--out", str(out)]
+            cmd = [sys.executable, "-c", runner, str(report)]
+            if name == "one frame, warm":
+                cmd += ["--warm-up", str(build_warm_up(cache)), str(work / "out_warm_up")]
+            cmd += ["analyze", str(path), "--out", str(out)]
             if workers is not None:
                 cmd += ["--workers", str(workers)]
             load_before = _load()[0]
@@ -399,20 +440,23 @@ def main(argv=None) -> int:
     # the acceptance criterion
     runs = results["runs"]
     single = next(r for r in runs if r["case"] == "one frame")
+    warm = next(r for r in runs if r["case"] == "one frame, warm")
     verdicts = []
     for r in runs:
         if r["case"] != "stack":
             continue
         few = 2 * r["workers"] + 2
         short_run = next(q for q in runs if q["case"] == f"first {ref_frames}" and q["workers"] == r["workers"])
-        for ref in (single, short_run):
+        for ref in (single, warm, short_run):
             allowed = r["tables_mb"] - (ref["tables_mb"] if ref is short_run else 0) + few * frame_mb
-            for what in ("tree_peak_mb", "tree_pss_peak_mb", "main_peak_mb"):
+            # the warm-up's own peak is in the polled tree figures of the warm case: only its main peak (VmHWM,
+            # reset after the warm-up) is the one frame's
+            for what in ("main_peak_mb",) if ref is warm else ("tree_peak_mb", "tree_pss_peak_mb", "main_peak_mb"):
                 extra = r[what] - ref[what]
                 ok = extra <= allowed
                 verdicts.append({"workers": r["workers"], "reference": ref["case"], "measure": what,
                                  "extra_mb": extra, "allowed_mb": allowed, "ok": ok})
-                print(f"criterion workers={r['workers']} {what:16s}: stack - {ref['case']:9s} = {extra:6.1f} MB vs "
+                print(f"criterion workers={r['workers']} {what:16s}: stack - {ref['case']:15s} = {extra:6.1f} MB vs "
                       f"tables {allowed - few * frame_mb:.1f} + {few} frames {few * frame_mb:.1f} = {allowed:.1f} MB:"
                       f" {'holds' if ok else 'FAILS'}")
     results["criterion"] = verdicts
