@@ -16,7 +16,10 @@ import pandas as pd
 from .box import Box, as_box
 from .errors import InputError, check_orders, check_p, check_positive
 from .geometry import match_points
-from .schema import require_columns, rows_by_frame, validate
+from .schema import require_columns, rows_by_frame, string_column, validate
+
+#: the ``kind`` of a defect event, alphabetical (events carry its index until their table is built)
+EVENT_KINDS = ("annihilation", "appearance", "creation", "disappearance")
 
 __all__ = [
     "plaquette_charges",
@@ -581,21 +584,26 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         charge, track = ends["charge"].to_numpy(float), ends["track"].to_numpy(np.int64)
         for at in rows_by_frame(times).values():  # one frame's births (or deaths) at a time, as arrays
             ip, ineg = _pair_ends(xy[at], charge[at], pair_distance, box)
-            parts.append(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
+            parts.append(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], EVENT_KINDS.index(kind), box))
             if include_unpaired:
                 alone = np.setdiff1d(np.arange(len(at)), np.r_[ip, ineg])
-                parts.append(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]], lone))
+                parts.append(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]],
+                                        EVENT_KINDS.index(lone)))
     if not sum(len(part[0]) for part in parts):
         return _empty_events(columns, time_column)
-    out = pd.DataFrame({c: np.concatenate([part[k] for part in parts]) for k, c in enumerate(columns)}, copy=False)
-    out["kind"] = out["kind"].astype("string")
-    out = out.sort_values([time_column, "kind", "x", "y"], kind="stable").reset_index(drop=True)
+    cols = {c: np.concatenate([part[k] for part in parts]) for k, c in enumerate(columns)}
+    # by time, kind (its codes sort as the names do), x, y: a numpy sort, and the names made a column once, in order
+    order = np.lexsort((cols["y"], cols["x"], cols["kind"], cols[time_column]))
+    cols = {c: v[order] for c, v in cols.items()}
+    cols["kind"] = string_column(cols["kind"], EVENT_KINDS)
+    out = pd.DataFrame(cols, copy=False)
     return validate(out, "defect_events") if time_column == "frame" else out
 
 
 def _event_columns(t, kind, x, y, track_plus, track_minus, separation):
-    """One frame's events of one kind as the columns of :func:`defect_events` (``t`` and ``kind`` repeated)."""
-    return (np.full(len(x), t), np.full(len(x), kind, dtype=object), x, y, track_plus, track_minus, separation)
+    """One frame's events of one kind as the columns of :func:`defect_events` (``t`` and the :data:`EVENT_KINDS`
+    code ``kind`` repeated)."""
+    return (np.full(len(x), t), np.full(len(x), kind, np.int8), x, y, track_plus, track_minus, separation)
 
 
 def _pair_rows(xy, track, ip, ineg, t, kind, box):

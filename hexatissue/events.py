@@ -36,7 +36,7 @@ from .box import Box
 from .errors import InputError, is_real
 from .geometry import in_sorted, lookup, row_keys
 from .graph import pair_groups
-from .schema import interior_mask, track_ids, validate
+from .schema import interior_mask, string_column, track_ids, validate
 
 __all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
            "cell_event_stats", "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
@@ -59,6 +59,10 @@ CELL_EVENT_COLUMNS = {
     "mean_intercalation_interval": "mean frames between consecutive intercalations of the cell (NaN if < 2)",
 }
 
+
+#: The ``kind`` of a T1 (quartet or per-cell event); tables are built from codes, its indices.
+T1_KINDS = ("cycle", "intercalation", "unresolved")
+CYCLE, INTERCALATION, UNRESOLVED = range(3)
 
 #: Longest default censoring window, frames (enough for most T1 cycles of MPF runs, see docs/t1.md).
 CENSOR_MAX = 10
@@ -531,31 +535,58 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
     # the unordered quartet {a-b, c-d} is the key pairing a T1 with its inverse
     df["q_lo"], df["q_hi"] = np.minimum(ab, cd), np.maximum(ab, cd)
     df = df.sort_values(["q_lo", "q_hi", "frame_lost"], kind="stable").reset_index(drop=True)
-    rows = []
-    recs = df.to_dict("records")
-    k = 0
-    while k < len(recs):
-        r = recs[k]
-        nxt = recs[k + 1] if k + 1 < len(recs) else None
-        same = nxt is not None and nxt["q_lo"] == r["q_lo"] and nxt["q_hi"] == r["q_hi"]
-        undo = same and nxt["cell_a"] == r["cell_c"] and nxt["cell_b"] == r["cell_d"]
-        if undo:
-            kind, end, undo_at = "cycle", float(nxt["frame_gain"]), float(nxt["frame_lost"])
-            k += 2
-        else:
-            kind = "unresolved" if last_frame - r["frame_lost"] < censor else "intercalation"
-            end = undo_at = np.nan
-            k += 1
-        rows.append((kind, r["frame_lost"], end, end - r["frame_lost"], r["cell_a"], r["cell_b"], r["cell_c"],
-                     r["cell_d"], r["frame_gain"], undo_at))
-    cols = ["kind", "frame_start", "frame_end", "duration", "cell_a", "cell_b", "cell_c", "cell_d",
-            "frame_gain", "frame_undo"]
-    out = pd.DataFrame(rows, columns=cols)
-    out = out.astype({"frame_start": np.int64, "frame_end": float, "duration": float, "cell_a": np.int64,
-                      "cell_b": np.int64, "cell_c": np.int64, "cell_d": np.int64, "frame_gain": np.int64,
-                      "frame_undo": float})
-    out["kind"] = out["kind"].astype("string")
-    return out.sort_values(["frame_start", "cell_a", "cell_b"], ignore_index=True)
+    cells = {c: df[c].to_numpy(np.int64) for c in ("cell_a", "cell_b", "cell_c", "cell_d")}
+    lost, gain = df["frame_lost"].to_numpy(np.int64), df["frame_gain"].to_numpy(np.int64)
+    q_lo, q_hi = df["q_lo"].to_numpy(), df["q_hi"].to_numpy()
+    # T1 k is undone by T1 k + 1: the same quartet, the contact lost by k + 1 the one k gained
+    undone = np.zeros(len(lost), bool)
+    undone[:-1] = (q_lo[1:] == q_lo[:-1]) & (q_hi[1:] == q_hi[:-1]) & (cells["cell_a"][1:] == cells["cell_c"][:-1]) \
+        & (cells["cell_b"][1:] == cells["cell_d"][:-1])
+    first, cycle = _undo_pairs(undone)
+    kind = _kind_codes(cycle, lost[first], last_frame, censor)
+    undo = np.minimum(first + 1, len(lost) - 1)  # the inverse T1 of a cycle (clipped where there is none)
+    end, undo_at = np.where(cycle, gain[undo], np.nan), np.where(cycle, lost[undo], np.nan)
+    order = np.lexsort((cells["cell_b"][first], cells["cell_a"][first], lost[first]))  # as sort_values: stable
+    first, kind, end, undo_at = first[order], kind[order], end[order], undo_at[order]
+    return pd.DataFrame({"kind": string_column(kind, T1_KINDS), "frame_start": lost[first], "frame_end": end,
+                         "duration": end - lost[first], **{c: v[first] for c, v in cells.items()},
+                         "frame_gain": gain[first], "frame_undo": undo_at})
+
+
+def _kind_codes(cycle, start, last_frame, censor):
+    """:data:`T1_KINDS` codes: a cycle, else unresolved when it started fewer than ``censor`` frames before the end."""
+    return np.where(cycle, CYCLE, np.where(last_frame - start < censor, UNRESOLVED, INTERCALATION)).astype(np.int8)
+
+
+@njit(cache=True)
+def _undo_pairs(undone):
+    """Scan of T1s sorted by quartet and frame: ``(first, cycle)``, each event's first T1 and whether it is a cycle.
+
+    ``undone[k]``: T1 ``k + 1`` undoes T1 ``k``.  A T1 and the one undoing
+    it make one cycle; the next T1 starts a new event (a quartet may go
+    round several times).
+    """
+    first = np.empty(len(undone), np.int64)
+    cycle = np.empty(len(undone), np.bool_)
+    n = k = 0
+    while k < len(undone):
+        first[n], cycle[n] = k, undone[k]
+        k += 2 if undone[k] else 1
+        n += 1
+    return first[:n], cycle[:n]
+
+
+def _undo_pairs_reference(undone):
+    """:func:`_undo_pairs` as a plain-Python fold (the test's reference)."""
+    events, partner = [], False
+    for k, undoes_next in enumerate(undone.tolist()):
+        if partner:  # the inverse of the T1 before it: part of that cycle
+            partner = False
+            continue
+        events.append((k, undoes_next))
+        partner = undoes_next
+    first, cycle = zip(*events) if events else ((), ())
+    return np.array(first, np.int64), np.array(cycle, bool)
 
 
 def _rows_at(cells, by_frame, frame, track):
@@ -903,33 +934,56 @@ class _ChangeLog:
         self.prev = None
 
     def events(self, last, censor):
-        """Events per cell, by the first change of each excursion: (track, kind, start, end, n_lost, n_gained).
+        """Events per cell, by the first change of each excursion, as arrays in (track, frame) order.
 
         A change whose list comes back is a cycle and the changes up to the
         return belong to it; one that never does is an intercalation
-        (``unresolved`` within ``censor`` frames of ``last``).
+        (``unresolved`` within ``censor`` frames of ``last``).  Returns
+        ``track``, ``kind`` (code of :data:`T1_KINDS`), ``start``, ``end``
+        (float: the frame the list is back, NaN unless a cycle),
+        ``n_lost``, ``n_gained``.
         """
         if not self.found:
-            return []
-        track, start, n_lost, n_gained = (np.concatenate(c) for c in zip(*self.found))
-        order = np.lexsort((start, track)).tolist()  # stable: changes of one cell and frame keep their order
-        track, start, n_lost, n_gained = track.tolist(), start.tolist(), n_lost.tolist(), n_gained.tolist()
+            nothing = np.zeros(0, np.int64)
+            return nothing, nothing, nothing, np.zeros(0), nothing, nothing
+        track, start, n_lost, n_gained = (np.concatenate(c).astype(np.int64) for c in zip(*self.found))
+        order = np.lexsort((start, track))  # stable: changes of one cell and frame keep their order
         back = np.full(self.n, -1, np.int64)
         for index, frame in self.back:
             back[index] = frame
-        back = back.tolist()
-        out, k = [], 0
-        while k < len(order):
-            i = order[k]
-            k += 1
-            if back[i] >= 0:
-                out.append((track[i], "cycle", start[i], float(back[i]), n_lost[i], n_gained[i]))
-                while k < len(order) and track[order[k]] == track[i] and start[order[k]] <= back[i]:
-                    k += 1
-            else:
-                kind = "unresolved" if last - start[i] < censor else "intercalation"
-                out.append((track[i], kind, start[i], np.nan, n_lost[i], n_gained[i]))
-        return out
+        first = _excursion_starts(order, track, start, back)
+        cycle = back[first] >= 0
+        kind = _kind_codes(cycle, start[first], last, censor)
+        return (track[first], kind, start[first], np.where(cycle, back[first], np.nan), n_lost[first],
+                n_gained[first])
+
+
+@njit(cache=True)
+def _excursion_starts(order, track, start, back):
+    """The changes, in ``order``, that start an excursion: a cycle's (``back >= 0``) covers the later changes of
+    its cell up to the frame its list is back."""
+    first = np.empty(len(order), np.int64)
+    n = k = 0
+    while k < len(order):
+        i = order[k]
+        first[n] = i
+        n += 1
+        k += 1
+        if back[i] >= 0:
+            while k < len(order) and track[order[k]] == track[i] and start[order[k]] <= back[i]:
+                k += 1
+    return first[:n]
+
+
+def _excursion_starts_reference(order, track, start, back):
+    """:func:`_excursion_starts` as a plain-Python fold (the test's reference)."""
+    first, open_track, open_until = [], None, -1
+    for i in order.tolist():
+        if track[i] == open_track and start[i] <= open_until:
+            continue  # inside the excursion of the cycle before it
+        first.append(i)
+        open_track, open_until = track[i], back[i]  # back -1 (not a cycle) covers nothing: frames are >= 0
+    return np.array(first, np.int64)
 
 
 class _ChangesReference(_ChangeLog):
@@ -1284,19 +1338,16 @@ def _changes(cells):
 def _neighbour_table(changes, cells, by_frame, censor):
     """The ``neighbour_events`` table of the changes of every frame of ``cells``."""
     frames = cells["frame"].to_numpy(np.int64)
-    rows = changes.events(int(frames.max()) if len(frames) else 0, censor)
-    out = pd.DataFrame(rows, columns=["track", "kind", "frame_start", "frame_end", "n_lost", "n_gained"])
-    out = out.astype({"track": np.int64, "frame_start": np.int64, "frame_end": float, "n_lost": np.int64,
-                      "n_gained": np.int64})
-    out.insert(4, "duration", out["frame_end"] - out["frame_start"])
-    out["kind"] = out["kind"].astype("string")
-    row = _rows_at(cells, by_frame, out["frame_start"].to_numpy(np.int64), out["track"].to_numpy(np.int64))
+    track, kind, start, end, n_lost, n_gained = changes.events(int(frames.max()) if len(frames) else 0, censor)
+    order = np.lexsort((track, start))  # by frame_start, then track, stable
+    track, kind, start, end, n_lost, n_gained = (v[order] for v in (track, kind, start, end, n_lost, n_gained))
+    row = _rows_at(cells, by_frame, start, track)
     at = np.maximum(row, 0)
-    for col in ("x", "y"):
-        out[col] = np.where(row >= 0, cells[col].to_numpy(float)[at], np.nan)
-    out["is_border"] = ~interior_mask(cells)[at]
-    out = out.sort_values(["frame_start", "track"], ignore_index=True)
-    out.insert(0, "event", np.arange(len(out), dtype=np.int64))
+    out = pd.DataFrame({"event": np.arange(len(track), dtype=np.int64), "track": track,
+                        "kind": string_column(kind, T1_KINDS), "frame_start": start, "frame_end": end,
+                        "duration": end - start, "n_lost": n_lost, "n_gained": n_gained,
+                        **{c: np.where(row >= 0, cells[c].to_numpy(float)[at], np.nan) for c in ("x", "y")},
+                        "is_border": ~interior_mask(cells)[at]})
     return validate(out, "neighbour_events")
 
 

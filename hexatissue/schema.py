@@ -249,6 +249,42 @@ def rows_by_frame(times) -> dict:
     return dict(zip(present.tolist(), np.split(order, first[1:]))) if len(order) else {}
 
 
+def string_column(codes, names):
+    """The pandas ``string`` array of ``names[codes]`` (a label column such as an event's ``kind``).
+
+    Equal to ``pd.array(numpy.asarray(names, object)[codes], dtype="string")``,
+    but built from numpy buffers when the string dtype is Arrow's: no Python
+    string per row, and nothing from Arrow's allocator, whose pools keep
+    several MB resident after each conversion of tens of thousands of Python
+    strings (measured on the event tables of a 200-frame movie).
+
+    Parameters
+    ----------
+    codes : array_like of int
+        Index into ``names`` of every row.
+    names : sequence of str
+        The labels.
+    """
+    codes = np.asarray(codes, np.int64).reshape(-1)
+    if len(codes) and (codes.min() < 0 or codes.max() >= len(names)):
+        raise InputError(f"codes must index the {len(names)} names; got values in [{codes.min()}, {codes.max()}]")
+    if pd.StringDtype().storage != "pyarrow":
+        return pd.array(np.asarray(names, dtype=object)[codes], dtype="string")
+    import pyarrow as pa
+
+    encoded = [str(name).encode() for name in names]
+    size = np.array([len(e) for e in encoded], np.int64)
+    first = np.concatenate([[0], np.cumsum(size)[:-1]])  # where each name starts in the joined names
+    lengths = size[codes]
+    offsets = np.zeros(len(codes) + 1, np.int64)
+    np.cumsum(lengths, out=offsets[1:])
+    # byte j of row i is byte (first[code] + j) of the joined names
+    data = np.frombuffer(b"".join(encoded), np.uint8)[np.repeat(first[codes] - offsets[:-1], lengths)
+                                                      + np.arange(offsets[-1])]
+    array = pa.Array.from_buffers(pa.large_string(), len(codes), [None, pa.py_buffer(offsets), pa.py_buffer(data)])
+    return pd.arrays.ArrowStringArray(array)
+
+
 def interior_mask(cells) -> np.ndarray:
     """Rows that are not border cells (all rows when there is no ``is_border`` column)."""
     if "is_border" in cells.columns:

@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from hexatissue.errors import InputError
-from hexatissue.schema import empty_table, interior_mask, require_columns, rows_by_frame, track_ids
+from hexatissue.schema import empty_table, interior_mask, require_columns, rows_by_frame, string_column, track_ids
 
 
 def test_rows_by_frame_equals_one_scan_per_frame():
@@ -43,3 +43,24 @@ def test_empty_table_has_the_schema_columns_per_order():
     assert {"gamma2_re", "gamma2_im", "gamma6_re", "gamma6_im"} <= set(cells.columns)
     with pytest.raises(InputError, match="table must be one of"):
         empty_table("nope")
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 37, 5000])
+def test_string_column_equals_pandas_strings_of_the_names(n, tmp_path):
+    names = ("cycle", "intercalation", "unresolved", "", "é-ü")  # an empty name and multi-byte characters too
+    codes = np.random.default_rng(n).integers(0, len(names), n)
+    got = string_column(codes, names)
+    want = pd.array(np.asarray(names, dtype=object)[codes], dtype="string")
+    pd.testing.assert_extension_array_equal(got, want)
+    # and as a table column, through Parquet
+    table = pd.DataFrame({"kind": got, "code": codes})
+    table.to_parquet(tmp_path / "t.parquet", index=False)
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "t.parquet"), pd.DataFrame({"kind": want, "code": codes}),
+                                  check_exact=True)
+
+
+def test_string_column_refuses_codes_outside_the_names():
+    with pytest.raises(InputError, match="codes must index the 2 names"):
+        string_column([0, 2], ("a", "b"))
+    with pytest.raises(InputError, match="codes must index"):
+        string_column([-1], ("a", "b"))
