@@ -459,8 +459,9 @@ def _frame_fill(geometry, xy, gamma, area, orders, box, min_coverage, validity, 
     """
     finite, use, r_cell, radii = geometry["finite"], geometry["use"], geometry["r_cell"], geometry["radii"]
     gx, gy, spacing = geometry["gx"], geometry["gy"], geometry["spacing"]
-    col, row = np.meshgrid(np.arange(len(gx)), np.arange(len(gy)))
-    nodes = np.c_[gx[col.ravel()], gy[row.ravel()]]
+    col, row = np.tile(np.arange(len(gx)), len(gy)), np.repeat(np.arange(len(gy)), len(gx))  # row-major nodes
+    nodes = np.empty((len(col), 2))
+    nodes[:, 0], nodes[:, 1] = gx[col], gy[row]
     # one neighbour structure for every p, every radius and the tissue raster
     neighbours = _neighbours(xy[finite], box)
     ok = use[finite]
@@ -492,7 +493,7 @@ def _frame_fill(geometry, xy, gamma, area, orders, box, min_coverage, validity, 
     else:
         block("valid")[:] = (counts > 0) & (block("coverage") >= min_coverage)
     block("node")[:] = np.arange(n)
-    block("row")[:], block("col")[:] = row.ravel(), col.ravel()
+    block("row")[:], block("col")[:] = row, col
     block("x")[:], block("y")[:] = nodes[:, 0], nodes[:, 1]
     block("radius")[:] = np.asarray(radii, float)[:, None]
     block("spacing")[:] = spacing
