@@ -445,11 +445,12 @@ def _grid_columns(orders, size, frame_dtype=np.int64):
     ``(2 n_orders, size)`` array), so the disk kernel writes every order's means in place.
     """
     gamma = [f"Gamma{q}_{part}" for q in orders for part in ("re", "im")]
-    floats = dict(zip(["x", "y", *gamma, "coverage", "radius", "spacing"], np.empty((len(gamma) + 5, size))))
-    ints = dict(zip(["node", "row", "col", "n_cells"], np.empty((4, size), np.int64)))
+    float_block = np.empty((len(gamma) + 5, size))
+    columns = dict(zip(["x", "y", *gamma, "coverage", "radius", "spacing"], float_block))
+    columns.update(zip(["node", "row", "col", "n_cells"], np.empty((4, size), np.int64)))
+    columns.update(frame=np.empty(size, frame_dtype), valid=np.empty(size, bool))
     names = ["frame", "node", "row", "col", "x", "y", *gamma, "n_cells", "coverage", "valid", "radius", "spacing"]
-    columns = {**floats, **ints, "frame": np.empty(size, frame_dtype), "valid": np.empty(size, bool)}
-    return {name: columns[name] for name in names}, floats["x"].base[2:2 + len(gamma)]
+    return {name: columns[name] for name in names}, float_block[2:2 + len(gamma)]
 
 
 def _frame_fill(geometry, xy, gamma, area, orders, box, min_coverage, validity, columns, means, start):
