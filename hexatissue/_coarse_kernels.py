@@ -75,7 +75,7 @@ def _row_runs(x0, x1, nb):
     if x1 < x0:
         return 0, -1, 0, -1
     a0, a1 = x0 % nb, x1 % nb
-    if a0 + (x1 - x0) < nb:  # no wrap (the whole axis is 0 .. nb - 1)
+    if a0 + (x1 - x0) < nb:  # one run: no wrap, or the whole axis (which _bin_range gives as 0 .. nb - 1)
         return a0, a0 + (x1 - x0), 0, -1
     return a0, nb - 1, 0, a1
 
