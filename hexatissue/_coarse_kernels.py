@@ -372,7 +372,7 @@ def field_layouts(row, col, rows, cuts):
     seen = np.zeros(0, np.bool_)
     for g in range(g_count):
         a, b = cuts[g], cuts[g + 1]
-        low, ny, nx = 0, 0, 0
+        low, ny, nx = 0, row[rows[a]] + 1, col[rows[a]] + 1
         for e in range(a, b):
             low = min(low, row[rows[e]], col[rows[e]])
             ny, nx = max(ny, row[rows[e]] + 1), max(nx, col[rows[e]] + 1)

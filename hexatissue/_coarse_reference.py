@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .defects import winding  # noqa: F401  (the reference of _coarse_kernels.winding lives beside plaquette_charges)
+from .defects import winding  # noqa: F401  (the reference of _coarse_kernels.plaquette_defects, beside plaquette_charges)
 
 
 def disk_means(nodes, xy, values, counted, radii, order, starts, origin, size, nbins, period, empty, means, counts):
@@ -49,10 +49,11 @@ def disk_coverage(mask, node_i, node_j, half_width):
 
 def field_layouts(row, col, rows, cuts):
     """Reference of :func:`hexatissue._coarse_kernels.field_layouts` (one field at a time, numpy)."""
-    shapes, once, block = np.zeros((len(cuts) - 1, 2), np.int64), np.zeros(len(cuts) - 1, bool), np.zeros(len(cuts) - 1, bool)
+    n_fields = len(cuts) - 1
+    shapes, once, block = np.zeros((n_fields, 2), np.int64), np.zeros(n_fields, bool), np.zeros(n_fields, bool)
     for g, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
         r, c = row[rows[a:b]], col[rows[a:b]]
-        shapes[g] = max(r.max(), -1) + 1, max(c.max(), -1) + 1
+        shapes[g] = r.max() + 1, c.max() + 1
         n = shapes[g].prod()
         if len(r) != n or r.min() < 0 or c.min() < 0:
             continue

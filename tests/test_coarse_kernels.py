@@ -274,8 +274,8 @@ def test_field_layouts_kernel_matches_reference():
         return r, c
     r1, c1 = table(3, 4)
     r2, c2 = table(2, 5)
-    row, col = np.r_[r1, r2, r1, r1[:-1], 0, r2], np.r_[c1, c2, c1, c1[:-1], 0, c2]
-    row[-3] = -1  # the last field has a negative row
+    row, col = np.r_[r1, r2, r1, r1[:-1], 0, r2, -2], np.r_[c1, c2, c1, c1[:-1], 0, c2, 0]
+    row[-4] = -1  # the fifth field has a negative row
     n1, n2 = 12, 10
     a = np.arange(len(row))
     shuffled = np.random.default_rng(12).permutation(n1)
@@ -283,10 +283,11 @@ def test_field_layouts_kernel_matches_reference():
               a[n1:n1 + n2],                       # 2 x 5 in place
               a[n1 + n2:2 * n1 + n2][shuffled],    # every node once, out of order
               a[2 * n1 + n2:3 * n1 + n2],          # the last node missing, (0, 0) twice
-              a[3 * n1 + n2:],                     # a negative row
+              a[3 * n1 + n2:-1],                   # a negative row
               a[:n1][::-1],                        # reversed
               np.r_[a[n1 + n2:n1 + n2 + 6], a[6:n1]],  # every node once in order, rows not consecutive
-              a[:1]]                               # 1 x 1
+              a[:1],                               # 1 x 1
+              a[-1:]]                              # only negative rows: the shape is still max + 1
     rows = np.concatenate(fields)
     cuts = np.r_[0, np.cumsum([len(f) for f in fields])]
     out_k = K.field_layouts(row, col, rows, cuts)
@@ -294,9 +295,9 @@ def test_field_layouts_kernel_matches_reference():
     for k, r in zip(out_k, out_r):
         np.testing.assert_array_equal(k, r)
     shapes, once, block = out_k
-    assert shapes.tolist() == [[3, 4], [2, 5], [3, 4], [3, 4], [2, 5], [3, 4], [3, 4], [1, 1]]
-    assert once.tolist() == [True, True, True, False, False, True, True, True]
-    assert block.tolist() == [True, True, False, False, False, False, False, True]
+    assert shapes.tolist() == [[3, 4], [2, 5], [3, 4], [3, 4], [2, 5], [3, 4], [3, 4], [1, 1], [-1, 1]]
+    assert once.tolist() == [True, True, True, False, False, True, True, True, False]
+    assert block.tolist() == [True, True, False, False, False, False, False, True, False]
 
 
 def test_find_defects_does_not_depend_on_the_row_order_of_the_grid():
