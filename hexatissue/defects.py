@@ -317,9 +317,12 @@ def find_defects(grid, p=6, box=None):
                                 ("x", xy[:, 0]), ("y", xy[:, 1]), ("charge", charge)):
                 found[name].append(value)
     found = {name: np.concatenate(value) for name, value in found.items()}
-    # rows ordered by p (as given), frame, radius, then plaquette (row-major; lexsort is stable)
-    order = np.lexsort((found["group"], found["rank"]))
-    found = {name: value[order] for name, value in found.items()}
+    # rows ordered by p (as given), frame, radius, then plaquette (row-major; lexsort is stable);
+    # with one shape of field they come out of the loop in that order already
+    key = found["rank"] * len(groups) + found["group"]
+    if (key[1:] < key[:-1]).any():
+        order = np.lexsort((found["group"], found["rank"]))
+        found = {name: value[order] for name, value in found.items()}
     group, rank = found["group"], found["rank"]
     # defect ids: 0-based per (p, frame, radius)
     cut = np.r_[0, np.flatnonzero((np.diff(group) != 0) | (np.diff(rank) != 0)) + 1]
@@ -328,7 +331,7 @@ def find_defects(grid, p=6, box=None):
     radii = np.array([radius for _, radius, _ in groups], dtype=float)
     out = pd.DataFrame({"frame": frames[group], "radius": radii[group], "defect": ids.astype(np.int64),
                         "x": found["x"], "y": found["y"], "charge": found["charge"],
-                        "p": np.asarray(orders, np.int64)[rank]})
+                        "p": np.asarray(orders, np.int64)[rank]}, copy=False)  # (new arrays: nothing to copy)
     if not multi:
         out = out.drop(columns="radius")
     return validate(out, "defects")
