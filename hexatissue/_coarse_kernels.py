@@ -64,8 +64,49 @@ def _offset(d, period):
 
 
 @njit(cache=True)
-def disk_sums(nodes, xy, values, radii, order, starts, origin, size, nbins, period):
-    """Sums of ``values`` and counts of the centroids within each radius of each node.
+def _row_runs(x0, x1, nb):
+    """The bins ``x0 .. x1`` (unwrapped) of one row as at most two runs of bin columns, in scan order.
+
+    Returns ``(a0, a1, b0, b1)``: bins ``a0 .. a1`` then ``b0 .. b1`` (an empty run has its last bin
+    before its first); the bins of one row are contiguous in the cell list, so each run is one
+    slice of it.  ``x0 .. x1`` is empty (``x1 < x0``), or one run inside ``0 .. nb - 1`` on an open
+    image, or wraps around a periodic axis (``_bin_range``).
+    """
+    if x1 < x0:
+        return 0, -1, 0, -1
+    a0, a1 = x0 % nb, x1 % nb
+    if a0 + (x1 - x0) < nb:  # one run: no wrap, or the whole axis (which _bin_range gives as 0 .. nb - 1)
+        return a0, a0 + (x1 - x0), 0, -1
+    return a0, nb - 1, 0, a1
+
+
+@njit(cache=True)
+def _counted_runs(xy, values, counted, order, starts):
+    """The counted centroids and their values in cell-list order, and the bin starts among them.
+
+    Each bin is then a contiguous run of the returned ``xs``, ``ys``, ``vs`` (in the order of
+    ``order``), so scanning a bin reads consecutive memory and skips nothing.
+    """
+    n_bins = starts.shape[0] - 1
+    kept = np.zeros(n_bins + 1, np.int64)
+    xs, ys = np.empty(order.shape[0]), np.empty(order.shape[0])
+    vs = np.empty((order.shape[0], values.shape[1]))
+    m = 0
+    for b in range(n_bins):
+        kept[b] = m
+        for s in range(starts[b], starts[b + 1]):
+            c = order[s]
+            if counted[c]:
+                xs[m], ys[m] = xy[c, 0], xy[c, 1]
+                vs[m] = values[c]
+                m += 1
+    kept[n_bins] = m
+    return xs, ys, vs, kept
+
+
+@njit(cache=True)
+def disk_means(nodes, xy, values, counted, radii, order, starts, origin, size, nbins, period, empty, means, counts):
+    """Means of ``values`` and counts of the counted centroids within each radius of each node, written out.
 
     Parameters
     ----------
@@ -74,35 +115,41 @@ def disk_sums(nodes, xy, values, radii, order, starts, origin, size, nbins, peri
     xy : (m, 2) float
         Centroids (x, y), px (inside the box when periodic).
     values : (m, q) float
-        Quantities to sum (e.g. Re and Im of gamma_p for several p).
+        Quantities to average (e.g. Re and Im of gamma_p for several p).
+    counted : (m,) bool
+        Centroids that enter the means (the others, e.g. border cells, only share the cell list).
     radii : (k,) float
-        Disk radii, px, ascending.
+        Disk radii, px, in any order.
     order, starts, origin, size, nbins, period
         Cell list of ``xy`` (module docstring).
-
-    Returns
-    -------
-    sums : (n, k, q) float
-        ``sums[i, j]`` = sum of ``values`` over the centroids with
-        ``dx^2 + dy^2 <= radii[j]^2`` (minimum image when periodic).
-    counts : (n, k) int64
+    empty : float
+        Mean written for a disk without centroids.
+    means : (q, k, n) float, written
+        ``means[t, j, i]`` = mean of ``values[:, t]`` over the counted centroids with
+        ``dx^2 + dy^2 <= radii[j]^2`` from node ``i`` (minimum image when periodic).
+    counts : (k, n) int64, written
         Number of those centroids.
+
+    Notes
+    -----
+    Each node's centroids are binned into the bands between consecutive radii (ascending), and
+    the disks' sums are cumulative sums over the bands; the means are those sums over the counts.
+    The centroids are visited bin row by bin row, each row's bins as one contiguous run of the
+    cell list (``_row_runs``), so no per-bin bookkeeping is needed.
     """
     n, k, q = nodes.shape[0], radii.shape[0], values.shape[1]
-    sums = np.zeros((n, k, q))
-    counts = np.zeros((n, k), np.int64)
     if k == 0:
-        return sums, counts
-    r2 = radii * radii
-    rmax = radii[k - 1]
+        return
+    rank = np.argsort(radii, kind="mergesort")  # band j is radius rank[j] (ascending; ties stable)
+    r2 = np.empty(k)
+    for j in range(k):
+        r2[j] = radii[rank[j]] * radii[rank[j]]
+    rmax = radii[rank[k - 1]]
     nbx, nby = nbins[0], nbins[1]
-    # centroids and values in cell-list order: each bin is a contiguous run
-    xs, ys = np.empty(order.shape[0]), np.empty(order.shape[0])
-    vs = np.empty((order.shape[0], q))
-    for s in range(order.shape[0]):
-        xs[s], ys[s] = xy[order[s], 0], xy[order[s], 1]
-        vs[s] = values[order[s]]
+    xs, ys, vs, starts = _counted_runs(xy, values, counted, order, starts)
     band = np.zeros((k, q))
+    in_band = np.zeros(k, np.int64)
+    total = np.zeros(q)
     for i in range(n):
         qx, qy = nodes[i, 0], nodes[i, 1]
         if period[0] > 0.0:
@@ -111,30 +158,34 @@ def disk_sums(nodes, xy, values, radii, order, starts, origin, size, nbins, peri
         x0, x1 = _bin_range(qx, rmax, origin[0], size[0], nbx, period[0])
         y0, y1 = _bin_range(qy, rmax, origin[1], size[1], nby, period[1])
         band[:] = 0.0
+        in_band[:] = 0
+        a0, a1, b0, b1 = _row_runs(x0, x1, nbx)
         for byu in range(y0, y1 + 1):
-            by = byu % nby
-            for bxu in range(x0, x1 + 1):
-                b = by * nbx + bxu % nbx
-                for s in range(starts[b], starts[b + 1]):
+            row = (byu % nby) * nbx
+            for run in range(2):
+                lo, hi = (a0, a1) if run == 0 else (b0, b1)
+                if hi < lo:
+                    continue
+                for s in range(starts[row + lo], starts[row + hi + 1]):
                     dx = _offset(xs[s] - qx, period[0])
                     dy = _offset(ys[s] - qy, period[1])
                     d2 = dx * dx + dy * dy
                     if d2 > r2[k - 1]:
                         continue
-                    j = 0  # first disk holding the centroid (radii ascending)
+                    j = 0  # first disk holding the centroid (branch-free: the radii compare unpredictably)
                     for t in range(k - 1):
                         if d2 > r2[t]:
                             j += 1
-                    counts[i, j] += 1
+                    in_band[j] += 1
                     for t in range(q):
                         band[j, t] += vs[s, t]
-        acc = 0
+        count = 0
         for j in range(k):  # bands -> disks
-            acc += counts[i, j]
-            counts[i, j] = acc
+            count += in_band[j]
+            counts[rank[j], i] = count
             for t in range(q):
-                sums[i, j, t] = band[j, t] if j == 0 else sums[i, j - 1, t] + band[j, t]
-    return sums, counts
+                total[t] = band[j, t] if j == 0 else total[t] + band[j, t]
+                means[t, rank[j], i] = total[t] / count if count > 0 else empty
 
 
 #: Side of the raster tiles of :func:`tissue_mask`, in raster points.
@@ -293,20 +344,78 @@ def disk_coverage(mask, node_i, node_j, half_width):
 
 
 @njit(cache=True)
+def field_layouts(row, col, rows, cuts):
+    """Shape of every field of a grid table, whether it holds each of its nodes once, and whether in place.
+
+    Parameters
+    ----------
+    row, col : (N,) int64
+        Node index along y and x of every row of the grid table.
+    rows : (M,) int64
+        The table rows of every field, field after field.
+    cuts : (G + 1,) int64
+        Field ``g`` is ``rows[cuts[g]:cuts[g + 1]]`` (never empty).
+
+    Returns
+    -------
+    shapes : (G, 2) int64
+        ``(ny, nx)`` of each field: its largest ``row`` and ``col`` plus one.
+    once : (G,) bool
+        The field holds every node of its ``ny x nx`` grid exactly once.
+    block : (G,) bool
+        Moreover its rows are consecutive table rows in row-major node order (so the field is a
+        ``(ny, nx)`` reshape of a slice of the columns).
+    """
+    g_count = cuts.shape[0] - 1
+    shapes = np.zeros((g_count, 2), np.int64)
+    once, block = np.zeros(g_count, np.bool_), np.zeros(g_count, np.bool_)
+    seen = np.zeros(0, np.bool_)
+    for g in range(g_count):
+        a, b = cuts[g], cuts[g + 1]
+        low, ny, nx = 0, row[rows[a]] + 1, col[rows[a]] + 1
+        for e in range(a, b):
+            low = min(low, row[rows[e]], col[rows[e]])
+            ny, nx = max(ny, row[rows[e]] + 1), max(nx, col[rows[e]] + 1)
+        shapes[g, 0], shapes[g, 1] = ny, nx
+        if low < 0 or b - a != ny * nx:
+            continue
+        if seen.shape[0] < b - a:
+            seen = np.zeros(b - a, np.bool_)
+        seen[:b - a] = False
+        once[g], block[g] = True, True
+        for e in range(a, b):
+            node = row[rows[e]] * nx + col[rows[e]]
+            if seen[node]:
+                once[g], block[g] = False, False
+                break
+            seen[node] = True
+            block[g] = block[g] and node == e - a and rows[e] == rows[a] + (e - a)
+    return shapes, once, block
+
+
+@njit(cache=True)
 def _wrapped(d, period):
     """``d`` wrapped into (-period/2, period/2] (as ``hexatissue.defects._wrap_angle``)."""
     return d - period * np.ceil(d / period - 0.5)
 
 
 @njit(cache=True)
-def winding(theta, p, periodic):
-    """Plaquette charges of a stack of orientation grids (the kernel of :func:`hexatissue.defects.winding`).
+def _plaquette_charge(here, right, down, diag, p, period):
+    """Charge of a plaquette from its corners' orientations: the four steps counter-clockwise, each wrapped."""
+    total = (_wrapped(right - here, period) + _wrapped(diag - right, period)
+             + _wrapped(down - diag, period) + _wrapped(here - down, period))
+    return np.round(total * p / (2.0 * np.pi)) / p
+
+
+@njit(cache=True)
+def plaquette_defects(theta, p, periodic):
+    """The charged plaquettes of a stack of orientation grids (the kernel of :func:`hexatissue.defects.find_defects`).
 
     Parameters
     ----------
     theta : (g, ny, nx) float
         Orientations ``Arg(field) / p``, radians, indexed ``[grid, row, col]``; NaN nodes make
-        the plaquettes around them NaN.
+        the plaquettes around them NaN (never charged).
     p : int
         Symmetry order.
     periodic : bool
@@ -314,23 +423,34 @@ def winding(theta, p, periodic):
 
     Returns
     -------
-    (g, ny', nx') float
-        Charge of plaquette ``[i, j]`` (corners ``[i, j]`` to ``[i+1, j+1]``, counter-clockwise
-        in x, y), a multiple of ``1/p``: the sum of the four steps, each wrapped into
-        ``(-pi/p, pi/p]``, over ``2 pi``.
+    flat : (d,) int64
+        Flat index in the ``(g, ny', nx')`` array of plaquettes of every plaquette of nonzero
+        charge, ascending (as ``np.flatnonzero`` of the charges).  Plaquette ``[i, j]`` has the
+        corners ``[i, j]`` to ``[i+1, j+1]``.
+    charge : (d,) float
+        Their charges: the sum of the four steps counter-clockwise in x, y, each wrapped into
+        ``(-pi/p, pi/p]``, over ``2 pi`` (a nonzero multiple of ``1/p``).
+
+    The charges of every plaquette are :func:`hexatissue.defects.winding` (the plain-numpy path);
+    this kernel keeps only the charged ones, without the array of every charge.
     """
     g, ny, nx = theta.shape
     my, mx = (ny, nx) if periodic else (ny - 1, nx - 1)
-    out = np.empty((g, my, mx))
     period = 2.0 * np.pi / p
+    # room for every plaquette: only the pages of the defects found are ever touched
+    flat, charge = np.empty(g * my * mx, np.int64), np.empty(g * my * mx)
+    row_charges = np.empty(mx)
+    d = 0
     for a in range(g):
         for i in range(my):
-            i1 = (i + 1) % ny
+            top, bottom = theta[a, i], theta[a, i + 1 if i + 1 < ny else 0]
+            # a row's charges first, in a loop without branches (the compiler vectorises it), then the charged ones
+            for j in range(nx - 1):
+                row_charges[j] = _plaquette_charge(top[j], top[j + 1], bottom[j], bottom[j + 1], p, period)
+            if periodic:
+                row_charges[nx - 1] = _plaquette_charge(top[nx - 1], top[0], bottom[nx - 1], bottom[0], p, period)
             for j in range(mx):
-                j1 = (j + 1) % nx
-                here, right = theta[a, i, j], theta[a, i, j1]
-                down, diag = theta[a, i1, j], theta[a, i1, j1]
-                total = (_wrapped(right - here, period) + _wrapped(diag - right, period)
-                         + _wrapped(down - diag, period) + _wrapped(here - down, period))
-                out[a, i, j] = np.round(total * p / (2.0 * np.pi)) / p
-    return out
+                if row_charges[j] > 0.0 or row_charges[j] < 0.0:  # NaN compares False
+                    flat[d], charge[d] = (a * my + i) * mx + j, row_charges[j]
+                    d += 1
+    return flat[:d].copy(), charge[:d].copy()

@@ -180,29 +180,40 @@ def _group_rows(grid):
     return groups, multi
 
 
-def _field_layout(row, col):
-    """Grid shape ``(ny, nx)`` of one field and the flat index of every node; every node exactly once."""
-    shape = (int(row.max()) + 1, int(col.max()) + 1)
-    flat = row * shape[1] + col
-    n = shape[0] * shape[1]
-    if len(row) != n or row.min() < 0 or col.min() < 0 or np.bincount(flat, minlength=n).max() != 1:
-        raise InputError(f"grid must hold every node of a {shape[0]} x {shape[1]} grid exactly once per frame "
-                         "(and radius)")
-    if min(shape) < 2:
-        raise InputError(f"grid must have at least 2 x 2 nodes; got {shape[0]} x {shape[1]}")
-    return shape, flat
+def _field_layouts(row, col, groups):
+    """Shape of every field of ``groups`` and where its rows are; every node exactly once per field.
+
+    Returns ``(shapes, rows, cuts, block)``: ``shapes`` (n_fields, 2) ``(ny, nx)``, the rows of every
+    field back to back (field ``g`` is ``rows[cuts[g]:cuts[g + 1]]``) and whether each field is a
+    block of consecutive rows in node order (:func:`hexatissue._coarse_kernels.field_layouts`).
+    """
+    from ._coarse_kernels import field_layouts
+
+    rows = np.concatenate([r for _, _, r in groups])
+    cuts = np.r_[0, np.cumsum([len(r) for _, _, r in groups])]
+    shapes, once, block = field_layouts(row, col, rows, cuts)
+    bad = np.flatnonzero(~once | (shapes.min(axis=1) < 2))
+    if len(bad):
+        ny, nx = shapes[bad[0]]
+        if not once[bad[0]]:
+            raise InputError(f"grid must hold every node of a {ny} x {nx} grid exactly once per frame (and radius)")
+        raise InputError(f"grid must have at least 2 x 2 nodes; got {ny} x {nx}")
+    return shapes, rows, cuts, block
 
 
-def _stacking(groups, layouts, members, shape):
+def _stacking(layouts, members, shape, row, col):
     """Rows of the grid table and their flat positions in a ``(len(members), ny, nx)`` stack of fields.
 
-    ``(start, None)`` when the stack is rows ``start ..`` in table order (no reordering needed).
+    ``members`` are the fields of that shape, ascending.  ``(start, None)`` when the stack is rows
+    ``start ..`` in table order (no reordering needed).
     """
+    shapes, rows, cuts, block = layouts
     n = shape[0] * shape[1]
-    target = np.concatenate([k * n + layouts[g][1] for k, g in enumerate(members)])
-    source = np.concatenate([groups[g][2] for g in members])
-    if np.array_equal(target, np.arange(len(target))) and np.array_equal(source, source[0] + target):
-        return int(source[0]), None
+    first = rows[cuts[members]]
+    if block[members].all() and np.array_equal(first, first[0] + n * np.arange(len(members))):
+        return int(first[0]), None
+    source = rows if len(members) == len(shapes) else np.concatenate([rows[cuts[g]:cuts[g + 1]] for g in members])
+    target = np.repeat(n * np.arange(len(members)), n) + row[source] * shape[1] + col[source]
     return source, target
 
 
@@ -228,18 +239,21 @@ def _stack_positions(x, y, stacking, count, shape, box):
 
 def _stack_defects(re, im, usable, stacking, positions, count, shape, p, box):
     """Defects of a stack of fields of one shape: field index in the stack, positions and charges."""
-    from ._coarse_kernels import winding as winding_kernel
+    from ._coarse_kernels import plaquette_defects
 
-    theta = np.arctan2(_stack(im, *stacking, count, shape), _stack(re, *stacking, count, shape)) / p  # = Arg / p
-    theta[~_stack(usable, *stacking, count, shape, fill=False)] = np.nan  # theta is a new array: safe
-    charges = winding_kernel(theta, p, box is not None)
-    g, i, j = np.nonzero((charges > 0) | (charges < 0))  # NaN plaquettes compare False
+    theta = np.arctan2(_stack(im, *stacking, count, shape), _stack(re, *stacking, count, shape))
+    theta /= p  # = Arg / p (in place: theta is a new array)
+    unusable = ~_stack(usable, *stacking, count, shape, fill=False)
+    if unusable.any():
+        theta[unusable] = np.nan
+    flat, charge = plaquette_defects(theta, p, box is not None)
+    g, i, j = np.unravel_index(flat, (count, *shape) if box is not None else (count, shape[0] - 1, shape[1] - 1))
     gx, gy, dx, dy = positions
     # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
     xy = np.c_[gx[g, i, j] + dx[g] / 2, gy[g, i, j] + dy[g] / 2]
     if box is not None:
         xy = box.wrap(xy)
-    return g, xy, charges[g, i, j]
+    return g, xy, charge
 
 
 def find_defects(grid, p=6, box=None):
@@ -286,11 +300,11 @@ def find_defects(grid, p=6, box=None):
     row, col = grid["row"].to_numpy(np.int64), grid["col"].to_numpy(np.int64)
     x, y = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
     valid = grid["valid"].to_numpy(bool) if "valid" in grid.columns else None
-    layouts = [_field_layout(row[rows], col[rows]) for _, _, rows in groups]
+    layouts = _field_layouts(row, col, groups)
     shapes = {}
-    for g, (shape, _) in enumerate(layouts):
+    for g, shape in enumerate(map(tuple, layouts[0].tolist())):
         shapes.setdefault(shape, []).append(g)
-    stackings = {shape: _stacking(groups, layouts, members, shape) for shape, members in shapes.items()}
+    stackings = {shape: _stacking(layouts, np.asarray(members), shape, row, col) for shape, members in shapes.items()}
     positions = {shape: _stack_positions(x, y, stackings[shape], len(members), shape, box)
                  for shape, members in shapes.items()}
     found = {"group": [], "rank": [], "x": [], "y": [], "charge": []}
@@ -306,9 +320,12 @@ def find_defects(grid, p=6, box=None):
                                 ("x", xy[:, 0]), ("y", xy[:, 1]), ("charge", charge)):
                 found[name].append(value)
     found = {name: np.concatenate(value) for name, value in found.items()}
-    # rows ordered by p (as given), frame, radius, then plaquette (row-major; lexsort is stable)
-    order = np.lexsort((found["group"], found["rank"]))
-    found = {name: value[order] for name, value in found.items()}
+    # rows ordered by p (as given), frame, radius, then plaquette (row-major; lexsort is stable);
+    # with one shape of field they come out of the loop in that order already
+    key = found["rank"] * len(groups) + found["group"]
+    if (key[1:] < key[:-1]).any():
+        order = np.lexsort((found["group"], found["rank"]))
+        found = {name: value[order] for name, value in found.items()}
     group, rank = found["group"], found["rank"]
     # defect ids: 0-based per (p, frame, radius)
     cut = np.r_[0, np.flatnonzero((np.diff(group) != 0) | (np.diff(rank) != 0)) + 1]
@@ -317,7 +334,7 @@ def find_defects(grid, p=6, box=None):
     radii = np.array([radius for _, radius, _ in groups], dtype=float)
     out = pd.DataFrame({"frame": frames[group], "radius": radii[group], "defect": ids.astype(np.int64),
                         "x": found["x"], "y": found["y"], "charge": found["charge"],
-                        "p": np.asarray(orders, np.int64)[rank]})
+                        "p": np.asarray(orders, np.int64)[rank]}, copy=False)  # (new arrays: nothing to copy)
     if not multi:
         out = out.drop(columns="radius")
     return validate(out, "defects")

@@ -19,31 +19,70 @@ def random_points(n, size, seed):
 # ---------------------------------------------------------------------------- kernels == references
 
 
+def disk_means(impl, nodes, xy_nb, values, counted, radii, cl, empty=np.nan):
+    """``impl.disk_means`` into fresh output arrays: ``(means (q, k, n), counts (k, n))``."""
+    means = np.full((values.shape[1], len(radii), len(nodes)), -7.0)
+    counts = np.full((len(radii), len(nodes)), -7, np.int64)
+    impl.disk_means(nodes, xy_nb, values, counted, np.asarray(radii, float), *cl, empty, means, counts)
+    return means, counts
+
+
 @pytest.mark.parametrize("periodic", [False, True])
-def test_disk_sums_kernel_matches_reference(periodic):
+def test_disk_means_kernel_matches_reference(periodic):
     size = np.array([97.0, 61.0])
     xy = random_points(300, size, 0)
     box = Box(*size) if periodic else None
     xy_nb, cl = _neighbours(xy, box)
     rng = np.random.default_rng(1)
     values = rng.normal(size=(len(xy), 3))
+    counted = rng.random(len(xy)) > 0.2  # the others (border cells) share the cell list only
     nodes = random_points(80, size + 40, 2) - 20  # some nodes outside the points' extent / the box
-    radii = np.array([0.5, 4.0, 9.5, 33.0, 40.0])  # 40 > Ly / 2: minimum image, each point once
-    s_k, c_k = K.disk_sums(nodes, xy_nb, values, radii, *cl)
-    s_r, c_r = R.disk_sums(nodes, xy_nb, values, radii, *cl)
-    np.testing.assert_array_equal(c_k, c_r)
-    np.testing.assert_allclose(s_k, s_r, rtol=0, atol=1e-12)
-    assert c_k[:, -1].max() <= len(xy) and (np.diff(c_k, axis=1) >= 0).all()
+    # unsorted, repeated; 0.5 leaves disks empty; 40 > Ly / 2: minimum image, each point once
+    radii = np.array([9.5, 0.5, 40.0, 4.0, 33.0, 9.5])
+    for empty in (np.nan, 0.0):
+        m_k, c_k = disk_means(K, nodes, xy_nb, values, counted, radii, cl, empty)
+        m_r, c_r = disk_means(R, nodes, xy_nb, values, counted, radii, cl, empty)
+        np.testing.assert_array_equal(c_k, c_r)
+        np.testing.assert_allclose(m_k, m_r, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(m_k[:, c_k == 0], empty)
+    assert (c_k == 0).any() and c_k.max() <= counted.sum() and (c_k[1] <= c_k[3]).all() and (c_k[3] <= c_k[0]).all()
+    np.testing.assert_array_equal(c_k[0], c_k[5])
 
 
-def test_disk_sums_boundary_is_inclusive():
+def test_disk_means_boundary_is_inclusive():
     # centroids exactly at distance 3 and 5 from the node (0, 0): 3-4-5 triangles
-    xy = np.array([[3.0, 0.0], [3.0, 4.0], [0.0, -5.0], [6.0, 0.0]])
+    xy = np.array([[3.0, 0.0], [3.0, 4.0], [0.0, -5.0], [6.0, 0.0], [0.0, 1.0]])
     xy_nb, cl = _neighbours(xy, None)
-    values = np.array([[1.0], [10.0], [100.0], [1000.0]])
+    values = np.array([[1.0], [10.0], [100.0], [1000.0], [1e6]])
+    counted = np.array([True, True, True, True, False])  # the centroid at distance 1 is not counted
     for impl in (K, R):
-        sums, counts = impl.disk_sums(np.zeros((1, 2)), xy_nb, values, np.array([3.0, 5.0]), *cl)
-        assert counts.tolist() == [[1, 3]] and sums[0, :, 0].tolist() == [1.0, 111.0]
+        means, counts = disk_means(impl, np.zeros((1, 2)), xy_nb, values, counted, [5.0, 3.0, 0.5], cl)
+        assert counts[:, 0].tolist() == [3, 1, 0] and means[0, :2, 0].tolist() == [37.0, 1.0]
+        assert np.isnan(means[0, 2, 0])
+
+
+def test_disk_means_sums_in_the_order_of_the_cell_list():
+    # Gamma_p are means of sums in a fixed order: the bands in cell-list order, then bands -> disks,
+    # so every column of coarse_grain is reproducible to the last bit; written out here in Python
+    xy = random_points(400, np.array([120.0, 90.0]), 9)
+    values = np.random.default_rng(10).normal(size=(len(xy), 2))
+    xy_nb, cl = _neighbours(xy, None)
+    order = cl[0]
+    nodes = random_points(30, np.array([120.0, 90.0]), 11)
+    radii = np.array([7.0, 18.0, 30.0])
+    means, counts = disk_means(K, nodes, xy_nb, values, np.ones(len(xy), bool), radii, cl)
+    for i, node in enumerate(nodes):
+        bands = [[0.0, 0.0] for _ in radii]
+        for c in order:  # cell-list order is bin by bin (rows of bins, then columns): the kernel's
+            d2 = (xy_nb[c, 0] - node[0]) ** 2 + (xy_nb[c, 1] - node[1]) ** 2
+            inside = [d2 <= r * r for r in radii]
+            if any(inside):
+                j = inside.index(True)
+                bands[j] = [bands[j][t] + values[c, t] for t in range(2)]
+        total = bands[0]
+        for j in range(len(radii)):
+            total = total if j == 0 else [total[t] + bands[j][t] for t in range(2)]
+            assert [total[t] / counts[j, i] for t in range(2)] == means[:, j, i].tolist()
 
 
 def test_tissue_mask_kernel_matches_reference():
@@ -211,17 +250,54 @@ def test_convention_options_bad_input(bad, match):
 
 @pytest.mark.parametrize("periodic", [False, True])
 @pytest.mark.parametrize("p", [2, 6])
-def test_winding_kernel_matches_reference(periodic, p):
+def test_plaquette_defects_kernel_matches_reference(periodic, p):
     rng = np.random.default_rng(7)
     theta = rng.uniform(-np.pi / p, np.pi / p, (5, 13, 17))
     theta[0, 3, 4] = np.nan
     theta[1] = 0.0  # a uniform grid: no charge
     theta[2, 5, 6] = np.pi / p  # steps of exactly pi/p
-    out_k = K.winding(theta, p, periodic)
-    out_r = R.winding(theta, p, periodic)
-    np.testing.assert_array_equal(out_k, out_r)
-    assert np.isnan(out_k[0]).sum() == 4 and (out_k[1] == 0).all()
-    assert 0 < np.count_nonzero(np.nan_to_num(out_k)) and set(np.unique(np.round(out_k[2:] * p))) <= {-2, -1, 0, 1, 2}
+    theta[3] = np.round(theta[3] * 4 * p / np.pi) * np.pi / (4 * p)  # many steps of exactly pi/p
+    charges = R.winding(theta, p, periodic)
+    flat, charge = K.plaquette_defects(theta, p, periodic)
+    np.testing.assert_array_equal(flat, np.flatnonzero(np.nan_to_num(charges)))
+    np.testing.assert_array_equal(charge, charges.ravel()[flat])
+    assert np.isnan(charges[0]).sum() == 4 and (charges[1] == 0).all()
+    assert 0 < len(flat) and set(np.unique(np.round(charges[2:] * p))) <= {-2, -1, 0, 1, 2}
+    assert (np.abs(charges[3]) > 0).sum() > 10
+    flat, charge = K.plaquette_defects(theta[1:2], p, periodic)  # none found: empty arrays
+    assert flat.dtype == np.int64 and len(flat) == len(charge) == 0
+
+
+def test_field_layouts_kernel_matches_reference():
+    def table(ny, nx):
+        r, c = np.divmod(np.arange(ny * nx), nx)
+        return r, c
+    r1, c1 = table(3, 4)
+    r2, c2 = table(2, 5)
+    row, col = np.r_[r1, r2, r1, r1[:-1], 0, r2, -2], np.r_[c1, c2, c1, c1[:-1], 0, c2, 0]
+    row[-4] = -1  # the fifth field has a negative row
+    n1, n2 = 12, 10
+    a = np.arange(len(row))
+    shuffled = np.random.default_rng(12).permutation(n1)
+    fields = [a[:n1],                              # 3 x 4 in place
+              a[n1:n1 + n2],                       # 2 x 5 in place
+              a[n1 + n2:2 * n1 + n2][shuffled],    # every node once, out of order
+              a[2 * n1 + n2:3 * n1 + n2],          # the last node missing, (0, 0) twice
+              a[3 * n1 + n2:-1],                   # a negative row
+              a[:n1][::-1],                        # reversed
+              np.r_[a[n1 + n2:n1 + n2 + 6], a[6:n1]],  # every node once in order, rows not consecutive
+              a[:1],                               # 1 x 1
+              a[-1:]]                              # only negative rows: the shape is still max + 1
+    rows = np.concatenate(fields)
+    cuts = np.r_[0, np.cumsum([len(f) for f in fields])]
+    out_k = K.field_layouts(row, col, rows, cuts)
+    out_r = R.field_layouts(row, col, rows, cuts)
+    for k, r in zip(out_k, out_r):
+        np.testing.assert_array_equal(k, r)
+    shapes, once, block = out_k
+    assert shapes.tolist() == [[3, 4], [2, 5], [3, 4], [3, 4], [2, 5], [3, 4], [3, 4], [1, 1], [-1, 1]]
+    assert once.tolist() == [True, True, True, False, False, True, True, True, False]
+    assert block.tolist() == [True, True, False, False, False, False, False, True, False]
 
 
 def test_find_defects_does_not_depend_on_the_row_order_of_the_grid():
