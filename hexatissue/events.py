@@ -722,21 +722,28 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, by_frame, censor)
 
 
-def _participants(events: pd.DataFrame) -> pd.DataFrame:
-    """One row per (event, cell taking part): ``track``, ``kind``, ``duration``, ``frame``.
+def _participants(events: pd.DataFrame) -> dict:
+    """One entry per (event, cell taking part), as arrays: ``track``, ``kind``, ``duration``, ``frame``.
 
     Quartet events (:func:`detect_t1`) have four cells, ``cell_a``..``cell_d``;
-    per-cell events (:func:`neighbour_events`) have one, ``track``.
+    per-cell events (:func:`neighbour_events`) have one, ``track``.  ``kind``
+    is the code of :data:`T1_KINDS` (-1 for any other value); ``frame`` is
+    the event's ``frame_start``.  Codes, not strings: each string operation
+    on tens of thousands of rows goes through Arrow, whose allocator keeps
+    several MB of it resident.
     """
     columns = ("cell_a", "cell_b", "cell_c", "cell_d") if "cell_a" in events.columns else ("track",)
     for col in columns + ("kind", "frame_start", "duration"):
         if col not in events.columns:
             raise InputError(f"events table is missing column {col!r}; expected the output of detect_t1 or "
                              f"neighbour_events")
-    return pd.concat([pd.DataFrame({"track": events[c].to_numpy(np.int64), "kind": events["kind"].to_numpy(),
-                                    "duration": events["duration"].to_numpy(float),
-                                    "frame": events["frame_start"].to_numpy(np.int64)}) for c in columns],
-                     ignore_index=True)
+    names = events["kind"].to_numpy(object, na_value="")
+    kind = np.full(len(names), -1, np.int8)
+    for code, name in enumerate(T1_KINDS):
+        kind[names == name] = code
+    return {"track": np.concatenate([events[c].to_numpy(np.int64) for c in columns]),
+            "kind": np.tile(kind, len(columns)), "duration": np.tile(events["duration"].to_numpy(float), len(columns)),
+            "frame": np.tile(events["frame_start"].to_numpy(np.int64), len(columns))}
 
 
 def intercalation_intervals(events: pd.DataFrame) -> pd.DataFrame:
@@ -753,12 +760,31 @@ def intercalation_intervals(events: pd.DataFrame) -> pd.DataFrame:
         ``track``, ``frame_prev``, ``frame_next`` (frames), ``interval`` (frames).
     """
     long = _participants(events)
-    long = long[long["kind"] == "intercalation"].sort_values(["track", "frame"], kind="stable")
-    same = long["track"].to_numpy()[1:] == long["track"].to_numpy()[:-1]
-    prev, nxt = long.iloc[:-1][same], long.iloc[1:][same]
-    return pd.DataFrame({"track": prev["track"].to_numpy(np.int64), "frame_prev": prev["frame"].to_numpy(np.int64),
-                         "frame_next": nxt["frame"].to_numpy(np.int64),
-                         "interval": nxt["frame"].to_numpy(np.int64) - prev["frame"].to_numpy(np.int64)})
+    chosen = long["kind"] == INTERCALATION
+    track, frame = long["track"][chosen], long["frame"][chosen]
+    order = np.lexsort((frame, track))  # by track, then frame, stable
+    track, frame = track[order], frame[order]
+    same = track[1:] == track[:-1]
+    return pd.DataFrame({"track": track[:-1][same], "frame_prev": frame[:-1][same], "frame_next": frame[1:][same],
+                         "interval": frame[1:][same] - frame[:-1][same]})
+
+
+def _per_track(tracks, track, chosen, values=None):
+    """Count (``values`` None) or mean of ``values`` over the ``chosen`` entries of each of the sorted ``tracks``.
+
+    Entries whose ``track`` is not in ``tracks`` are left out; a mean over
+    no entry (or only NaN values) is NaN.
+    """
+    at = np.searchsorted(tracks, track)
+    chosen = chosen & (at < len(tracks)) & (tracks[np.minimum(at, len(tracks) - 1)] == track) if len(tracks) \
+        else np.zeros(len(track), bool)
+    if values is None:
+        return np.bincount(at[chosen], minlength=len(tracks)).astype(np.int64)
+    chosen &= ~np.isnan(values)
+    count = np.bincount(at[chosen], minlength=len(tracks))
+    total = np.bincount(at[chosen], weights=values[chosen], minlength=len(tracks))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / count, np.nan)
 
 
 def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) -> pd.DataFrame:
@@ -780,22 +806,21 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
         ``mean_intercalation_interval`` (frames).
     """
     long = _participants(events)
-    counts = pd.crosstab(long["track"], long["kind"]) if len(long) else pd.DataFrame()
     if cells is not None:  # rows per track: a sort of one column (a hash table of it costs far more)
         tracks, n_frames = np.unique(track_ids(cells), return_counts=True)
     else:
-        tracks = np.unique(long["track"].to_numpy(np.int64))
+        tracks = np.unique(long["track"])
         n_frames = np.zeros(len(tracks))
-    out = pd.DataFrame({"track": tracks})
-    out["n_frames"] = n_frames.astype(np.int64)
-    for kind, col in (("cycle", "n_cycles"), ("intercalation", "n_intercalations"), ("unresolved", "n_unresolved")):
-        src = counts[kind] if kind in counts.columns else pd.Series(dtype=np.int64)
-        out[col] = src.reindex(tracks).fillna(0).to_numpy(np.int64)
-    cyc = long[long["kind"] == "cycle"].groupby("track")["duration"].mean()
-    out["mean_cycle_period"] = cyc.reindex(tracks).to_numpy(float)
-    iv = intercalation_intervals(events).groupby("track")["interval"]
-    out["n_intervals"] = iv.size().reindex(tracks).fillna(0).to_numpy(np.int64)
-    out["mean_intercalation_interval"] = iv.mean().reindex(tracks).to_numpy(float)
+    out = pd.DataFrame({"track": tracks, "n_frames": n_frames.astype(np.int64)})
+    track, kind = long["track"], long["kind"]
+    for code, col in ((CYCLE, "n_cycles"), (INTERCALATION, "n_intercalations"), (UNRESOLVED, "n_unresolved")):
+        out[col] = _per_track(tracks, track, kind == code)
+    out["mean_cycle_period"] = _per_track(tracks, track, kind == CYCLE, long["duration"])
+    iv = intercalation_intervals(events)
+    every = np.ones(len(iv), bool)
+    out["n_intervals"] = _per_track(tracks, iv["track"].to_numpy(), every)
+    out["mean_intercalation_interval"] = _per_track(tracks, iv["track"].to_numpy(), every,
+                                                    iv["interval"].to_numpy(float))
     return validate(out, "cell_events")
 
 

@@ -579,3 +579,41 @@ def test_excursion_starts_kernel_equals_the_plain_python_fold(seed):
     # by hand: cell 7 changes at 2 (back at 5), 3 and 5 (inside), 6 (a new excursion); cell 8 at 3 (never back)
     track, start, back = np.array([7, 7, 7, 7, 8]), np.array([2, 3, 5, 6, 3]), np.array([5, -1, 9, -1, -1])
     np.testing.assert_array_equal(_excursion_starts(np.arange(5), track, start, back), [0, 3, 4])
+
+
+def _cell_event_stats_by_groupby(events, tracks, n_frames):
+    """cell_event_stats written with pandas groupby over one row per participant (the test's reference)."""
+    columns = ("cell_a", "cell_b", "cell_c", "cell_d") if "cell_a" in events.columns else ("track",)
+    long = pd.concat([pd.DataFrame({"track": events[c].to_numpy(np.int64), "kind": events["kind"].astype(object),
+                                    "duration": events["duration"].to_numpy(float),
+                                    "frame": events["frame_start"].to_numpy(np.int64)}) for c in columns])
+    out = pd.DataFrame({"track": tracks, "n_frames": n_frames})
+    for kind, col in (("cycle", "n_cycles"), ("intercalation", "n_intercalations"), ("unresolved", "n_unresolved")):
+        out[col] = long[long["kind"] == kind].groupby("track").size().reindex(tracks).fillna(0).to_numpy(np.int64)
+    out["mean_cycle_period"] = long[long["kind"] == "cycle"].groupby("track")["duration"].mean().reindex(
+        tracks).to_numpy(float)
+    inter = long[long["kind"] == "intercalation"].sort_values(["track", "frame"], kind="stable")
+    same = inter["track"].to_numpy()[1:] == inter["track"].to_numpy()[:-1]
+    gaps = pd.DataFrame({"track": inter["track"].to_numpy()[1:][same],
+                         "interval": np.diff(inter["frame"].to_numpy())[same].astype(float)}).groupby("track")
+    out["n_intervals"] = gaps.size().reindex(tracks).fillna(0).to_numpy(np.int64)
+    out["mean_intercalation_interval"] = gaps["interval"].mean().reindex(tracks).to_numpy(float)
+    return out
+
+
+@pytest.mark.parametrize("quartets", [True, False])
+def test_cell_event_stats_equal_a_groupby_reference(quartets):
+    rng = np.random.default_rng(3 + quartets)
+    n = 400
+    kinds = rng.choice(np.array(["cycle", "intercalation", "unresolved", "other"], dtype=object), n, p=[.4, .4, .15, .05])
+    events = pd.DataFrame({"kind": pd.array(kinds, dtype="string"), "frame_start": rng.integers(0, 60, n),
+                           "duration": np.where(rng.random(n) < 0.2, np.nan, rng.integers(1, 9, n).astype(float))})
+    for c in ("cell_a", "cell_b", "cell_c", "cell_d") if quartets else ("track",):
+        events[c] = rng.integers(0, 50, n)
+    events.loc[events.index[:3], "kind"] = pd.NA  # missing kinds count as none of the three
+    cells = pd.DataFrame({"frame": rng.integers(0, 60, 900), "track": rng.integers(5, 45, 900)})  # some tracks absent
+    tracks, n_frames = np.unique(cells["track"].to_numpy(), return_counts=True)
+    got = cell_event_stats(events, cells)
+    pd.testing.assert_frame_equal(got, _cell_event_stats_by_groupby(events, tracks, n_frames.astype(np.int64)),
+                                  check_exact=True)
+    assert got["n_cycles"].sum() > 0 and got["n_intervals"].sum() > 0 and got["mean_cycle_period"].notna().any()
