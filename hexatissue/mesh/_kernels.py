@@ -24,6 +24,7 @@ compares them).  ``py_func`` runs the same code uncompiled and is no such check.
 """
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 # direction -> (d row, d col) on the corner lattice
 DI = np.array([0, 1, 0, -1], dtype=np.int64)
@@ -77,7 +78,7 @@ def _row_or_zeros(labels, periodic, r, zeros):
 
 @njit(cache=True)
 def _corner_code(tl, tr, bl, br):
-    """Arm bit mask, type and number of arms of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
+    """Code (arm bits | type << 4) of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
     a0 = np.uint8(tr != br)
     a1 = np.uint8(bl != br)
     a2 = np.uint8(tl != bl)
@@ -88,7 +89,7 @@ def _corner_code(tl, tr, bl, br):
     d6 = np.uint8(tr == bl)
     four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
     k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
-    return a0 | (a1 << 1) | (a2 << 2) | (a3 << 3), k, n
+    return (a0 | (a1 << 1) | (a2 << 2) | (a3 << 3)) | (np.uint8(k) << 4)
 
 
 @njit(cache=True)
@@ -100,12 +101,13 @@ def corner_types(labels, periodic):
     column arrays in raster order (vertex ids are their ranks: see
     :func:`_vertex_id`) and the total number of cracks.
 
-    The first pass has no branch (selects only) in its inner loop over the
-    corners between two rows of labels, so it runs on whole vectors of
-    corners; the first and last corner of a row (where the padding is) are
-    done apart.  Vertices are few and are numbered in a second pass, which
-    reads the codes 8 at a time (:func:`_fork_bytes`) and looks closer only
-    at the words with a fork (or an image corner).
+    The first pass has no branch (selects only) and no running count in
+    its inner loop over the corners between two rows of labels, so it runs
+    on whole vectors of corners; the first and last corner of a row (where
+    the padding is) are done apart.  The arms and forks are counted from
+    the codes read 8 at a time (:func:`_arm_count`, :func:`_fork_bytes`).
+    Vertices are few and are numbered in a last pass, which looks closer
+    only at the words with a fork (or an image corner).
     """
     h, w = labels.shape
     nci, ncj = _lattice_shape(labels, periodic)
@@ -114,26 +116,23 @@ def corner_types(labels, periodic):
     words = np.empty((n_corners + 7) // 8, np.uint64)  # the codes, also as 8-byte words for the vertex scan
     words[-1] = 0
     corners = words.view(np.uint8)[:n_corners].reshape((nci, ncj))
-    n_arms = 0
-    n_forks = 0
     for ci in range(nci):
         top = _row_or_zeros(labels, periodic, ci - 1, zeros)
         bottom = _row_or_zeros(labels, periodic, ci, zeros)
         for cj in range(1, w):  # corner cj lies between columns cj - 1 and cj
-            a, k, n = _corner_code(top[cj - 1], top[cj], bottom[cj - 1], bottom[cj])
-            corners[ci, cj] = a | (np.uint8(k) << 4)
-            n_arms += n
-            n_forks += (k == 3) | (k == 4)
+            corners[ci, cj] = _corner_code(top[cj - 1], top[cj], bottom[cj - 1], bottom[cj])
         # corner 0 (left of column 0) and, on an open image, corner w (right of column w - 1)
         for cj in range(0, ncj, w):  # 0, and w when the lattice has it
             left = _pad_at(labels, periodic, ci, cj)
             right = _pad_at(labels, periodic, ci, cj + 1)
             below_left = _pad_at(labels, periodic, ci + 1, cj)
             below_right = _pad_at(labels, periodic, ci + 1, cj + 1)
-            a, k, n = _corner_code(left, right, below_left, below_right)
-            corners[ci, cj] = a | (np.uint8(k) << 4)
-            n_arms += n
-            n_forks += (k == 3) | (k == 4)
+            corners[ci, cj] = _corner_code(left, right, below_left, below_right)
+    n_arms = np.uint64(0)
+    n_forks = np.uint64(0)
+    for wi in range(len(words)):  # the bytes past the last corner are 0: no arm, no fork
+        n_arms += _arm_count(words[wi])
+        n_forks += _byte_sum(_fork_bytes(words[wi]))
     image_corners = not periodic
     vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
     vj = np.empty(n_forks + 4, np.int64)
@@ -155,7 +154,22 @@ def corner_types(labels, periodic):
                     vi[n_vertices] = ci
                     vj[n_vertices] = cj
                     n_vertices += 1
-    return corners, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
+    return corners, vi[:n_vertices].copy(), vj[:n_vertices].copy(), np.int64(n_arms) // 2
+
+
+@njit(cache=True)
+def _byte_sum(word):
+    """Sum of the 8 bytes of a word (each byte at most 31, so that the sum fits in one byte)."""
+    return (word * np.uint64(0x0101010101010101)) >> np.uint64(56)
+
+
+@njit(cache=True)
+def _arm_count(word):
+    """Number of arm bits (the low 4 bits of each byte) in a word of 8 corner codes (a bit count per byte)."""
+    x = word & np.uint64(0x0F0F0F0F0F0F0F0F)
+    x = x - ((x >> np.uint64(1)) & np.uint64(0x0505050505050505))
+    x = (x & np.uint64(0x0303030303030303)) + ((x >> np.uint64(2)) & np.uint64(0x0303030303030303))
+    return _byte_sum(x)
 
 
 @njit(cache=True)
@@ -548,6 +562,38 @@ def _unwrapped(v, ref, period):
     return v
 
 
+#: Initial room of :func:`cell_moments` for runs: one per this many pixels (~17 in a 2048^2 image of 9,801 cells).
+RUN_PIXELS = 8
+
+
+@njit(cache=True)
+def _grown(values, n):
+    """``values`` in an array twice as long, its first ``n`` entries kept."""
+    out = np.empty(2 * len(values), values.dtype)
+    out[:n] = values[:n]
+    return out
+
+
+@njit(cache=True)
+def _run_starts(row, is_start, run_start, n):
+    """Store the start column of every run of equal values of ``row`` at ``run_start[n:]``; returns the new end.
+
+    ``is_start``: ``ceil(len(row) / 8)`` words, zero past ``len(row)`` bytes, to hold a byte per pixel
+    (1 where a run starts), written without a branch and read a word at a time.
+    """
+    flags = is_start.view(np.uint8)
+    flags[0] = 1
+    for j in range(1, len(row)):
+        flags[j] = row[j] != row[j - 1]
+    for k in range(len(is_start)):
+        word = is_start[k]
+        while word:  # one bit per start, bit 0 of its byte
+            run_start[n] = 8 * k + (trailing_zeros(word) >> 3)
+            n += 1
+            word &= word - np.uint64(1)
+    return n
+
+
 @njit(cache=True)
 def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
@@ -566,8 +612,10 @@ def cell_moments(labels, n_labels, periodic):
     wider ones (those touching the box edge, or large): their cos/sin terms
     come from per-column and per-row tables and are added pixel by pixel in
     raster order, as a pixel-by-pixel sum does.  The first pass finds the
-    runs without a branch per pixel and keeps the start column and label of
-    every run; on a torus one pass over those picks out the runs of the wide
+    runs of a row from a byte per pixel, 1 where a run starts, written
+    without a branch (whole vectors of pixels) and read 8 bytes at a time
+    (:func:`_run_starts`), and keeps the start column and label of every
+    run; on a torus one pass over those picks out the runs of the wide
     labels, and the two later passes visit only them, not every run again.
     """
     h, w = labels.shape
@@ -580,19 +628,20 @@ def cell_moments(labels, n_labels, periodic):
     hi_y = np.full(n_labels, -1, np.int64)
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
-    # run starts row after row (np.empty: only the pages written become resident); row i's runs are
-    # run_start[row_first[i]:row_first[i + 1]], each ending where the next starts (or at w)
-    run_start = np.empty(h * w, np.int64)
-    run_label = np.empty(h * w, labels.dtype)  # the label of every run (read again by the torus passes)
+    # run starts row after row; row i's runs are run_start[row_first[i]:row_first[i + 1]], each ending where
+    # the next starts (or at w).  Sized for runs of RUN_PIXELS px on average, grown if a row might not fit:
+    # not one entry per pixel, whose allocation (mapped afresh at every call) costs page faults
+    run_start = np.empty(h * w // RUN_PIXELS + w, np.int64)
+    run_label = np.empty(len(run_start), labels.dtype)  # the label of every run (read again by the torus passes)
     row_first = np.zeros(h + 1, np.int64)
+    is_start = np.zeros((w + 7) // 8, np.uint64)  # of the row being read, 8 pixels a word (bytes past w stay 0)
     n_runs = 0
     for i in range(h):
         row = labels[i]
-        run_start[n_runs] = 0
-        m = n_runs + 1
-        for j in range(1, w):  # no branch: every column is written, the count moves on where a run starts
-            run_start[m] = j
-            m += row[j] != row[j - 1]
+        if n_runs + w > len(run_start):
+            run_start = _grown(run_start, n_runs)
+            run_label = _grown(run_label, n_runs)
+        m = _run_starts(row, is_start, run_start, n_runs)
         row_first[i + 1] = m
         for r in range(n_runs, m):
             j0 = run_start[r]
