@@ -811,3 +811,30 @@ def test_corner_types_vertices_on_small_lattices(shape):
             got, want = K.corner_types(lab, periodic), R.corner_types(lab, periodic)
             for g, w in zip(got, want):
                 np.testing.assert_array_equal(g, w)
+
+
+def test_arm_fits_looked_up_by_path_equal_the_fits_computed():
+    """The fit of an arm read back from the table (a hit), fitted and stored (a miss) or fitted with the table
+    full: the same numbers as the line fit of its crack midpoints, on every arm of a Voronoi tissue."""
+    labels = voronoi_labels(jittered_seeds((48, 56), 7, seed=2), (48, 56), True).astype(np.int32)
+    corners, vi, vj, _ = K.corner_types(labels, True)
+    nci, ncj = corners.shape
+    no_membrane = np.zeros((0, 0), bool)
+    keys = np.full(K.FIT_SLOTS + 1, -1, np.int64)
+    keys[K.FIT_SLOTS] = 0
+    fits = np.empty((K.FIT_SLOTS, 4))
+    full = keys.copy()
+    full[K.FIT_SLOTS] = K.FIT_FILL  # no room: every path fitted, none stored
+    n_arms = 0
+    for v in range(len(vi)):
+        for d in range(4):
+            if not (corners[vi[v], vj[v]] >> d) & 1:
+                continue
+            _, _, _, _, n, _, head, _ = K._walk(corners, False, vi[v], vj[v], d, nci, ncj)
+            for half in {1, min(n, 3), min(n, 8)}:
+                want = K._line_fit(half, d, *K._arm_sums(corners, no_membrane, vi[v], vj[v], d, half, nci, ncj))
+                for table in (keys, keys, full):  # a miss then a hit (or two hits), then the full table
+                    got = K._arm_fit(corners, no_membrane, vi[v], vj[v], d, half, nci, ncj, head, table, fits)
+                    assert got == want
+            n_arms += 1
+    assert n_arms > 100 and 0 < keys[K.FIT_SLOTS] < n_arms and (full[:K.FIT_SLOTS] == -1).all()

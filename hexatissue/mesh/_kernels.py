@@ -304,83 +304,140 @@ def _vertex_id(row_first, vj, ci, cj):
 
 
 @njit(cache=True)
-def _walk(corners, image_corners, membrane, ci, cj, d, nci, ncj, first, last):
+def _walk(corners, image_corners, ci, cj, d, nci, ncj):
     """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
 
-    Stores the fit point of every crack (:func:`_crack_point`, relative to
-    the start corner): the first ``len(first)`` in ``first``, and the last
-    ``len(last)`` in ``last`` (crack k at row ``k % len(first)``; both hold ``max_reach`` rows), so that the
-    arm fits at both ends need no second walk.  ``membrane`` of size 0: no
-    membrane pixels, every point is its crack's midpoint.  Returns (end
-    corner row, end corner col, dx, dy, number of cracks, last direction).
+    Returns (end corner row, end corner col, dx, dy, number of cracks, last
+    direction, head, tail): ``head`` holds the directions of the first
+    ``FIT_MAX_CRACKS`` cracks, ``tail`` those of the last 32, 2 bits each
+    (the first, and the last, lowest), the keys of the arm fits at both ends
+    (:func:`_arm_fit`).
     """
-    reach = len(first)
     dx = 0
     dy = 0
     n = 0
-    slot = 0
+    head = np.uint64(0)
+    tail = np.uint64(0)
     while True:
-        if membrane.size:
-            mx, my = _crack_point(membrane, ci, cj, d)
-        else:
-            mx, my = 0.5 * DJ[d], 0.5 * DI[d]
-        mx += dx
-        my += dy
-        if n < reach:
-            first[n, 0] = mx
-            first[n, 1] = my
-        last[slot, 0] = mx
-        last[slot, 1] = my
-        slot = slot + 1 if slot + 1 < reach else 0  # n % reach, without a division per crack
+        if n < FIT_MAX_CRACKS:
+            head |= np.uint64(d) << np.uint64(2 * n)
+        tail = (tail << np.uint64(2)) | np.uint64(d)
         dx += DJ[d]
         dy += DI[d]
         n += 1
         ci, cj = _step(ci, cj, d, nci, ncj)
         if _is_vertex(corners, ci, cj, nci, ncj, image_corners):
-            return ci, cj, dx, dy, n, d
+            return ci, cj, dx, dy, n, d, head, tail
         d = _next_dir(corners[ci, cj], d)
 
 
 @njit(cache=True)
-def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
-    """Store the straight-line fit of n points minus (ox, oy) as arm d0 of vertex v.
+def _arm_sums(corners, membrane, ci, cj, d, n, nci, ncj):
+    """Sums x, y, xx, xy, yy of the fit points of the first n cracks of the boundary leaving corner (ci, cj) in
+    direction d, relative to the corner.
 
-    The points are rows ``k0, k0 + step, ...`` of ``points``, modulo its length.
-
-    The mean of the points, and the principal axis of their covariance (the
-    arm direction when fewer than 2 points or no spread).  The points are
-    multiples of 0.5 px near the vertex, so their sums are exact in any order.
+    A crack's fit point is :func:`_crack_point` (``membrane`` of size 0: no
+    membrane pixels, its midpoint).  The n cracks lie on one junction (n is
+    at most its length), so the walk turns at pass-through corners only.
+    The points are multiples of 0.25 px near the vertex, so their sums are
+    exact in any order, and the same from either end of a crack.
     """
     sx = 0.0
     sy = 0.0
     sxx = 0.0
     sxy = 0.0
     syy = 0.0
-    k = k0 % len(points)
+    dx = 0
+    dy = 0
     for i in range(n):
-        mx = points[k, 0] - ox
-        my = points[k, 1] - oy
+        if membrane.size:
+            mx, my = _crack_point(membrane, ci, cj, d)
+        else:
+            mx, my = 0.5 * DJ[d], 0.5 * DI[d]
+        mx += dx
+        my += dy
         sx += mx
         sy += my
         sxx += mx * mx
         sxy += mx * my
         syy += my * my
-        k = _wrap(k + step, len(points))  # the next row, without a division per point
-    count[v, d0] = n
+        dx += DJ[d]
+        dy += DI[d]
+        ci, cj = _step(ci, cj, d, nci, ncj)
+        if i + 1 < n:
+            d = _next_dir(corners[ci, cj], d)
+    return sx, sy, sxx, sxy, syy
+
+
+@njit(cache=True)
+def _line_fit(n, d0, sx, sy, sxx, sxy, syy):
+    """Mean (x, y) of n points from their sums, and the unit principal axis of their covariance.
+
+    The axis is arm direction ``d0`` when fewer than 2 points or no spread.
+    """
     mx = sx / n
     my = sy / n
-    mean[v, d0, 0] = mx
-    mean[v, d0, 1] = my
     cxx = sxx / n - mx * mx
     cxy = sxy / n - mx * my
     cyy = syy / n - my * my
     if n < 2 or cxx + cyy < 1e-12:
-        direction[v, d0, 0] = DJ[d0]
-        direction[v, d0, 1] = DI[d0]
-    else:
-        theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)  # principal axis of the 2x2 covariance
-        direction[v, d0, 0] = np.cos(theta)
-        direction[v, d0, 1] = np.sin(theta)
+        return mx, my, float(DJ[d0]), float(DI[d0])
+    theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)  # principal axis of the 2x2 covariance
+    return mx, my, np.cos(theta), np.sin(theta)
+
+
+#: Slots of the table of :func:`_arm_fit` (2 ** FIT_SLOT_BITS), and how many of them it fills at most.
+FIT_SLOT_BITS = 12
+FIT_SLOTS = 1 << FIT_SLOT_BITS
+FIT_FILL = FIT_SLOTS // 2
+#: The longest arm :func:`_arm_fit` keys by its path (2 bits a crack, and the length above them, in 64 bits).
+FIT_MAX_CRACKS = 28
+#: Every direction of a path turned round (d ^ 2): the path walked the other way.
+TURN_ROUND = np.uint64(0xAAAAAAAAAAAAAAAA)
+
+
+@njit(cache=True)
+def _arm_fit(corners, membrane, ci, cj, d, n, nci, ncj, path, keys, fits):
+    """:func:`_line_fit` of :func:`_arm_sums`, looked up by the arm's path when there are no membrane pixels.
+
+    Without membrane pixels the fit points are the cracks' midpoints: the
+    fit depends on the directions of the n cracks only (``path``, 2 bits
+    each, the first lowest; for n up to ``FIT_MAX_CRACKS``), and a digital
+    line's first cracks take few shapes (~800 among the 58,000 arms of a
+    2048^2 Voronoi image).  So each is fitted once and then read back: the
+    same numbers, without the libm calls.  ``keys`` (-1 = empty;
+    ``FIT_SLOTS`` of them, then the number of paths stored) and ``fits``
+    (``FIT_SLOTS`` x 4) are the table, open addressing on a multiplicative
+    hash; once ``FIT_FILL`` are stored, new paths are fitted, not stored.
+    """
+    keyed = membrane.size == 0 and n <= FIT_MAX_CRACKS
+    slot = 0
+    key = -1
+    if keyed:
+        key = np.int64((path & ((np.uint64(1) << np.uint64(2 * n)) - np.uint64(1)))
+                       | (np.uint64(n) << np.uint64(2 * FIT_MAX_CRACKS)))
+        slot = np.int64((np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(64 - FIT_SLOT_BITS))
+        while keys[slot] != -1:
+            if keys[slot] == key:
+                return fits[slot, 0], fits[slot, 1], fits[slot, 2], fits[slot, 3]
+            slot = (slot + 1) & (FIT_SLOTS - 1)
+    fit = _line_fit(n, d, *_arm_sums(corners, membrane, ci, cj, d, n, nci, ncj))
+    if keyed and keys[FIT_SLOTS] < FIT_FILL:
+        keys[FIT_SLOTS] += 1
+        keys[slot] = key
+        for a in range(4):
+            fits[slot, a] = fit[a]
+    return fit
+
+
+@njit(cache=True)
+def _store_fit(fit, n, d0, v, count, mean, direction):
+    """Store a :func:`_line_fit` of n points as arm d0 of vertex v."""
+    count[v, d0] = n
+    mean[v, d0, 0] = fit[0]
+    mean[v, d0, 1] = fit[1]
+    direction[v, d0, 0] = fit[2]
+    direction[v, d0, 1] = fit[3]
 
 
 @njit(cache=True)
@@ -403,7 +460,10 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
     A crack's point is the mean centre of the pixels beside it that were
     membrane (``membrane``, padded by one pixel on each side, True where the input had
     a 0-valued junction pixel), else the crack midpoint: the fit follows the
-    membrane centreline where the image has membranes.
+    membrane centreline where the image has membranes.  An arm's points are
+    read walking its cracks again from its vertex; without membrane pixels
+    the fit of an arm whose path was fitted before is read back
+    (:func:`_arm_fit`).
     """
     nci, ncj = corners.shape
     nv = len(vi)
@@ -421,8 +481,9 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
     count = np.zeros((nv, 4), np.int64)
     mean = np.zeros((nv, 4, 2), np.float64)
     direction = np.zeros((nv, 4, 2), np.float64)
-    first = np.empty((max_reach, 2), np.float64)
-    last = np.empty((max_reach, 2), np.float64)
+    fit_keys = np.full(FIT_SLOTS + 1, -1, np.int64)  # the table of _arm_fit
+    fit_keys[FIT_SLOTS] = 0
+    fits = np.empty((FIT_SLOTS, 4), np.float64)
     k = 0
     for v in range(nv):
         ci = vi[v]
@@ -431,7 +492,7 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
             if not (corners[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
                 continue
             lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
-            ei, ej, dx, dy, n, d_last = _walk(corners, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
+            ei, ej, dx, dy, n, d_last, head, tail = _walk(corners, not periodic, ci, cj, d, nci, ncj)
             start[k] = v
             end[k] = _vertex_id(row_first, vj, ei, ej)
             start_arm[k] = d
@@ -443,9 +504,11 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
             ddy[k] = dy
             ncrack[k] = n
             half = min(max(1, (n + 1) // 2), max_reach)
-            _fit_line(first, 0, 1, half, 0.0, 0.0, d, v, count, mean, direction)
+            fit = _arm_fit(corners, membrane, ci, cj, d, half, nci, ncj, head, fit_keys, fits)
+            _store_fit(fit, half, d, v, count, mean, direction)
             # the end's arm: the last `half` cracks walked back from the end, relative to the end corner
-            _fit_line(last, n - 1, -1, half, float(dx), float(dy), end_arm[k], end[k], count, mean, direction)
+            fit = _arm_fit(corners, membrane, ei, ej, end_arm[k], half, nci, ncj, tail ^ TURN_ROUND, fit_keys, fits)
+            _store_fit(fit, half, end_arm[k], end[k], count, mean, direction)
             k += 1
     return (start[:k], end[:k], start_arm[:k], end_arm[:k], left[:k], right[:k], ddx[:k], ddy[:k], ncrack[:k],
             count, mean, direction)
