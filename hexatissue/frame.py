@@ -87,7 +87,8 @@ class Frame:
         read back from files, and for rows that no longer add up).
         """
         now = (self.cells, self.vertices, self.cell_vertices)
-        if len(self._mesh_tables) != len(now) or any(a is not b for a, b in zip(self._mesh_tables, now)):
+        built = getattr(self, "_mesh_tables", ())  # (absent from a Frame pickled before it existed)
+        if len(built) != len(now) or any(a is not b for a, b in zip(built, now)):
             return None
         return mesh_order_polygons(*now, self.box)
 

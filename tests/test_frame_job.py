@@ -10,6 +10,7 @@ for bit.  The kernels themselves are checked against their plain-Python
 references in ``test_mesh_kernels.py``; here the whole network built with
 the references equals the one built with the kernels.
 """
+import pickle
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -96,6 +97,10 @@ def test_mesh_polygons_are_forgotten_once_the_tables_change():
     edited = mesh_from_labels(labels, box=box)
     edited.cells.loc[0, "n_sides"] += 1  # in place: the same table object
     assert edited.mesh_polygons() is None  # the n_sides no longer add up to the rows
+    sent = pickle.loads(pickle.dumps(frame))  # to a worker and back: its tables are still the ones built
+    np.testing.assert_array_equal(sent.mesh_polygons()[0], frame.mesh_polygons()[0])
+    del sent.__dict__["_mesh_tables"]  # as a Frame pickled before Frames kept their tables
+    assert sent.mesh_polygons() is None
 
 
 @pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
