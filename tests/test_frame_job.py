@@ -59,6 +59,23 @@ def test_frame_job_equals_mesh_then_shape_order(p):
                                           obj=f"{name}, frame {t}")
 
 
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_frame_job_given_the_ids_the_source_found_equals_the_job_without():
+    """The smallest and largest id that checking the frame found (Source.checked_frame), passed to the job: the
+    same tables (a membrane sample, whose labels change, and touching uint16 movie frames, whose labels do not)."""
+    source = open_source(SAMPLE)
+    labels, lowest, top = source.checked_frame(0)
+    np.testing.assert_array_equal(labels, source.frame(0))
+    assert (lowest, top) == (labels.min(), labels.max())
+    frames, box = movie_frames(2)
+    for labels, b, ids in [(labels, None, (lowest, top))] + [(f, box, (f.min(), f.max())) for f in frames]:
+        options = (MeshOptions(), OrderOptions(fields=False))
+        given, _, _ = _frame_job(labels, 0, b, *options, None, None, (int(ids[0]), int(ids[1])))
+        found, _, _ = _frame_job(labels, 0, b, *options)
+        for name in TABLES:
+            pd.testing.assert_frame_equal(pd.DataFrame(given[name]), pd.DataFrame(found[name]), check_exact=True)
+
+
 def network_cases():
     frames, box = movie_frames(2)
     return [(sample_labels(), None), (frames[0], box), (frames[1], None)]
