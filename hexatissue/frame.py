@@ -19,7 +19,7 @@ import pandas as pd
 
 from .box import Box
 from .errors import InputError
-from .geometry import table_polygons
+from .geometry import mesh_order_polygons, table_polygons
 from .units import Calibration
 
 __all__ = ["Frame", "Movie", "read_results", "MESH_TABLES", "TABLES"]
@@ -63,6 +63,34 @@ class Frame:
     box: Box | None = None
     shape: tuple = ()
     calibration: Calibration = field(default_factory=Calibration)
+
+    def __post_init__(self):
+        self._mesh_tables = ()  # cells, vertices, cell_vertices as mesh_from_labels built them (see from_mesh)
+
+    @classmethod
+    def from_mesh(cls, tables, frame, box, shape) -> "Frame":
+        """The Frame of :func:`hexatissue.mesh_from_labels`: ``tables`` are in its row order.
+
+        It remembers these very tables, so :meth:`mesh_polygons` can read
+        the polygons row by row for as long as they are the Frame's tables.
+        """
+        out = cls(**tables, frame=frame, box=box, shape=shape)
+        out._mesh_tables = (out.cells, out.vertices, out.cell_vertices)
+        return out
+
+    def mesh_polygons(self):
+        """``(xy, starts)`` of the cells with ``n_sides > 0``, in the ``cells`` rows' order, or None.
+
+        Read row by row (:func:`hexatissue.geometry.mesh_order_polygons`),
+        without the keys :meth:`polygons` looks up, when the tables are
+        those :meth:`from_mesh` was given (None for tables replaced or
+        read back from files, and for rows that no longer add up).
+        """
+        now = (self.cells, self.vertices, self.cell_vertices)
+        built = getattr(self, "_mesh_tables", ())  # (absent from a Frame pickled before it existed)
+        if len(built) != len(now) or any(a is not b for a, b in zip(built, now)):
+            return None
+        return mesh_order_polygons(*now, self.box)
 
     def tables(self) -> dict[str, pd.DataFrame]:
         """The four tables by name."""

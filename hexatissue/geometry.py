@@ -14,7 +14,7 @@ import pandas as pd
 from .errors import InputError
 
 __all__ = ["match_points", "segment_sum", "pack_polygons", "next_vertex", "polygon_area_centroid", "polygon_perimeter",
-           "polygon_cells", "table_polygons", "row_keys", "lookup"]
+           "polygon_cells", "table_polygons", "mesh_order_polygons", "row_keys", "lookup"]
 
 
 def segment_sum(values, starts, n):
@@ -140,8 +140,7 @@ def table_polygons(vertices, cell_vertices, box=None):
     first = np.r_[True, (frame[1:] != frame[:-1]) | (cell[1:] != cell[:-1])] if len(cv) else np.zeros(0, bool)
     starts = np.flatnonzero(first).astype(np.int64)
     if box is not None and len(xy) and {"image_x", "image_y"} <= set(cv.columns):
-        # the mesh recorded which periodic image every polygon vertex is: exact for any junction length
-        xy = xy + _columns(cv, "image_x", "image_y") * box.lengths
+        xy = _with_images(xy, cv, box)
     elif box is not None and len(xy):  # tables without images: unwrap by minimum-image steps (junctions < L/2)
         step = box.min_image(np.diff(xy, axis=0))
         step = np.vstack([np.zeros((1, 2)), step])
@@ -151,6 +150,38 @@ def table_polygons(vertices, cell_vertices, box=None):
         xy = xy[starts][owner] + cum - cum[starts][owner]
     keys = pd.DataFrame({"frame": frame[starts], "cell": cell[starts]})
     return keys, xy, starts
+
+
+def _with_images(xy, cell_vertices, box):
+    """Polygon vertices ``xy`` moved to the periodic image the mesh recorded for each (exact for any junction length)."""
+    return xy + _columns(cell_vertices, "image_x", "image_y") * box.lengths
+
+
+def mesh_order_polygons(cells, vertices, cell_vertices, box=None):
+    """The polygons of one frame's tables in the row order of :func:`hexatissue.mesh_from_labels`, read without keys.
+
+    In that order the vertices' rows are their ids, and the ``cell_vertices``
+    rows hold the polygons of the ``cells`` rows with ``n_sides > 0``, one
+    after the other in rank order (the caller knows it:
+    :meth:`hexatissue.Frame.mesh_polygons`); the vertices are those
+    :func:`table_polygons` reads back through the keys.
+
+    Returns
+    -------
+    (xy, starts) or None
+        Vertices (x, y), px, polygon after polygon, and the first row in
+        ``xy`` of the polygon of each ``cells`` row with ``n_sides > 0``;
+        None when the ``n_sides`` do not add up to the ``cell_vertices``
+        rows (tables edited since).
+    """
+    sides = cells["n_sides"].to_numpy(np.int64)
+    sides = sides[sides > 0]
+    if sides.sum() != len(cell_vertices):
+        return None
+    xy = _columns(vertices, "x", "y")[cell_vertices["vertex"].to_numpy(np.int64)]
+    if box is not None and len(xy):
+        xy = _with_images(xy, cell_vertices, box)
+    return xy, np.cumsum(sides) - sides
 
 
 def _sorted_polygons(cell_vertices):

@@ -18,6 +18,7 @@ from . import _coarse_kernels as K
 from ._shape_kernels import shape_sums
 from .box import as_box
 from .errors import InputError, check_orders, check_p, check_positive
+from .frame import Frame
 from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
 from .schema import interior_mask, validate
 
@@ -167,7 +168,9 @@ def shape_order(network, p=(6, 2), center="vertex_mean"):
     """
     if center not in CENTERS:
         raise InputError(f"center must be one of {CENTERS}; got {center!r}")
-    cells = gamma_columns(network.cells, network.vertices, network.cell_vertices, network.box, p, center)
+    # a Frame fresh from the mesh has its polygons in row order: no rebuild from the tables' keys
+    polygons = network.mesh_polygons() if isinstance(network, Frame) else None
+    cells = gamma_columns(network.cells, network.vertices, network.cell_vertices, network.box, p, center, polygons)
     return network.replace(cells=validate(cells, "cells"))
 
 

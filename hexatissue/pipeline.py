@@ -424,22 +424,28 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
 
-def mesh_labels(labels, box, mesh, mask=None):
+def mesh_labels(labels, box, mesh, mask=None, lowest=None):
     """The touching labels the mesh (and the tracker) of :func:`analyze` use for one validated frame.
 
     Returns ``(labels, membrane)``: the normalised labels and the pixels that
     were membrane (see :func:`hexatissue.mesh.labels.normalize_labels`).
     Exporters that must match the cells table (``hexatissue export --to ctc``)
-    call this with the options of the analysis.
+    call this with the options of the analysis.  ``lowest``: ``labels.min()``
+    if the caller knows it already.
     """
     from .mesh.labels import normalize_valid
 
     return normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
-                           background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside, mask=mask)
+                           background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside, mask=mask,
+                           lowest=lowest)
 
 
-def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
+def _frame_job(labels, t, box, mesh, order, mask=None, image=None, ids=(None, None)):
     """Tables of one frame, its normalised labels (for the tracker) and its warnings.
+
+    ``ids``: the smallest and largest id of ``labels`` if known (found when
+    the source checked the frame: :meth:`hexatissue.Source.checked_frame`),
+    else None: the mesh then needs no pass over the image for them.
 
     Warnings are caught here, in the worker, and returned as ``(category,
     text)`` pairs, so the main process reports them with their frames.
@@ -453,8 +459,10 @@ def _frame_job(labels, t, box, mesh, order, mask=None, image=None):
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        lab, membrane = mesh_labels(labels, box, mesh, mask)
-        columns, polygons = network_columns(lab, membrane, box, mesh.merge_distance, t)
+        lab, membrane = mesh_labels(labels, box, mesh, mask, ids[0])
+        # the largest id is known while the labels are the ones checked
+        columns, polygons = network_columns(lab, membrane, box, mesh.merge_distance, t,
+                                            ids[1] if lab is labels else None)
         if image is None:  # numpy columns: no network DataFrame to build here, pickle or read in the main process
             cells = columns["cells"]
             cells.update(gamma_arrays(*polygons, polygon_rows(cells["n_sides"] > 0), order.p, order.center))
@@ -726,7 +734,8 @@ def _extract_locked(src, box, mesh, order, mask, raw, tracker, client, workers, 
         if polygons:
             return src.polygons(t), t, order
         image = None if raw is None else raw.image(t if raw.n_frames > 1 else 0)
-        return src.frame(t), t, box, mesh, order, mask, image
+        labels, lowest, top = src.checked_frame(t)
+        return labels, t, box, mesh, order, mask, image, (lowest, top)
 
     try:
         batch = []

@@ -42,7 +42,7 @@ import numpy as np
 from .box import Box
 from .errors import HexatissueWarning, InputError, user_stacklevel
 from .exchange.ctc import is_ctc_folder
-from .mesh.labels import validate_labels
+from .mesh.labels import checked_labels
 from .polygons import POLYGON_SUFFIXES, open_polygons
 from .units import Calibration, normalize_length_unit, normalize_time_unit
 
@@ -147,8 +147,12 @@ class Source:
             The index is out of range, the frame cannot be read, or it is
             not a valid label image.
         """
+        return self.checked_frame(t)[0]
+
+    def checked_frame(self, t):
+        """:meth:`frame`, and its smallest and largest id (None for a bool image), found while checking it."""
         t = self._index(t)
-        return validate_labels(self._raw(t), f"frame {t}")
+        return checked_labels(self._raw(t), f"frame {t}")
 
     def image(self, t) -> np.ndarray:
         """Frame ``t`` as an intensity image (float64, not checked as labels): for a raw channel.

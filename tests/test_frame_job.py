@@ -2,12 +2,15 @@
 
 The frame job (``pipeline._frame_job``) returns the network tables as numpy
 columns and takes gamma_p from the polygons the mesh built; the plain path
-is ``mesh_from_labels`` then ``shape_order`` (polygons read back from the
-tables).  Both run the same kernels, so the tables must be equal bit for
-bit.  The kernels themselves are checked against their plain-Python
+is ``mesh_from_labels`` then ``shape_order`` (polygons read from the tables'
+rows in the mesh's order, ``Frame.mesh_polygons``), and a network made of
+the same tables again (``Frame(**tables)``) has its polygons rebuilt through
+the tables' keys.  All run the same kernels, so the tables must be equal bit
+for bit.  The kernels themselves are checked against their plain-Python
 references in ``test_mesh_kernels.py``; here the whole network built with
 the references equals the one built with the kernels.
 """
+import pickle
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -15,7 +18,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hexatissue import Box, OrderOptions, mesh_from_labels, open_source, shape_order
+from hexatissue import Box, Frame, OrderOptions, mesh_from_labels, open_source, shape_order
+from hexatissue.geometry import table_polygons
 from hexatissue.mesh import _reference as R
 from hexatissue.mesh import network as N
 from hexatissue.options import MeshOptions
@@ -53,6 +57,67 @@ def test_frame_job_equals_mesh_then_shape_order(p):
             assert isinstance(tables[name], dict)  # numpy columns, read without pandas in the main process
             pd.testing.assert_frame_equal(pd.DataFrame(tables[name]), expected[name], check_exact=True,
                                           obj=f"{name}, frame {t}")
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_frame_job_given_the_ids_the_source_found_equals_the_job_without():
+    """The smallest and largest id that checking the frame found (Source.checked_frame), passed to the job: the
+    same tables (a membrane sample, whose labels change, and touching uint16 movie frames, whose labels do not)."""
+    source = open_source(SAMPLE)
+    labels, lowest, top = source.checked_frame(0)
+    np.testing.assert_array_equal(labels, source.frame(0))
+    assert (lowest, top) == (labels.min(), labels.max())
+    frames, box = movie_frames(2)
+    for labels, b, ids in [(labels, None, (lowest, top))] + [(f, box, (f.min(), f.max())) for f in frames]:
+        options = (MeshOptions(), OrderOptions(fields=False))
+        given, _, _ = _frame_job(labels, 0, b, *options, None, None, (int(ids[0]), int(ids[1])))
+        found, _, _ = _frame_job(labels, 0, b, *options)
+        for name in TABLES:
+            pd.testing.assert_frame_equal(pd.DataFrame(given[name]), pd.DataFrame(found[name]), check_exact=True)
+
+
+def network_cases():
+    frames, box = movie_frames(2)
+    return [(sample_labels(), None), (frames[0], box), (frames[1], None)]
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+@pytest.mark.parametrize("case", range(3))
+def test_mesh_polygons_equal_the_polygons_rebuilt_through_the_keys(case):
+    """A Frame fresh from the mesh reads its polygons row by row: the same numbers as the keys' rebuild."""
+    labels, box = network_cases()[case]
+    frame = mesh_from_labels(labels, box=box)
+    xy, starts = frame.mesh_polygons()
+    keys, xy_keys, starts_keys = table_polygons(frame.vertices, frame.cell_vertices, box)
+    np.testing.assert_array_equal(xy, xy_keys)
+    np.testing.assert_array_equal(starts, starts_keys)
+    np.testing.assert_array_equal(keys["cell"], frame.cells["cell"][frame.cells["n_sides"] > 0])
+    rebuilt = Frame(**frame.tables(), box=box, shape=frame.shape)  # as if read from files: no row order known
+    assert rebuilt.mesh_polygons() is None
+    pd.testing.assert_frame_equal(shape_order(frame).cells, shape_order(rebuilt).cells, check_exact=True)
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_mesh_polygons_are_forgotten_once_the_tables_change():
+    """Replaced or reassigned tables, or n_sides edited in place, are read through the keys again."""
+    labels, box = network_cases()[1]
+    frame = mesh_from_labels(labels, box=box)
+    assert frame.mesh_polygons() is not None
+    assert frame.replace(frame=0).mesh_polygons() is None  # a new Frame: its tables are not known to be the mesh's
+    shuffled = frame.cells.sample(frac=1.0, random_state=0)
+    moved = mesh_from_labels(labels, box=box)
+    moved.cells = shuffled
+    assert moved.mesh_polygons() is None
+    expected = shape_order(frame).cells.set_index("cell")
+    pd.testing.assert_frame_equal(shape_order(moved).cells.set_index("cell").loc[expected.index], expected,
+                                  check_exact=True)
+    edited = mesh_from_labels(labels, box=box)
+    edited.cells.loc[0, "n_sides"] += 1  # in place: the same table object
+    assert edited.mesh_polygons() is None  # the n_sides no longer add up to the rows
+    sent = pickle.loads(pickle.dumps(frame))  # to a worker and back: its tables are still the ones built
+    np.testing.assert_array_equal(sent.mesh_polygons()[0], frame.mesh_polygons()[0])
+    del sent.__dict__["_mesh_tables"]  # as a Frame pickled before Frames kept their tables
+    assert sent.mesh_polygons() is None
 
 
 @pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")

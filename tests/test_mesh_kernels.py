@@ -764,6 +764,42 @@ def test_fork_bytes_marks_the_corners_of_type_3_and_4():
         assert got == want
 
 
+def test_word_counts_of_corner_codes():
+    """Arm bits (low nibbles) and fork flags of 8 codes a word: the counts a byte-by-byte loop gives."""
+    rng = np.random.default_rng(6)
+    codes = (rng.integers(0, 16, (2000, 8)) | (rng.integers(0, 7, (2000, 8)) << 4)).astype(np.uint8)
+    codes[:112 // 8] = np.arange(112, dtype=np.uint8).reshape(-1, 8)  # every code (types 0..6) once
+    codes[-1] = 0x4F  # the largest counts: four arms, a fork, in every byte
+    for row in codes:
+        word = row.view(np.uint64)[0]
+        assert int(K._arm_count(word)) == sum(bin(int(c) & 15).count("1") for c in row)
+        assert int(K._byte_sum(K._fork_bytes(word))) == sum(int(c) >> 4 in (3, 4) for c in row)
+
+
+@pytest.mark.parametrize("width", [1, 2, 7, 8, 9, 16, 63])
+def test_run_starts_of_rows(width):
+    """The start column of every run of equal values (rows of width not a multiple of 8, runs of 1 px, one run)."""
+    rng = np.random.default_rng(width)
+    for k in range(30):
+        row = rng.integers(0, 1 + k % 4, width).astype(np.int32)
+        is_start = np.zeros((width + 7) // 8, np.uint64)
+        run_start = np.full(width + 3, -1, np.int64)
+        end = K._run_starts(row, is_start, run_start, 2)
+        want = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+        np.testing.assert_array_equal(run_start[2:end], want)
+        assert end == 2 + len(want) and (run_start[:2] == -1).all()
+
+
+@pytest.mark.parametrize("periodic", [False, True], ids=["open", "periodic"])
+def test_cell_moments_with_more_runs_than_first_room(periodic):
+    """Runs of 1-2 px (many more than one per RUN_PIXELS px): the run arrays grow, the moments stay the reference's."""
+    rng = np.random.default_rng(3)
+    labels = rng.integers(0, 5, (40, 96)).astype(np.int32)
+    assert (np.diff(labels, axis=1) != 0).sum() > labels.size // K.RUN_PIXELS + labels.shape[1]
+    moments_both(labels, periodic)
+    moments_both(np.where(labels[:, :1] > 2, labels, 7), periodic)  # label 7 a band around the torus
+
+
 @pytest.mark.parametrize("shape", [(2, 2), (3, 5), (7, 9), (16, 16)])
 def test_corner_types_vertices_on_small_lattices(shape):
     """Lattices whose corner count is not a multiple of 8, open and periodic, with image corners: the word scan
@@ -775,3 +811,30 @@ def test_corner_types_vertices_on_small_lattices(shape):
             got, want = K.corner_types(lab, periodic), R.corner_types(lab, periodic)
             for g, w in zip(got, want):
                 np.testing.assert_array_equal(g, w)
+
+
+def test_arm_fits_looked_up_by_path_equal_the_fits_computed():
+    """The fit of an arm read back from the table (a hit), fitted and stored (a miss) or fitted with the table
+    full: the same numbers as the line fit of its crack midpoints, on every arm of a Voronoi tissue."""
+    labels = voronoi_labels(jittered_seeds((48, 56), 7, seed=2), (48, 56), True).astype(np.int32)
+    corners, vi, vj, _ = K.corner_types(labels, True)
+    nci, ncj = corners.shape
+    no_membrane = np.zeros((0, 0), bool)
+    keys = np.full(K.FIT_SLOTS + 1, -1, np.int64)
+    keys[K.FIT_SLOTS] = 0
+    fits = np.empty((K.FIT_SLOTS, 4))
+    full = keys.copy()
+    full[K.FIT_SLOTS] = K.FIT_FILL  # no room: every path fitted, none stored
+    n_arms = 0
+    for v in range(len(vi)):
+        for d in range(4):
+            if not (corners[vi[v], vj[v]] >> d) & 1:
+                continue
+            _, _, _, _, n, _, head, _ = K._walk(corners, False, vi[v], vj[v], d, nci, ncj)
+            for half in {1, min(n, 3), min(n, 8)}:
+                want = K._line_fit(half, d, *K._arm_sums(corners, no_membrane, vi[v], vj[v], d, half, nci, ncj))
+                for table in (keys, keys, full):  # a miss then a hit (or two hits), then the full table
+                    got = K._arm_fit(corners, no_membrane, vi[v], vj[v], d, half, nci, ncj, head, table, fits)
+                    assert got == want
+            n_arms += 1
+    assert n_arms > 100 and 0 < keys[K.FIT_SLOTS] < n_arms and (full[:K.FIT_SLOTS] == -1).all()

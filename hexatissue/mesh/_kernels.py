@@ -24,6 +24,7 @@ compares them).  ``py_func`` runs the same code uncompiled and is no such check.
 """
 import numpy as np
 from numba import njit
+from numba.cpython.unsafe.numbers import trailing_zeros
 
 # direction -> (d row, d col) on the corner lattice
 DI = np.array([0, 1, 0, -1], dtype=np.int64)
@@ -77,7 +78,7 @@ def _row_or_zeros(labels, periodic, r, zeros):
 
 @njit(cache=True)
 def _corner_code(tl, tr, bl, br):
-    """Arm bit mask, type and number of arms of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
+    """Code (arm bits | type << 4) of the corner between pixels TL, TR, BL, BR (selects only, no branch)."""
     a0 = np.uint8(tr != br)
     a1 = np.uint8(bl != br)
     a2 = np.uint8(tl != bl)
@@ -88,7 +89,7 @@ def _corner_code(tl, tr, bl, br):
     d6 = np.uint8(tr == bl)
     four = 4 + d5 + 2 * d6 - d5 * d6 * (2 - np.uint8(tl >= tr))
     k = four if n == 4 or n == 1 else n  # (one arm cannot occur: around a corner arms pair up)
-    return a0 | (a1 << 1) | (a2 << 2) | (a3 << 3), k, n
+    return (a0 | (a1 << 1) | (a2 << 2) | (a3 << 3)) | (np.uint8(k) << 4)
 
 
 @njit(cache=True)
@@ -100,12 +101,13 @@ def corner_types(labels, periodic):
     column arrays in raster order (vertex ids are their ranks: see
     :func:`_vertex_id`) and the total number of cracks.
 
-    The first pass has no branch (selects only) in its inner loop over the
-    corners between two rows of labels, so it runs on whole vectors of
-    corners; the first and last corner of a row (where the padding is) are
-    done apart.  Vertices are few and are numbered in a second pass, which
-    reads the codes 8 at a time (:func:`_fork_bytes`) and looks closer only
-    at the words with a fork (or an image corner).
+    The first pass has no branch (selects only) and no running count in
+    its inner loop over the corners between two rows of labels, so it runs
+    on whole vectors of corners; the first and last corner of a row (where
+    the padding is) are done apart.  The arms and forks are counted from
+    the codes read 8 at a time (:func:`_arm_count`, :func:`_fork_bytes`).
+    Vertices are few and are numbered in a last pass, which looks closer
+    only at the words with a fork (or an image corner).
     """
     h, w = labels.shape
     nci, ncj = _lattice_shape(labels, periodic)
@@ -114,26 +116,23 @@ def corner_types(labels, periodic):
     words = np.empty((n_corners + 7) // 8, np.uint64)  # the codes, also as 8-byte words for the vertex scan
     words[-1] = 0
     corners = words.view(np.uint8)[:n_corners].reshape((nci, ncj))
-    n_arms = 0
-    n_forks = 0
     for ci in range(nci):
         top = _row_or_zeros(labels, periodic, ci - 1, zeros)
         bottom = _row_or_zeros(labels, periodic, ci, zeros)
         for cj in range(1, w):  # corner cj lies between columns cj - 1 and cj
-            a, k, n = _corner_code(top[cj - 1], top[cj], bottom[cj - 1], bottom[cj])
-            corners[ci, cj] = a | (np.uint8(k) << 4)
-            n_arms += n
-            n_forks += (k == 3) | (k == 4)
+            corners[ci, cj] = _corner_code(top[cj - 1], top[cj], bottom[cj - 1], bottom[cj])
         # corner 0 (left of column 0) and, on an open image, corner w (right of column w - 1)
         for cj in range(0, ncj, w):  # 0, and w when the lattice has it
             left = _pad_at(labels, periodic, ci, cj)
             right = _pad_at(labels, periodic, ci, cj + 1)
             below_left = _pad_at(labels, periodic, ci + 1, cj)
             below_right = _pad_at(labels, periodic, ci + 1, cj + 1)
-            a, k, n = _corner_code(left, right, below_left, below_right)
-            corners[ci, cj] = a | (np.uint8(k) << 4)
-            n_arms += n
-            n_forks += (k == 3) | (k == 4)
+            corners[ci, cj] = _corner_code(left, right, below_left, below_right)
+    n_arms = np.uint64(0)
+    n_forks = np.uint64(0)
+    for wi in range(len(words)):  # the bytes past the last corner are 0: no arm, no fork
+        n_arms += _arm_count(words[wi])
+        n_forks += _byte_sum(_fork_bytes(words[wi]))
     image_corners = not periodic
     vi = np.empty(n_forks + 4, np.int64)  # + the corners of an open image
     vj = np.empty(n_forks + 4, np.int64)
@@ -155,7 +154,22 @@ def corner_types(labels, periodic):
                     vi[n_vertices] = ci
                     vj[n_vertices] = cj
                     n_vertices += 1
-    return corners, vi[:n_vertices].copy(), vj[:n_vertices].copy(), n_arms // 2
+    return corners, vi[:n_vertices].copy(), vj[:n_vertices].copy(), np.int64(n_arms) // 2
+
+
+@njit(cache=True)
+def _byte_sum(word):
+    """Sum of the 8 bytes of a word (each byte at most 31, so that the sum fits in one byte)."""
+    return (word * np.uint64(0x0101010101010101)) >> np.uint64(56)
+
+
+@njit(cache=True)
+def _arm_count(word):
+    """Number of arm bits (the low 4 bits of each byte) in a word of 8 corner codes (a bit count per byte)."""
+    x = word & np.uint64(0x0F0F0F0F0F0F0F0F)
+    x = x - ((x >> np.uint64(1)) & np.uint64(0x0505050505050505))
+    x = (x & np.uint64(0x0303030303030303)) + ((x >> np.uint64(2)) & np.uint64(0x0303030303030303))
+    return _byte_sum(x)
 
 
 @njit(cache=True)
@@ -290,83 +304,140 @@ def _vertex_id(row_first, vj, ci, cj):
 
 
 @njit(cache=True)
-def _walk(corners, image_corners, membrane, ci, cj, d, nci, ncj, first, last):
+def _walk(corners, image_corners, ci, cj, d, nci, ncj):
     """Follow a boundary from corner (ci, cj) in direction d until it reaches a vertex.
 
-    Stores the fit point of every crack (:func:`_crack_point`, relative to
-    the start corner): the first ``len(first)`` in ``first``, and the last
-    ``len(last)`` in ``last`` (crack k at row ``k % len(first)``; both hold ``max_reach`` rows), so that the
-    arm fits at both ends need no second walk.  ``membrane`` of size 0: no
-    membrane pixels, every point is its crack's midpoint.  Returns (end
-    corner row, end corner col, dx, dy, number of cracks, last direction).
+    Returns (end corner row, end corner col, dx, dy, number of cracks, last
+    direction, head, tail): ``head`` holds the directions of the first
+    ``FIT_MAX_CRACKS`` cracks, ``tail`` those of the last 32, 2 bits each
+    (the first, and the last, lowest), the keys of the arm fits at both ends
+    (:func:`_arm_fit`).
     """
-    reach = len(first)
     dx = 0
     dy = 0
     n = 0
-    slot = 0
+    head = np.uint64(0)
+    tail = np.uint64(0)
     while True:
-        if membrane.size:
-            mx, my = _crack_point(membrane, ci, cj, d)
-        else:
-            mx, my = 0.5 * DJ[d], 0.5 * DI[d]
-        mx += dx
-        my += dy
-        if n < reach:
-            first[n, 0] = mx
-            first[n, 1] = my
-        last[slot, 0] = mx
-        last[slot, 1] = my
-        slot = slot + 1 if slot + 1 < reach else 0  # n % reach, without a division per crack
+        if n < FIT_MAX_CRACKS:
+            head |= np.uint64(d) << np.uint64(2 * n)
+        tail = (tail << np.uint64(2)) | np.uint64(d)
         dx += DJ[d]
         dy += DI[d]
         n += 1
         ci, cj = _step(ci, cj, d, nci, ncj)
         if _is_vertex(corners, ci, cj, nci, ncj, image_corners):
-            return ci, cj, dx, dy, n, d
+            return ci, cj, dx, dy, n, d, head, tail
         d = _next_dir(corners[ci, cj], d)
 
 
 @njit(cache=True)
-def _fit_line(points, k0, step, n, ox, oy, d0, v, count, mean, direction):
-    """Store the straight-line fit of n points minus (ox, oy) as arm d0 of vertex v.
+def _arm_sums(corners, membrane, ci, cj, d, n, nci, ncj):
+    """Sums x, y, xx, xy, yy of the fit points of the first n cracks of the boundary leaving corner (ci, cj) in
+    direction d, relative to the corner.
 
-    The points are rows ``k0, k0 + step, ...`` of ``points``, modulo its length.
-
-    The mean of the points, and the principal axis of their covariance (the
-    arm direction when fewer than 2 points or no spread).  The points are
-    multiples of 0.5 px near the vertex, so their sums are exact in any order.
+    A crack's fit point is :func:`_crack_point` (``membrane`` of size 0: no
+    membrane pixels, its midpoint).  The n cracks lie on one junction (n is
+    at most its length), so the walk turns at pass-through corners only.
+    The points are multiples of 0.25 px near the vertex, so their sums are
+    exact in any order, and the same from either end of a crack.
     """
     sx = 0.0
     sy = 0.0
     sxx = 0.0
     sxy = 0.0
     syy = 0.0
-    k = k0 % len(points)
+    dx = 0
+    dy = 0
     for i in range(n):
-        mx = points[k, 0] - ox
-        my = points[k, 1] - oy
+        if membrane.size:
+            mx, my = _crack_point(membrane, ci, cj, d)
+        else:
+            mx, my = 0.5 * DJ[d], 0.5 * DI[d]
+        mx += dx
+        my += dy
         sx += mx
         sy += my
         sxx += mx * mx
         sxy += mx * my
         syy += my * my
-        k = _wrap(k + step, len(points))  # the next row, without a division per point
-    count[v, d0] = n
+        dx += DJ[d]
+        dy += DI[d]
+        ci, cj = _step(ci, cj, d, nci, ncj)
+        if i + 1 < n:
+            d = _next_dir(corners[ci, cj], d)
+    return sx, sy, sxx, sxy, syy
+
+
+@njit(cache=True)
+def _line_fit(n, d0, sx, sy, sxx, sxy, syy):
+    """Mean (x, y) of n points from their sums, and the unit principal axis of their covariance.
+
+    The axis is arm direction ``d0`` when fewer than 2 points or no spread.
+    """
     mx = sx / n
     my = sy / n
-    mean[v, d0, 0] = mx
-    mean[v, d0, 1] = my
     cxx = sxx / n - mx * mx
     cxy = sxy / n - mx * my
     cyy = syy / n - my * my
     if n < 2 or cxx + cyy < 1e-12:
-        direction[v, d0, 0] = DJ[d0]
-        direction[v, d0, 1] = DI[d0]
-    else:
-        theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)  # principal axis of the 2x2 covariance
-        direction[v, d0, 0] = np.cos(theta)
-        direction[v, d0, 1] = np.sin(theta)
+        return mx, my, float(DJ[d0]), float(DI[d0])
+    theta = 0.5 * np.arctan2(2.0 * cxy, cxx - cyy)  # principal axis of the 2x2 covariance
+    return mx, my, np.cos(theta), np.sin(theta)
+
+
+#: Slots of the table of :func:`_arm_fit` (2 ** FIT_SLOT_BITS), and how many of them it fills at most.
+FIT_SLOT_BITS = 12
+FIT_SLOTS = 1 << FIT_SLOT_BITS
+FIT_FILL = FIT_SLOTS // 2
+#: The longest arm :func:`_arm_fit` keys by its path (2 bits a crack, and the length above them, in 64 bits).
+FIT_MAX_CRACKS = 28
+#: Every direction of a path turned round (d ^ 2): the path walked the other way.
+TURN_ROUND = np.uint64(0xAAAAAAAAAAAAAAAA)
+
+
+@njit(cache=True)
+def _arm_fit(corners, membrane, ci, cj, d, n, nci, ncj, path, keys, fits):
+    """:func:`_line_fit` of :func:`_arm_sums`, looked up by the arm's path when there are no membrane pixels.
+
+    Without membrane pixels the fit points are the cracks' midpoints: the
+    fit depends on the directions of the n cracks only (``path``, 2 bits
+    each, the first lowest; for n up to ``FIT_MAX_CRACKS``), and a digital
+    line's first cracks take few shapes (~800 among the 58,000 arms of a
+    2048^2 Voronoi image).  So each is fitted once and then read back: the
+    same numbers, without the libm calls.  ``keys`` (-1 = empty;
+    ``FIT_SLOTS`` of them, then the number of paths stored) and ``fits``
+    (``FIT_SLOTS`` x 4) are the table, open addressing on a multiplicative
+    hash; once ``FIT_FILL`` are stored, new paths are fitted, not stored.
+    """
+    keyed = membrane.size == 0 and n <= FIT_MAX_CRACKS
+    slot = 0
+    key = -1
+    if keyed:
+        key = np.int64((path & ((np.uint64(1) << np.uint64(2 * n)) - np.uint64(1)))
+                       | (np.uint64(n) << np.uint64(2 * FIT_MAX_CRACKS)))
+        slot = np.int64((np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(64 - FIT_SLOT_BITS))
+        while keys[slot] != -1:
+            if keys[slot] == key:
+                return fits[slot, 0], fits[slot, 1], fits[slot, 2], fits[slot, 3]
+            slot = (slot + 1) & (FIT_SLOTS - 1)
+    fit = _line_fit(n, d, *_arm_sums(corners, membrane, ci, cj, d, n, nci, ncj))
+    if keyed and keys[FIT_SLOTS] < FIT_FILL:
+        keys[FIT_SLOTS] += 1
+        keys[slot] = key
+        for a in range(4):
+            fits[slot, a] = fit[a]
+    return fit
+
+
+@njit(cache=True)
+def _store_fit(fit, n, d0, v, count, mean, direction):
+    """Store a :func:`_line_fit` of n points as arm d0 of vertex v."""
+    count[v, d0] = n
+    mean[v, d0, 0] = fit[0]
+    mean[v, d0, 1] = fit[1]
+    direction[v, d0, 0] = fit[2]
+    direction[v, d0, 1] = fit[3]
 
 
 @njit(cache=True)
@@ -389,7 +460,10 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
     A crack's point is the mean centre of the pixels beside it that were
     membrane (``membrane``, padded by one pixel on each side, True where the input had
     a 0-valued junction pixel), else the crack midpoint: the fit follows the
-    membrane centreline where the image has membranes.
+    membrane centreline where the image has membranes.  An arm's points are
+    read walking its cracks again from its vertex; without membrane pixels
+    the fit of an arm whose path was fitted before is read back
+    (:func:`_arm_fit`).
     """
     nci, ncj = corners.shape
     nv = len(vi)
@@ -407,8 +481,9 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
     count = np.zeros((nv, 4), np.int64)
     mean = np.zeros((nv, 4, 2), np.float64)
     direction = np.zeros((nv, 4, 2), np.float64)
-    first = np.empty((max_reach, 2), np.float64)
-    last = np.empty((max_reach, 2), np.float64)
+    fit_keys = np.full(FIT_SLOTS + 1, -1, np.int64)  # the table of _arm_fit
+    fit_keys[FIT_SLOTS] = 0
+    fits = np.empty((FIT_SLOTS, 4), np.float64)
     k = 0
     for v in range(nv):
         ci = vi[v]
@@ -417,7 +492,7 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
             if not (corners[ci, cj] >> d) & 1 or (done[v] >> d) & 1:
                 continue
             lab_l, lab_r = _sides(labels, periodic, ci, cj, d)
-            ei, ej, dx, dy, n, d_last = _walk(corners, not periodic, membrane, ci, cj, d, nci, ncj, first, last)
+            ei, ej, dx, dy, n, d_last, head, tail = _walk(corners, not periodic, ci, cj, d, nci, ncj)
             start[k] = v
             end[k] = _vertex_id(row_first, vj, ei, ej)
             start_arm[k] = d
@@ -429,9 +504,11 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
             ddy[k] = dy
             ncrack[k] = n
             half = min(max(1, (n + 1) // 2), max_reach)
-            _fit_line(first, 0, 1, half, 0.0, 0.0, d, v, count, mean, direction)
+            fit = _arm_fit(corners, membrane, ci, cj, d, half, nci, ncj, head, fit_keys, fits)
+            _store_fit(fit, half, d, v, count, mean, direction)
             # the end's arm: the last `half` cracks walked back from the end, relative to the end corner
-            _fit_line(last, n - 1, -1, half, float(dx), float(dy), end_arm[k], end[k], count, mean, direction)
+            fit = _arm_fit(corners, membrane, ei, ej, end_arm[k], half, nci, ncj, tail ^ TURN_ROUND, fit_keys, fits)
+            _store_fit(fit, half, end_arm[k], end[k], count, mean, direction)
             k += 1
     return (start[:k], end[:k], start_arm[:k], end_arm[:k], left[:k], right[:k], ddx[:k], ddy[:k], ncrack[:k],
             count, mean, direction)
@@ -548,6 +625,38 @@ def _unwrapped(v, ref, period):
     return v
 
 
+#: Initial room of :func:`cell_moments` for runs: one per this many pixels (~17 in a 2048^2 image of 9,801 cells).
+RUN_PIXELS = 8
+
+
+@njit(cache=True)
+def _grown(values, n):
+    """``values`` in an array twice as long, its first ``n`` entries kept."""
+    out = np.empty(2 * len(values), values.dtype)
+    out[:n] = values[:n]
+    return out
+
+
+@njit(cache=True)
+def _run_starts(row, is_start, run_start, n):
+    """Store the start column of every run of equal values of ``row`` at ``run_start[n:]``; returns the new end.
+
+    ``is_start``: ``ceil(len(row) / 8)`` words, zero past ``len(row)`` bytes, to hold a byte per pixel
+    (1 where a run starts), written without a branch and read a word at a time.
+    """
+    flags = is_start.view(np.uint8)
+    flags[0] = 1
+    for j in range(1, len(row)):
+        flags[j] = row[j] != row[j - 1]
+    for k in range(len(is_start)):
+        word = is_start[k]
+        while word:  # one bit per start, bit 0 of its byte
+            run_start[n] = 8 * k + (trailing_zeros(word) >> 3)
+            n += 1
+            word &= word - np.uint64(1)
+    return n
+
+
 @njit(cache=True)
 def cell_moments(labels, n_labels, periodic):
     """Pixel count and centroid of every label 0..n_labels-1 (unwrapped on a torus).
@@ -566,8 +675,10 @@ def cell_moments(labels, n_labels, periodic):
     wider ones (those touching the box edge, or large): their cos/sin terms
     come from per-column and per-row tables and are added pixel by pixel in
     raster order, as a pixel-by-pixel sum does.  The first pass finds the
-    runs without a branch per pixel and keeps the start column and label of
-    every run; on a torus one pass over those picks out the runs of the wide
+    runs of a row from a byte per pixel, 1 where a run starts, written
+    without a branch (whole vectors of pixels) and read 8 bytes at a time
+    (:func:`_run_starts`), and keeps the start column and label of every
+    run; on a torus one pass over those picks out the runs of the wide
     labels, and the two later passes visit only them, not every run again.
     """
     h, w = labels.shape
@@ -580,19 +691,20 @@ def cell_moments(labels, n_labels, periodic):
     hi_y = np.full(n_labels, -1, np.int64)
     ref_x = np.zeros(n_labels, np.float64)
     ref_y = np.zeros(n_labels, np.float64)
-    # run starts row after row (np.empty: only the pages written become resident); row i's runs are
-    # run_start[row_first[i]:row_first[i + 1]], each ending where the next starts (or at w)
-    run_start = np.empty(h * w, np.int64)
-    run_label = np.empty(h * w, labels.dtype)  # the label of every run (read again by the torus passes)
+    # run starts row after row; row i's runs are run_start[row_first[i]:row_first[i + 1]], each ending where
+    # the next starts (or at w).  Sized for runs of RUN_PIXELS px on average, grown if a row might not fit:
+    # not one entry per pixel, whose allocation (mapped afresh at every call) costs page faults
+    run_start = np.empty(h * w // RUN_PIXELS + w, np.int64)
+    run_label = np.empty(len(run_start), labels.dtype)  # the label of every run (read again by the torus passes)
     row_first = np.zeros(h + 1, np.int64)
+    is_start = np.zeros((w + 7) // 8, np.uint64)  # of the row being read, 8 pixels a word (bytes past w stay 0)
     n_runs = 0
     for i in range(h):
         row = labels[i]
-        run_start[n_runs] = 0
-        m = n_runs + 1
-        for j in range(1, w):  # no branch: every column is written, the count moves on where a run starts
-            run_start[m] = j
-            m += row[j] != row[j - 1]
+        if n_runs + w > len(run_start):
+            run_start = _grown(run_start, n_runs)
+            run_label = _grown(run_label, n_runs)
+        m = _run_starts(row, is_start, run_start, n_runs)
         row_first[i + 1] = m
         for r in range(n_runs, m):
             j0 = run_start[r]

@@ -233,7 +233,7 @@ def mesh_from_labels(
                                            mask=check_mask(mask, lab.shape), lowest=lowest)
     # the largest id is known while the labels are the ones checked
     tables = network_tables(normalized, membrane, box, merge_distance, frame, top if normalized is lab else None)
-    return Frame(**tables, frame=int(frame), box=box, shape=tuple(lab.shape))
+    return Frame.from_mesh(tables, frame=int(frame), box=box, shape=tuple(lab.shape))
 
 
 def network_tables(lab, membrane, box, merge_distance, frame=0, top=None) -> dict:
