@@ -593,7 +593,9 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         raise InputError("frames must list at least one time point")
     t_first, t_last = span.min(), span.max()
     parts = []  # the columns of each frame's events of each kind: arrays, not a Python tuple per event
-    for first, kind, lone in ((True, "creation", "appearance"), (False, "annihilation", "disappearance")):
+    codes = {name: code for code, name in enumerate(EVENT_KINDS)}
+    for first, kind, lone in ((True, codes["creation"], codes["appearance"]),
+                              (False, codes["annihilation"], codes["disappearance"])):
         ends = _track_ends(tracked, time_column, first).reset_index(drop=True)
         ends = ends[ends[time_column] != (t_first if first else t_last)]
         times = ends[time_column].to_numpy()
@@ -601,11 +603,10 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         charge, track = ends["charge"].to_numpy(float), ends["track"].to_numpy(np.int64)
         for at in rows_by_frame(times).values():  # one frame's births (or deaths) at a time, as arrays
             ip, ineg = _pair_ends(xy[at], charge[at], pair_distance, box)
-            parts.append(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], EVENT_KINDS.index(kind), box))
+            parts.append(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
             if include_unpaired:
                 alone = np.setdiff1d(np.arange(len(at)), np.r_[ip, ineg])
-                parts.append(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]],
-                                        EVENT_KINDS.index(lone)))
+                parts.append(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]], lone))
     if not sum(len(part[0]) for part in parts):
         return _empty_events(columns, time_column)
     cols = {c: np.concatenate([part[k] for part in parts]) for k, c in enumerate(columns)}

@@ -776,8 +776,7 @@ def _per_track(tracks, track, chosen, values=None):
     no entry (or only NaN values) is NaN.
     """
     at = np.searchsorted(tracks, track)
-    chosen = chosen & (at < len(tracks)) & (tracks[np.minimum(at, len(tracks) - 1)] == track) if len(tracks) \
-        else np.zeros(len(track), bool)
+    chosen = chosen & in_sorted(track, tracks)
     if values is None:
         return np.bincount(at[chosen], minlength=len(tracks)).astype(np.int64)
     chosen &= ~np.isnan(values)
