@@ -1,12 +1,16 @@
 """The neighbour graph of a frame (networkx), built from its edges table."""
 from __future__ import annotations
 
-import networkx as nx
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 
 from .errors import InputError
 from .frame import Frame
+
+if TYPE_CHECKING:  # networkx (~11 MB) is imported by neighbor_graph only: the analysis uses contact_table
+    import networkx as nx
 
 __all__ = ["neighbor_graph", "contact_table", "pair_groups"]
 
@@ -31,6 +35,8 @@ def neighbor_graph(frame: Frame, include_outside: bool = False) -> nx.Graph:
     """
     if not isinstance(frame, Frame):
         raise InputError(f"frame must be a hexatissue.Frame; got {type(frame).__name__}")
+    import networkx as nx
+
     graph = nx.Graph()
     cells = frame.cells
     graph.add_nodes_from((int(c), attrs) for c, attrs in zip(cells["cell"], cells.drop(columns="cell").to_dict("records")))

@@ -119,3 +119,17 @@ def test_help_lists_commands(capsys):
         main(["--help"])
     text = capsys.readouterr().out
     assert "analyze" in text and "hydro" in text
+
+
+def test_the_command_does_not_import_what_only_other_commands_use(tmp_path):
+    """``hexatissue analyze`` of an image never loads OpenCV, scipy.stats or networkx (~45 MB, 0.4 s a call)."""
+    import subprocess
+    import sys
+
+    labels = voronoi_labels(jittered_seeds((64, 64), 12.0, seed=1), (64, 64))
+    np.save(tmp_path / "labels.npy", labels.astype(np.int32))
+    code = ("import sys; from hexatissue.cli import main; "
+            f"rc = main(['analyze', {str(tmp_path / 'labels.npy')!r}, '--out', {str(tmp_path / 'out')!r}]); "
+            "print(rc, *sorted(m for m in ('cv2', 'scipy.stats', 'networkx') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split("\n")[-2] == "0", out

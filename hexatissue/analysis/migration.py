@@ -30,7 +30,6 @@ import warnings
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from ..box import Box
 from ..defects import defect_density
@@ -392,6 +391,7 @@ def migration_populations(table, seed=0) -> MigrationPopulations:
                           "wide one: one heavy-tailed population); no slow/fast split", HexatissueWarning, stacklevel=2)
     ok = np.isfinite(disp) & np.isfinite(out["defect_density"].to_numpy(float))
     if ok.sum() >= 3 and np.ptp(disp[ok]) > 0 and np.ptp(out["defect_density"].to_numpy(float)[ok]) > 0:
+        from scipy import stats  # here, not at the top: ~18 MB and 0.3 s that every CLI call paid
         rho, pval = stats.spearmanr(disp[ok], out["defect_density"].to_numpy(float)[ok])
     else:
         rho = pval = float("nan")

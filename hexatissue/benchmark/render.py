@@ -60,9 +60,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-import cv2
 import numpy as np
 import pandas as pd
+
+# cv2 is imported by the methods that draw: OpenCV loads ~17 MB of libraries, which every CLI call would
+# pay (the CLI builds RenderOptions' fields into its parser)
 
 from .._hashing import GOLDEN, mix64
 from ..errors import InputError, as_generator
@@ -390,6 +392,7 @@ class Renderer:
 
     def _membrane(self, t, width=None, aa=True):
         """Padded uint8 drawing of the junctions of frame ``t``: the junction intensity in units of 1 / _LEVEL."""
+        import cv2
         lines, level = self._junctions(t)
         canvas = self._canvas()
         if not len(lines):
@@ -407,6 +410,7 @@ class Renderer:
         return canvas
 
     def _pad_image(self, image):
+        import cv2
         border = cv2.BORDER_WRAP if self._period is not None else cv2.BORDER_REFLECT_101
         p = self._pad
         return cv2.copyMakeBorder(image, p, p, p, p, border)
@@ -416,6 +420,7 @@ class Renderer:
 
     def _optics(self, layer, dx=0.0, dy=0.0):
         """A padded layer blurred by the PSF and shifted by (dx, dy), cropped to the frame."""
+        import cv2
         o = self.options
         if not self._fourier:
             blurred = cv2.GaussianBlur(layer, (0, 0), o.psf_sigma) if o.psf_sigma > 0 else layer
@@ -442,6 +447,7 @@ class Renderer:
 
     def _calibrate(self):
         """Membrane amplitude giving the requested SNR on frame 0 (module docstring)."""
+        import cv2
         o = self.options
         cyto = self._optics(self._cytoplasm(0))
         drawn = self._optics(self._membrane(0).astype(np.float32) * np.float32(1.0 / _LEVEL))
@@ -462,6 +468,7 @@ class Renderer:
         return float(max(root, 0.0))
 
     def _nuclei(self, t):
+        import cv2
         o = self.options
         cells = self._cells.get(t, {"x": np.zeros(0), "y": np.zeros(0)})
         centres = np.c_[cells["x"], cells["y"]][:, None, :]
@@ -476,6 +483,7 @@ class Renderer:
     # -- frames --------------------------------------------------------------------------------------
     def clean(self, t):
         """Expected electrons of frame ``t`` before noise: ``(channels, rows, cols)`` float32."""
+        import cv2
         t = int(t)
         if not 0 <= t < len(self):
             raise InputError(f"frame {t} is not in the truth; it has frames 0..{len(self) - 1}")
