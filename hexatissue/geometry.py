@@ -219,8 +219,9 @@ def distinct_count(ids) -> int:
     ids = np.asarray(ids)
     if ids.size == 0:
         return 0
-    if ids.min() >= 0 and ids.max() <= 4 * ids.size + 1024:
-        seen = np.zeros(int(ids.max()) + 1, bool)
+    top = int(ids.max())
+    if ids.min() >= 0 and top <= 4 * ids.size + 1024:
+        seen = np.zeros(top + 1, bool)
         seen[ids] = True
         return int(np.count_nonzero(seen))
     return len(np.unique(ids))

@@ -361,8 +361,7 @@ def _events_summary(events, options, censor, n_frames):
 
 
 def _warn_frames_without_field(cells, grid, n_frames):
-    # frames with grid rows by a count per frame number (np.unique would sort a copy of the 1.5 M-row column)
-    missing = n_frames - np.count_nonzero(np.bincount(grid["frame"].to_numpy(np.int64))) if len(cells) else 0
+    missing = n_frames - distinct_count(grid["frame"].to_numpy()) if len(cells) else 0
     if missing:
         warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
                       f"or defects there", HexatissueWarning, stacklevel=3)

@@ -122,7 +122,7 @@ def test_help_lists_commands(capsys):
 
 
 def test_the_command_does_not_import_what_only_other_commands_use(tmp_path):
-    """``hexatissue analyze`` of an image never loads OpenCV, scipy.stats or networkx (~45 MB, 0.4 s a call)."""
+    """``hexatissue analyze`` of an image never loads OpenCV, scipy.stats or networkx (~50 MB, 0.4 s a call)."""
     import subprocess
     import sys
 
