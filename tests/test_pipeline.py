@@ -270,3 +270,15 @@ def test_tracks_are_attached_to_cells_in_any_row_order():
     pd.testing.assert_frame_equal(_with_tracks(shuffled, tracker).sort_values("area", ignore_index=True), ordered)
     with pytest.raises(AssertionError, match="missing"):
         _with_tracks(cells.assign(cell=cells["cell"] + 1000), tracker)
+
+
+def test_frames_without_a_field_are_counted_in_one_warning():
+    """A frame of one cell (no interior polygon) has no Gamma_p grid: the warning counts it, once, among three."""
+    from hexatissue import open_source
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    tissue = voronoi_labels(jittered_seeds((96, 96), 12.0, seed=1), (96, 96)).astype(np.int32)
+    with pytest.warns(HexatissueWarning, match=r"^1 of 3 frame\(s\) have no interior cell") as record:
+        movie = analyze(open_source(np.stack([tissue, np.ones_like(tissue), tissue])))
+    assert sum("have no interior cell" in str(w.message) for w in record) == 1
+    assert sorted(movie.grid["frame"].unique()) == [0, 2]
