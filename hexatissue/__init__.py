@@ -4,8 +4,7 @@ Conventions used everywhere: images are indexed ``[row, col]``; tables use
 ``x`` = column and ``y`` = row, in pixels, with the origin at the centre of
 pixel (0, 0).  Ids are columns, never the index.
 """
-from importlib.metadata import PackageNotFoundError, version as _version
-
+from ._version import __version__
 from .box import Box
 from .errors import HexatissueWarning, InputError
 from .units import Calibration
@@ -22,11 +21,6 @@ from .pipeline import analyze
 from .source import Source, open_source
 from .track import Tracker, lineage_table, track_labels
 from .theory import active_force, ell6, quadrupole_flow, quadrupole_psi
-
-try:
-    __version__ = _version("hexatissue")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.1.0"
 
 __all__ = [
     "Box",

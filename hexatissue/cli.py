@@ -12,9 +12,7 @@ from importlib import import_module
 from pathlib import Path
 
 from .errors import HexatissueWarning, InputError
-from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA
-from .order import CENTERS
-from .track import TRACK_MODES
+from .options import CENTERS, KINDS, OUTSIDE_RULES, POCKET_AREA, TRACK_MODES
 
 __all__ = ["main"]
 
@@ -215,7 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="hexatissue",
         description="Junction networks, T1 events, hexatic order and defects of epithelial tissues.",
     )
-    from . import __version__
+    from ._version import __version__
 
     parser.add_argument("--version", action="version", version=f"hexatissue {__version__}")
     parser.add_argument("--debug", action="store_true", help=DEBUG_HELP)

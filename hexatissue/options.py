@@ -12,13 +12,56 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
 
+import numpy as np
 
-from .errors import InputError, check_orders, is_real
-from .mesh.labels import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
-from .order import CENTERS, VALIDITY, _check_pair
-from .track import TRACK_MODES
+from .errors import InputError, check_orders, check_positive, is_real
 
 __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "OPTION_CLASSES"]
+
+# The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
+#: Label conventions of :func:`hexatissue.mesh_from_labels`.
+KINDS = ("auto", "touching", "membrane", "skeleton")
+#: Rules for a skeleton's outside region (see ``MeshOptions.outside``).
+OUTSIDE_RULES = ("auto", "none")
+POCKET_AREA = 16  # px: smaller 0-valued pockets in touching labels are holes (e.g. at triple junctions)
+#: Cell centres of the shape function (:func:`hexatissue.shape_order`).
+CENTERS = ("vertex_mean", "area_centroid")
+#: Node-validity rules of :func:`hexatissue.coarse_grain` (see its docstring and docs/order.md).
+VALIDITY = ("tissue", "occupied", "all")
+#: Tracking modes (see :class:`TrackOptions`).
+TRACK_MODES = ("auto", "always", "never", "off")
+
+
+def check_background(background, name="background"):
+    """Label ids that are outside, as a sorted tuple of non-negative ints."""
+    values = (background,) if np.isscalar(background) else background
+    try:
+        ids = tuple(values)
+    except TypeError:
+        raise InputError(f"{name} must be a sequence of label ids; got {background!r}") from None
+    for v in ids:
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 0:
+            raise InputError(f"{name} must hold non-negative integer label ids; got {v!r}")
+    return tuple(sorted({int(v) for v in ids}))
+
+
+def check_pair(value, name, integer):
+    """``origin`` (two finite numbers, px) or ``shape`` (two positive ints) as a tuple, or None."""
+    if value is None:
+        return None
+    try:
+        pair = tuple(value)
+    except TypeError:
+        pair = ()
+    what = "(rows, cols), two positive integers" if integer else "(x, y), two finite numbers in px"
+    if len(pair) != 2:
+        raise InputError(f"{name} must be {what}; got {value!r}")
+    if integer:
+        return tuple(check_positive(v, name, integer=True) for v in pair)
+    ok = all(not isinstance(v, bool) and np.isscalar(v) and np.isfinite(v) for v in pair)
+    if not ok:
+        raise InputError(f"{name} must be {what}; got {value!r}")
+    return float(pair[0]), float(pair[1])
 
 
 def _fail(cls, name, value, expected):
@@ -167,7 +210,7 @@ class OrderOptions(_Options):
         self._number("min_coverage", high=1.0)
         for name, integer in (("origin", False), ("shape", True)):
             try:
-                object.__setattr__(self, name, _check_pair(getattr(self, name), name, integer))
+                object.__setattr__(self, name, check_pair(getattr(self, name), name, integer))
             except InputError:
                 _fail(type(self), name, getattr(self, name),
                       "(rows, cols), two positive integers, or None" if integer

@@ -19,6 +19,7 @@ from ._shape_kernels import shape_sums
 from .box import as_box
 from .errors import InputError, check_orders, check_p, check_positive
 from .frame import Frame
+from .options import CENTERS, VALIDITY, check_pair
 from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
 from .schema import interior_mask, validate
 
@@ -32,7 +33,6 @@ __all__ = [
     "order_vs_radius",
 ]
 
-CENTERS = ("vertex_mean", "area_centroid")
 #: Polygons with area < DEGENERATE_AREA * (mean squared vertex radius) have no shape function (NaN).
 DEGENERATE_AREA = 1e-9
 
@@ -243,8 +243,6 @@ COVER_FACTOR = 1.5
 MAX_NODES = 1_000_000
 #: The tissue raster of an open image has a pitch of at most R_cell / RASTER_PER_RCELL.
 RASTER_PER_RCELL = 4
-#: Node-validity rules of :func:`coarse_grain` (see its docstring and docs/order.md).
-VALIDITY = ("tissue", "occupied", "all")
 
 
 def _check_length(value, name):
@@ -263,23 +261,6 @@ def _check_radii(value):
     return tuple(check_positive(v, "radius", unit="px") for v in values)
 
 
-def _check_pair(value, name, integer):
-    """``origin`` (two finite numbers, px) or ``shape`` (two positive ints) as a tuple, or None."""
-    if value is None:
-        return None
-    try:
-        pair = tuple(value)
-    except TypeError:
-        pair = ()
-    what = "(rows, cols), two positive integers" if integer else "(x, y), two finite numbers in px"
-    if len(pair) != 2:
-        raise InputError(f"{name} must be {what}; got {value!r}")
-    if integer:
-        return tuple(check_positive(v, name, integer=True) for v in pair)
-    ok = all(not isinstance(v, bool) and np.isscalar(v) and np.isfinite(v) for v in pair)
-    if not ok:
-        raise InputError(f"{name} must be {what}; got {value!r}")
-    return float(pair[0]), float(pair[1])
 
 
 def _check_validity(validity, min_coverage):
@@ -534,7 +515,7 @@ def _check_grid_options(cells, orders, spacing, box, min_coverage, r_cell, origi
     spacing, r_cell = _check_length(spacing, "spacing"), _check_length(r_cell, "r_cell")
     box = as_box(box)
     validity, min_coverage = _check_validity(validity, min_coverage)
-    origin, shape = _check_pair(origin, "origin", False), _check_pair(shape, "shape", True)
+    origin, shape = check_pair(origin, "origin", False), check_pair(shape, "shape", True)
     if box is not None and shape is not None:
         raise InputError(f"shape must be None in a periodic box (the grid tiles the box); got {shape!r}")
     _check_cells(cells, orders)

@@ -121,7 +121,7 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
         When no T1 event is an intercalation because every one that is not
         undone is ``unresolved`` (the censoring window covers them all).
     """
-    from . import __version__
+    from ._version import __version__
     from .source import open_source
 
     src = open_source(source)

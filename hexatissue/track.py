@@ -26,6 +26,7 @@ from scipy.optimize import linear_sum_assignment
 from ._components import components
 from .errors import InputError
 from .geometry import in_sorted
+from .options import TRACK_MODES
 from .mesh.labels import compact_labels, touches_outside, validate_labels
 from .schema import validate
 
@@ -724,7 +725,6 @@ class Tracker(_Feed):
 
 
 #: Tracking modes of :class:`MovieTracker` and :class:`hexatissue.TrackOptions`.
-TRACK_MODES = ("auto", "always", "never", "off")
 #: ``mode="auto"`` trusts the ids when at least this fraction of the linked cells keep their id (see :class:`MovieTracker`).
 ID_CONSISTENCY = 0.9
 

@@ -123,7 +123,7 @@ def make_benchmark(source, out, *, render=RenderOptions(), seed=0, crop=None, n_
     Path
         ``out``.
     """
-    from .. import __version__
+    from .._version import __version__
     from ..io import atomic_path, check_output_folder, write_table
     from ..progress import progress as bar
 

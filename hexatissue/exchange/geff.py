@@ -216,7 +216,7 @@ def write_geff(movie, out) -> list[Path]:
         (x = column, y = row), times in frames, scales from the Movie's
         calibration.
     """
-    from .. import __version__
+    from .._version import __version__
     from ..io import check_output_folder
 
     _need_geff()

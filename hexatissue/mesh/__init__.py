@@ -1,5 +1,6 @@
 """Label images -> junction network (vertices, junctions, ordered polygons)."""
-from .labels import KINDS, detect_kind, label_skeleton, normalize_labels
+from ..options import KINDS
+from .labels import detect_kind, label_skeleton, normalize_labels
 from .network import mesh_from_labels, warm_up
 
 __all__ = ["mesh_from_labels", "warm_up", "normalize_labels", "detect_kind", "label_skeleton", "KINDS"]

@@ -51,13 +51,11 @@ from scipy import ndimage
 
 from .._components import components
 from ..errors import InputError
+from ..options import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
 
-KINDS = ("auto", "touching", "membrane", "skeleton")
-OUTSIDE_RULES = ("auto", "none")
 OUTSIDE_FACTOR = 20  # a skeleton region touching the image edge and > 20 x the median region area is the outside
 SKELETON_MIN_AREA = 4  # px: smaller regions enclosed by skeleton lines are specks, not cells
-POCKET_AREA = 16  # px: smaller 0-valued pockets in touching labels are holes (e.g. at triple junctions)
 
 
 def validate_labels(labels, name="labels") -> np.ndarray:
@@ -216,17 +214,6 @@ def check_mask(mask, shape, name="mask"):
     return inside
 
 
-def check_background(background, name="background"):
-    """Label ids that are outside, as a sorted tuple of non-negative ints."""
-    values = (background,) if np.isscalar(background) else background
-    try:
-        ids = tuple(values)
-    except TypeError:
-        raise InputError(f"{name} must be a sequence of label ids; got {background!r}") from None
-    for v in ids:
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 0:
-            raise InputError(f"{name} must hold non-negative integer label ids; got {v!r}")
-    return tuple(sorted({int(v) for v in ids}))
 
 
 def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area=None, *, background=(),

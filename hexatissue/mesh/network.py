@@ -12,7 +12,8 @@ from ..frame import Frame
 from .._shape_kernels import shape_sums
 from ..schema import validate
 from . import _kernels as K
-from .labels import POCKET_AREA, check_mask, checked_labels, compact_labels, normalize_valid
+from ..options import POCKET_AREA
+from .labels import check_mask, checked_labels, compact_labels, normalize_valid
 
 __all__ = ["mesh_from_labels", "network_tables", "warm_up"]
 

@@ -10,7 +10,7 @@ from magicgui.widgets import ComboBox, Container, FloatSpinBox, Label, LineEdit,
 
 from ..errors import InputError
 from ..options import MeshOptions, OrderOptions, TrackOptions
-from ..track import TRACK_MODES
+from ..options import TRACK_MODES
 from .layers import movie_layers
 
 __all__ = ["AnalyzeWidget", "run_analysis"]

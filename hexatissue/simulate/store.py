@@ -45,7 +45,7 @@ PER_CELL = ("x", "y", "theta", "area")
 
 def _version() -> str:
     try:
-        from .. import __version__
+        from .._version import __version__
 
         return str(__version__)
     except Exception:  # the package root is owned elsewhere; never fail a run over a version string
