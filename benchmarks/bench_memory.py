@@ -106,6 +106,7 @@ import json, sys
 import hexatissue.cli as cli_mod
 import hexatissue.io as io_mod
 import hexatissue.pipeline as pipeline
+import hexatissue.stages as stages
 
 STAGES, OPEN = [], []
 
@@ -135,10 +136,13 @@ def wrapped(module, name, label=None):
             STAGES.append(rec)
     setattr(module, name, call)
 
-for name in ("_extract", "release_freed_memory", "_with_tracks", "lineage_table", "_tracking_summary", "t1_tables",
-             "cell_event_stats", "_events_summary", "_warn_frames_without_field", "_defect_tracks", "Movie"):
+for name in ("_extract", "release_freed_memory", "Movie"):
     wrapped(pipeline, name)
-wrapped(pipeline._Rows, "table", label=lambda args: "table " + str(args[1]))
+# the movie stages' helpers, looked up by name when the stages run
+for name in ("release_freed_memory", "_with_tracks", "lineage_table", "_tracking_summary", "t1_tables",
+             "cell_event_stats", "_events_summary", "_link_defects"):
+    wrapped(stages, name)
+wrapped(pipeline.Rows, "table", label=lambda args: "table " + str(args[1]))
 wrapped(cli_mod, "summary_line")
 wrapped(io_mod, "write_table", label=lambda args: "write " + str(args[1]).rsplit("/", 1)[-1])
 report = sys.argv[1]
@@ -337,7 +341,7 @@ def table_sizes(out: Path) -> dict:
     from hexatissue import read_results
 
     movie = read_results(out)
-    tables = movie.tables()
+    tables = movie.tables
     mem = {name: int(t.memory_usage(deep=True).sum()) for name, t in tables.items()}
     disk = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
     n_cell_frames = len(movie.cells)

@@ -114,15 +114,18 @@ def stage_track(path, n_frames):
 def stage_mesh(path, n_frames, box, tables_dir):
     import pandas as pd
 
-    from hexatissue.options import MeshOptions, OrderOptions
-    from hexatissue.pipeline import _frame_job
+    from hexatissue.options import OrderOptions
+    from hexatissue.stages import FrameData, frame_stages, run_frame, stage_options, worker_stages
 
     stack = RawStack(path)
     parts = {"cells": [], "edges": []}
-    mesh, order = MeshOptions(), OrderOptions(fields=False)  # mesh + gamma_p, as analyze does per frame
+    options = stage_options({"order": OrderOptions(fields=False)})  # mesh + gamma_p, as analyze does per frame
+    stages = worker_stages(frame_stages(options), options)
     t0 = time.perf_counter()
     for t in range(n_frames):
-        out, _, _ = _frame_job(np.asarray(stack[t]), t, box, mesh, order)  # network tables as numpy columns
+        frame = FrameData(t=t, box=box, labels=np.asarray(stack[t]))
+        run_frame(frame, stages)
+        out = frame.tables  # network tables as numpy columns
         parts["cells"].append(pd.DataFrame(out["cells"]))
         parts["edges"].append(pd.DataFrame(out["edges"]))
     elapsed = time.perf_counter() - t0

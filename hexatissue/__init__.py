@@ -8,7 +8,8 @@ from ._version import __version__
 from .box import Box
 from .errors import HexatissueWarning, InputError
 from .units import Calibration
-from .frame import Frame, Movie, read_results
+from .frame import Frame
+from .results import Movie, read_results
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
 from .graph import contact_table, neighbor_graph
 from .io import read_labels, read_table, write_table, write_tables

@@ -5,14 +5,16 @@ Run ``hexatissue --help`` or ``hexatissue SUBCOMMAND --help``.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
+from dataclasses import fields
 import time
 import warnings
 from importlib import import_module
 from pathlib import Path
 
 from .errors import HexatissueWarning, InputError
-from .options import CENTERS, KINDS, OUTSIDE_RULES, POCKET_AREA, TRACK_MODES
+from .options import OPTION_CLASSES
 
 __all__ = ["main"]
 
@@ -49,49 +51,9 @@ def _analyze_parser(sub):
     src.add_argument("--units", help="length unit of --pixel-size (default: from the file, else um)")
     src.add_argument("--frame-interval", type=float, help="time between frames (default: from the file)")
     src.add_argument("--time-unit", help="unit of --frame-interval, e.g. s, min, h (default: from the file, else min)")
-    src.add_argument("--intensity", metavar="FILE",
-                     help="a raw channel (e.g. E-cadherin) of the labels' shape: junction and cell intensities, "
-                          "junction polarity")
-    src.add_argument("--intensity-channel", type=int, help="channel of a multi-channel --intensity file")
-    mesh = p.add_argument_group("junction network")
-    mesh.add_argument("--kind", default="auto", choices=list(KINDS), help="label convention (default: detected)")
-    mesh.add_argument("--merge-distance", type=float, default=2.0,
-                      help="junctions shorter than this (px) become four-fold vertices (default: 2)")
-    mesh.add_argument("--membrane-width", type=int, default=3,
-                      help="0-valued junction pixels within this many px of a cell are shared out (default: 3)")
-    mesh.add_argument("--min-area", type=int, help="regions smaller than this (px) are membrane "
-                                                   "(default: 4 for skeletons, else 0)")
-    mesh.add_argument("--background", type=int, nargs="+", default=[], metavar="LABEL",
-                      help="label ids that are outside, like 0 (e.g. a rim label); their neighbours are border cells")
-    mesh.add_argument("--mask", metavar="FILE",
-                      help="region of interest: an image of the frames' shape, nonzero = inside; pixels outside are 0")
-    mesh.add_argument("--fill-holes", type=int, default=POCKET_AREA, metavar="AREA",
-                      help=f"0-valued pockets smaller than AREA px between cells are filled; 0 disables "
-                           f"(default: {POCKET_AREA})")
-    mesh.add_argument("--outside", default="auto", choices=list(OUTSIDE_RULES),
-                      help="auto: a skeleton region touching the image edge and > 20 x the median region area is "
-                           "outside, not a cell; none: keep it (default: auto)")
-    order = p.add_argument_group("shape order")
-    order.add_argument("--p", type=int, nargs="+", default=[6, 2], metavar="P",
-                       help="symmetry orders of gamma_p, Gamma_p and defects (default: 6 2)")
-    order.add_argument("--center", default="vertex_mean", choices=list(CENTERS),
-                       help="cell centre of the shape function (default: vertex_mean)")
-    order.add_argument("--no-fields", dest="fields", action="store_false",
-                       help="only gamma_p per cell: no coarse-grained field or defects")
-    order.add_argument("--radius", type=float, help="coarse-graining radius, px (default 1.5 R_cell)")
-    order.add_argument("--spacing", type=float, help="coarse-graining grid spacing, px (default R_cell)")
-    track = p.add_argument_group("tracking and T1 events")
-    track.add_argument("--track", default="auto", choices=list(TRACK_MODES),
-                       help="never: the label ids are the tracks (divisions still read from them); always: link "
-                            "cells by overlap; off: no tracking (unrelated images); auto (default): keep the ids "
-                            "when they are consistent over time (off for a folder of polygon files)")
-    track.add_argument("--max-gap", type=int, default=0,
-                       help="overlap tracking: link cells missing for up to this many frames (default: 0)")
-    track.add_argument("--min-length", type=float, default=0.0,
-                       help="contacts shorter than this (px) count as four-fold vertices in T1 detection (default: 0)")
-    track.add_argument("--censor", type=int,
-                       help="T1s within this many frames of the end are 'unresolved' "
-                            "(default: min(10, max(1, frames // 5)))")
+    src.add_argument("--mask", metavar="FILE",
+                     help="region of interest: an image of the frames' shape, nonzero = inside; pixels outside are 0")
+    add_stage_flags(p)
     run = p.add_argument_group("running")
     run.add_argument("--checkpoint", metavar="DIR", help="movies: save progress to DIR and resume from it when run again")
     run.add_argument("--workers", type=int, help="local processes for movies (default: all cores)")
@@ -99,7 +61,59 @@ def _analyze_parser(sub):
     run.add_argument("--figures", action="store_true", help="also write PNG figures to OUT/figures")
     run.add_argument("--format", nargs="+", default=["parquet"], choices=["parquet", "csv"],
                      help="table formats to write (default: parquet)")
-    p.set_defaults(func=_run_analyze)
+    p.set_defaults(func=_run_analyze, cli_text=flag_text)
+
+
+#: the type a flag parses, from its field's annotation (``int | None`` -> int)
+_ANNOTATION_TYPES = {"int": int, "float": float, "str": str, "bool": bool}
+
+
+def _annotation(f) -> str:
+    """A dataclass field's annotation as written (a string under ``from __future__ import annotations``)."""
+    return f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+
+
+def add_stage_flags(parser):
+    """A group of flags per stage's options class: one flag per field made with :func:`hexatissue.options.cli_field`.
+
+    The flag's destination is ``"<stage>.<field>"``; :func:`stage_options`
+    builds the options objects back from them.
+    """
+    for cls in OPTION_CLASSES.values():
+        group = None
+        for f in fields(cls):
+            if "flag" not in f.metadata:
+                continue
+            group = group or parser.add_argument_group(cls.title)
+            extra = dict(f.metadata["argparse"])
+            text = f.metadata["help"]
+            if extra.get("action") is None:
+                if "type" not in extra:
+                    extra["type"] = _ANNOTATION_TYPES[_annotation(f).split(" |")[0]]
+                if "choices" not in extra:
+                    extra.setdefault("metavar", f.metadata["flag"].lstrip("-").replace("-", "_").upper())
+                if f.default is not None and f.default != ():
+                    shown = " ".join(map(str, f.default)) if isinstance(f.default, tuple) else f.default
+                    text += f" (default: {shown})"
+            group.add_argument(f.metadata["flag"], dest=f"{cls.stage}.{f.name}", default=f.default, help=text,
+                               **extra)
+
+
+def flag_text(text: str) -> str:
+    """An error text of the library with ``SomeOptions.field`` replaced by the flag that sets it, where one does."""
+    flags = {f"{cls.__name__}.{f.name}": f.metadata["flag"] for cls in OPTION_CLASSES.values() for f in fields(cls)
+             if "flag" in f.metadata}
+    return re.sub(r"\b[A-Z]\w*Options\.\w+", lambda m: flags.get(m.group(0), m.group(0)), text)
+
+
+def stage_options(args) -> dict:
+    """The options object of every stage from the flags of :func:`add_stage_flags` (fields without a flag keep
+    their defaults)."""
+    out = {}
+    for name, cls in OPTION_CLASSES.items():
+        given = {f.name: getattr(args, f"{name}.{f.name}") for f in fields(cls) if "flag" in f.metadata}
+        out[name] = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
+    return out
 
 
 def open_cli_source(args):
@@ -115,33 +129,13 @@ def open_cli_source(args):
                                    frame_interval=args.frame_interval, time_unit=time_unit)
 
 
-def _intensity(args):
-    """The --intensity channel as a Source (None without the flag)."""
-    if args.intensity is None:
-        if args.intensity_channel is not None:
-            raise InputError("--intensity-channel needs --intensity FILE")
-        return None
-    from .source import open_source
-
-    return open_source(args.intensity, channel=args.intensity_channel)
-
-
 def _run_analyze(args) -> int:
-    from .frame import write_results
+    from .results import write_results
     from .io import check_output_folder
-    from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
     from .pipeline import analyze
 
     source = open_cli_source(args)
-    options = dict(
-        mesh=MeshOptions(kind=args.kind, merge_distance=args.merge_distance, membrane_width=args.membrane_width,
-                         min_area=args.min_area, background=tuple(args.background), fill_holes=args.fill_holes,
-                         outside=args.outside),
-        order=OrderOptions(p=tuple(args.p), center=args.center, fields=args.fields, radius=args.radius,
-                           spacing=args.spacing),
-        track=TrackOptions(mode=args.track, max_gap=args.max_gap),
-        events=EventOptions(min_length=args.min_length, censor=args.censor),
-    )
+    options = stage_options(args)
     check_output_folder(args.out, "--out")  # now, not after the whole computation
     if args.checkpoint is not None:
         check_output_folder(args.checkpoint, "--checkpoint")
@@ -149,7 +143,7 @@ def _run_analyze(args) -> int:
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
-                        checkpoint=args.checkpoint, mask=args.mask, intensity=_intensity(args), **options)
+                        checkpoint=args.checkpoint, mask=args.mask, **options)
     finally:
         if client is not None:
             client.close()
@@ -221,9 +215,17 @@ def build_parser() -> argparse.ArgumentParser:
     _analyze_parser(sub)
     for module in SUBCOMMAND_MODULES:
         import_module(module).add_parser(sub)
-    for subparser in sub.choices.values():  # also accepted after the subcommand
-        subparser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
+    _add_debug(sub)
     return parser
+
+
+def _add_debug(subparsers):
+    """``--debug`` also after every subcommand, and after the actions of a subcommand that has some."""
+    for subparser in subparsers.choices.values():
+        subparser.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
+        for action in subparser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                _add_debug(action)
 
 
 def _show_warning(command, translate):

@@ -10,13 +10,15 @@ frames.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields, replace
+import os
+from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
 from .errors import InputError, check_orders, check_positive, is_real
 
-__all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "OPTION_CLASSES"]
+__all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "OPTION_CLASSES",
+           "cli_field"]
 
 # The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
 #: Label conventions of :func:`hexatissue.mesh_from_labels`.
@@ -68,8 +70,43 @@ def _fail(cls, name, value, expected):
     raise InputError(f"{cls.__name__}.{name} must be {expected}; got {value!r}")
 
 
+def cli_field(default, flag, help, **argparse):
+    """A dataclass field that ``hexatissue analyze`` (and the napari widget) offer as ``flag``.
+
+    ``help`` is the text shown, without the default (added from ``default``);
+    ``argparse`` holds what the default does not say (``type`` when the
+    default is None or a tuple, ``metavar``, ``choices``, ``nargs``,
+    ``action="store_false"`` for a ``--no-...`` flag).
+    Fields made without it are options of the Python API only.
+    """
+    return field(default=default, metadata={"flag": flag, "help": help, "argparse": argparse})
+
+
+#: Options class of each stage, by the name used in ``metadata.json``, checkpoints and as the keyword of
+#: :func:`hexatissue.analyze`: every subclass of ``_Options`` declares it (``class X(_Options, stage="x")``).
+OPTION_CLASSES: dict[str, type] = {}
+
+
 class _Options:
-    """Shared behaviour: validation helpers, ``to_dict`` / ``from_dict`` for ``metadata.json``."""
+    """Shared behaviour: validation helpers, ``to_dict`` / ``from_dict`` for ``metadata.json``.
+
+    A subclass that is the options of a stage of :func:`hexatissue.analyze`
+    names it and the title of its group of command-line options:
+    ``class MeshOptions(_Options, stage="mesh", title="junction network")``.
+    """
+
+    stage: str = ""
+    title: str = ""
+
+    def __init_subclass__(cls, *, stage=None, title="", **kwargs):
+        super().__init_subclass__(**kwargs)
+        if stage is None:  # options of something that is not a stage of analyze (e.g. the benchmark's rendering)
+            return
+        if stage in OPTION_CLASSES:
+            raise TypeError(f"two options classes for stage {stage!r}: {OPTION_CLASSES[stage].__name__} and "
+                            f"{cls.__name__}")
+        cls.stage, cls.title = stage, title
+        OPTION_CLASSES[stage] = cls
 
     def _number(self, name, low=0.0, allow_none=False, integer=False, strict=False, high=None):
         value = getattr(self, name)
@@ -105,7 +142,7 @@ class _Options:
 
 
 @dataclass(frozen=True)
-class MeshOptions(_Options):
+class MeshOptions(_Options, stage="mesh", title="junction network"):
     """Junction network extraction (:func:`hexatissue.mesh_from_labels`).
 
     Parameters
@@ -130,13 +167,19 @@ class MeshOptions(_Options):
     A region-of-interest mask is per image: ``hexatissue.analyze(..., mask=)``.
     """
 
-    kind: str = "auto"
-    merge_distance: float = 2.0
-    membrane_width: int = 3
-    min_area: int | None = None
-    background: tuple = ()
-    fill_holes: int = POCKET_AREA
-    outside: str = "auto"
+    kind: str = cli_field("auto", "--kind", "label convention (default: detected)", choices=KINDS)
+    merge_distance: float = cli_field(2.0, "--merge-distance", "junctions shorter than this (px) become four-fold "
+                                      "vertices")
+    membrane_width: int = cli_field(3, "--membrane-width", "0-valued junction pixels within this many px of a "
+                                    "cell are shared out")
+    min_area: int | None = cli_field(None, "--min-area", "regions smaller than this (px) are membrane "
+                                     "(default: 4 for skeletons, else 0)")
+    background: tuple = cli_field((), "--background", "label ids that are outside, like 0 (e.g. a rim label); "
+                                  "their neighbours are border cells", nargs="+", type=int, metavar="LABEL")
+    fill_holes: int = cli_field(POCKET_AREA, "--fill-holes", "0-valued pockets smaller than AREA px between cells "
+                                "are filled; 0 disables", metavar="AREA")
+    outside: str = cli_field("auto", "--outside", "auto: a skeleton region touching the image edge and > 20 x the "
+                             "median region area is outside, not a cell; none: keep it", choices=OUTSIDE_RULES)
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -154,7 +197,7 @@ class MeshOptions(_Options):
 
 
 @dataclass(frozen=True)
-class OrderOptions(_Options):
+class OrderOptions(_Options, stage="order", title="shape order"):
     """Shape order: gamma_p per cell, the coarse-grained field Gamma_p and its defects.
 
     Parameters
@@ -184,11 +227,13 @@ class OrderOptions(_Options):
         tracked, px (default: 1.5 grid spacings).
     """
 
-    p: tuple = (6, 2)
-    center: str = "vertex_mean"
-    fields: bool = True
-    radius: float | None = None
-    spacing: float | None = None
+    p: tuple = cli_field((6, 2), "--p", "symmetry orders of gamma_p, Gamma_p and defects", nargs="+", type=int,
+                          metavar="P")
+    center: str = cli_field("vertex_mean", "--center", "cell centre of the shape function", choices=CENTERS)
+    fields: bool = cli_field(True, "--no-fields", "only gamma_p per cell: no coarse-grained field or defects",
+                             action="store_false")
+    radius: float | None = cli_field(None, "--radius", "coarse-graining radius, px (default 1.5 R_cell)")
+    spacing: float | None = cli_field(None, "--spacing", "coarse-graining grid spacing, px (default R_cell)")
     min_coverage: float = 1.0
     r_cell: float | None = None
     origin: tuple | None = None
@@ -222,7 +267,7 @@ class OrderOptions(_Options):
 
 
 @dataclass(frozen=True)
-class TrackOptions(_Options):
+class TrackOptions(_Options, stage="track", title="tracking"):
     """Cell tracking (:class:`hexatissue.track.MovieTracker`).
 
     Parameters
@@ -248,9 +293,12 @@ class TrackOptions(_Options):
         Division detection thresholds (see :func:`hexatissue.track.match_frames`).
     """
 
-    mode: str = "auto"
+    mode: str = cli_field("auto", "--track", "never: the label ids are the tracks (divisions still read from "
+                          "them); always: link cells by overlap; off: no tracking (unrelated images); auto: keep the "
+                          "ids when they are consistent over time (off for a folder of polygon files)",
+                          choices=TRACK_MODES)
     min_iou: float = 0.2
-    max_gap: int = 0
+    max_gap: int = cli_field(0, "--max-gap", "overlap tracking: link cells missing for up to this many frames")
     child_fraction: float = 0.6
     mother_fraction: float = 0.2
 
@@ -263,7 +311,7 @@ class TrackOptions(_Options):
 
 
 @dataclass(frozen=True)
-class EventOptions(_Options):
+class EventOptions(_Options, stage="events", title="T1 events"):
     """T1 detection and classification (:func:`hexatissue.detect_t1`).
 
     Parameters
@@ -277,16 +325,57 @@ class EventOptions(_Options):
         records the value used.
     """
 
-    min_length: float = 0.0
-    censor: int | None = None
+    min_length: float = cli_field(0.0, "--min-length", "contacts shorter than this (px) count as four-fold "
+                                  "vertices in T1 detection")
+    censor: int | None = cli_field(None, "--censor", "T1s within this many frames of the end are 'unresolved' "
+                                   "(default: min(10, max(1, frames // 5)))")
 
     def __post_init__(self):
         self._number("min_length")
         self._number("censor", integer=True, allow_none=True)
 
 
-#: Options of each stage, by the name used in ``metadata.json`` and :func:`hexatissue.analyze`.
-OPTION_CLASSES = {"mesh": MeshOptions, "order": OrderOptions, "track": TrackOptions, "events": EventOptions}
+@dataclass(frozen=True)
+class IntensityOptions(_Options, stage="intensity", title="raw channel intensities"):
+    """Intensities of a raw channel on the junction network (:func:`hexatissue.intensity.measure_intensity`).
+
+    Parameters
+    ----------
+    image : str, Path, array or Source, optional
+        The raw channel (e.g. E-cadherin, myosin), of the labels' shape, with
+        one frame per frame of the labels or one frame for all (read with
+        :func:`hexatissue.open_source`).  None (default): the stage does not run.
+        ``metadata.json`` records a path as given and other images by their
+        description (``source["intensity"]``).
+    channel : int, optional
+        Channel of a multi-channel ``image`` file (0-based).
+    step : float
+        Distance between samples along a junction, px.
+    """
+
+    image: object = cli_field(None, "--intensity", "a raw channel (e.g. E-cadherin) of the labels' shape: junction "
+                              "and cell intensities, junction polarity", type=str, metavar="FILE")
+    channel: int | None = cli_field(None, "--intensity-channel", "channel of a multi-channel --intensity file")
+    step: float = cli_field(0.5, "--intensity-step", "distance between samples along a junction, px")
+
+    def __post_init__(self):
+        self._number("channel", integer=True, allow_none=True)
+        self._number("step", strict=True)
+        if self.channel is not None and self.image is None:
+            raise InputError(f"IntensityOptions.channel selects a channel of IntensityOptions.image, which is not "
+                             f"given; got channel={self.channel!r}")
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the stage runs (an image is given)."""
+        return self.image is not None
+
+    def to_dict(self) -> dict:
+        """Plain dict for JSON; an image that is not a path is recorded as None (its description is in
+        ``source["intensity"]``)."""
+        image = self.image
+        return {"image": os.fspath(image) if isinstance(image, (str, os.PathLike)) else None, "channel": self.channel,
+                "step": self.step}
 
 
 def check_options(value, name):

@@ -18,7 +18,7 @@ from .errors import InputError
 
 __all__ = ["TABLES", "validate", "describe", "require_columns", "empty_table", "track_ids", "interior_mask"]
 
-# column -> (dtype kind: i integer, f float, b bool, O string/object, unit, meaning)
+#: Every table, in the order they are written: column -> (dtype kind: i integer, f float, b bool, O string/object, unit, meaning)
 TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     "cells": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -68,6 +68,40 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "image_x": ("i", "box", "periodic image of the vertex in the contiguous polygon, along x (0 on open images)"),
         "image_y": ("i", "box", "periodic image of the vertex in the contiguous polygon, along y"),
     },
+    "grid": {
+        "frame": ("i", "frame", "time point (0 for a single image)"),
+        "node": ("i", "", "grid node id"),
+        "x": ("f", "px", "node position, column"),
+        "y": ("f", "px", "node position, row"),
+        "Gamma{p}_re": ("f", "", "real part of the coarse-grained shape parameter"),
+        "Gamma{p}_im": ("f", "", "imaginary part of the coarse-grained shape parameter"),
+        "n_cells": ("i", "", "number of cells averaged"),
+        "row": ("i", "", "node index along y"),
+        "col": ("i", "", "node index along x"),
+        "coverage": ("f", "", "fraction of the disk on interior cells (1 in a periodic box)"),
+        "valid": ("b", "", "node used for statistics and defects"),
+        "radius": ("f", "px", "coarse-graining disk radius"),
+        "spacing": ("f", "px", "requested grid spacing"),
+    },
+    "defects": {
+        "frame": ("i", "frame", "time point (0 for a single image)"),
+        "defect": ("i", "", "defect id"),
+        "x": ("f", "px", "position, column"),
+        "y": ("f", "px", "position, row"),
+        "charge": ("f", "", "topological charge (multiple of 1/p)"),
+        "p": ("i", "", "symmetry order"),
+        "track": ("i", "", "defect track id, per p (movies: linked across frames by hexatissue.track_defects)"),
+    },
+    "defect_events": {
+        "frame": ("i", "frame", "creation: first frame the pair exists; annihilation: last frame it exists"),
+        "kind": ("O", "", "creation or annihilation (appearance / disappearance for unpaired defects)"),
+        "x": ("f", "px", "pair midpoint, column"),
+        "y": ("f", "px", "pair midpoint, row"),
+        "track_plus": ("i", "", "defect track of the positive partner (-1 when absent)"),
+        "track_minus": ("i", "", "defect track of the negative partner (-1 when absent)"),
+        "separation": ("f", "px", "distance between the partners (NaN when unpaired)"),
+        "p": ("i", "", "symmetry order"),
+    },
     "events": {
         "event": ("i", "", "event id"),
         "kind": ("O", "", "cycle, intercalation or unresolved"),
@@ -115,40 +149,6 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "mean_cycle_period": ("f", "frame", "mean duration of its T1 cycles"),
         "n_intervals": ("i", "", "intervals between consecutive intercalations"),
         "mean_intercalation_interval": ("f", "frame", "mean time between consecutive intercalations"),
-    },
-    "grid": {
-        "frame": ("i", "frame", "time point (0 for a single image)"),
-        "node": ("i", "", "grid node id"),
-        "x": ("f", "px", "node position, column"),
-        "y": ("f", "px", "node position, row"),
-        "Gamma{p}_re": ("f", "", "real part of the coarse-grained shape parameter"),
-        "Gamma{p}_im": ("f", "", "imaginary part of the coarse-grained shape parameter"),
-        "n_cells": ("i", "", "number of cells averaged"),
-        "row": ("i", "", "node index along y"),
-        "col": ("i", "", "node index along x"),
-        "coverage": ("f", "", "fraction of the disk on interior cells (1 in a periodic box)"),
-        "valid": ("b", "", "node used for statistics and defects"),
-        "radius": ("f", "px", "coarse-graining disk radius"),
-        "spacing": ("f", "px", "requested grid spacing"),
-    },
-    "defects": {
-        "frame": ("i", "frame", "time point (0 for a single image)"),
-        "defect": ("i", "", "defect id"),
-        "x": ("f", "px", "position, column"),
-        "y": ("f", "px", "position, row"),
-        "charge": ("f", "", "topological charge (multiple of 1/p)"),
-        "p": ("i", "", "symmetry order"),
-        "track": ("i", "", "defect track id, per p (movies: linked across frames by hexatissue.track_defects)"),
-    },
-    "defect_events": {
-        "frame": ("i", "frame", "creation: first frame the pair exists; annihilation: last frame it exists"),
-        "kind": ("O", "", "creation or annihilation (appearance / disappearance for unpaired defects)"),
-        "x": ("f", "px", "pair midpoint, column"),
-        "y": ("f", "px", "pair midpoint, row"),
-        "track_plus": ("i", "", "defect track of the positive partner (-1 when absent)"),
-        "track_minus": ("i", "", "defect track of the negative partner (-1 when absent)"),
-        "separation": ("f", "px", "distance between the partners (NaN when unpaired)"),
-        "p": ("i", "", "symmetry order"),
     },
 }
 

@@ -172,7 +172,7 @@ def test_truth_folder_reads_back_with_the_source_labels(run_truth, tmp_path):
     np.testing.assert_array_equal(run_truth.labels, np.asarray(read_run(RUN).labels[:3]))
     out = make_benchmark(RUN, tmp_path / "mpf", n_frames=3, **QUIET)
     movie = read_results(out / "truth")
-    for name, table in run_truth.movie.tables().items():
+    for name, table in run_truth.movie.tables.items():
         pd.testing.assert_frame_equal(getattr(movie, name), table, check_dtype=False)
     assert movie.box == run_truth.box and movie.calibration.time_unit == "iteration"
     np.testing.assert_array_equal(tifffile.imread(out / "truth" / "labels.tif"), run_truth.labels)

@@ -16,9 +16,9 @@ SAMPLE = str(Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notu
 def assert_same_results(cli_dir, api_dir):
     """Two results folders hold identical tables and the same metadata (bar the source path)."""
     a, b = ht.read_results(cli_dir), ht.read_results(api_dir)
-    assert set(a.tables()) == set(b.tables())
-    for name, table in a.tables().items():
-        pd.testing.assert_frame_equal(table, b.tables()[name], obj=name)
+    assert set(a.tables) == set(b.tables)
+    for name, table in a.tables.items():
+        pd.testing.assert_frame_equal(table, b.tables[name], obj=name)
     assert a.metadata() == b.metadata()
 
 

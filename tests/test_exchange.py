@@ -413,8 +413,8 @@ def test_two_level_ome_zarr_analyses_at_the_chosen_level(tmp_path):
     at_level = ht.analyze(ht.open_source(tmp_path / "v.zarr", level=1), workers=1, progress=False)
     direct = ht.analyze(half, workers=1, progress=False)
     assert at_level.shape == (80, 100) and at_level.calibration == ht.Calibration(0.5, "um")
-    for name, table in direct.tables().items():
-        pd.testing.assert_frame_equal(at_level.tables()[name], table, obj=name)
+    for name, table in direct.tables.items():
+        pd.testing.assert_frame_equal(at_level.tables[name], table, obj=name)
 
 
 def test_write_ome_zarr_labels_refuses_bad_input(tmp_path):

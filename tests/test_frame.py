@@ -7,7 +7,7 @@ import pytest
 
 from hexatissue import (Box, Calibration, EventOptions, InputError, Movie, OrderOptions, analyze, mesh_from_labels,
                         read_results)
-from hexatissue.frame import TABLES
+from hexatissue.schema import TABLES
 from hexatissue.synthetic import draw_membranes, jittered_seeds, voronoi_labels, voronoi_movie
 
 
@@ -24,9 +24,9 @@ def test_write_and_read_results_round_trip_every_table(movie, tmp_path, fmt):
     written = movie.write(tmp_path, formats=(fmt,))
     assert written[-1].name == "metadata.json"
     back = read_results(tmp_path)
-    assert set(back.tables()) == set(movie.tables()) == set(TABLES)
-    for name, table in movie.tables().items():
-        pd.testing.assert_frame_equal(back.tables()[name], table, check_dtype=(fmt == "parquet"), obj=name)
+    assert set(back.tables) == set(movie.tables) == set(TABLES)
+    for name, table in movie.tables.items():
+        pd.testing.assert_frame_equal(back.tables[name], table, check_dtype=(fmt == "parquet"), obj=name)
     assert back.metadata() == movie.metadata()
     assert back.box == Box(90, 70) and back.shape == (70, 90) and len(back) == 5
     assert back.calibration == Calibration(0.5, "um", 2.0, "min")
@@ -47,12 +47,12 @@ def test_metadata_json_records_box_units_options_and_source(movie, tmp_path):
 def test_every_table_has_a_frame_column_even_for_one_image():
     labels = voronoi_labels(jittered_seeds((60, 80), 14, seed=1), (60, 80))
     frame = mesh_from_labels(labels, frame=3)
-    for table in frame.tables().values():
+    for table in frame.tables.values():
         assert (table["frame"] == 3).all()
     single = analyze(labels, workers=1, progress=False)
     assert len(single) == 1
     for name in ("cells", "vertices", "edges", "cell_vertices", "grid", "defects"):
-        assert (single.tables()[name]["frame"] == 0).all(), name
+        assert (single.tables[name]["frame"] == 0).all(), name
     assert single.events.empty and (single.lineage["begin"] == "movie_start").all()
 
 
@@ -104,7 +104,7 @@ def test_membrane_and_skeleton_movies_are_tracked_on_the_mesh_labels():
 
 def test_write_results_releasing_tables_writes_the_same_files(movie, tmp_path):
     """``write_results(release=True)`` (the CLI's writer) writes the files of Movie.write and drops each table."""
-    from hexatissue.frame import write_results
+    from hexatissue.results import write_results
 
     kept = movie.write(tmp_path / "kept")
     copy = movie.replace()
@@ -112,4 +112,4 @@ def test_write_results_releasing_tables_writes_the_same_files(movie, tmp_path):
     assert sorted(p.name for p in released) == sorted(p.name for p in kept) and released[-1].name == "metadata.json"
     for path in kept:
         assert (tmp_path / "released" / path.name).read_bytes() == path.read_bytes(), path.name
-    assert copy.tables() == {} and set(movie.tables()) == set(TABLES)  # the original keeps its tables
+    assert copy.tables == {} and set(movie.tables) == set(TABLES)  # the original keeps its tables

@@ -1,6 +1,7 @@
 """The fast paths of the frame job give the tables of the plain paths, exactly.
 
-The frame job (``pipeline._frame_job``) returns the network tables as numpy
+The frame job (the frame stages of ``hexatissue.stages`` as a worker runs
+them, :func:`hexatissue.stages.run_frame`) returns the network tables as numpy
 columns and takes gamma_p from the polygons the mesh built; the plain path
 is ``mesh_from_labels`` then ``shape_order`` (polygons read from the tables'
 rows in the mesh's order, ``Frame.mesh_polygons``), and a network made of
@@ -23,11 +24,19 @@ from hexatissue.geometry import table_polygons
 from hexatissue.mesh import _reference as R
 from hexatissue.mesh import network as N
 from hexatissue.options import MeshOptions
-from hexatissue.pipeline import _frame_job
+from hexatissue.stages import FrameData, frame_stages, run_frame, stage_options, worker_stages
 from hexatissue.synthetic import voronoi_movie
 
 SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 TABLES = ("cells", "vertices", "edges", "cell_vertices")
+
+
+def _frame_job(labels, t, box, mesh, order, ids=(None, None)):
+    """``(tables, labels, warnings)`` of one frame, as a worker of ``analyze`` computes them."""
+    options = stage_options({"mesh": mesh, "order": order})
+    frame = FrameData(t=t, box=box, labels=labels, raw_ids=ids)
+    found = run_frame(frame, worker_stages(frame_stages(options), options))
+    return frame.tables, frame.labels, found
 
 
 def sample_labels():
@@ -70,7 +79,7 @@ def test_frame_job_given_the_ids_the_source_found_equals_the_job_without():
     frames, box = movie_frames(2)
     for labels, b, ids in [(labels, None, (lowest, top))] + [(f, box, (f.min(), f.max())) for f in frames]:
         options = (MeshOptions(), OrderOptions(fields=False))
-        given, _, _ = _frame_job(labels, 0, b, *options, None, None, (int(ids[0]), int(ids[1])))
+        given, _, _ = _frame_job(labels, 0, b, *options, ids=(int(ids[0]), int(ids[1])))
         found, _, _ = _frame_job(labels, 0, b, *options)
         for name in TABLES:
             pd.testing.assert_frame_equal(pd.DataFrame(given[name]), pd.DataFrame(found[name]), check_exact=True)
@@ -92,7 +101,7 @@ def test_mesh_polygons_equal_the_polygons_rebuilt_through_the_keys(case):
     np.testing.assert_array_equal(xy, xy_keys)
     np.testing.assert_array_equal(starts, starts_keys)
     np.testing.assert_array_equal(keys["cell"], frame.cells["cell"][frame.cells["n_sides"] > 0])
-    rebuilt = Frame(**frame.tables(), box=box, shape=frame.shape)  # as if read from files: no row order known
+    rebuilt = Frame(**frame.tables, box=box, shape=frame.shape)  # as if read from files: no row order known
     assert rebuilt.mesh_polygons() is None
     pd.testing.assert_frame_equal(shape_order(frame).cells, shape_order(rebuilt).cells, check_exact=True)
 
@@ -163,11 +172,11 @@ def test_network_from_reference_kernels_equals_network_from_kernels(monkeypatch)
 
 @pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
 def test_movie_rows_from_columns_equal_concatenated_tables():
-    """_Rows fed the frame job's columns gives pd.concat of the plain per-frame tables (and checks the schema)."""
-    from hexatissue.pipeline import _Rows
+    """Rows fed the frame job's columns gives pd.concat of the plain per-frame tables (and checks the schema)."""
+    from hexatissue._rows import Rows
 
     frames, box = movie_frames()
-    rows = {name: _Rows(len(frames)) for name in TABLES}
+    rows = {name: Rows(len(frames)) for name in TABLES}
     for t, labels in enumerate(frames):
         tables, _, _ = _frame_job(labels, t, box, MeshOptions(), OrderOptions(fields=False))
         for name in TABLES:

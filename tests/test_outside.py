@@ -12,7 +12,7 @@ import pytest
 from scipy import ndimage
 
 from hexatissue import Box, HexatissueWarning, InputError, MeshOptions, analyze, mesh_from_labels
-from hexatissue.frame import Movie
+from hexatissue.results import Movie
 from hexatissue.mesh.labels import OUTSIDE_FACTOR, normalize_labels
 from hexatissue.synthetic import draw_membranes, jittered_seeds, voronoi_labels
 
@@ -221,7 +221,7 @@ def test_analyze_with_mask_path_and_cli(tissue, tmp_path):
     import tifffile
 
     from hexatissue.cli import main
-    from hexatissue.frame import read_results
+    from hexatissue.results import read_results
 
     rim = int(tissue.max()) + 1
     labels = tissue.copy()

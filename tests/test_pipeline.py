@@ -78,8 +78,8 @@ def test_dask_client_gives_the_serial_result():
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         parallel = analyze_movie(stack, box=box, client=client)
-    for name, table in serial.tables().items():
-        pd.testing.assert_frame_equal(parallel.tables()[name], table)
+    for name, table in serial.tables.items():
+        pd.testing.assert_frame_equal(parallel.tables[name], table)
 
 
 def test_run_objects_skip_tracking_unless_forced():
@@ -198,8 +198,8 @@ def test_checkpoint_resume_gives_the_uninterrupted_result(tmp_path):
     assert sorted(p.name for p in tmp_path.glob("cells_*.parquet")) == ["cells_00000002.parquet",
                                                                          "cells_00000004.parquet"]
     resumed = analyze_movie(_FailingStack(stack, 1), workers=1, checkpoint=tmp_path, checkpoint_every=2)  # frames 0-3 come from the checkpoint and are not read again
-    for name, table in full.tables().items():
-        pd.testing.assert_frame_equal(resumed.tables()[name], table)
+    for name, table in full.tables.items():
+        pd.testing.assert_frame_equal(resumed.tables[name], table)
     with pytest.raises(InputError, match="other options"):
         analyze_movie(stack, workers=1, checkpoint=tmp_path, max_gap=3)
 
@@ -254,7 +254,7 @@ def test_a_tqdm_class_draws_the_progress_bar():
 
 def test_tracks_are_attached_to_cells_in_any_row_order():
     """The track of each cell row is the same whether the rows come in the tracker's order or shuffled."""
-    from hexatissue.pipeline import _with_tracks
+    from hexatissue.stages import _with_tracks
     from hexatissue.track import MovieTracker
 
     movie = np.stack([np.asarray(f) for f in voronoi_movie(20, (40, 48), 4, periodic=True, amplitude=0.3, seed=5)])

@@ -5,7 +5,6 @@ Every action registers itself with one function in :data:`SUBCOMMANDS`
 """
 from __future__ import annotations
 
-import argparse
 import re
 import time
 from dataclasses import MISSING, fields
@@ -113,11 +112,7 @@ def add_parser(subparsers):
     p = subparsers.add_parser("benchmark", help="synthetic benchmarks: rendered movies with exact truth",
                               description="Synthetic benchmarks for segmentation, tracking and T1 detection: "
                               "rendered microscopy with the exact answer beside it (docs/benchmark.md).")
-    from ..cli import DEBUG_HELP
-
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
     for add in SUBCOMMANDS:
         add(actions)
-    for action in actions.choices.values():  # --debug also after the action, as after every command
-        action.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
     return p

@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import HexatissueWarning, InputError, check_positive, user_stacklevel
-from ..frame import Movie, read_results
+from ..results import Movie, read_results
 from ..geometry import match_points
 from ..progress import progress
 from ..schema import interior_mask, track_ids

@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..box import Box
 from ..errors import InputError
-from ..frame import Movie
+from ..results import Movie
 from ..units import Calibration
 
 __all__ = ["Truth", "truth_from_labels", "truth_from_run", "truth_from_voronoi", "truth_from_t1", "crop_labels"]

@@ -38,7 +38,7 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1):
     and :func:`~hexatissue.exchange.omezarr.write_ome_zarr_labels`.
     """
     from ..errors import InputError
-    from ..frame import Movie, read_results
+    from ..results import Movie, read_results
 
     movie = results if isinstance(results, Movie) else read_results(results)
     if to not in FORMATS:

@@ -58,7 +58,7 @@ def _one(path) -> Path:
 def read_folder(path) -> list:
     """Layers of a results folder: labels (from the recorded source or ``labels.tif``), polygons, vertices,
     gamma6 stars, Gamma_p defects, T1 events and tracks (see :func:`hexatissue.napari.layers.movie_layers`)."""
-    from ..frame import read_results
+    from ..results import read_results
 
     folder = _one(path)
     movie = read_results(folder)

@@ -6,14 +6,35 @@ with a per-frame progress bar in napari's activity dock.
 """
 from __future__ import annotations
 
+from dataclasses import fields
+
 from magicgui.widgets import ComboBox, Container, FloatSpinBox, Label, LineEdit, PushButton, SpinBox, create_widget
 
 from ..errors import InputError
 from ..options import MeshOptions, OrderOptions, TrackOptions
-from ..options import TRACK_MODES
 from .layers import movie_layers
 
-__all__ = ["AnalyzeWidget", "run_analysis"]
+__all__ = ["AnalyzeWidget", "run_analysis", "option_widget"]
+
+
+def option_widget(options_class, field_name, *, name=None, label=None, **limits):
+    """A magicgui widget for one field of a stage's options class, as ``hexatissue analyze`` offers it.
+
+    Its choices, default and help (the tooltip) come from the field
+    (:func:`hexatissue.options.cli_field`); a field whose default is None
+    (chosen from the data) shows 0, which :meth:`AnalyzeWidget.start` reads
+    back as None.  ``limits``: ``min``, ``max``, ``step`` of a number.
+    """
+    f = {f.name: f for f in fields(options_class)}[field_name]
+    name = name or f"{options_class.stage}_{field_name}"
+    label = label or field_name.replace("_", " ")
+    tooltip = f.metadata.get("help")
+    choices = f.metadata.get("argparse", {}).get("choices")
+    if choices:
+        return ComboBox(choices=choices, value=f.default, name=name, label=label, tooltip=tooltip)
+    annotation = f.type if isinstance(f.type, str) else f.type.__name__
+    number = FloatSpinBox if annotation.startswith("float") else SpinBox
+    return number(value=0 if f.default is None else f.default, name=name, label=label, tooltip=tooltip, **limits)
 
 
 def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=2.0, pixel_size=None,
@@ -72,11 +93,13 @@ class AnalyzeWidget(Container):
         # children are reached by name (self.layer, self.p, ...), as magicgui containers do
         super().__init__(widgets=[
             create_widget(annotation=napari.layers.Labels, name="layer", label="labels"),
-            SpinBox(value=6, min=2, max=12, name="p", label="p"),
-            FloatSpinBox(value=0.0, min=0.0, max=1e4, step=1.0, name="radius", label="radius (px, 0 = auto)"),
-            ComboBox(choices=TRACK_MODES, value="auto", name="track_mode", label="track mode"),
-            FloatSpinBox(value=2.0, min=0.0, max=100.0, step=0.5, name="merge_distance",
-                         label="merge distance (px)"),
+            SpinBox(value=6, min=2, max=12, name="p", label="p", tooltip="symmetry order of gamma_p, Gamma_p "
+                    "and the defects"),
+            option_widget(OrderOptions, "radius", name="radius", label="radius (px, 0 = auto)", min=0.0, max=1e4,
+                          step=1.0),
+            option_widget(TrackOptions, "mode", name="track_mode", label="track mode"),
+            option_widget(MeshOptions, "merge_distance", name="merge_distance", label="merge distance (px)",
+                          min=0.0, max=100.0, step=0.5),
             FloatSpinBox(value=0.0, min=0.0, max=1e6, step=0.01, name="pixel_size", label="pixel size (0 = keep)"),
             LineEdit(value="um", name="length_unit", label="length unit"),
             PushButton(text="Analyze", name="run"),

@@ -38,7 +38,7 @@ def add_parser(subparsers):
 def _run(args) -> int:
     from pathlib import Path
 
-    from ..frame import read_results
+    from ..results import read_results
     from ..units import override_units
     from .report import report
 

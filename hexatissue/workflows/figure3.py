@@ -22,7 +22,7 @@ from ..analysis.proximity import compare_distances, t1_defect_proximity
 from ..analysis.timing import cell_timing, in_time_units, timing_across_runs
 from ..events import detect_t1, neighbour_events
 from ..errors import HexatissueWarning, InputError
-from ..frame import read_results
+from ..results import read_results
 from ..io import atomic_path, write_table
 
 __all__ = ["figure3", "loglog_slope", "DEFINITIONS", "events_at_spacing", "timing_vs_frame_spacing"]

@@ -19,7 +19,7 @@ from ..analysis.migration import DEFAULT_DL, PAPER_WINDOW_ITERATIONS, migration_
 from ..analysis.proximity import t1_defect_proximity
 from ..analysis.timing import cell_timing, in_time_units, timing_summary, timing_test
 from ..errors import HexatissueWarning, InputError
-from ..frame import Movie, read_results
+from ..results import Movie, read_results
 from ..io import atomic_path, write_table
 from .figures import shown_frames
 

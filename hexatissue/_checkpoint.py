@@ -1,0 +1,123 @@
+"""Checkpoints of a running analysis: the finished frames' tables and the tracker, saved every few frames."""
+from __future__ import annotations
+
+import json
+import os
+import pickle
+
+import pandas as pd
+
+from .errors import InputError, check_positive
+from .io import atomic_path, check_output_folder, read_table
+
+__all__ = ["Checkpoint"]
+
+
+class Checkpoint:
+    """Frame tables (``tables``, by name) and tracker state saved every ``every`` frames in ``directory``.
+
+    ``key`` (JSON-able) says what is analysed and how: a folder holding
+    another key is refused, not resumed.
+    """
+
+    def __init__(self, directory, key, every, tables):
+        self.tables = tuple(tables)
+        self.every = check_positive(every, "checkpoint_every", integer=True)
+        self.dir = check_output_folder(directory, "checkpoint")
+        self.key = json.loads(json.dumps(key))  # as it reads back from JSON
+        self.state_path = self.dir / "checkpoint.json"
+        self._lock = None
+
+    def lock(self):
+        """Take the folder's exclusive lock (``checkpoint.lock``, fcntl); InputError when another run holds it.
+
+        The lock is released by :meth:`unlock`, or by the OS when the
+        process ends.  Where fcntl is missing (Windows) nothing is locked.
+        """
+        try:
+            import fcntl
+        except ImportError:
+            return
+        self.dir.mkdir(parents=True, exist_ok=True)
+        handle = open(self.dir / "checkpoint.lock", "a+")
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            raise InputError(f"checkpoint folder {str(self.dir)!r} is in use by another running analysis "
+                             f"(its checkpoint.lock is held); wait for it to finish or use another folder") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"{os.getpid()}\n")
+        handle.flush()
+        self._lock = handle
+
+    def unlock(self):
+        """Release the lock taken by :meth:`lock`."""
+        if self._lock is not None:
+            self._lock.close()  # closing the file releases the flock
+            self._lock = None
+
+    def _damaged(self, what):
+        return InputError(f"checkpoint folder {str(self.dir)!r} is damaged ({what}); delete it (or use another "
+                          f"folder) to start again")
+
+    def due(self, start, n_frames):
+        """Frame counts after which a checkpoint is written."""
+        return set(range(start + self.every, n_frames + 1, self.every)) | {n_frames}
+
+    def _state(self):
+        if not self.state_path.exists():
+            return None
+        try:
+            state = json.loads(self.state_path.read_text())
+            if not (isinstance(state, dict) and {"key", "done", "files", "tracker"} <= set(state)
+                    and isinstance(state["files"], dict)):
+                raise ValueError("not a checkpoint state")
+        except (OSError, ValueError) as exc:
+            raise self._damaged(f"checkpoint.json cannot be read: {exc}") from None
+        return state
+
+    def load(self):
+        """(frames done, tables, tracker) from the last checkpoint, or (0, None, None)."""
+        state = self._state()
+        if state is None:
+            return 0, None, None
+        if state["key"] != self.key:
+            raise InputError(f"checkpoint folder {str(self.dir)!r} holds another movie or other options; "
+                             f"use a new folder or delete it")
+        try:
+            parts = {name: [read_table(self.dir / f) for f in state["files"].get(name, [])]
+                     for name in self.tables}
+        except InputError as exc:
+            raise self._damaged(str(exc)) from None
+        tracker = None
+        if state["tracker"]:
+            try:
+                tracker = pickle.loads((self.dir / state["tracker"]).read_bytes())
+            except Exception as exc:  # missing or truncated pickle
+                raise self._damaged(f"tracker state {state['tracker']!r}: {type(exc).__name__}: {exc}") from None
+        return int(state["done"]), parts, tracker
+
+    def save(self, done, new_parts, tracker_bytes):
+        """Add the tables of the frames finished since the last checkpoint and the tracker; ``done`` frames in all."""
+        state = self._state() or {"key": self.key, "done": 0, "files": {name: [] for name in self.tables},
+                                  "tracker": None}
+        for name, tables in new_parts.items():
+            if not tables:
+                continue
+            fname = f"{name}_{done:08d}.parquet"
+            with atomic_path(self.dir / fname) as tmp:
+                pd.concat(tables, ignore_index=True).to_parquet(tmp, index=False)
+            state["files"][name].append(fname)
+        if tracker_bytes is not None:
+            fname = f"tracker_{done:08d}.pkl"
+            with atomic_path(self.dir / fname) as tmp:
+                tmp.write_bytes(tracker_bytes)
+            if state["tracker"]:
+                (self.dir / state["tracker"]).unlink(missing_ok=True)
+            state["tracker"] = fname
+        state["done"] = int(done)
+        # the state file is written last: a crash before this line leaves the previous checkpoint valid
+        with atomic_path(self.state_path) as tmp:
+            tmp.write_text(json.dumps(state))

@@ -1,0 +1,328 @@
+"""A whole analysis (:class:`Movie`) and the folder it is saved in.
+
+A Movie holds its tables by name (``movie.tables["cells"]``, also
+``movie.cells``), each a table of :data:`hexatissue.schema.TABLES`, plus the
+metadata needed to read them: box, shape, number of frames, calibration,
+the options used, the source's description, the version and what the
+analysis decided (``summary``).  Every table has a ``frame`` column (0 for a
+single image) except the per-event and per-track ones.  Positions are in
+pixels, ``x`` = column and ``y`` = row, origin at the centre of pixel
+(0, 0); times in frames.  The physical units travel in
+:class:`~hexatissue.units.Calibration`.
+
+A results folder is a saved Movie: :func:`write_results` (:meth:`Movie.write`)
+and :func:`read_results` round-trip every table that has a schema, and
+``metadata.json``.  A table computed outside :func:`hexatissue.analyze`
+lives in the same folder once it has a schema entry.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ._system import release_freed_memory
+from .box import Box
+from .errors import InputError
+from .frame import MESH_TABLES, Frame, Tables
+from .io import atomic_path, check_output_folder, read_table, write_table
+from .options import OPTION_CLASSES
+from .schema import TABLES as SCHEMAS, coerce
+from .units import Calibration
+
+__all__ = ["Movie", "write_results", "read_results", "FORMATS", "METADATA"]
+
+FORMATS = ("parquet", "csv")
+METADATA = "metadata.json"
+#: Everything a Movie holds besides its tables, with its default.
+_ATTRIBUTES = {"box": None, "shape": (), "n_frames": 0, "calibration": None, "options": None, "source": None,
+               "version": "", "summary": None}
+
+
+def _check_table(name, table):
+    if name not in SCHEMAS:
+        raise InputError(f"a Movie holds tables that have a schema; {name!r} has none (tables: {list(SCHEMAS)}; "
+                         f"add an entry to hexatissue.schema.TABLES)")
+    if not isinstance(table, pd.DataFrame):
+        raise InputError(f"table {name!r} must be a pandas DataFrame; got {type(table).__name__}")
+    return table
+
+
+class Movie:
+    """Every table of an analysis, concatenated over frames, plus the metadata to read it.
+
+    Parameters
+    ----------
+    cells, vertices, edges, cell_vertices, ... : pandas.DataFrame or None
+        The tables, by their schema name (:data:`hexatissue.schema.TABLES`):
+        the junction networks (``cells``, ``vertices``, ``edges``,
+        ``cell_vertices``, required; ``cells`` has ``track`` and
+        ``gamma{p}`` columns after :func:`hexatissue.analyze`), ``grid``
+        (coarse-grained fields Gamma_p), ``defects`` (with defect
+        ``track``), ``defect_events`` (pair creation / annihilation),
+        ``events`` (T1 quartets), ``neighbour_events`` (the paper's per-cell
+        definition), ``lineage``, ``cell_events`` (per-cell T1 statistics),
+        and any other table with a schema.  None: the table is absent.
+    box : Box or None
+        Periodic box, or None for open images.
+    shape : tuple of int
+        ``(rows, cols)`` of the frames.
+    n_frames : int
+        Frames analysed (also those without cells); default: from ``cells``.
+    calibration : Calibration
+        Pixel size and frame interval with their units.
+    options : dict
+        The options objects used, by stage name (``mesh``, ``order``, ...).
+    source : dict
+        Description of the input (see :class:`hexatissue.Source`).
+    version : str
+        hexatissue version that produced the tables.
+    summary : dict
+        What :func:`hexatissue.analyze` decided from the data: ``tracking``
+        (mode requested and used, why, id consistency, rows whose track
+        differs from the cell id, divisions) and ``events`` (censoring
+        window used and its rule, events classified).
+
+    Attributes
+    ----------
+    tables : dict
+        The tables present, by name, in the schema's order.  Each is also an
+        attribute (``movie.cells``); a table with a schema that is absent
+        reads as None.
+    """
+
+    def __init__(self, cells, vertices, edges, cell_vertices, *, box=None, shape=(), n_frames=0, calibration=None,
+                 options=None, source=None, version="", summary=None, **tables):
+        given = dict(cells=cells, vertices=vertices, edges=edges, cell_vertices=cell_vertices, **tables)
+        object.__setattr__(self, "tables", Tables())
+        for name, table in given.items():
+            setattr(self, name, table)
+        self.box = box
+        self.shape = shape
+        self.calibration = Calibration() if calibration is None else calibration
+        self.options = {} if options is None else options
+        self.source = {} if source is None else source
+        self.version = version
+        self.summary = {} if summary is None else summary
+        if not n_frames:
+            n_frames = int(self.cells["frame"].max()) + 1 if len(self.cells) else 0
+        self.n_frames = n_frames
+
+    def __getattr__(self, name):
+        # only reached for names that are not ordinary attributes: the tables
+        if name in SCHEMAS:
+            return self.__dict__.get("tables", {}).get(name)
+        raise AttributeError(f"'Movie' object has no attribute {name!r}")
+
+    def __setattr__(self, name, value):
+        if name not in SCHEMAS:
+            object.__setattr__(self, name, value)
+            return
+        if value is None:
+            self.tables.pop(name, None)
+            return
+        self.tables[name] = _check_table(name, value)
+        order = {n: k for k, n in enumerate(SCHEMAS)}
+        if list(self.tables) != sorted(self.tables, key=order.get):
+            kept = sorted(self.tables.items(), key=lambda item: order[item[0]])
+            self.tables.clear()
+            self.tables.update(kept)
+
+    def __repr__(self):
+        shown = ", ".join(f"{name}: {len(table)} rows" for name, table in self.tables.items())
+        return f"Movie({self.n_frames} frames, {shown})"
+
+    def __getstate__(self):
+        return self.__dict__
+
+    def __setstate__(self, state):
+        object.__setattr__(self, "__dict__", state)
+
+    @classmethod
+    def from_frames(cls, frames) -> "Movie":
+        """Concatenate :class:`Frame` objects (their ``frame`` attribute is the frame index)."""
+        frames = list(frames)
+        if not frames:
+            raise InputError("frames must contain at least one Frame; got an empty sequence")
+        tables = {}
+        for name in MESH_TABLES:
+            parts = [getattr(f, name).assign(frame=np.int64(f.frame)) for f in frames]
+            tables[name] = pd.concat(parts, ignore_index=True)
+        first = frames[0]
+        n = max(int(f.frame) for f in frames) + 1
+        return cls(**tables, box=first.box, shape=first.shape, n_frames=n, calibration=first.calibration)
+
+    @property
+    def frames(self) -> np.ndarray:
+        """Sorted frame indices present in the cells table."""
+        return np.unique(self.cells["frame"].to_numpy())
+
+    def __len__(self) -> int:
+        return int(self.n_frames)
+
+    def frame(self, t: int) -> Frame:
+        """The :class:`Frame` at time point ``t`` (its four mesh tables; ``cells`` keeps every column)."""
+        if not 0 <= t < self.n_frames:
+            raise InputError(f"frame {t} is not in this movie; it has frames 0..{self.n_frames - 1}")
+        parts = {name: self.table_at(name, t) for name in MESH_TABLES}
+        return Frame(**parts, frame=int(t), box=self.box, shape=self.shape, calibration=self.calibration)
+
+    def table_at(self, name: str, t: int) -> pd.DataFrame:
+        """Rows of table ``name`` at frame ``t`` (index reset)."""
+        table = self.tables.get(name)
+        if table is None:
+            raise InputError(f"this movie has no {name!r} table; it has {sorted(self.tables)}")
+        return table[table["frame"].to_numpy() == t].reset_index(drop=True)
+
+    def polygons(self, t: int) -> dict[int, np.ndarray]:
+        """Cell polygons of frame ``t`` (see :meth:`Frame.polygons`)."""
+        return self.frame(t).polygons()
+
+    def replace(self, **changes) -> "Movie":
+        """A copy with some tables or attributes replaced (a table set to None is dropped)."""
+        unknown = set(changes) - set(SCHEMAS) - set(_ATTRIBUTES)
+        if unknown:
+            raise InputError(f"Movie has no table or attribute {sorted(unknown)}; tables: {list(SCHEMAS)}, "
+                             f"attributes: {list(_ATTRIBUTES)}")
+        kept = {name: getattr(self, name) for name in _ATTRIBUTES}
+        return Movie(**{**self.tables, **kept, **changes})
+
+    def metadata(self) -> dict:
+        """What ``metadata.json`` holds: box, shape, frames, calibration, options, summary, source, version."""
+        return {
+            "hexatissue_version": self.version,
+            "n_frames": int(self.n_frames),
+            "shape": [int(s) for s in self.shape],
+            "box": None if self.box is None else self.box.to_list(),
+            "calibration": self.calibration.to_dict(),
+            "options": {name: opts.to_dict() for name, opts in self.options.items()},
+            "summary": self.summary,
+            "source": self.source,
+            "tables": {name: int(len(table)) for name, table in self.tables.items()},
+        }
+
+    def write(self, directory, formats=("parquet",)) -> list[Path]:
+        """Write every table to ``directory/<table>.<fmt>`` and ``metadata.json`` (last); returns the paths.
+
+        See :func:`write_results`.
+        """
+        return write_results(self, directory, formats)
+
+
+def write_results(movie, directory, formats=("parquet",), release=False) -> list[Path]:
+    """Write every table of ``movie`` to ``directory/<table>.<fmt>`` and ``metadata.json`` (last).
+
+    Files are written to temporary names and renamed, so a folder is never
+    left with half a table; ``metadata.json`` is written last, so a folder
+    that has it is complete.  Rewriting an existing results folder first
+    removes its ``metadata.json`` (a write interrupted half-way leaves a
+    folder that :func:`read_results` refuses, never old and new tables
+    passing for one result), then the tables of this Movie are written
+    and the old tables it does not have are removed.
+
+    Parameters
+    ----------
+    movie : Movie
+    directory : str or Path
+    formats : str or sequence of {"parquet", "csv"}
+    release : bool
+        Drop each table from ``movie`` once written, smallest first: for a
+        caller that does not use the tables afterwards (``hexatissue
+        analyze``).  The Parquet writer's buffers then come on top of the
+        tables not yet written, not of all of them (the largest is written
+        last, when the others are freed).  The files are the same either way.
+
+    Returns
+    -------
+    list of Path
+        The files written, ``metadata.json`` last.
+    """
+    formats = tuple(formats) if isinstance(formats, (list, tuple)) else (formats,)
+    bad = [f for f in formats if f not in FORMATS]
+    if bad or not formats:
+        raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
+    directory = check_output_folder(directory, "directory")
+    meta = dict(movie.metadata(), formats=list(formats))  # before any table is released
+    (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
+    tables = dict(movie.tables)
+    names = sorted(tables, key=lambda n: int(tables[n].memory_usage().sum())) if release else list(tables)
+    written = []
+    for name in names:
+        if release:  # the previous table's pages (and what the caller freed last), before this table's buffers
+            release_freed_memory()
+        written += [write_table(tables[name], directory / f"{name}.{fmt}") for fmt in formats]
+        if release:
+            del tables[name]
+            setattr(movie, name, None)
+    for name in SCHEMAS:
+        for fmt in FORMATS:
+            stale = directory / f"{name}.{fmt}"
+            if stale not in written:
+                stale.unlink(missing_ok=True)
+    with atomic_path(directory / METADATA) as tmp:
+        tmp.write_text(json.dumps(meta, indent=2))
+    return written + [directory / METADATA]
+
+
+def read_results(directory) -> Movie:
+    """A results folder (:meth:`Movie.write`, ``hexatissue analyze``) read back as a :class:`Movie`.
+
+    Parameters
+    ----------
+    directory : str or Path
+        Folder holding ``metadata.json`` and the tables (Parquet preferred
+        over CSV when both exist).
+
+    Returns
+    -------
+    Movie
+        Every table found that has a schema, with box, shape, number of
+        frames, calibration, options, summary, source and version from
+        ``metadata.json``.
+    """
+    folder = Path(directory)
+    if not folder.is_dir():
+        raise InputError(f"results folder {str(folder)!r} does not exist or is not a folder; expected the output "
+                         f"of hexatissue analyze")
+    meta_path = folder / METADATA
+    if not meta_path.exists():
+        raise InputError(f"results folder {str(folder)!r} has no {METADATA}: it is not a complete hexatissue "
+                         f"results folder (analyze writes metadata.json last)")
+    try:
+        meta = json.loads(meta_path.read_text())
+        if not isinstance(meta, dict):
+            raise ValueError("not a JSON object")
+    except (OSError, ValueError) as exc:
+        raise InputError(f"results folder {str(folder)!r}: {METADATA} cannot be read ({exc}); the folder is "
+                         f"damaged: write it again") from None
+    tables = {}
+    for name in SCHEMAS:
+        for fmt in FORMATS:
+            path = folder / f"{name}.{fmt}"
+            if path.exists():
+                table = read_table(path)
+                tables[name] = coerce(table, name) if fmt == "csv" else table
+                break
+    # metadata.json is the manifest: every table it lists must be there, with the row count it gives
+    listed = meta.get("tables", {})
+    wrong = [name for name, rows in listed.items() if name in SCHEMAS
+             and (name not in tables or len(tables[name]) != int(rows))]
+    if wrong:
+        raise InputError(f"results folder {str(folder)!r} does not match its {METADATA}: table(s) {wrong} are "
+                         f"missing or have other row counts; the folder is damaged or was partly overwritten")
+    missing = [name for name in MESH_TABLES if name not in tables]
+    if missing:
+        raise InputError(f"results folder {str(folder)!r} is missing table(s) {missing}")
+    try:
+        options = {name: OPTION_CLASSES[name].from_dict(value) for name, value in meta.get("options", {}).items()}
+    except (InputError, KeyError) as exc:
+        raise InputError(f"results folder {str(folder)!r} was written by hexatissue "
+                         f"{meta.get('hexatissue_version', '?')} with options this version cannot read ({exc}); "
+                         f"analyse the data again") from None
+    return Movie(**tables, box=None if meta.get("box") is None else Box(*meta["box"]),
+                 shape=tuple(meta.get("shape", ())), n_frames=int(meta.get("n_frames", 0)),
+                 calibration=Calibration.from_dict(meta.get("calibration", {})), options=options,
+                 source=meta.get("source", {}), version=meta.get("hexatissue_version", ""),
+                 summary=meta.get("summary", {}))

@@ -1,0 +1,440 @@
+"""The list of analysis stages that :func:`hexatissue.analyze` runs, in order.
+
+Each :class:`Stage` names its options class (its keyword of ``analyze``, its
+entry in ``metadata.json`` and in checkpoints, its group of ``hexatissue
+analyze`` flags), the tables it reads and the tables or columns it writes,
+and the function that runs it:
+
+- **frame stages** run in a worker, once per frame, in list order, on a
+  :class:`FrameData` (the frame's labels and tables); what they write is
+  gathered into the movie's tables in frame order;
+- **movie stages** run once, in the main process, in list order, on a
+  :class:`MovieData` (every table of the movie) after the frames are done.
+
+Adding a stage: its module (the computation, with its ``_kernels`` and
+``_reference``), its options class (:mod:`hexatissue.options`), its tables or
+columns in :mod:`hexatissue.schema`, one entry in :data:`STAGES` with the
+small function that calls it, and tests.  The spine, the checkpoints, the
+command line and the napari widget take the rest from here.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from ._system import release_freed_memory
+from .defects import defect_events, find_defects, track_defects
+from .errors import HexatissueWarning, InputError, user_stacklevel
+from .events import cell_event_stats, default_censor, t1_tables
+from .geometry import distinct_count, row_keys
+from .intensity import measure_intensity
+from .mesh.labels import normalize_valid
+from .mesh.network import network_columns
+from .options import OPTION_CLASSES, EventOptions, IntensityOptions, MeshOptions, OrderOptions, TrackOptions
+from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
+from .polygons import polygon_network
+from .schema import TABLES as SCHEMAS, empty_table, interior_mask, rows_by_frame, validate
+from .track import lineage_table
+
+__all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
+           "worker_stages", "run_frame"]
+
+DEFECT_SPACINGS = 1.5  # default largest defect displacement between frames, in grid spacings
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One step of :func:`hexatissue.analyze`.
+
+    Attributes
+    ----------
+    name : str
+        What the stage is called in messages and docs.
+    options : type
+        Its options class; ``options.stage`` is the keyword of ``analyze``
+        that gives the options object (several stages may share one).
+    per : {"frame", "movie"}
+        Runs once per frame (in a worker) or once over the whole movie.
+    reads, writes : tuple of str
+        Tables (``"cells"``) or columns (``"cells.track"``) it reads and
+        writes; ``"labels"``, ``"polygons"`` and ``"image"`` are the frame's
+        normalised labels, its cell polygons and the stage's own image.
+    run : callable
+        ``run(data, options)`` with a :class:`FrameData` or a :class:`MovieData`.
+    enabled : callable, optional
+        ``enabled(options)``: whether the stage runs with these options
+        (None: always).
+    image : bool
+        The stage measures an image of its own (``options.image``, read
+        frame by frame like the labels).
+    """
+
+    name: str
+    options: type
+    per: str
+    reads: tuple
+    writes: tuple
+    run: Callable
+    enabled: Callable = field(default=None)
+    image: bool = False
+
+    def runs_with(self, options) -> bool:
+        """Whether the stage runs with these options (``enabled(options)``; always when ``enabled`` is None)."""
+        return self.enabled is None or bool(self.enabled(options))
+
+
+@dataclass
+class FrameData:
+    """One frame as the frame stages see it.
+
+    ``labels`` is the validated input frame until the mesh stage replaces it
+    by the touching labels its network was built from (which the tracker then
+    links); ``raw_ids`` are the smallest and largest id of the input frame
+    when known; ``cell_polygons`` is the frame of a polygon source;
+    ``polygons`` the ``(xy, starts)`` the mesh built for its cells with a
+    polygon, in the rows' order; ``images`` each image stage's frame by stage
+    options name; ``tables`` the frame's tables by name (DataFrames, or dicts
+    of numpy columns as the mesh returns them).
+    """
+
+    t: int
+    box: object = None
+    labels: np.ndarray | None = None
+    raw_ids: tuple = (None, None)
+    mask: np.ndarray | None = None
+    cell_polygons: object = None
+    images: dict = field(default_factory=dict)
+    membrane: np.ndarray | None = None
+    polygons: tuple | None = None
+    tables: dict = field(default_factory=dict)
+
+
+@dataclass
+class MovieData:
+    """The movie as the movie stages see it: its tables, and what they decide.
+
+    ``tables`` by name (stages add, replace and drop them); ``source`` the
+    opened :class:`~hexatissue.Source`; ``tracker`` the
+    :class:`~hexatissue.track.MovieTracker` that linked the frames;
+    ``options`` the options by stage name (a stage records what it resolved,
+    e.g. the tracking mode used); ``summary`` what the stages decided, by
+    stage name.
+    """
+
+    tables: dict
+    box: object
+    n_frames: int
+    source: object
+    tracker: object
+    options: dict
+    summary: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------
+# Frame stages
+# ----------------------------------------------------------------------------
+
+def _mesh(frame, options):
+    """Junction network of the frame's labels (or of its cell polygons)."""
+    if frame.cell_polygons is not None:
+        frame.tables = polygon_network(frame.cell_polygons, frame.t, where=f"frame {frame.t}")
+        frame.labels = frame.cell_polygons.cell  # the ids the tracker follows
+        return
+    raw = frame.labels
+    frame.labels, frame.membrane = normalize_valid(
+        raw, options.kind, frame.box is not None, options.membrane_width, options.min_area,
+        background=options.background, fill_holes=options.fill_holes, outside=options.outside, mask=frame.mask,
+        lowest=frame.raw_ids[0])
+    # the largest id is known while the labels are the ones checked
+    frame.tables, frame.polygons = network_columns(frame.labels, frame.membrane, frame.box, options.merge_distance,
+                                                   frame.t, frame.raw_ids[1] if frame.labels is raw else None)
+
+
+def _intensity(frame, options):
+    """Junction and cell intensities of the stage's image, and junction polarity."""
+    tables = {name: pd.DataFrame(frame.tables[name]) for name in ("cells", "vertices", "edges")}
+    cells, edges = measure_intensity(tables["cells"], tables["vertices"], tables["edges"], frame.labels,
+                                     frame.images["intensity"], frame.box, options.step)
+    frame.tables["cells"] = {c: cells[c].to_numpy() for c in cells.columns}
+    frame.tables["edges"] = {c: edges[c].to_numpy() for c in edges.columns}
+
+
+def _shape_order(frame, options):
+    """gamma_p of every cell with a polygon, from the polygons the mesh built (or from the tables)."""
+    cells = frame.tables["cells"]
+    if frame.polygons is not None:
+        cells.update(gamma_arrays(*frame.polygons, polygon_rows(cells["n_sides"] > 0), options.p, options.center))
+        return
+    frame.tables["cells"] = validate(gamma_columns(cells, frame.tables["vertices"], frame.tables["cell_vertices"],
+                                                   frame.box, options.p, options.center), "cells")
+
+
+def _fields(frame, options):
+    """The frame's coarse-grained fields Gamma_p and their defects, for every p."""
+    cells = validate(pd.DataFrame(frame.tables["cells"]), "cells")
+    usable = interior_mask(cells) & np.isfinite(cells[f"gamma{options.p[0]}_re"].to_numpy(float))
+    if not usable.any():
+        frame.tables.update(grid=empty_table("grid", options.p), defects=empty_table("defects"))
+        return
+    grid = coarse_grain(cells, p=options.p, radius=options.radius, spacing=options.spacing, box=frame.box,
+                        min_coverage=options.min_coverage, r_cell=options.r_cell, origin=options.origin,
+                        shape=options.shape, validity=options.validity)
+    frame.tables.update(grid=grid, defects=find_defects(grid, p=options.p, box=frame.box))
+
+
+# ----------------------------------------------------------------------------
+# Movie stages
+# ----------------------------------------------------------------------------
+
+def _tracks(movie, options):
+    """Each cell's ``track`` from the tracker, the lineage, and what tracking decided."""
+    tracker, src = movie.tracker, movie.source
+    cells = _with_tracks(movie.tables["cells"], tracker)
+    movie.tables["cells"] = cells
+    # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
+    keep_ids = src.parents is not None and tracker.decision()[0] == "never"
+    parents = src.parents if keep_ids else tracker.parents
+    movie.tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
+    movie.summary["tracking"] = _tracking_summary(tracker, cells, parents)
+    movie.options["track"] = options.replace(mode=movie.summary["tracking"]["resolved"])
+    movie.tracker = None  # its per-cell-frame ids are in cells now; the later stages need the memory
+
+
+def _with_tracks(cells, tracker):
+    """``cells`` with a ``track`` column after ``cell``, from the tracker's ``(frame, cell) -> track``."""
+    ids = tracker.tracks()
+    if all(np.array_equal(ids[c].to_numpy(), cells[c].to_numpy()) for c in ("frame", "cell")):
+        track = ids["track"].to_numpy(np.int64)  # the mesh's rows in the tracker's order (frame, id): no search
+    else:
+        track = _tracks_by_key(cells, ids)
+    del ids
+    cells = cells.drop(columns="track", errors="ignore")
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
+    return cells
+
+
+def _tracks_by_key(cells, ids):
+    """The ``track`` of each row of ``cells`` from the tracker's ``ids`` table (rows in any order)."""
+    # one sorted int64 key per (frame, cell), not a merge (which needs several times the column's memory)
+    keys = row_keys(ids["frame"].to_numpy(np.int64), ids["cell"].to_numpy(np.int64))
+    order = np.argsort(keys)
+    keys = keys[order]
+    wanted = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
+    pos = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+    # the tracker saw the mesh's own labels, once each: anything else is a bug, not bad input
+    if len(wanted) and (len(keys) == 0 or (keys[pos] != wanted).any() or (np.diff(keys) == 0).any()):
+        raise AssertionError("mesh cells missing from the tracker's labels, or seen twice")
+    return ids["track"].to_numpy(np.int64)[order[pos]]
+
+
+def _tracking_summary(tracker, cells, parents):
+    """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
+    out = tracker.summary()
+    ids, tracks = cells["cell"].to_numpy(), cells["track"].to_numpy()
+    out.update(rows_track_not_cell=int((tracks != ids).sum()), n_ids=distinct_count(ids),
+               n_tracks=distinct_count(tracks), n_divisions=len(set(parents.values())))
+    return out
+
+
+def _defect_tracks(movie, options):
+    """Defects linked over frames per p (``track``) and their pair events (``defect_events``).
+
+    When the frames are unrelated images (tracking ``off``) every frame is
+    tracked alone: each defect is its own track and there are no pair events.
+    """
+    tables, n_frames = movie.tables, movie.n_frames
+    cells, grid = tables["cells"], tables["grid"]
+    missing = n_frames - distinct_count(grid["frame"].to_numpy()) if len(cells) else 0
+    if missing:
+        warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
+                      f"or defects there", HexatissueWarning, stacklevel=user_stacklevel())
+    linked = movie.summary.get("tracking", {}).get("resolved") != "off"
+    _link_defects(tables, options, movie.box, n_frames, linked)
+
+
+def _link_defects(tables, order, box, n_frames, linked=True):
+    """Link ``tables["defects"]`` over frames per p (``track``); add their pair events as ``tables["defect_events"]``.
+
+    The tables come in a dict so that the untracked defects are freed column
+    by column as the tracked table is built (an argument would stay
+    referenced by the caller for the whole call); tracking reads a copy of
+    four columns of each p, not of the whole table.
+    """
+    defects, grid = tables.pop("defects"), tables["grid"]
+
+    groups = [np.arange(n_frames)] if linked else [np.array([t]) for t in range(n_frames)]
+    max_distance = order.defect_max_distance
+    if max_distance is None:
+        spacing = grid["spacing"].to_numpy(float)
+        max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
+        release_freed_memory()  # np.median's sorted copy of the grid column would stay resident under the tracking
+    p = defects["p"].to_numpy()
+    track = np.zeros(len(defects), np.int64)
+    pair_events = []
+    for q in order.p:
+        rows = np.flatnonzero(p == q)
+        # only the columns tracking reads, not a copy of the table per p
+        of_p = pd.DataFrame({c: defects[c].to_numpy()[rows] for c in ("frame", "x", "y", "charge")})
+        rows_of = None if linked else rows_by_frame(of_p["frame"].to_numpy())  # not one scan per frame
+        n_tracks = 0
+        for frames in groups:
+            at = slice(None) if linked else rows_of.get(int(frames[0]), np.zeros(0, np.int64))
+            t = track_defects(of_p if linked else of_p.iloc[at], max_distance, box=box, frames=frames)
+            t["track"] += n_tracks
+            n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
+            track[rows[at]] = t["track"].to_numpy()
+            pair_events.append(defect_events(t, max_distance, box=box, frames=frames).assign(p=np.int64(q)))
+            del t
+        del of_p, rows_of
+        release_freed_memory()  # tracking and pairing leave freed memory resident under the next p
+    # the rows of every p, by frame, p and defect (a stable sort), taken one column at a time from the
+    # table given away: at most one column more than the defects table in memory
+    rows = np.lexsort((defects["defect"].to_numpy(), p, defects["frame"].to_numpy()))
+    rows = rows[np.isin(p[rows], order.p)]
+    del p
+    columns = {c: defects.pop(c).to_numpy()[rows] for c in list(defects.columns) if c != "track"}
+    del defects
+    columns["track"] = track[rows]
+    pair_events = pd.concat(pair_events, ignore_index=True)
+    tables["defects"] = validate(pd.DataFrame(columns, copy=False), "defects")
+    tables["defect_events"] = validate(pair_events.astype({"frame": np.int64}), "defect_events")
+
+
+#: Warning when the censoring window leaves no T1 to count as an intercalation.
+NO_INTERCALATION = ("no T1 event is classified as an intercalation: every T1 that is not undone starts within the "
+                    "censoring window of the movie's end and is unresolved (see EventOptions.censor and "
+                    "movie.summary['events'])")
+
+
+def _t1_events(movie, options):
+    """Quartet T1s and per-cell neighbour changes from one pass over the contacts, classified."""
+    censor = default_censor(movie.n_frames) if options.censor is None else options.censor
+    tables = movie.tables
+    tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], tables["cells"], options.min_length,
+                                                             censor, movie.box)
+    movie.summary["events"] = _events_summary(tables["events"], options, censor, movie.n_frames)
+    movie.options["events"] = options.replace(censor=censor)
+
+
+def _events_summary(events, options, censor, n_frames):
+    """Censoring window used (and where it came from) and the number of events of each kind."""
+    counts = events["kind"].astype(str).value_counts()
+    n = {kind: int(counts.get(kind, 0)) for kind in ("cycle", "intercalation", "unresolved")}
+    if n["unresolved"] and not n["intercalation"]:
+        warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=user_stacklevel())
+    rule = "given" if options.censor is not None else "min(10, max(1, n_frames // 5))"
+    return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
+            "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
+            "n_classified": n["cycle"] + n["intercalation"]}
+
+
+def _cell_events(movie, options):
+    """Per-cell T1 statistics."""
+    movie.tables["cell_events"] = cell_event_stats(movie.tables["events"], movie.tables["cells"])
+
+
+def _fields_on(options):
+    return options.fields
+
+
+def _image_given(options):
+    return options.enabled
+
+
+#: Every stage of :func:`hexatissue.analyze`, in the order it runs (frame stages, then movie stages).
+STAGES = (
+    Stage("junction network", MeshOptions, "frame", reads=("labels",),
+          writes=("cells", "vertices", "edges", "cell_vertices", "labels", "polygons"), run=_mesh),
+    Stage("intensity", IntensityOptions, "frame", reads=("labels", "image", "cells", "vertices", "edges"),
+          writes=("cells.intensity_mean", "cells.junction_polarity_re", "cells.junction_polarity_im",
+                  "edges.intensity_mean", "edges.intensity_total"),
+          run=_intensity, enabled=_image_given, image=True),
+    Stage("shape order", OrderOptions, "frame", reads=("polygons", "cells"),
+          writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order),
+    Stage("order fields", OrderOptions, "frame", reads=("cells",), writes=("grid", "defects"), run=_fields,
+          enabled=_fields_on),
+    Stage("tracks", TrackOptions, "movie", reads=("cells",), writes=("cells.track", "lineage"), run=_tracks),
+    Stage("defect tracks", OrderOptions, "movie", reads=("cells", "grid", "defects"),
+          writes=("defects.track", "defect_events"), run=_defect_tracks, enabled=_fields_on),
+    Stage("T1 events", EventOptions, "movie", reads=("cells", "edges"), writes=("events", "neighbour_events"),
+          run=_t1_events),
+    Stage("cell events", EventOptions, "movie", reads=("events", "cells"), writes=("cell_events",),
+          run=_cell_events),
+)
+
+
+def stage_options(given) -> dict:
+    """The options of every stage by name: those ``given`` (checked), the defaults for the others.
+
+    ``given`` maps stage names to options objects (None: the defaults); for a
+    stage that measures an image (``intensity``), an image (path, array or
+    Source) stands for its options with that image.
+    """
+    unknown = sorted(set(given) - set(OPTION_CLASSES))
+    if unknown:
+        raise TypeError(f"analyze() got unexpected keyword argument(s) {unknown}; the stages' options are "
+                        f"{sorted(OPTION_CLASSES)}")
+    image_stages = {s.options.stage for s in STAGES if s.image}
+    options = {}
+    for name, cls in OPTION_CLASSES.items():
+        value = given.get(name)
+        if value is None:
+            value = cls()
+        elif name in image_stages and not isinstance(value, cls):
+            value = cls(image=value)  # an image stands for the stage's options with that image
+        if not isinstance(value, cls):
+            raise InputError(f"{name} must be a hexatissue.{cls.__name__}; got {type(value).__name__}")
+        options[name] = value
+    return options
+
+
+def _active(per, options):
+    return tuple(s for s in STAGES if s.per == per and s.runs_with(options[s.options.stage]))
+
+
+def frame_stages(options) -> tuple:
+    """The frame stages that run with ``options`` (by stage name), in order."""
+    return _active("frame", options)
+
+
+def movie_stages(options) -> tuple:
+    """The movie stages that run with ``options`` (by stage name), in order."""
+    return _active("movie", options)
+
+
+def frame_tables(stages) -> tuple:
+    """The tables (not columns) that the frame ``stages`` write."""
+    return tuple(name for s in stages for name in s.writes if name in SCHEMAS)
+
+
+def worker_stages(stages, options) -> tuple:
+    """``(run, options)`` of the frame ``stages`` as a worker runs them.
+
+    Only the stage's function goes to the worker (a module-level function,
+    pickled by name); an image stage's image is read in the main process and
+    sent frame by frame (:attr:`FrameData.images`), so its options go
+    without it.
+    """
+    out = []
+    for stage in stages:
+        given = options[stage.options.stage]
+        out.append((stage.run, replace(given, image=None, channel=None) if stage.image else given))
+    return tuple(out)
+
+
+def run_frame(frame, stages):
+    """Run the frame ``stages`` (``(run, options)`` pairs, :func:`worker_stages`) on ``frame``.
+
+    Returns the warnings they raised: caught here, in the worker, as
+    ``(category, text)`` pairs, so the main process reports them with their
+    frames.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for run, options in stages:
+            run(frame, options)
+    return [(w.category, str(w.message)) for w in caught]
