@@ -11,7 +11,7 @@ from .units import Calibration
 from .frame import Frame
 from .results import Movie, read_results
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
-from .graph import contact_table, neighbor_graph
+from .graph import contact_table, neighbor_graph, neighbour_graph
 from .io import read_labels, read_table, write_table, write_tables
 from .mesh import mesh_from_labels
 from .polygons import mesh_from_polygons
@@ -70,7 +70,7 @@ __all__ = [
     "quadrupole_flow",
     "ell6",
     "mesh_from_labels",
-    "neighbor_graph",
+    "neighbour_graph",
     "contact_table",
     "score",
     "__version__",

@@ -80,3 +80,22 @@ def user_stacklevel() -> int:
     while frame is not None and frame.f_code.co_filename.startswith(package):
         frame, level = frame.f_back, level + 1
     return level
+
+
+def deprecated_alias(func, old_name):
+    """``func`` under its old public name ``old_name``: it works as before and warns that it is deprecated.
+
+    Old spellings are kept this way for one release after a rename.
+    """
+    import functools
+    import warnings
+
+    @functools.wraps(func)
+    def alias(*args, **kwargs):
+        warnings.warn(f"{old_name} is deprecated and will be removed in the next release; use {func.__name__}",
+                      DeprecationWarning, stacklevel=2)
+        return func(*args, **kwargs)
+
+    alias.__name__ = alias.__qualname__ = old_name
+    alias.__doc__ = f"Deprecated spelling of :func:`{func.__name__}`."
+    return alias

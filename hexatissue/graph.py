@@ -6,16 +6,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from .errors import InputError, deprecated_alias
 from .frame import Frame
 
-if TYPE_CHECKING:  # networkx (~11 MB) is imported by neighbor_graph only: the analysis uses contact_table
+if TYPE_CHECKING:  # networkx (~11 MB) is imported by neighbour_graph only: the analysis uses contact_table
     import networkx as nx
 
-__all__ = ["neighbor_graph", "contact_table", "pair_groups"]
+__all__ = ["neighbour_graph", "contact_table", "pair_groups"]
 
 
-def neighbor_graph(frame: Frame, include_outside: bool = False) -> nx.Graph:
+def neighbour_graph(frame: Frame, include_outside: bool = False) -> nx.Graph:
     """Cells as nodes, shared junctions as edges.
 
     Parameters
@@ -49,6 +49,9 @@ def neighbor_graph(frame: Frame, include_outside: bool = False) -> nx.Graph:
     )
     return graph
 
+
+
+neighbor_graph = deprecated_alias(neighbour_graph, "neighbor_graph")  # the spelling of hexatissue 0.1
 
 def contact_table(edges: pd.DataFrame, include_outside: bool = False) -> pd.DataFrame:
     """Cell-cell contacts from an edges table (per frame when it has a ``frame`` column).

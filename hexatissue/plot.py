@@ -452,7 +452,7 @@ def plot_stress(cells, column, polygons, ax=None, path=None, cmap="RdBu_r", titl
     ----------
     cells : pandas.DataFrame
         Cells table with ``cell`` and the column ``column`` (e.g. the output
-        of :func:`hexatissue.order.cell_stress` stored as ``sigma6``).
+        of :func:`hexatissue.simulate.stress.cell_stress` stored as ``sigma6``).
     column : str
         Column to colour by; the colour scale is symmetric about zero.
     polygons : dict

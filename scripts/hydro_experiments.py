@@ -83,9 +83,9 @@ def quadrupole(a):
             summary[str(alpha)] = {"fate": "numerically unstable", "error": str(exc)}
             print(f"quadrupole alpha={alpha:+g}: {exc}", flush=True)
             continue
-        centre = ((a.n / 2 - 0.5),) * 2
+        center = ((a.n / 2 - 0.5),) * 2
         last = r.defects[r.defects["frame"] == r.defects["frame"].max()] if len(r.defects) else r.defects
-        far = float(np.hypot(last["x"] - centre[0], last["y"] - centre[1]).max()) if len(last) else 0.0
+        far = float(np.hypot(last["x"] - center[0], last["y"] - center[1]).max()) if len(last) else 0.0
         n_max = int(r.diagnostics["n_defects"].max())
         if n_max > 4:
             fate = "proliferated"  # activity creates new defects: bulk active instability
@@ -95,18 +95,18 @@ def quadrupole(a):
             fate = "split"
         else:
             fate = "undecided"
-        angles = departure_angle(r.defects, centre, 2 * a.ell) if fate == "split" else np.zeros(0)
+        angles = departure_angle(r.defects, center, 2 * a.ell) if fate == "split" else np.zeros(0)
         summary[str(alpha)] = {"fate": fate, "annihilation_time": r.annihilation_time,
                                "final_time": float(r.diagnostics["time"].iloc[-1]),
                                "departure_angles_deg": np.degrees(angles).round(1).tolist(),
                                "max_distance_from_centre": far, "max_defects": n_max}
         print(f"quadrupole alpha={alpha:+g}: {summary[str(alpha)]}", flush=True)
-        plot_quadrupole_tracks(r, centre, ax=ax, title=rf"$\alpha_6={alpha:+g}$: {fate}")
+        plot_quadrupole_tracks(r, center, ax=ax, title=rf"$\alpha_6={alpha:+g}$: {fate}")
         import zarr
 
         g = zarr.open_group(str(out), mode="r")
         k = min(g["field_time"].shape[0] - 1, max(1, g["field_time"].shape[0] // 2))
-        c = centre[0]
+        c = center[0]
         w = 6 * a.ell
         _snapshot(g, k, r, FIG / f"hydro_quadrupole_state_a{alpha:+g}{_scheme_tag(a)}.png", f"quadrupole, alpha6={alpha:+g}",
                   window=(c - w, c + w, c - w, c + w))

@@ -259,12 +259,12 @@ def test_rewriting_a_results_folder_removes_stale_tables(tmp_path):
 
 def test_interrupted_rewrite_leaves_no_manifest(tmp_path, monkeypatch):
     movie(1).write(tmp_path)
-    import hexatissue.io as io
+    import hexatissue.results as results
 
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(io, "write_table", boom)  # the first table written
+    monkeypatch.setattr(results, "write_table", boom)  # the first table written
     with pytest.raises(KeyboardInterrupt):
         movie(1).write(tmp_path)
     assert not (tmp_path / "metadata.json").exists()
@@ -494,7 +494,7 @@ CLI_CASES = {
     "0-frame stack": ("analyze {d}/empty.npy --out {d}/o3", "n_frames"),
     "--workers 0": ("analyze {d}/labels.npy --out {d}/o4 --workers 0", "workers"),
     "--p 0": ("analyze {d}/labels.npy --out {d}/o5 --p 0", "p must"),
-    "--merge-distance -1": ("analyze {d}/labels.npy --out {d}/o6 --merge-distance -1", "merge_distance"),
+    "--merge-distance -1": ("analyze {d}/labels.npy --out {d}/o6 --merge-distance -1", "--merge-distance must"),
     "--pixel-size -1": ("analyze {d}/labels.npy --out {d}/o7 --pixel-size -1", "pixel_size"),
     "--pixel-size nan": ("analyze {d}/labels.npy --out {d}/o8 --pixel-size nan", "pixel_size"),
     "--spacing 0.001": ("analyze {d}/labels.npy --out {d}/o9 --spacing 0.001", "spacing"),

@@ -18,7 +18,7 @@ from hexatissue.exchange.ctc import check_ctc, gap_links, read_ctc, write_ctc
 from hexatissue.exchange.geff import geff_tables, read_geff, write_geff
 from hexatissue.exchange.labels import track_masks
 from hexatissue.exchange.omezarr import downsample_labels, write_ome_zarr_labels
-from hexatissue.graph import neighbor_graph
+from hexatissue.graph import neighbour_graph
 from hexatissue.options import OrderOptions
 from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
@@ -230,10 +230,10 @@ def test_geff_neighbour_graph_of_the_squares_is_the_hand_made_one(squares, tmp_p
 
 
 def _expected_neighbour_graph(movie):
-    """Every frame's :func:`hexatissue.graph.neighbor_graph`, nodes keyed (frame, cell), plus |gamma|, angle."""
+    """Every frame's :func:`hexatissue.graph.neighbour_graph`, nodes keyed (frame, cell), plus |gamma|, angle."""
     whole = nx.Graph()
     for t in range(movie.n_frames):
-        g = neighbor_graph(movie.frame(t))
+        g = neighbour_graph(movie.frame(t))
         for c, attrs in g.nodes(data=True):
             attrs = dict(attrs, cell=c, frame=t)
             for p in (6, 2):

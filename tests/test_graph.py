@@ -3,7 +3,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hexatissue import contact_table, mesh_from_labels, neighbor_graph
+from hexatissue import contact_table, mesh_from_labels, neighbour_graph
 from hexatissue.synthetic import square_labels
 
 
@@ -25,7 +25,7 @@ def test_contact_table_equals_a_groupby(with_frame):
 
 def test_neighbour_graph_of_squares():
     f = mesh_from_labels(square_labels(4, 3, 6))
-    g = neighbor_graph(f)
+    g = neighbour_graph(f)
     assert g.number_of_nodes() == 12 and g.number_of_edges() == 17  # 3 x 3 + 4 x 2 shared sides
     assert g.edges[1, 2]["length"] == pytest.approx(6.0)
     assert g.nodes[6]["n_sides"] == 4 and not g.nodes[6]["is_border"]

@@ -210,12 +210,13 @@ def test_report_says_why_the_event_sections_are_empty(tmp_path):
 
 
 def test_cli_track_choices():
-    from hexatissue.cli import build_parser
+    from hexatissue.cli import build_parser, stage_options
 
     parser = build_parser()
-    args = parser.parse_args(["analyze", "in.tif", "--out", "o"])
-    assert args.track == "auto" and args.censor is None
-    assert parser.parse_args(["analyze", "in.tif", "--out", "o", "--track", "never"]).track == "never"
+    options = stage_options(parser.parse_args(["analyze", "in.tif", "--out", "o"]))
+    assert options["track"].mode == "auto" and options["events"].censor is None
+    args = parser.parse_args(["analyze", "in.tif", "--out", "o", "--track", "never"])
+    assert stage_options(args)["track"].mode == "never"
     for bad in (["--track", "yes"], ["--no-track"]):
         with pytest.raises(SystemExit):
             parser.parse_args(["analyze", "in.tif", "--out", "o", *bad])

@@ -130,13 +130,13 @@ def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None,
     -1/6 defects start at ``(c +- ell, c)``, +1/6 at ``(c, c +- ell)``,
     ``c = (n/2 - 1/2) dx``.  With ``steps=None`` the run stops when no defect
     is left (annihilation), when a defect gets farther than
-    ``split_distance`` (default ``6 ell``) from the centre (unbinding), or at
+    ``split_distance`` (default ``6 ell``) from the center (unbinding), or at
     ``max_time``.  Other parameters as in :func:`run_dipole`.
 
     Returns
     -------
     HydroResult
-        As :func:`run_dipole`; ``meta["centre"]`` is the quadrupole centre.
+        As :func:`run_dipole`; ``meta["centre"]`` is the quadrupole center.
         Use :func:`departure_angle` on ``.defects`` for the direction of the
         departing dipoles.
     """
@@ -156,11 +156,11 @@ def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None,
                 {"ell": ell, "disk": disk, "seed": str(seed), "orientation": float(orientation)})
 
 
-def departure_angle(defects, centre, min_distance):
-    """Direction in which defect pairs leave the centre.
+def departure_angle(defects, center, min_distance):
+    """Direction in which defect pairs leave the center.
 
     At the last frame, each +1/6 defect is paired with its nearest -1/6 defect;
-    the angle of every pair's midpoint seen from ``centre`` is returned for the
+    the angle of every pair's midpoint seen from ``center`` is returned for the
     pairs farther than ``min_distance``.
 
     Returns
@@ -175,6 +175,6 @@ def departure_angle(defects, centre, min_distance):
     if not len(plus) or not len(minus):
         return np.zeros(0)
     d = np.linalg.norm(plus[:, None] - minus[None], axis=2)
-    mid = (plus + minus[d.argmin(axis=1)]) / 2 - np.asarray(centre)
+    mid = (plus + minus[d.argmin(axis=1)]) / 2 - np.asarray(center)
     keep = np.hypot(mid[:, 0], mid[:, 1]) > min_distance
     return np.arctan2(mid[keep, 1], mid[keep, 0])

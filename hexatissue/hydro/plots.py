@@ -120,7 +120,7 @@ def plot_dipole_trajectories(results, path=None):
     return fig
 
 
-def plot_quadrupole_tracks(result, centre, ax=None, title=None):
+def plot_quadrupole_tracks(result, center, ax=None, title=None):
     """Defect trajectories of a quadrupole run (+1/6 red, -1/6 blue), start marked by circles."""
     plt = _plt()
     if ax is None:
@@ -131,11 +131,11 @@ def plot_quadrupole_tracks(result, centre, ax=None, title=None):
     for _, g in d.groupby("defect"):
         g = g.sort_values("time")
         colour = "red" if g["charge"].iloc[0] > 0 else "blue"
-        ax.plot(g["x"] - centre[0], g["y"] - centre[1], color=colour, lw=1)
-        ax.plot(g["x"].iloc[0] - centre[0], g["y"].iloc[0] - centre[1], "o", color=colour, ms=3)
+        ax.plot(g["x"] - center[0], g["y"] - center[1], color=colour, lw=1)
+        ax.plot(g["x"].iloc[0] - center[0], g["y"].iloc[0] - center[1], "o", color=colour, ms=3)
     ax.set_aspect("equal")
-    ax.set_xlabel("x - centre")
-    ax.set_ylabel("y - centre")
+    ax.set_xlabel("x - center")
+    ax.set_ylabel("y - center")
     if title:
         ax.set_title(title, fontsize=9)
     return fig
