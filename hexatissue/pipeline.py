@@ -37,7 +37,9 @@ from .events import cell_event_stats, default_censor, t1_tables
 from .frame import MESH_TABLES, Movie
 from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions, check_options
 from .geometry import distinct_count, row_keys
+from .mesh.labels import mesh_labels
 from .schema import empty_table, interior_mask, rows_by_frame, validate
+from .source import read_mask
 from .track import MovieTracker, lineage_table
 
 __all__ = ["analyze"]
@@ -171,42 +173,6 @@ def analyze(source, *, box=None, mesh=MeshOptions(), order=OrderOptions(), track
     return Movie(**tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
                  options=options, source=_described(src.description, mask_info, raw), version=__version__,
                  summary=summary)
-
-
-def read_mask(mask, shape):
-    """A region-of-interest mask as a bool array of ``shape`` and its description for ``metadata.json``.
-
-    Parameters
-    ----------
-    mask : None, array-like or path
-        2-D bool or integer image (nonzero = inside) or a path read with
-        :func:`hexatissue.open_source` (one frame).
-    shape : tuple of int
-        ``(rows, cols)`` of the frames.
-
-    Returns
-    -------
-    mask : (rows, cols) bool array or None
-    info : dict or None
-        ``path`` (None for an array), ``shape`` and ``inside`` (pixel count).
-    """
-    from .mesh.labels import check_mask
-    from .source import open_source
-
-    if mask is None:
-        return None, None
-    path = None
-    if isinstance(mask, (str, os.PathLike)):
-        path = str(mask)
-        try:
-            src = open_source(mask)
-            if src.n_frames != 1:
-                raise InputError(f"it must be one 2-D image; it has {src.n_frames} frames")
-            mask = src.frame(0)
-        except InputError as exc:
-            raise InputError(f"mask {path!r}: {exc}") from None
-    inside = check_mask(mask, shape)
-    return inside, {"path": path, "shape": list(inside.shape), "inside": int(inside.sum())}
 
 
 def _described(description, mask_info, raw):
@@ -423,22 +389,6 @@ def _defect_tracks(tables, order, box, n_frames, linked=True):
 # One frame: mesh and order stages (runs in a worker)
 # ----------------------------------------------------------------------------
 
-def mesh_labels(labels, box, mesh, mask=None, lowest=None):
-    """The touching labels the mesh (and the tracker) of :func:`analyze` use for one validated frame.
-
-    Returns ``(labels, membrane)``: the normalised labels and the pixels that
-    were membrane (see :func:`hexatissue.mesh.labels.normalize_labels`).
-    Exporters that must match the cells table (``hexatissue export --to ctc``)
-    call this with the options of the analysis.  ``lowest``: ``labels.min()``
-    if the caller knows it already.
-    """
-    from .mesh.labels import normalize_valid
-
-    return normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
-                           background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside, mask=mask,
-                           lowest=lowest)
-
-
 def _frame_job(labels, t, box, mesh, order, mask=None, image=None, ids=(None, None)):
     """Tables of one frame, its normalised labels (for the tracker) and its warnings.
 
@@ -483,7 +433,7 @@ def _frame_job(labels, t, box, mesh, order, mask=None, image=None, ids=(None, No
 def _polygon_job(polygons, t, order):
     """Tables of one frame of cell polygons, its cell ids (for the tracker) and its warnings."""
     from .order import gamma_columns
-    from .polygons import polygon_network
+    from .mesh.polygons import polygon_network
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
