@@ -10,16 +10,15 @@ from .errors import HexatissueWarning, InputError
 from .units import Calibration
 from .frame import Frame
 from .results import Movie, read_results
-from .options import EventOptions, MeshOptions, OrderOptions, TrackOptions
+from .options import EventOptions, IntensityOptions, MeshOptions, OrderOptions, TrackOptions
 from .graph import contact_table, neighbor_graph, neighbour_graph
-from .io import read_labels, read_table, write_table, write_tables
-from .mesh import mesh_from_labels
-from .polygons import mesh_from_polygons
+from .io import read_table, write_table, write_tables
+from .mesh import mesh_from_labels, mesh_from_polygons
 from .defects import defect_density, defect_events, find_defects, track_defects
 from .order import cell_radius, cells_from_polygons, coarse_grain, order_vs_radius, shape_function, shape_order
 from .events import cell_event_stats, detect_t1, intercalation_intervals
 from .pipeline import analyze
-from .source import Source, open_source
+from .source import Source, open_source, read_labels
 from .track import Tracker, lineage_table, track_labels
 from .theory import active_force, ell6, quadrupole_flow, quadrupole_psi
 
@@ -34,6 +33,7 @@ __all__ = [
     "OrderOptions",
     "TrackOptions",
     "EventOptions",
+    "IntensityOptions",
     "shape_order",
     "InputError",
     "HexatissueWarning",

@@ -1,8 +1,8 @@
-"""Reading label images and stacks; writing and reading tables.
+"""Files: writing and reading tables, atomic files and folders, OME-TIFF writing, zarr helpers.
 
-Label images are integer arrays indexed ``[row, col]`` (``[t, row, col]``
-for stacks) with 0 = background or membrane.  Tables are written atomically:
-to a temporary name in the same folder, then renamed.
+Tables are written atomically: to a temporary name in the same folder, then
+renamed.  Label images are read by :func:`hexatissue.open_source` and
+:func:`hexatissue.read_labels` (:mod:`hexatissue.source`).
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["read_labels", "write_table", "write_tables", "read_table", "atomic_path", "atomic_dir",
+__all__ = ["write_table", "write_tables", "read_table", "atomic_path", "atomic_dir",
            "check_output_folder", "check_zarr_chunks", "read_zarr", "write_tiff"]
 
 
@@ -26,53 +26,6 @@ def _current_umask() -> int:
 
 
 _UMASK = _current_umask()
-
-
-def read_labels(path, key: str | None = None, *, channel: int | None = None) -> np.ndarray:
-    """Read a 2-D label image or a T x Y x X label stack, whole (eager).
-
-    Built on the readers of :func:`hexatissue.open_source`, which reads the
-    same files lazily, one frame at a time, with their calibration.
-
-    Parameters
-    ----------
-    path : str or Path
-        ``.tif``/``.tiff`` (tifffile), ``.png``, ``.npy``, a Cellpose
-        ``*_seg.npy`` (its ``masks``), ``.npz`` (array ``key``, by default
-        ``labels`` or the only array in the file), or any other path
-        :func:`hexatissue.open_source` reads (zarr, OME-Zarr, a folder of
-        images, an MPF run store).
-    key : str, optional
-        Array name inside an ``.npz``, a Cellpose ``_seg.npy`` file or a zarr
-        group.
-    channel : int, optional
-        Index along the channel axis of a multi-channel file.
-
-    Returns
-    -------
-    numpy.ndarray
-        Indexed ``[row, col]``, or ``[t, row, col]`` when the data have a
-        frame axis.  RGB images with equal channels (skeletons saved as RGB)
-        are reduced to one channel; distinct colours become one integer per
-        colour (``R << 16 | G << 8 | B``, 16-bit ``R << 32 | G << 16 | B``), decided frame by frame.  Values are
-        as stored (not validated).
-
-    Raises
-    ------
-    InputError
-        The file is missing, has an unknown suffix or cannot be read, or has
-        several channels and no ``channel``.
-    """
-    from .source import open_source
-
-    if not isinstance(path, (str, os.PathLike)):
-        raise InputError(f"path must be a str or Path; got {type(path).__name__} (use hexatissue.open_source for "
-                         f"arrays)")
-    source = open_source(path, key=key, channel=channel)
-    frames = [source._raw(t) for t in range(source.n_frames)]
-    if source.description["frame_axis"] is None:
-        return frames[0]
-    return np.stack(frames)
 
 
 def atomic_path(path):

@@ -21,7 +21,6 @@ at the centre of pixel (0, 0); times in frames.
 """
 from __future__ import annotations
 
-import os
 import pickle
 import warnings
 from collections import deque
@@ -34,10 +33,9 @@ from ._system import release_freed_memory
 from ._version import __version__
 from .box import as_box
 from .errors import InputError, user_stacklevel
-from .mesh.labels import check_mask, normalize_valid
 from .progress import progress as progress_bar
 from .results import Movie
-from .source import open_source
+from .source import open_source, read_mask
 from .stages import (FrameData, MovieData, frame_stages, frame_tables, movie_stages, run_frame, stage_options,
                      worker_stages)
 from .track import MovieTracker, compact_frames
@@ -155,39 +153,6 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
                  summary=movie.summary)
 
 
-def read_mask(mask, shape):
-    """A region-of-interest mask as a bool array of ``shape`` and its description for ``metadata.json``.
-
-    Parameters
-    ----------
-    mask : None, array-like or path
-        2-D bool or integer image (nonzero = inside) or a path read with
-        :func:`hexatissue.open_source` (one frame).
-    shape : tuple of int
-        ``(rows, cols)`` of the frames.
-
-    Returns
-    -------
-    mask : (rows, cols) bool array or None
-    info : dict or None
-        ``path`` (None for an array), ``shape`` and ``inside`` (pixel count).
-    """
-    if mask is None:
-        return None, None
-    path = None
-    if isinstance(mask, (str, os.PathLike)):
-        path = str(mask)
-        try:
-            src = open_source(mask)
-            if src.n_frames != 1:
-                raise InputError(f"it must be one 2-D image; it has {src.n_frames} frames")
-            mask = src.frame(0)
-        except InputError as exc:
-            raise InputError(f"mask {path!r}: {exc}") from None
-    inside = check_mask(mask, shape)
-    return inside, {"path": path, "shape": list(inside.shape), "inside": int(inside.sum())}
-
-
 def _described(description, mask_info, images):
     """The source's description with the mask and the images of the image stages."""
     out = dict(description)
@@ -239,20 +204,6 @@ class _FrameWarnings:
                                                               else "")
             warnings.warn(f"frame{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
                           stacklevel=user_stacklevel())
-
-
-def mesh_labels(labels, box, mesh, mask=None, lowest=None):
-    """The touching labels the mesh (and the tracker) of :func:`analyze` use for one validated frame.
-
-    Returns ``(labels, membrane)``: the normalised labels and the pixels that
-    were membrane (see :func:`hexatissue.mesh.labels.normalize_labels`).
-    Exporters that must match the cells table (``hexatissue export --to ctc``)
-    call this with the options of the analysis.  ``lowest``: ``labels.min()``
-    if the caller knows it already.
-    """
-    return normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
-                           background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside, mask=mask,
-                           lowest=lowest)
 
 
 def _batch_job(batch, stages, pixels):

@@ -32,11 +32,11 @@ from .errors import HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, t1_tables
 from .geometry import distinct_count, row_keys
 from .intensity import measure_intensity
-from .mesh.labels import normalize_valid
+from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
+from .mesh.polygons import polygon_network
 from .options import OPTION_CLASSES, EventOptions, IntensityOptions, MeshOptions, OrderOptions, TrackOptions
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
-from .polygons import polygon_network
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, rows_by_frame, validate
 from .track import lineage_table
 
@@ -145,10 +145,7 @@ def _mesh(frame, options):
         frame.labels = frame.cell_polygons.cell  # the ids the tracker follows
         return
     raw = frame.labels
-    frame.labels, frame.membrane = normalize_valid(
-        raw, options.kind, frame.box is not None, options.membrane_width, options.min_area,
-        background=options.background, fill_holes=options.fill_holes, outside=options.outside, mask=frame.mask,
-        lowest=frame.raw_ids[0])
+    frame.labels, frame.membrane = mesh_labels(raw, frame.box, options, frame.mask, frame.raw_ids[0])
     # the largest id is known while the labels are the ones checked
     frame.tables, frame.polygons = network_columns(frame.labels, frame.membrane, frame.box, options.merge_distance,
                                                    frame.t, frame.raw_ids[1] if frame.labels is raw else None)

@@ -14,12 +14,13 @@ import tifffile
 import hexatissue as ht
 from hexatissue.cli import main
 from hexatissue.errors import InputError
-from hexatissue.exchange.ctc import check_ctc, gap_links, read_ctc, write_ctc
+from hexatissue.exchange.ctc import check_ctc, read_ctc, write_ctc
 from hexatissue.exchange.geff import geff_tables, read_geff, write_geff
 from hexatissue.exchange.labels import track_masks
 from hexatissue.exchange.omezarr import downsample_labels, write_ome_zarr_labels
 from hexatissue.graph import neighbour_graph
 from hexatissue.options import OrderOptions
+from hexatissue.readers.ctc import gap_links
 from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
 from .conftest import real_subdir
@@ -395,7 +396,7 @@ def test_ome_zarr_label_stack_reads_back_identical(tmp_path, dtype):
     cal = ht.Calibration(0.5, "um", 2.0, "min")
     path = write_ome_zarr_labels(stack, tmp_path / "s.zarr", calibration=cal, levels=3, chunks=(1, 16, 16))
     source = ht.open_source(path)
-    back = np.stack([source._raw(t) for t in range(4)])
+    back = np.stack([source.raw_frame(t) for t in range(4)])
     assert back.dtype == stack.dtype
     np.testing.assert_array_equal(back, stack)
     assert source.calibration == cal

@@ -11,7 +11,8 @@ from hexatissue import EventOptions, HexatissueWarning, InputError, analyze, mes
 from hexatissue.cli import main
 from hexatissue.graph import neighbor_graph
 from hexatissue.order import shape_function
-from hexatissue.polygons import mesh_from_polygons, polygon_network, read_tissue_analyzer
+from hexatissue.mesh.polygons import mesh_from_polygons, polygon_network
+from hexatissue.readers.polygons import read_tissue_analyzer
 from hexatissue.synthetic import (jittered_seeds, t1_movie, voronoi_labels, voronoi_polygons, voronoi_truth)
 
 from .conftest import mdck_published_gamma, real_subdir

@@ -107,7 +107,7 @@ class _Labels:
 
     def __init__(self, source, movie):
         from ..options import MeshOptions
-        from ..pipeline import read_mask
+        from ..source import read_mask
 
         self.source, self.mesh, self.box = source, movie.options.get("mesh", MeshOptions()), movie.box
         mask = movie.source.get("mask") if isinstance(movie.source, dict) else None
@@ -118,7 +118,7 @@ class _Labels:
                           "missed)", HexatissueWarning, stacklevel=user_stacklevel())
 
     def __call__(self, t) -> np.ndarray:
-        from ..pipeline import mesh_labels
+        from ..mesh.labels import mesh_labels
 
         return mesh_labels(self.source.frame(t), self.box, self.mesh, self.mask)[0]  # as the analysis saw them
 

@@ -14,33 +14,31 @@ Two layouts hold the same content:
 ``TTT`` is the frame index with 3 digits (4 when there are more than 1000
 frames).  The format has no gaps: an object missing for some frames and
 coming back is a new track whose parent is the part before the gap.
-:func:`write_ctc` splits tracks that way, and :func:`gap_links` tells the
-continuations apart from divisions when reading (a parent with one child is
-the same cell after a gap; a parent with two or more children divided).
+:func:`write_ctc` splits tracks that way, and
+:func:`hexatissue.readers.ctc.gap_links` tells the continuations apart from
+divisions when reading (a parent with one child is the same cell after a
+gap; a parent with two or more children divided).
+
+Reading a CTC folder as a tracked movie (:func:`hexatissue.open_source`) is
+:mod:`hexatissue.readers.ctc`; this module writes the format and checks a
+folder against it.
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..mesh.labels import relabel
+from ..readers.ctc import RESULT, TRUTH, ctc_layout, mask_digits, mask_files, numbered_masks, read_track_file
 from ..schema import require_columns
-from .labels import relabel
 
-__all__ = ["write_ctc", "check_ctc", "read_ctc", "gap_links", "is_ctc_folder", "CtcReader", "MAX_ID"]
+__all__ = ["write_ctc", "check_ctc", "read_ctc", "MAX_ID"]
 
 MAX_ID = 2**16 - 1  # CTC masks are 16-bit
-RESULT = ("mask", "res_track.txt")
-TRUTH = ("man_track", "man_track.txt")
-TRACK_COLUMNS = ("track", "frame_start", "frame_end", "parent")
 MAX_LISTED = 50  # violations spelled out by check_ctc before it only counts the rest
-
-
-def _digits(n_frames: int) -> int:
-    return 4 if n_frames > 1000 else 3
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -180,7 +178,7 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
     prefix, track_name = TRUTH if truth else RESULT
     folder = check_output_folder(out, "out")
     folder = folder / "TRA" if truth else folder
-    digits = _digits(len(frames))
+    digits = mask_digits(len(frames))
     written = set()
     for t, f in enumerate(frames):
         if t in renamed:  # the ids of the parts after a gap
@@ -190,7 +188,7 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
         with atomic_path(path) as tmp:
             tifffile.imwrite(tmp, f.astype(np.uint16), photometric="minisblack")
         written.add(path.name)
-    for stale in _mask_files(folder, prefix):
+    for stale in mask_files(folder, prefix):
         if stale.name not in written:
             stale.unlink()
     with atomic_path(folder / track_name) as tmp:
@@ -201,75 +199,6 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
 # ---------------------------------------------------------------------------------------------------------
 # reading and checking
 # ---------------------------------------------------------------------------------------------------------
-def _mask_files(folder: Path, prefix: str) -> list[Path]:
-    pattern = re.compile(rf"^{prefix}(\d+)\.tiff?$", re.IGNORECASE)
-    return [p for p in folder.iterdir() if p.is_file() and pattern.match(p.name)] if folder.is_dir() else []
-
-
-def _layout(folder) -> tuple[Path, Path, str, str]:
-    """``(mask folder, track file, mask prefix, layout name)`` of a CTC folder; InputError if it is not one.
-
-    A folder holding a result (``res_track.txt``) and a ``TRA`` folder is read as the result.
-    """
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(f"CTC folder {str(folder)!r} does not exist or is not a folder")
-    for where, (prefix, name), layout in ((folder, RESULT, "result"), (folder / "TRA", TRUTH, "truth"),
-                                          (folder, TRUTH, "truth")):
-        if (where / name).is_file():
-            return where, where / name, prefix, layout
-    raise InputError(f"{str(folder)!r} is not a Cell Tracking Challenge folder: expected res_track.txt with "
-                     f"maskTTT.tif files, or TRA/man_track.txt with TRA/man_trackTTT.tif files")
-
-
-def is_ctc_folder(path) -> bool:
-    """True when ``path`` is a folder in a CTC layout (a track file with its masks next to it)."""
-    try:
-        where, _, prefix, _ = _layout(path)
-    except InputError:
-        return False
-    return bool(_mask_files(where, prefix))
-
-
-def _read_track_file(path: Path, problems: list) -> pd.DataFrame:
-    rows = []
-    for k, line in enumerate(path.read_text().splitlines(), 1):
-        if not line.strip():
-            continue
-        parts = line.split()
-        try:
-            values = [int(v) for v in parts]
-        except ValueError:
-            values = []
-        if len(values) != 4 or min(values) < 0:
-            problems.append(f"{path.name} line {k} is {line.strip()!r}; expected four non-negative integers L B E P")
-            continue
-        rows.append(values)
-    return pd.DataFrame(rows or np.zeros((0, 4), np.int64), columns=list(TRACK_COLUMNS)).astype(np.int64)
-
-
-def _numbered(files, prefix, problems) -> dict[int, Path]:
-    """``{frame: mask file}``; numbering problems (not 0..T-1, mixed widths) appended to ``problems``."""
-    found = {}
-    widths = set()
-    for p in sorted(files):
-        digits = re.match(rf"^{prefix}(\d+)", p.name, re.IGNORECASE).group(1)
-        widths.add(len(digits))
-        if int(digits) in found:
-            problems.append(f"frame {int(digits)} has two mask files: {found[int(digits)].name}, {p.name}")
-        found[int(digits)] = p
-    if not found:
-        problems.append(f"no {prefix}TTT.tif mask files")
-        return {}
-    n = max(found) + 1
-    gaps = sorted(set(range(n)) - set(found))
-    if gaps:
-        problems.append(f"mask files must be numbered 0..{n - 1}; missing {gaps[:20]}")
-    if widths != {_digits(n)}:
-        problems.append(f"mask file numbers have {sorted(widths)} digits; expected {_digits(n)} for {n} frames")
-    return dict(sorted(found.items()))
-
-
 def _check_tracks(tracks, presence, problems):
     ids = tracks["track"].to_numpy()
     dup = sorted(set(ids[pd.Series(ids).duplicated().to_numpy()].tolist()))
@@ -311,7 +240,7 @@ def _read_masks(paths, problems) -> dict[int, np.ndarray]:
             src = open_source(path)
             if src.n_frames != 1:
                 raise InputError(f"it holds {src.n_frames} images; expected one")
-            f = src._raw(0)
+            f = src.raw_frame(0)
             if f.dtype.kind not in "iu" or (f.size and f.min() < 0):
                 raise InputError(f"it has dtype {f.dtype}; expected non-negative integer (16-bit) labels")
         except InputError as exc:
@@ -327,10 +256,10 @@ def _read_masks(paths, problems) -> dict[int, np.ndarray]:
 
 def _inspect(folder):
     """``(masks by frame, tracks, problems, layout)`` of a CTC folder."""
-    where, track_file, prefix, layout = _layout(folder)
+    where, track_file, prefix, layout = ctc_layout(folder)
     problems: list[str] = []
-    tracks = _read_track_file(track_file, problems)
-    paths = _numbered(_mask_files(where, prefix), prefix, problems)
+    tracks = read_track_file(track_file, problems)
+    paths = numbered_masks(mask_files(where, prefix), prefix, problems)
     frames = _read_masks(paths, problems)
     if frames and len(frames) == len(paths):
         _check_tracks(tracks, _presence(frames), problems)
@@ -382,65 +311,3 @@ def read_ctc(folder) -> tuple[np.ndarray, pd.DataFrame]:
     if problems:
         check_ctc(folder)  # raises with the full list
     return np.stack(list(frames.values())), tracks.sort_values("track", kind="stable").reset_index(drop=True)
-
-
-def gap_links(tracks) -> tuple[dict[int, int], dict[int, int]]:
-    """Tell gap continuations from divisions in CTC track lines.
-
-    Parameters
-    ----------
-    tracks : pandas.DataFrame
-        ``track`` and ``parent`` columns (e.g. from :func:`read_ctc`).
-
-    Returns
-    -------
-    same : dict
-        ``{track: earlier track}`` for the only child of its parent: the same
-        cell after a gap, mapped to the first track of its chain.
-    parents : dict
-        ``{daughter: mother}`` for the children of parents with two or more
-        children (divisions), in the ids after applying ``same``.
-    """
-    require_columns(tracks, ("track", "parent"), "tracks")
-    child_of = {int(l): int(p) for l, p in zip(tracks["track"], tracks["parent"]) if p}
-    counts = pd.Series(list(child_of.values()), dtype=np.int64).value_counts().to_dict()
-    from ..track import lineage_roots
-
-    single = {c: p for c, p in child_of.items() if counts[p] == 1}
-    root = lineage_roots(single, set(single) | set(child_of) | set(child_of.values()))
-    same = {c: root[c] for c in single}
-    parents = {root[c]: root[p] for c, p in child_of.items() if counts[p] > 1}
-    return same, parents
-
-
-class CtcReader:
-    """Frames of a CTC folder for :func:`hexatissue.open_source`: ids are tracks, gaps merged back.
-
-    The masks are read lazily, one file per frame; the track file is read
-    when opened (InputError on a malformed line).  Tracks continuing one
-    another across a gap (a parent with a single child) are given the first
-    id of their chain, so each cell is one id over time; :attr:`parents`
-    holds the divisions.  :func:`check_ctc` checks a whole folder.
-    """
-
-    def __init__(self, folder):
-        from ..source import _FilesReader
-
-        where, track_file, prefix, self.layout = _layout(folder)
-        problems: list[str] = []
-        tracks = _read_track_file(track_file, problems)
-        paths = _numbered(_mask_files(where, prefix), prefix, problems)
-        if problems:
-            raise InputError(f"CTC folder {str(folder)!r}: " + "; ".join(problems[:10]))
-        self.same, self.parents = gap_links(tracks)
-        self._old = np.array(sorted(self.same), np.int64)
-        self._new = np.array([self.same[i] for i in self._old.tolist()], np.int64)
-        self._files = _FilesReader(list(paths.values()), None, f"CTC folder {str(folder)!r}")
-        self.n_frames, self.shape, self.calibration = self._files.n_frames, self._files.shape, self._files.calibration
-
-    def describe(self) -> dict:
-        return self._files.describe()
-
-    def read(self, t) -> np.ndarray:
-        arr = self._files.read(t)
-        return relabel(arr, self._old, self._new) if len(self._old) else arr

@@ -3,7 +3,7 @@
 A results folder holds tables, not images; :func:`track_masks` re-opens the
 labels it was computed from (the path in ``metadata.json``, or one given),
 applies the analysis's own label normalisation
-(:func:`hexatissue.pipeline.mesh_labels` with the recorded mesh options and
+(:func:`hexatissue.mesh.labels.mesh_labels` with the recorded mesh options and
 mask), checks that every cell of the ``cells`` table is there with its pixel
 area, and maps ``(frame, cell)`` to ``track``.
 """
@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..mesh.labels import mesh_labels, relabel
 
-__all__ = ["track_masks", "relabel"]
+__all__ = ["track_masks"]
 
 
 def _labels_source(movie, labels):
@@ -37,7 +38,7 @@ def _labels_source(movie, labels):
 
 
 def _mask(movie, mask):
-    from ..pipeline import read_mask
+    from ..source import read_mask
 
     info = (movie.source or {}).get("mask")
     if mask is None and info is not None:
@@ -46,18 +47,6 @@ def _mask(movie, mask):
                              "(--mask FILE on the command line, mask= in Python)")
         mask = info["path"]
     return read_mask(mask, tuple(movie.shape))[0]
-
-
-def relabel(lab, ids, values, others=None):
-    """``lab`` with each id of ``ids`` (sorted, unique) replaced by the matching entry of ``values``.
-
-    Pixels holding any other value keep it (``others`` None) or become ``others``.
-    """
-    ids, values = np.asarray(ids, np.int64), np.asarray(values, np.int64)
-    if not len(ids):
-        return lab.copy() if others is None else np.full(lab.shape, others, np.int64)
-    key = np.minimum(np.searchsorted(ids, lab), len(ids) - 1)
-    return np.where(ids[key] == lab, values[key], lab if others is None else others)
 
 
 def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
@@ -90,7 +79,6 @@ def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
         of these results, or other mesh options).
     """
     from ..options import MeshOptions
-    from ..pipeline import mesh_labels
     from ..progress import progress
 
     source, what = _labels_source(movie, labels)

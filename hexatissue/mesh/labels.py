@@ -274,6 +274,57 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
     return lab, membrane
 
 
+def mesh_labels(labels, box, mesh, mask=None, lowest=None):
+    """The touching labels the mesh (and the tracker) of :func:`hexatissue.analyze` use for one validated frame.
+
+    The one door from a label image to the cells of an analysis: exporters
+    and scorers that must match the ``cells`` table of a results folder
+    (``hexatissue export --to ctc``, :func:`hexatissue.benchmark.score.score`)
+    call this with the analysis's own options and mask.
+
+    Parameters
+    ----------
+    labels : (rows, cols) integer array
+        One frame, checked by :func:`validate_labels` (as
+        :meth:`hexatissue.Source.frame` gives it).
+    box : Box or None
+        The periodic box (only whether there is one matters), None for an
+        open image.
+    mesh : MeshOptions
+        ``kind``, ``membrane_width``, ``min_area``, ``background``,
+        ``fill_holes`` and ``outside`` of the analysis.
+    mask : (rows, cols) bool array, optional
+        Region of interest, checked by :func:`check_mask` (e.g. from
+        :func:`hexatissue.source.read_mask`).
+    lowest : int, optional
+        ``labels.min()`` if the caller knows it already.
+
+    Returns
+    -------
+    labels : (rows, cols) integer array
+        The normalised labels (see :func:`normalize_labels`): membranes
+        shared out, background, small regions and the outside 0; the same
+        array object when unchanged.
+    membrane : (rows, cols) bool array
+        The pixels that were membrane.
+    """
+    return normalize_valid(labels, mesh.kind, box is not None, mesh.membrane_width, mesh.min_area,
+                           background=mesh.background, fill_holes=mesh.fill_holes, outside=mesh.outside, mask=mask,
+                           lowest=lowest)
+
+
+def relabel(lab, ids, values, others=None):
+    """``lab`` with each id of ``ids`` (sorted, unique) replaced by the matching entry of ``values``.
+
+    Pixels holding any other value keep it (``others`` None) or become ``others``.
+    """
+    ids, values = np.asarray(ids, np.int64), np.asarray(values, np.int64)
+    if not len(ids):
+        return lab.copy() if others is None else np.full(lab.shape, others, np.int64)
+    key = np.minimum(np.searchsorted(ids, lab), len(ids) - 1)
+    return np.where(ids[key] == lab, values[key], lab if others is None else others)
+
+
 def outer_regions(lab, counts=None):
     """Ids of the regions touching the image edge with more than ``OUTSIDE_FACTOR`` x the median region area.
 

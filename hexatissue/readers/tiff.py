@@ -1,0 +1,145 @@
+"""TIFF files (tifffile): series 0, read frame by frame; ImageJ hyperstacks and OME-TIFF with their calibration."""
+from __future__ import annotations
+
+import threading
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import HexatissueWarning, InputError, user_stacklevel
+from .base import Opened, collapse_rgb, layout_description, optional_int, plan, read_error
+from .calibration import tiff_calibration
+
+__all__ = ["TiffReader", "open_tiff"]
+
+
+class TiffReader:
+    """Frames of series 0 of a TIFF file: one positioned read per frame when contiguous, else one page per read.
+
+    Contiguous data are read with a plain file read into a new array, not
+    through a memory map: the pages of a map stay in the process's resident
+    memory once touched, so streaming a long stack through one would grow
+    the reader's RSS by the whole file.
+    """
+
+    def __init__(self, path, channel):
+        import tifffile
+
+        self.path, self.what = Path(path), repr(str(path))
+        self.notes = []
+        self._lock = threading.Lock()
+        self._tf = None
+        tf = tifffile.TiffFile(self.path)
+        try:
+            self._inspect(tf, channel)
+        except BaseException:
+            tf.close()
+            raise
+        if self.mode == "contiguous":
+            tf.close()
+        else:
+            self._tf = tf
+
+    def _inspect(self, tf, channel):
+        series = tf.series[0]
+        if len(tf.series) > 1:
+            self.notes.append(f"the file holds {len(tf.series)} image series; series 0 is read")
+        page_axes = series.keyframe.axes
+        self.axes, self.stored_shape = series.axes, tuple(int(n) for n in series.shape)
+        self.dtype = str(series.dtype)
+        if not self.axes.endswith(page_axes) or page_axes.replace("S", "") != "YX":
+            raise InputError(f"TIFF {self.what} has axes {self.axes!r} with pages of axes {page_axes!r}; expected "
+                             f"pages of rows x cols (YX, optionally with RGB samples S)")
+        self.page_axes = page_axes
+        lead_axes = self.axes[: len(self.axes) - len(page_axes)]
+        lead_sizes = self.stored_shape[: len(lead_axes)]
+        self.calibration = tiff_calibration(tf, self.notes)
+        n_pages = int(np.prod(lead_sizes, dtype=np.int64))
+        if series.dataoffset is not None:
+            self.mode = "contiguous"
+            self._offset = int(series.dataoffset)
+            self._file_dtype = np.dtype(tf.byteorder + series.dtype.char).str
+        elif n_pages > 1 and not _has_page(series, n_pages - 1):
+            # ImageJ header promising more images than the file holds (e.g. re-saved compressed): read the IFDs
+            n_ifd = len(tf.pages)
+            warnings.warn(f"TIFF {self.what}: its ImageJ header says {n_pages} images but the file holds "
+                          f"{n_ifd} page(s); reading the pages that are there", HexatissueWarning,
+                          stacklevel=user_stacklevel())
+            self.notes.append(f"ImageJ header says {n_pages} images (axes {self.axes!r}) but the file holds "
+                              f"{n_ifd} page(s); each page is read as a frame")
+            self.mode = "ifds"
+            lead_axes, lead_sizes = ("I", (n_ifd,)) if n_ifd > 1 else ("", ())
+            self.axes = lead_axes + page_axes
+            self.stored_shape = tuple(lead_sizes) + tuple(series.keyframe.shape)
+        else:
+            self.mode = "pages"
+        self.layout = plan(lead_axes, lead_sizes, channel, f"TIFF {self.what}", self.axes)
+        self.n_frames = self.layout.n_frames
+        self.shape = tuple(int(n) for n, a in zip(series.keyframe.shape, page_axes) if a != "S")
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.update(_tf=None, _lock=None)
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
+    def __del__(self):
+        self.close()
+
+    def close(self):
+        tf, self._tf = getattr(self, "_tf", None), None
+        if tf is not None:
+            tf.close()
+
+    def describe(self) -> dict:
+        described = layout_description(self.axes, self.stored_shape, self.dtype, self.layout, self.notes)
+        return {**described, "tiff_reading": self.mode}
+
+    def read(self, t) -> np.ndarray:
+        idx = self.layout.index(t)
+        try:
+            with self._lock:
+                if self.mode == "contiguous":
+                    arr = self._read_contiguous(idx)
+                else:
+                    if self._tf is None:
+                        import tifffile
+
+                        self._tf = tifffile.TiffFile(self.path)
+                    k = int(np.ravel_multi_index(idx, self.layout.sizes)) if idx else 0
+                    pages = self._tf.pages if self.mode == "ifds" else self._tf.series[0].pages
+                    arr = pages[k].asarray()
+        except Exception as exc:
+            raise read_error(f"{self.what} (frame {t})", exc) from exc
+        if "S" in self.page_axes:
+            arr = collapse_rgb(np.moveaxis(arr, self.page_axes.index("S"), -1))
+        return arr
+
+    def _read_contiguous(self, idx) -> np.ndarray:
+        page_shape = self.stored_shape[len(idx):]
+        dtype = np.dtype(self._file_dtype)
+        count = int(np.prod(page_shape, dtype=np.int64))
+        k = int(np.ravel_multi_index(idx, self.layout.sizes)) if idx else 0
+        with open(self.path, "rb") as fh:
+            fh.seek(self._offset + k * count * dtype.itemsize)
+            arr = np.fromfile(fh, dtype=dtype, count=count)
+        if arr.size != count:
+            raise OSError(f"the file ends inside image {k} ({arr.size} of {count} values)")
+        return arr.reshape(page_shape)
+
+
+def _has_page(series, k) -> bool:
+    try:
+        return series.pages[k] is not None
+    except IndexError:
+        return False
+
+
+def open_tiff(path: Path, channel) -> Opened:
+    """A ``.tif``/``.tiff`` file, with the calibration of its ImageJ or OME metadata."""
+    reader = TiffReader(path, channel)
+    return Opened(reader, {"kind": "tiff", "path": str(path), "channel": optional_int(channel)}, reader.calibration)
