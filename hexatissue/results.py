@@ -245,6 +245,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
         raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
     directory = check_output_folder(directory, "directory")
     meta = dict(movie.metadata(), formats=list(formats))  # before any table is released
+    previous = _listed_tables(directory / METADATA)
     (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
     tables = dict(movie.tables)
     names = sorted(tables, key=lambda n: int(tables[n].memory_usage().sum())) if release else list(tables)
@@ -256,7 +257,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
         if release:
             del tables[name]
             setattr(movie, name, None)
-    for name in SCHEMAS:
+    for name in dict.fromkeys([*SCHEMAS, *previous]):  # the tables of a previous result too, schema or not
         for fmt in FORMATS:
             stale = directory / f"{name}.{fmt}"
             if stale not in written:
@@ -264,6 +265,15 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     with atomic_path(directory / METADATA) as tmp:
         tmp.write_text(json.dumps(meta, indent=2))
     return written + [directory / METADATA]
+
+
+def _listed_tables(path) -> list:
+    """The table names a results folder's ``metadata.json`` lists ([] when it is missing or unreadable)."""
+    try:
+        listed = json.loads(path.read_text()).get("tables", {})
+    except (OSError, ValueError, AttributeError):
+        return []
+    return [name for name in listed if isinstance(name, str) and "/" not in name and "\\" not in name]
 
 
 def read_results(directory) -> Movie:

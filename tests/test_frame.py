@@ -113,3 +113,36 @@ def test_write_results_releasing_tables_writes_the_same_files(movie, tmp_path):
     for path in kept:
         assert (tmp_path / "released" / path.name).read_bytes() == path.read_bytes(), path.name
     assert copy.tables == {} and set(movie.tables) == set(TABLES)  # the original keeps its tables
+
+
+def test_the_movie_holds_its_tables_by_name_each_also_an_attribute(movie):
+    assert movie.tables["cells"] is movie.cells and list(movie.tables) == [n for n in TABLES if n in movie.tables]
+    copy = movie.replace(grid=None, events=None)
+    assert copy.grid is None and "grid" not in copy.tables and "events" not in copy.tables
+    assert movie.grid is not None  # replace makes a copy
+    copy.grid = movie.grid  # set back: in the schema's order again
+    assert list(copy.tables) == [n for n in TABLES if n in copy.tables]
+    with pytest.raises(AttributeError, match="no attribute 'gird'"):
+        movie.gird
+    with pytest.raises(InputError, match="'flows' has none"):
+        movie.replace(flows=movie.cells)
+    with pytest.raises(InputError, match="must be a pandas DataFrame"):
+        movie.replace(grid=[1, 2])
+    with pytest.warns(DeprecationWarning, match=r"\.tables\(\) is deprecated"):
+        assert movie.tables() == dict(movie.tables)  # the call of hexatissue 0.1, for one release
+
+
+def test_a_table_computed_outside_analyze_is_saved_once_it_has_a_schema(movie, tmp_path, monkeypatch):
+    """A results folder holds any table with a schema: written, listed in metadata.json, read back."""
+    speeds = pd.DataFrame({"frame": np.arange(5, dtype=np.int64), "mean_speed": np.linspace(0.0, 1.0, 5)})
+    with pytest.raises(InputError, match="'speeds' has none"):
+        movie.replace(speeds=speeds)
+    monkeypatch.setitem(TABLES, "speeds", {"frame": ("i", "frame", "time point"),
+                                           "mean_speed": ("f", "px/frame", "mean cell speed")})
+    with_speeds = movie.replace(speeds=speeds)
+    with_speeds.write(tmp_path)
+    assert json.loads((tmp_path / "metadata.json").read_text())["tables"]["speeds"] == 5
+    pd.testing.assert_frame_equal(read_results(tmp_path).speeds, speeds)
+    monkeypatch.delitem(TABLES, "speeds")
+    movie.write(tmp_path)  # rewritten without it, and without its schema: the previous result's table goes
+    assert not (tmp_path / "speeds.parquet").exists()
