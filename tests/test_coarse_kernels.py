@@ -5,8 +5,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from hexatissue import Box, InputError
-from hexatissue import _coarse_kernels as K
-from hexatissue import _coarse_reference as R
+from hexatissue.order import _kernels as K
+from hexatissue.order import _reference as R
 from hexatissue.defects import find_defects
 from hexatissue.order import _half_widths, _neighbours, coarse_grain, order_vs_radius
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .defects import winding  # noqa: F401  (the reference of _coarse_kernels.plaquette_defects, beside plaquette_charges)
+from ..defects import winding  # noqa: F401  (the reference of _coarse_kernels.plaquette_defects, beside plaquette_charges)
 
 
 def disk_means(nodes, xy, values, counted, radii, order, starts, origin, size, nbins, period, empty, means, counts):

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from . import _coarse_kernels as K
-from ._shape_kernels import shape_sums
-from .box import as_box
-from .errors import InputError, check_orders, check_p, check_positive
-from .frame import Frame
-from .options import CENTERS, VALIDITY, check_pair
-from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
-from .schema import interior_mask, validate
+from . import _kernels as K
+from .._shape_kernels import shape_sums
+from ..box import as_box
+from ..errors import InputError, check_orders, check_p, check_positive
+from ..frame import Frame
+from ..options import CENTERS, VALIDITY, check_pair
+from ..geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
+from ..schema import interior_mask, validate
 
 __all__ = [
     "shape_function",
