@@ -324,7 +324,7 @@ def test_cells_entering_and_leaving_do_not_change_a_neighbour_list():
 
 
 # ----------------------------------------------------------------------------
-# The streaming implementation gives the tables of the whole-movie one (tests/_events_reference.py)
+# The streaming implementation gives the tables of the whole-movie one (hexatissue/events/_reference.py)
 # ----------------------------------------------------------------------------
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -362,7 +362,7 @@ def _voronoi_tables(periodic, seed, leave=False):
 
 
 def _assert_as_reference(edges, cells, box, censor, min_lengths=(0.0, 2.0)):
-    import tests._events_reference as ref
+    from hexatissue.events import _reference as ref
 
     n = {"t1": 0, "neighbour": 0}
     for min_length in min_lengths:

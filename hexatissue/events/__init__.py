@@ -30,13 +30,13 @@ import numpy as np
 import pandas as pd
 from numba import njit
 
-from ._hashing import GOLDEN, mix64, mix64_word
-from ._system import release_freed_memory
-from .box import Box
-from .errors import InputError, is_real
-from .geometry import in_sorted, lookup, row_keys
-from .graph import pair_groups
-from .schema import interior_mask, string_column, track_ids, validate
+from .._hashing import GOLDEN, mix64, mix64_word
+from .._system import release_freed_memory
+from ..box import Box
+from ..errors import InputError, is_real
+from ..geometry import in_sorted, lookup, row_keys
+from ..graph import pair_groups
+from ..schema import interior_mask, string_column, track_ids, validate
 
 __all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
            "cell_event_stats", "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]

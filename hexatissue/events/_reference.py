@@ -11,10 +11,10 @@ import bisect
 import numpy as np
 import pandas as pd
 
-from hexatissue.events import _expand, _mix, classify_t1, default_censor
-from hexatissue.geometry import lookup, row_keys
-from hexatissue.graph import contact_table as graph_contacts
-from hexatissue.schema import interior_mask, track_ids, validate
+from ..geometry import lookup, row_keys
+from ..graph import contact_table as graph_contacts
+from ..schema import interior_mask, track_ids, validate
+from . import _expand, _mix, classify_t1, default_censor
 
 
 def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
