@@ -268,7 +268,7 @@ def _encoded_pmf(tables, n):
 def test_alias_tables_encode_the_poisson_distribution():
     from scipy.stats import poisson
 
-    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+    from hexatissue.benchmark import _kernels as kernels, _reference as reference
 
     for tables in (kernels.alias_tables(64), reference.alias_tables(64)):
         for n in (0, 1, 7, 33, 64):
@@ -282,13 +282,13 @@ def test_alias_tables_encode_the_poisson_distribution():
 
 
 def _poisson_tables(n_max):
-    from hexatissue.benchmark import _camera_kernels as kernels
+    from hexatissue.benchmark import _kernels as kernels
 
     return kernels.alias_tables(n_max) + (kernels.RECIPROCALS,)
 
 
 def test_poisson_kernel_equals_its_reference_on_the_same_key():
-    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+    from hexatissue.benchmark import _kernels as kernels, _reference as reference
 
     rng = np.random.default_rng(11)
     # TABLE_MAX and above: the transformed-rejection sampler
@@ -301,7 +301,7 @@ def test_poisson_kernel_equals_its_reference_on_the_same_key():
 
 
 def test_camera_kernel_equals_its_reference_on_the_same_key():
-    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+    from hexatissue.benchmark import _kernels as kernels, _reference as reference
 
     rng = np.random.default_rng(12)
     # negative and NaN means count as 0; 90000: clipped at 65535; a 0 offset clips read noise at 0
@@ -318,7 +318,7 @@ def test_camera_kernel_equals_its_reference_on_the_same_key():
 def test_ziggurat_tables_close_and_the_normal_deviates_are_normal():
     from scipy.stats import kstest, norm
 
-    from hexatissue.benchmark import _camera_kernels as kernels, _camera_reference as reference
+    from hexatissue.benchmark import _kernels as kernels, _reference as reference
 
     k, w, f = kernels.ZIGGURAT
     x1 = w[1] * 2.0**52  # the top layer's width: its area v = x1 (1 - f(x1)) closes the ziggurat at x0 = 0
@@ -336,7 +336,7 @@ def test_camera_records_exact_poisson_counts_and_normal_read_noise():
     """The fused camera: counts alone (no read noise, gain 1) are Poisson; read noise alone (no light) is normal."""
     from scipy.stats import chisquare, kstest, poisson
 
-    from hexatissue.benchmark import _camera_kernels as kernels
+    from hexatissue.benchmark import _kernels as kernels
 
     tables = _poisson_tables(kernels.TABLE_MAX - 1)
     for mean in (0.6, 42.3):

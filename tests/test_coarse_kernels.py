@@ -5,9 +5,11 @@ import pytest
 from scipy.spatial import cKDTree
 
 from hexatissue import Box, InputError
-from hexatissue import _coarse_kernels as K
-from hexatissue import _coarse_reference as R
+from hexatissue.defects import _kernels as DK
+from hexatissue.defects import _reference as DR
 from hexatissue.defects import find_defects
+from hexatissue.order import _kernels as K
+from hexatissue.order import _reference as R
 from hexatissue.order import _half_widths, _neighbours, coarse_grain, order_vs_radius
 
 
@@ -257,14 +259,14 @@ def test_plaquette_defects_kernel_matches_reference(periodic, p):
     theta[1] = 0.0  # a uniform grid: no charge
     theta[2, 5, 6] = np.pi / p  # steps of exactly pi/p
     theta[3] = np.round(theta[3] * 4 * p / np.pi) * np.pi / (4 * p)  # many steps of exactly pi/p
-    charges = R.winding(theta, p, periodic)
-    flat, charge = K.plaquette_defects(theta, p, periodic)
+    charges = DR.winding(theta, p, periodic)
+    flat, charge = DK.plaquette_defects(theta, p, periodic)
     np.testing.assert_array_equal(flat, np.flatnonzero(np.nan_to_num(charges)))
     np.testing.assert_array_equal(charge, charges.ravel()[flat])
     assert np.isnan(charges[0]).sum() == 4 and (charges[1] == 0).all()
     assert 0 < len(flat) and set(np.unique(np.round(charges[2:] * p))) <= {-2, -1, 0, 1, 2}
     assert (np.abs(charges[3]) > 0).sum() > 10
-    flat, charge = K.plaquette_defects(theta[1:2], p, periodic)  # none found: empty arrays
+    flat, charge = DK.plaquette_defects(theta[1:2], p, periodic)  # none found: empty arrays
     assert flat.dtype == np.int64 and len(flat) == len(charge) == 0
 
 
@@ -290,8 +292,8 @@ def test_field_layouts_kernel_matches_reference():
               a[-1:]]                              # only negative rows: the shape is still max + 1
     rows = np.concatenate(fields)
     cuts = np.r_[0, np.cumsum([len(f) for f in fields])]
-    out_k = K.field_layouts(row, col, rows, cuts)
-    out_r = R.field_layouts(row, col, rows, cuts)
+    out_k = DK.field_layouts(row, col, rows, cuts)
+    out_r = DR.field_layouts(row, col, rows, cuts)
     for k, r in zip(out_k, out_r):
         np.testing.assert_array_equal(k, r)
     shapes, once, block = out_k

@@ -324,7 +324,7 @@ def test_cells_entering_and_leaving_do_not_change_a_neighbour_list():
 
 
 # ----------------------------------------------------------------------------
-# The streaming implementation gives the tables of the whole-movie one (tests/_events_reference.py)
+# The streaming implementation gives the tables of the whole-movie one (hexatissue/events/_reference.py)
 # ----------------------------------------------------------------------------
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -362,7 +362,7 @@ def _voronoi_tables(periodic, seed, leave=False):
 
 
 def _assert_as_reference(edges, cells, box, censor, min_lengths=(0.0, 2.0)):
-    import tests._events_reference as ref
+    from hexatissue.events import _reference as ref
 
     n = {"t1": 0, "neighbour": 0}
     for min_length in min_lengths:
@@ -475,7 +475,8 @@ def _kernel_case(case, t1_periodic):
 @pytest.mark.parametrize("case", ["t1-movie", "voronoi", "cells-leaving", "large-ids"])
 def test_change_kernels_equal_the_numpy_reference(case):
     """:class:`_Changes` (numba kernels) and :class:`_ChangesReference` (numpy): the same changes, returns, events."""
-    from hexatissue.events import _Changes, _ChangesReference, _Lists, _movie_frames, _same_cells_every_frame
+    from hexatissue.events import _Changes, _Lists, _movie_frames, _same_cells_every_frame
+    from hexatissue.events._reference import _ChangesReference
     from hexatissue.events import _ByFrame
     from hexatissue.geometry import row_keys
 
@@ -505,7 +506,8 @@ def test_change_kernels_equal_the_numpy_reference(case):
 @pytest.mark.parametrize("case", ["t1-movie", "cells-leaving", "large-ids"])
 def test_t1_kernel_equals_the_numpy_reference(case):
     """:func:`_t1_step` (numba) and :func:`_t1_step_reference` (numpy) on every pair of consecutive frames."""
-    from hexatissue.events import _FrameGraph, _directed, _ids, _index_of, _movie_frames, _t1_step, _t1_step_reference
+    from hexatissue.events import _FrameGraph, _directed, _ids, _index_of, _movie_frames, _t1_step
+    from hexatissue.events._reference import _t1_step_reference
 
     edges, cells = _kernel_case(case, t1_periodic=False)
     ids = _ids(edges, cells)
@@ -529,7 +531,8 @@ def test_t1_kernel_equals_the_numpy_reference(case):
 
 def test_lists_kernel_equals_the_numpy_reference():
     """:class:`_Lists` (numba) and :class:`_ListsReference` (numpy): the same sorted lists, rows and hashes."""
-    from hexatissue.events import _Lists, _ListsReference
+    from hexatissue.events import _Lists
+    from hexatissue.events._reference import _ListsReference
 
     rng = np.random.default_rng(7)
     cases = [(np.arange(1, 9), np.array([1, 1, 2, 3]), np.array([2, 5, 3, 8]))]  # hand-made, sorted
@@ -549,7 +552,8 @@ def test_lists_kernel_equals_the_numpy_reference():
 
 @pytest.mark.parametrize("seed", range(6))
 def test_undo_pairs_kernel_equals_the_plain_python_fold(seed):
-    from hexatissue.events import _undo_pairs, _undo_pairs_reference
+    from hexatissue.events._kernels import _undo_pairs
+    from hexatissue.events._reference import _undo_pairs_reference
 
     rng = np.random.default_rng(seed)
     for n in (0, 1, 2, 3, 10, 200):
@@ -567,7 +571,8 @@ def test_undo_pairs_kernel_equals_the_plain_python_fold(seed):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_excursion_starts_kernel_equals_the_plain_python_fold(seed):
-    from hexatissue.events import _excursion_starts, _excursion_starts_reference
+    from hexatissue.events._kernels import _excursion_starts
+    from hexatissue.events._reference import _excursion_starts_reference
 
     rng = np.random.default_rng(seed)
     for n in (0, 1, 5, 50, 400):

@@ -6,9 +6,9 @@ import pytest
 
 from hexatissue import Box, InputError, shape_function
 from hexatissue.defects import defect_events, find_defects, track_defects
-from hexatissue._shape_kernels import shape_sums
-from hexatissue.geometry import polygon_area_centroid, segment_sum
 from hexatissue.order import DEGENERATE_AREA, cell_radius, cells_from_polygons, coarse_grain, order_vs_radius
+from hexatissue.order._kernels import shape_sums
+from hexatissue.order._reference import reference_shape_functions
 
 from .conftest import mdck_published_gamma, real_subdir
 
@@ -50,27 +50,6 @@ def test_closing_vertex_and_centres():
 def test_degenerate_polygons_are_nan():
     g = shape_function([np.zeros((2, 2)), regular(6)])
     assert np.isnan(g[0]) and abs(g[1]) == pytest.approx(1)
-
-
-def reference_shape_functions(xy, starts, orders, center):
-    """Plain-numpy reference of :func:`hexatissue._shape_kernels.shape_sums`: the transcendental form
-    ``sum |r|^p exp(i p phi) / sum |r|^p`` (the package's formula up to session 7)."""
-    n = len(starts)
-    lengths = np.diff(np.r_[starts, len(xy)])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        c = segment_sum(xy, starts, n) / lengths[:, None] if center is None else center
-        owner = np.repeat(np.arange(n), lengths)
-        z = (xy[:, 0] - c[owner, 0]) + 1j * (xy[:, 1] - c[owner, 1])
-        radius, angle = np.abs(z), np.angle(z)
-        area = np.abs(polygon_area_centroid(xy, starts)[0])
-        degenerate = (lengths < 3) | ~(area > DEGENERATE_AREA * segment_sum(radius**2, starts, n) / lengths)
-        out = []
-        for p in orders:
-            den = segment_sum(radius**p, starts, n)
-            gamma = segment_sum(radius**p * np.exp(1j * p * angle), starts, n) / den
-            gamma[degenerate | ~(den > 0)] = np.nan
-            out.append(gamma)
-    return np.array(out)
 
 
 @pytest.mark.parametrize("own_centre", [True, False])

@@ -20,7 +20,7 @@ from hexatissue.simulate import (
 )
 from hexatissue.simulate import _kernels as K
 from hexatissue.simulate.model import OMP_SPIN_COUNT, ThreadTuner
-from hexatissue.simulate import reference as ref
+from hexatissue.simulate import _reference as ref
 
 @pytest.fixture(autouse=True)
 def one_thread():

@@ -4,6 +4,8 @@ import pandas as pd
 import pytest
 
 from hexatissue import track as trk
+from hexatissue.track import _kernels as K
+from hexatissue.track import _reference as R
 from hexatissue.errors import InputError
 from hexatissue.synthetic import jittered_seeds, relabel_movie, voronoi_labels, voronoi_movie
 from hexatissue.mesh.labels import touches_outside
@@ -203,24 +205,24 @@ def _random_compact_pairs(seed, n, max_cells, sizes):
 def test_dense_overlap_kernel_equals_reference():
     """Random compact frames with background (-1): the numba overlap counts equal the bincount reference."""
     for ia, ib, na, nb in _random_compact_pairs(5, 30, 30, (1, 500)):
-        for a, b in zip(trk._dense_overlaps(ia, ib, na, nb), trk._dense_overlaps_reference(ia, ib, na, nb)):
+        for a, b in zip(K._dense_overlaps(ia, ib, na, nb), R._dense_overlaps_reference(ia, ib, na, nb)):
             assert a.dtype == b.dtype
             np.testing.assert_array_equal(a, b)
     # hand-made: pixels (cell 0, cell 1) twice, (0, background), (background, 0)
-    i, j, n = trk._dense_overlaps(np.array([0, 0, 0, -1], np.int32), np.array([1, 1, -1, 0], np.int32), 1, 2)
+    i, j, n = K._dense_overlaps(np.array([0, 0, 0, -1], np.int32), np.array([1, 1, -1, 0], np.int32), 1, 2)
     assert (i.tolist(), j.tolist(), n.tolist()) == ([0], [1], [2])
 
 
 def test_sparse_overlap_kernel_equals_reference():
     """Random compact frames with background (-1): the bucketed counts equal the key sort and the dense kernel."""
     for ia, ib, na, nb in _random_compact_pairs(7, 40, 40, (0, 600)):
-        got = trk._sparse_overlaps(ia, ib, na, nb)
-        for want in (trk._sparse_overlaps_reference(ia, ib, na, nb), trk._dense_overlaps(ia, ib, na, nb)):
+        got = K._sparse_overlaps(ia, ib, na, nb)
+        for want in (R._sparse_overlaps_reference(ia, ib, na, nb), K._dense_overlaps(ia, ib, na, nb)):
             for a, b in zip(got, want):
                 assert a.dtype == b.dtype
                 np.testing.assert_array_equal(a, b)
     # hand-made: cell 1 meets cells 2 (twice) and 0; cell 0 meets cell 2; background pixels count nowhere
-    i, j, n = trk._sparse_overlaps(np.array([1, 1, 0, 1, -1, 1], np.int32), np.array([2, 2, 2, 0, 1, -1], np.int32),
+    i, j, n = K._sparse_overlaps(np.array([1, 1, 0, 1, -1, 1], np.int32), np.array([2, 2, 2, 0, 1, -1], np.int32),
                                    2, 3)
     assert (i.tolist(), j.tolist(), n.tolist()) == ([0, 1, 1], [2, 0, 2], [1, 1, 2])
 
@@ -236,7 +238,7 @@ def test_division_kernel_equals_reference():
         area_a, area_b = rng.integers(1, 30, na), rng.integers(1, 30, nb)
         n = np.minimum(rng.integers(1, 30, len(i)), np.minimum(area_a[i], area_b[j]))  # ties in n and IoU
         args = (i, j, n, area_a, area_b, rng.choice([0.3, 0.6, 1.0]), rng.choice([0.1, 0.2]), rng.choice([0.2, 0.5]))
-        for a, b in zip(trk._divisions(*args), trk._divisions_reference(*args)):
+        for a, b in zip(trk._divisions(*args), R._divisions_reference(*args)):
             assert a.dtype == b.dtype and a.shape == b.shape
             np.testing.assert_array_equal(a, b)
         found += len(b) > 0
@@ -264,7 +266,7 @@ def test_fused_compaction_and_overlaps_equal_the_two_kernels():
             for name in ("index", "ids", "area"):
                 assert getattr(got, name).dtype == getattr(want, name).dtype
                 np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
-            for x, y in zip(overlaps, trk._dense_overlaps_reference(a.index, want.index, len(a.ids), len(want.ids))):
+            for x, y in zip(overlaps, R._dense_overlaps_reference(a.index, want.index, len(a.ids), len(want.ids))):
                 assert x.dtype == y.dtype
                 np.testing.assert_array_equal(x, y)
 

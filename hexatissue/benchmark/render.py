@@ -7,7 +7,7 @@ applied together in Fourier space (the PSF's transfer function times the
 phase ramp of an exact, band-limited shift): ``cv2.warpAffine``'s
 interpolation moved fine detail by up to 0.15 px more or less than asked
 (measured by phase correlation).  The camera (shot and read noise, ADU) is
-one numba kernel, :func:`hexatissue.benchmark._camera_kernels.camera`, whose
+one numba kernel, :func:`hexatissue.benchmark._kernels.camera`, whose
 random numbers are a counter-based stream (splitmix64 of the frame's seed,
 the pixel and the draw), so a frame's noise depends only on the seed and the
 frame number.
@@ -34,7 +34,7 @@ efficiency 1):
    ``ADU = round(gain * electrons + offset)`` clipped to uint16.  The
    Poisson counts are exact (:func:`poisson_counts`: alias tables and
    inversion, transformed rejection for means of 1024 and more), the
-   normal deviates too (ziggurat); :mod:`hexatissue.benchmark._camera_kernels`.
+   normal deviates too (ziggurat); :mod:`hexatissue.benchmark._kernels`.
 
 **SNR** (frame 0, computed on the noise-free image after the PSF): with J
 the junction centreline pixels (the junction segments rasterised 1 px wide)
@@ -502,7 +502,7 @@ class Renderer:
 
     def frame(self, t):
         """Frame ``t`` as recorded by the camera: ``(channels, rows, cols)`` uint16 ADU."""
-        from ._camera_kernels import ZIGGURAT, camera
+        from ._kernels import ZIGGURAT, camera
 
         o = self.options
         clean = self.clean(t)
@@ -514,7 +514,7 @@ class Renderer:
 @lru_cache(maxsize=1)
 def _poisson_tables():
     """The alias tables of Poisson(n), n < TABLE_MAX, and the reciprocals (built once, ~0.1 s)."""
-    from ._camera_kernels import RECIPROCALS, TABLE_MAX, alias_tables
+    from ._kernels import RECIPROCALS, TABLE_MAX, alias_tables
 
     return alias_tables(TABLE_MAX - 1) + (RECIPROCALS,)
 
@@ -522,13 +522,13 @@ def _poisson_tables():
 def poisson_counts(mean, seed=0):
     """Exact Poisson counts of the expected counts ``mean`` (any shape, >= 0), float32.
 
-    The camera's sampler (:mod:`hexatissue.benchmark._camera_kernels`):
+    The camera's sampler (:mod:`hexatissue.benchmark._kernels`):
     alias tables and inversion below
-    :data:`~hexatissue.benchmark._camera_kernels.TABLE_MAX`
+    :data:`~hexatissue.benchmark._kernels.TABLE_MAX`
     (``poisson_small``), transformed rejection above (``poisson_large``);
     both exact.  ``seed`` (int or Generator) gives the key of the stream.
     """
-    from ._camera_kernels import poisson_counts as kernel
+    from ._kernels import poisson_counts as kernel
 
     key = np.uint64(as_generator(seed).integers(0, 2**63))
     lam = np.ascontiguousarray(mean, dtype=np.float32).ravel()

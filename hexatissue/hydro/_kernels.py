@@ -1,4 +1,4 @@
-"""Pointwise kernels of the hydrodynamics right-hand side (numba, with numpy references).
+"""Pointwise kernels of the hydrodynamics right-hand side (numba; numpy references in :mod:`._reference`).
 
 Given Psi, its gradient, its Laplacian, the velocity ``V = v_x + i v_y``, the
 vorticity and ``D omega = d_x omega + i d_y omega`` on the grid, compute
@@ -14,17 +14,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["pointwise", "pointwise_numpy"]
-
-
-def pointwise_numpy(psi, psi_x, psi_y, lap, vel, omega, domega, L6, A6, B6):
-    """Plain-numpy reference of :func:`pointwise`; returns (H, N, F, R)."""
-    h = L6 * lap - A6 * psi - 0.5 * B6 * (psi.real**2 + psi.imag**2) * psi
-    vx, vy = vel.real, vel.imag
-    n = -(vx * psi_x + vy * psi_y) + 3j * omega * psi
-    f = -0.5 * ((h * np.conj(psi_x)).real + 1j * (h * np.conj(psi_y)).real)
-    r = (psi * np.conj(h)).imag + 1j * (vx * domega.real + vy * domega.imag)
-    return h, n, f, r
+__all__ = ["pointwise"]
 
 
 @numba.njit(cache=True)
@@ -49,7 +39,7 @@ def _pointwise(psi, psi_x, psi_y, lap, vel, omega, domega, L6, A6, B6, h, n, f, 
 
 
 def pointwise(psi, psi_x, psi_y, lap, vel, omega, domega, L6, A6, B6):
-    """Numba version of :func:`pointwise_numpy` (same arguments, same outputs, same dtype).
+    """Numba version of :func:`~hexatissue.hydro._reference.pointwise_numpy` (same arguments, same outputs, same dtype).
 
     Each output element depends only on its own grid node, so the result does
     not depend on the number of threads.
@@ -58,21 +48,6 @@ def pointwise(psi, psi_x, psi_y, lap, vel, omega, domega, L6, A6, B6):
     real = psi.real.dtype.type
     _pointwise(psi, psi_x, psi_y, lap, vel, omega, domega, real(L6), real(A6), real(B6), *out)
     return tuple(out)
-
-
-def implicit_solve_numpy(r_psi, r_om, u, a, visc, c1, c2, tau):
-    """Plain-numpy reference of :func:`implicit_solve` (``Solver.solve_implicit`` documents the block)."""
-    ny, nx = r_psi.shape
-    q = np.conj(r_psi[(-np.arange(ny)) % ny][:, (-np.arange(nx)) % nx])
-    ub = np.conj(u)
-    s = (ub * r_psi + u * q) / (1 + tau * a)
-    re = ub * r_psi - u * q
-    a11 = 1 + tau * a
-    a22 = 1 + tau * visc
-    det = a11 * a22 + tau**2 * c1 * c2
-    e = (a22 * re - 1j * tau * c1 * r_om) / det
-    w = (a11 * r_om - 1j * tau * c2 * re) / det
-    return u * (s + e) / 2, w
 
 
 @numba.njit(cache=True)
@@ -97,7 +72,8 @@ def _implicit_solve(r_psi, r_om, u, a, visc, c1, c2, tau, out_psi, out_om):
 
 
 def implicit_solve(r_psi, r_om, u, a, visc, c1, c2, tau):
-    """Solve the per-wavevector 3 x 3 implicit block (numba; same as :func:`implicit_solve_numpy`)."""
+    """Solve the per-wavevector 3 x 3 implicit block (numba; same as
+    :func:`~hexatissue.hydro._reference.implicit_solve_numpy`)."""
     out_psi = np.empty_like(r_psi)
     out_om = np.empty_like(r_om)
     _implicit_solve(r_psi, r_om, u, a, visc, c1, c2, r_psi.real.dtype.type(tau), out_psi, out_om)

@@ -9,7 +9,6 @@ import pandas as pd
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
 from ..frame import Frame
-from .._shape_kernels import shape_sums
 from ..schema import validate
 from . import _kernels as K
 from ..options import POCKET_AREA
@@ -402,10 +401,12 @@ def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, 
 def warm_up() -> None:
     """Compile every mesh kernel once (or load it from numba's cache), on a tiny image.
 
-    Also the shape-function kernel of the order stage (:mod:`hexatissue._shape_kernels`). Call it
+    Also the shape-function kernel of the order stage (:func:`hexatissue.order._kernels.shape_sums`). Call it
     in a parent process before forking workers, so that they inherit the compiled code instead of
     each compiling it again.
     """
+    from ..order._kernels import shape_sums
+
     labels = np.ones((12, 12), np.int32)
     labels[:, 6:] = 2
     labels[4:8, 2:4] = 3  # a cell inside another: a boundary with no vertex

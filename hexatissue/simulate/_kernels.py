@@ -22,7 +22,7 @@ whatever the number of threads, so results are bit-identical for any thread
 count.  (Per-thread scatter buffers reduced at the end would be race-free
 too, but their rounding would depend on how cells are split among threads.)
 
-Every kernel here has a plain-numpy counterpart in ``reference.py``.
+Every kernel here has a plain-numpy counterpart in ``_reference.py``.
 """
 from __future__ import annotations
 

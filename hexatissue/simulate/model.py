@@ -270,13 +270,13 @@ class Simulation:
 
     def full_fields(self) -> np.ndarray:
         """Every cell's field on the whole lattice, ``(N, Ly, Lx)`` (memory heavy: tests and small systems)."""
-        from .reference import patches_to_full
+        from ._reference import patches_to_full
 
         return patches_to_full(self.phi, self.ox, self.oy, self.params.shape)
 
     def energy(self) -> float:
         """Free energy F of the current state (float64, via the full-lattice reference)."""
-        from .reference import free_energy, patch_masks
+        from ._reference import free_energy, patch_masks
 
         masks = patch_masks(self.ox, self.oy, self.params.patch, self.params.shape)
         return free_energy(self.full_fields(), self.params, masks)

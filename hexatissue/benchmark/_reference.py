@@ -1,4 +1,4 @@
-"""Plain-numpy references of the kernels in :mod:`hexatissue.benchmark._camera_kernels` (same names and signatures).
+"""Plain-numpy references of the kernels in :mod:`hexatissue.benchmark._kernels` (same names and signatures).
 
 Table construction with scipy's Poisson pmf and a Python loop (Vose), and
 vectorised sampling on the same counter-based word stream (the retries of
@@ -11,11 +11,11 @@ import numpy as np
 from scipy.special import gammaln
 
 from .._hashing import GOLDEN, mix64
-from ._camera_kernels import LARGE_STREAM, NORMAL_STREAM, STREAMS, TABLE_MAX, table_size
+from ._kernels import LARGE_STREAM, NORMAL_STREAM, STREAMS, TABLE_MAX, table_size
 
 
 def alias_tables(n_max):
-    """Reference of :func:`hexatissue.benchmark._camera_kernels.alias_tables`."""
+    """Reference of :func:`hexatissue.benchmark._kernels.alias_tables`."""
     from scipy.stats import poisson
 
     size = np.array([table_size(n) for n in range(n_max + 1)], np.int64)
@@ -41,19 +41,19 @@ def alias_tables(n_max):
 
 
 def word(key, i, s):
-    """Reference of :func:`hexatissue.benchmark._camera_kernels.word` (arrays of pixels ``i`` and streams ``s``)."""
+    """Reference of :func:`hexatissue.benchmark._kernels.word` (arrays of pixels ``i`` and streams ``s``)."""
     u = np.uint64
     with np.errstate(over="ignore"):  # uint64 arithmetic wraps around, as it should
         return mix64(u(key) + (np.asarray(i).astype(u) * u(STREAMS) + np.asarray(s).astype(u)) * u(GOLDEN))
 
 
 def uniform(key, i, s):
-    """Reference of :func:`hexatissue.benchmark._camera_kernels.uniform`."""
+    """Reference of :func:`hexatissue.benchmark._kernels.uniform`."""
     return ((word(key, i, s) >> np.uint64(11)).astype(np.float64) + 0.5) * (1.0 / 9007199254740992.0)
 
 
 def standard_normal(key, i, k, w, f):
-    """Reference of :func:`hexatissue.benchmark._camera_kernels.standard_normal` (an array of pixels ``i``)."""
+    """Reference of :func:`hexatissue.benchmark._kernels.standard_normal` (an array of pixels ``i``)."""
     i = np.asarray(i, np.int64)
     out = np.empty(i.size)
     s = np.full(i.size, NORMAL_STREAM, np.int64)
@@ -88,7 +88,7 @@ def standard_normal(key, i, k, w, f):
 
 
 def poisson_large(lam, key, i):
-    """Reference of :func:`hexatissue.benchmark._camera_kernels.poisson_large` (arrays ``lam``, ``i``)."""
+    """Reference of :func:`hexatissue.benchmark._kernels.poisson_large` (arrays ``lam``, ``i``)."""
     lam, i = np.asarray(lam, np.float64), np.asarray(i, np.int64)
     slam, loglam = np.sqrt(lam), np.log(lam)
     b = 0.931 + 2.53 * slam
@@ -116,7 +116,7 @@ def poisson_large(lam, key, i):
 
 
 def poisson_counts(lam, key, offset, size, prob, alias, reciprocals):
-    """Reference of :func:`hexatissue.benchmark._camera_kernels.poisson_counts`."""
+    """Reference of :func:`hexatissue.benchmark._kernels.poisson_counts`."""
     return _counts(lam, key, offset, size, prob, alias, reciprocals).astype(np.float32)
 
 
@@ -150,7 +150,7 @@ def _counts(lam, key, offset, size, prob, alias, reciprocals):
 
 
 def camera(clean, key, shot_poisson, read_noise, gain, offset_adu, tables, ziggurat):
-    """Reference of :func:`hexatissue.benchmark._camera_kernels.camera`."""
+    """Reference of :func:`hexatissue.benchmark._kernels.camera`."""
     lam = np.asarray(clean, np.float64)
     lam = np.where(lam > 0, lam, 0.0)
     z = standard_normal(key, np.arange(lam.size), *ziggurat)

@@ -1,7 +1,7 @@
 """Numba kernels of the camera model (:mod:`hexatissue.benchmark.render`): exact Poisson counts, fast.
 
 Each kernel has a plain-numpy twin of the same name and signature in
-:mod:`hexatissue.benchmark._camera_reference` (``poisson_small``, inlined
+:mod:`hexatissue.benchmark._reference` (``poisson_small``, inlined
 into its callers, is covered by the twin of :func:`poisson_counts`); the
 tests compare the two (identical outputs for the same key) and the samples
 against the Poisson and normal distributions.

@@ -1,8 +1,9 @@
-"""Today's whole-movie implementation of the T1 and neighbour-list events (before they streamed frames).
+"""The whole-movie implementation of the T1 and neighbour-list events (before they streamed frames),
+and the plain-numpy references of the kernels in :mod:`hexatissue.events._kernels`.
 
-Kept only as the reference the streaming implementation in :mod:`hexatissue.events` is compared
-against (``tests/test_events.py``): it holds every contact of the movie at once.  The helpers
-that did not change are imported, not copied.
+The whole-movie implementation is kept only as the reference the streaming implementation in
+:mod:`hexatissue.events` is compared against (``tests/test_events.py``): it holds every contact of
+the movie at once.  The helpers that did not change are imported, not copied.
 """
 from __future__ import annotations
 
@@ -11,10 +12,11 @@ import bisect
 import numpy as np
 import pandas as pd
 
-from hexatissue.events import _expand, _mix, classify_t1, default_censor
-from hexatissue.geometry import lookup, row_keys
-from hexatissue.graph import contact_table as graph_contacts
-from hexatissue.schema import interior_mask, track_ids, validate
+from ..geometry import in_sorted, lookup, row_keys
+from ..graph import contact_table as graph_contacts
+from ..schema import interior_mask, track_ids, validate
+from . import _ChangeLog, _directed, _expand, _mix, classify_t1, default_censor
+from . import _Lists as _FrameLists  # (_Lists below is the whole-movie implementation's own)
 
 
 def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
@@ -298,3 +300,147 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
     out = out.sort_values(["frame_start", "track"], ignore_index=True)
     out.insert(0, "event", np.arange(len(out), dtype=np.int64))
     return validate(out, "neighbour_events")
+
+
+# ----------------------------------------------------------------------------
+# References of the kernels in hexatissue.events._kernels (compared in tests/test_events.py)
+# ----------------------------------------------------------------------------
+
+def _t1_step_reference(prev, cur):
+    """:func:`hexatissue.events._t1_step` in numpy (about 40 calls on a few hundred values)."""
+    new, gone = cur.keys[~in_sorted(cur.keys, prev.keys)], prev.keys[~in_sorted(prev.keys, cur.keys)]
+    la, lb = np.divmod(gone, cur.K)  # losses: both cells still present; quartets of the frame before
+    loss_ab, loss_cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
+    ga, gb = np.divmod(new, cur.K)  # gains: both cells present before; quartets of this frame
+    gain_cd, gain_ab = cur.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
+    return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
+
+
+def _undo_pairs_reference(undone):
+    """:func:`hexatissue.events._kernels._undo_pairs` as a plain-Python fold (the test's reference)."""
+    events, partner = [], False
+    for k, undoes_next in enumerate(undone.tolist()):
+        if partner:  # the inverse of the T1 before it: part of that cycle
+            partner = False
+            continue
+        events.append((k, undoes_next))
+        partner = undoes_next
+    first, cycle = zip(*events) if events else ((), ())
+    return np.array(first, np.int64), np.array(cycle, bool)
+
+
+class _ListsReference(_FrameLists):
+    """The plain-numpy reference of :class:`hexatissue.events._Lists`: the same lists, sorted and hashed in numpy."""
+
+    def __init__(self, frame, tracks, a, b):
+        self.frame, self.tracks = frame, tracks
+        u, v = _directed(a, b)
+        ok = in_sorted(u, tracks)  # a list belongs to a cell present in the frame
+        self.u, self.v = u[ok], v[ok]
+        self.row = np.searchsorted(tracks, self.u)
+        self.h = _mix(self.v)
+        self.full = self.restricted(None)
+
+
+def _excursion_starts_reference(order, track, start, back):
+    """:func:`hexatissue.events._kernels._excursion_starts` as a plain-Python fold (the test's reference)."""
+    first, open_track, open_until = [], None, -1
+    for i in order.tolist():
+        if track[i] == open_track and start[i] <= open_until:
+            continue  # inside the excursion of the cycle before it
+        first.append(i)
+        open_track, open_until = track[i], back[i]  # back -1 (not a cycle) covers nothing: frames are >= 0
+    return np.array(first, np.int64)
+
+
+class _ChangesReference(_ChangeLog):
+    """The plain-numpy reference of :class:`hexatissue.events._Changes`: the open changes in arrays, about 60 numpy
+    calls a frame."""
+
+    def __init__(self, present_keys, top=None):
+        super().__init__(present_keys)
+        # row of each track id in the current frame (-1: absent), when the ids are few enough for a table:
+        # the open changes (every intercalation stays open) are looked up at every frame
+        self.slot = None if top is None else np.full(int(top) + 1, -1, np.int64)
+        empty = np.zeros(0, np.int64)
+        # open changes: index, cell, frame before the change, hash of the list left there
+        self.index, self.track, self.prev_frame, self.ref = empty, empty, empty, np.zeros(0, np.uint64)
+        self.owner, self.before = empty, empty  # the neighbours of that list not present in every frame
+
+    def _rare(self, cells):
+        """Which ``cells`` are not present in every frame."""
+        return np.zeros(len(cells), bool) if self.always is None else ~in_sorted(cells, self.always)
+
+    def _absent(self, frame, cells, lists):
+        """Which ``cells`` (not present in every frame) are absent from ``lists``' frame or from ``frame``."""
+        return ~(in_sorted(cells, lists.tracks) & in_sorted(row_keys(frame, cells), self.present_keys))
+
+    def add(self, lists):
+        self._close(lists)
+        prev = self.prev
+        self.prev = lists
+        if prev is None or prev.frame != lists.frame - 1 or not len(prev.tracks):
+            return
+        at_prev = np.minimum(np.searchsorted(prev.tracks, lists.tracks), len(prev.tracks) - 1)
+        both = prev.tracks[at_prev] == lists.tracks
+        changed = both & (prev.restricted(lists.tracks)[at_prev] != lists.restricted(prev.tracks))
+        track = lists.tracks[changed]
+        if not len(track):
+            return
+        b_owner, rows = prev.neighbours(track)
+        before = prev.v[rows]
+        a_owner, rows = lists.neighbours(track)
+        after = lists.v[rows]
+        # lost: neighbours at f - 1 that are not at f but present at f; gained: the other way round
+        lost = ~in_sorted(row_keys(b_owner, before), row_keys(a_owner, after)) & in_sorted(before, lists.tracks)
+        gained = ~in_sorted(row_keys(a_owner, after), row_keys(b_owner, before)) & in_sorted(after, prev.tracks)
+        m = len(track)
+        self.found.append((track, np.full(m, lists.frame), np.bincount(b_owner[lost], minlength=m),
+                           np.bincount(a_owner[gained], minlength=m)))
+        rare = self._rare(before)
+        self.owner = np.concatenate((self.owner, b_owner[rare] + len(self.track)))
+        self.before = np.concatenate((self.before, before[rare]))
+        self.index = np.concatenate((self.index, self.n + np.arange(m)))
+        self.track = np.concatenate((self.track, track))
+        self.prev_frame = np.concatenate((self.prev_frame, np.full(m, prev.frame)))
+        self.ref = np.concatenate((self.ref, prev.full[at_prev[changed]]))
+        self.n += m
+
+    def _close(self, lists):
+        """Close the open changes whose list is back at this frame."""
+        m = len(self.track)
+        if not m or not len(lists.tracks):
+            return
+        k, here = self._rows(lists)
+        now, ref = lists.full[k], self.ref.copy()
+        if self.always is not None:  # less the neighbours absent from either frame
+            rare = np.flatnonzero(self._rare(lists.v))
+            if len(rare):
+                rare_u = lists.u[rare]
+                rows, owner = _expand(np.searchsorted(rare_u, self.track, "left"),
+                                      np.searchsorted(rare_u, self.track, "right"))
+                rows = rare[rows]
+                gone = self._absent(self.prev_frame[owner], lists.v[rows], lists)
+                np.subtract.at(now, owner[gone], lists.h[rows[gone]])
+            gone = self._absent(self.prev_frame[self.owner], self.before, lists)
+            np.subtract.at(ref, self.owner[gone], _mix(self.before[gone]))
+        done = here & (now == ref)
+        if not done.any():
+            return
+        self.back.append((self.index[done], np.full(int(done.sum()), lists.frame)))
+        kept = ~done
+        new_pos = np.cumsum(kept) - 1
+        rows = kept[self.owner]
+        self.owner, self.before = new_pos[self.owner[rows]], self.before[rows]
+        self.index, self.track = self.index[kept], self.track[kept]
+        self.prev_frame, self.ref = self.prev_frame[kept], self.ref[kept]
+
+    def _rows(self, lists):
+        """Row in ``lists`` of each open change's cell (any row if absent) and whether it is there."""
+        if self.slot is None:  # a binary search of every open change
+            k = np.minimum(np.searchsorted(lists.tracks, self.track), len(lists.tracks) - 1)
+            return k, lists.tracks[k] == self.track
+        self.slot[lists.tracks] = np.arange(len(lists.tracks))
+        k = self.slot[self.track]
+        self.slot[lists.tracks] = -1
+        return np.maximum(k, 0), k >= 0

@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .box import Box, as_box
-from .errors import InputError, check_orders, check_p, check_positive
-from .geometry import match_points
-from .schema import require_columns, rows_by_frame, string_column, validate
+from ..box import Box, as_box
+from ..errors import InputError, check_orders, check_p, check_positive
+from ..geometry import match_points
+from ..schema import require_columns, rows_by_frame, string_column, validate
 
 #: the ``kind`` of a defect event, alphabetical (events carry its index until their table is built)
 EVENT_KINDS = ("annihilation", "appearance", "creation", "disappearance")
@@ -82,7 +82,7 @@ def winding(theta, p, periodic):
     """Plaquette charges of orientations ``theta`` (..., ny, nx), radians: the plain-numpy path.
 
     :func:`plaquette_charges` after the orientation; the reference of the kernel
-    ``hexatissue._coarse_kernels.winding``.
+    ``hexatissue.defects._kernels.plaquette_defects``.
     """
     if periodic:
         right = np.roll(theta, -1, axis=-1)
@@ -185,9 +185,9 @@ def _field_layouts(row, col, groups):
 
     Returns ``(shapes, rows, cuts, block)``: ``shapes`` (n_fields, 2) ``(ny, nx)``, the rows of every
     field back to back (field ``g`` is ``rows[cuts[g]:cuts[g + 1]]``) and whether each field is a
-    block of consecutive rows in node order (:func:`hexatissue._coarse_kernels.field_layouts`).
+    block of consecutive rows in node order (:func:`hexatissue.defects._kernels.field_layouts`).
     """
-    from ._coarse_kernels import field_layouts
+    from ._kernels import field_layouts
 
     rows = np.concatenate([r for _, _, r in groups])
     cuts = np.r_[0, np.cumsum([len(r) for _, _, r in groups])]
@@ -239,7 +239,7 @@ def _stack_positions(x, y, stacking, count, shape, box):
 
 def _stack_defects(re, im, usable, stacking, positions, count, shape, p, box):
     """Defects of a stack of fields of one shape: field index in the stack, positions and charges."""
-    from ._coarse_kernels import plaquette_defects
+    from ._kernels import plaquette_defects
 
     theta = np.arctan2(_stack(im, *stacking, count, shape), _stack(re, *stacking, count, shape))
     theta /= p  # = Arg / p (in place: theta is a new array)

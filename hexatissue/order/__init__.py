@@ -14,14 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from . import _coarse_kernels as K
-from ._shape_kernels import shape_sums
-from .box import as_box
-from .errors import InputError, check_orders, check_p, check_positive
-from .frame import Frame
-from .options import CENTERS, VALIDITY, check_pair
-from .geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
-from .schema import interior_mask, validate
+from . import _kernels as K
+from ._kernels import shape_sums
+from ..box import as_box
+from ..errors import InputError, check_orders, check_p, check_positive
+from ..frame import Frame
+from ..options import CENTERS, VALIDITY, check_pair
+from ..geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
+from ..schema import interior_mask, validate
 
 __all__ = [
     "shape_function",
@@ -52,7 +52,7 @@ def shape_function_flat(xy, starts, p=6, center="vertex_mean"):
 def shape_functions_flat(xy, starts, orders, center="vertex_mean"):
     """:func:`shape_function_flat` for each p of ``orders`` (a list of arrays), in one pass over the polygons.
 
-    The numba kernel :func:`hexatissue._shape_kernels.shape_sums` computes
+    The numba kernel :func:`hexatissue.order._kernels.shape_sums` computes
     gamma_p without transcendental functions (``sum z^p / sum |z|^p``).
     """
     xy = np.ascontiguousarray(xy, dtype=float)
@@ -349,7 +349,7 @@ def _reach(area, r_cell):
 
 
 def _neighbours(xy, box):
-    """Cell list of the centroids ``xy`` (``_coarse_kernels`` conventions), about 2 centroids per bin."""
+    """Cell list of the centroids ``xy`` (``_kernels`` conventions), about 2 centroids per bin."""
     if box is not None:
         lengths = box.lengths
         xy = box.wrap(xy)

@@ -28,15 +28,15 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from numba import njit
 
-from ._hashing import GOLDEN, mix64, mix64_word
-from ._system import release_freed_memory
-from .box import Box
-from .errors import InputError, is_real
-from .geometry import in_sorted, lookup, row_keys
-from .graph import pair_groups
-from .schema import interior_mask, string_column, track_ids, validate
+from .._hashing import GOLDEN, mix64
+from .._system import release_freed_memory
+from ..box import Box
+from ..errors import InputError, is_real
+from ..geometry import in_sorted, lookup, row_keys
+from ..graph import pair_groups
+from ..schema import interior_mask, string_column, track_ids, validate
+from ._kernels import _change_kernel, _close_kernel, _excursion_starts, _lists_kernel, _t1_kernel, _undo_pairs
 
 __all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
            "cell_event_stats", "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
@@ -404,77 +404,9 @@ def _t1_step(prev, cur):
     Returns ``new``, ``gone`` (contact keys gained and lost), ``loss_ab``, ``loss_cd`` (each contact lost
     whose cells are both still present, with each pair of its common neighbours before) and ``gain_ab``,
     ``gain_cd`` (each pair of common neighbours of each contact gained whose cells were both present
-    before, with that contact).  :func:`_t1_step_reference` is the same in numpy.
+    before, with that contact).  :func:`hexatissue.events._reference._t1_step_reference` is the same in numpy.
     """
     return _t1_kernel(prev.keys, prev.u, prev.v, prev.present, cur.keys, cur.u, cur.v, cur.present, cur.K)
-
-
-def _t1_step_reference(prev, cur):
-    """:func:`_t1_step` in numpy (about 40 calls on a few hundred values)."""
-    new, gone = cur.keys[~in_sorted(cur.keys, prev.keys)], prev.keys[~in_sorted(prev.keys, cur.keys)]
-    la, lb = np.divmod(gone, cur.K)  # losses: both cells still present; quartets of the frame before
-    loss_ab, loss_cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
-    ga, gb = np.divmod(new, cur.K)  # gains: both cells present before; quartets of this frame
-    gain_cd, gain_ab = cur.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
-    return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
-
-
-@njit(cache=True)
-def _t1_kernel(p_keys, p_u, p_v, p_present, keys, u, v, present, K):
-    """:func:`_t1_step` on the two frames' sorted keys, directed contacts and cells."""
-    new, gone = keys[_missing(keys, p_keys)], p_keys[_missing(p_keys, keys)]
-    loss_ab, loss_cd = _quartet_kernel(gone[_both_in(gone, present, K)], p_keys, p_u, p_v, K)
-    gain_cd, gain_ab = _quartet_kernel(new[_both_in(new, p_present, K)], keys, u, v, K)
-    return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
-
-
-@njit(cache=True)
-def _both_in(keys, present, K):
-    """Which contacts ``a * K + b`` have both cells in the sorted ``present``."""
-    out = np.empty(len(keys), np.bool_)
-    for i in range(len(keys)):
-        out[i] = _contains(present, keys[i] // K) and _contains(present, keys[i] % K)
-    return out
-
-
-@njit(cache=True)
-def _missing(a, b):
-    """Which of the sorted unique ``a`` are not in the sorted unique ``b`` (a merge)."""
-    out = np.ones(len(a), np.bool_)
-    j = 0
-    for i in range(len(a)):
-        while j < len(b) and b[j] < a[i]:
-            j += 1
-        out[i] = j == len(b) or b[j] != a[i]
-    return out
-
-
-@njit(cache=True)
-def _quartet_kernel(pairs, keys, u, v, K):
-    """:meth:`_FrameGraph.quartets` of a frame's keys and directed contacts: arrays (pair, c * K + d)."""
-    lo, hi = np.searchsorted(u, pairs // K), np.searchsorted(u, pairs // K, side="right")  # neighbours of a
-    common = np.empty((hi - lo).sum(), np.int64)
-    found = np.empty(len(pairs) + 1, np.int64)  # first common neighbour of each pair, and the end
-    found[0] = 0
-    for p in range(len(pairs)):  # the common neighbours of each pair, in order
-        b, n = pairs[p] % K, found[p]
-        for r in range(lo[p], hi[p]):
-            if v[r] != b and _contains(keys, min(b, v[r]) * K + max(b, v[r])):
-                common[n] = v[r]
-                n += 1
-        found[p + 1] = n
-    size = 0
-    for p in range(len(pairs)):
-        n = found[p + 1] - found[p]
-        size += n * (n - 1) // 2
-    ab, cd = np.empty(size, np.int64), np.empty(size, np.int64)
-    q = 0
-    for p in range(len(pairs)):  # every pair c < d of them
-        for x in range(found[p], found[p + 1]):
-            for y in range(x + 1, found[p + 1]):
-                ab[q], cd[q] = pairs[p], common[x] * K + common[y]
-                q += 1
-    return ab, cd
 
 
 def _index_of(ids):
@@ -556,37 +488,6 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
 def _kind_codes(cycle, start, last_frame, censor):
     """:data:`T1_KINDS` codes: a cycle, else unresolved when it started fewer than ``censor`` frames before the end."""
     return np.where(cycle, CYCLE, np.where(last_frame - start < censor, UNRESOLVED, INTERCALATION)).astype(np.int8)
-
-
-@njit(cache=True)
-def _undo_pairs(undone):
-    """Scan of T1s sorted by quartet and frame: ``(first, cycle)``, each event's first T1 and whether it is a cycle.
-
-    ``undone[k]``: T1 ``k + 1`` undoes T1 ``k``.  A T1 and the one undoing
-    it make one cycle; the next T1 starts a new event (a quartet may go
-    round several times).
-    """
-    first = np.empty(len(undone), np.int64)
-    cycle = np.empty(len(undone), np.bool_)
-    n = k = 0
-    while k < len(undone):
-        first[n], cycle[n] = k, undone[k]
-        k += 2 if undone[k] else 1
-        n += 1
-    return first[:n], cycle[:n]
-
-
-def _undo_pairs_reference(undone):
-    """:func:`_undo_pairs` as a plain-Python fold (the test's reference)."""
-    events, partner = [], False
-    for k, undoes_next in enumerate(undone.tolist()):
-        if partner:  # the inverse of the T1 before it: part of that cycle
-            partner = False
-            continue
-        events.append((k, undoes_next))
-        partner = undoes_next
-    first, cycle = zip(*events) if events else ((), ())
-    return np.array(first, np.int64), np.array(cycle, bool)
 
 
 def _rows_at(cells, by_frame, frame, track):
@@ -832,21 +733,17 @@ def _mix(ids):
     return mix64(ids.astype(np.uint64) + np.uint64(GOLDEN))
 
 
-class _ListsReference:
+class _Lists:
     """One frame's neighbour lists: directed contacts ``u -> v`` sorted by (u, v), hashed per cell.
 
     ``full[k]`` hashes the list of ``tracks[k]`` (a sum of :func:`_mix` of its neighbours, so it
-    does not depend on their order).  The plain-numpy reference of :class:`_Lists`.
+    does not depend on their order).  Built by one numba kernel (:func:`~hexatissue.events._kernels._lists_kernel`):
+    no sort, no numpy call; its plain-numpy reference is :class:`hexatissue.events._reference._ListsReference`.
     """
 
     def __init__(self, frame, tracks, a, b):
         self.frame, self.tracks = frame, tracks
-        u, v = _directed(a, b)
-        ok = in_sorted(u, tracks)  # a list belongs to a cell present in the frame
-        self.u, self.v = u[ok], v[ok]
-        self.row = np.searchsorted(tracks, self.u)
-        self.h = _mix(self.v)
-        self.full = self.restricted(None)
+        self.u, self.v, self.row, self.h, self.full = _lists_kernel(tracks, a, b, np.uint64(GOLDEN))
 
     def restricted(self, present):
         """List hashes on the neighbours in the sorted ids ``present`` (all when None), per cell."""
@@ -861,59 +758,6 @@ class _ListsReference:
         """Directed contacts of each of ``tracks``: (position in ``tracks``, row of ``u``/``v``/``h``)."""
         rows, owner = _expand(np.searchsorted(self.u, tracks, "left"), np.searchsorted(self.u, tracks, "right"))
         return owner, rows
-
-
-class _Lists(_ListsReference):
-    """:class:`_ListsReference` built by one numba kernel (:func:`_lists_kernel`): no sort, no numpy call."""
-
-    def __init__(self, frame, tracks, a, b):
-        self.frame, self.tracks = frame, tracks
-        self.u, self.v, self.row, self.h, self.full = _lists_kernel(tracks, a, b, np.uint64(GOLDEN))
-
-
-@njit(cache=True)
-def _lists_kernel(tracks, a, b, golden):
-    """``u, v, row, h, full`` of :class:`_ListsReference` from the contacts ``a - b`` (any order).
-
-    Each contact goes to the lists of its cells present in ``tracks``
-    (a counting sort by cell); each list, a few neighbours long, is then
-    sorted in place, and its hashes (:func:`hexatissue._hashing.mix64_word`
-    of ``v + golden``) summed.
-    """
-    n = len(tracks)
-    ra, rb = np.searchsorted(tracks, a), np.searchsorted(tracks, b)
-    start = np.zeros(n + 1, np.int64)
-    for k in range(len(a)):
-        if ra[k] < n and tracks[ra[k]] == a[k]:
-            start[ra[k] + 1] += 1
-        if rb[k] < n and tracks[rb[k]] == b[k]:
-            start[rb[k] + 1] += 1
-    for r in range(n):
-        start[r + 1] += start[r]
-    fill = start[:n].copy()
-    v = np.empty(start[n], np.int64)
-    for k in range(len(a)):  # in the order of _directed: each contact a -> b, then each b -> a
-        if ra[k] < n and tracks[ra[k]] == a[k]:
-            v[fill[ra[k]]] = b[k]
-            fill[ra[k]] += 1
-    for k in range(len(a)):
-        if rb[k] < n and tracks[rb[k]] == b[k]:
-            v[fill[rb[k]]] = a[k]
-            fill[rb[k]] += 1
-    row = np.empty(start[n], np.int64)
-    h = np.empty(start[n], np.uint64)
-    full = np.zeros(n, np.uint64)
-    for r in range(n):
-        for q in range(start[r] + 1, start[r + 1]):  # insertion sort of the list
-            x, p = v[q], q
-            while p > start[r] and v[p - 1] > x:
-                v[p] = v[p - 1]
-                p -= 1
-            v[p] = x
-        for q in range(start[r], start[r + 1]):
-            row[q], h[q] = r, mix64_word(np.uint64(v[q]) + golden)
-            full[r] += h[q]
-    return tracks[row], v, row, h, full
 
 
 #: :class:`_Changes` (and its reference) and :func:`_index_of` find cells by a table over the track ids when
@@ -941,7 +785,7 @@ class _ChangeLog:
     kept and looked up, in ``present_keys`` (sorted
     :func:`~hexatissue.geometry.row_keys` of every (frame, cell) of the
     movie; None when every frame has the same cells).  What the two
-    implementations (:class:`_Changes`, :class:`_ChangesReference`) share:
+    implementations (:class:`_Changes`, :class:`hexatissue.events._reference._ChangesReference`) share:
     the changes found, the returns, and :meth:`events` of them.
     """
 
@@ -982,128 +826,9 @@ class _ChangeLog:
                 n_gained[first])
 
 
-@njit(cache=True)
-def _excursion_starts(order, track, start, back):
-    """The changes, in ``order``, that start an excursion: a cycle's (``back >= 0``) covers the later changes of
-    its cell up to the frame its list is back."""
-    first = np.empty(len(order), np.int64)
-    n = k = 0
-    while k < len(order):
-        i = order[k]
-        first[n] = i
-        n += 1
-        k += 1
-        if back[i] >= 0:
-            while k < len(order) and track[order[k]] == track[i] and start[order[k]] <= back[i]:
-                k += 1
-    return first[:n]
-
-
-def _excursion_starts_reference(order, track, start, back):
-    """:func:`_excursion_starts` as a plain-Python fold (the test's reference)."""
-    first, open_track, open_until = [], None, -1
-    for i in order.tolist():
-        if track[i] == open_track and start[i] <= open_until:
-            continue  # inside the excursion of the cycle before it
-        first.append(i)
-        open_track, open_until = track[i], back[i]  # back -1 (not a cycle) covers nothing: frames are >= 0
-    return np.array(first, np.int64)
-
-
-class _ChangesReference(_ChangeLog):
-    """The plain-numpy reference of :class:`_Changes`: the open changes in arrays, about 60 numpy calls a frame."""
-
-    def __init__(self, present_keys, top=None):
-        super().__init__(present_keys)
-        # row of each track id in the current frame (-1: absent), when the ids are few enough for a table:
-        # the open changes (every intercalation stays open) are looked up at every frame
-        self.slot = None if top is None else np.full(int(top) + 1, -1, np.int64)
-        empty = np.zeros(0, np.int64)
-        # open changes: index, cell, frame before the change, hash of the list left there
-        self.index, self.track, self.prev_frame, self.ref = empty, empty, empty, np.zeros(0, np.uint64)
-        self.owner, self.before = empty, empty  # the neighbours of that list not present in every frame
-
-    def _rare(self, cells):
-        """Which ``cells`` are not present in every frame."""
-        return np.zeros(len(cells), bool) if self.always is None else ~in_sorted(cells, self.always)
-
-    def _absent(self, frame, cells, lists):
-        """Which ``cells`` (not present in every frame) are absent from ``lists``' frame or from ``frame``."""
-        return ~(in_sorted(cells, lists.tracks) & in_sorted(row_keys(frame, cells), self.present_keys))
-
-    def add(self, lists):
-        self._close(lists)
-        prev = self.prev
-        self.prev = lists
-        if prev is None or prev.frame != lists.frame - 1 or not len(prev.tracks):
-            return
-        at_prev = np.minimum(np.searchsorted(prev.tracks, lists.tracks), len(prev.tracks) - 1)
-        both = prev.tracks[at_prev] == lists.tracks
-        changed = both & (prev.restricted(lists.tracks)[at_prev] != lists.restricted(prev.tracks))
-        track = lists.tracks[changed]
-        if not len(track):
-            return
-        b_owner, rows = prev.neighbours(track)
-        before = prev.v[rows]
-        a_owner, rows = lists.neighbours(track)
-        after = lists.v[rows]
-        # lost: neighbours at f - 1 that are not at f but present at f; gained: the other way round
-        lost = ~in_sorted(row_keys(b_owner, before), row_keys(a_owner, after)) & in_sorted(before, lists.tracks)
-        gained = ~in_sorted(row_keys(a_owner, after), row_keys(b_owner, before)) & in_sorted(after, prev.tracks)
-        m = len(track)
-        self.found.append((track, np.full(m, lists.frame), np.bincount(b_owner[lost], minlength=m),
-                           np.bincount(a_owner[gained], minlength=m)))
-        rare = self._rare(before)
-        self.owner = np.concatenate((self.owner, b_owner[rare] + len(self.track)))
-        self.before = np.concatenate((self.before, before[rare]))
-        self.index = np.concatenate((self.index, self.n + np.arange(m)))
-        self.track = np.concatenate((self.track, track))
-        self.prev_frame = np.concatenate((self.prev_frame, np.full(m, prev.frame)))
-        self.ref = np.concatenate((self.ref, prev.full[at_prev[changed]]))
-        self.n += m
-
-    def _close(self, lists):
-        """Close the open changes whose list is back at this frame."""
-        m = len(self.track)
-        if not m or not len(lists.tracks):
-            return
-        k, here = self._rows(lists)
-        now, ref = lists.full[k], self.ref.copy()
-        if self.always is not None:  # less the neighbours absent from either frame
-            rare = np.flatnonzero(self._rare(lists.v))
-            if len(rare):
-                rare_u = lists.u[rare]
-                rows, owner = _expand(np.searchsorted(rare_u, self.track, "left"),
-                                      np.searchsorted(rare_u, self.track, "right"))
-                rows = rare[rows]
-                gone = self._absent(self.prev_frame[owner], lists.v[rows], lists)
-                np.subtract.at(now, owner[gone], lists.h[rows[gone]])
-            gone = self._absent(self.prev_frame[self.owner], self.before, lists)
-            np.subtract.at(ref, self.owner[gone], _mix(self.before[gone]))
-        done = here & (now == ref)
-        if not done.any():
-            return
-        self.back.append((self.index[done], np.full(int(done.sum()), lists.frame)))
-        kept = ~done
-        new_pos = np.cumsum(kept) - 1
-        rows = kept[self.owner]
-        self.owner, self.before = new_pos[self.owner[rows]], self.before[rows]
-        self.index, self.track = self.index[kept], self.track[kept]
-        self.prev_frame, self.ref = self.prev_frame[kept], self.ref[kept]
-
-    def _rows(self, lists):
-        """Row in ``lists`` of each open change's cell (any row if absent) and whether it is there."""
-        if self.slot is None:  # a binary search of every open change
-            k = np.minimum(np.searchsorted(lists.tracks, self.track), len(lists.tracks) - 1)
-            return k, lists.tracks[k] == self.track
-        self.slot[lists.tracks] = np.arange(len(lists.tracks))
-        k = self.slot[self.track]
-        self.slot[lists.tracks] = -1
-        return np.maximum(k, 0), k >= 0
-
-
 class _Changes(_ChangeLog):
-    """:class:`_ChangesReference` in two numba kernels a frame (:func:`_close_kernel`, :func:`_change_kernel`).
+    """:class:`~hexatissue.events._reference._ChangesReference` in two numba kernels a frame
+    (:func:`_close_kernel`, :func:`_change_kernel`).
 
     The reference's ~60 numpy calls a frame (each on a few hundred values) cost more than their work.
     The open changes live in buffers that grow by doubling, filled to ``m`` columns: ``open`` (change
@@ -1159,140 +884,6 @@ def _grown(buffer, size):
     out[..., :buffer.shape[-1]] = buffer
     return out
 
-
-@njit(cache=True)
-def _contains(values, x):
-    """Whether ``x`` is in the sorted array ``values``."""
-    i = np.searchsorted(values, x)
-    return i < len(values) and values[i] == x
-
-
-@njit(cache=True)
-def _absent(cell, frame, tracks, keys):
-    """Whether ``cell`` is absent from the frame of ``tracks`` or from ``frame`` (``keys``: every row key)."""
-    return not (_contains(tracks, cell) and _contains(keys, frame * (1 << 40) + cell))
-
-
-@njit(cache=True)
-def _starts(row, n):
-    """First directed contact of each of ``n`` cells (``row``: the cell of each, sorted), and the end."""
-    out = np.zeros(n + 1, np.int64)
-    for r in range(len(row)):
-        out[row[r] + 1] += 1
-    for i in range(n):
-        out[i + 1] += out[i]
-    return out
-
-
-@njit(cache=True)
-def _hash_on(v, h, lo, hi, present):
-    """Hash of the list ``v[lo:hi]`` restricted to the sorted ids ``present``."""
-    out = np.uint64(0)
-    for r in range(lo, hi):
-        if _contains(present, v[r]):
-            out += h[r]
-    return out
-
-
-@njit(cache=True)
-def _close_kernel(tracks, u, v, h, full, open_, ref, m, rare, rare_h, k, common, keys, rare_ids, slot):
-    """:meth:`_ChangesReference._close` in place on the buffers: (indices of the changes closed, new m, new k).
-
-    ``slot``: a table over the track ids (-1 everywhere) to find the rows of the open changes' cells, or
-    empty (a binary search).  Every open change is compared at every frame (one lookup and one comparison
-    each); the buffers are rewritten only from the first change closed on.
-    """
-    if len(slot):
-        slot[tracks] = np.arange(len(tracks))
-    back = np.zeros(m, np.bool_)
-    first, first_rare, o = m, k, 0  # the first change closed, its first rare neighbour; next rare neighbour
-    for c in range(m):
-        cell, before, lo = open_[1, c], open_[2, c], o
-        while o < k and rare[0, o] == c:
-            o += 1
-        if len(slot):
-            row = slot[cell]
-        else:
-            row = np.searchsorted(tracks, cell)
-            row = row if row < len(tracks) and tracks[row] == cell else -1
-        if row < 0:
-            continue
-        now, was = full[row], ref[c]
-        if rare_ids:  # less the neighbours absent from either frame
-            r = np.searchsorted(u, cell)
-            while r < len(u) and u[r] == cell:
-                if not _contains(common, v[r]) and _absent(v[r], before, tracks, keys):
-                    now -= h[r]
-                r += 1
-            for q in range(lo, o):
-                if _absent(rare[1, q], before, tracks, keys):
-                    was -= rare_h[q]
-        if now == was:
-            back[c] = True
-            if first == m:
-                first, first_rare = c, lo
-    if len(slot):
-        slot[tracks] = -1
-    done = open_[0, first:m][back[first:m]].copy()
-    w, wk, o = first, first_rare, first_rare  # open changes and rare neighbours kept; next rare neighbour
-    for c in range(first, m):
-        lo = o
-        while o < k and rare[0, o] == c:
-            o += 1
-        if back[c]:
-            continue
-        for q in range(lo, o):
-            rare[0, wk], rare[1, wk], rare_h[wk] = w, rare[1, q], rare_h[q]
-            wk += 1
-        open_[0, w], open_[1, w], open_[2, w], ref[w] = open_[0, c], open_[1, c], open_[2, c], ref[c]
-        w += 1
-    return done, w, wk
-
-
-@njit(cache=True)
-def _change_kernel(prev_frame, p_tracks, p_v, p_h, p_full, p_row, tracks, v, h, full, row, open_, ref, m, n, rare,
-                   rare_h, k, common, rare_ids):
-    """The changes of :meth:`_ChangesReference.add` appended in place: (cell, n_lost, n_gained) of each, new m, k.
-
-    The buffers have room for one change per cell and one rare neighbour per directed contact of the
-    frame before.
-    """
-    same = len(p_tracks) == len(tracks) and np.all(p_tracks == tracks)  # then every list is compared whole
-    p_start, start = _starts(p_row, len(p_tracks)), _starts(row, len(tracks))
-    cells, n_lost, n_gained = np.empty(len(tracks), np.int64), np.empty(len(tracks), np.int64), np.empty(
-        len(tracks), np.int64)
-    new = j = 0
-    for i in range(len(tracks)):
-        cell = tracks[i]
-        while j < len(p_tracks) and p_tracks[j] < cell:
-            j += 1
-        if j == len(p_tracks) or p_tracks[j] != cell:
-            continue
-        lo, hi, p_lo, p_hi = start[i], start[i + 1], p_start[j], p_start[j + 1]
-        if same:
-            was, now = p_full[j], full[i]
-        else:  # on the cells present in both frames
-            was, now = _hash_on(p_v, p_h, p_lo, p_hi, tracks), _hash_on(v, h, lo, hi, p_tracks)
-        if was == now:
-            continue
-        lost = gained = 0
-        for r in range(p_lo, p_hi):  # lost: neighbours before that are not now but are present now
-            x = p_v[r]
-            if not _contains(v[lo:hi], x) and _contains(tracks, x):
-                lost += 1
-            if rare_ids and not _contains(common, x):
-                rare[0, k], rare[1, k], rare_h[k] = m, x, p_h[r]
-                k += 1
-        for r in range(lo, hi):  # gained: the other way round
-            x = v[r]
-            if not _contains(p_v[p_lo:p_hi], x) and _contains(p_tracks, x):
-                gained += 1
-        open_[0, m], open_[1, m], open_[2, m], ref[m] = n + new, cell, prev_frame, p_full[j]
-        cells[new], n_lost[new], n_gained[new] = cell, lost, gained
-        new += 1
-        m += 1
-    # copies: views would keep the frame-sized arrays of every frame with changes alive
-    return cells[:new].copy(), n_lost[:new].copy(), n_gained[:new].copy(), m, k
 
 def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10
                      ) -> pd.DataFrame:

@@ -20,15 +20,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from numba import njit
 from scipy.optimize import linear_sum_assignment
 
-from ._components import components
-from .errors import InputError
-from .geometry import in_sorted
-from .options import TRACK_MODES
-from .mesh.labels import compact_labels, touches_outside, validate_labels
-from .schema import validate
+from .._components import components
+from ..errors import InputError
+from ..geometry import in_sorted
+from ..options import TRACK_MODES
+from ..mesh.labels import compact_labels, touches_outside, validate_labels
+from ..schema import validate
+from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
            "compact_frames", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
@@ -126,188 +126,6 @@ def _compact_reference(labels: np.ndarray) -> _Compact:
     area = np.bincount(compact.ravel(), minlength=len(ids))
     return _Compact((compact.ravel() - 1).astype(np.int32), ids[1:].astype(np.int64), area[1:].astype(np.int64),
                     labels.shape)
-
-
-@njit(cache=True)
-def _id_table(flat, top):
-    """Compact id of each value 0..top of ``flat`` (-1 for 0 and for values absent) and the ids present (sorted)."""
-    new = np.zeros(top + 1, np.int32)
-    for v in flat:
-        new[v] = 1
-    n = 0
-    for v in range(1, top + 1):
-        if new[v]:
-            new[v] = n
-            n += 1
-        else:
-            new[v] = -1
-    new[0] = -1
-    ids = np.empty(n, np.int64)
-    for v in range(1, top + 1):
-        if new[v] >= 0:
-            ids[new[v]] = v
-    return new, ids
-
-
-@njit(cache=True)
-def _compact_index(flat, top):
-    """Compact index of each pixel of ``flat`` (ids 0..top; -1 for 0), the ids present (sorted) and their areas.
-
-    Two passes over the pixels and one over the ids, with no temporary image
-    (the reference builds the compact image, shifts and casts it, then counts it).
-    """
-    new, ids = _id_table(flat, top)
-    index = np.empty(flat.size, np.int32)
-    area = np.zeros(len(ids), np.int64)
-    for k in range(flat.size):
-        c = new[flat[k]]
-        index[k] = c
-        if c >= 0:
-            area[c] += 1
-    return index, ids, area
-
-
-@njit(cache=True)
-def _compact_overlaps(flat, top, prev, n_prev):
-    """:func:`_compact_index` of ``flat`` and its :func:`_dense_overlaps` with ``prev`` (``n_prev`` cells).
-
-    One pass over the pixels for both (the two kernels apart read the new
-    index again, and their count table is touched in a second pass).
-    """
-    new, ids = _id_table(flat, top)
-    n = len(ids)
-    index = np.empty(flat.size, np.int32)
-    area = np.zeros(n, np.int64)
-    width = n + 1  # background in the last row and column, as in _dense_overlaps
-    counts = np.zeros((n_prev + 1) * width, np.int64)
-    met = np.empty(min(flat.size, (n_prev + 1) * width), np.int64)
-    m = 0
-    for k in range(flat.size):
-        c = new[flat[k]]
-        index[k] = c
-        if c >= 0:
-            area[c] += 1
-        # the count of _dense_overlaps, written out again: a shared per-pixel helper (even inline="always")
-        # measured 8x slower for both kernels (reference counting of the arrays on every call)
-        a = prev[k]
-        key = (a if a >= 0 else n_prev) * width + (c if c >= 0 else n)
-        if counts[key] == 0:
-            met[m] = key
-            m += 1
-        counts[key] += 1
-    i, j, count = _cell_pairs(counts, met[:m], width, n_prev, n)
-    return index, ids, area, i, j, count
-
-
-@njit(cache=True)
-def _dense_overlaps(ia, ib, na, nb):
-    """Overlap counts of the cell pairs (rows of ``ia`` x columns of ``ib``, -1 = background) that overlap.
-
-    Returns ``i, j, n`` in row-major order of ``(i, j)``, as ``np.nonzero`` of the dense count table.
-    The pairs met are listed as they first occur and sorted, so the (mostly
-    empty) table is not scanned.
-    """
-    width = nb + 1  # background in the last row and column
-    counts = np.zeros((na + 1) * width, np.int64)
-    met = np.empty(min(len(ia), (na + 1) * width), np.int64)
-    m = 0
-    for k in range(len(ia)):
-        a = ia[k]
-        b = ib[k]
-        key = (a if a >= 0 else na) * width + (b if b >= 0 else nb)
-        if counts[key] == 0:
-            met[m] = key
-            m += 1
-        counts[key] += 1
-    return _cell_pairs(counts, met[:m], width, na, nb)
-
-
-@njit(cache=True)
-def _cell_pairs(counts, met, width, na, nb):
-    """``i, j, n`` of the keys ``met`` of the count table that are pairs of cells (not background), sorted."""
-    met = np.sort(met)
-    m = len(met)
-    cells = 0
-    for q in range(m):
-        cells += met[q] // width < na and met[q] % width < nb
-    i = np.empty(cells, np.int64)
-    j = np.empty(cells, np.int64)
-    n = np.empty(cells, np.int64)
-    cells = 0
-    for q in range(m):
-        a, b = met[q] // width, met[q] % width
-        if a < na and b < nb:
-            i[cells], j[cells], n[cells] = a, b, counts[met[q]]
-            cells += 1
-    return i, j, n
-
-
-def _dense_overlaps_reference(ia, ib, na, nb):
-    """Reference of :func:`_dense_overlaps` (one bincount of the pair index)."""
-    ia = np.where(ia < 0, na, ia).astype(np.int64)
-    counts = np.bincount(ia * (nb + 1) + np.where(ib < 0, nb, ib), minlength=(na + 1) * (nb + 1))
-    counts = counts.reshape(na + 1, nb + 1)[:na, :nb]
-    i, j = np.nonzero(counts)
-    return i.astype(np.int64), j.astype(np.int64), counts[i, j].astype(np.int64)
-
-
-@njit(cache=True)
-def _sparse_overlaps(ia, ib, na, nb):
-    """:func:`_dense_overlaps` for frames with too many cells for a dense count table.
-
-    The pixels of both frames' cells are bucketed by their cell of ``ia``
-    (a counting sort into one int32 array), then each cell's pixels are
-    counted in a scratch row of ``nb`` counts, cleared after the cell.  About
-    4 bytes per pixel, against ~30 for the key sort of the reference
-    (:func:`_sparse_overlaps_reference`).
-    """
-    start = np.zeros(na + 1, np.int64)
-    for k in range(len(ia)):
-        if ia[k] >= 0 and ib[k] >= 0:
-            start[ia[k] + 1] += 1
-    for a in range(na):
-        start[a + 1] += start[a]
-    fill = start[:na].copy()
-    cols = np.empty(start[na], np.int32)  # the ib of each pixel in both, grouped by ia
-    for k in range(len(ia)):
-        a = ia[k]
-        if a >= 0 and ib[k] >= 0:
-            cols[fill[a]] = ib[k]
-            fill[a] += 1
-    counts = np.zeros(nb, np.int64)
-    pairs = 0  # first pass: the number of pairs, so the output is allocated once
-    for a in range(na):
-        for q in range(start[a], start[a + 1]):
-            pairs += counts[cols[q]] == 0
-            counts[cols[q]] = 1
-        for q in range(start[a], start[a + 1]):
-            counts[cols[q]] = 0
-    i = np.empty(pairs, np.int64)
-    j = np.empty(pairs, np.int64)
-    n = np.empty(pairs, np.int64)
-    m = 0
-    for a in range(na):
-        first = m
-        for q in range(start[a], start[a + 1]):
-            b = cols[q]
-            if counts[b] == 0:
-                j[m] = b
-                m += 1
-            counts[b] += 1
-        j[first:m] = np.sort(j[first:m])
-        for r in range(first, m):
-            i[r] = a
-            n[r] = counts[j[r]]
-            counts[j[r]] = 0
-    return i, j, n
-
-
-def _sparse_overlaps_reference(ia, ib, na, nb):
-    """Reference of :func:`_sparse_overlaps`: one sorted int64 key per pixel in both frames' cells."""
-    both = (ia >= 0) & (ib >= 0)
-    key, n = np.unique(ia[both].astype(np.int64) * nb + ib[both], return_counts=True)
-    i, j = np.divmod(key, nb)
-    return i, j, n.astype(np.int64)
 
 
 def _contingency(a: _Compact, b: _Compact):
@@ -423,73 +241,6 @@ def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou
     mothers, first, second = _division_kernel(i, j, n, np.asarray(area_a, np.int64), np.asarray(area_b, np.int64),
                                               float(child_fraction), float(mother_fraction), float(min_iou))
     return mothers, np.stack((first, second), axis=1)
-
-
-@njit(cache=True)
-def _division_kernel(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
-    """:func:`_divisions` in three passes over the pairs (the reference sorts them twice): mothers and daughters."""
-    na, nb = len(area_a), len(area_b)
-    best = np.full(na, -1, np.int64)  # pair of the highest IoU of each cell of a (the first of ties)
-    best_iou = np.full(na, -1.0)
-    for k in range(len(i)):
-        iou = n[k] / (area_a[i[k]] + area_b[j[k]] - n[k])
-        if iou > best_iou[i[k]]:
-            best_iou[i[k]], best[i[k]] = iou, k
-    n_best = np.zeros(nb, np.int64)  # cells of a whose best successor (IoU >= min_iou / 2) is this cell of b
-    for a in range(na):
-        if best[a] >= 0 and best_iou[a] >= min_iou / 2:
-            n_best[j[best[a]]] += 1
-    top = np.full((na, 2), -1, np.int64)  # the two largest candidate overlaps of each mother (pairs)
-    for k in range(len(i)):
-        a, b = i[k], j[k]
-        own = 1 if best[a] >= 0 and best_iou[a] >= min_iou / 2 and j[best[a]] == b else 0
-        if n[k] < child_fraction * area_b[b] or n[k] < mother_fraction * area_a[a] or n_best[b] - own != 0:
-            continue
-        if top[a, 0] < 0 or n[k] > n[top[a, 0]]:
-            top[a, 1], top[a, 0] = top[a, 0], k
-        elif top[a, 1] < 0 or n[k] > n[top[a, 1]]:
-            top[a, 1] = k
-    m = 0
-    for a in range(na):
-        m += top[a, 1] >= 0
-    mothers, first, second = np.empty(m, np.int64), np.empty(m, np.int64), np.empty(m, np.int64)
-    m = 0
-    for a in range(na):
-        if top[a, 1] >= 0:
-            mothers[m], first[m], second[m] = a, j[top[a, 0]], j[top[a, 1]]
-            m += 1
-    return mothers, first, second
-
-
-def _divisions_reference(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
-    """Reference of :func:`_divisions` (sorts and bincounts): mother index -> two daughter indices, from overlaps.
-
-    A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
-    ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
-    it (``n_ij >= mother_fraction * area_i``), and that is not the best
-    successor (highest IoU, at least ``min_iou / 2``) of another cell: a
-    neighbour that took over part of ``i`` is not its daughter.  A mother with
-    two or more candidates divided; its two largest overlaps are the daughters.
-    """
-    iou = n / (area_a[i] + area_b[j] - n)
-    order = np.lexsort((-iou, i))
-    first = order[np.r_[True, i[order][1:] != i[order][:-1]]] if len(i) else order
-    best_j = np.full(len(area_a), -1)
-    strong = iou[first] >= min_iou / 2
-    best_j[i[first][strong]] = j[first][strong]
-    n_best = np.bincount(best_j[best_j >= 0], minlength=len(area_b))
-    others = n_best[j] - (best_j[i] == j)
-    cand = (n >= child_fraction * area_b[j]) & (n >= mother_fraction * area_a[i]) & (others == 0)
-    ci, cj, cn = i[cand], j[cand], n[cand]
-    if len(ci) < 2:
-        return np.empty(0, np.int64), np.empty((0, 2), np.int64)
-    order = np.lexsort((-cn, ci))
-    ci, cj = ci[order], cj[order]
-    first = np.r_[True, ci[1:] != ci[:-1]]
-    starts = np.flatnonzero(first)
-    counts = np.diff(np.r_[starts, len(ci)])
-    mothers = starts[counts >= 2]
-    return ci[mothers], np.c_[cj[mothers], cj[mothers + 1]]
 
 
 def _assign(i, j, iou):
@@ -1037,7 +788,7 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
         labels (membrane images normalised first with
         :func:`hexatissue.mesh.normalize_labels`), else every cell touches 0.
     """
-    from .progress import progress as progress_bar
+    from ..progress import progress as progress_bar
 
     n = len(stack)
     tracker = Tracker(min_iou, child_fraction, mother_fraction, max_gap)

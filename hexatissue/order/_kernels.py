@@ -1,8 +1,9 @@
-"""Numba kernels of the coarse-graining stage (:func:`hexatissue.coarse_grain`).
+"""Numba kernels of the order stage: coarse-graining (:func:`hexatissue.coarse_grain`) and shape functions.
 
-Each kernel has a plain-numpy twin of the same name and signature in
-:mod:`hexatissue._coarse_reference`; the tests compare the two.  Positions
-are (x, y) = (column, row) in px.
+Each coarse-graining kernel has a plain-numpy twin of the same name and
+signature in :mod:`hexatissue.order._reference`; the tests compare the two.
+Positions are (x, y) = (column, row) in px.  The kernels of the defects
+found on the coarse-grained field are in :mod:`hexatissue.defects._kernels`.
 
 The neighbour structure is a *cell list*: the centroids sorted by the bin of
 a regular lattice of bins (:func:`cell_list`), so that every query scans only the
@@ -23,6 +24,16 @@ Cell list arguments, shared by the kernels:
 ``period``
     (2,) float: box lengths (Lx, Ly) of a periodic box (distances are then
     minimum-image and bins wrap around), or (0, 0) for an open image.
+
+The shape functions gamma_p (:func:`shape_sums`, for
+:func:`hexatissue.order.shape_functions_flat`) are
+gamma_p = sum_v z_v^p / sum_v |z_v|^p with ``z_v = x_v + i y_v`` the vertex
+relative to the cell centre: the same number as the textbook form
+``sum |r|^p exp(i p phi) / sum |r|^p``, computed without transcendental
+functions (complex powers by repeated squaring, ``|z|^p = (x^2 + y^2)^(p/2)``,
+a square root only for odd p).  It agrees with the transcendental form to
+~1e-15; its plain-numpy reference (the transcendental form) is
+:func:`hexatissue.order._reference.reference_shape_functions`.
 """
 from __future__ import annotations
 
@@ -343,114 +354,86 @@ def disk_coverage(mask, node_i, node_j, half_width):
     return out
 
 
+# ---------------------------------------------------------------------------- shape functions gamma_p
+
+
 @njit(cache=True)
-def field_layouts(row, col, rows, cuts):
-    """Shape of every field of a grid table, whether it holds each of its nodes once, and whether in place.
+def _power(base, p):
+    """``base ** p`` for an integer p >= 0 by repeated squaring (real or complex ``base``)."""
+    result = base * 0 + 1
+    while p:
+        if p & 1:
+            result *= base
+        base *= base
+        p >>= 1
+    return result
+
+
+@njit(cache=True)
+def shape_sums(xy, starts, centre, own_centre, orders, degenerate_area):
+    """gamma_p of polygons stored back to back, for each p of ``orders``.
 
     Parameters
     ----------
-    row, col : (N,) int64
-        Node index along y and x of every row of the grid table.
-    rows : (M,) int64
-        The table rows of every field, field after field.
-    cuts : (G + 1,) int64
-        Field ``g`` is ``rows[cuts[g]:cuts[g + 1]]`` (never empty).
+    xy : (M, 2) float array
+        Vertices (x, y), polygon after polygon; polygon k starts at row ``starts[k]``.
+    starts : (N,) int64 array
+    centre : (N, 2) float array
+        Cell centres; ignored with ``own_centre``, which uses the mean of each polygon's vertices.
+    own_centre : bool
+    orders : (P,) int64 array
+        Symmetry orders (>= 1).
+    degenerate_area : float
+        A polygon whose area is not above ``degenerate_area`` times its mean
+        squared vertex radius (collinear or collapsed vertices), or with fewer
+        than 3 vertices, gets NaN; so does one whose denominator is not positive.
 
     Returns
     -------
-    shapes : (G, 2) int64
-        ``(ny, nx)`` of each field: its largest ``row`` and ``col`` plus one.
-    once : (G,) bool
-        The field holds every node of its ``ny x nx`` grid exactly once.
-    block : (G,) bool
-        Moreover its rows are consecutive table rows in row-major node order (so the field is a
-        ``(ny, nx)`` reshape of a slice of the columns).
+    (P, N) complex array
     """
-    g_count = cuts.shape[0] - 1
-    shapes = np.zeros((g_count, 2), np.int64)
-    once, block = np.zeros(g_count, np.bool_), np.zeros(g_count, np.bool_)
-    seen = np.zeros(0, np.bool_)
-    for g in range(g_count):
-        a, b = cuts[g], cuts[g + 1]
-        low, ny, nx = 0, row[rows[a]] + 1, col[rows[a]] + 1
-        for e in range(a, b):
-            low = min(low, row[rows[e]], col[rows[e]])
-            ny, nx = max(ny, row[rows[e]] + 1), max(nx, col[rows[e]] + 1)
-        shapes[g, 0], shapes[g, 1] = ny, nx
-        if low < 0 or b - a != ny * nx:
+    n = len(starts)
+    out = np.full((len(orders), n), np.nan + 0j)
+    for k in range(n):
+        s = starts[k]
+        e = starts[k + 1] if k + 1 < n else len(xy)
+        nv = e - s
+        if nv < 3:
             continue
-        if seen.shape[0] < b - a:
-            seen = np.zeros(b - a, np.bool_)
-        seen[:b - a] = False
-        once[g], block[g] = True, True
-        for e in range(a, b):
-            node = row[rows[e]] * nx + col[rows[e]]
-            if seen[node]:
-                once[g], block[g] = False, False
-                break
-            seen[node] = True
-            block[g] = block[g] and node == e - a and rows[e] == rows[a] + (e - a)
-    return shapes, once, block
-
-
-@njit(cache=True)
-def _wrapped(d, period):
-    """``d`` wrapped into (-period/2, period/2] (as ``hexatissue.defects._wrap_angle``)."""
-    return d - period * np.ceil(d / period - 0.5)
-
-
-@njit(cache=True)
-def _plaquette_charge(here, right, down, diag, p, period):
-    """Charge of a plaquette from its corners' orientations: the four steps counter-clockwise, each wrapped."""
-    total = (_wrapped(right - here, period) + _wrapped(diag - right, period)
-             + _wrapped(down - diag, period) + _wrapped(here - down, period))
-    return np.round(total * p / (2.0 * np.pi)) / p
-
-
-@njit(cache=True)
-def plaquette_defects(theta, p, periodic):
-    """The charged plaquettes of a stack of orientation grids (the kernel of :func:`hexatissue.defects.find_defects`).
-
-    Parameters
-    ----------
-    theta : (g, ny, nx) float
-        Orientations ``Arg(field) / p``, radians, indexed ``[grid, row, col]``; NaN nodes make
-        the plaquettes around them NaN (never charged).
-    p : int
-        Symmetry order.
-    periodic : bool
-        The grids wrap around: ``ny x nx`` plaquettes, else ``(ny - 1) x (nx - 1)``.
-
-    Returns
-    -------
-    flat : (d,) int64
-        Flat index in the ``(g, ny', nx')`` array of plaquettes of every plaquette of nonzero
-        charge, ascending (as ``np.flatnonzero`` of the charges).  Plaquette ``[i, j]`` has the
-        corners ``[i, j]`` to ``[i+1, j+1]``.
-    charge : (d,) float
-        Their charges: the sum of the four steps counter-clockwise in x, y, each wrapped into
-        ``(-pi/p, pi/p]``, over ``2 pi`` (a nonzero multiple of ``1/p``).
-
-    The charges of every plaquette are :func:`hexatissue.defects.winding` (the plain-numpy path);
-    this kernel keeps only the charged ones, without the array of every charge.
-    """
-    g, ny, nx = theta.shape
-    my, mx = (ny, nx) if periodic else (ny - 1, nx - 1)
-    period = 2.0 * np.pi / p
-    # room for every plaquette: only the pages of the defects found are ever touched
-    flat, charge = np.empty(g * my * mx, np.int64), np.empty(g * my * mx)
-    row_charges = np.empty(mx)
-    d = 0
-    for a in range(g):
-        for i in range(my):
-            top, bottom = theta[a, i], theta[a, i + 1 if i + 1 < ny else 0]
-            # a row's charges first, in a loop without branches (the compiler vectorises it), then the charged ones
-            for j in range(nx - 1):
-                row_charges[j] = _plaquette_charge(top[j], top[j + 1], bottom[j], bottom[j + 1], p, period)
-            if periodic:
-                row_charges[nx - 1] = _plaquette_charge(top[nx - 1], top[0], bottom[nx - 1], bottom[0], p, period)
-            for j in range(mx):
-                if row_charges[j] > 0.0 or row_charges[j] < 0.0:  # NaN compares False
-                    flat[d], charge[d] = (a * my + i) * mx + j, row_charges[j]
-                    d += 1
-    return flat[:d].copy(), charge[:d].copy()
+        if own_centre:
+            cx = 0.0
+            cy = 0.0
+            for v in range(s, e):
+                cx += xy[v, 0]
+                cy += xy[v, 1]
+            cx /= nv
+            cy /= nv
+        else:
+            cx = centre[k, 0]
+            cy = centre[k, 1]
+        cross = 0.0  # twice the signed area, of the centred polygon
+        size2 = 0.0
+        for v in range(s, e):
+            w = v + 1 if v + 1 < e else s
+            x0 = xy[v, 0] - cx
+            y0 = xy[v, 1] - cy
+            cross += x0 * (xy[w, 1] - cy) - (xy[w, 0] - cx) * y0
+            size2 += x0 * x0 + y0 * y0
+        if not (0.5 * abs(cross) > degenerate_area * size2 / nv):
+            continue
+        for q in range(len(orders)):
+            p = orders[q]
+            num = 0j
+            den = 0.0
+            for v in range(s, e):
+                x = xy[v, 0] - cx
+                y = xy[v, 1] - cy
+                r2 = x * x + y * y
+                weight = _power(r2, p // 2)
+                if p & 1:
+                    weight *= np.sqrt(r2)
+                num += _power(complex(x, y), p)
+                den += weight
+            if den > 0:
+                out[q, k] = num / den
+    return out

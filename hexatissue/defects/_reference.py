@@ -1,0 +1,27 @@
+"""Plain-numpy references of the kernels in :mod:`hexatissue.defects._kernels`.
+
+:func:`field_layouts` has the kernel's name and signature; :func:`winding`
+(the plain-numpy path of :func:`hexatissue.defects.plaquette_charges`) gives
+every plaquette's charge, of which ``plaquette_defects`` keeps the charged ones.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import winding  # noqa: F401  (the reference of _kernels.plaquette_defects, beside plaquette_charges)
+
+
+def field_layouts(row, col, rows, cuts):
+    """Reference of :func:`hexatissue.defects._kernels.field_layouts` (one field at a time, numpy)."""
+    n_fields = len(cuts) - 1
+    shapes, once, block = np.zeros((n_fields, 2), np.int64), np.zeros(n_fields, bool), np.zeros(n_fields, bool)
+    for g, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+        r, c = row[rows[a:b]], col[rows[a:b]]
+        shapes[g] = r.max() + 1, c.max() + 1
+        n = shapes[g].prod()
+        if len(r) != n or r.min() < 0 or c.min() < 0:
+            continue
+        node = r * shapes[g, 1] + c
+        once[g] = np.bincount(node, minlength=n).max() == 1
+        block[g] = once[g] and (node == np.arange(n)).all() and (rows[a:b] == rows[a] + np.arange(n)).all()
+    return shapes, once, block

@@ -1,0 +1,56 @@
+"""Plain-numpy references of the kernels in :mod:`hexatissue.track._kernels`; the tests compare the two.
+
+(:func:`hexatissue.track._compact_reference`, the reference of the compaction
+kernels, stays in :mod:`hexatissue.track`: the tracker uses it for sparse ids.)
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def _dense_overlaps_reference(ia, ib, na, nb):
+    """Reference of :func:`_dense_overlaps` (one bincount of the pair index)."""
+    ia = np.where(ia < 0, na, ia).astype(np.int64)
+    counts = np.bincount(ia * (nb + 1) + np.where(ib < 0, nb, ib), minlength=(na + 1) * (nb + 1))
+    counts = counts.reshape(na + 1, nb + 1)[:na, :nb]
+    i, j = np.nonzero(counts)
+    return i.astype(np.int64), j.astype(np.int64), counts[i, j].astype(np.int64)
+
+
+def _sparse_overlaps_reference(ia, ib, na, nb):
+    """Reference of :func:`_sparse_overlaps`: one sorted int64 key per pixel in both frames' cells."""
+    both = (ia >= 0) & (ib >= 0)
+    key, n = np.unique(ia[both].astype(np.int64) * nb + ib[both], return_counts=True)
+    i, j = np.divmod(key, nb)
+    return i, j, n.astype(np.int64)
+
+
+def _divisions_reference(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
+    """Reference of :func:`_divisions` (sorts and bincounts): mother index -> two daughter indices, from overlaps.
+
+    A daughter candidate of mother ``i`` is a cell ``j`` lying mostly inside
+    ``i`` (``n_ij >= child_fraction * area_j``) and holding a sizeable part of
+    it (``n_ij >= mother_fraction * area_i``), and that is not the best
+    successor (highest IoU, at least ``min_iou / 2``) of another cell: a
+    neighbour that took over part of ``i`` is not its daughter.  A mother with
+    two or more candidates divided; its two largest overlaps are the daughters.
+    """
+    iou = n / (area_a[i] + area_b[j] - n)
+    order = np.lexsort((-iou, i))
+    first = order[np.r_[True, i[order][1:] != i[order][:-1]]] if len(i) else order
+    best_j = np.full(len(area_a), -1)
+    strong = iou[first] >= min_iou / 2
+    best_j[i[first][strong]] = j[first][strong]
+    n_best = np.bincount(best_j[best_j >= 0], minlength=len(area_b))
+    others = n_best[j] - (best_j[i] == j)
+    cand = (n >= child_fraction * area_b[j]) & (n >= mother_fraction * area_a[i]) & (others == 0)
+    ci, cj, cn = i[cand], j[cand], n[cand]
+    if len(ci) < 2:
+        return np.empty(0, np.int64), np.empty((0, 2), np.int64)
+    order = np.lexsort((-cn, ci))
+    ci, cj = ci[order], cj[order]
+    first = np.r_[True, ci[1:] != ci[:-1]]
+    starts = np.flatnonzero(first)
+    counts = np.diff(np.r_[starts, len(ci)])
+    mothers = starts[counts >= 2]
+    return ci[mothers], np.c_[cj[mothers], cj[mothers + 1]]
