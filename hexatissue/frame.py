@@ -27,12 +27,12 @@ MESH_TABLES = ("cells", "vertices", "edges", "cell_vertices")
 class Tables(dict):
     """A Movie's tables by name, in the schema's order (:data:`hexatissue.schema.TABLES`).
 
-    Calling it (``movie.tables``, the spelling of hexatissue 0.1) returns a
+    Calling it (``movie.tables()``, the spelling of hexatissue 0.1) returns a
     plain dict of the same tables; it is deprecated.
     """
 
     def __call__(self):
-        warnings.warn("movie.tables is deprecated: movie.tables is the mapping of tables by name",
+        warnings.warn(".tables() is deprecated: .tables is the mapping of tables by name",
                       DeprecationWarning, stacklevel=2)
         return dict(self)
 

@@ -96,9 +96,8 @@ class Movie:
     def __init__(self, cells, vertices, edges, cell_vertices, *, box=None, shape=(), n_frames=0, calibration=None,
                  options=None, source=None, version="", summary=None, **tables):
         given = dict(cells=cells, vertices=vertices, edges=edges, cell_vertices=cell_vertices, **tables)
-        object.__setattr__(self, "tables", Tables())
-        for name, table in given.items():
-            setattr(self, name, table)
+        given = {name: _check_table(name, table) for name, table in given.items() if table is not None}
+        object.__setattr__(self, "tables", Tables((name, given[name]) for name in SCHEMAS if name in given))
         self.box = box
         self.shape = shape
         self.calibration = Calibration() if calibration is None else calibration
@@ -181,11 +180,11 @@ class Movie:
         return self.frame(t).polygons()
 
     def replace(self, **changes) -> "Movie":
-        """A copy with some tables or attributes replaced (a table set to None is dropped)."""
-        unknown = set(changes) - set(SCHEMAS) - set(_ATTRIBUTES)
-        if unknown:
-            raise InputError(f"Movie has no table or attribute {sorted(unknown)}; tables: {list(SCHEMAS)}, "
-                             f"attributes: {list(_ATTRIBUTES)}")
+        """A copy with some tables or attributes replaced (a table set to None is dropped).
+
+        A name that is neither an attribute nor a table with a schema raises
+        :class:`InputError`.
+        """
         kept = {name: getattr(self, name) for name in _ATTRIBUTES}
         return Movie(**{**self.tables, **kept, **changes})
 
