@@ -16,7 +16,8 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["TABLES", "validate", "describe", "require_columns", "empty_table", "track_ids", "interior_mask"]
+__all__ = ["TABLES", "validate", "describe", "require_columns", "empty_table", "track_ids", "interior_mask",
+           "FrameRows", "rows_by_frame"]
 
 #: Every table, in the order they are written: column -> (dtype kind: i integer, f float, b bool, O string/object, unit, meaning)
 TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
@@ -115,8 +116,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "x": ("f", "px", "centre of the quartet, column"),
         "y": ("f", "px", "centre of the quartet, row"),
         "frame_gain": ("i", "frame", "first frame with the c-d contact (> frame_start: a four-fold vertex persisted)"),
-        "frame_undo": ("f", "frame", "first frame without the c-d contact again (cycles), else NaN"),
-        "is_border": ("b", "", "a quartet cell touches the image edge or background"),
+        "frame_undo": ("f", "frame", "first frame without the c-d contact again in the inverse T1 (cycles), else NaN"),
+        "is_border": ("b", "", "one of the four cells is a border cell at frame_start"),
     },
     "neighbour_events": {
         "event": ("i", "", "event id"),
@@ -133,22 +134,22 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     },
     "lineage": {
         "track": ("i", "", "track id"),
-        "frame_start": ("i", "frame", "first frame of the track"),
-        "frame_end": ("i", "frame", "last frame of the track"),
-        "n_frames": ("i", "frame", "frames in which the track is present"),
+        "frame_start": ("i", "frame", "first frame the track is present"),
+        "frame_end": ("i", "frame", "last frame the track is present (inclusive)"),
+        "n_frames": ("i", "frame", "frames the track is present (fewer than the span when gaps were closed)"),
         "parent": ("i", "", "track id of the mother cell for daughters of a division, else 0"),
-        "begin": ("O", "", "movie_start, division, border or appearance"),
-        "end": ("O", "", "movie_end, division, border or extrusion"),
+        "begin": ("O", "", "how the track starts: movie_start, division, border (enters the field of view) or appearance (interior)"),
+        "end": ("O", "", "how the track ends: movie_end, division, border (leaves the field of view) or extrusion (interior)"),
     },
     "cell_events": {
         "track": ("i", "", "track id"),
-        "n_frames": ("i", "frame", "frames in which the track is present"),
-        "n_cycles": ("i", "", "T1 cycles the cell took part in"),
-        "n_intercalations": ("i", "", "intercalations the cell took part in"),
-        "n_unresolved": ("i", "", "right-censored T1s the cell took part in"),
-        "mean_cycle_period": ("f", "frame", "mean duration of its T1 cycles"),
-        "n_intervals": ("i", "", "intervals between consecutive intercalations"),
-        "mean_intercalation_interval": ("f", "frame", "mean time between consecutive intercalations"),
+        "n_frames": ("i", "frame", "frames the cell is present"),
+        "n_cycles": ("i", "", "T1 cycles the cell takes part in (as a, b, c or d)"),
+        "n_intercalations": ("i", "", "intercalations the cell takes part in"),
+        "n_unresolved": ("i", "", "right-censored T1s the cell takes part in"),
+        "mean_cycle_period": ("f", "frame", "mean duration of its T1 cycles (NaN if none)"),
+        "n_intervals": ("i", "", "intervals between consecutive intercalations of the cell"),
+        "mean_intercalation_interval": ("f", "frame", "mean time between consecutive intercalations of the cell (NaN if fewer than 2)"),
     },
 }
 
@@ -236,17 +237,57 @@ def track_ids(cells) -> np.ndarray:
     return cells[column].to_numpy(np.int64)
 
 
-def rows_by_frame(times) -> dict:
-    """Row indices of each time point, in row order: ``{t: rows}`` for every ``t`` in ``times``.
+class FrameRows:
+    """The rows of each frame of a ``frame`` column (sorted or not: one stable argsort if not).
 
-    One stable argsort of the whole column, so that per-frame work over a movie
-    costs one pass, not one scan of the table per frame (which grows as
-    frames x rows).
+    Iterating gives ``(frame, rows)`` in frame order; rows are a slice when
+    the column is sorted, else row indices in row order.  One pass over the
+    column, so per-frame work over a movie does not scan the table per frame.
     """
+
+    def __init__(self, frame):
+        frame = np.asarray(frame)
+        self.order = None if len(frame) < 2 or bool(np.all(frame[1:] >= frame[:-1])) else np.argsort(frame,
+                                                                                                       kind="stable")
+        f = frame if self.order is None else frame[self.order]
+        starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]]) if len(f) else np.zeros(0, np.int64)
+        self.frames, self.bounds = f[starts].astype(np.int64), np.r_[starts, len(f)]
+
+    def __iter__(self):
+        for k, frame in enumerate(self.frames.tolist()):
+            yield frame, self._rows(k)
+
+    def blocks(self, rows):
+        """Consecutive frames in blocks of about ``rows`` rows (one frame at least): ``(frames, rows)``."""
+        k = 0
+        while k < len(self.frames):
+            end = max(int(np.searchsorted(self.bounds, self.bounds[k] + rows, "right")) - 1, k + 1)
+            end = min(end, len(self.frames))
+            lo, hi = self.bounds[k], self.bounds[end]
+            yield self.frames[k:end], (slice(lo, hi) if self.order is None else self.order[lo:hi])
+            k = end
+
+    def between(self, first, last):
+        """Row indices (a slice when the column is sorted) of the frames ``first`` to ``last``."""
+        lo, hi = np.searchsorted(self.frames, first, "left"), np.searchsorted(self.frames, last, "right")
+        lo, hi = self.bounds[lo], self.bounds[hi]
+        return slice(lo, hi) if self.order is None else self.order[lo:hi]
+
+    def rows(self, frame):
+        """Row indices (a slice when the column is sorted) of ``frame``; none if it is absent."""
+        k = int(np.searchsorted(self.frames, frame))
+        return self._rows(k) if k < len(self.frames) and self.frames[k] == frame else slice(0, 0)
+
+    def _rows(self, k):
+        lo, hi = self.bounds[k], self.bounds[k + 1]
+        return slice(lo, hi) if self.order is None else self.order[lo:hi]
+
+
+def rows_by_frame(times) -> dict:
+    """Row indices of each time point, in row order: ``{t: rows}`` for every ``t`` in ``times`` (:class:`FrameRows`)."""
     times = np.asarray(times).reshape(-1)
-    order = np.argsort(times, kind="stable")
-    present, first = np.unique(times[order], return_index=True)
-    return dict(zip(present.tolist(), np.split(order, first[1:]))) if len(order) else {}
+    by_frame = FrameRows(times)
+    return {frame: np.arange(rows.start, rows.stop) if isinstance(rows, slice) else rows for frame, rows in by_frame}
 
 
 def string_column(codes, names):

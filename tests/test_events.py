@@ -477,12 +477,12 @@ def test_change_kernels_equal_the_numpy_reference(case):
     """:class:`_Changes` (numba kernels) and :class:`_ChangesReference` (numpy): the same changes, returns, events."""
     from hexatissue.events import _Changes, _Lists, _movie_frames, _same_cells_every_frame
     from hexatissue.events._reference import _ChangesReference
-    from hexatissue.events import _ByFrame
+    from hexatissue.schema import FrameRows
     from hexatissue.geometry import row_keys
 
     edges, cells = _kernel_case(case, t1_periodic=True)
     frames, tracks = cells["frame"].to_numpy(np.int64), cells["track"].to_numpy(np.int64)
-    constant = _same_cells_every_frame(_ByFrame(frames), tracks)
+    constant = _same_cells_every_frame(FrameRows(frames), tracks)
     keys = None if constant else np.unique(row_keys(frames, tracks))
     assert constant == (case != "cells-leaving")
     top = None if case == "large-ids" else int(tracks.max())

@@ -64,3 +64,18 @@ def test_string_column_refuses_codes_outside_the_names():
         string_column([0, 2], ("a", "b"))
     with pytest.raises(InputError, match="codes must index"):
         string_column([-1], ("a", "b"))
+
+
+def test_rows_by_frame_equals_the_stable_argsort_split_for_sorted_unsorted_and_empty_columns():
+    """FrameRows (slices on sorted columns) behind rows_by_frame gives the arrays of one stable argsort."""
+    from hexatissue.schema import rows_by_frame
+
+    rng = np.random.default_rng(0)
+    for times in (rng.integers(0, 20, 1000), np.sort(rng.integers(0, 20, 1000)), np.zeros(0, int), np.array([3])):
+        order = np.argsort(times, kind="stable")
+        present, first = np.unique(times[order], return_index=True)
+        expected = dict(zip(present.tolist(), np.split(order, first[1:]))) if len(order) else {}
+        got = rows_by_frame(times)
+        assert list(got) == list(expected)
+        for frame, rows in expected.items():
+            np.testing.assert_array_equal(got[frame], rows)

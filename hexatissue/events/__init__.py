@@ -35,30 +35,11 @@ from ..box import Box
 from ..errors import InputError, is_real
 from ..geometry import in_sorted, lookup, row_keys
 from ..graph import pair_groups
-from ..schema import interior_mask, string_column, track_ids, validate
+from ..schema import TABLES as SCHEMAS, FrameRows, interior_mask, string_column, track_ids, validate
 from ._kernels import _change_kernel, _close_kernel, _excursion_starts, _lists_kernel, _t1_kernel, _undo_pairs
 
 __all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
-           "cell_event_stats", "intercalation_intervals", "EVENT_EXTRA_COLUMNS", "CELL_EVENT_COLUMNS"]
-
-# Columns of the events table beyond the schema's.
-EVENT_EXTRA_COLUMNS = {
-    "frame_gain": "first frame c-d are in contact (= frame_start unless a four-fold vertex persisted), frame",
-    "frame_undo": "first frame c-d are no longer in contact in the inverse T1 (NaN unless cycle), frame",
-    "is_border": "one of the four cells is a border cell at frame_start",
-}
-
-CELL_EVENT_COLUMNS = {
-    "track": "track id",
-    "n_frames": "frames the cell is present",
-    "n_cycles": "T1 cycles the cell takes part in (as a, b, c or d)",
-    "n_intercalations": "intercalations the cell takes part in",
-    "n_unresolved": "right-censored T1s the cell takes part in",
-    "mean_cycle_period": "mean duration of its cycles, frames (NaN if none)",
-    "n_intervals": "number of intervals between consecutive intercalations of the cell",
-    "mean_intercalation_interval": "mean frames between consecutive intercalations of the cell (NaN if < 2)",
-}
-
+           "cell_event_stats", "intercalation_intervals"]
 
 #: The ``kind`` of a T1 (quartet or per-cell event); tables are built from codes, its indices.
 T1_KINDS = ("cycle", "intercalation", "unresolved")
@@ -125,47 +106,6 @@ def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_l
 BLOCK_ROWS = 1 << 14
 
 
-class _ByFrame:
-    """The rows of each frame of a ``frame`` column (sorted or not: one stable argsort if not)."""
-
-    def __init__(self, frame):
-        frame = np.asarray(frame)
-        self.order = None if len(frame) < 2 or bool(np.all(frame[1:] >= frame[:-1])) else np.argsort(frame,
-                                                                                                       kind="stable")
-        f = frame if self.order is None else frame[self.order]
-        starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]]) if len(f) else np.zeros(0, np.int64)
-        self.frames, self.bounds = f[starts].astype(np.int64), np.r_[starts, len(f)]
-
-    def __iter__(self):
-        for k, frame in enumerate(self.frames.tolist()):
-            yield frame, self._rows(k)
-
-    def blocks(self, rows=BLOCK_ROWS):
-        """Consecutive frames in blocks of about ``rows`` rows (one frame at least): ``(frames, rows)``."""
-        k = 0
-        while k < len(self.frames):
-            end = max(int(np.searchsorted(self.bounds, self.bounds[k] + rows, "right")) - 1, k + 1)
-            end = min(end, len(self.frames))
-            lo, hi = self.bounds[k], self.bounds[end]
-            yield self.frames[k:end], (slice(lo, hi) if self.order is None else self.order[lo:hi])
-            k = end
-
-    def between(self, first, last):
-        """Row indices (a slice when the column is sorted) of the frames ``first`` to ``last``."""
-        lo, hi = np.searchsorted(self.frames, first, "left"), np.searchsorted(self.frames, last, "right")
-        lo, hi = self.bounds[lo], self.bounds[hi]
-        return slice(lo, hi) if self.order is None else self.order[lo:hi]
-
-    def rows(self, frame):
-        """Row indices (a slice when the column is sorted) of ``frame``; none if it is absent."""
-        k = int(np.searchsorted(self.frames, frame))
-        return self._rows(k) if k < len(self.frames) and self.frames[k] == frame else slice(0, 0)
-
-    def _rows(self, k):
-        lo, hi = self.bounds[k], self.bounds[k + 1]
-        return slice(lo, hi) if self.order is None else self.order[lo:hi]
-
-
 def _movie_frames(edges, cells, min_length):
     """Each frame of ``cells`` in turn: ``(frame, tracks, a, b, length)``.
 
@@ -180,7 +120,7 @@ def _movie_frames(edges, cells, min_length):
             raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
     if not is_real(min_length) or min_length < 0:
         raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
-    cell_rows, edge_rows = _ByFrame(cells["frame"].to_numpy(np.int64)), _ByFrame(edges["frame"].to_numpy(np.int64))
+    cell_rows, edge_rows = FrameRows(cells["frame"].to_numpy(np.int64)), FrameRows(edges["frame"].to_numpy(np.int64))
     translate = "track" in cells.columns
     if translate and len(np.setdiff1d(edge_rows.frames, cell_rows.frames)):
         raise InputError(MISSING_CELLS)
@@ -199,7 +139,7 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
     e_frame = edges["frame"].to_numpy(np.int64)
     e_a, e_b = edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)
     e_length = edges["length"].to_numpy(float)
-    for frames, rows in cell_rows.blocks():
+    for frames, rows in cell_rows.blocks(BLOCK_ROWS):
         er = edge_rows.between(frames[0], frames[-1])
         frame, a, b, length = e_frame[er], e_a[er], e_b[er], e_length[er]
         keep = a != 0  # contacts with the outside are not cell contacts
@@ -334,9 +274,9 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     """
     track = presence["track"].to_numpy(np.int64)
     a, b = contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)
-    contact_rows = _ByFrame(contacts["frame"].to_numpy(np.int64))
+    contact_rows = FrameRows(contacts["frame"].to_numpy(np.int64))
     frames = ((frame, np.unique(track[rows]), a[contact_rows.rows(frame)], b[contact_rows.rows(frame)])
-              for frame, rows in _ByFrame(presence["frame"].to_numpy(np.int64)))
+              for frame, rows in FrameRows(presence["frame"].to_numpy(np.int64)))
     return _find_t1(frames, np.unique(np.r_[track, a, b]))
 
 
@@ -457,7 +397,7 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
     -------
     pandas.DataFrame
         ``kind``, ``frame_start``, ``frame_end``, ``duration``, ``cell_a``..``cell_d``,
-        ``frame_gain``, ``frame_undo`` (see :data:`EVENT_EXTRA_COLUMNS`).
+        ``frame_gain``, ``frame_undo`` (see ``hexatissue.schema.TABLES["events"]``).
     """
     _check_censor(censor)
     df = t1.copy()
@@ -496,7 +436,7 @@ def _rows_at(cells, by_frame, frame, track):
     order = np.argsort(frame, kind="stable")
     wanted = frame[order]
     c_frame, c_track = cells["frame"].to_numpy(np.int64), track_ids(cells)
-    for frames, rows in by_frame.blocks():
+    for frames, rows in by_frame.blocks(BLOCK_ROWS):
         lo, hi = np.searchsorted(wanted, [frames[0], frames[-1] + 1])
         if lo == hi:
             continue
@@ -523,7 +463,7 @@ def _positions(events, cells, box):
     x, y = cells["x"].to_numpy(float), cells["y"].to_numpy(float)
     quartet = ("cell_a", "cell_b", "cell_c", "cell_d")
     frame = np.tile(events["frame_start"].to_numpy(np.int64), 4)
-    row = _rows_at(cells, _ByFrame(cells["frame"].to_numpy(np.int64)), frame,
+    row = _rows_at(cells, FrameRows(cells["frame"].to_numpy(np.int64)), frame,
                    np.concatenate([events[c].to_numpy(np.int64) for c in quartet])).reshape(4, -1).T
     at = np.maximum(row, 0)
     xy = np.where(row[..., None] >= 0, np.stack([x[at], y[at]], axis=-1), np.nan)  # event, cell, (x, y)
@@ -575,7 +515,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
         ``cell_a``, ``cell_b`` (lose the contact), ``cell_c``, ``cell_d``
         (gain it; all track ids), ``x``, ``y`` (quartet centre at
         ``frame_start``, px; x = column, y = row), ``frame_gain``,
-        ``frame_undo``, ``is_border`` (see :data:`EVENT_EXTRA_COLUMNS`).
+        ``frame_undo``, ``is_border`` (see ``hexatissue.schema.TABLES["events"]``).
     """
     _check_cells(cells)
     frames = _movie_frames(edges, cells, min_length)
@@ -688,7 +628,7 @@ def _per_track(tracks, track, chosen, values=None):
 
 
 def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) -> pd.DataFrame:
-    """Per-cell T1 statistics (see :data:`CELL_EVENT_COLUMNS`).
+    """Per-cell T1 statistics (columns: ``hexatissue.schema.TABLES["cell_events"]``).
 
     Parameters
     ----------
@@ -942,7 +882,7 @@ def _check_censor(censor):
 def _changes(cells):
     """An empty :class:`_Changes` for the cells of a movie, and their rows by frame."""
     frames, tracks = cells["frame"].to_numpy(np.int64), track_ids(cells)
-    by_frame = _ByFrame(frames)
+    by_frame = FrameRows(frames)
     constant = _same_cells_every_frame(by_frame, tracks)
     top = int(tracks.max()) if len(tracks) else 0
     changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)),
@@ -976,3 +916,23 @@ def _same_cells_every_frame(by_frame, tracks):
         elif not np.array_equal(first, here):
             return False
     return True
+
+
+_DEPRECATED_COLUMNS = {"EVENT_EXTRA_COLUMNS": ("events", ("frame_gain", "frame_undo", "is_border")),
+                       "CELL_EVENT_COLUMNS": ("cell_events", None)}
+
+
+def _schema_meanings(table, columns=None):
+    return {c: meaning for c, (_, _, meaning) in SCHEMAS[table].items() if columns is None or c in columns}
+
+
+def __getattr__(name):
+    # column lists of hexatissue 0.1, now read from the one registry, hexatissue.schema.TABLES
+    if name in _DEPRECATED_COLUMNS:
+        import warnings
+
+        table, columns = _DEPRECATED_COLUMNS[name]
+        warnings.warn(f"{__name__}.{name} is deprecated; the columns are in hexatissue.schema.TABLES[{table!r}]",
+                      DeprecationWarning, stacklevel=2)
+        return _schema_meanings(table, columns)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -27,26 +27,15 @@ from ..errors import InputError
 from ..geometry import in_sorted
 from ..options import TRACK_MODES
 from ..mesh.labels import compact_labels, touches_outside, validate_labels
-from ..schema import validate
+from ..schema import TABLES as SCHEMAS, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
-           "compact_frames", "frame_overlaps", "match_frames", "LINEAGE_COLUMNS", "lineage_roots"]
+           "compact_frames", "frame_overlaps", "match_frames", "lineage_roots"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
 _DENSE_LIMIT = 4_000_000
-
-LINEAGE_COLUMNS = {
-    "track": "track id",
-    "frame_start": "first frame the track is present",
-    "frame_end": "last frame the track is present (inclusive)",
-    "n_frames": "number of frames the track is present (fewer than the span when gaps were closed)",
-    "parent": "track id of the mother cell for daughters of a division, else 0",
-    "begin": "how the track starts: movie_start, division, border (enters the field of view) or appearance (interior)",
-    "end": "how the track ends: movie_end, division, border (leaves the field of view) or extrusion (interior)",
-}
-
 
 @dataclass
 class _Compact:
@@ -717,7 +706,7 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
     Returns
     -------
     pandas.DataFrame
-        Columns described in :data:`LINEAGE_COLUMNS`: ``track``,
+        Columns described in ``hexatissue.schema.TABLES["lineage"]``: ``track``,
         ``frame_start``, ``frame_end`` (frames), ``n_frames``, ``parent``
         (0 = none), ``begin``, ``end``.
     """
@@ -800,3 +789,22 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
     tracks = tracker.tracks()
     lineage = lineage_table(tracks, tracker.parents, np.concatenate(border) if border else None)
     return tracks, lineage
+
+
+_DEPRECATED_COLUMNS = {"LINEAGE_COLUMNS": ("lineage", None)}
+
+
+def _schema_meanings(table, columns=None):
+    return {c: meaning for c, (_, _, meaning) in SCHEMAS[table].items() if columns is None or c in columns}
+
+
+def __getattr__(name):
+    # column lists of hexatissue 0.1, now read from the one registry, hexatissue.schema.TABLES
+    if name in _DEPRECATED_COLUMNS:
+        import warnings
+
+        table, columns = _DEPRECATED_COLUMNS[name]
+        warnings.warn(f"{__name__}.{name} is deprecated; the columns are in hexatissue.schema.TABLES[{table!r}]",
+                      DeprecationWarning, stacklevel=2)
+        return _schema_meanings(table, columns)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
