@@ -120,11 +120,11 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     """
     src = open_source(source)
     options = stage_options(options)
+    frame_work, movie_work = frame_stages(options), movie_stages(options)
     if src.kind == "polygons":
-        _check_polygon_run(box, mask, options)
+        _check_polygon_run(box, mask, frame_work, options)
     box = src.box if box is None else as_box(box, src.shape)
     mask, mask_info = read_mask(mask, src.shape)
-    frame_work, movie_work = frame_stages(options), movie_stages(options)
     images = {s.options.stage: _image_source(s.options.stage, options[s.options.stage], src)
               for s in frame_work if s.image}
     track_options = options["track"]
@@ -174,14 +174,13 @@ def _image_source(name, options, src):
     return image
 
 
-def _check_polygon_run(box, mask, options):
+def _check_polygon_run(box, mask, stages, options):
     """Refuse what cell polygons cannot have: a periodic box, a mask, an image stage, overlap tracking."""
     if box is not None and box is not False:
         raise InputError(f"box={box!r}: cell polygons are an open image; a periodic box needs label images")
-    if mask is not None:
-        raise InputError("mask= needs a label image; the source holds cell polygons (no pixels)")
-    if options["intensity"].enabled:
-        raise InputError("intensity= needs a label image; the source holds cell polygons (no pixels)")
+    pixels = (["mask"] if mask is not None else []) + [s.options.stage for s in stages if s.image]
+    if pixels:
+        raise InputError(f"{pixels[0]}= needs a label image; the source holds cell polygons (no pixels)")
     if options["track"].mode == "always":
         raise InputError("track mode 'always' (overlap tracking) needs label images; cells given as polygons are "
                          "tracked by their ids: use 'never' (ids are tracks), 'off' or 'auto'")

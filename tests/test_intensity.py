@@ -74,6 +74,36 @@ def test_analyze_measures_every_frame_and_records_the_channel():
                                one.cells["intensity_mean"].to_numpy()[len(one.cells) // 2:])
 
 
+def test_the_intensity_stage_takes_its_options_from_analyze_and_the_command_line(tmp_path):
+    """IntensityOptions(step=...) reaches the junction sampling; the CLI's --intensity-step gives the same
+    tables; the options are recorded (the image by its path) and read back."""
+    import tifffile
+
+    from hexatissue import IntensityOptions, read_results
+    from hexatissue.cli import main
+
+    labels = voronoi_labels(jittered_seeds((60, 80), 14, seed=3), (60, 80)).astype(np.uint16)
+    rng = np.random.default_rng(1)
+    image = rng.random(labels.shape)  # not linear: the samples' spacing shows in the means
+    tifffile.imwrite(tmp_path / "labels.tif", labels)
+    tifffile.imwrite(tmp_path / "raw.tif", image)
+    coarse = analyze(tmp_path / "labels.tif", intensity=IntensityOptions(image=tmp_path / "raw.tif", step=2.0),
+                     workers=1, progress=False)
+    fine = analyze(tmp_path / "labels.tif", intensity=str(tmp_path / "raw.tif"), workers=1, progress=False)
+    f = mesh_from_labels(labels)
+    _, expected = measure_intensity(f.cells, f.vertices, f.edges, labels, image, step=2.0)
+    np.testing.assert_array_equal(coarse.edges["intensity_mean"], expected["intensity_mean"])
+    assert not np.allclose(coarse.edges["intensity_mean"], fine.edges["intensity_mean"])
+    assert coarse.options["intensity"].to_dict() == {"image": str(tmp_path / "raw.tif"), "channel": None, "step": 2.0}
+    assert main(["analyze", str(tmp_path / "labels.tif"), "--out", str(tmp_path / "out"), "--intensity",
+                 str(tmp_path / "raw.tif"), "--intensity-step", "2", "--workers", "1"]) == 0
+    back = read_results(tmp_path / "out")
+    np.testing.assert_array_equal(back.edges["intensity_mean"], coarse.edges["intensity_mean"])
+    assert back.options["intensity"] == IntensityOptions(image=str(tmp_path / "raw.tif"), step=2.0)
+    with pytest.raises(InputError, match="selects a channel of IntensityOptions.image, which is not given"):
+        IntensityOptions(channel=1)
+
+
 def test_epicure_junctions_are_brighter_than_cells(real_data, tmp_path):
     """EpiCure 013 with its raw membrane channel: junctions carry the marker in every frame (CLI path)."""
     from hexatissue import read_results
