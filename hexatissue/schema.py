@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import re
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -163,6 +164,23 @@ _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 @functools.lru_cache(maxsize=None)
 def _pattern(column: str) -> re.Pattern:
     return re.compile("^" + re.escape(column).replace(r"\{p\}", r"\d+") + "$")
+
+
+def deprecated_column_lists(module, lists):
+    """A module ``__getattr__`` that serves the column lists of hexatissue 0.1 from :data:`TABLES`, warning.
+
+    ``lists`` maps each old name to ``(table, columns)`` (None: every
+    column); the value is ``{column: meaning}``, as the old constant was.
+    """
+    def __getattr__(name):
+        if name not in lists:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        table, columns = lists[name]
+        warnings.warn(f"{module}.{name} is deprecated; the columns are in hexatissue.schema.TABLES[{table!r}]",
+                      DeprecationWarning, stacklevel=2)
+        return {c: meaning for c, (_, _, meaning) in TABLES[table].items() if columns is None or c in columns}
+
+    return __getattr__
 
 
 def describe(table: str) -> pd.DataFrame:

@@ -79,3 +79,15 @@ def test_rows_by_frame_equals_the_stable_argsort_split_for_sorted_unsorted_and_e
         assert list(got) == list(expected)
         for frame, rows in expected.items():
             np.testing.assert_array_equal(got[frame], rows)
+
+
+def test_the_column_lists_of_0_1_are_read_from_the_schema_with_a_deprecation_warning():
+    from hexatissue import events, track
+    from hexatissue.schema import TABLES
+
+    with pytest.warns(DeprecationWarning, match="LINEAGE_COLUMNS is deprecated"):
+        assert track.LINEAGE_COLUMNS == {c: meaning for c, (_, _, meaning) in TABLES["lineage"].items()}
+    with pytest.warns(DeprecationWarning, match="EVENT_EXTRA_COLUMNS is deprecated"):
+        assert list(events.EVENT_EXTRA_COLUMNS) == ["frame_gain", "frame_undo", "is_border"]
+    with pytest.raises(AttributeError, match="has no attribute 'NO_SUCH_COLUMNS'"):
+        events.NO_SUCH_COLUMNS

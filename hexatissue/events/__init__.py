@@ -35,7 +35,7 @@ from ..box import Box
 from ..errors import InputError, is_real
 from ..geometry import in_sorted, lookup, row_keys
 from ..graph import pair_groups
-from ..schema import TABLES as SCHEMAS, FrameRows, interior_mask, string_column, track_ids, validate
+from ..schema import FrameRows, deprecated_column_lists, interior_mask, string_column, track_ids, validate
 from ._kernels import _change_kernel, _close_kernel, _excursion_starts, _lists_kernel, _t1_kernel, _undo_pairs
 
 __all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
@@ -918,21 +918,7 @@ def _same_cells_every_frame(by_frame, tracks):
     return True
 
 
-_DEPRECATED_COLUMNS = {"EVENT_EXTRA_COLUMNS": ("events", ("frame_gain", "frame_undo", "is_border")),
-                       "CELL_EVENT_COLUMNS": ("cell_events", None)}
-
-
-def _schema_meanings(table, columns=None):
-    return {c: meaning for c, (_, _, meaning) in SCHEMAS[table].items() if columns is None or c in columns}
-
-
-def __getattr__(name):
-    # column lists of hexatissue 0.1, now read from the one registry, hexatissue.schema.TABLES
-    if name in _DEPRECATED_COLUMNS:
-        import warnings
-
-        table, columns = _DEPRECATED_COLUMNS[name]
-        warnings.warn(f"{__name__}.{name} is deprecated; the columns are in hexatissue.schema.TABLES[{table!r}]",
-                      DeprecationWarning, stacklevel=2)
-        return _schema_meanings(table, columns)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# the column lists of hexatissue 0.1, now read from the one registry
+__getattr__ = deprecated_column_lists(__name__, {
+    "EVENT_EXTRA_COLUMNS": ("events", ("frame_gain", "frame_undo", "is_border")),
+    "CELL_EVENT_COLUMNS": ("cell_events", None)})

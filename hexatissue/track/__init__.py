@@ -27,7 +27,7 @@ from ..errors import InputError
 from ..geometry import in_sorted
 from ..options import TRACK_MODES
 from ..mesh.labels import compact_labels, touches_outside, validate_labels
-from ..schema import TABLES as SCHEMAS, validate
+from ..schema import deprecated_column_lists, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
@@ -791,20 +791,5 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
     return tracks, lineage
 
 
-_DEPRECATED_COLUMNS = {"LINEAGE_COLUMNS": ("lineage", None)}
-
-
-def _schema_meanings(table, columns=None):
-    return {c: meaning for c, (_, _, meaning) in SCHEMAS[table].items() if columns is None or c in columns}
-
-
-def __getattr__(name):
-    # column lists of hexatissue 0.1, now read from the one registry, hexatissue.schema.TABLES
-    if name in _DEPRECATED_COLUMNS:
-        import warnings
-
-        table, columns = _DEPRECATED_COLUMNS[name]
-        warnings.warn(f"{__name__}.{name} is deprecated; the columns are in hexatissue.schema.TABLES[{table!r}]",
-                      DeprecationWarning, stacklevel=2)
-        return _schema_meanings(table, columns)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+# the column lists of hexatissue 0.1, now read from the one registry
+__getattr__ = deprecated_column_lists(__name__, {"LINEAGE_COLUMNS": ("lineage", None)})
