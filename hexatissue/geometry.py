@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ._components import components
 from .errors import InputError
 
 __all__ = ["match_points", "segment_sum", "pack_polygons", "next_vertex", "polygon_area_centroid", "polygon_perimeter",
@@ -270,7 +271,6 @@ def match_points(a, b, radius, box=None):
     from scipy.optimize import linear_sum_assignment
     from scipy.spatial import cKDTree
 
-    from ._components import components
 
     a, b = np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2)
     if not len(a) or not len(b):

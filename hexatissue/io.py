@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import InputError
+from .units import Calibration
 
 __all__ = ["write_table", "write_tables", "read_table", "atomic_path", "atomic_dir",
            "check_output_folder", "check_zarr_chunks", "read_zarr", "write_tiff"]
@@ -101,7 +102,6 @@ def write_tiff(path, array, calibration=None) -> Path:
     """
     import tifffile
 
-    from .units import Calibration
 
     array = np.asarray(array)
     if array.ndim not in (2, 3):

@@ -23,7 +23,10 @@ from __future__ import annotations
 import numpy as np
 
 from .box import as_box
+from .defects import find_defects
 from .errors import InputError, as_generator
+from .io import atomic_path
+from .order import coarse_grain
 from .units import as_calibration
 
 __all__ = [
@@ -54,7 +57,6 @@ def _new_axes(ax, figsize):
 
 def save_figure(fig, path, dpi=150):
     """Write ``fig`` to ``path`` as PNG atomically; returns the path."""
-    from .io import atomic_path
 
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=dpi)
@@ -551,8 +553,6 @@ def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None
     """
     from pathlib import Path
 
-    from .defects import find_defects
-    from .order import coarse_grain
 
     if calibration is None:
         calibration = getattr(frame, "calibration", None)

@@ -31,9 +31,11 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..io import atomic_path, check_output_folder
 from ..mesh.labels import relabel
 from ..readers.ctc import RESULT, TRUTH, ctc_layout, mask_digits, mask_files, numbered_masks, read_track_file
 from ..schema import require_columns
+from ..source import open_source
 
 __all__ = ["write_ctc", "check_ctc", "read_ctc", "MAX_ID"]
 
@@ -159,7 +161,6 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
     """
     import tifffile
 
-    from ..io import atomic_path, check_output_folder
 
     frames = _mask_frames(masks)
     require_columns(lineage, ("track", "parent"), "lineage")
@@ -232,7 +233,6 @@ def _check_tracks(tracks, presence, problems):
 
 def _read_masks(paths, problems) -> dict[int, np.ndarray]:
     """``{frame: mask}`` of the files that are single 2-D non-negative integer images of one shape."""
-    from ..source import open_source
 
     frames = {}
     for t, path in paths.items():

@@ -29,8 +29,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._version import __version__
 from ..errors import InputError
+from ..graph import contact_table
+from ..io import atomic_dir, check_output_folder
 from ..schema import TABLES as SCHEMAS
+from ..track import lineage_roots
 from .omezarr import NGFF_LENGTH, NGFF_TIME  # GEFF uses the OME-NGFF unit names
 
 __all__ = ["write_geff", "read_geff", "geff_tables", "neighbour_edges", "track_edges", "NEIGHBOURS", "TRACKS"]
@@ -86,7 +90,6 @@ def neighbour_edges(cells: pd.DataFrame, edges: pd.DataFrame) -> pd.DataFrame:
 
 
 def _neighbour_edges(nodes, edges):
-    from ..graph import contact_table
 
     pairs = contact_table(edges)
     return pd.DataFrame({"source": _node_of(nodes, pairs["frame"], pairs["cell_a"], "edges"),
@@ -121,7 +124,6 @@ def _track_edges(nodes, lineage):
 
 
 def _lineage_roots(nodes, lineage):
-    from ..track import lineage_roots
 
     parents = {} if lineage is None else {int(t): int(p) for t, p in zip(lineage["track"], lineage["parent"]) if p}
     return nodes["track"].map(lineage_roots(parents, nodes["track"].unique().tolist())).to_numpy(np.int64)
@@ -175,7 +177,6 @@ def _write_store(path, nodes, edges, directed, calibration, extra, tracklet):
     from geff.core_io import write_arrays
     from geff_spec import GeffMetadata, PropMetadata
 
-    from ..io import atomic_dir
 
     meanings = _meanings(nodes)
     node_props, node_meta = _props(nodes.drop(columns="node"), meanings)
@@ -216,8 +217,6 @@ def write_geff(movie, out) -> list[Path]:
         (x = column, y = row), times in frames, scales from the Movie's
         calibration.
     """
-    from .._version import __version__
-    from ..io import check_output_folder
 
     _need_geff()
     folder = check_output_folder(out, "out")

@@ -25,7 +25,8 @@ import pandas as pd
 from ..box import Box
 from ..defects import defects_from_field
 from ..errors import InputError
-from ..io import atomic_path
+from ..io import atomic_path, check_output_folder, check_zarr_chunks
+from ..progress import progress as progress_bar
 from .params import HydroParams
 from .solver import State
 
@@ -125,7 +126,6 @@ class _Store:
         else:
             if self.path.exists() and not self.path.is_dir():
                 raise InputError(f"out {str(self.path)!r} is a file; expected a folder for the zarr store")
-            from ..io import check_output_folder
 
             check_output_folder(self.path, "out")
             self.group = zarr.open_group(str(self.path), mode="w")
@@ -140,7 +140,6 @@ class _Store:
 
     def load(self, solver):
         """(state, memory, n_frames, n_fields) from the checkpoint, arrays truncated to it."""
-        from ..io import check_zarr_chunks
 
         try:
             with np.load(self.ckpt) as z:
@@ -238,7 +237,6 @@ def integrate(solver, state, steps=None, max_time=None, save_every=10, field_eve
     -------
     HydroResult (``defects`` untracked: ``defect`` is the per-frame index)
     """
-    from ..progress import progress as progress_bar
 
     if steps is None and max_time is None:
         raise InputError("give steps or max_time (a safety cap when running until a stop condition)")

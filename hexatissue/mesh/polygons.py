@@ -16,7 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .._components import components
 from ..errors import HexatissueWarning, InputError
+from ..frame import Frame
 from ..geometry import next_vertex, pack_polygons, polygon_area_centroid, polygon_cells
 from ..schema import validate
 
@@ -164,7 +166,6 @@ def mesh_from_polygons(polygons, tolerance=SHARED_TOLERANCE, frame=0):
         :func:`polygon_network` describes; shape from the largest
         coordinates, open image (no box).
     """
-    from ..frame import Frame
 
     polys = as_polygons(polygons)
     return Frame(**polygon_network(polys, frame, tolerance), frame=frame, shape=polygon_shape([polys]))
@@ -200,7 +201,6 @@ def _shared_vertices(xy, tolerance):
     """Network vertex of every polygon vertex (numbered in order of first appearance) and their positions."""
     from scipy.spatial import cKDTree
 
-    from .._components import components
 
     if isinstance(tolerance, (bool, np.bool_)) or not np.isscalar(tolerance) or not tolerance >= 0:
         raise InputError(f"tolerance must be a distance >= 0 in px; got {tolerance!r}")

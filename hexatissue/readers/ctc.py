@@ -23,6 +23,7 @@ import pandas as pd
 from ..errors import InputError
 from ..mesh.labels import relabel
 from ..schema import require_columns
+from ..track import lineage_roots
 from .base import Opened, refuse
 from .folder import FilesReader
 
@@ -130,7 +131,6 @@ def gap_links(tracks) -> tuple[dict[int, int], dict[int, int]]:
     require_columns(tracks, ("track", "parent"), "tracks")
     child_of = {int(l): int(p) for l, p in zip(tracks["track"], tracks["parent"]) if p}
     counts = pd.Series(list(child_of.values()), dtype=np.int64).value_counts().to_dict()
-    from ..track import lineage_roots
 
     single = {c: p for c, p in child_of.items() if counts[p] == 1}
     root = lineage_roots(single, set(single) | set(child_of) | set(child_of.values()))

@@ -33,7 +33,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._version import __version__
+from ..box import Box
 from ..errors import InputError
+from ..io import check_output_folder, check_zarr_chunks, read_zarr
 from .params import Params
 
 __all__ = ["RunStore", "MPFRun", "read_run"]
@@ -45,7 +48,6 @@ PER_CELL = ("x", "y", "theta", "area")
 
 def _version() -> str:
     try:
-        from .._version import __version__
 
         return str(__version__)
     except Exception:  # the package root is owned elsewhere; never fail a run over a version string
@@ -74,7 +76,6 @@ class RunStore:
         if path.exists() and not path.is_dir():
             raise InputError(f"out: {str(path)!r} is a file, not a run store; overwrite replaces run stores "
                              f"(folders) only: remove the file or choose another --out")
-        from ..io import check_output_folder
 
         check_output_folder(path, "out")
         g = zarr.open_group(str(path), mode="w")
@@ -204,7 +205,6 @@ class RunStore:
         """``(Simulation, n_frames, n_patch_frames)`` from the last complete checkpoint."""
         from .model import Simulation
 
-        from ..io import check_zarr_chunks, read_zarr
 
         slot = self.g.attrs.get("checkpoint")
         if slot is None:
@@ -278,10 +278,8 @@ class MPFRun:
         T = int(self.attrs["n_frames"])
         self.n_frames = T
         self._g = g
-        from ..box import Box
 
         self.box = Box(float(self.params.Lx), float(self.params.Ly))
-        from ..io import check_zarr_chunks, read_zarr
 
         what = f"MPF run {str(path)!r}"
         try:
@@ -309,7 +307,6 @@ class MPFRun:
     def cells(self) -> pd.DataFrame:
         if self._cells is None:
             T, N = self.n_frames, self.params.n_cells
-            from ..io import read_zarr
 
             cols = {k: read_zarr(self._g[k], f"MPF run {str(self.path)!r}", slice(0, T)) for k in PER_CELL}
             xw = np.mod(cols["x"], self.params.Lx)

@@ -25,8 +25,9 @@ from scipy.optimize import linear_sum_assignment
 from .._components import components
 from ..errors import InputError
 from ..geometry import in_sorted
-from ..options import TRACK_MODES
 from ..mesh.labels import compact_labels, touches_outside, validate_labels
+from ..options import TRACK_MODES
+from ..progress import progress as progress_bar
 from ..schema import deprecated_column_lists, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 
@@ -777,7 +778,6 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
         labels (membrane images normalised first with
         :func:`hexatissue.mesh.normalize_labels`), else every cell touches 0.
     """
-    from ..progress import progress as progress_bar
 
     n = len(stack)
     tracker = Tracker(min_iou, child_fraction, mother_fraction, max_gap)

@@ -19,8 +19,9 @@ from ..analysis.migration import DEFAULT_DL, PAPER_WINDOW_ITERATIONS, migration_
 from ..analysis.proximity import t1_defect_proximity
 from ..analysis.timing import cell_timing, in_time_units, timing_summary, timing_test
 from ..errors import HexatissueWarning, InputError
-from ..results import Movie, read_results
 from ..io import atomic_path, write_table
+from ..results import Movie, read_results
+from ..schema import empty_table
 from .figures import shown_frames
 
 __all__ = ["report", "default_window"]
@@ -239,7 +240,6 @@ def _tracking_lines(movie):
 
 def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed, include_border, control):
     from ..analysis.plots import plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing
-    from ..schema import empty_table
 
     cells, events, box, cal = movie.cells, movie.events, movie.box, movie.calibration
     defects = movie.defects if movie.defects is not None else empty_table("defects")
