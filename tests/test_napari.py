@@ -168,3 +168,15 @@ def test_the_widget_reports_bad_input_in_its_status_line(viewer):
     assert _run(widget)
     assert widget.status.value.startswith("error: length unit 'parsec' is not a known unit")
     assert [layer.name for layer in viewer.layers] == ["epicure"] and widget.run.enabled
+
+
+def test_the_widget_fields_come_from_the_options_classes(viewer):
+    """Choices, defaults and help (tooltips) of the widget are those of the stages' options, as on the CLI."""
+    from hexatissue.napari.widget import AnalyzeWidget
+    from hexatissue.options import TRACK_MODES, MeshOptions, OrderOptions
+
+    widget = AnalyzeWidget(viewer)
+    assert tuple(widget.track_mode.choices) == TRACK_MODES and widget.track_mode.value == "auto"
+    assert widget.merge_distance.value == MeshOptions().merge_distance
+    assert "four-fold" in widget.merge_distance.tooltip
+    assert OrderOptions().radius is None and widget.radius.value == 0  # 0 = chosen from the data
