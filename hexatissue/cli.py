@@ -5,16 +5,14 @@ Run ``hexatissue --help`` or ``hexatissue SUBCOMMAND --help``.
 from __future__ import annotations
 
 import argparse
-import re
 import sys
-from dataclasses import fields
 import time
 import warnings
 from importlib import import_module
 from pathlib import Path
 
 from .errors import HexatissueWarning, InputError
-from .options import OPTION_CLASSES
+from .options import OPTION_CLASSES, add_flags, flag_text, from_flags
 
 __all__ = ["main"]
 
@@ -61,59 +59,23 @@ def _analyze_parser(sub):
     run.add_argument("--figures", action="store_true", help="also write PNG figures to OUT/figures")
     run.add_argument("--format", nargs="+", default=["parquet"], choices=["parquet", "csv"],
                      help="table formats to write (default: parquet)")
-    p.set_defaults(func=_run_analyze, cli_text=flag_text)
-
-
-#: the type a flag parses, from its field's annotation (``int | None`` -> int)
-_ANNOTATION_TYPES = {"int": int, "float": float, "str": str, "bool": bool}
-
-
-def _annotation(f) -> str:
-    """A dataclass field's annotation as written (a string under ``from __future__ import annotations``)."""
-    return f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+    p.set_defaults(func=_run_analyze, cli_text=analyze_text)
 
 
 def add_stage_flags(parser):
-    """A group of flags per stage's options class: one flag per field made with :func:`hexatissue.options.cli_field`.
-
-    The flag's destination is ``"<stage>.<field>"``; :func:`stage_options`
-    builds the options objects back from them.
-    """
-    for cls in OPTION_CLASSES.values():
-        group = None
-        for f in fields(cls):
-            if "flag" not in f.metadata:
-                continue
-            group = group or parser.add_argument_group(cls.title)
-            extra = dict(f.metadata["argparse"])
-            text = f.metadata["help"]
-            if extra.get("action") is None:
-                if "type" not in extra:
-                    extra["type"] = _ANNOTATION_TYPES[_annotation(f).split(" |")[0]]
-                if "choices" not in extra:
-                    extra.setdefault("metavar", f.metadata["flag"].lstrip("-").replace("-", "_").upper())
-                if f.default is not None and f.default != ():
-                    shown = " ".join(map(str, f.default)) if isinstance(f.default, tuple) else f.default
-                    text += f" (default: {shown})"
-            group.add_argument(f.metadata["flag"], dest=f"{cls.stage}.{f.name}", default=f.default, help=text,
-                               **extra)
-
-
-def flag_text(text: str) -> str:
-    """An error text of the library with ``SomeOptions.field`` replaced by the flag that sets it, where one does."""
-    flags = {f"{cls.__name__}.{f.name}": f.metadata["flag"] for cls in OPTION_CLASSES.values() for f in fields(cls)
-             if "flag" in f.metadata}
-    return re.sub(r"\b[A-Z]\w*Options\.\w+", lambda m: flags.get(m.group(0), m.group(0)), text)
+    """A group of flags per stage's options class (:func:`hexatissue.options.add_flags`), to ``"<stage>.<field>"``."""
+    for name, cls in OPTION_CLASSES.items():
+        add_flags(parser, cls, prefix=f"{name}.")
 
 
 def stage_options(args) -> dict:
-    """The options object of every stage from the flags of :func:`add_stage_flags` (fields without a flag keep
-    their defaults)."""
-    out = {}
-    for name, cls in OPTION_CLASSES.items():
-        given = {f.name: getattr(args, f"{name}.{f.name}") for f in fields(cls) if "flag" in f.metadata}
-        out[name] = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
-    return out
+    """The options object of every stage from the flags of :func:`add_stage_flags`."""
+    return {name: from_flags(args, cls, prefix=f"{name}.") for name, cls in OPTION_CLASSES.items()}
+
+
+def analyze_text(text: str) -> str:
+    """An error text of the library with ``SomeOptions.field`` replaced by the ``hexatissue analyze`` flag."""
+    return flag_text(text, OPTION_CLASSES.values())
 
 
 def open_cli_source(args):

@@ -11,6 +11,7 @@ frames.
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
@@ -18,7 +19,7 @@ import numpy as np
 from .errors import InputError, check_orders, check_positive, is_real
 
 __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "OPTION_CLASSES",
-           "cli_field"]
+           "cli_field", "add_flags", "from_flags", "flag_text"]
 
 # The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
 #: Label conventions of :func:`hexatissue.mesh_from_labels`.
@@ -82,6 +83,54 @@ def cli_field(default, flag, help, **argparse):
     return field(default=default, metadata={"flag": flag, "help": help, "argparse": argparse})
 
 
+#: the type a flag parses, from its field's annotation (``int | None`` -> int)
+_ANNOTATION_TYPES = {"int": int, "float": float, "str": str, "bool": bool}
+
+
+def _annotation(f) -> str:
+    """A dataclass field's annotation as written (a string under ``from __future__ import annotations``)."""
+    return f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+
+
+def add_flags(parser, cls, prefix=""):
+    """Add a group of command-line flags to ``parser``: one per field of ``cls`` made with :func:`cli_field`.
+
+    The group is titled ``cls.title``; each flag's destination is
+    ``prefix + field name`` and its default the field's, shown in its help.
+    :func:`from_flags` builds the options object back.
+    """
+    group = None
+    for f in fields(cls):
+        if "flag" not in f.metadata:
+            continue
+        group = group or parser.add_argument_group(cls.title)
+        extra = dict(f.metadata["argparse"])
+        text = f.metadata["help"]
+        if extra.get("action") is None:
+            if "type" not in extra:
+                extra["type"] = _ANNOTATION_TYPES[_annotation(f).split(" |")[0]]
+            if "choices" not in extra:
+                extra.setdefault("metavar", f.metadata["flag"].lstrip("-").replace("-", "_").upper())
+            if f.default is not None and f.default != ():
+                shown = " ".join(map(str, f.default)) if isinstance(f.default, tuple) else f.default
+                text += f" (default: {shown})"
+        group.add_argument(f.metadata["flag"], dest=prefix + f.name, default=f.default, help=text, **extra)
+    return group
+
+
+def from_flags(args, cls, prefix=""):
+    """The ``cls`` options object from the flags of :func:`add_flags` (fields without a flag keep their defaults)."""
+    given = {f.name: getattr(args, prefix + f.name) for f in fields(cls) if "flag" in f.metadata}
+    return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
+
+
+def flag_text(text, classes) -> str:
+    """An error text with ``SomeOptions.field`` replaced by the flag that sets it, for the options ``classes``."""
+    flags = {f"{cls.__name__}.{f.name}": f.metadata["flag"] for cls in classes for f in fields(cls)
+             if "flag" in f.metadata}
+    return re.sub(r"\b[A-Z]\w*Options\.\w+", lambda m: flags.get(m.group(0), m.group(0)), text)
+
+
 #: Options class of each stage, by the name used in ``metadata.json``, checkpoints and as the keyword of
 #: :func:`hexatissue.analyze`: every subclass of ``_Options`` declares it (``class X(_Options, stage="x")``).
 OPTION_CLASSES: dict[str, type] = {}
@@ -91,8 +140,8 @@ class _Options:
     """Shared behaviour: validation helpers, ``to_dict`` / ``from_dict`` for ``metadata.json``.
 
     A subclass that is the options of a stage of :func:`hexatissue.analyze`
-    names it and the title of its group of command-line options:
-    ``class MeshOptions(_Options, stage="mesh", title="junction network")``.
+    names it; every subclass may title its group of command-line flags
+    (:func:`add_flags`): ``class MeshOptions(_Options, stage="mesh", title="junction network")``.
     """
 
     stage: str = ""
@@ -100,12 +149,13 @@ class _Options:
 
     def __init_subclass__(cls, *, stage=None, title="", **kwargs):
         super().__init_subclass__(**kwargs)
+        cls.title = title
         if stage is None:  # options of something that is not a stage of analyze (e.g. the benchmark's rendering)
             return
         if stage in OPTION_CLASSES:
             raise TypeError(f"two options classes for stage {stage!r}: {OPTION_CLASSES[stage].__name__} and "
                             f"{cls.__name__}")
-        cls.stage, cls.title = stage, title
+        cls.stage = stage
         OPTION_CLASSES[stage] = cls
 
     def _number(self, name, low=0.0, allow_none=False, integer=False, strict=False, high=None):

@@ -5,60 +5,18 @@ Every action registers itself with one function in :data:`SUBCOMMANDS`
 """
 from __future__ import annotations
 
-import re
 import time
-from dataclasses import MISSING, fields
 
-from .render import PSFS, SHOT_NOISE, RenderOptions
+from ..options import add_flags, flag_text, from_flags
+from .render import RenderOptions
 from .score_command import add_baseline, add_score
 
 __all__ = ["add_parser", "SUBCOMMANDS"]
 
-#: help of every RenderOptions field on the command line (units as in the RenderOptions docstring)
-RENDER_HELP = {
-    "snr": "membrane contrast over the cytoplasm in noise standard deviations, frame 0 (docs/benchmark.md)",
-    "membrane_width": "junction line thickness before the PSF, px",
-    "junction_cv": "coefficient of variation of the junction intensities (one per cell pair)",
-    "curvature": "RMS junction bend (sagitta) as a fraction of its length; 0 = straight",
-    "cytoplasm": "expected photons per pixel inside cells, frame 0",
-    "cytoplasm_cv": "coefficient of variation of the cytoplasm level between cells",
-    "background": "expected photons per pixel where there is no cell",
-    "psf": f"point spread function, one of {', '.join(PSFS)}",
-    "psf_sigma": "PSF Gaussian sigma (Airy: of its best-fit Gaussian), px; 0 = none",
-    "read_noise": "camera read noise, electrons RMS",
-    "gain": "ADU per electron",
-    "offset": "camera offset, ADU",
-    "bleach_rate": "photobleaching rate per frame: fluorescence x exp(-rate t)",
-    "drift": "stage drift: random-walk step per axis, px per frame (recorded in drift.csv)",
-    "nuclei": "add a nuclear channel (disks at the cell centroids)",
-    "nucleus_radius": "nuclear radius, px (default 0.4 x the mean cell radius)",
-    "nucleus_photons": "expected photons per pixel inside a nucleus, frame 0",
-    "shot_noise": f"one of {', '.join(SHOT_NOISE)}: exact Poisson counts, or their normal approximation (faster)",
-}
-
-
-def _flag(name):
-    return "--" + name.replace("_", "-")
-
 
 def cli_text(text: str) -> str:
     """An error text of the library with ``RenderOptions.field`` replaced by the option that sets it."""
-    return re.sub(r"RenderOptions\.(\w+)", lambda m: _flag(m.group(1)), text)
-
-
-def _add_render_options(parser):
-    group = parser.add_argument_group("rendering (docs/benchmark.md)")
-    for f in fields(RenderOptions):
-        default = f.default if f.default is not MISSING else None
-        text = f"{RENDER_HELP[f.name]} (default {default})"
-        if isinstance(default, bool):
-            group.add_argument(_flag(f.name), action="store_true", help=RENDER_HELP[f.name])
-        elif f.name in ("psf", "shot_noise"):
-            group.add_argument(_flag(f.name), default=default, choices=PSFS if f.name == "psf" else SHOT_NOISE,
-                               help=text)
-        else:
-            kind = int if isinstance(default, int) else float
-            group.add_argument(_flag(f.name), type=kind, default=default, help=text)
+    return flag_text(text, [RenderOptions])
 
 
 def _add_make(actions):
@@ -84,7 +42,7 @@ def _add_make(actions):
     p.add_argument("--frame-interval", type=float, help="time between frames (default: the source's)")
     p.add_argument("--time-unit", default="min", help="unit of --frame-interval (default min)")
     p.add_argument("--workers", type=int, default=1, help="processes for the truth analysis (default 1)")
-    _add_render_options(p)
+    add_flags(p, RenderOptions)
     p.set_defaults(func=_run_make, cli_text=cli_text)
 
 
@@ -93,7 +51,7 @@ def _run_make(args) -> int:
     from .make import make_benchmark
 
     check_output_folder(args.out, "--out")
-    render = RenderOptions(**{f.name: getattr(args, f.name) for f in fields(RenderOptions)})
+    render = from_flags(args, RenderOptions)
     start = time.perf_counter()
     out = make_benchmark(args.source, args.out, render=render, seed=args.seed, crop=args.crop, n_cells=args.cells,
                          n_frames=args.frames, shape=args.size, periodic=args.periodic, pixel_size=args.pixel_size,

@@ -68,7 +68,7 @@ import pandas as pd
 
 from .._hashing import GOLDEN, mix64
 from ..errors import InputError, as_generator
-from ..options import _fail, _Options
+from ..options import _fail, _Options, cli_field
 from ..schema import rows_by_frame
 
 __all__ = ["RenderOptions", "Renderer", "render", "poisson_counts", "transfer_function", "PSFS", "SHOT_NOISE", "SNR_DEFINITION"]
@@ -90,7 +90,7 @@ _CURVE_POINTS = 7
 
 
 @dataclass(frozen=True)
-class RenderOptions(_Options):
+class RenderOptions(_Options, title="rendering (docs/benchmark.md)"):
     """How a truth movie is rendered (see :mod:`hexatissue.benchmark.render` for the image model).
 
     Parameters
@@ -143,24 +143,34 @@ class RenderOptions(_Options):
         counts above ~20 (a frame renders about 2 x faster).
     """
 
-    snr: float = 20.0
-    membrane_width: int = 2
-    junction_cv: float = 0.25
-    curvature: float = 0.0
-    cytoplasm: float = 50.0
-    cytoplasm_cv: float = 0.1
-    background: float = 10.0
-    psf: str = "gaussian"
-    psf_sigma: float = 1.0
-    read_noise: float = 2.0
-    gain: float = 1.0
-    offset: float = 100.0
-    bleach_rate: float = 0.0
-    drift: float = 0.0
-    nuclei: bool = False
-    nucleus_radius: float | None = None
-    nucleus_photons: float = 200.0
-    shot_noise: str = "poisson"
+    snr: float = cli_field(20.0, "--snr", "membrane contrast over the cytoplasm in noise standard deviations, frame 0 "
+                           "(docs/benchmark.md)")
+    membrane_width: int = cli_field(2, "--membrane-width", "junction line thickness before the PSF, px")
+    junction_cv: float = cli_field(0.25, "--junction-cv", "coefficient of variation of the junction intensities (one "
+                                   "per cell pair)")
+    curvature: float = cli_field(0.0, "--curvature", "RMS junction bend (sagitta) as a fraction of its length; 0 = "
+                                 "straight")
+    cytoplasm: float = cli_field(50.0, "--cytoplasm", "expected photons per pixel inside cells, frame 0")
+    cytoplasm_cv: float = cli_field(0.1, "--cytoplasm-cv", "coefficient of variation of the cytoplasm level between "
+                                    "cells")
+    background: float = cli_field(10.0, "--background", "expected photons per pixel where there is no cell")
+    psf: str = cli_field("gaussian", "--psf", "point spread function", choices=PSFS)
+    psf_sigma: float = cli_field(1.0, "--psf-sigma", "PSF Gaussian sigma (Airy: of its best-fit Gaussian), px; 0 = "
+                                 "none")
+    read_noise: float = cli_field(2.0, "--read-noise", "camera read noise, electrons RMS")
+    gain: float = cli_field(1.0, "--gain", "ADU per electron")
+    offset: float = cli_field(100.0, "--offset", "camera offset, ADU")
+    bleach_rate: float = cli_field(0.0, "--bleach-rate", "photobleaching rate per frame: fluorescence x exp(-rate t)")
+    drift: float = cli_field(0.0, "--drift", "stage drift: random-walk step per axis, px per frame (recorded in "
+                             "drift.csv)")
+    nuclei: bool = cli_field(False, "--nuclei", "add a nuclear channel (disks at the cell centroids)",
+                             action="store_true")
+    nucleus_radius: float | None = cli_field(None, "--nucleus-radius", "nuclear radius, px (default 0.4 x the mean "
+                                             "cell radius)")
+    nucleus_photons: float = cli_field(200.0, "--nucleus-photons",
+                                       "expected photons per pixel inside a nucleus, frame 0")
+    shot_noise: str = cli_field("poisson", "--shot-noise", "exact Poisson counts, or their normal approximation "
+                                "(faster)", choices=SHOT_NOISE)
 
     def __post_init__(self):
         self._number("snr", strict=True)
