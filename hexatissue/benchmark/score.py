@@ -34,6 +34,7 @@ from ..results import Movie, read_results
 from ..geometry import match_points
 from ..progress import progress
 from ..schema import interior_mask, track_ids
+from ..track import count_overlaps
 
 __all__ = ["Scores", "score", "score_to_folder", "plot_scores", "SCORE_NAMES"]
 
@@ -164,17 +165,11 @@ def _overlaps(t, truth, pred):
     if truth.shape != pred.shape:
         raise InputError(f"frame {t}: the prediction's labels have shape {pred.shape} and the truth's {truth.shape}; "
                          f"expected the same image size")
-    tl, pl = truth.ravel().astype(np.int64), pred.ravel().astype(np.int64)
-    n_p = int(pl.max()) + 1
-    code, n = np.unique(tl * n_p + pl, return_counts=True)
-    tj, pi = np.divmod(code, n_p)
-    real = (tj > 0) & (pi > 0)
-    areas = []
-    for lab in (tl, pl):
-        count = np.bincount(lab)
-        ids = np.flatnonzero(count[1:]) + 1
-        areas.append(pd.DataFrame({"frame": np.int64(t), "cell": ids, "area": count[ids]}))
-    return pd.DataFrame({"frame": np.int64(t), "truth": tj[real], "pred": pi[real], "n": n[real]}), *areas
+    ov = count_overlaps(truth, pred)  # the tracker's overlap counts: pairs sorted by (truth, pred)
+    areas = [pd.DataFrame({"frame": np.int64(t), "cell": ids, "area": area})
+             for ids, area in ((ov.ids_prev, ov.area_prev), (ov.ids_next, ov.area_next))]
+    return pd.DataFrame({"frame": np.int64(t), "truth": ov.ids_prev[ov.i], "pred": ov.ids_next[ov.j],
+                         "n": ov.n}), *areas
 
 
 def _match_cells(truth_labels, pred_labels, n_frames, show_progress):
