@@ -14,7 +14,9 @@ Each format is read by a module of :mod:`hexatissue.readers`, which returns
 a reader and what the Source needs besides it; this module picks the
 reader (:func:`open_source`) and makes the Source, the only place one is
 made.  It also reads whole label stacks (:func:`read_labels`) and
-region-of-interest masks (:func:`read_mask`).
+region-of-interest masks (:func:`read_mask`), and reopens the labels and
+mask a results folder was computed from (:func:`recorded_labels`,
+:func:`recorded_mask`).
 
 Axis rules, the same for TIFF files, arrays and OME-Zarr images:
 
@@ -55,7 +57,8 @@ from .readers.tiff import open_tiff
 from .readers.zarr import is_zarr_dir, is_zarr_group, open_zarr_group, open_zarr_path
 from .units import Calibration, normalize_length_unit, normalize_time_unit
 
-__all__ = ["Source", "open_source", "read_labels", "read_mask", "FILE_SUFFIXES"]
+__all__ = ["Source", "open_source", "read_labels", "read_mask", "recorded_labels", "recorded_mask", "NOT_A_FILE",
+           "MISSING", "FILE_SUFFIXES"]
 
 FILE_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz") + POLYGON_SUFFIXES
 
@@ -555,3 +558,81 @@ def read_mask(mask, shape):
             raise InputError(f"mask {path!r}: {exc}") from None
     inside = check_mask(mask, shape)
     return inside, {"path": path, "shape": list(inside.shape), "inside": int(inside.sum())}
+
+
+# ---------------------------------------------------------------------------------------------------------
+# the input a results folder records: its labels and mask again
+# ---------------------------------------------------------------------------------------------------------
+#: Why :func:`recorded_labels` cannot reopen the labels: the input was not a file (an array, a list, a run
+#: object, a synthetic movie), or the recorded path does not exist (moved, or relative to another folder).
+NOT_A_FILE, MISSING = "not a file", "missing"
+
+
+def recorded_labels(description):
+    """The labels a results folder was computed from, reopened as recorded in its ``metadata.json``.
+
+    The one place that reads a recorded input description back (for
+    ``hexatissue export``'s track masks and the benchmark scorer); each
+    caller decides what to do when it cannot.
+
+    Parameters
+    ----------
+    description : dict or None
+        The recorded :attr:`Source.description` (``Movie.source``): its
+        ``path`` with ``key``, ``channel`` and ``level``; ``kind`` says what
+        it was when it was not a file.
+
+    Returns
+    -------
+    source : Source or None
+        The recorded ``path`` opened with its ``key``, ``channel`` and
+        ``level``; None when it cannot be reopened.
+    why : str or None
+        None, or why not: :data:`NOT_A_FILE` (no ``path`` recorded) or
+        :data:`MISSING` (the recorded path does not exist).
+
+    Raises
+    ------
+    InputError
+        The recorded path exists but cannot be opened (as :func:`open_source`).
+    """
+    desc = description if isinstance(description, dict) else {}
+    path = desc.get("path")
+    if not path:
+        return None, NOT_A_FILE
+    if not Path(path).exists():
+        return None, MISSING
+    return open_source(path, key=desc.get("key"), channel=desc.get("channel"), level=desc.get("level")), None
+
+
+def recorded_mask(description, shape):
+    """The region-of-interest mask a results folder was computed with, read again from its recorded path.
+
+    Parameters
+    ----------
+    description : dict or None
+        The recorded :attr:`Source.description` (``Movie.source``); its
+        ``mask`` entry is :func:`read_mask`'s ``info``.
+    shape : tuple of int
+        ``(rows, cols)`` of the frames.
+
+    Returns
+    -------
+    mask : (rows, cols) bool array or None
+        None when no mask was recorded, or when it was given as an array
+        (``info["path"]`` is None: the results folder does not hold it).
+    info : dict or None
+        The recorded mask entry (None: no mask): the caller tells the two
+        None masks apart by it.
+
+    Raises
+    ------
+    InputError
+        The recorded mask cannot be read or has another shape (as :func:`read_mask`).
+    """
+    info = (description if isinstance(description, dict) else {}).get("mask")
+    if not info:
+        return None, None
+    if not info.get("path"):
+        return None, info
+    return read_mask(info["path"], shape)[0], info

@@ -311,6 +311,20 @@ def test_a_mask_the_results_do_not_hold_is_said_not_dropped_silently(truth):
         score(masked, folder, pred_labels=labels, show_progress=False)
 
 
+def test_labels_recorded_in_the_metadata_are_found_or_the_side_has_none(truth, tmp_path):
+    folder, result, labels = truth
+    write_tiff(tmp_path / "labels.tif", labels.astype(np.uint16))
+    recorded = result.replace(source={"kind": "tiff", "path": str(tmp_path / "labels.tif"), "key": None,
+                                      "channel": None, "level": None})
+    scores = score(recorded, folder, show_progress=False)
+    assert f"prediction labels: {tmp_path / 'labels.tif'}" in scores.notes
+    assert scores.summary["seg_jaccard"] == 1.0
+    for source in ({**recorded.source, "path": str(tmp_path / "moved.tif")}, {"kind": "array", "path": None}):
+        with pytest.warns(HexatissueWarning, match="no label images for the prediction"):
+            scores = score(result.replace(source=source), folder, show_progress=False)
+        assert "seg_jaccard" not in scores.summary and "vertex_precision" in scores.summary
+
+
 def test_bad_input(truth):
     folder, result, labels = truth
     with pytest.raises(InputError, match="frame_tolerance"):
