@@ -55,7 +55,7 @@ from .readers.png import open_png
 from .readers.polygons import POLYGON_SUFFIXES, is_polygon_folder, open_polygons
 from .readers.tiff import open_tiff
 from .readers.zarr import is_zarr_dir, is_zarr_group, open_zarr_group, open_zarr_path
-from .units import Calibration, normalize_length_unit, normalize_time_unit
+from .units import Calibration
 
 __all__ = ["Source", "open_source", "read_labels", "read_mask", "recorded_labels", "recorded_mask", "NOT_A_FILE",
            "MISSING", "FILE_SUFFIXES"]
@@ -258,7 +258,8 @@ class Source:
             argument ``length_unit`` (``time_unit``) nor the current
             calibration has a unit, or a value is invalid.
         """
-        cal = _override(self.calibration, pixel_size, length_unit, frame_interval, time_unit)
+        cal = self.calibration.override(pixel_size=pixel_size, length_unit=length_unit,
+                                        frame_interval=frame_interval, time_unit=time_unit)
         return replace(self, calibration=cal)
 
     def __repr__(self):
@@ -272,22 +273,6 @@ def _cal_text(cal: Calibration) -> str:
     length = f"{cal.pixel_size:g} {cal.length_unit}/px" if cal.has_length else "px"
     time = f"{cal.frame_interval:g} {cal.time_unit}/frame" if cal.has_time else "frames"
     return f"{length}, {time}"
-
-
-def _override(cal: Calibration, pixel_size, length_unit, frame_interval, time_unit) -> Calibration:
-    """``cal`` with the user's values; a number without any unit is refused."""
-    if pixel_size is not None and length_unit is None and not cal.has_length:
-        raise InputError(f"pixel_size={pixel_size!r} was given but there is no length unit (the source is "
-                         f"uncalibrated); pass length_unit= as well (e.g. 'um')")
-    if frame_interval is not None and time_unit is None and not cal.has_time:
-        raise InputError(f"frame_interval={frame_interval!r} was given but there is no time unit (the source "
-                         f"is uncalibrated); pass time_unit= as well (e.g. 's', 'min')")
-    if length_unit is not None and pixel_size is None and normalize_length_unit(length_unit) == "px":
-        pixel_size = 1.0
-    if time_unit is not None and frame_interval is None and normalize_time_unit(time_unit) == "frame":
-        frame_interval = 1.0
-    return cal.replace(pixel_size=pixel_size, length_unit=length_unit, frame_interval=frame_interval,
-                       time_unit=time_unit)
 
 
 # ---------------------------------------------------------------------------------------------------------
