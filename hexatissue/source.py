@@ -14,7 +14,9 @@ Each format is read by a module of :mod:`hexatissue.readers`, which returns
 a reader and what the Source needs besides it; this module picks the
 reader (:func:`open_source`) and makes the Source, the only place one is
 made.  It also reads whole label stacks (:func:`read_labels`) and
-region-of-interest masks (:func:`read_mask`).
+region-of-interest masks (:func:`read_mask`), and reopens the labels and
+mask a results folder was computed from (:func:`recorded_labels`,
+:func:`recorded_mask`).
 
 Axis rules, the same for TIFF files, arrays and OME-Zarr images:
 
@@ -53,9 +55,10 @@ from .readers.png import open_png
 from .readers.polygons import POLYGON_SUFFIXES, is_polygon_folder, open_polygons
 from .readers.tiff import open_tiff
 from .readers.zarr import is_zarr_dir, is_zarr_group, open_zarr_group, open_zarr_path
-from .units import Calibration, normalize_length_unit, normalize_time_unit
+from .units import Calibration
 
-__all__ = ["Source", "open_source", "read_labels", "read_mask", "FILE_SUFFIXES"]
+__all__ = ["Source", "open_source", "read_labels", "read_mask", "recorded_labels", "recorded_mask", "NOT_A_FILE",
+           "MISSING", "FILE_SUFFIXES"]
 
 FILE_SUFFIXES = (".tif", ".tiff", ".png", ".npy", ".npz") + POLYGON_SUFFIXES
 
@@ -255,7 +258,8 @@ class Source:
             argument ``length_unit`` (``time_unit``) nor the current
             calibration has a unit, or a value is invalid.
         """
-        cal = _override(self.calibration, pixel_size, length_unit, frame_interval, time_unit)
+        cal = self.calibration.override(pixel_size=pixel_size, length_unit=length_unit,
+                                        frame_interval=frame_interval, time_unit=time_unit)
         return replace(self, calibration=cal)
 
     def __repr__(self):
@@ -269,22 +273,6 @@ def _cal_text(cal: Calibration) -> str:
     length = f"{cal.pixel_size:g} {cal.length_unit}/px" if cal.has_length else "px"
     time = f"{cal.frame_interval:g} {cal.time_unit}/frame" if cal.has_time else "frames"
     return f"{length}, {time}"
-
-
-def _override(cal: Calibration, pixel_size, length_unit, frame_interval, time_unit) -> Calibration:
-    """``cal`` with the user's values; a number without any unit is refused."""
-    if pixel_size is not None and length_unit is None and not cal.has_length:
-        raise InputError(f"pixel_size={pixel_size!r} was given but there is no length unit (the source is "
-                         f"uncalibrated); pass length_unit= as well (e.g. 'um')")
-    if frame_interval is not None and time_unit is None and not cal.has_time:
-        raise InputError(f"frame_interval={frame_interval!r} was given but there is no time unit (the source "
-                         f"is uncalibrated); pass time_unit= as well (e.g. 's', 'min')")
-    if length_unit is not None and pixel_size is None and normalize_length_unit(length_unit) == "px":
-        pixel_size = 1.0
-    if time_unit is not None and frame_interval is None and normalize_time_unit(time_unit) == "frame":
-        frame_interval = 1.0
-    return cal.replace(pixel_size=pixel_size, length_unit=length_unit, frame_interval=frame_interval,
-                       time_unit=time_unit)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -555,3 +543,81 @@ def read_mask(mask, shape):
             raise InputError(f"mask {path!r}: {exc}") from None
     inside = check_mask(mask, shape)
     return inside, {"path": path, "shape": list(inside.shape), "inside": int(inside.sum())}
+
+
+# ---------------------------------------------------------------------------------------------------------
+# the input a results folder records: its labels and mask again
+# ---------------------------------------------------------------------------------------------------------
+#: Why :func:`recorded_labels` cannot reopen the labels: the input was not a file (an array, a list, a run
+#: object, a synthetic movie), or the recorded path does not exist (moved, or relative to another folder).
+NOT_A_FILE, MISSING = "not a file", "missing"
+
+
+def recorded_labels(description):
+    """The labels a results folder was computed from, reopened as recorded in its ``metadata.json``.
+
+    The one place that reads a recorded input description back (for
+    ``hexatissue export``'s track masks and the benchmark scorer); each
+    caller decides what to do when it cannot.
+
+    Parameters
+    ----------
+    description : dict or None
+        The recorded :attr:`Source.description` (``Movie.source``): its
+        ``path`` with ``key``, ``channel`` and ``level``; ``kind`` says what
+        it was when it was not a file.
+
+    Returns
+    -------
+    source : Source or None
+        The recorded ``path`` opened with its ``key``, ``channel`` and
+        ``level``; None when it cannot be reopened.
+    why : str or None
+        None, or why not: :data:`NOT_A_FILE` (no ``path`` recorded) or
+        :data:`MISSING` (the recorded path does not exist).
+
+    Raises
+    ------
+    InputError
+        The recorded path exists but cannot be opened (as :func:`open_source`).
+    """
+    desc = description if isinstance(description, dict) else {}
+    path = desc.get("path")
+    if not path:
+        return None, NOT_A_FILE
+    if not Path(path).exists():
+        return None, MISSING
+    return open_source(path, key=desc.get("key"), channel=desc.get("channel"), level=desc.get("level")), None
+
+
+def recorded_mask(description, shape):
+    """The region-of-interest mask a results folder was computed with, read again from its recorded path.
+
+    Parameters
+    ----------
+    description : dict or None
+        The recorded :attr:`Source.description` (``Movie.source``); its
+        ``mask`` entry is :func:`read_mask`'s ``info``.
+    shape : tuple of int
+        ``(rows, cols)`` of the frames.
+
+    Returns
+    -------
+    mask : (rows, cols) bool array or None
+        None when no mask was recorded, or when it was given as an array
+        (``info["path"]`` is None: the results folder does not hold it).
+    info : dict or None
+        The recorded mask entry (None: no mask): the caller tells the two
+        None masks apart by it.
+
+    Raises
+    ------
+    InputError
+        The recorded mask cannot be read or has another shape (as :func:`read_mask`).
+    """
+    info = (description if isinstance(description, dict) else {}).get("mask")
+    if not info:
+        return None, None
+    if not info.get("path"):
+        return None, info
+    return read_mask(info["path"], shape)[0], info

@@ -127,6 +127,43 @@ class Calibration:
                        time_unit=time_unit)
         return replace(self, **{k: v for k, v in changes.items() if v is not None})
 
+    def override(self, *, pixel_size=None, length_unit=None, frame_interval=None, time_unit=None,
+                 assume_units=False) -> "Calibration":
+        """This calibration with a user's values (None keeps a field): the one rule of every override.
+
+        Used by :meth:`hexatissue.Source.with_calibration` (and so
+        :func:`hexatissue.open_source`) and by the command line.
+
+        - A ``pixel_size`` (``frame_interval``) with no length (time) unit,
+          neither given nor already here, is refused; with
+          ``assume_units`` it is in micrometres (minutes) instead, what the
+          command line assumes (:func:`override_units`).
+        - ``length_unit="px"`` without a ``pixel_size`` removes the length
+          calibration (pixel size 1); ``time_unit="frame"`` without a
+          ``frame_interval`` the time calibration.
+
+        Raises
+        ------
+        InputError
+            A number with no unit anywhere (without ``assume_units``), or
+            an invalid value or unit.
+        """
+        if assume_units:
+            length_unit, time_unit = override_units(self, pixel_size=pixel_size, length_unit=length_unit,
+                                                    frame_interval=frame_interval, time_unit=time_unit)
+        if pixel_size is not None and length_unit is None and not self.has_length:
+            raise InputError(f"pixel_size={pixel_size!r} was given but there is no length unit (the source is "
+                             f"uncalibrated); pass length_unit= as well (e.g. 'um')")
+        if frame_interval is not None and time_unit is None and not self.has_time:
+            raise InputError(f"frame_interval={frame_interval!r} was given but there is no time unit (the source "
+                             f"is uncalibrated); pass time_unit= as well (e.g. 's', 'min')")
+        if length_unit is not None and pixel_size is None and normalize_length_unit(length_unit) == "px":
+            pixel_size = 1.0
+        if time_unit is not None and frame_interval is None and normalize_time_unit(time_unit) == "frame":
+            frame_interval = 1.0
+        return self.replace(pixel_size=pixel_size, length_unit=length_unit, frame_interval=frame_interval,
+                            time_unit=time_unit)
+
     def to_dict(self) -> dict:
         """Plain dict (for ``metadata.json``)."""
         return asdict(self)
@@ -148,6 +185,7 @@ def override_units(calibration, *, pixel_size=None, length_unit=None, frame_inte
 
     A bare pixel size given for an uncalibrated image is in micrometres, a bare frame interval for an
     uncalibrated movie in minutes (what the command line assumes); given units, or the file's own, are kept.
+    :meth:`Calibration.override` with ``assume_units=True`` applies them.
     """
     if pixel_size is not None and length_unit is None and not calibration.has_length:
         length_unit = "um"

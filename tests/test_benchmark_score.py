@@ -311,6 +311,20 @@ def test_a_mask_the_results_do_not_hold_is_said_not_dropped_silently(truth):
         score(masked, folder, pred_labels=labels, show_progress=False)
 
 
+def test_labels_recorded_in_the_metadata_are_found_or_the_side_has_none(truth, tmp_path):
+    folder, result, labels = truth
+    write_tiff(tmp_path / "labels.tif", labels.astype(np.uint16))
+    recorded = result.replace(source={"kind": "tiff", "path": str(tmp_path / "labels.tif"), "key": None,
+                                      "channel": None, "level": None})
+    scores = score(recorded, folder, show_progress=False)
+    assert f"prediction labels: {tmp_path / 'labels.tif'}" in scores.notes
+    assert scores.summary["seg_jaccard"] == 1.0
+    for source in ({**recorded.source, "path": str(tmp_path / "moved.tif")}, {"kind": "array", "path": None}):
+        with pytest.warns(HexatissueWarning, match="no label images for the prediction"):
+            scores = score(result.replace(source=source), folder, show_progress=False)
+        assert "seg_jaccard" not in scores.summary and "vertex_precision" in scores.summary
+
+
 def test_bad_input(truth):
     folder, result, labels = truth
     with pytest.raises(InputError, match="frame_tolerance"):
@@ -375,3 +389,32 @@ def test_baseline_analyze_score_loop_on_the_t1_movie(truth):
     pred = analyze(seg, box=result.box, order=ORDER, workers=1, progress=False)
     s = score(pred, folder, pred_labels=seg, show_progress=False).summary
     assert s["neighbour_pairs_recall"] >= 0.98 and s["t1_recall"] * s["t1_kind_accuracy"] >= 0.9
+
+
+def test_overlaps_are_those_of_the_pixel_pairs():
+    """The scorer's overlaps (counted by the tracker's kernels) against a count of the pixel pairs' codes."""
+    import importlib
+
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    overlaps = importlib.import_module("hexatissue.benchmark.score")._overlaps
+    shape = (70, 90)
+    truth = voronoi_labels(jittered_seeds(shape, 25, seed=4), shape)
+    truth[:, :4] = 0
+    for pred in (voronoi_labels(jittered_seeds(shape, 30, seed=5), shape) * 3,
+                 np.where(truth % 4 == 0, 0, truth),  # cells missing from the prediction
+                 voronoi_labels(jittered_seeds(shape, 30, seed=5), shape).astype(np.int64) * 2**33):  # sparse ids
+        ov, t_area, p_area = overlaps(7, truth, pred)
+        tl, pl = truth.ravel().astype(np.int64), pred.ravel().astype(np.int64)
+        pairs = pd.DataFrame({"truth": tl, "pred": pl})
+        n = pairs[(pairs["truth"] > 0) & (pairs["pred"] > 0)].value_counts().sort_index()
+        expected = pd.DataFrame({"frame": np.int64(7), "truth": n.index.get_level_values(0).to_numpy(np.int64),
+                                 "pred": n.index.get_level_values(1).to_numpy(np.int64),
+                                 "n": n.to_numpy(np.int64)})
+        pd.testing.assert_frame_equal(ov, expected, check_exact=True)
+        for area, lab in ((t_area, tl), (p_area, pl)):
+            ids, counts = np.unique(lab[lab > 0], return_counts=True)
+            pd.testing.assert_frame_equal(area, pd.DataFrame({"frame": np.int64(7), "cell": ids,
+                                                              "area": counts.astype(np.int64)}), check_exact=True)
+    with pytest.raises(InputError, match="expected the same image size"):
+        overlaps(0, truth, truth[:-1])

@@ -365,6 +365,32 @@ def test_track_masks_of_an_array_source_need_labels(squares):
     np.testing.assert_array_equal(np.stack(masks), square_movie())  # touching squares: ids = tracks
 
 
+def test_track_masks_say_why_the_recorded_labels_or_mask_cannot_be_reopened(squares, tmp_path):
+    import re
+
+    _, movie = squares
+    cases = [({"kind": "array", "path": None},
+              "the results were computed from 'array' data that were not a file, so their labels cannot be "
+              "re-opened; pass the label image or stack the results were computed from (--labels FILE on the "
+              "command line, labels= in Python)"),
+             ({}, "the results were computed from 'an unknown input' data that were not a file, so their labels "
+                  "cannot be re-opened; pass the label image or stack the results were computed from (--labels "
+                  "FILE on the command line, labels= in Python)"),
+             ({**movie.source, "path": str(tmp_path / "moved.tif")},
+              f"the labels recorded in the results, {str(tmp_path / 'moved.tif')!r}, do not exist (moved, or a "
+              f"relative path from another folder); pass them with --labels FILE (labels= in Python)"),
+             ({**movie.source, "mask": {"path": None, "shape": list(movie.shape), "inside": 1}},
+              "the results were computed with a mask given as an array; pass the same mask (--mask FILE on the "
+              "command line, mask= in Python)")]
+    for source, message in cases:
+        with pytest.raises(InputError, match=f"^{re.escape(message)}$"):
+            track_masks(movie.replace(source=source))
+    mask = np.ones(movie.shape, bool)  # the array mask given again: exported
+    masked = movie.replace(source={**movie.source, "mask": {"path": None, "shape": list(movie.shape),
+                                                            "inside": int(mask.sum())}})
+    np.testing.assert_array_equal(np.stack(track_masks(masked, mask=mask)), np.stack(track_masks(movie)))
+
+
 def test_export_geff_and_ome_zarr_from_the_command_line(epicure, tmp_path):
     assert main(["export", str(epicure["results"]), "--to", "geff", str(tmp_path / "g")]) == 0
     assert (tmp_path / "g" / "neighbours.geff").is_dir() and (tmp_path / "g" / "tracks.geff").is_dir()

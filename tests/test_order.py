@@ -430,6 +430,20 @@ def test_cells_from_polygons():
         cells_from_polygons([square], centers=np.zeros((2, 2)))
 
 
+
+def test_cells_from_polygons_default_orders_are_those_of_the_analysis():
+    from hexatissue.options import OrderOptions
+
+    square = np.array([[0, 0], [4, 0], [4, 4], [0, 4]], float)
+    hexagon = 5 * np.c_[np.cos(np.arange(6) * np.pi / 3), np.sin(np.arange(6) * np.pi / 3)] + [20, 10]
+    cells = cells_from_polygons([square, hexagon])
+    gamma = [c for c in cells.columns if c.startswith("gamma")]
+    assert OrderOptions().p == (6, 2)
+    assert gamma == [f"gamma{p}_{part}" for p in OrderOptions().p for part in ("re", "im")]  # as shape_order's
+    pd.testing.assert_frame_equal(cells, cells_from_polygons([square, hexagon], p=(2, 6))[cells.columns],
+                                  check_exact=True)
+
+
 @pytest.fixture(scope="module")
 def mdck(real_data):
     return mdck_cells(real_subdir(real_data, "hexanematic_mdck"), range(6, 69))

@@ -659,3 +659,38 @@ def test_real_imagej_header_promising_missing_pages(real_data):
         skeletons = open_source(folder / "Final_Skeleton")
     assert skeletons.n_frames == 4 and skeletons.shape == (1027, 1931)
     assert Path(skeletons.description["files"][3]).name == "Final_Skeleton_Frame_4.tif"
+
+
+def test_recorded_labels_reopen_the_recorded_path_with_its_key_channel_and_level_or_say_why_not(tmp_path):
+    from hexatissue.source import MISSING, NOT_A_FILE, recorded_labels
+
+    stack = np.arange(2 * 4 * 5).reshape(2, 4, 5) % 7
+    np.savez(tmp_path / "two.npz", other=stack + 1, labels=stack)
+    source = open_source(tmp_path / "two.npz", key="other")
+    back, why = recorded_labels(json.loads(json.dumps(source.description)))  # as metadata.json gives it back
+    assert why is None and back.description["key"] == "other"
+    np.testing.assert_array_equal(np.stack(list(back)), stack + 1)
+    for desc in (None, {}, {"kind": "array", "path": None}):
+        assert recorded_labels(desc) == (None, NOT_A_FILE)
+    assert recorded_labels({**source.description, "path": str(tmp_path / "moved.npz")}) == (None, MISSING)
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(InputError, match="bad.npz"):  # there, but unreadable: open_source's error
+        recorded_labels({"kind": "npz", "path": str(tmp_path / "bad.npz")})
+
+
+def test_recorded_mask_is_read_again_from_its_path_or_none(tmp_path):
+    from hexatissue.source import read_mask, recorded_mask
+
+    inside = np.zeros((6, 7), bool)
+    inside[1:5, 2:6] = True
+    tifffile.imwrite(tmp_path / "mask.tif", inside.astype(np.uint8))
+    info = read_mask(tmp_path / "mask.tif", (6, 7))[1]
+    mask, got = recorded_mask({"path": "x.tif", "mask": info}, (6, 7))
+    assert got == info
+    np.testing.assert_array_equal(mask, inside)
+    for desc in (None, {}, {"path": "x.tif", "mask": None}):
+        assert recorded_mask(desc, (6, 7)) == (None, None)
+    array_info = read_mask(inside, (6, 7))[1]
+    assert recorded_mask({"mask": array_info}, (6, 7)) == (None, array_info)  # an array: not held, not read
+    with pytest.raises(InputError, match=r"mask must have the shape of the labels \(6, 8\)"):
+        recorded_mask({"mask": info}, (6, 8))

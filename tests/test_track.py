@@ -42,6 +42,32 @@ def test_frame_overlaps_matches_brute_force():
     assert got.loc[k, "iou"] == pytest.approx(expected[k] / union)
 
 
+def test_count_overlaps_is_frame_overlaps_with_every_cell_and_its_area():
+    a = voronoi_labels(jittered_seeds(SHAPE, 18, seed=1), SHAPE)
+    b = voronoi_labels(jittered_seeds(SHAPE, 18, seed=1) + 3.0, SHAPE) * 7
+    b[:5] = 0
+    a[-3:] = 0
+    b[b == b.max()] = 0  # a cell of a may overlap only background of b: it is still listed, with its area
+    for sparse in (1, 2**30):  # ids too sparse for the id table: the compact_labels path
+        bs = b.astype(np.int64) * sparse
+        ov = trk.count_overlaps(a, bs)
+        for ids, area, lab in ((ov.ids_prev, ov.area_prev, a), (ov.ids_next, ov.area_next, bs)):
+            found, counts = np.unique(lab[lab > 0], return_counts=True)
+            assert ids.dtype == area.dtype == np.int64
+            np.testing.assert_array_equal(ids, found)
+            np.testing.assert_array_equal(area, counts)
+        pairs = list(zip(ov.i.tolist(), ov.j.tolist()))
+        assert pairs == sorted(pairs) and len(set(pairs)) == len(pairs)
+        table = frame_overlaps(a, bs)
+        np.testing.assert_array_equal(table["cell_prev"], ov.ids_prev[ov.i])
+        np.testing.assert_array_equal(table["cell_next"], ov.ids_next[ov.j])
+        np.testing.assert_array_equal(table["overlap"], ov.n)
+    empty = trk.count_overlaps(np.zeros(SHAPE, np.int32), a)  # no cells on one side: no pairs, not an error
+    assert len(empty.ids_prev) == len(empty.i) == 0 and len(empty.ids_next) == len(np.unique(a)) - 1
+    with pytest.raises(InputError, match="same shape"):
+        trk.count_overlaps(a, b[:-1])
+
+
 @pytest.mark.parametrize("periodic", [True, False])
 def test_consistent_ids_are_reproduced(periodic):
     stack = _movie(periodic=periodic)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from hexatissue import Calibration, InputError
-from hexatissue.units import as_calibration, normalize_length_unit, normalize_time_unit
+from hexatissue.units import as_calibration, normalize_length_unit, normalize_time_unit, override_units
 
 
 @pytest.mark.parametrize("name", ["um", "µm", "μm", "micron", "Microns", "micrometre", "\\u00B5m"])
@@ -57,3 +57,28 @@ def test_override_units_assumes_micrometres_and_minutes_only_when_uncalibrated()
     assert override_units(file_cal, pixel_size=0.5, frame_interval=2.0) == (None, None)  # keep the file's units
     assert override_units(plain, pixel_size=0.5, length_unit="nm") == ("nm", None)
     assert override_units(plain) == (None, None)
+
+
+def test_override_is_the_one_rule_of_source_and_command_line_overrides():
+    plain, file_cal = Calibration(), Calibration(0.2, "nm", 3.0, "s")
+    with pytest.raises(InputError, match=r"^pixel_size=0.5 was given but there is no length unit \(the source is "
+                                         r"uncalibrated\); pass length_unit= as well \(e.g. 'um'\)$"):
+        plain.override(pixel_size=0.5)
+    with pytest.raises(InputError, match=r"^frame_interval=3 was given but there is no time unit \(the source is "
+                                         r"uncalibrated\); pass time_unit= as well \(e.g. 's', 'min'\)$"):
+        plain.override(frame_interval=3)
+    assert plain.override(pixel_size=0.5, length_unit="micron") == Calibration(0.5, "um")
+    assert file_cal.override(pixel_size=0.5, frame_interval=2.0) == Calibration(0.5, "nm", 2.0, "s")  # file's units
+    assert file_cal.override(length_unit="px", time_unit="frames") == plain  # "px" / "frame" alone drop them
+    assert file_cal.override(length_unit="um") == Calibration(0.2, "um", 3.0, "s")
+    assert file_cal.override() == file_cal
+    with pytest.raises(InputError, match="needs a physical length_unit"):
+        file_cal.override(pixel_size=0.5, length_unit="px")
+    # the command line's: bare numbers of an uncalibrated movie in um and min, the file's units kept otherwise
+    assert plain.override(pixel_size=0.5, frame_interval=2.0, assume_units=True) == Calibration(0.5, "um", 2.0, "min")
+    assert file_cal.override(pixel_size=0.5, assume_units=True) == Calibration(0.5, "nm", 3.0, "s")
+    assert file_cal.override(length_unit="px", assume_units=True) == Calibration(1.0, "px", 3.0, "s")
+    for kwargs in ({"pixel_size": 0.5}, {"frame_interval": 2.0}, {"pixel_size": 0.5, "length_unit": "nm"}, {}):
+        units = override_units(plain, **kwargs)
+        assert plain.override(**kwargs, assume_units=True) == plain.override(
+            **{**kwargs, "length_unit": units[0], "time_unit": units[1]})

@@ -34,6 +34,7 @@ from ..results import Movie, read_results
 from ..geometry import match_points
 from ..progress import progress
 from ..schema import interior_mask, track_ids
+from ..track import count_overlaps
 
 __all__ = ["Scores", "score", "score_to_folder", "plot_scores", "SCORE_NAMES"]
 
@@ -107,12 +108,11 @@ class _Labels:
 
     def __init__(self, source, movie):
         from ..options import MeshOptions
-        from ..source import read_mask
+        from ..source import recorded_mask
 
         self.source, self.mesh, self.box = source, movie.options.get("mesh", MeshOptions()), movie.box
-        mask = movie.source.get("mask") if isinstance(movie.source, dict) else None
-        self.mask = read_mask(mask["path"], source.shape)[0] if mask and mask.get("path") else None
-        if mask and not mask.get("path"):
+        self.mask, info = recorded_mask(movie.source, source.shape)
+        if info is not None and self.mask is None:
             warnings.warn("these results were computed with a mask given as an array, which the results folder "
                           "does not hold: the labels are scored without it (cells outside it count as extra or "
                           "missed)", HexatissueWarning, stacklevel=user_stacklevel())
@@ -126,7 +126,7 @@ class _Labels:
 def _side(obj, labels, name, box):
     """``(Movie, _Labels or None, where the labels came from)`` for one side of :func:`score`."""
     from ..options import OrderOptions
-    from ..source import open_source
+    from ..source import open_source, recorded_labels
 
     folder = None
     if isinstance(obj, Movie):
@@ -147,12 +147,9 @@ def _side(obj, labels, name, box):
         return movie, _Labels(open_source(labels), movie), f"{name}_labels argument"
     if folder is not None and (folder / LABELS_FILE).exists():
         return movie, _Labels(open_source(folder / LABELS_FILE), movie), str(folder / LABELS_FILE)
-    described = movie.source if isinstance(movie.source, dict) else {}
-    path = described.get("path")
-    if path and Path(path).exists():
-        src = open_source(path, key=described.get("key"), channel=described.get("channel"),
-                          level=described.get("level"))
-        return movie, _Labels(src, movie), path
+    src = recorded_labels(movie.source)[0]
+    if src is not None:
+        return movie, _Labels(src, movie), movie.source["path"]
     return movie, None, None
 
 
@@ -164,17 +161,11 @@ def _overlaps(t, truth, pred):
     if truth.shape != pred.shape:
         raise InputError(f"frame {t}: the prediction's labels have shape {pred.shape} and the truth's {truth.shape}; "
                          f"expected the same image size")
-    tl, pl = truth.ravel().astype(np.int64), pred.ravel().astype(np.int64)
-    n_p = int(pl.max()) + 1
-    code, n = np.unique(tl * n_p + pl, return_counts=True)
-    tj, pi = np.divmod(code, n_p)
-    real = (tj > 0) & (pi > 0)
-    areas = []
-    for lab in (tl, pl):
-        count = np.bincount(lab)
-        ids = np.flatnonzero(count[1:]) + 1
-        areas.append(pd.DataFrame({"frame": np.int64(t), "cell": ids, "area": count[ids]}))
-    return pd.DataFrame({"frame": np.int64(t), "truth": tj[real], "pred": pi[real], "n": n[real]}), *areas
+    ov = count_overlaps(truth, pred)  # the tracker's overlap counts: pairs sorted by (truth, pred)
+    areas = [pd.DataFrame({"frame": np.int64(t), "cell": ids, "area": area})
+             for ids, area in ((ov.ids_prev, ov.area_prev), (ov.ids_next, ov.area_next))]
+    return pd.DataFrame({"frame": np.int64(t), "truth": ov.ids_prev[ov.i], "pred": ov.ids_next[ov.j],
+                         "n": ov.n}), *areas
 
 
 def _match_cells(truth_labels, pred_labels, n_frames, show_progress):

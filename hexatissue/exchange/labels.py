@@ -9,8 +9,6 @@ area, and maps ``(frame, cell)`` to ``track``.
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from ..errors import InputError
@@ -20,33 +18,32 @@ __all__ = ["track_masks"]
 
 
 def _labels_source(movie, labels):
-    from ..source import open_source
+    from ..source import MISSING, open_source, recorded_labels
 
     if labels is not None:
         return open_source(labels), "labels"
     desc = movie.source or {}
-    path = desc.get("path")
-    if path is None:
+    source, why = recorded_labels(desc)
+    if why == MISSING:
+        raise InputError(f"the labels recorded in the results, {desc['path']!r}, do not exist (moved, or a relative "
+                         f"path from another folder); pass them with --labels FILE (labels= in Python)")
+    if source is None:
         raise InputError(f"the results were computed from {desc.get('kind', 'an unknown input')!r} data that were "
                          f"not a file, so their labels cannot be re-opened; pass the label image or stack the "
                          f"results were computed from (--labels FILE on the command line, labels= in Python)")
-    if not Path(path).exists():
-        raise InputError(f"the labels recorded in the results, {path!r}, do not exist (moved, or a relative path "
-                         f"from another folder); pass them with --labels FILE (labels= in Python)")
-    source = open_source(path, key=desc.get("key"), channel=desc.get("channel"), level=desc.get("level"))
-    return source, f"the recorded labels {path!r}"
+    return source, f"the recorded labels {desc['path']!r}"
 
 
 def _mask(movie, mask):
-    from ..source import read_mask
+    from ..source import read_mask, recorded_mask
 
-    info = (movie.source or {}).get("mask")
-    if mask is None and info is not None:
-        if info.get("path") is None:
-            raise InputError("the results were computed with a mask given as an array; pass the same mask "
-                             "(--mask FILE on the command line, mask= in Python)")
-        mask = info["path"]
-    return read_mask(mask, tuple(movie.shape))[0]
+    if mask is not None:
+        return read_mask(mask, tuple(movie.shape))[0]
+    inside, info = recorded_mask(movie.source, tuple(movie.shape))
+    if info is not None and inside is None:
+        raise InputError("the results were computed with a mask given as an array; pass the same mask "
+                         "(--mask FILE on the command line, mask= in Python)")
+    return inside
 
 
 def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:

@@ -174,7 +174,7 @@ def shape_order(network, p=(6, 2), center="vertex_mean"):
     return network.replace(cells=validate(cells, "cells"))
 
 
-def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center="vertex_mean"):
+def cells_from_polygons(polygons, p=(6, 2), centers=None, is_border=None, center="vertex_mean"):
     """Cells table from cell polygons (e.g. published polygon data, or another segmentation tool).
 
     Parameters
@@ -184,7 +184,9 @@ def cells_from_polygons(polygons, p=(2, 6), centers=None, is_border=None, center
         1); x = column, y = row, origin at the centre of pixel (0, 0).  A
         repeated closing vertex is dropped.
     p : int or sequence of int
-        Symmetry orders of the shape functions to compute.
+        Symmetry orders of the shape functions to compute, their columns in
+        this order (default ``(6, 2)``, as :func:`shape_order` and
+        :attr:`~hexatissue.options.OrderOptions.p`).
     centers : (N, 2) array, optional
         Cell positions ``x``, ``y`` (e.g. the published centres of mass);
         default the polygons' area centroids.

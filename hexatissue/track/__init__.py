@@ -17,6 +17,7 @@ membrane; track ids are positive integers.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -32,7 +33,7 @@ from ..schema import deprecated_column_lists, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
-           "compact_frames", "frame_overlaps", "match_frames", "lineage_roots"]
+           "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -182,6 +183,53 @@ def compact_frames(labels, pixels=False) -> list:
     return out
 
 
+class Overlaps(NamedTuple):
+    """The cells of two label images and their pixel overlaps (:func:`count_overlaps`).
+
+    ``ids_prev`` / ``ids_next`` are the cell ids present (sorted, > 0),
+    ``area_prev`` / ``area_next`` their areas (px); pair ``k`` is cell
+    ``ids_prev[i[k]]`` overlapping cell ``ids_next[j[k]]`` by ``n[k]`` px,
+    one entry per overlapping pair, sorted by ``(i, j)``.  All int64.
+    """
+
+    ids_prev: np.ndarray
+    area_prev: np.ndarray
+    ids_next: np.ndarray
+    area_next: np.ndarray
+    i: np.ndarray
+    j: np.ndarray
+    n: np.ndarray
+
+
+def count_overlaps(prev, cur) -> Overlaps:
+    """The cells of two label images of one shape, their areas and pixel overlaps, counted by the tracker's kernels.
+
+    For callers whose labels are valid by construction (the output of
+    :func:`~hexatissue.mesh.labels.mesh_labels`, of
+    :func:`~hexatissue.mesh.labels.validate_labels`): they are not checked
+    again here (an all-background frame is fine: no cells);
+    :func:`frame_overlaps` checks them.
+
+    Parameters
+    ----------
+    prev, cur : (rows, cols) non-negative int arrays
+        Label images indexed ``[row, col]``, of the same shape; 0 =
+        background (ignored).
+
+    Returns
+    -------
+    Overlaps
+        ``ids_prev``, ``area_prev``, ``ids_next``, ``area_next``, ``i``,
+        ``j``, ``n``.
+    """
+    if prev.shape != cur.shape:
+        raise InputError(f"prev and cur must have the same shape; got {prev.shape} and {cur.shape}")
+    a, b = _compact(prev), _compact(cur)
+    i, j, n = _contingency(a, b)
+    return Overlaps(a.ids.astype(np.int64, copy=False), a.area.astype(np.int64, copy=False),
+                    b.ids.astype(np.int64, copy=False), b.area.astype(np.int64, copy=False), i, j, n)
+
+
 def frame_overlaps(prev, cur) -> pd.DataFrame:
     """Pixel overlaps between the cells of two label images of the same shape.
 
@@ -198,14 +246,12 @@ def frame_overlaps(prev, cur) -> pd.DataFrame:
         (overlap / union, dimensionless).
     """
     prev, cur = validate_labels(prev, "prev"), validate_labels(cur, "cur")
-    if prev.shape != cur.shape:
-        raise InputError(f"prev and cur must have the same shape; got {prev.shape} and {cur.shape}")
-    a, b = _compact(prev), _compact(cur)
-    i, j, n = _contingency(a, b)
-    union = a.area[i] + b.area[j] - n
+    ov = count_overlaps(prev, cur)
+    i, j, n = ov.i, ov.j, ov.n
+    union = ov.area_prev[i] + ov.area_next[j] - n
     return pd.DataFrame(
-        {"cell_prev": a.ids[i], "cell_next": b.ids[j], "overlap": n, "area_prev": a.area[i],
-         "area_next": b.area[j], "iou": n / union}
+        {"cell_prev": ov.ids_prev[i], "cell_next": ov.ids_next[j], "overlap": n, "area_prev": ov.area_prev[i],
+         "area_next": ov.area_next[j], "iou": n / union}
     )
 
 

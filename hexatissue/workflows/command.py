@@ -39,15 +39,12 @@ def _run(args) -> int:
     from pathlib import Path
 
     from ..results import read_results
-    from ..units import override_units
     from .report import report
 
     movie = read_results(args.results)
-    cal = movie.calibration
-    units, time_unit = override_units(cal, pixel_size=args.pixel_size, length_unit=args.units,
-                                      frame_interval=args.frame_interval, time_unit=args.time_unit)
-    movie = movie.replace(calibration=cal.replace(pixel_size=args.pixel_size, length_unit=units,
-                                                  frame_interval=args.frame_interval, time_unit=time_unit))
+    movie = movie.replace(calibration=movie.calibration.override(
+        pixel_size=args.pixel_size, length_unit=args.units, frame_interval=args.frame_interval,
+        time_unit=args.time_unit, assume_units=True))
     out = Path(args.results) / "report" if args.out is None else args.out
     numbers = report(movie, out, p=args.p, dl=args.dl, dt=args.dt, n_control=args.n_control,
                      seed=args.seed, include_border=args.include_border, control=args.control)
