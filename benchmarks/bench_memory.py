@@ -138,9 +138,9 @@ def wrapped(module, name, label=None):
 
 for name in ("_extract", "release_freed_memory", "Movie"):
     wrapped(pipeline, name)
-# the movie stages' helpers, looked up by name when the stages run
-for name in ("release_freed_memory", "_with_tracks", "lineage_table", "_tracking_summary", "t1_tables",
-             "cell_event_stats", "_events_summary", "_link_defects"):
+# the movie stages' functions, looked up by name in hexatissue.stages when the stages run
+for name in ("cells_with_tracks", "lineage_table", "tracking_summary", "t1_tables", "cell_event_stats",
+             "events_summary", "link_movie_defects"):
     wrapped(stages, name)
 wrapped(pipeline.Rows, "table", label=lambda args: "table " + str(args[1]))
 wrapped(cli_mod, "summary_line")

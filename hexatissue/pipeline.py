@@ -270,15 +270,15 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
     pixels = not polygons and tracker.needs_pixels
 
     def collect(first, future):
-        for t, (frame_tables, labels, overlaps, found) in enumerate(future.result(), start=first):
+        for t, (done, labels, overlaps, found) in enumerate(future.result(), start=first):
             frame_warnings.add(t, found)
             if polygons:
                 tracker.add_ids(labels, t)  # the cell ids: polygons have no labels to overlap
             else:
                 tracker.add_valid(labels, t, overlaps)
-            for name, table in frame_tables.items():
+            for name, table in done.items():
                 rows[name].append(table)
-            del frame_tables, labels, overlaps
+            del done, labels, overlaps
             if t + 1 in due:
                 new = {name: [r.table(start=saved[name])] for name, r in rows.items() if r.n > saved[name]}
                 store.save(t + 1, new, pickle.dumps(tracker))

@@ -26,25 +26,21 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from ._system import release_freed_memory
-from .defects import defect_events, find_defects, track_defects
+from .defects import find_defects, link_movie_defects
 from .errors import HexatissueWarning, InputError, user_stacklevel
-from .events import cell_event_stats, default_censor, t1_tables
-from .geometry import distinct_count, row_keys
+from .events import cell_event_stats, default_censor, events_summary, t1_tables
+from .geometry import distinct_count
 from .intensity import measure_intensity
 from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
 from .mesh.polygons import polygon_network
 from .options import OPTION_CLASSES, EventOptions, IntensityOptions, MeshOptions, OrderOptions, TrackOptions
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
-from .schema import TABLES as SCHEMAS, empty_table, interior_mask, rows_by_frame, validate
-from .track import lineage_table
+from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
+from .track import cells_with_tracks, lineage_table, tracking_summary
 
 __all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
            "worker_stages", "run_frame"]
-
-DEFECT_SPACINGS = 1.5  # default largest defect displacement between frames, in grid spacings
-
 
 @dataclass(frozen=True)
 class Stage:
@@ -190,51 +186,15 @@ def _fields(frame, options):
 def _tracks(movie, options):
     """Each cell's ``track`` from the tracker, the lineage, and what tracking decided."""
     tracker, src = movie.tracker, movie.source
-    cells = _with_tracks(movie.tables["cells"], tracker)
+    cells = cells_with_tracks(movie.tables["cells"], tracker)
     movie.tables["cells"] = cells
     # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
     movie.tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
-    movie.summary["tracking"] = _tracking_summary(tracker, cells, parents)
+    movie.summary["tracking"] = tracking_summary(tracker, cells, parents)
     movie.options["track"] = options.replace(mode=movie.summary["tracking"]["resolved"])
     movie.tracker = None  # its per-cell-frame ids are in cells now; the later stages need the memory
-
-
-def _with_tracks(cells, tracker):
-    """``cells`` with a ``track`` column after ``cell``, from the tracker's ``(frame, cell) -> track``."""
-    ids = tracker.tracks()
-    if all(np.array_equal(ids[c].to_numpy(), cells[c].to_numpy()) for c in ("frame", "cell")):
-        track = ids["track"].to_numpy(np.int64)  # the mesh's rows in the tracker's order (frame, id): no search
-    else:
-        track = _tracks_by_key(cells, ids)
-    del ids
-    cells = cells.drop(columns="track", errors="ignore")
-    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
-    return cells
-
-
-def _tracks_by_key(cells, ids):
-    """The ``track`` of each row of ``cells`` from the tracker's ``ids`` table (rows in any order)."""
-    # one sorted int64 key per (frame, cell), not a merge (which needs several times the column's memory)
-    keys = row_keys(ids["frame"].to_numpy(np.int64), ids["cell"].to_numpy(np.int64))
-    order = np.argsort(keys)
-    keys = keys[order]
-    wanted = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
-    pos = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
-    # the tracker saw the mesh's own labels, once each: anything else is a bug, not bad input
-    if len(wanted) and (len(keys) == 0 or (keys[pos] != wanted).any() or (np.diff(keys) == 0).any()):
-        raise AssertionError("mesh cells missing from the tracker's labels, or seen twice")
-    return ids["track"].to_numpy(np.int64)[order[pos]]
-
-
-def _tracking_summary(tracker, cells, parents):
-    """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
-    out = tracker.summary()
-    ids, tracks = cells["cell"].to_numpy(), cells["track"].to_numpy()
-    out.update(rows_track_not_cell=int((tracks != ids).sum()), n_ids=distinct_count(ids),
-               n_tracks=distinct_count(tracks), n_divisions=len(set(parents.values())))
-    return out
 
 
 def _defect_tracks(movie, options):
@@ -250,61 +210,7 @@ def _defect_tracks(movie, options):
         warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
                       f"or defects there", HexatissueWarning, stacklevel=user_stacklevel())
     linked = movie.summary.get("tracking", {}).get("resolved") != "off"
-    _link_defects(tables, options, movie.box, n_frames, linked)
-
-
-def _link_defects(tables, order, box, n_frames, linked=True):
-    """Link ``tables["defects"]`` over frames per p (``track``); add their pair events as ``tables["defect_events"]``.
-
-    The tables come in a dict so that the untracked defects are freed column
-    by column as the tracked table is built (an argument would stay
-    referenced by the caller for the whole call); tracking reads a copy of
-    four columns of each p, not of the whole table.
-    """
-    defects, grid = tables.pop("defects"), tables["grid"]
-
-    groups = [np.arange(n_frames)] if linked else [np.array([t]) for t in range(n_frames)]
-    max_distance = order.defect_max_distance
-    if max_distance is None:
-        spacing = grid["spacing"].to_numpy(float)
-        max_distance = DEFECT_SPACINGS * float(np.median(spacing)) if len(spacing) else 1.0
-        release_freed_memory()  # np.median's sorted copy of the grid column would stay resident under the tracking
-    p = defects["p"].to_numpy()
-    track = np.zeros(len(defects), np.int64)
-    pair_events = []
-    for q in order.p:
-        rows = np.flatnonzero(p == q)
-        # only the columns tracking reads, not a copy of the table per p
-        of_p = pd.DataFrame({c: defects[c].to_numpy()[rows] for c in ("frame", "x", "y", "charge")})
-        rows_of = None if linked else rows_by_frame(of_p["frame"].to_numpy())  # not one scan per frame
-        n_tracks = 0
-        for frames in groups:
-            at = slice(None) if linked else rows_of.get(int(frames[0]), np.zeros(0, np.int64))
-            t = track_defects(of_p if linked else of_p.iloc[at], max_distance, box=box, frames=frames)
-            t["track"] += n_tracks
-            n_tracks = int(t["track"].max()) + 1 if len(t) else n_tracks
-            track[rows[at]] = t["track"].to_numpy()
-            pair_events.append(defect_events(t, max_distance, box=box, frames=frames).assign(p=np.int64(q)))
-            del t
-        del of_p, rows_of
-        release_freed_memory()  # tracking and pairing leave freed memory resident under the next p
-    # the rows of every p, by frame, p and defect (a stable sort), taken one column at a time from the
-    # table given away: at most one column more than the defects table in memory
-    rows = np.lexsort((defects["defect"].to_numpy(), p, defects["frame"].to_numpy()))
-    rows = rows[np.isin(p[rows], order.p)]
-    del p
-    columns = {c: defects.pop(c).to_numpy()[rows] for c in list(defects.columns) if c != "track"}
-    del defects
-    columns["track"] = track[rows]
-    pair_events = pd.concat(pair_events, ignore_index=True)
-    tables["defects"] = validate(pd.DataFrame(columns, copy=False), "defects")
-    tables["defect_events"] = validate(pair_events.astype({"frame": np.int64}), "defect_events")
-
-
-#: Warning when the censoring window leaves no T1 to count as an intercalation.
-NO_INTERCALATION = ("no T1 event is classified as an intercalation: every T1 that is not undone starts within the "
-                    "censoring window of the movie's end and is unresolved (see EventOptions.censor and "
-                    "movie.summary['events'])")
+    link_movie_defects(tables, options.p, options.defect_max_distance, movie.box, n_frames, linked)
 
 
 def _t1_events(movie, options):
@@ -313,20 +219,8 @@ def _t1_events(movie, options):
     tables = movie.tables
     tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], tables["cells"], options.min_length,
                                                              censor, movie.box)
-    movie.summary["events"] = _events_summary(tables["events"], options, censor, movie.n_frames)
+    movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames)
     movie.options["events"] = options.replace(censor=censor)
-
-
-def _events_summary(events, options, censor, n_frames):
-    """Censoring window used (and where it came from) and the number of events of each kind."""
-    counts = events["kind"].astype(str).value_counts()
-    n = {kind: int(counts.get(kind, 0)) for kind in ("cycle", "intercalation", "unresolved")}
-    if n["unresolved"] and not n["intercalation"]:
-        warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=user_stacklevel())
-    rule = "given" if options.censor is not None else "min(10, max(1, n_frames // 5))"
-    return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
-            "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
-            "n_classified": n["cycle"] + n["intercalation"]}
 
 
 def _cell_events(movie, options):

@@ -254,7 +254,7 @@ def test_a_tqdm_class_draws_the_progress_bar():
 
 def test_tracks_are_attached_to_cells_in_any_row_order():
     """The track of each cell row is the same whether the rows come in the tracker's order or shuffled."""
-    from hexatissue.stages import _with_tracks
+    from hexatissue.track import cells_with_tracks
     from hexatissue.track import MovieTracker
 
     movie = np.stack([np.asarray(f) for f in voronoi_movie(20, (40, 48), 4, periodic=True, amplitude=0.3, seed=5)])
@@ -263,13 +263,13 @@ def test_tracks_are_attached_to_cells_in_any_row_order():
         tracker.add_valid(lab, t)
     expected = tracker.tracks()
     cells = expected[["frame", "cell"]].assign(area=np.arange(len(expected), dtype=float))
-    ordered = _with_tracks(cells, tracker)
+    ordered = cells_with_tracks(cells, tracker)
     assert ordered.columns.tolist() == ["frame", "cell", "track", "area"]
     assert ordered["track"].tolist() == expected["track"].tolist()
     shuffled = cells.sample(frac=1, random_state=0).reset_index(drop=True)
-    pd.testing.assert_frame_equal(_with_tracks(shuffled, tracker).sort_values("area", ignore_index=True), ordered)
+    pd.testing.assert_frame_equal(cells_with_tracks(shuffled, tracker).sort_values("area", ignore_index=True), ordered)
     with pytest.raises(AssertionError, match="missing"):
-        _with_tracks(cells.assign(cell=cells["cell"] + 1000), tracker)
+        cells_with_tracks(cells.assign(cell=cells["cell"] + 1000), tracker)
 
 
 def test_frames_without_a_field_are_counted_in_one_warning():

@@ -26,20 +26,22 @@ origin at the centre of pixel (0, 0).
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 
 from .._hashing import GOLDEN, mix64
 from .._system import release_freed_memory
 from ..box import Box
-from ..errors import InputError, is_real
+from ..errors import HexatissueWarning, InputError, is_real, user_stacklevel
 from ..geometry import in_sorted, lookup, row_keys
 from ..graph import pair_groups
 from ..schema import FrameRows, deprecated_column_lists, interior_mask, string_column, track_ids, validate
 from ._kernels import _change_kernel, _close_kernel, _excursion_starts, _lists_kernel, _t1_kernel, _undo_pairs
 
-__all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1", "find_t1", "track_contacts",
-           "cell_event_stats", "intercalation_intervals"]
+__all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1",
+           "find_t1", "track_contacts", "cell_event_stats", "intercalation_intervals", "events_summary"]
 
 #: The ``kind`` of a T1 (quartet or per-cell event); tables are built from codes, its indices.
 T1_KINDS = ("cycle", "intercalation", "unresolved")
@@ -916,6 +918,28 @@ def _same_cells_every_frame(by_frame, tracks):
         elif not np.array_equal(first, here):
             return False
     return True
+
+
+#: Warning when the censoring window leaves no T1 to count as an intercalation.
+NO_INTERCALATION = ("no T1 event is classified as an intercalation: every T1 that is not undone starts within the "
+                    "censoring window of the movie's end and is unresolved (see EventOptions.censor and "
+                    "movie.summary['events'])")
+
+
+def events_summary(events, censor, given, n_frames):
+    """Censoring window used (``given`` by the user, or the default rule) and the number of events of each kind.
+
+    Warns (:class:`HexatissueWarning`) when no T1 is an intercalation because
+    every one that is not undone is unresolved.
+    """
+    counts = events["kind"].astype(str).value_counts()
+    n = {kind: int(counts.get(kind, 0)) for kind in ("cycle", "intercalation", "unresolved")}
+    if n["unresolved"] and not n["intercalation"]:
+        warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=user_stacklevel())
+    rule = "given" if given else "min(10, max(1, n_frames // 5))"
+    return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
+            "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
+            "n_classified": n["cycle"] + n["intercalation"]}
 
 
 # the column lists of hexatissue 0.1, now read from the one registry

@@ -25,7 +25,7 @@ from scipy.optimize import linear_sum_assignment
 
 from .._components import components
 from ..errors import InputError
-from ..geometry import in_sorted
+from ..geometry import distinct_count, in_sorted, row_keys
 from ..mesh.labels import compact_labels, touches_outside, validate_labels
 from ..options import TRACK_MODES
 from ..progress import progress as progress_bar
@@ -835,6 +835,46 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
     tracks = tracker.tracks()
     lineage = lineage_table(tracks, tracker.parents, np.concatenate(border) if border else None)
     return tracks, lineage
+
+
+def cells_with_tracks(cells, tracker):
+    """``cells`` with a ``track`` column after ``cell``, from a :class:`MovieTracker`'s ``(frame, cell) -> track``.
+
+    The tracker must have seen exactly the cells of ``cells`` (the mesh's
+    own labels, once each).
+    """
+    ids = tracker.tracks()
+    if all(np.array_equal(ids[c].to_numpy(), cells[c].to_numpy()) for c in ("frame", "cell")):
+        track = ids["track"].to_numpy(np.int64)  # the mesh's rows in the tracker's order (frame, id): no search
+    else:
+        track = _tracks_by_key(cells, ids)
+    del ids
+    cells = cells.drop(columns="track", errors="ignore")
+    cells.insert(cells.columns.get_loc("cell") + 1, "track", track)
+    return cells
+
+
+def _tracks_by_key(cells, ids):
+    """The ``track`` of each row of ``cells`` from the tracker's ``ids`` table (rows in any order)."""
+    # one sorted int64 key per (frame, cell), not a merge (which needs several times the column's memory)
+    keys = row_keys(ids["frame"].to_numpy(np.int64), ids["cell"].to_numpy(np.int64))
+    order = np.argsort(keys)
+    keys = keys[order]
+    wanted = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
+    pos = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+    # the tracker saw the mesh's own labels, once each: anything else is a bug, not bad input
+    if len(wanted) and (len(keys) == 0 or (keys[pos] != wanted).any() or (np.diff(keys) == 0).any()):
+        raise AssertionError("mesh cells missing from the tracker's labels, or seen twice")
+    return ids["track"].to_numpy(np.int64)[order[pos]]
+
+
+def tracking_summary(tracker, cells, parents):
+    """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
+    out = tracker.summary()
+    ids, tracks = cells["cell"].to_numpy(), cells["track"].to_numpy()
+    out.update(rows_track_not_cell=int((tracks != ids).sum()), n_ids=distinct_count(ids),
+               n_tracks=distinct_count(tracks), n_divisions=len(set(parents.values())))
+    return out
 
 
 # the column lists of hexatissue 0.1, now read from the one registry
