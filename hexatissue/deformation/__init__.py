@@ -576,8 +576,11 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
     mapped = mapped[good]
     _, first = np.unique(np.sort(mapped, axis=1), axis=0, return_index=True)
     mapped = mapped[np.sort(first)]
-    pos4 = frames.positions(t_next, mapped.ravel(), merged).reshape(-1, 3, 2)
-    xy4 = _corners(mapped, pos4, box)
+    xy4 = xy_n[good][np.sort(first)]
+    moved = np.isin(mapped, np.array(sorted(mothers), np.int64)).any(axis=1)
+    if moved.any():  # a mother at the mean of its daughters; the other triangles as they are in the next frame
+        pos4 = frames.positions(t_next, mapped[moved].ravel(), merged).reshape(-1, 3, 2)
+        xy4[moved] = _corners(mapped[moved], pos4, box)
     s4 = _State(mapped, xy4, layers.labels(t, mapped, xy4))
     s4 = s4.take(s4.area > 0)
     gone, come = ~_isin_rows(s3.ids, s4.ids), ~_isin_rows(s4.ids, s3.ids)
@@ -591,6 +594,7 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
         plus, minus = added.sums(sizes, w[n_removed:]), removed.sums(sizes, w[:n_removed])
         sums = [s + p - m for s, p, m in zip(sums, plus, minus)]
         chain.append((term, sums))
+    chain[-1] = (chain[-1][0], s4.sums(sizes))  # the same, without the sums' rounding
     for c, evs in enumerate(matched):
         if not evs:
             continue
@@ -605,8 +609,10 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
     s6 = _State(ids_n, xy_n, layers.labels(t, ids_n, xy_n))
     chain.append(("border", s6.sums(sizes)))
     blocks = [_block(chain, flow, i, n) for i, n in enumerate(sizes)]
+    # a region empty at any step has no mean elongation there: it gets no row for this interval
+    complete = [np.all([sums[i][0] > 0 for _, sums in chain], axis=0) for i in range(len(sizes))]
     info = {"n_triangles": len(ids0), "n_flipped": int((~usable).sum()), "splits": splits,
-            "area": [c[0] for c in end]}
+            "area": [c[0] for c in end], "complete": complete}
     return blocks, events, info
 
 
@@ -761,7 +767,7 @@ def _rows(t, blocks, layers, info):
     for layer, block in zip(layers.names(), blocks):
         n = block.shape[1]
         area = info["area"][len(parts)]
-        present = area > 0
+        present = info["complete"][len(parts)]
         region_id = np.arange(n) if layer != "tissue" else np.full(n, -1)
         if layer == "grid":
             region_id = layers.grid[t][0]

@@ -1,0 +1,299 @@
+"""The deformation budget (triangle method) against exact truth: affine motions, scripted T1s, divisions, extrusions."""
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import ndimage
+from scipy.linalg import expm
+
+import hexatissue as ht
+from hexatissue.deformation import _stays_positive, deformation_budget, frame_triangles, roi_tracks
+from hexatissue.deformation.flow import integrate_flow
+from hexatissue.deformation.triangles import REFERENCE_INVERSE, edge_matrices, elongation, state_tensors
+from hexatissue.errors import InputError
+from hexatissue.schema import DEFORMATION_TERMS, ISOTROPIC_TERMS
+from hexatissue.synthetic import hexagonal_seeds, jittered_seeds, t1_movie, voronoi_labels
+
+TOPOLOGICAL = ("t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement", "division", "extrusion", "border")
+
+
+def _rotation(theta):
+    return np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+
+
+def _nematic(qxx, qxy):
+    return np.array([[qxx, qxy], [qxy, -qxx]])
+
+
+# ----------------------------------------------------------------------------
+# One triangle
+# ----------------------------------------------------------------------------
+
+def test_state_tensor_factors_into_area_elongation_and_rotation():
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        area, qxx, qxy, theta = rng.uniform(0.5, 50), *rng.uniform(-1.2, 1.2, 2), rng.uniform(-3, 3)
+        S = np.sqrt(area) * expm(_nematic(qxx, qxy)) @ _rotation(theta)
+        got = elongation(S)
+        np.testing.assert_allclose(got, (area, qxx, qxy, theta), rtol=1e-12, atol=1e-12)
+
+
+def test_equilateral_triangle_has_no_elongation_in_any_orientation_and_corner_order():
+    corners = np.array([[0.0, 0.0], [2.0, 0.0], [1.0, np.sqrt(3.0)]])
+    for theta in np.linspace(0, 2 * np.pi, 7):
+        xy = corners @ _rotation(theta).T + 5.0
+        for roll in range(3):
+            area, qxx, qxy, _ = elongation(state_tensors(edge_matrices(np.roll(xy, roll, axis=0)[None])))
+            assert abs(qxx[0]) < 1e-12 and abs(qxy[0]) < 1e-12
+            assert area[0] == pytest.approx(np.sqrt(3.0))
+
+
+def test_stretched_triangle_elongation_is_the_log_stretch():
+    eps = 0.3
+    equilateral = np.linalg.inv(REFERENCE_INVERSE).T  # the reference's corners r1, r2 as rows
+    xy = np.vstack([[0.0, 0.0], equilateral]) @ np.diag([np.exp(eps), np.exp(-eps)])
+    _, qxx, qxy, _ = elongation(state_tensors(edge_matrices(xy[None])))
+    assert qxx[0] == pytest.approx(eps, abs=1e-12) and abs(qxy[0]) < 1e-12
+
+
+# ----------------------------------------------------------------------------
+# The continuous part
+# ----------------------------------------------------------------------------
+
+def _random_triangles(n, seed=0):
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 20, (n, 3, 2))
+    R = edge_matrices(xy)
+    clockwise = R[:, 0, 0] * R[:, 1, 1] - R[:, 0, 1] * R[:, 1, 0] < 0
+    xy[clockwise] = xy[clockwise][:, [0, 2, 1]]
+    return xy
+
+
+def _mean_q(xy):
+    area, qxx, qxy, _ = elongation(state_tensors(edge_matrices(xy)))
+    return np.array([[np.sum(area * qxx) / area.sum()], [np.sum(area * qxy) / area.sum()]])
+
+
+@pytest.mark.parametrize("L", [np.array([[0.02, 0.01], [0.01, -0.02]]),  # pure shear
+                               np.array([[0.03, -0.05], [0.09, 0.01]])])  # shear + rotation + dilation
+def test_affine_motion_total_is_the_imposed_gradient_exactly(L):
+    xy0 = _random_triangles(200)
+    xy1 = xy0 @ expm(L).T
+    out, _ = integrate_flow(xy0, xy1, [(np.zeros(200, int), 1)], [_mean_q(xy1) - _mean_q(xy0)])
+    terms = dict(zip(("total_xx", "total_xy", "total_iso", "corotation_xx", "corotation_xy", "nonlinear_xx",
+                      "nonlinear_xy", "growth_xx", "growth_xy", "rot_xx", "rot_xy", "rotation"), out[0][:, 0]))
+    assert terms["total_xx"] == pytest.approx(0.5 * (L[0, 0] - L[1, 1]), abs=1e-12)
+    assert terms["total_xy"] == pytest.approx(0.5 * (L[0, 1] + L[1, 0]), abs=1e-12)
+    assert terms["total_iso"] == pytest.approx(np.trace(L), abs=1e-12)
+    assert terms["rotation"] == pytest.approx(0.5 * (L[1, 0] - L[0, 1]), abs=1e-12)
+    # every triangle moves alike: no correlation between the triangles' motion and their elongation
+    for name in ("growth_xx", "growth_xy", "rot_xx", "rot_xy"):
+        assert abs(terms[name]) < 1e-12
+
+
+def test_identity_closes_for_any_motion():
+    rng = np.random.default_rng(3)
+    xy0 = _random_triangles(300, seed=2)
+    xy1 = xy0 + rng.normal(0, 0.4, xy0.shape)  # each corner on its own: rotation and growth vary
+    keep = _stays_positive(xy0, xy1)  # a triangle flipping over on the way has no shape half-way
+    xy0, xy1 = xy0[keep], xy1[keep]
+    labels = rng.integers(0, 4, len(xy0))
+    change = [_mean_q(xy1) - _mean_q(xy0)]
+    by_region = [np.hstack([_mean_q(xy1[labels == r]) - _mean_q(xy0[labels == r]) for r in range(4)])]
+    for layers, ch in (([(np.zeros(len(xy0), int), 1)], change), ([(labels, 4)], by_region)):
+        out, _ = integrate_flow(xy0, xy1, layers, ch)
+        t = out[0]
+        closure = t[:2] - (ch[0] + t[3:5] + t[5:7] + t[7:9] + t[9:11])
+        assert np.abs(closure).max() <= 1e-10 * np.abs(t[:2]).max()
+        assert np.abs(t[7:11]).max() > 1e-4  # the correlation terms are there
+
+
+# ----------------------------------------------------------------------------
+# Movies
+# ----------------------------------------------------------------------------
+
+def _warped_movie(F_of_t, n_frames, shape=(360, 360), spacing=20, seed=4):
+    """A Voronoi label image mapped by affine maps F(t) about the image centre: no topology change.
+
+    The seeds are a slightly jittered hexagonal lattice, so no junction is
+    short enough for the pixels of the warped image to flip it; the patch
+    of cells sits on background, so none enters or leaves the image.
+    """
+    rng = np.random.default_rng(seed)
+    seeds, _ = hexagonal_seeds(shape[1] // spacing, 2 * int(shape[0] // (spacing * 1.732)), spacing, spacing * 0.866)
+    seeds = seeds + rng.uniform(-0.1, 0.1, seeds.shape) * spacing
+    base = voronoi_labels(seeds, shape)
+    # a patch of cells on background, well inside the image: no cell enters or leaves the field of view
+    outside = np.flatnonzero(np.abs(seeds - np.array(shape[::-1]) / 2.0).max(axis=1) > 0.35 * min(shape)) + 1
+    base[np.isin(base, outside)] = 0
+    centre = (np.array(shape) - 1) / 2.0
+    frames = []
+    for t in range(n_frames):
+        F = F_of_t(t)  # in (x, y)
+        Frc = F[::-1, ::-1]  # in (row, col)
+        inv = np.linalg.inv(Frc)
+        frames.append(ndimage.affine_transform(base, inv, offset=centre - inv @ centre, order=0, mode="constant"))
+    return np.stack(frames)
+
+
+def _budget(movie, box=None, track=None, **kwargs):
+    out = ht.analyze(movie, box=box, progress=False, track=track, deformation=ht.DeformationOptions(enabled=True, **kwargs))
+    return out, out.deformation
+
+
+def _closure_ok(d):
+    scale = d[["total_xx", "total_xy"]].abs().to_numpy().max() + 1e-3
+    assert d[["closure_xx", "closure_xy", "closure_iso"]].abs().to_numpy().max() <= 1e-10 * scale
+
+
+@pytest.mark.parametrize("L", [np.array([[0.01, 0.004], [0.004, -0.01]]),
+                               np.array([[0.012, -0.012], [0.016, 0.004]])])
+def test_affine_movie_total_is_the_imposed_rate_and_all_in_cell_shape(L):
+    movie, d = _budget(_warped_movie(lambda t: expm(t * L), 5))
+    tissue = d[d["region"] == "tissue"]
+    assert len(tissue) == 4
+    shear = np.array([0.5 * (L[0, 0] - L[1, 1]), 0.5 * (L[0, 1] + L[1, 0])])
+    got = tissue[["total_xx", "total_xy"]].to_numpy().mean(axis=0)
+    assert np.hypot(*(got - shear)) <= 0.01 * np.hypot(*shear)
+    assert tissue["total_iso"].mean() == pytest.approx(np.trace(L), abs=0.01 * np.hypot(*shear))
+    assert tissue["rotation"].mean() == pytest.approx(0.5 * (L[1, 0] - L[0, 1]), abs=0.01 * np.hypot(*shear))
+    for term in TOPOLOGICAL:  # zero up to the rounding of sums over a thousand triangles
+        assert tissue[[f"{term}_xx", f"{term}_xy"]].abs().to_numpy().max() < 1e-14, term
+    # the cell shape change (with its corotational parts) carries the shear; the area change the growth
+    shape = tissue[["cell_shape_xx", "cell_shape_xy"]].to_numpy() + tissue[["corotation_xx", "corotation_xy"]].to_numpy() \
+        + tissue[["nonlinear_xx", "nonlinear_xy"]].to_numpy()
+    assert np.hypot(*(shape.mean(axis=0) - shear)) <= 0.05 * np.hypot(*shear)
+    np.testing.assert_allclose(tissue["cell_shape_iso"], tissue["total_iso"], atol=1e-12)
+    _closure_ok(d)
+
+
+def test_scripted_t1_movie_puts_each_jump_on_its_event_and_kind():
+    m = t1_movie(periodic=True)
+    movie, d = _budget(m.labels, m.box, grid=False)
+    _closure_ok(d)
+    tissue = d[d["region"] == "tissue"].set_index("frame")
+    events = movie.events.set_index("event")
+    expected = {}
+    for e in events.itertuples():
+        term = {"cycle": "t1_cycle", "intercalation": "t1_intercalation", "unresolved": "t1_unresolved"}[e.kind]
+        expected.setdefault(e.frame_gain - 1, set()).add(term)
+        if e.kind == "cycle":
+            expected.setdefault(int(e.frame_end) - 1, set()).add(term)
+    for t, row in tissue.iterrows():
+        jumps = {term for term in TOPOLOGICAL if abs(row[f"{term}_xx"]) + abs(row[f"{term}_xy"]) > 1e-12}
+        assert jumps == expected.get(t, set()), t
+    # a cycle's jump is undone; an intercalation's stays
+    assert (events.loc[events["kind"] == "cycle", "shear_xx"].abs() < 0.05 * events["shear_xx"].abs().max()).all()
+    assert (events.loc[events["kind"] == "intercalation", "shear_xx"].abs() > 100).all()
+    # each event's share, over the tissue's area, is the T1 term of its frame
+    for e in events.itertuples():
+        if e.kind == "intercalation":
+            row = tissue.loc[e.frame_gain - 1]
+            assert e.shear_xx / row["area"] == pytest.approx(row["t1_intercalation_xx"], rel=0.02)
+
+
+def _seed_movie(frames, shape):
+    """Label images of ``(seeds, ids)`` per frame: the Voronoi cell of ``seeds[k]`` is label ``ids[k]``."""
+    return np.stack([np.r_[0, ids][voronoi_labels(seeds, shape)] for seeds, ids in frames])
+
+
+def test_scripted_division_is_the_division_term():
+    shape = (240, 240)
+    seeds = jittered_seeds(shape, 20, seed=5)
+    mother = int(np.argmin(np.hypot(*(seeds - 120.0).T)))
+    ids = np.arange(1, len(seeds) + 1)
+    axis = np.array([6.0, 2.0])
+    split = np.vstack([np.delete(seeds, mother, axis=0), seeds[mother] + axis, seeds[mother] - axis])
+    daughters = np.r_[np.delete(ids, mother), len(ids) + 1, len(ids) + 2]
+    labels = _seed_movie([(seeds, ids)] * 3 + [(split, daughters)] * 3, shape)
+    movie, d = _budget(labels, grid=False)
+    assert (movie.lineage["begin"] == "division").sum() == 2
+    _closure_ok(d)
+    tissue = d[d["region"] == "tissue"].set_index("frame")
+    assert abs(tissue.loc[2, "division_xx"]) + abs(tissue.loc[2, "division_xy"]) > 1e-4
+    assert tissue.loc[2, "division_iso"] == pytest.approx(np.log(tissue.loc[2, "n_triangles"] + 2)
+                                                           - np.log(tissue.loc[2, "n_triangles"]), rel=0.2)
+    for t in (0, 1, 3, 4):
+        assert tissue.loc[t, ["division_xx", "division_xy", "division_iso"]].abs().max() < 1e-14
+    # nothing moved: no flow
+    assert tissue[["total_xx", "total_xy", "total_iso"]].abs().to_numpy().max() < 1e-12
+
+
+def test_scripted_extrusion_is_the_extrusion_term():
+    shape = (240, 240)
+    seeds = jittered_seeds(shape, 20, seed=6)
+    gone = int(np.argmin(np.hypot(*(seeds - 120.0).T)))
+    ids = np.arange(1, len(seeds) + 1)
+    frames = [(seeds, ids)] * 3 + [(np.delete(seeds, gone, axis=0), np.delete(ids, gone))] * 3
+    movie, d = _budget(_seed_movie(frames, shape), grid=False)
+    assert (movie.lineage["end"] == "extrusion").sum() == 1
+    _closure_ok(d)
+    tissue = d[d["region"] == "tissue"].set_index("frame")
+    assert abs(tissue.loc[2, "extrusion_xx"]) + abs(tissue.loc[2, "extrusion_xy"]) > 1e-5
+    assert tissue.loc[2, "extrusion_iso"] < 0  # fewer cells on the same area: larger mean cell
+    others = [f"{t}_{c}" for t in TOPOLOGICAL if t != "extrusion" for c in ("xx", "xy")]
+    assert tissue.loc[2, others].abs().max() < 1e-12
+
+
+def test_regions_of_interest_follow_their_cells_and_the_grid_closes():
+    m = t1_movie(periodic=True)
+    roi = np.zeros(m.labels.shape[1:], np.int32)
+    roi[:, : roi.shape[1] // 2] = 1
+    roi[:, roi.shape[1] // 2:] = 2
+    movie, d = _budget(m.labels, m.box, roi=roi)
+    _closure_ok(d)
+    rois = d[d["region"] == "roi"]
+    assert set(rois["region_id"]) == {1, 2}
+    assert (rois["advection_xx"] == 0).all()  # regions made of cells move with them
+    grid = d[d["region"] == "grid"]
+    assert len(grid) and set(grid["region_id"]) <= set(movie.grid["node"])
+    # one region holding every cell is the tissue
+    _, whole = _budget(m.labels, m.box, roi=np.ones_like(roi), grid=False)
+    values = [c for c in whole.columns if c not in ("region", "region_id", "n_triangles", "n_flipped")]
+    np.testing.assert_allclose(whole.loc[whole["region"] == "roi", values].to_numpy(),
+                               whole.loc[whole["region"] == "tissue", values].to_numpy(), rtol=1e-12, atol=1e-15)
+    members = roi_tracks(movie.cells, movie.lineage, roi)
+    first = movie.cells[movie.cells["frame"] == 0]
+    assert set(members) == set(first["track"]) and set(members.values()) == {1, 2}
+
+
+def test_neighbour_events_name_the_kinds_too():
+    m = t1_movie(periodic=True)
+    _, quartets = _budget(m.labels, m.box, grid=False)
+    _, per_cell = _budget(m.labels, m.box, grid=False, t1_events="neighbours")
+    cols = [f"{t}_{c}" for t in ("t1_cycle", "t1_intercalation") for c in ("xx", "xy")]
+    np.testing.assert_allclose(per_cell[cols].to_numpy(), quartets[cols].to_numpy(), atol=1e-12)
+
+
+def test_no_tracks_is_refused_clearly():
+    m = t1_movie(periodic=True)
+    with pytest.raises(InputError, match="needs cell tracks"):
+        ht.analyze(m.labels, progress=False, track=ht.TrackOptions(mode="off"),
+                   deformation=ht.DeformationOptions(enabled=True))
+    with pytest.raises(InputError, match="t1_events"):
+        ht.DeformationOptions(t1_events="quartet")
+    with pytest.raises(InputError, match="roi"):
+        roi_tracks(pd.DataFrame({"frame": [0], "track": [1], "x": [0.0], "y": [0.0]}),
+                   pd.DataFrame({"track": [1], "parent": [0], "frame_start": [0]}), np.zeros((4, 4), float))
+
+
+def test_four_fold_vertex_keeps_the_previous_diagonal():
+    # four cells around one vertex: the square's two diagonals are equally short
+    track = np.array([1, 2, 3, 4])
+    xy = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    vertices = pd.DataFrame({"vertex": [7], "x": [5.0], "y": [5.0], "is_border": [False]})
+    cv = pd.DataFrame({"cell": track, "vertex": [7] * 4})
+    for diagonal in ((1, 3), (2, 4)):
+        ids, _ = frame_triangles(track, xy, track, vertices, cv, previous={diagonal})
+        edges = {tuple(sorted(p)) for tri in ids.tolist() for p in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[0], tri[2]))}
+        assert diagonal in edges and len(ids) == 2
+
+
+def test_columns_match_the_schema():
+    m = t1_movie(periodic=True)
+    _, d = _budget(m.labels, m.box)
+    expected = ["frame", "region", "region_id", "area"]
+    for term in DEFORMATION_TERMS:
+        expected += [f"{term}_xx", f"{term}_xy"] + ([f"{term}_iso"] if term in ISOTROPIC_TERMS else [])
+    assert list(d.columns) == expected + ["rotation", "n_triangles", "n_flipped"]
+    with pytest.raises(InputError, match="t1_events"):
+        deformation_budget(None, None, None, None, t1_events="pairs")
