@@ -37,6 +37,8 @@ __all__ = [
     "plot_order_field",
     "plot_stress",
     "plot_order_vs_radius",
+    "plot_deformation_budget",
+    "plot_deformation_map",
     "save_figure",
     "save_analysis_figures",
 ]
@@ -571,3 +573,113 @@ def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None
     plot_order_field(grid, defects, p=p, polygons=polygons, labels=labels, box=box, path=paths[2],
                      calibration=calibration)
     return paths
+
+
+#: How the deformation budget's terms are drawn: (label, terms summed, colour); "total" is drawn on top.
+BUDGET_GROUPS = (
+    ("cell shape change", ("cell_shape", "corotation", "nonlinear"), "#1f77b4"),
+    ("T1 cycles", ("t1_cycle",), "#9467bd"),
+    ("intercalations", ("t1_intercalation",), "#d62728"),
+    ("unresolved T1s", ("t1_unresolved",), "#e377c2"),
+    ("divisions", ("division",), "#2ca02c"),
+    ("extrusions", ("extrusion",), "#8c564b"),
+    ("cells entering / leaving", ("border",), "#7f7f7f"),
+    ("correlation effects", ("growth_correlation", "rotation_correlation"), "#ff7f0e"),
+    ("other rearrangements", ("rearrangement", "advection"), "#bcbd22"),
+)
+
+
+def plot_deformation_budget(deformation, calibration=None, region="tissue", region_id=-1, path=None,
+                            figsize=(10, 3.8)):
+    """Cumulative shear (xx, xy) and growth of each contribution of the deformation budget against time.
+
+    Parameters
+    ----------
+    deformation : pandas.DataFrame
+        The ``deformation`` table (:func:`hexatissue.deformation.deformation_budget`).
+    calibration : Calibration, optional
+        Time axis in its time unit (frames when there is none).
+    region, region_id : str, int
+        The rows drawn (default: the whole tissue).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three panels: cumulative shear xx, xy and cumulative log area change
+        (dimensionless), each contribution a line, the total black and the
+        sum of the parts dashed (cyan) over it.
+    """
+    from matplotlib.figure import Figure
+
+    cal = as_calibration(calibration)
+    rows = deformation[(deformation["region"] == region) & (deformation["region_id"] == region_id)]
+    if len(rows) == 0:
+        raise InputError(f"the deformation table has no rows for region {region!r} {region_id}")
+    rows = rows.sort_values("frame")
+    t = cal.time(np.r_[rows["frame"].to_numpy(float), rows["frame"].to_numpy(float)[-1] + 1])
+    fig = Figure(figsize=figsize, dpi=100, layout="constrained")
+    axes = fig.subplots(1, 3)
+    for ax, part, title in zip(axes, ("xx", "xy", "iso"), ("shear xx", "shear xy", "growth (log area)")):
+        total = None
+        for label, terms, colour in BUDGET_GROUPS:
+            columns = [f"{term}_{part}" for term in terms if f"{term}_{part}" in rows]
+            if not columns:
+                continue
+            value = np.r_[0.0, np.cumsum(rows[columns].sum(axis=1).to_numpy())]
+            total = value if total is None else total + value
+            ax.plot(t, value, color=colour, label=label, linewidth=1.4)
+        ax.plot(t, np.r_[0.0, np.cumsum(rows[f"total_{part}"].to_numpy())], color="k", linewidth=2.2, label="total")
+        ax.plot(t, total, color="#17becf", linestyle="--", linewidth=1.2, label="sum of the parts")
+        ax.axhline(0, color="0.6", linewidth=0.6)
+        ax.set_title(title)
+        ax.set_xlabel(f"time ({cal.time_label})")
+    axes[0].set_ylabel("cumulative (dimensionless)")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside right center", fontsize=8, frameon=False)
+    return _finish(fig, path)
+
+
+def plot_deformation_map(deformation, grid, calibration=None, ax=None, path=None, box=None, figsize=(6, 5.5)):
+    """Where the tissue shears, and how much of it T1s make: nematic bars on the Gamma_p grid.
+
+    Parameters
+    ----------
+    deformation : pandas.DataFrame
+        The ``deformation`` table with ``grid`` rows.
+    grid : pandas.DataFrame
+        The grid (``frame``, ``node``, ``x``, ``y``): the nodes' positions.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Per node, the shear rate averaged over the intervals the node has a
+        budget: black bars the total (length proportional to the rate,
+        oriented along the stretching axis), red bars the T1s' part (cycles,
+        intercalations and unresolved together); a scale bar in the
+        calibration's length unit and a key of the rate in 1/time.
+    """
+    cal = as_calibration(calibration)
+    rows = deformation[deformation["region"] == "grid"]
+    if len(rows) == 0:
+        raise InputError("the deformation table has no grid rows (run with the order fields and the grid budget)")
+    mean = rows.groupby("region_id").mean(numeric_only=True)
+    nodes = grid.drop_duplicates("node").set_index("node").loc[mean.index]
+    xy = nodes[["x", "y"]].to_numpy(float)
+    fig, ax = _new_axes(ax, figsize)
+    t1_terms = ("t1_cycle", "t1_intercalation", "t1_unresolved")
+    t1 = [sum(mean[f"{k}_{c}"].to_numpy() for k in t1_terms) for c in ("xx", "xy")]
+    total = [mean[f"total_{c}"].to_numpy() for c in ("xx", "xy")]
+    largest = max(float(np.nanmax(np.hypot(*total), initial=0.0)), 1e-300)
+    half_spacing = 0.45 * _typical_spacing(xy)
+    from matplotlib.collections import LineCollection
+
+    for (xx, xy_), colour, width in ((total, "k", 2.2), (t1, PLUS_COLOR, 1.4)):
+        half = half_spacing * np.hypot(xx, xy_) / largest
+        angle = 0.5 * np.arctan2(xy_, xx)  # the stretching axis of the shear tensor
+        d = np.c_[np.cos(angle), np.sin(angle)] * half[:, None]
+        ax.add_collection(LineCollection(np.stack([xy - d, xy + d], axis=1), colors=colour, linewidths=width))
+    _image_axes(ax, _extent_of(xy=xy, box=box), cal)
+    rate = largest / cal.time(1.0)
+    ax.set_title(f"mean shear rate: total (black), T1s (red); longest bar {rate:.3g} / {cal.time_label}",
+                 fontsize=9)
+    return _finish(fig, path)

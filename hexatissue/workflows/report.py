@@ -356,4 +356,45 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
                   _md_table(timing_summary(per_cell)), "",
                   f"- Welch two-sided t-test: t = {test_pc['t_statistic']:.3g}, p = {test_pc['pvalue']:.3g}", ""]
     lines += _figure_line(path, out, "timing")
+    lines += _deformation_section(movie, out, written, numbers)
+    return lines
+
+
+def _deformation_section(movie, out, written, numbers):
+    """The deformation budget: cumulative contributions over the movie, the curves and the map."""
+    from ..plot import BUDGET_GROUPS, plot_deformation_budget, plot_deformation_map
+
+    budget = movie.deformation
+    if budget is None or len(budget) == 0:
+        return []
+    cal = movie.calibration
+    tissue = budget[budget["region"] == "tissue"]
+    rows = []
+    for label, terms, _ in (("total", ("total",), None),) + BUDGET_GROUPS:
+        rows.append({"contribution": label, **{f"cumulative {c}": sum(tissue[f"{t}_{c}"].sum() for t in terms
+                                                                      if f"{t}_{c}" in tissue)
+                                               for c in ("xx", "xy", "iso")}})
+    table = pd.DataFrame(rows)
+    closure = float(tissue[["closure_xx", "closure_xy", "closure_iso"]].abs().to_numpy().max(initial=0.0))
+    numbers["deformation"] = {"cumulative": table.to_dict("records"), "max_closure": closure,
+                              "n_pairs": int(len(tissue))}
+    written.append(write_table(budget, out / "deformation.csv"))
+    path = out / "deformation.png"
+    plot_deformation_budget(budget, calibration=cal, path=path)
+    written.append(path)
+    duration = cal.time(float(len(tissue)))
+    lines = ["## Deformation budget", "",
+             f"The tissue's shear and growth over {len(tissue)} frame intervals ({duration:.3g} {cal.time_label}), "
+             f"split into the contributions of cell shape change and of each kind of cellular event (the triangle "
+             f"method; cumulative, dimensionless; 'cell shape change' includes its corotational terms):", "",
+             _md_table(table), "",
+             f"- closure (total minus the sum of the parts): at most {closure:.2g} per interval",
+             f"- triangles that would flip over within an interval (retriangulated instead): "
+             f"{int(tissue['n_flipped'].sum())}", ""]
+    lines += _figure_line(path, out, "deformation budget")
+    if (budget["region"] == "grid").any() and movie.grid is not None:
+        path = out / "deformation_map.png"
+        plot_deformation_map(budget, movie.grid, calibration=cal, path=path, box=movie.box)
+        written.append(path)
+        lines += _figure_line(path, out, "deformation map")
     return lines
