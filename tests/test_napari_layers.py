@@ -195,3 +195,28 @@ def test_a_single_image_gives_2d_layers_without_tracks(scripted):
     assert layers["gamma6 stars"][0].shape[1:] == (2, 2)
     assert layers["polygons"][1]["metadata"]["units"] == {"y": "px", "x": "px"}
     assert layers["polygons"][1]["units"] == ("pixel", "pixel")
+
+
+def test_deformation_bars_sit_on_their_grid_node_along_the_stretching_axis():
+    from hexatissue import DeformationOptions
+
+    m = t1_movie(periodic=True, seed=2)
+    movie = analyze(m.labels, box=m.box, workers=1, progress=False, deformation=DeformationOptions(enabled=True))
+    assert L.deformation_layers(analyze(m.labels[:3], box=m.box, workers=1, progress=False)) == []
+    (total, kw, kind), (t1, t1_kw, _) = L.deformation_layers(movie)
+    rows = movie.deformation[movie.deformation["region"] == "grid"]
+    assert kind == "vectors" and len(total) == len(t1) == len(rows)
+    assert kw["visible"] and not t1_kw["visible"]
+    nodes = movie.grid.drop_duplicates(["frame", "node"]).set_index(["frame", "node"])
+    centre = total[:, 0, 1:] + 0.5 * total[:, 1, 1:]  # (y, x)
+    expected = nodes.loc[list(zip(rows["frame"], rows["region_id"])), ["y", "x"]].to_numpy()
+    np.testing.assert_allclose(centre, expected, atol=1e-9)
+    np.testing.assert_array_equal(total[:, 0, 0], rows["frame"].to_numpy())
+    # the bar lies along the stretching axis, 0.5 arg(xx + i xy); its length goes with the rate
+    step = total[:, 1, 1:]
+    moving = np.hypot(*step.T) > 1e-9
+    angle = np.arctan2(step[moving, 0], step[moving, 1])
+    axis = 0.5 * np.arctan2(rows["total_xy"].to_numpy()[moving], rows["total_xx"].to_numpy()[moving])
+    assert np.allclose(np.sin(2 * (angle - axis)), 0, atol=1e-9)
+    rate = np.hypot(rows["total_xx"], rows["total_xy"]).to_numpy()
+    np.testing.assert_allclose(np.hypot(*step.T), kw["metadata"]["bar_per_unit_rate_px"] * rate, rtol=1e-9)

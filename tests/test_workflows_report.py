@@ -188,3 +188,23 @@ def test_report_shows_physical_units_from_the_results(tmp_path):
     assert numbers[0.4]["proximity"]["median_dr_events"] == median  # tables stay in px
     lines = [(tmp_path / f"r{s}" / "report.md").read_text() for s in (0.2, 0.4)]
     assert f"({median * 0.2:.3g} µm)" in lines[0] and f"({median * 0.4:.3g} µm)" in lines[1]
+
+
+def test_report_has_the_deformation_budget_in_physical_time(tmp_path):
+    """With the deformation stage, the report tabulates the cumulative budget and draws its curves and map."""
+    from hexatissue import DeformationOptions
+    from hexatissue.synthetic import t1_movie
+
+    m = t1_movie(periodic=True)
+    movie = analyze(m.labels, box=m.box, workers=1, progress=False, deformation=DeformationOptions(enabled=True))
+    movie.replace(calibration=Calibration(0.5, "um", 2.0, "min")).write(tmp_path / "res")
+    numbers = report(tmp_path / "res", dt=5)
+    out = tmp_path / "res" / "report"
+    text = (out / "report.md").read_text()
+    assert "## Deformation budget" in text and "(70 min)" in text
+    assert _png_ok(out / "deformation.png") and _png_ok(out / "deformation_map.png")
+    cumulative = {row["contribution"]: row for row in numbers["deformation"]["cumulative"]}
+    tissue = movie.deformation[movie.deformation["region"] == "tissue"]
+    assert cumulative["intercalations"]["cumulative xx"] == pytest.approx(tissue["t1_intercalation_xx"].sum())
+    assert numbers["deformation"]["max_closure"] < 1e-12
+    assert "deformation.csv" in {Path(w).name for w in numbers["written"]}

@@ -637,10 +637,10 @@ def _block(chain, flow, layer, n):
     cols = {}
     first, last = _means(chain[0][1][layer]), _means(chain[-1][1][layer])
     shear = {term: np.zeros((3, n)) for term in _TERMS_OF_STEPS}
-    for (_, before), (term, after) in zip(chain[:-1], chain[1:]):
-        if term == "flow":
-            continue
-        shear[term] -= _means(after[layer]) - _means(before[layer])
+    with np.errstate(invalid="ignore"):  # a region empty at a step: no row (see _pair's "complete")
+        for (_, before), (term, after) in zip(chain[:-1], chain[1:]):
+            if term != "flow":
+                shear[term] -= _means(after[layer]) - _means(before[layer])
     f = flow[layer] if flow is not None else np.full((12, n), np.nan)
     cols["total"] = np.array([f[0], f[1], f[2]])
     cols["cell_shape"] = last - first

@@ -304,6 +304,43 @@ def event_layer(movie) -> tuple | None:
     return _coords(movie, e["frame_start"], e["x"], e["y"]), kwargs, "points"
 
 
+def deformation_layers(movie) -> list:
+    """Vectors layers of the deformation budget's shear rate on the grid regions, per frame interval.
+
+    One bar per grid node and interval, centred on the node along the
+    stretching axis: the total shear rate (white) and the T1s' part (cycles,
+    intercalations and unresolved together; red), lengths in proportion to
+    the rate (the largest total: 0.9 x the cell spacing).  Empty when the
+    results have no grid budget.  ``features``: frame, node and the rate's
+    xx, xy components (1/frame).
+    """
+    budget, grid = movie.deformation, movie.grid
+    if budget is None or grid is None:
+        return []
+    rows = budget[budget["region"] == "grid"].reset_index(drop=True)
+    if not len(rows):
+        return []
+    nodes = grid.drop_duplicates(["frame", "node"]).set_index(["frame", "node"])
+    xy = nodes.loc[list(zip(rows["frame"], rows["region_id"])), ["x", "y"]].to_numpy(float)
+    t1 = [sum(rows[f"{k}_{c}"].to_numpy() for k in ("t1_cycle", "t1_intercalation", "t1_unresolved"))
+          for c in ("xx", "xy")]
+    total = [rows[f"total_{c}"].to_numpy() for c in ("xx", "xy")]
+    largest = max(float(np.nanmax(np.hypot(*total), initial=0.0)), 1e-300)
+    out = []
+    for name, (xx, xy_), colour in (("shear rate (total)", total, "white"), ("shear rate (T1s)", t1, "#d62728")):
+        half = 0.45 * _spacing(movie) * np.hypot(xx, xy_) / largest
+        angle = 0.5 * np.arctan2(xy_, xx)  # the stretching axis
+        d = np.c_[np.cos(angle), np.sin(angle)] * half[:, None]
+        start = _coords(movie, rows["frame"], xy[:, 0] - d[:, 0], xy[:, 1] - d[:, 1])
+        step = _coords(movie, np.zeros(len(rows)), 2 * d[:, 0], 2 * d[:, 1])
+        features = pd.DataFrame({"frame": rows["frame"], "node": rows["region_id"], "rate_xx": xx, "rate_xy": xy_})
+        kwargs = {"name": name, "edge_width": 1.5, "edge_color": colour, "vector_style": "line", "length": 1.0,
+                  "features": features, "visible": name.endswith("(total)"),
+                  **_common(movie, bar_per_unit_rate_px=0.9 * _spacing(movie) / largest)}
+        out.append((np.stack([start, step], axis=1), kwargs, "vectors"))
+    return out
+
+
 # ---------------------------------------------------------------------------------------------------------
 # tracks
 # ---------------------------------------------------------------------------------------------------------
@@ -341,8 +378,9 @@ def track_layer(movie) -> tuple | None:
 # ---------------------------------------------------------------------------------------------------------
 def movie_layers(movie, labels=None, p=6) -> list:
     """Every layer of a Movie, bottom to top: labels (when given), polygons, vertices, gamma_p stars,
-    Gamma_p defects (one layer per p), T1 events, tracks; vertices, tracks and the defects of other
-    orders than ``p`` start hidden.
+    Gamma_p defects (one layer per p), T1 events, tracks, the deformation budget's shear rates
+    (when the results have them); vertices, tracks, the T1s' shear and the defects of other orders
+    than ``p`` start hidden.
 
     Parameters
     ----------
@@ -365,4 +403,5 @@ def movie_layers(movie, labels=None, p=6) -> list:
         layers.append(star_layer(movie, p))
     layers += defect_layers(movie, shown=p)
     layers += [t for t in (event_layer(movie), track_layer(movie)) if t is not None]
+    layers += deformation_layers(movie)
     return layers
