@@ -6,7 +6,7 @@ from scipy import ndimage
 from scipy.linalg import expm
 
 import hexatissue as ht
-from hexatissue.deformation import _stays_positive, deformation_budget, frame_triangles, roi_tracks
+from hexatissue.deformation import _stays_positive, deformation_budget, frame_triangles, pair_keys, roi_tracks
 from hexatissue.deformation.flow import integrate_flow
 from hexatissue.deformation.triangles import REFERENCE_INVERSE, edge_matrices, elongation, state_tensors
 from hexatissue.errors import InputError
@@ -283,7 +283,8 @@ def test_four_fold_vertex_keeps_the_previous_diagonal():
     vertices = pd.DataFrame({"vertex": [7], "x": [5.0], "y": [5.0], "is_border": [False]})
     cv = pd.DataFrame({"cell": track, "vertex": [7] * 4})
     for diagonal in ((1, 3), (2, 4)):
-        ids, _ = frame_triangles(track, xy, track, vertices, cv, previous={diagonal})
+        previous = pair_keys(np.array([diagonal[0]]), np.array([diagonal[1]]), 5)
+        ids, _ = frame_triangles(track, xy, track, vertices, cv, previous=previous, K=5)
         edges = {tuple(sorted(p)) for tri in ids.tolist() for p in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[0], tri[2]))}
         assert diagonal in edges and len(ids) == 2
 
@@ -297,3 +298,20 @@ def test_columns_match_the_schema():
     assert list(d.columns) == expected + ["rotation", "n_triangles", "n_flipped"]
     with pytest.raises(InputError, match="t1_events"):
         deformation_budget(None, None, None, None, t1_events="pairs")
+
+
+def test_flow_kernel_matches_its_numpy_reference():
+    from hexatissue.deformation import _kernels, _reference
+
+    rng = np.random.default_rng(7)
+    xy0 = _random_triangles(400, seed=8)
+    xy1 = xy0 + rng.normal(0, 0.3, xy0.shape)
+    keep = _stays_positive(xy0, xy1)
+    xy0, xy1 = xy0[keep], xy1[keep]
+    R0, R1 = edge_matrices(xy0), edge_matrices(xy1)
+    M = (R1 - R0) @ np.linalg.inv(R0)
+    S0 = state_tensors(R0)
+    A0 = np.linalg.det(S0)
+    labels = np.stack([np.zeros(len(M), np.int64), rng.integers(-1, 5, len(M))])
+    args = (M, S0, A0, np.linspace(0.05, 0.95, 6), labels, np.array([0, 1]), 6)
+    np.testing.assert_allclose(_kernels.flow_sums(*args), _reference.flow_sums(*args), rtol=1e-10, atol=1e-12)

@@ -39,7 +39,7 @@ from ..errors import InputError
 from ..options import T1_SOURCES
 from ..schema import DEFORMATION_TERMS, ISOTROPIC_TERMS, empty_table, require_columns
 from .flow import integrate_flow
-from .triangles import edge_matrices, elongation, state_tensors
+from .triangles import det2, edge_matrices, elongation, inv2, state_tensors
 
 __all__ = ["frame_triangles", "deformation_budget", "roi_tracks", "read_roi"]
 
@@ -65,44 +65,50 @@ def _orient(ids, xy):
     return ids, xy
 
 
-def _ring(centre, ids, xy, box):
-    """The cells around a vertex in angular order (ids, contiguous positions)."""
-    d = _min_image(xy - centre, box)
-    order = np.argsort(np.arctan2(d[:, 1], d[:, 0]), kind="stable")
-    return ids[order], centre + d[order]
+def pair_keys(a, b, K):
+    """One int64 per unordered cell pair ``(a, b)``: ``min * K + max`` (``K`` above every id)."""
+    return np.minimum(a, b) * np.int64(K) + np.maximum(a, b)
 
 
-def _fan(ids, xy, previous):
-    """Triangles of a ring of four or more cells: the diagonal the previous frame had, else the shortest.
+def triangle_edges(ids, K):
+    """The sorted keys (:func:`pair_keys`) of the cell pairs joined by the triangles ``ids`` (m, 3)."""
+    return np.unique(np.concatenate([pair_keys(ids[:, 0], ids[:, 1], K), pair_keys(ids[:, 1], ids[:, 2], K),
+                                     pair_keys(ids[:, 0], ids[:, 2], K)]))
 
-    A four-fold vertex keeps the triangles of the frame before it, so its
-    T1 is counted once, when the new contact forms (or never, when it
-    reverts); a rosette of five or more is a fan from its smallest id.
+
+def _rings(rows, centre, track, xy, box):
+    """Rings of ``k`` cells around vertices (``rows`` (n, k), ``centre`` (n, 2)) in angular order: ids, positions."""
+    d = _min_image(xy[rows] - centre[:, None, :], box)
+    order = np.argsort(np.arctan2(d[..., 1], d[..., 0]), axis=1, kind="stable")
+    ids = np.take_along_axis(track[rows], order, axis=1)
+    pos = np.take_along_axis(d, order[..., None], axis=1) + centre[:, None, :]
+    return ids, pos
+
+
+def _fans(ids, pos, previous, K):
+    """Triangles (index triples into each ring) of rings of four or more cells, all of one size.
+
+    A four-fold vertex takes the diagonal the previous frame's triangulation
+    had (``previous``: its sorted pair keys), else the shorter one, so its T1
+    counts once, when the new contact forms (or never, when it reverts); a
+    rosette of five or more is a fan from its smallest id.
     """
-    k = len(ids)
+    n, k = ids.shape
     if k == 4:
-        had = [_pair_key(ids[0], ids[2]) in previous, _pair_key(ids[1], ids[3]) in previous]
-        if had[0] != had[1]:
-            first = 0 if had[0] else 1
-        else:
-            first = int(np.hypot(*(xy[1] - xy[3])) < np.hypot(*(xy[0] - xy[2])))
-        return [(first, first + 1, first + 2), (first, first + 2, (first + 3) % 4)]
-    s = int(np.argmin(ids))
-    return [(s, (s + j) % k, (s + j + 1) % k) for j in range(1, k - 1)]
+        had02 = np.isin(pair_keys(ids[:, 0], ids[:, 2], K), previous)
+        had13 = np.isin(pair_keys(ids[:, 1], ids[:, 3], K), previous)
+        shorter13 = np.hypot(*(pos[:, 1] - pos[:, 3]).T) < np.hypot(*(pos[:, 0] - pos[:, 2]).T)
+        first = np.where(had02 != had13, had13, shorter13).astype(np.int64)
+        fan = np.stack([first, first + 1, first + 2, first, first + 2, (first + 3) % 4], axis=1).reshape(n, 2, 3)
+    else:
+        s = np.argmin(ids, axis=1)[:, None, None]
+        j = np.arange(1, k - 1)[None, :, None]
+        fan = np.concatenate([np.broadcast_to(s, (n, k - 2, 1)), (s + j) % k, (s + j + 1) % k], axis=2)
+    rows = np.arange(n)[:, None, None]
+    return ids[rows, fan].reshape(-1, 3), pos[rows, fan].reshape(-1, 3, 2)
 
 
-def _pair_key(a, b):
-    return (int(min(a, b)), int(max(a, b)))
-
-
-def triangle_edges(ids):
-    """The set of cell pairs ``(low, high)`` that are edges of the triangles ``ids`` (m, 3)."""
-    pairs = np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [0, 2]]])
-    pairs.sort(axis=1)
-    return set(map(tuple, np.unique(pairs, axis=0).tolist()))
-
-
-def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous=(), interior=None):
+def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous=None, interior=None, K=None):
     """The triangles of cell centres dual to one frame's interior vertices.
 
     Only vertices whose cells are all interior cells count: a border cell's
@@ -119,12 +125,16 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
         The frame's ``cell``, ``vertex``.
     box : Box, optional
         The periodic box (minimum-image geometry), or None.
-    previous : set of (int, int)
-        Cell pairs (track ids) joined in the previous frame's triangulation:
-        a four-fold vertex takes the diagonal found there.
+    previous : int64 array, optional
+        The sorted keys of the cell pairs joined in the previous frame's
+        triangulation (:func:`triangle_edges`): a four-fold vertex takes the
+        diagonal found there.
     interior : array of bool, optional
         Aligned with ``track``: the cells that are not border cells (all, by
         default).
+    K : int, optional
+        Above every track id (the pair keys' base; default: this frame's
+        largest id + 1).
 
     Returns
     -------
@@ -134,50 +144,64 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
         The corners' positions, px, contiguous (a periodic triangle's
         corners are the images nearest its first corner).
     """
+    track = np.asarray(track, np.int64)
+    K = int(track.max(initial=0)) + 1 if K is None else int(K)
+    previous = np.zeros(0, np.int64) if previous is None else previous
     v_ids = vertices["vertex"].to_numpy(np.int64)
     inside = ~vertices["is_border"].to_numpy(bool)
     cv_vertex = cell_vertices["vertex"].to_numpy(np.int64)
     cv_cell = cell_vertices["cell"].to_numpy(np.int64)
     order = np.argsort(cell, kind="stable")
-    at = np.searchsorted(cell[order], cv_cell)
-    known = (at < len(cell)) & (cell[order][np.minimum(at, len(cell) - 1)] == cv_cell)
-    row = order[np.minimum(at, len(cell) - 1)]
-    pairs = np.unique(np.c_[cv_vertex, np.where(known, row, -1)], axis=0)  # (vertex, cell row), once each
+    at = np.minimum(np.searchsorted(cell[order], cv_cell), len(cell) - 1)
+    known = cell[order][at] == cv_cell
+    row = np.where(known, order[at], len(cell))  # len(cell): an unknown cell
     v_order = np.argsort(v_ids, kind="stable")
-    vat = np.searchsorted(v_ids[v_order], pairs[:, 0])
-    usable = np.ones(len(track), bool) if interior is None else np.asarray(interior, bool)
-    bad = (pairs[:, 1] < 0) | ~usable[pairs[:, 1]]
+    vat = np.minimum(np.searchsorted(v_ids[v_order], cv_vertex), len(v_ids) - 1)
+    vrow = v_order[vat]  # the vertex's row; each (vertex, cell) pair once, grouped by vertex
+    pair = np.unique(vrow * np.int64(len(cell) + 1) + row)
+    vrow, row = pair // (len(cell) + 1), pair % (len(cell) + 1)
+    usable = np.r_[np.ones(len(track), bool) if interior is None else np.asarray(interior, bool), False]
     # a vertex with an unknown or border cell around it, or on the background, makes no triangle
-    bad_vertex = np.unique(pairs[bad, 0])
-    keep = inside[v_order[vat]] & ~np.isin(pairs[:, 0], bad_vertex)
-    pairs, vat = pairs[keep], vat[keep]
-    starts = np.flatnonzero(np.r_[True, pairs[1:, 0] != pairs[:-1, 0]])
-    counts = np.diff(np.r_[starts, len(pairs)])
+    bad = np.zeros(len(v_ids), bool)
+    bad[vrow[~usable[row]]] = True
+    bad |= ~inside
+    keep = ~bad[vrow]
+    vrow, row = vrow[keep], row[keep]
+    starts = np.flatnonzero(np.r_[True, vrow[1:] != vrow[:-1]])
+    counts = np.diff(np.r_[starts, len(vrow)])
     three = starts[counts == 3]
-    rows = np.stack([pairs[three, 1], pairs[three + 1, 1], pairs[three + 2, 1]], axis=1)
-    ids = track[rows]
-    tri_xy = xy[rows]
-    tri_xy[:, 1:] = tri_xy[:, :1] + _min_image(tri_xy[:, 1:] - tri_xy[:, :1], box)
-    extra_ids, extra_xy = [], []
+    rows = np.stack([row[three], row[three + 1], row[three + 2]], axis=1)
+    ids_parts, xy_parts = [track[rows]], [xy[rows]]
+    xy_parts[0][:, 1:] = xy_parts[0][:, :1] + _min_image(xy_parts[0][:, 1:] - xy_parts[0][:, :1], box)
     vxy = vertices[["x", "y"]].to_numpy(float)
-    for s, k in zip(starts[counts > 3], counts[counts > 3]):
-        ring_rows = pairs[s:s + k, 1]
-        centre = vxy[v_order[vat[s]]]
-        ring_ids, ring_xy = _ring(centre, track[ring_rows], xy[ring_rows], box)
-        for a, b, c in _fan(ring_ids, ring_xy, previous):
-            extra_ids.append(ring_ids[[a, b, c]])
-            extra_xy.append(ring_xy[[a, b, c]])
-    if extra_ids:
-        ids = np.concatenate([ids, np.array(extra_ids, np.int64)])
-        tri_xy = np.concatenate([tri_xy, np.array(extra_xy, float)])
+    for k in np.unique(counts[counts > 3]):
+        at_k = starts[counts == k]
+        ring_rows = row[at_k[:, None] + np.arange(k)[None, :]]
+        ring_ids, ring_xy = _rings(ring_rows, vxy[vrow[at_k]], track, xy, box)
+        fan_ids, fan_xy = _fans(ring_ids, ring_xy, previous, K)
+        ids_parts.append(fan_ids)
+        xy_parts.append(fan_xy)
+    ids, tri_xy = np.concatenate(ids_parts), np.concatenate(xy_parts)
     ids, tri_xy = _orient(ids.astype(np.int64), tri_xy)
     R = edge_matrices(tri_xy)
     flat = R[:, 0, 0] * R[:, 1, 1] - R[:, 0, 1] * R[:, 1, 0] <= 1e-9  # three centres on a line: no shape
     ids, tri_xy = ids[~flat], tri_xy[~flat]
     # two vertices joining the same three cells (cells that share two junctions) give one triangle
-    _, first = np.unique(np.sort(ids, axis=1), axis=0, return_index=True)
+    _, first = np.unique(_triple_keys(ids), return_index=True)
     first.sort()
     return ids[first], tri_xy[first]
+
+
+def _triple_keys(*tables):
+    """One int64 per triangle of each ``(m, 3)`` table, equal for the same three cells in any order."""
+    rows = [np.sort(t, axis=1) for t in tables]
+    values = np.unique(np.concatenate([r.ravel() for r in rows]))
+    K = np.int64(len(values) + 1)  # ids ranked: the keys cannot overflow
+    out = []
+    for r in rows:
+        rank = np.searchsorted(values, r)
+        out.append((rank[:, 0] * K + rank[:, 1]) * K + rank[:, 2])
+    return out if len(out) > 1 else out[0]
 
 
 # ----------------------------------------------------------------------------
@@ -187,12 +211,13 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
 class _State:
     """Triangles (ids, contiguous corners) with their shape, and their region labels per layer."""
 
-    def __init__(self, ids, xy, labels):
+    def __init__(self, ids, xy, labels, shape=None):
         self.ids, self.xy, self.labels = ids, xy, labels
-        self.area, self.qxx, self.qxy, _ = elongation(state_tensors(edge_matrices(xy)))
+        self.area, self.qxx, self.qxy = elongation(state_tensors(edge_matrices(xy)))[:3] if shape is None else shape
 
     def take(self, keep):
-        return _State(self.ids[keep], self.xy[keep], [lab[keep] for lab in self.labels])
+        return _State(self.ids[keep], self.xy[keep], [lab[keep] for lab in self.labels],
+                      (self.area[keep], self.qxx[keep], self.qxy[keep]))
 
     def sums(self, sizes, weight=None):
         """Per layer ``(4, n_regions)``: sum of area, of area x Q_xx, of area x Q_xy, and the count."""
@@ -213,35 +238,25 @@ def _means(sums):
         return np.array([sums[1] / sums[0], sums[2] / sums[0], np.log(sums[0] / sums[3])])
 
 
-def _keys(ids):
-    s = np.sort(ids, axis=1)
-    return s[:, 0].astype(np.int64), s[:, 1].astype(np.int64), s[:, 2].astype(np.int64)
-
-
 def _isin_rows(ids, other):
     """Rows of ``ids`` (m, 3) whose cell set is a row of ``other``."""
     if len(ids) == 0 or len(other) == 0:
         return np.zeros(len(ids), bool)
-    a, b = np.sort(ids, axis=1), np.sort(other, axis=1)
-    allv = np.unique(np.r_[a.ravel(), b.ravel()])
-    K = np.int64(len(allv))
-    ka = (np.searchsorted(allv, a[:, 0]) * K + np.searchsorted(allv, a[:, 1])) * K + np.searchsorted(allv, a[:, 2])
-    kb = (np.searchsorted(allv, b[:, 0]) * K + np.searchsorted(allv, b[:, 1])) * K + np.searchsorted(allv, b[:, 2])
-    return np.isin(ka, kb)
+    a, b = _triple_keys(ids, other)
+    return np.isin(a, b)
 
 
-def _components(ids):
+def _components(ids, K):
     """Connected groups of triangles ``ids`` (m, 3) that share an edge: labels (m,)."""
     m = len(ids)
     if m == 0:
         return np.zeros(0, np.int64)
-    pairs = np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [0, 2]]])
-    pairs.sort(axis=1)
+    keys = np.concatenate([pair_keys(ids[:, 0], ids[:, 1], K), pair_keys(ids[:, 1], ids[:, 2], K),
+                           pair_keys(ids[:, 0], ids[:, 2], K)])
+    _, edge = np.unique(keys, return_inverse=True)
     owner = np.tile(np.arange(m), 3)
-    _, key = np.unique(pairs, axis=0, return_inverse=True)
-    key = key.ravel()
-    graph = coo_matrix((np.ones(3 * m), (owner, key)), shape=(m, key.max() + 1)).tocsr()
-    n, labels = connected_components(graph @ graph.T, directed=False)
+    graph = coo_matrix((np.ones(3 * m), (owner, edge.ravel())), shape=(m, edge.max() + 1)).tocsr()
+    _, labels = connected_components(graph @ graph.T, directed=False)
     return labels
 
 
@@ -320,7 +335,7 @@ class _Layers:
     def sizes(self, t):
         out = [1]
         if self.grid is not None:
-            out.append(len(self.grid.get(t, _EMPTY_NODES)[0]))
+            out.append(len(self.grid[t][0]) if t in self.grid else 0)
         if self.roi is not None:
             out.append(self.roi[1])
         return out
@@ -338,18 +353,20 @@ class _Layers:
         return out
 
     def _nodes(self, t, xy):
-        nodes = self.grid.get(t, _EMPTY_NODES)
-        centre = xy.mean(axis=1)
-        if self.box is not None:
-            centre = self.box.wrap(centre)
-        if len(nodes[0]) == 0:
+        """The grid node nearest each triangle's centre (its square of the lattice), -1 off the grid."""
+        nodes = self.grid.get(t)
+        if nodes is None:
             return np.full(len(xy), -1, np.int64)
-        tree = nodes[2]
-        _, index = tree.query(centre)
-        return index.astype(np.int64)
-
-
-_EMPTY_NODES = (np.zeros(0, np.int64), np.zeros((0, 2)), None)
+        origin, step, table = nodes[1:]
+        centre = xy.mean(axis=1)
+        index = np.rint((centre - origin) / step).astype(np.int64)  # (col, row)
+        shape = np.array(table.shape[::-1])
+        if self.box is not None:
+            index %= shape
+        inside = (index >= 0).all(axis=1) & (index < shape).all(axis=1)
+        out = np.full(len(xy), -1, np.int64)
+        out[inside] = table[index[inside, 1], index[inside, 0]]
+        return out
 
 
 class _Membership:
@@ -432,16 +449,23 @@ def read_roi(roi):
     raise InputError(f"roi must be an array or a .npy, .tif or .png label image; got {path!r}")
 
 
-def _grid_nodes(grid, box):
-    """Per frame: node ids, positions and a nearest-node search tree."""
-    from scipy.spatial import cKDTree
-
+def _grid_nodes(grid):
+    """Per frame: node ids, the lattice's origin and step (x, y), and a (rows, cols) table of node rows."""
     out = {}
     for f, part in grid.groupby("frame", sort=True):
         xy = part[["x", "y"]].to_numpy(float)
-        tree = cKDTree(box.wrap(xy), boxsize=box.lengths) if box is not None else cKDTree(xy)
-        out[int(f)] = (part["node"].to_numpy(np.int64), xy, tree)
+        col, row = part["col"].to_numpy(np.int64), part["row"].to_numpy(np.int64)
+        step = np.array([_lattice_step(xy[:, 0], col), _lattice_step(xy[:, 1], row)])
+        origin = (xy - np.c_[col, row] * step).mean(axis=0)
+        table = np.full((row.max() + 1, col.max() + 1), -1, np.int64)
+        table[row, col] = np.arange(len(part))
+        out[int(f)] = (part["node"].to_numpy(np.int64), origin, step, table)
     return out
+
+
+def _lattice_step(position, index):
+    span = index.max() - index.min()
+    return (position.max() - position.min()) / span if span > 0 else 1.0
 
 
 class _Lineage:
@@ -453,10 +477,10 @@ class _Lineage:
                                lineage["parent"].to_numpy(np.int64).tolist()))
 
 
-def _step4_kinds(removed, added, dying, candidates):
+def _step4_kinds(removed, added, dying, candidates, K):
     """The kind of each connected retriangulation, as shares per kind: (n_components, len(_STEP4)), labels."""
     both = np.concatenate([removed, added])
-    labels = _components(both)
+    labels = _components(both, K)
     n = labels.max() + 1 if len(labels) else 0
     share = np.zeros((n, len(_STEP4)))
     matched = [[] for _ in range(n)]
@@ -479,27 +503,31 @@ def _step4_kinds(removed, added, dying, candidates):
     return share, labels, matched
 
 
-def _candidates(t1, t_next, source):
-    """(event id, term, set of tracks) of the events whose triangulation may change into frame ``t_next``."""
-    if t1 is None or len(t1) == 0:
-        return []
-    if source == "quartets":
-        frames = [c for c in ("frame_start", "frame_gain", "frame_undo", "frame_end") if c in t1]
-        near = np.zeros(len(t1), bool)
-        for c in frames:
-            near |= t1[c].to_numpy(float) == t_next
-        part = t1[near]
-        quartets = part[["cell_a", "cell_b", "cell_c", "cell_d"]].to_numpy(np.int64)
-        return [(int(e), _T1_KINDS.get(str(k), "t1_unresolved"), set(q.tolist()))
-                for e, k, q in zip(part["event"].to_numpy(np.int64), part["kind"].astype(str), quartets)]
-    near = (t1["frame_start"].to_numpy(float) == t_next) | (t1["frame_end"].to_numpy(float) == t_next)
-    part = t1[near]
-    return [(int(e), _T1_KINDS.get(str(k), "t1_unresolved"), {int(tr)})
-            for e, k, tr in zip(part["event"].to_numpy(np.int64), part["kind"].astype(str),
-                                part["track"].to_numpy(np.int64))]
+class _Candidates:
+    """The T1s whose triangulation may change into a frame: (event id, term, set of tracks), by frame."""
+
+    def __init__(self, t1, source):
+        self.by_frame = {}
+        if t1 is None or len(t1) == 0:
+            return
+        if source == "quartets":
+            frames = [c for c in ("frame_start", "frame_gain", "frame_undo", "frame_end") if c in t1]
+            cells = t1[["cell_a", "cell_b", "cell_c", "cell_d"]].to_numpy(np.int64)
+        else:
+            frames = ["frame_start", "frame_end"]
+            cells = t1[["track"]].to_numpy(np.int64)
+        events, kinds = t1["event"].to_numpy(np.int64), t1["kind"].astype(str).to_numpy()
+        for i, (e, k, c) in enumerate(zip(events.tolist(), kinds, cells.tolist())):
+            entry = (e, _T1_KINDS.get(k, "t1_unresolved"), set(c))
+            for f in {t1[name].iat[i] for name in frames}:
+                if f == f:  # not NaN
+                    self.by_frame.setdefault(int(f), []).append(entry)
+
+    def at(self, frame):
+        return self.by_frame.get(frame, [])
 
 
-def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
+def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     """The budget of the interval ``t`` -> ``t + 1``: per layer a (terms, n_regions) block, and per-event shares."""
     box = frames.box
     t_next = t + 1
@@ -569,8 +597,12 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
     chain.append(("advection", s3.sums(sizes)))
     # 4. the next frame's triangulation, daughters merged into their mother
     ids_n, xy_n = tri_next
-    inv = {d: m for m, ds in mothers.items() for d in ds}
-    mapped = np.vectorize(lambda v: inv.get(v, v), otypes=[np.int64])(ids_n) if inv else ids_n.copy()
+    mapped = ids_n.copy()
+    if mothers:  # each daughter's id replaced by its mother's
+        daughters = np.array([d for ds in mothers.values() for d in ds], np.int64)
+        mother_of = np.array([m for m, ds in mothers.items() for _ in ds], np.int64)
+        at, found = _lookup(mapped, np.sort(daughters), None)
+        mapped[found] = mother_of[np.argsort(daughters)][at[found]]
     good = (mapped[:, 0] != mapped[:, 1]) & (mapped[:, 1] != mapped[:, 2]) & (mapped[:, 0] != mapped[:, 2])
     good &= ~np.isin(ids_n, np.array(sorted(entering), np.int64)).any(axis=1)
     mapped = mapped[good]
@@ -585,7 +617,7 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
     s4 = s4.take(s4.area > 0)
     gone, come = ~_isin_rows(s3.ids, s4.ids), ~_isin_rows(s4.ids, s3.ids)
     removed, added = s3.take(gone), s4.take(come)
-    share, comp, matched = _step4_kinds(removed.ids, added.ids, dying, _candidates(t1, t_next, source))
+    share, comp, matched = _step4_kinds(removed.ids, added.ids, dying, t1.at(t_next), K)
     n_removed = len(removed.ids)
     sums = s3.sums(sizes)
     events = []
@@ -619,11 +651,10 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
 def _stays_positive(xy0, xy1):
     """Triangles whose area stays positive on the straight path from corners ``xy0`` to ``xy1``."""
     R0, R1 = edge_matrices(xy0), edge_matrices(xy1)
-    det0 = np.linalg.det(R0)
-    ok = det0 > 0
-    M = (R1 - R0) @ np.linalg.inv(np.where(ok[:, None, None], R0, np.eye(2)))
+    ok = det2(R0) > 0
+    M = (R1 - R0) @ inv2(np.where(ok[:, None, None], R0, np.eye(2)))
     # det(I + tau M) = 1 + tau tr M + tau^2 det M on [0, 1]
-    tr, dt = M[:, 0, 0] + M[:, 1, 1], np.linalg.det(M)
+    tr, dt = M[:, 0, 0] + M[:, 1, 1], det2(M)
     end = 1 + tr + dt
     with np.errstate(invalid="ignore", divide="ignore"):
         vertex = np.where(dt != 0, -tr / (2 * dt), -1.0)
@@ -725,19 +756,23 @@ def deformation_budget(cells, vertices, cell_vertices, lineage, t1=None, *, box=
     if roi is not None:
         members = _Membership(roi_tracks(cells, lineage, roi, roi_frame))
         members = (members, int(members.values.max()) + 1 if len(members.values) else 1)
-    layers = _Layers(_grid_nodes(grid, box) if grid is not None and len(grid) else None, members, box)
+    if grid is not None and len(grid):
+        require_columns(grid, ("frame", "node", "x", "y", "row", "col"), "grid")
+    layers = _Layers(_grid_nodes(grid) if grid is not None and len(grid) else None, members, box)
     lin = _Lineage(lineage)
     times = sorted(frames.bounds)
     v_rows, cv_rows = _frame_index(vertices), _frame_index(cell_vertices)
     rows, events = [], []
-    previous, tri_prev = set(), None
+    candidates = _Candidates(t1, t1_events)
+    previous, tri_prev = None, None
+    K = int(frames.track.max(initial=0)) + 1
     for i, t in enumerate(times):
         sl = frames.rows(t)
         tri = frame_triangles(frames.track[sl], frames.xy[sl], frames.cell[sl], _part(vertices, v_rows, t),
-                              _part(cell_vertices, cv_rows, t), box, previous, frames.interior[sl])
-        previous = triangle_edges(tri[0])
+                              _part(cell_vertices, cv_rows, t), box, previous, frames.interior[sl], K)
+        previous = triangle_edges(tri[0], K)
         if tri_prev is not None and t == times[i - 1] + 1:
-            blocks, ev, info = _pair(frames, lin, layers, t - 1, tri_prev, tri, t1, t1_events, tolerance)
+            blocks, ev, info = _pair(frames, lin, layers, t - 1, tri_prev, tri, candidates, tolerance, K)
             rows.append(_rows(t - 1, blocks, layers, info))
             events.extend(ev)
         tri_prev = tri
@@ -764,19 +799,17 @@ def _part(table, index, t):
 def _rows(t, blocks, layers, info):
     names = _columns()
     parts = []
-    for layer, block in zip(layers.names(), blocks):
-        n = block.shape[1]
-        area = info["area"][len(parts)]
-        present = info["complete"][len(parts)]
-        region_id = np.arange(n) if layer != "tissue" else np.full(n, -1)
+    for i, (layer, block) in enumerate(zip(layers.names(), blocks)):
+        present = info["complete"][i]
+        n = int(present.sum())
         if layer == "grid":
             region_id = layers.grid[t][0]
-        df = pd.DataFrame({"frame": np.full(present.sum(), t, np.int64),
-                           "region": pd.array([layer] * int(present.sum()), dtype="string"),
-                           "region_id": region_id[present].astype(np.int64), "area": area[present]})
-        for name, values in zip(names, block):
-            df[name] = values[present]
-        df["n_triangles"] = info["n_triangles"] if layer == "tissue" else -1
-        df["n_flipped"] = info["n_flipped"] if layer == "tissue" else -1
-        parts.append(df)
+        else:
+            region_id = np.arange(block.shape[1]) if layer == "roi" else np.full(block.shape[1], -1)
+        columns = {"frame": np.full(n, t, np.int64), "region": pd.array([layer] * n, dtype="string"),
+                   "region_id": region_id[present].astype(np.int64), "area": info["area"][i][present]}
+        columns.update(zip(names, block[:, present]))
+        columns["n_triangles"] = np.full(n, info["n_triangles"] if layer == "tissue" else -1, np.int64)
+        columns["n_flipped"] = np.full(n, info["n_flipped"] if layer == "tissue" else -1, np.int64)
+        parts.append(pd.DataFrame(columns))
     return pd.concat(parts, ignore_index=True)

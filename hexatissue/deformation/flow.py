@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .triangles import REFERENCE_INVERSE, elongation
+from ._kernels import flow_sums
+from .triangles import REFERENCE_INVERSE, det2, inv2
 
 __all__ = ["FLOW_TERMS", "integrate_flow"]
 
@@ -33,55 +34,20 @@ _GAUSS = np.polynomial.legendre.leggauss(8)
 _MAX_SPLITS = 64
 
 
-def _corotation_factor(q2):
-    """``(1 - 2q coth 2q) / q^2`` of ``q2 = |Q|^2``, with its series below |Q| = 1e-2 (-4/3 at 0)."""
-    small = q2 < 1e-4
-    q = np.sqrt(np.where(small, 1.0, q2))
-    exact = (1.0 - 2.0 * q / np.tanh(2.0 * q)) / q ** 2
-    series = -4.0 / 3.0 + 16.0 / 45.0 * q2 - 128.0 / 945.0 * q2 ** 2
-    return np.where(small, series, exact)
-
-
-def _rates(M, S0, A0, tau):
-    """Per-triangle area and rates at the path points ``tau`` (``(G,)``): arrays of shape ``(G, m)``."""
-    t = tau[:, None, None, None]
-    F = np.eye(2) + t * M[None]
-    det = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
-    adj = np.stack([np.stack([F[..., 1, 1], -F[..., 0, 1]], -1), np.stack([-F[..., 1, 0], F[..., 0, 0]], -1)], -2)
-    L = (M[None] @ adj) / det[..., None, None]
-    area = A0[None] * det
-    _, qxx, qxy, _ = elongation(F @ S0[None])
-    vxx, vxy = 0.5 * (L[..., 0, 0] - L[..., 1, 1]), 0.5 * (L[..., 0, 1] + L[..., 1, 0])
-    iso = L[..., 0, 0] + L[..., 1, 1]
-    w = 0.5 * (L[..., 1, 0] - L[..., 0, 1])
-    # J_n = (v~ . Q_perp) f(|Q|) Q_perp: the shear the triangle takes without its elongation changing the same
-    along = (-qxy * vxx + qxx * vxy) * _corotation_factor(qxx ** 2 + qxy ** 2)
-    return area, qxx, qxy, vxx, vxy, iso, w, -qxy * along, qxx * along
-
-
-def _means(labels, n_regions, area, values):
-    """Area-weighted means per region and path point: ``(len(values), G, n_regions)``, and the areas."""
-    G = area.shape[0]
-    index = (labels[None, :] + n_regions * np.arange(G)[:, None]).ravel()
-    keep = np.repeat(labels[None, :] >= 0, G, axis=0).ravel()
-    index, weight = index[keep], area.ravel()[keep]
-    total = np.bincount(index, weight, minlength=G * n_regions).reshape(G, n_regions)
-    out = [np.bincount(index, weight * v.ravel()[keep], minlength=G * n_regions).reshape(G, n_regions) for v in values]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.array(out) / total, total
-
-
 def _integrate(M, S0, A0, layers, splits):
     """Every term of :data:`FLOW_TERMS` per layer, integrated over ``splits`` equal sub-intervals."""
     x, w = _GAUSS
     tau = ((np.arange(splits)[:, None] + 0.5 * (x[None] + 1.0)) / splits).ravel()
     weight = np.tile(w, splits) / (2.0 * splits)
-    area, qxx, qxy, vxx, vxy, iso, vort, jxx, jxy = _rates(M, S0, A0, tau)
+    sizes = [n for _, n in layers]
+    offsets = np.cumsum([0] + sizes[:-1]).astype(np.int64)
+    labels = np.stack([np.asarray(lab, np.int64) for lab, _ in layers])
+    sums = flow_sums(M, S0, A0, tau, labels, offsets, int(sum(sizes)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        means = sums[..., 1:] / sums[..., :1]  # (G, regions, 12) area-weighted means
     out = []
-    for labels, n_regions in layers:
-        m, _ = _means(labels, n_regions, area, (qxx, qxy, vxx, vxy, iso, vort, jxx, jxy, qxx * iso, qxy * iso,
-                                                vort * qxx, vort * qxy))
-        Qxx, Qxy, Vxx, Vxy, Iso, W, Jxx, Jxy, QxxI, QxyI, WQxx, WQxy = m
+    for offset, n in zip(offsets, sizes):
+        Qxx, Qxy, Vxx, Vxy, Iso, W, Jxx, Jxy, QxxI, QxyI, WQxx, WQxy = np.moveaxis(means[:, offset:offset + n], 2, 0)
         terms = (Vxx, Vxy, Iso, 2 * W * Qxy, -2 * W * Qxx, Jxx, Jxy, -(QxxI - Qxx * Iso), -(QxyI - Qxy * Iso),
                  2 * (WQxy - W * Qxy), -2 * (WQxx - W * Qxx), W)
         out.append(np.einsum("g,kgr->kr", weight, np.array(terms)))
@@ -110,22 +76,34 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
         Per layer, the integrals of :data:`FLOW_TERMS` (shear and isotropic
         rates in 1/interval, ``rotation`` in rad/interval).
     int
-        The number of sub-intervals used.
+        The most sub-intervals a region needed.
     """
     R0 = np.stack([xy0[:, 1] - xy0[:, 0], xy0[:, 2] - xy0[:, 0]], axis=-1)
     R1 = np.stack([xy1[:, 1] - xy1[:, 0], xy1[:, 2] - xy1[:, 0]], axis=-1)
-    M = (R1 - R0) @ np.linalg.inv(R0)
+    M = (R1 - R0) @ inv2(R0)
     S0 = R0 @ REFERENCE_INVERSE
-    A0 = np.linalg.det(S0)
+    A0 = det2(S0)
+    out = [np.full((len(FLOW_TERMS), n), np.nan) for _, n in layers]
+    pending = [np.ones(n, bool) for _, n in layers]
     splits = 1
+    # each region is refined until it closes: a region's sums depend on its own triangles only, so a
+    # finer pass takes just the triangles of the regions still open (in any layer)
     while True:
-        out = _integrate(M, S0, A0, layers, splits)
-        worst = 0.0
-        for terms, change in zip(out, elongation_change):
-            parts = change + terms[3:11].reshape(4, 2, -1).sum(axis=0)
-            size = np.abs(terms[:2]) + np.abs(change) + np.abs(terms[3:11]).reshape(4, 2, -1).sum(axis=0)
-            gap = np.abs(terms[:2] - parts) / np.maximum(size, 1e-14)
-            worst = max(worst, float(np.nanmax(gap, initial=0.0)))
-        if worst <= tolerance or splits >= _MAX_SPLITS:
+        take = np.zeros(len(M), bool)
+        compact = []  # each layer's open regions numbered 0.. (closed ones -1)
+        for (labels, _), open_ in zip(layers, pending):
+            number = np.where(open_, np.cumsum(open_) - 1, -1)
+            compact.append(np.where(labels >= 0, number[np.maximum(labels, 0)], -1))
+            take |= compact[-1] >= 0
+        part = [(c[take], int(open_.sum())) for c, open_ in zip(compact, pending)]
+        terms = _integrate(M[take], S0[take], A0[take], part, splits)
+        for i, (new, change) in enumerate(zip(terms, elongation_change)):
+            out[i][:, pending[i]] = new
+            t = out[i]
+            parts = change + t[3:11].reshape(4, 2, -1).sum(axis=0)
+            size = np.abs(t[:2]) + np.abs(change) + np.abs(t[3:11]).reshape(4, 2, -1).sum(axis=0)
+            gap = (np.abs(t[:2] - parts) / np.maximum(size, 1e-14)).max(axis=0)
+            pending[i] &= gap > tolerance  # NaN (an empty region) is closed
+        if splits >= _MAX_SPLITS or not any(p.any() for p in pending):
             return out, splits
         splits *= 2

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["REFERENCE_INVERSE", "state_tensors", "elongation", "edge_matrices"]
+__all__ = ["REFERENCE_INVERSE", "state_tensors", "elongation", "edge_matrices", "det2", "inv2"]
 
 # The reference: an equilateral triangle of unit area, one edge along x.
 _SIDE = np.sqrt(4.0 / np.sqrt(3.0))
@@ -27,6 +27,17 @@ REFERENCE_INVERSE = np.linalg.inv(_REFERENCE)
 def edge_matrices(xy):
     """Edge matrices ``R`` (``(..., 2, 2)``, columns ``r1 - r0`` and ``r2 - r0``) of triangles ``xy`` (``(..., 3, 2)``)."""
     return np.stack([xy[..., 1, :] - xy[..., 0, :], xy[..., 2, :] - xy[..., 0, :]], axis=-1)
+
+
+def det2(A):
+    """Determinants of 2 x 2 matrices ``A`` (``(..., 2, 2)``), written out (LAPACK is slow on small stacks)."""
+    return A[..., 0, 0] * A[..., 1, 1] - A[..., 0, 1] * A[..., 1, 0]
+
+
+def inv2(A):
+    """Inverses of 2 x 2 matrices ``A`` (``(..., 2, 2)``), written out."""
+    adj = np.stack([np.stack([A[..., 1, 1], -A[..., 0, 1]], -1), np.stack([-A[..., 1, 0], A[..., 0, 0]], -1)], -2)
+    return adj / det2(A)[..., None, None]
 
 
 def state_tensors(R):
