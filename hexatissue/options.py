@@ -471,6 +471,18 @@ class DeformationOptions(_Options, stage="deformation", title="deformation budge
         if self.t1_events not in T1_SOURCES:
             _fail(type(self), "t1_events", self.t1_events, f"one of {T1_SOURCES}")
         self._number("roi_frame", integer=True)
+        roi = self.roi
+        if isinstance(roi, (str, os.PathLike)):  # checked now, so a movie is not analysed for nothing
+            if os.path.splitext(os.fspath(roi))[1].lower() not in (".npy", ".tif", ".tiff", ".png"):
+                _fail(type(self), "roi", roi, "a .npy, .tif or .png label image")
+            if not os.path.isfile(roi):
+                _fail(type(self), "roi", roi, "an existing file")
+        elif roi is not None:
+            shape = np.shape(roi)
+            kind = np.asarray(roi).dtype.kind
+            if len(shape) != 2 or kind not in "biu":
+                _fail(type(self), "roi", f"<{np.asarray(roi).dtype} array of shape {shape}>",
+                      "a 2-D label image (ints, or a bool mask)")
 
     def to_dict(self) -> dict:
         """Plain dict for JSON; a region image that is not a path is recorded as None."""

@@ -241,6 +241,9 @@ def _deformation(movie, options):
     t1 = tables["events"] if options.t1_events == "quartets" else tables["neighbour_events"]
     grid = tables.get("grid") if options.grid else None
     roi = read_roi(options.roi) if options.roi is not None else None
+    shape = tuple(movie.source.shape)[-2:]
+    if roi is not None and roi.shape != shape:
+        raise InputError(f"DeformationOptions.roi has shape {roi.shape}; the frames are {shape} (rows, cols)")
     budget, shear = deformation_budget(tables["cells"], tables["vertices"], tables["cell_vertices"],
                                        tables["lineage"], t1, box=movie.box, grid=grid, roi=roi,
                                        roi_frame=options.roi_frame, t1_events=options.t1_events)
@@ -311,6 +314,8 @@ def stage_options(given) -> dict:
         if not isinstance(value, cls):
             raise InputError(f"{name} must be a hexatissue.{cls.__name__}; got {type(value).__name__}")
         options[name] = value
+    if options["deformation"].enabled and options["track"].mode == "off":
+        raise InputError("DeformationOptions.enabled needs cell tracks, and TrackOptions.mode is 'off'")
     return options
 
 

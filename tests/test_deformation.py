@@ -315,3 +315,15 @@ def test_flow_kernel_matches_its_numpy_reference():
     labels = np.stack([np.zeros(len(M), np.int64), rng.integers(-1, 5, len(M))])
     args = (M, S0, A0, np.linspace(0.05, 0.95, 6), labels, np.array([0, 1]), 6)
     np.testing.assert_allclose(_kernels.flow_sums(*args), _reference.flow_sums(*args), rtol=1e-10, atol=1e-12)
+
+
+def test_bad_regions_of_interest_are_refused_before_the_analysis(tmp_path):
+    with pytest.raises(InputError, match="roi .*an existing file"):
+        ht.DeformationOptions(enabled=True, roi=tmp_path / "absent.tif")
+    with pytest.raises(InputError, match="roi .*a .npy, .tif or .png"):
+        ht.DeformationOptions(enabled=True, roi="regions.jpg")
+    with pytest.raises(InputError, match="roi .*2-D label image"):
+        ht.DeformationOptions(enabled=True, roi=np.zeros((4, 4), float))
+    m = t1_movie(periodic=True)
+    with pytest.raises(InputError, match=r"roi has shape \(3, 3\)"):
+        _budget(m.labels[:3], m.box, roi=np.ones((3, 3), int))
