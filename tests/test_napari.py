@@ -142,6 +142,7 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
     widget.layer.value = viewer.layers["epicure"]
     widget.pixel_size.value = 0.2
     widget.track_mode.value = "never"
+    widget.deformation.value = True
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
         done = _run(widget)
@@ -149,8 +150,9 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
                         progress=False)
     assert done, "the analysis did not finish"
     names = [layer.name for layer in viewer.layers]
-    assert names == ["epicure", "polygons", "vertices", "gamma6 stars", "Gamma6 defects", "T1 events", "tracks"]
-    assert widget.status.value == "added 6 layers"
+    assert names == ["epicure", "polygons", "vertices", "gamma6 stars", "Gamma6 defects", "T1 events", "tracks",
+                     "shear rate (total)", "shear rate (T1s)"]
+    assert widget.status.value == "added 8 layers"
     assert viewer.layers["polygons"].nshapes == int((movie.cells["n_sides"] >= 3).sum())
     assert len(viewer.layers["Gamma6 defects"].data) == len(movie.defects)
     assert tuple(viewer.layers["polygons"].scale) == (1.0, 0.2, 0.2)
@@ -180,3 +182,4 @@ def test_the_widget_fields_come_from_the_options_classes(viewer):
     assert widget.merge_distance.value == MeshOptions().merge_distance
     assert "four-fold" in widget.merge_distance.tooltip
     assert OrderOptions().radius is None and widget.radius.value == 0  # 0 = chosen from the data
+    assert widget.deformation.value is False and "deformation budget" in widget.deformation.tooltip

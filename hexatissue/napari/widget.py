@@ -8,10 +8,11 @@ from __future__ import annotations
 
 from dataclasses import fields
 
-from magicgui.widgets import ComboBox, Container, FloatSpinBox, Label, LineEdit, PushButton, SpinBox, create_widget
+from magicgui.widgets import (CheckBox, ComboBox, Container, FloatSpinBox, Label, LineEdit, PushButton, SpinBox,
+                              create_widget)
 
 from ..errors import InputError
-from ..options import MeshOptions, OrderOptions, TrackOptions
+from ..options import DeformationOptions, MeshOptions, OrderOptions, TrackOptions
 from .layers import movie_layers
 
 __all__ = ["AnalyzeWidget", "run_analysis", "option_widget"]
@@ -33,12 +34,14 @@ def option_widget(options_class, field_name, *, name=None, label=None, **limits)
     if choices:
         return ComboBox(choices=choices, value=f.default, name=name, label=label, tooltip=tooltip)
     annotation = f.type if isinstance(f.type, str) else f.type.__name__
+    if annotation == "bool":
+        return CheckBox(value=f.default, name=name, label=label, tooltip=tooltip)
     number = FloatSpinBox if annotation.startswith("float") else SpinBox
     return number(value=0 if f.default is None else f.default, name=name, label=label, tooltip=tooltip, **limits)
 
 
 def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=2.0, pixel_size=None,
-                 length_unit="um", calibration=None, progress=True):
+                 length_unit="um", calibration=None, deformation=False, progress=True):
     """``analyze`` of a label array with the widget's options; returns the result layers (no labels layer).
 
     Parameters
@@ -60,6 +63,9 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
     calibration : dict, optional
         :meth:`hexatissue.Calibration.to_dict` of the layer (set by this
         plugin's reader), so the new layers line up with it.
+    deformation : bool
+        Also the deformation budget (:class:`hexatissue.DeformationOptions`):
+        its shear-rate bars on the grid.
     progress : bool or tqdm class
         Progress bar (see :func:`hexatissue.analyze`).
 
@@ -80,12 +86,13 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
         source = source.with_calibration(pixel_size=pixel_size, length_unit=length_unit)
     movie = analyze(source, mesh=MeshOptions(merge_distance=merge_distance),
                     order=OrderOptions(p=(int(p),), radius=radius), track=TrackOptions(mode=track_mode),
-                    workers=1, progress=progress)
+                    deformation=DeformationOptions(enabled=bool(deformation)), workers=1, progress=progress)
     return movie_layers(movie, p=int(p))
 
 
 class AnalyzeWidget(Container):
-    """Labels layer, p, radius (0 = default), track mode, merge distance, pixel size (0 = keep) and Analyze."""
+    """Labels layer, p, radius (0 = default), track mode, merge distance, pixel size (0 = keep), deformation budget
+    and Analyze."""
 
     def __init__(self, napari_viewer):
         import napari
@@ -102,6 +109,7 @@ class AnalyzeWidget(Container):
                           min=0.0, max=100.0, step=0.5),
             FloatSpinBox(value=0.0, min=0.0, max=1e6, step=0.01, name="pixel_size", label="pixel size (0 = keep)"),
             LineEdit(value="um", name="length_unit", label="length unit"),
+            option_widget(DeformationOptions, "enabled", name="deformation", label="deformation budget"),
             PushButton(text="Analyze", name="run"),
             Label(value="", name="status")])
         self.viewer = napari_viewer
@@ -119,7 +127,8 @@ class AnalyzeWidget(Container):
             return None
         options = {"p": self.p.value, "radius": self.radius.value or None, "track_mode": self.track_mode.value,
                    "merge_distance": self.merge_distance.value, "pixel_size": self.pixel_size.value or None,
-                   "length_unit": self.length_unit.value, "calibration": layer.metadata.get("calibration")}
+                   "length_unit": self.length_unit.value, "calibration": layer.metadata.get("calibration"),
+                   "deformation": self.deformation.value}
         data = layer.data[0] if layer.multiscale else layer.data  # read lazily, frame by frame, by open_source
         self.status.value = f"analysing {layer.name}..."
         self.run.enabled = False
