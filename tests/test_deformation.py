@@ -327,3 +327,13 @@ def test_bad_regions_of_interest_are_refused_before_the_analysis(tmp_path):
     m = t1_movie(periodic=True)
     with pytest.raises(InputError, match=r"roi has shape \(3, 3\)"):
         _budget(m.labels[:3], m.box, roi=np.ones((3, 3), int))
+
+
+def test_triangle_keys_name_the_cell_set_for_small_and_huge_ids():
+    from hexatissue.deformation import _triple_keys
+
+    for base in (0, 10 ** 12):  # huge ids take the ranked keys
+        a = np.array([[1, 2, 3], [3, 1, 2], [1, 2, 4], [2, 4, 1]]) + base
+        b = np.array([[2, 3, 1], [4, 3, 2]]) + base
+        ka, kb = _triple_keys(a, b)
+        assert ka[0] == ka[1] == kb[0] and ka[2] == ka[3] and len({ka[0], ka[2], kb[1]}) == 3

@@ -72,8 +72,21 @@ def pair_keys(a, b, K):
 
 def triangle_edges(ids, K):
     """The sorted keys (:func:`pair_keys`) of the cell pairs joined by the triangles ``ids`` (m, 3)."""
-    return np.unique(np.concatenate([pair_keys(ids[:, 0], ids[:, 1], K), pair_keys(ids[:, 1], ids[:, 2], K),
-                                     pair_keys(ids[:, 0], ids[:, 2], K)]))
+    return _sorted_unique(np.concatenate([pair_keys(ids[:, 0], ids[:, 1], K), pair_keys(ids[:, 1], ids[:, 2], K),
+                                          pair_keys(ids[:, 0], ids[:, 2], K)]))
+
+
+def _sorted_unique(values):
+    """``np.unique`` of an int array by one sort (numpy's hash-based unique is slower on these sizes)."""
+    v = np.sort(values)
+    return v[np.r_[True, v[1:] != v[:-1]]] if len(v) else v
+
+
+def _first_of_each(keys):
+    """Indices of the first occurrence of each distinct key, in row order."""
+    order = np.argsort(keys, kind="stable")
+    k = keys[order]
+    return np.sort(order[np.r_[True, k[1:] != k[:-1]]]) if len(k) else order
 
 
 def _rings(rows, centre, track, xy, box):
@@ -158,7 +171,7 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
     v_order = np.argsort(v_ids, kind="stable")
     vat = np.minimum(np.searchsorted(v_ids[v_order], cv_vertex), len(v_ids) - 1)
     vrow = v_order[vat]  # the vertex's row; each (vertex, cell) pair once, grouped by vertex
-    pair = np.unique(vrow * np.int64(len(cell) + 1) + row)
+    pair = _sorted_unique(vrow * np.int64(len(cell) + 1) + row)
     vrow, row = pair // (len(cell) + 1), pair % (len(cell) + 1)
     usable = np.r_[np.ones(len(track), bool) if interior is None else np.asarray(interior, bool), False]
     # a vertex with an unknown or border cell around it, or on the background, makes no triangle
@@ -187,20 +200,20 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
     flat = R[:, 0, 0] * R[:, 1, 1] - R[:, 0, 1] * R[:, 1, 0] <= 1e-9  # three centres on a line: no shape
     ids, tri_xy = ids[~flat], tri_xy[~flat]
     # two vertices joining the same three cells (cells that share two junctions) give one triangle
-    _, first = np.unique(_triple_keys(ids), return_index=True)
-    first.sort()
+    first = _first_of_each(_triple_keys(ids))
     return ids[first], tri_xy[first]
 
 
 def _triple_keys(*tables):
     """One int64 per triangle of each ``(m, 3)`` table, equal for the same three cells in any order."""
     rows = [np.sort(t, axis=1) for t in tables]
-    values = np.unique(np.concatenate([r.ravel() for r in rows]))
-    K = np.int64(len(values) + 1)  # ids ranked: the keys cannot overflow
-    out = []
-    for r in rows:
-        rank = np.searchsorted(values, r)
-        out.append((rank[:, 0] * K + rank[:, 1]) * K + rank[:, 2])
+    top = max((int(r.max()) for r in rows if r.size), default=0) + 1
+    if top < 2 ** 21:  # the ids themselves make the key
+        K, ranked = np.int64(top), rows
+    else:  # ids ranked: the keys cannot overflow
+        values = _sorted_unique(np.concatenate([r.ravel() for r in rows]))
+        K, ranked = np.int64(len(values) + 1), [np.searchsorted(values, r) for r in rows]
+    out = [(r[:, 0] * K + r[:, 1]) * K + r[:, 2] for r in ranked]
     return out if len(out) > 1 else out[0]
 
 
@@ -606,9 +619,9 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     good = (mapped[:, 0] != mapped[:, 1]) & (mapped[:, 1] != mapped[:, 2]) & (mapped[:, 0] != mapped[:, 2])
     good &= ~np.isin(ids_n, np.array(sorted(entering), np.int64)).any(axis=1)
     mapped = mapped[good]
-    _, first = np.unique(np.sort(mapped, axis=1), axis=0, return_index=True)
-    mapped = mapped[np.sort(first)]
-    xy4 = xy_n[good][np.sort(first)]
+    first = _first_of_each(_triple_keys(mapped))  # two triangles that become the same when daughters merge
+    mapped = mapped[first]
+    xy4 = xy_n[good][first]
     moved = np.isin(mapped, np.array(sorted(mothers), np.int64)).any(axis=1)
     if moved.any():  # a mother at the mean of its daughters; the other triangles as they are in the next frame
         pos4 = frames.positions(t_next, mapped[moved].ravel(), merged).reshape(-1, 3, 2)
