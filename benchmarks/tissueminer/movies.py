@@ -18,9 +18,10 @@ extrusion contributions are all exactly 0.
 Kinds (``--kind``):
 
 * ``shear``    : the above, no topology change.
-* ``t1``       : the same shear, plus at frame ``event_frame`` two cells ``c``, ``d``
-                 on either side of an interior junction a-b are pulled together in the
-                 reference configuration so that a-b lose contact and c-d gain it (one T1).
+* ``t1``       : the same shear, plus two cells ``c``, ``d`` at the ends of an interior junction
+                 a-b steadily pulled together in the reference configuration (their seeds end at
+                 1 - T1_PULL of their distance from their midpoint): a-b shrinks and is replaced by
+                 c-d (T1s; the frames where the exact neighbours change are in truth.json).
 * ``division`` : the same shear, plus at frame ``event_frame`` one interior cell is
                  replaced by two daughters (its seed split in two, 0.3 spacing apart);
                  the daughters get new label ids, the mother's id ends.
@@ -48,6 +49,7 @@ RADIUS = 95.0          # reference seeds within this distance of the centre are 
 EPS = 0.01             # log strain per frame
 PHI = np.pi / 8        # shear axis: both xx and xy components nonzero
 N_FRAMES = 7
+T1_PULL = 0.6       # t1 movie: c and d end at 0.4 of their initial distance from their midpoint
 
 
 def shear_map(t, eps=EPS, phi=PHI):
@@ -75,6 +77,43 @@ def render(seeds, labels_of_seeds, keep, F, shape=SHAPE):
     idx = cKDTree(seeds).query(ref)[1]
     lab = np.where(keep[idx], labels_of_seeds[idx], 0)
     return lab.reshape(rows, cols).astype(np.int32)
+
+
+def exact_centres(seeds, labels_of_seeds, keep, F, shape=SHAPE):
+    """Exact area centroids and areas of the kept cells (continuous Voronoi polygons mapped by F)."""
+    rows, cols = shape
+    centre = np.array([(cols - 1) / 2, (rows - 1) / 2])
+    vor = Voronoi(seeds)
+    out = []
+    for k in np.flatnonzero(keep):
+        region = vor.regions[vor.point_region[k]]
+        if not region or -1 in region:
+            raise ValueError(f"kept cell {labels_of_seeds[k]} is unbounded")
+        xy = (vor.vertices[region] - centre) @ F.T + centre
+        x, y = xy[:, 0], xy[:, 1]
+        xn, yn = np.roll(x, -1), np.roll(y, -1)
+        cross = x * yn - xn * y
+        a = cross.sum() / 2
+        cx, cy = ((x + xn) * cross).sum() / (6 * a), ((y + yn) * cross).sum() / (6 * a)
+        out.append((int(labels_of_seeds[k]), cx, cy, abs(a)))
+    return out
+
+
+def _contacts(seeds, labels_of_seeds, keep):
+    """Exact neighbour pairs (label, label) among the kept cells."""
+    vor = Voronoi(seeds)
+    return {tuple(sorted((int(labels_of_seeds[p]), int(labels_of_seeds[q])))) for p, q in vor.ridge_points
+            if keep[p] and keep[q]}
+
+
+def _min_ridge(seeds, *cells):
+    """Shortest Voronoi junction of the given seed indices."""
+    vor = Voronoi(seeds)
+    out = np.inf
+    for (p, q), ridge in zip(vor.ridge_points, vor.ridge_vertices):
+        if (p in cells or q in cells) and -1 not in ridge:
+            out = min(out, np.hypot(*(vor.vertices[ridge[0]] - vor.vertices[ridge[1]])))
+    return out
 
 
 def _interior_pair(seeds, keep, centre):
@@ -111,29 +150,56 @@ def make(kind="shear", n_frames=N_FRAMES, eps=EPS, phi=PHI, event_frame=3, seed=
     info = {"kind": kind, "n_frames": n_frames, "eps": eps, "phi": phi, "shape": SHAPE,
             "n_cells": int(keep.sum()), "exact_per_frame": exact_rates(eps, phi)}
     frames = []
-    seeds_after, ids_after, keep_after = seeds, ids, keep
     if kind == "t1":
         a, b, c, d = _interior_pair(seeds, keep, centre)
-        moved = seeds.copy()
         mid = 0.5 * (seeds[c] + seeds[d])
-        moved[c] = mid + 0.3 * (seeds[c] - mid)   # c and d approach: they become neighbours,
-        moved[d] = mid + 0.3 * (seeds[d] - mid)   # a and b lose their contact
-        seeds_after = moved
-        info.update(event_frame=event_frame, t1_lost=[int(ids[a]), int(ids[b])], t1_gained=[int(ids[c]), int(ids[d])])
+
+        def at(t):  # c and d approach each other steadily: a-b shrinks, vanishes, c-d grows
+            moved = seeds.copy()
+            f = 1.0 - T1_PULL * t / max(n_frames - 1, 1)
+            moved[c] = mid + f * (seeds[c] - mid)
+            moved[d] = mid + f * (seeds[d] - mid)
+            return moved, ids, keep
+        info.update(t1_lost=[int(ids[a]), int(ids[b])], t1_gained=[int(ids[c]), int(ids[d])])
     elif kind == "division":
         k = int(np.argmin(np.hypot(*(seeds - centre).T)))
-        half = 0.15 * SPACING * np.array([np.cos(0.4), np.sin(0.4)])
-        seeds_after = np.vstack([np.delete(seeds, k, 0), seeds[k] - half, seeds[k] + half])
         n = len(seeds)
-        ids_after = np.r_[np.delete(ids, k), n + 1, n + 2]
-        keep_after = np.r_[np.delete(keep, k), True, True]
+
+        def split_at(angle):
+            half = 0.15 * SPACING * np.array([np.cos(angle), np.sin(angle)])
+            return (np.vstack([np.delete(seeds, k, 0), seeds[k] - half, seeds[k] + half]),
+                    np.r_[np.delete(ids, k), n + 1, n + 2], np.r_[np.delete(keep, k), True, True])
+        # the division axis whose daughters' junctions are all long (no near-four-fold vertex,
+        # which rasterisation would turn into a four-fold one)
+        angles = np.linspace(0, np.pi, 24, endpoint=False)
+        angle = max(angles, key=lambda a: _min_ridge(split_at(a)[0], n - 1, n))
+        split = split_at(angle)
+        info["division_angle"] = float(angle)
+
+        def at(t):  # the mother's seed splits in two at event_frame
+            return split if t >= event_frame else (seeds, ids, keep)
         info.update(event_frame=event_frame, mother=int(ids[k]), daughters=[n + 1, n + 2])
-    elif kind != "shear":
+    elif kind == "shear":
+        def at(t):
+            return seeds, ids, keep
+    else:
         raise SystemExit(f"unknown kind {kind!r}")
+    centres, contacts = [], []
     for t in range(n_frames):
-        after = kind != "shear" and t >= event_frame
-        s, i, k = (seeds_after, ids_after, keep_after) if after else (seeds, ids, keep)
+        s, i, k = at(t)
         frames.append(render(s, i, k, shear_map(t, eps, phi)))
+        centres += [(t,) + row for row in exact_centres(s, i, k, shear_map(t, eps, phi))]
+        contacts.append(_contacts(s, i, k))
+    # frame pairs t -> t+1 over which every cell moves with the uniform affine map (reference
+    # seeds unchanged): there the rotation and growth terms vanish exactly
+    same = [len(at(t)[0]) == len(at(t + 1)[0]) and np.array_equal(at(t)[0], at(t + 1)[0]) for t in range(n_frames - 1)]
+    info["affine_pairs"] = [t for t in range(n_frames - 1) if same[t]]
+    # frame pairs t -> t+1 whose exact neighbour relations change (T1s, divisions)
+    info["topology_changes"] = [
+        {"frame": t, "lost": sorted(map(list, contacts[t] - contacts[t + 1])),
+         "gained": sorted(map(list, contacts[t + 1] - contacts[t]))}
+        for t in range(n_frames - 1) if contacts[t] != contacts[t + 1]]
+    info["exact_centres"] = centres
     return np.stack(frames), info
 
 
@@ -143,13 +209,17 @@ def main(argv=None):
     ap.add_argument("--frames", type=int, default=N_FRAMES)
     ap.add_argument("--eps", type=float, default=EPS)
     ap.add_argument("--phi", type=float, default=PHI)
-    ap.add_argument("--out", required=True, help="folder: labels.npy + truth.json, then hexatissue's tables in tables/")
+    ap.add_argument("--out", required=True, help="folder: labels.npy, truth.json, exact_centres.csv (the exact "
+                    "area centroids of the continuous cells), then hexatissue's tables in tables/")
     ap.add_argument("--no-analyze", action="store_true")
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     stack, info = make(args.kind, args.frames, args.eps, args.phi)
     np.save(out / "labels.npy", stack)
+    import pandas as pd
+    pd.DataFrame(info.pop("exact_centres"), columns=["frame", "cell", "x", "y", "area"]).to_csv(
+        out / "exact_centres.csv", index=False)
     (out / "truth.json").write_text(json.dumps(info, indent=1))
     print(json.dumps(info))
     if not args.no_analyze:

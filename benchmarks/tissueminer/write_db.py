@@ -187,7 +187,7 @@ def r_save(csv_to_name, rdata, obj):
     subprocess.run(["Rscript", "-e", f"{reads}; save(list=c({names}), file='{rdata}')"], check=True)
 
 
-def write(movie, out: Path, triangles="tm"):
+def write(movie, out: Path, triangles="tm", centres=None):
     out = Path(out)
     name = out.name
     (out / "roi_bt").mkdir(parents=True, exist_ok=True)
@@ -199,6 +199,11 @@ def write(movie, out: Path, triangles="tm"):
         "frame": cells["frame"].astype(int), "cell_id": [ids[k] for k in zip(cells["frame"], cells["cell"])],
         "center_x": cells["x"].astype(float), "center_y": cells["y"].astype(float),
         "area": cells["area"].astype(float), "elong_xx": 0.0, "elong_xy": 0.0})
+    if centres is not None:  # exact centres (synthetic truth) instead of the pixel centroids
+        ex = pd.read_csv(centres)
+        exd = dict(zip(zip(ex["frame"], ex["cell"]), zip(ex["x"], ex["y"], ex["area"])))
+        got = [exd[k] for k in zip(cells["frame"], cells["cell"])]
+        cells_db["center_x"], cells_db["center_y"], cells_db["area"] = np.array(got).T
     dbonds, bonds, verts = directed_bonds(movie)
     hist = cell_histories(movie)
     frames = np.sort(cells["frame"].unique())
@@ -232,10 +237,12 @@ def main(argv=None):
     ap.add_argument("--triangles", choices=["tm", "hexatissue"], default="tm",
                     help="tm: leave triList/neighbors to TissueMiner's CreateTriangles.R (default); "
                          "hexatissue: write them here from hexatissue's interior three-fold vertices")
+    ap.add_argument("--centres", help="CSV (frame, cell, x, y, area) of exact cell centres to write instead of "
+                    "hexatissue's pixel centroids (movies.py's exact_centres.csv)")
     args = ap.parse_args(argv)
     import hexatissue as ht
     movie = ht.read_results(args.results)
-    print(write(movie, Path(args.out), args.triangles))
+    print(write(movie, Path(args.out), args.triangles, args.centres))
 
 
 if __name__ == "__main__":
