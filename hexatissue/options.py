@@ -18,7 +18,8 @@ import numpy as np
 
 from .errors import InputError, check_orders, check_positive, is_real
 
-__all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "OPTION_CLASSES",
+__all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "DeformationOptions",
+           "OPTION_CLASSES",
            "cli_field", "add_flags", "from_flags", "flag_text"]
 
 # The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
@@ -33,6 +34,8 @@ CENTERS = ("vertex_mean", "area_centroid")
 VALIDITY = ("tissue", "occupied", "all")
 #: Tracking modes (see :class:`TrackOptions`).
 TRACK_MODES = ("auto", "always", "never", "off")
+#: Tables that name the kind of a T1 in the deformation budget (see :class:`DeformationOptions`).
+T1_SOURCES = ("quartets", "neighbours")
 
 
 def check_background(background, name="background"):
@@ -426,6 +429,54 @@ class IntensityOptions(_Options, stage="intensity", title="raw channel intensiti
         image = self.image
         return {"image": os.fspath(image) if isinstance(image, (str, os.PathLike)) else None, "channel": self.channel,
                 "step": self.step}
+
+
+@dataclass(frozen=True)
+class DeformationOptions(_Options, stage="deformation", title="deformation budget"):
+    """The tissue's deformation budget (:func:`hexatissue.deformation.deformation_budget`).
+
+    Parameters
+    ----------
+    enabled : bool
+        Run the stage (off by default).  It needs cell tracks.
+    t1_events : {"quartets", "neighbours"}
+        The table that names each T1's kind: the quartet ``events`` or the
+        per-cell ``neighbour_events``.
+    grid : bool
+        Also a budget per region of the Gamma_p grid (when the order fields
+        run).
+    roi : str, Path or array, optional
+        Regions of interest: a label image (or a bool mask) drawn on frame
+        ``roi_frame``; each region follows its cells (and their daughters).
+        ``metadata.json`` records a path as given, an array as None.
+    roi_frame : int
+        The frame ``roi`` is drawn on.
+    """
+
+    enabled: bool = cli_field(False, "--deformation", "the tissue's deformation budget: shear and growth split into "
+                              "cell shape change, T1 cycles, intercalations, divisions, extrusions (needs tracks)",
+                              action="store_true")
+    t1_events: str = cli_field("quartets", "--deformation-t1", "the table naming each T1's kind",
+                               choices=T1_SOURCES)
+    grid: bool = cli_field(True, "--no-deformation-grid", "no budget per region of the Gamma_p grid",
+                           action="store_false")
+    roi: object = cli_field(None, "--deformation-roi", "a label image of regions of interest drawn on "
+                            "--deformation-roi-frame; each follows its cells", type=str, metavar="FILE")
+    roi_frame: int = cli_field(0, "--deformation-roi-frame", "the frame the regions of interest are drawn on")
+
+    def __post_init__(self):
+        for name in ("enabled", "grid"):
+            if not isinstance(getattr(self, name), bool):
+                _fail(type(self), name, getattr(self, name), "True or False")
+        if self.t1_events not in T1_SOURCES:
+            _fail(type(self), "t1_events", self.t1_events, f"one of {T1_SOURCES}")
+        self._number("roi_frame", integer=True)
+
+    def to_dict(self) -> dict:
+        """Plain dict for JSON; a region image that is not a path is recorded as None."""
+        out = super().to_dict()
+        out["roi"] = os.fspath(self.roi) if isinstance(self.roi, (str, os.PathLike)) else None
+        return out
 
 
 def check_options(value, name):

@@ -17,8 +17,41 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["TABLES", "validate", "describe", "require_columns", "empty_table", "track_ids", "interior_mask",
+__all__ = ["TABLES", "DEFORMATION_TERMS", "ISOTROPIC_TERMS", "validate", "describe", "require_columns", "empty_table", "track_ids", "interior_mask",
            "FrameRows", "rows_by_frame"]
+
+#: The terms of the deformation budget (``deformation`` table), each a shear rate with ``_xx`` and ``_xy`` columns.
+DEFORMATION_TERMS = {
+    "total": "the tissue's shear (xx, xy) and growth (iso: rate of log area) from the cells' motion",
+    "cell_shape": "change of the mean triangle elongation (xx, xy) and of the log mean triangle area (iso)",
+    "corotation": "the mean elongation turned by the mean vorticity",
+    "nonlinear": "the triangles' nonlinear corotational term (second order in elongation)",
+    "growth_correlation": "correlation of the triangles' elongation with their growth",
+    "rotation_correlation": "correlation of the triangles' elongation with their rotation",
+    "t1_cycle": "T1s that are undone (events of kind cycle)",
+    "t1_intercalation": "T1s that last (events of kind intercalation)",
+    "t1_unresolved": "T1s too close to the end to tell (events of kind unresolved)",
+    "rearrangement": "other retriangulations (no T1 of the events table), incl. triangles that flip over",
+    "division": "cell divisions",
+    "extrusion": "cell extrusions (a cell shrinking to its neighbours' centre, then leaving)",
+    "border": "cells entering or leaving the analysed tissue (field of view, mask, interior appearance)",
+    "advection": "triangles moving between regions fixed in space (grid regions; 0 for the tissue and ROIs)",
+    "closure": "total minus the sum of the other terms (0 up to the quadrature's error)",
+}
+#: The terms that also change areas: they have an ``_iso`` column.
+ISOTROPIC_TERMS = ("total", "cell_shape", "t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement",
+                   "division", "extrusion", "border", "advection", "closure")
+
+
+def _deformation_columns():
+    out = {}
+    for term, meaning in DEFORMATION_TERMS.items():
+        out[f"{term}_xx"] = ("f", "1/frame", f"{meaning}: xx")
+        out[f"{term}_xy"] = ("f", "1/frame", f"{meaning}: xy")
+        if term in ISOTROPIC_TERMS:
+            out[f"{term}_iso"] = ("f", "1/frame", f"{meaning}: isotropic")
+    return out
+
 
 #: Every table, in the order they are written: column -> (dtype kind: i integer, f float, b bool, O string/object, unit, meaning)
 TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
@@ -119,6 +152,9 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "frame_gain": ("i", "frame", "first frame with the c-d contact (> frame_start: a four-fold vertex persisted)"),
         "frame_undo": ("f", "frame", "first frame without the c-d contact again in the inverse T1 (cycles), else NaN"),
         "is_border": ("b", "", "one of the four cells is a border cell at frame_start"),
+        "shear_xx": ("f", "px^2", "the T1's share of the tissue's T1 shear x the triangulated area, xx "
+                     "(with the deformation stage)"),
+        "shear_xy": ("f", "px^2", "the T1's share of the tissue's T1 shear x the triangulated area, xy"),
     },
     "neighbour_events": {
         "event": ("i", "", "event id"),
@@ -152,11 +188,21 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "n_intervals": ("i", "", "intervals between consecutive intercalations of the cell"),
         "mean_intercalation_interval": ("f", "frame", "mean time between consecutive intercalations of the cell (NaN if fewer than 2)"),
     },
+    "deformation": {
+        "frame": ("i", "frame", "the interval from this frame to the next"),
+        "region": ("O", "", "tissue (the whole triangulation), grid (a node's region of the Gamma_p grid) or roi"),
+        "region_id": ("i", "", "the grid node or the ROI label (-1 for the tissue)"),
+        "area": ("f", "px^2", "the region's triangulated area at the end of the interval"),
+        **_deformation_columns(),
+        "rotation": ("f", "rad/frame", "the mean vorticity of the cells' motion"),
+        "n_triangles": ("i", "", "triangles of the tissue at the start of the interval (-1 on region rows)"),
+        "n_flipped": ("i", "", "triangles that would flip over on the way, retriangulated instead (-1 on region rows)"),
+    },
 }
 
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
-             "frame_gain", "frame_undo", "is_border", "p"}
+             "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

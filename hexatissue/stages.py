@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .defects import find_defects, link_movie_defects
+from .deformation import deformation_budget, read_roi
 from .errors import HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
 from .geometry import distinct_count
@@ -34,7 +35,8 @@ from .intensity import measure_intensity
 from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
 from .mesh.polygons import polygon_network
-from .options import OPTION_CLASSES, EventOptions, IntensityOptions, MeshOptions, OrderOptions, TrackOptions
+from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, IntensityOptions, MeshOptions, OrderOptions,
+                      TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .track import cells_with_tracks, lineage_table, tracking_summary
@@ -228,11 +230,37 @@ def _cell_events(movie, options):
     movie.tables["cell_events"] = cell_event_stats(movie.tables["events"], movie.tables["cells"])
 
 
+def _deformation(movie, options):
+    """The tissue's deformation budget per frame pair (whole tissue, grid regions, regions of interest)."""
+    tracking = movie.summary.get("tracking", {}).get("resolved")
+    if tracking == "off" or movie.n_frames < 2:
+        why = "its frames are unrelated images (tracking off)" if tracking == "off" else "it has one frame"
+        raise InputError(f"the deformation budget needs cell tracks over consecutive frames; this source has none: "
+                         f"{why}. Run it on a movie, without --track off")
+    tables = movie.tables
+    t1 = tables["events"] if options.t1_events == "quartets" else tables["neighbour_events"]
+    grid = tables.get("grid") if options.grid else None
+    roi = read_roi(options.roi) if options.roi is not None else None
+    budget, shear = deformation_budget(tables["cells"], tables["vertices"], tables["cell_vertices"],
+                                       tables["lineage"], t1, box=movie.box, grid=grid, roi=roi,
+                                       roi_frame=options.roi_frame, t1_events=options.t1_events)
+    tables["deformation"] = budget
+    if options.t1_events == "quartets":
+        events = tables["events"].drop(columns=["shear_xx", "shear_xy"], errors="ignore")
+        tables["events"] = events.merge(shear, on="event", how="left")
+    tissue = budget[budget["region"] == "tissue"]
+    movie.summary["deformation"] = {
+        "pairs": int(len(tissue)),
+        "max_closure": float(tissue[["closure_xx", "closure_xy"]].abs().to_numpy().max(initial=0.0)),
+        "n_flipped": int(tissue["n_flipped"].sum()),
+    }
+
+
 def _fields_on(options):
     return options.fields
 
 
-def _image_given(options):
+def _enabled(options):
     return options.enabled
 
 
@@ -243,7 +271,7 @@ STAGES = (
     Stage("intensity", IntensityOptions, "frame", reads=("labels", "image", "cells", "vertices", "edges"),
           writes=("cells.intensity_mean", "cells.junction_polarity_re", "cells.junction_polarity_im",
                   "edges.intensity_mean", "edges.intensity_total"),
-          run=_intensity, enabled=_image_given, image=True),
+          run=_intensity, enabled=_enabled, image=True),
     Stage("shape order", OrderOptions, "frame", reads=("polygons", "cells"),
           writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order),
     Stage("order fields", OrderOptions, "frame", reads=("cells",), writes=("grid", "defects"), run=_fields,
@@ -255,6 +283,9 @@ STAGES = (
           run=_t1_events),
     Stage("cell events", EventOptions, "movie", reads=("events", "cells"), writes=("cell_events",),
           run=_cell_events),
+    Stage("deformation budget", DeformationOptions, "movie",
+          reads=("cells", "vertices", "cell_vertices", "lineage", "events", "neighbour_events", "grid"),
+          writes=("deformation", "events.shear_xx", "events.shear_xy"), run=_deformation, enabled=_enabled),
 )
 
 

@@ -1,0 +1,776 @@
+"""The tissue's deformation budget: how much of its shear and growth each kind of cellular process makes.
+
+The triangle method (Merkel et al., Phys. Rev. E 95, 032401, 2017; Etournay et
+al., eLife 4, e07090, 2015): the cell centres around every interior vertex of
+the junction network form a triangle (a four-fold vertex gives two,
+:func:`frame_triangles`), and the area-weighted mean elongation ``Q`` of the
+triangles measures the cells' shape.  Between two frames the tissue's
+deformation is split exactly into the change of ``Q`` and the part that each
+kind of cellular event takes (:func:`deformation_budget`):
+
+1. cells leaving the analysed tissue (field of view, mask) are removed, at the
+   positions of the first frame (``border``);
+2. extruding cells move to the mean of their neighbours (``extrusion``);
+3. the triangles move to the second frame's positions, a mother cell at the
+   mean of its daughters: the tissue's total shear and growth, split into
+   cell shape change, corotation, the nonlinear corotational term and the two
+   correlation terms (:mod:`hexatissue.deformation.flow`);
+4. the triangulation changes to the second frame's, daughters still merged:
+   each connected retriangulation is an extrusion (it holds an extruding
+   cell), a T1 of the ``events`` table (its kind: ``t1_cycle``,
+   ``t1_intercalation``, ``t1_unresolved``) or another ``rearrangement``;
+5. daughters split (``division``), then cells entering the tissue are added
+   (``border``).
+
+Each topological term is minus the jump of ``Q`` it makes; the total minus
+the sum of the parts is the ``closure`` column (zero up to the quadrature's
+error).  The order follows TissueMiner's intermediate triangulations.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pandas as pd
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..errors import InputError
+from ..options import T1_SOURCES
+from ..schema import DEFORMATION_TERMS, ISOTROPIC_TERMS, empty_table, require_columns
+from .flow import integrate_flow
+from .triangles import edge_matrices, elongation, state_tensors
+
+__all__ = ["frame_triangles", "deformation_budget", "roi_tracks", "read_roi"]
+
+_T1_KINDS = {"cycle": "t1_cycle", "intercalation": "t1_intercalation", "unresolved": "t1_unresolved"}
+# the order in which the retriangulations of step 4 are applied
+_STEP4 = ("extrusion", "t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement")
+
+
+# ----------------------------------------------------------------------------
+# Triangulations
+# ----------------------------------------------------------------------------
+
+def _min_image(d, box):
+    return d if box is None else box.min_image(d)
+
+
+def _orient(ids, xy):
+    """Triangles ``ids`` (m, 3) with corners ``xy`` (m, 3, 2) made counter-clockwise in (x, y)."""
+    R = edge_matrices(xy)
+    clockwise = R[:, 0, 0] * R[:, 1, 1] - R[:, 0, 1] * R[:, 1, 0] < 0
+    ids[clockwise] = ids[clockwise][:, [0, 2, 1]]
+    xy[clockwise] = xy[clockwise][:, [0, 2, 1]]
+    return ids, xy
+
+
+def _ring(centre, ids, xy, box):
+    """The cells around a vertex in angular order (ids, contiguous positions)."""
+    d = _min_image(xy - centre, box)
+    order = np.argsort(np.arctan2(d[:, 1], d[:, 0]), kind="stable")
+    return ids[order], centre + d[order]
+
+
+def _fan(ids, xy, previous):
+    """Triangles of a ring of four or more cells: the diagonal the previous frame had, else the shortest.
+
+    A four-fold vertex keeps the triangles of the frame before it, so its
+    T1 is counted once, when the new contact forms (or never, when it
+    reverts); a rosette of five or more is a fan from its smallest id.
+    """
+    k = len(ids)
+    if k == 4:
+        had = [_pair_key(ids[0], ids[2]) in previous, _pair_key(ids[1], ids[3]) in previous]
+        if had[0] != had[1]:
+            first = 0 if had[0] else 1
+        else:
+            first = int(np.hypot(*(xy[1] - xy[3])) < np.hypot(*(xy[0] - xy[2])))
+        return [(first, first + 1, first + 2), (first, first + 2, (first + 3) % 4)]
+    s = int(np.argmin(ids))
+    return [(s, (s + j) % k, (s + j + 1) % k) for j in range(1, k - 1)]
+
+
+def _pair_key(a, b):
+    return (int(min(a, b)), int(max(a, b)))
+
+
+def triangle_edges(ids):
+    """The set of cell pairs ``(low, high)`` that are edges of the triangles ``ids`` (m, 3)."""
+    pairs = np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [0, 2]]])
+    pairs.sort(axis=1)
+    return set(map(tuple, np.unique(pairs, axis=0).tolist()))
+
+
+def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous=(), interior=None):
+    """The triangles of cell centres dual to one frame's interior vertices.
+
+    Only vertices whose cells are all interior cells count: a border cell's
+    centre is cut by the image edge or the background, so it does not move
+    with the tissue.
+
+    Parameters
+    ----------
+    track, xy, cell : arrays
+        The frame's cells: track id, centre (x, y, px) and label id, aligned.
+    vertices : pandas.DataFrame
+        The frame's ``vertex``, ``x``, ``y``, ``is_border``.
+    cell_vertices : pandas.DataFrame
+        The frame's ``cell``, ``vertex``.
+    box : Box, optional
+        The periodic box (minimum-image geometry), or None.
+    previous : set of (int, int)
+        Cell pairs (track ids) joined in the previous frame's triangulation:
+        a four-fold vertex takes the diagonal found there.
+    interior : array of bool, optional
+        Aligned with ``track``: the cells that are not border cells (all, by
+        default).
+
+    Returns
+    -------
+    ids : (m, 3) int64 array
+        Track ids of each triangle's corners, counter-clockwise in (x, y).
+    tri_xy : (m, 3, 2) float array
+        The corners' positions, px, contiguous (a periodic triangle's
+        corners are the images nearest its first corner).
+    """
+    v_ids = vertices["vertex"].to_numpy(np.int64)
+    inside = ~vertices["is_border"].to_numpy(bool)
+    cv_vertex = cell_vertices["vertex"].to_numpy(np.int64)
+    cv_cell = cell_vertices["cell"].to_numpy(np.int64)
+    order = np.argsort(cell, kind="stable")
+    at = np.searchsorted(cell[order], cv_cell)
+    known = (at < len(cell)) & (cell[order][np.minimum(at, len(cell) - 1)] == cv_cell)
+    row = order[np.minimum(at, len(cell) - 1)]
+    pairs = np.unique(np.c_[cv_vertex, np.where(known, row, -1)], axis=0)  # (vertex, cell row), once each
+    v_order = np.argsort(v_ids, kind="stable")
+    vat = np.searchsorted(v_ids[v_order], pairs[:, 0])
+    usable = np.ones(len(track), bool) if interior is None else np.asarray(interior, bool)
+    bad = (pairs[:, 1] < 0) | ~usable[pairs[:, 1]]
+    # a vertex with an unknown or border cell around it, or on the background, makes no triangle
+    bad_vertex = np.unique(pairs[bad, 0])
+    keep = inside[v_order[vat]] & ~np.isin(pairs[:, 0], bad_vertex)
+    pairs, vat = pairs[keep], vat[keep]
+    starts = np.flatnonzero(np.r_[True, pairs[1:, 0] != pairs[:-1, 0]])
+    counts = np.diff(np.r_[starts, len(pairs)])
+    three = starts[counts == 3]
+    rows = np.stack([pairs[three, 1], pairs[three + 1, 1], pairs[three + 2, 1]], axis=1)
+    ids = track[rows]
+    tri_xy = xy[rows]
+    tri_xy[:, 1:] = tri_xy[:, :1] + _min_image(tri_xy[:, 1:] - tri_xy[:, :1], box)
+    extra_ids, extra_xy = [], []
+    vxy = vertices[["x", "y"]].to_numpy(float)
+    for s, k in zip(starts[counts > 3], counts[counts > 3]):
+        ring_rows = pairs[s:s + k, 1]
+        centre = vxy[v_order[vat[s]]]
+        ring_ids, ring_xy = _ring(centre, track[ring_rows], xy[ring_rows], box)
+        for a, b, c in _fan(ring_ids, ring_xy, previous):
+            extra_ids.append(ring_ids[[a, b, c]])
+            extra_xy.append(ring_xy[[a, b, c]])
+    if extra_ids:
+        ids = np.concatenate([ids, np.array(extra_ids, np.int64)])
+        tri_xy = np.concatenate([tri_xy, np.array(extra_xy, float)])
+    ids, tri_xy = _orient(ids.astype(np.int64), tri_xy)
+    R = edge_matrices(tri_xy)
+    flat = R[:, 0, 0] * R[:, 1, 1] - R[:, 0, 1] * R[:, 1, 0] <= 1e-9  # three centres on a line: no shape
+    ids, tri_xy = ids[~flat], tri_xy[~flat]
+    # two vertices joining the same three cells (cells that share two junctions) give one triangle
+    _, first = np.unique(np.sort(ids, axis=1), axis=0, return_index=True)
+    first.sort()
+    return ids[first], tri_xy[first]
+
+
+# ----------------------------------------------------------------------------
+# States: triangulations with positions and region labels
+# ----------------------------------------------------------------------------
+
+class _State:
+    """Triangles (ids, contiguous corners) with their shape, and their region labels per layer."""
+
+    def __init__(self, ids, xy, labels):
+        self.ids, self.xy, self.labels = ids, xy, labels
+        self.area, self.qxx, self.qxy, _ = elongation(state_tensors(edge_matrices(xy)))
+
+    def take(self, keep):
+        return _State(self.ids[keep], self.xy[keep], [lab[keep] for lab in self.labels])
+
+    def sums(self, sizes, weight=None):
+        """Per layer ``(4, n_regions)``: sum of area, of area x Q_xx, of area x Q_xy, and the count."""
+        w = np.ones(len(self.ids)) if weight is None else weight
+        out = []
+        for labels, n in zip(self.labels, sizes):
+            ok = labels >= 0
+            lab = labels[ok]
+            a, ww = self.area[ok] * w[ok], w[ok]
+            out.append(np.array([np.bincount(lab, a, n), np.bincount(lab, a * self.qxx[ok], n),
+                                 np.bincount(lab, a * self.qxy[ok], n), np.bincount(lab, ww, n)]))
+        return out
+
+
+def _means(sums):
+    """Mean Q (xx, xy) and log mean area of per-region sums ``(4, n)``."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.array([sums[1] / sums[0], sums[2] / sums[0], np.log(sums[0] / sums[3])])
+
+
+def _keys(ids):
+    s = np.sort(ids, axis=1)
+    return s[:, 0].astype(np.int64), s[:, 1].astype(np.int64), s[:, 2].astype(np.int64)
+
+
+def _isin_rows(ids, other):
+    """Rows of ``ids`` (m, 3) whose cell set is a row of ``other``."""
+    if len(ids) == 0 or len(other) == 0:
+        return np.zeros(len(ids), bool)
+    a, b = np.sort(ids, axis=1), np.sort(other, axis=1)
+    allv = np.unique(np.r_[a.ravel(), b.ravel()])
+    K = np.int64(len(allv))
+    ka = (np.searchsorted(allv, a[:, 0]) * K + np.searchsorted(allv, a[:, 1])) * K + np.searchsorted(allv, a[:, 2])
+    kb = (np.searchsorted(allv, b[:, 0]) * K + np.searchsorted(allv, b[:, 1])) * K + np.searchsorted(allv, b[:, 2])
+    return np.isin(ka, kb)
+
+
+def _components(ids):
+    """Connected groups of triangles ``ids`` (m, 3) that share an edge: labels (m,)."""
+    m = len(ids)
+    if m == 0:
+        return np.zeros(0, np.int64)
+    pairs = np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [0, 2]]])
+    pairs.sort(axis=1)
+    owner = np.tile(np.arange(m), 3)
+    _, key = np.unique(pairs, axis=0, return_inverse=True)
+    key = key.ravel()
+    graph = coo_matrix((np.ones(3 * m), (owner, key)), shape=(m, key.max() + 1)).tocsr()
+    n, labels = connected_components(graph @ graph.T, directed=False)
+    return labels
+
+
+# ----------------------------------------------------------------------------
+# The movie
+# ----------------------------------------------------------------------------
+
+class _Frames:
+    """The cells' positions per frame, by track (a mother at the mean of its daughters on request)."""
+
+    def __init__(self, cells, box):
+        frame = cells["frame"].to_numpy(np.int64)
+        order = np.lexsort((cells["track"].to_numpy(np.int64), frame))
+        self.frame = frame[order]
+        self.track = cells["track"].to_numpy(np.int64)[order]
+        self.xy = cells[["x", "y"]].to_numpy(float)[order]
+        self.cell = cells["cell"].to_numpy(np.int64)[order]
+        border = cells["is_border"].to_numpy(bool) if "is_border" in cells else np.zeros(len(cells), bool)
+        self.interior = ~border[order]
+        self.bounds = {int(f): (int(a), int(b)) for f, a, b in _runs(self.frame)}
+        self.box = box
+
+    def rows(self, t):
+        a, b = self.bounds[t]
+        return slice(a, b)
+
+    def positions(self, t, ids, merged=None):
+        """Positions (k, 2) of tracks ``ids`` at frame ``t``; ``merged`` maps a mother to its daughters' rows."""
+        sl = self.rows(t)
+        tracks = self.track[sl]
+        at = np.searchsorted(tracks, ids)
+        at = np.minimum(at, len(tracks) - 1)
+        found = tracks[at] == ids
+        out = np.full((len(ids), 2), np.nan)
+        out[found] = self.xy[sl][at[found]]
+        if merged:
+            for i in np.flatnonzero(~found):
+                rows = merged.get(int(ids[i]))
+                if rows is not None:
+                    out[i] = _mean_position(self.xy[sl][rows], self.box)
+        return out
+
+
+def _runs(values):
+    starts = np.flatnonzero(np.r_[True, values[1:] != values[:-1]])
+    ends = np.r_[starts[1:], len(values)]
+    return zip(values[starts], starts, ends)
+
+
+def _mean_position(xy, box):
+    return xy[0] + _min_image(xy - xy[0], box).mean(axis=0)
+
+
+def _corners(ids, pos, box):
+    """Contiguous corners (m, 3, 2) of triangles ``ids`` from positions ``pos`` (m, 3, 2)."""
+    xy = pos.copy()
+    xy[:, 1:] = xy[:, :1] + _min_image(xy[:, 1:] - xy[:, :1], box)
+    return xy
+
+
+def _lookup(ids, keys, values):
+    """``values`` at the positions of ``ids`` in ``keys`` (sorted); NaN rows where absent."""
+    at = np.minimum(np.searchsorted(keys, ids), len(keys) - 1)
+    return at, keys[at] == ids
+
+
+class _Layers:
+    """How triangles are assigned to regions: the whole tissue, the grid nodes, the user's regions."""
+
+    def __init__(self, grid, roi, box):
+        self.grid, self.roi, self.box = grid, roi, box
+
+    def names(self):
+        return ["tissue"] + (["grid"] if self.grid is not None else []) + (["roi"] if self.roi is not None else [])
+
+    def sizes(self, t):
+        out = [1]
+        if self.grid is not None:
+            out.append(len(self.grid.get(t, _EMPTY_NODES)[0]))
+        if self.roi is not None:
+            out.append(self.roi[1])
+        return out
+
+    def labels(self, t, ids, xy):
+        """Labels per layer of triangles ``ids`` with corners ``xy`` (grid nodes of frame ``t``)."""
+        out = [np.zeros(len(ids), np.int64)]
+        if self.grid is not None:
+            out.append(self._nodes(t, xy))
+        if self.roi is not None:
+            member = self.roi[0]
+            lab = np.stack([member.get_many(ids[:, j]) for j in range(3)], axis=1)
+            same = (lab[:, 0] == lab[:, 1]) & (lab[:, 1] == lab[:, 2])
+            out.append(np.where(same, lab[:, 0], -1))
+        return out
+
+    def _nodes(self, t, xy):
+        nodes = self.grid.get(t, _EMPTY_NODES)
+        centre = xy.mean(axis=1)
+        if self.box is not None:
+            centre = self.box.wrap(centre)
+        if len(nodes[0]) == 0:
+            return np.full(len(xy), -1, np.int64)
+        tree = nodes[2]
+        _, index = tree.query(centre)
+        return index.astype(np.int64)
+
+
+_EMPTY_NODES = (np.zeros(0, np.int64), np.zeros((0, 2)), None)
+
+
+class _Membership:
+    """Track -> region label (-1: none), vectorised."""
+
+    def __init__(self, mapping):
+        self.keys = np.array(sorted(mapping), np.int64)
+        self.values = np.array([mapping[k] for k in self.keys], np.int64)
+
+    def get_many(self, ids):
+        if len(self.keys) == 0:
+            return np.full(len(ids), -1, np.int64)
+        at, found = _lookup(ids, self.keys, None)
+        return np.where(found, self.values[at], -1)
+
+
+def roi_tracks(cells, lineage, roi, frame=0):
+    """The tracks of each region of interest, followed over the movie (daughters inherit their mother's).
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        ``frame``, ``track``, ``x``, ``y``.
+    lineage : pandas.DataFrame
+        ``track``, ``parent``.
+    roi : (rows, cols) int or bool array
+        Regions in the pixels of frame ``frame``: label ``k > 0`` is region
+        ``k`` (True is region 1); a cell belongs to the region its centre
+        falls in.
+    frame : int
+        The frame the regions are drawn on.
+
+    Returns
+    -------
+    dict
+        ``{track: region}``.
+    """
+    roi = np.asarray(roi)
+    if roi.ndim != 2 or not (np.issubdtype(roi.dtype, np.integer) or roi.dtype == bool):
+        raise InputError(f"roi must be a 2-D label image (ints, or a bool mask); got {roi.dtype} of shape {roi.shape}")
+    at = cells[cells["frame"].to_numpy() == frame]
+    if len(at) == 0:
+        raise InputError(f"roi_frame {frame} has no cells; the movie's frames are "
+                         f"{int(cells['frame'].min())}..{int(cells['frame'].max())}")
+    col = np.clip(np.rint(at["x"].to_numpy(float)).astype(int), 0, roi.shape[1] - 1)
+    row = np.clip(np.rint(at["y"].to_numpy(float)).astype(int), 0, roi.shape[0] - 1)
+    label = roi[row, col].astype(np.int64)
+    members = {int(t): int(k) for t, k in zip(at["track"].to_numpy(np.int64), label) if k > 0}
+    # daughters inherit, in birth order (a daughter's mother is born before it)
+    if len(lineage):
+        parent = lineage.sort_values("frame_start")[["track", "parent"]].to_numpy(np.int64)
+        for track, mother in parent:
+            if mother > 0 and mother in members and track not in members:
+                members[int(track)] = members[int(mother)]
+    return members
+
+
+def read_roi(roi):
+    """A region-of-interest image: an array as given, or read from a ``.npy``, TIFF or PNG file."""
+    if not isinstance(roi, (str, os.PathLike)):
+        return np.asarray(roi)
+    path = os.fspath(roi)
+    suffix = os.path.splitext(path)[1].lower()
+    try:
+        if suffix == ".npy":
+            return np.load(path)
+        if suffix in (".tif", ".tiff"):
+            import tifffile
+
+            return tifffile.imread(path)
+        if suffix == ".png":
+            import cv2
+
+            image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+            if image is None:
+                raise OSError("not a readable PNG")
+            return image
+    except (OSError, ValueError) as exc:
+        raise InputError(f"roi {path!r} cannot be read: {exc}") from None
+    raise InputError(f"roi must be an array or a .npy, .tif or .png label image; got {path!r}")
+
+
+def _grid_nodes(grid, box):
+    """Per frame: node ids, positions and a nearest-node search tree."""
+    from scipy.spatial import cKDTree
+
+    out = {}
+    for f, part in grid.groupby("frame", sort=True):
+        xy = part[["x", "y"]].to_numpy(float)
+        tree = cKDTree(box.wrap(xy), boxsize=box.lengths) if box is not None else cKDTree(xy)
+        out[int(f)] = (part["node"].to_numpy(np.int64), xy, tree)
+    return out
+
+
+class _Lineage:
+    """What becomes of each track: its end, its mother, its daughters."""
+
+    def __init__(self, lineage):
+        self.end = dict(zip(lineage["track"].to_numpy(np.int64).tolist(), lineage["end"].astype(str).tolist()))
+        self.parent = dict(zip(lineage["track"].to_numpy(np.int64).tolist(),
+                               lineage["parent"].to_numpy(np.int64).tolist()))
+
+
+def _step4_kinds(removed, added, dying, candidates):
+    """The kind of each connected retriangulation, as shares per kind: (n_components, len(_STEP4)), labels."""
+    both = np.concatenate([removed, added])
+    labels = _components(both)
+    n = labels.max() + 1 if len(labels) else 0
+    share = np.zeros((n, len(_STEP4)))
+    matched = [[] for _ in range(n)]
+    if n == 0:
+        return share, labels, matched
+    ids_of = [set() for _ in range(n)]
+    for lab, row in zip(labels, both):
+        ids_of[lab].update(row.tolist())
+    for c in range(n):
+        if ids_of[c] & dying:
+            share[c, 0] = 1.0
+            continue
+        hits = [(event, kind) for event, kind, quartet in candidates if quartet <= ids_of[c]]
+        if hits:
+            for event, kind in hits:
+                share[c, _STEP4.index(kind)] += 1.0 / len(hits)
+            matched[c] = [event for event, _ in hits]
+        else:
+            share[c, 4] = 1.0
+    return share, labels, matched
+
+
+def _candidates(t1, t_next, source):
+    """(event id, term, set of tracks) of the events whose triangulation may change into frame ``t_next``."""
+    if t1 is None or len(t1) == 0:
+        return []
+    if source == "quartets":
+        frames = [c for c in ("frame_start", "frame_gain", "frame_undo", "frame_end") if c in t1]
+        near = np.zeros(len(t1), bool)
+        for c in frames:
+            near |= t1[c].to_numpy(float) == t_next
+        part = t1[near]
+        quartets = part[["cell_a", "cell_b", "cell_c", "cell_d"]].to_numpy(np.int64)
+        return [(int(e), _T1_KINDS.get(str(k), "t1_unresolved"), set(q.tolist()))
+                for e, k, q in zip(part["event"].to_numpy(np.int64), part["kind"].astype(str), quartets)]
+    near = (t1["frame_start"].to_numpy(float) == t_next) | (t1["frame_end"].to_numpy(float) == t_next)
+    part = t1[near]
+    return [(int(e), _T1_KINDS.get(str(k), "t1_unresolved"), {int(tr)})
+            for e, k, tr in zip(part["event"].to_numpy(np.int64), part["kind"].astype(str),
+                                part["track"].to_numpy(np.int64))]
+
+
+def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, source, tolerance):
+    """The budget of the interval ``t`` -> ``t + 1``: per layer a (terms, n_regions) block, and per-event shares."""
+    box = frames.box
+    t_next = t + 1
+    # the analysed tissue: the interior cells (a cell turning into a border cell leaves it)
+    now = frames.track[frames.rows(t)][frames.interior[frames.rows(t)]]
+    nxt = frames.track[frames.rows(t_next)][frames.interior[frames.rows(t_next)]]
+    lost = np.setdiff1d(now, nxt)
+    new = np.setdiff1d(nxt, now)
+    mothers = {}
+    for d in new.tolist():
+        m = lineage.parent.get(d, 0)
+        if m > 0 and m in set(lost.tolist()):
+            mothers.setdefault(m, []).append(d)
+    dying = {int(c) for c in lost.tolist() if lineage.end.get(int(c)) == "extrusion"}
+    leaving = set(lost.tolist()) - dying - set(mothers)
+    entering = set(new.tolist()) - {d for ds in mothers.values() for d in ds}
+    sl_next = frames.rows(t_next)
+    merged = {m: np.searchsorted(frames.track[sl_next], np.array(ds, np.int64)) for m, ds in mothers.items()}
+    sizes = layers.sizes(t)
+    states = []  # (term, per-layer sums) after each step
+
+    ids0, xy0 = tri_t
+    s0 = _State(ids0, xy0, layers.labels(t, ids0, xy0))
+    sums = s0.sums(sizes)
+    chain = [("start", sums)]
+    # 1. cells leaving the tissue
+    keep = ~np.isin(ids0, np.array(sorted(leaving), np.int64)).any(axis=1)
+    s1 = s0.take(keep)
+    chain.append(("border", s1.sums(sizes)))
+    # 2. extruding cells to the mean of their neighbours (in this frame and the next), or out when they have none
+    ghost_now, ghost_next = {}, {}
+    for c in sorted(dying):
+        rows = (s1.ids == c).any(axis=1)
+        ring = np.setdiff1d(s1.ids[rows].ravel(), np.array(sorted(dying), np.int64))
+        if len(ring) < 2:
+            continue
+        p_now = frames.positions(t, ring)
+        p_next = frames.positions(t_next, ring, merged)
+        if np.isnan(p_next).any():
+            continue
+        ghost_now[c], ghost_next[c] = _mean_position(p_now, box), _mean_position(p_next, box)
+    out_dying = np.array(sorted(dying - set(ghost_now)), np.int64)
+    s1b = s1.take(~np.isin(s1.ids, out_dying).any(axis=1))
+    pos_now = frames.positions(t, s1b.ids.ravel()).reshape(-1, 3, 2)
+    for c, g in ghost_now.items():
+        pos_now[s1b.ids == c] = g
+    xy2 = _corners(s1b.ids, pos_now, box)
+    s2 = _State(s1b.ids, xy2, s1b.labels)
+    chain.append(("extrusion", s2.sums(sizes)))
+    # 3. the continuous motion; triangles that would flip over on the way are retriangulated in step 4
+    pos_next = frames.positions(t_next, s2.ids.ravel(), merged).reshape(-1, 3, 2)
+    for c, g in ghost_next.items():
+        pos_next[s2.ids == c] = g
+    usable = ~np.isnan(pos_next).any(axis=(1, 2))
+    xy3 = _corners(s2.ids, np.where(np.isnan(pos_next), 0.0, pos_next), box)
+    usable &= _stays_positive(xy2, xy3)
+    s2b = s2.take(usable)
+    chain.append(("rearrangement", s2b.sums(sizes)))
+    s3 = _State(s2b.ids, xy3[usable], s2b.labels)
+    start, end = s2b.sums(sizes), s3.sums(sizes)
+    change = [(_means(e) - _means(s))[:2] for s, e in zip(start, end)]
+    layer_labels = [(lab, n) for lab, n in zip(s2b.labels, sizes)]
+    flow, splits = integrate_flow(s2b.xy, s3.xy, layer_labels, change, tolerance) if len(s3.ids) else (None, 0)
+    chain.append(("flow", end))
+    # regions are fixed in space: a triangle now labelled by where it is in the next frame
+    s3 = _State(s3.ids, s3.xy, layers.labels(t, s3.ids, s3.xy))
+    chain.append(("advection", s3.sums(sizes)))
+    # 4. the next frame's triangulation, daughters merged into their mother
+    ids_n, xy_n = tri_next
+    inv = {d: m for m, ds in mothers.items() for d in ds}
+    mapped = np.vectorize(lambda v: inv.get(v, v), otypes=[np.int64])(ids_n) if inv else ids_n.copy()
+    good = (mapped[:, 0] != mapped[:, 1]) & (mapped[:, 1] != mapped[:, 2]) & (mapped[:, 0] != mapped[:, 2])
+    good &= ~np.isin(ids_n, np.array(sorted(entering), np.int64)).any(axis=1)
+    mapped = mapped[good]
+    _, first = np.unique(np.sort(mapped, axis=1), axis=0, return_index=True)
+    mapped = mapped[np.sort(first)]
+    pos4 = frames.positions(t_next, mapped.ravel(), merged).reshape(-1, 3, 2)
+    xy4 = _corners(mapped, pos4, box)
+    s4 = _State(mapped, xy4, layers.labels(t, mapped, xy4))
+    s4 = s4.take(s4.area > 0)
+    gone, come = ~_isin_rows(s3.ids, s4.ids), ~_isin_rows(s4.ids, s3.ids)
+    removed, added = s3.take(gone), s4.take(come)
+    share, comp, matched = _step4_kinds(removed.ids, added.ids, dying, _candidates(t1, t_next, source))
+    n_removed = len(removed.ids)
+    sums = s3.sums(sizes)
+    events = []
+    for k, term in enumerate(_STEP4):
+        w = share[comp, k] if len(comp) else np.zeros(0)
+        plus, minus = added.sums(sizes, w[n_removed:]), removed.sums(sizes, w[:n_removed])
+        sums = [s + p - m for s, p, m in zip(sums, plus, minus)]
+        chain.append((term, sums))
+    for c, evs in enumerate(matched):
+        if not evs:
+            continue
+        rows_r, rows_a = np.flatnonzero(comp[:n_removed] == c), np.flatnonzero(comp[n_removed:] == c)
+        dxx = (added.area[rows_a] * added.qxx[rows_a]).sum() - (removed.area[rows_r] * removed.qxx[rows_r]).sum()
+        dxy = (added.area[rows_a] * added.qxy[rows_a]).sum() - (removed.area[rows_r] * removed.qxy[rows_r]).sum()
+        events.extend((e, -dxx / len(evs), -dxy / len(evs)) for e in evs)
+    # 5. daughters split, then the cells entering the tissue
+    keep = ~np.isin(ids_n, np.array(sorted(entering), np.int64)).any(axis=1)
+    s5 = _State(ids_n[keep], xy_n[keep], layers.labels(t, ids_n[keep], xy_n[keep]))
+    chain.append(("division", s5.sums(sizes)))
+    s6 = _State(ids_n, xy_n, layers.labels(t, ids_n, xy_n))
+    chain.append(("border", s6.sums(sizes)))
+    blocks = [_block(chain, flow, i, n) for i, n in enumerate(sizes)]
+    info = {"n_triangles": len(ids0), "n_flipped": int((~usable).sum()), "splits": splits,
+            "area": [c[0] for c in end]}
+    return blocks, events, info
+
+
+def _stays_positive(xy0, xy1):
+    """Triangles whose area stays positive on the straight path from corners ``xy0`` to ``xy1``."""
+    R0, R1 = edge_matrices(xy0), edge_matrices(xy1)
+    det0 = np.linalg.det(R0)
+    ok = det0 > 0
+    M = (R1 - R0) @ np.linalg.inv(np.where(ok[:, None, None], R0, np.eye(2)))
+    # det(I + tau M) = 1 + tau tr M + tau^2 det M on [0, 1]
+    tr, dt = M[:, 0, 0] + M[:, 1, 1], np.linalg.det(M)
+    end = 1 + tr + dt
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vertex = np.where(dt != 0, -tr / (2 * dt), -1.0)
+    inner = (vertex > 0) & (vertex < 1)
+    low = np.where(inner, 1 + vertex * tr + vertex ** 2 * dt, 1.0)
+    return ok & (end > 1e-9) & (low > 1e-9)
+
+
+def _block(chain, flow, layer, n):
+    """The budget of one layer: an array (len(DEFORMATION_COLUMNS), n) in the order of :func:`_columns`."""
+    cols = {}
+    first, last = _means(chain[0][1][layer]), _means(chain[-1][1][layer])
+    shear = {term: np.zeros((3, n)) for term in _TERMS_OF_STEPS}
+    for (_, before), (term, after) in zip(chain[:-1], chain[1:]):
+        if term == "flow":
+            continue
+        shear[term] -= _means(after[layer]) - _means(before[layer])
+    f = flow[layer] if flow is not None else np.full((12, n), np.nan)
+    cols["total"] = np.array([f[0], f[1], f[2]])
+    cols["cell_shape"] = last - first
+    cols["corotation"] = np.array([f[3], f[4], np.zeros(n)])
+    cols["nonlinear"] = np.array([f[5], f[6], np.zeros(n)])
+    cols["growth_correlation"] = np.array([f[7], f[8], np.zeros(n)])
+    cols["rotation_correlation"] = np.array([f[9], f[10], np.zeros(n)])
+    cols.update(shear)
+    parts = sum(v for k, v in cols.items() if k != "total")
+    cols["closure"] = cols["total"] - parts
+    out = []
+    for term in DEFORMATION_TERMS:
+        out.extend([cols[term][0], cols[term][1]])
+        if term in ISOTROPIC_TERMS:
+            out.append(cols[term][2])
+    out.append(f[11])
+    return np.array(out)
+
+
+_TERMS_OF_STEPS = ("border", "extrusion", "rearrangement", "advection", "t1_cycle", "t1_intercalation",
+                   "t1_unresolved", "division")
+
+
+def _columns():
+    names = []
+    for term in DEFORMATION_TERMS:
+        names.extend([f"{term}_xx", f"{term}_xy"] + ([f"{term}_iso"] if term in ISOTROPIC_TERMS else []))
+    return names + ["rotation"]
+
+
+def deformation_budget(cells, vertices, cell_vertices, lineage, t1=None, *, box=None, grid=None, roi=None,
+                       roi_frame=0, t1_events="quartets", tolerance=1e-12, progress=None):
+    """The tissue's deformation budget between consecutive frames (the triangle method).
+
+    Parameters
+    ----------
+    cells, vertices, cell_vertices : pandas.DataFrame
+        The movie's tables (``cells`` with ``track``).
+    lineage : pandas.DataFrame
+        ``track``, ``frame_start``, ``parent``, ``end`` (divisions and
+        extrusions).
+    t1 : pandas.DataFrame, optional
+        The ``events`` table (``t1_events="quartets"``) or the
+        ``neighbour_events`` table (``"neighbours"``) that names the kind of
+        each T1; without it every retriangulation is a ``rearrangement``.
+    box : Box, optional
+        The periodic box, or None for an open image.
+    grid : pandas.DataFrame, optional
+        The Gamma_p grid (``frame``, ``node``, ``x``, ``y``): adds a budget per
+        grid node (its Voronoi region; a triangle belongs to the node nearest
+        its centre).
+    roi : (rows, cols) int or bool array, optional
+        Regions of interest drawn on frame ``roi_frame`` that follow their
+        cells (:func:`roi_tracks`): adds a budget per region.
+    t1_events : {"quartets", "neighbours"}
+        Whether ``t1`` is the quartet table or the per-cell one.
+    tolerance : float
+        The closure the quadrature is refined to, relative to the size of the
+        terms.
+    progress : callable, optional
+        ``progress(done, total)`` after each frame pair.
+
+    Returns
+    -------
+    table : pandas.DataFrame
+        ``hexatissue.schema.TABLES["deformation"]``: per frame pair and
+        region, each term's ``_xx``, ``_xy`` (shear, 1/frame) and, for the
+        terms that change areas, ``_iso`` (1/frame, the rate of log area).
+    event_shear : pandas.DataFrame
+        ``event``, ``shear_xx``, ``shear_xy``: each T1's share of the T1 terms
+        times the tissue's triangulated area (px^2), summed over the frames
+        its triangulation changes (forward and, for a cycle, back).
+    """
+    if t1_events not in T1_SOURCES:
+        raise InputError(f"t1_events must be one of {T1_SOURCES}; got {t1_events!r}")
+    require_columns(cells, ("frame", "cell", "track", "x", "y"), "cells")
+    require_columns(vertices, ("frame", "vertex", "x", "y", "is_border"), "vertices")
+    require_columns(cell_vertices, ("frame", "cell", "vertex"), "cell_vertices")
+    require_columns(lineage, ("track", "frame_start", "parent", "end"), "lineage")
+    frames = _Frames(cells, box)
+    members = None
+    if roi is not None:
+        members = _Membership(roi_tracks(cells, lineage, roi, roi_frame))
+        members = (members, int(members.values.max()) + 1 if len(members.values) else 1)
+    layers = _Layers(_grid_nodes(grid, box) if grid is not None and len(grid) else None, members, box)
+    lin = _Lineage(lineage)
+    times = sorted(frames.bounds)
+    v_rows, cv_rows = _frame_index(vertices), _frame_index(cell_vertices)
+    rows, events = [], []
+    previous, tri_prev = set(), None
+    for i, t in enumerate(times):
+        sl = frames.rows(t)
+        tri = frame_triangles(frames.track[sl], frames.xy[sl], frames.cell[sl], _part(vertices, v_rows, t),
+                              _part(cell_vertices, cv_rows, t), box, previous, frames.interior[sl])
+        previous = triangle_edges(tri[0])
+        if tri_prev is not None and t == times[i - 1] + 1:
+            blocks, ev, info = _pair(frames, lin, layers, t - 1, tri_prev, tri, t1, t1_events, tolerance)
+            rows.append(_rows(t - 1, blocks, layers, info))
+            events.extend(ev)
+        tri_prev = tri
+        if progress is not None:
+            progress(i + 1, len(times))
+    table = pd.concat(rows, ignore_index=True) if rows else empty_table("deformation")
+    shear = pd.DataFrame(events, columns=["event", "shear_xx", "shear_xy"])
+    shear = shear.groupby("event", as_index=False).sum() if len(shear) else shear
+    return table, shear
+
+
+def _frame_index(table):
+    frame = table["frame"].to_numpy(np.int64)
+    order = np.argsort(frame, kind="stable")
+    return order, {int(f): (a, b) for f, a, b in _runs(frame[order])}
+
+
+def _part(table, index, t):
+    order, bounds = index
+    a, b = bounds.get(t, (0, 0))
+    return table.iloc[order[a:b]]
+
+
+def _rows(t, blocks, layers, info):
+    names = _columns()
+    parts = []
+    for layer, block in zip(layers.names(), blocks):
+        n = block.shape[1]
+        area = info["area"][len(parts)]
+        present = area > 0
+        region_id = np.arange(n) if layer != "tissue" else np.full(n, -1)
+        if layer == "grid":
+            region_id = layers.grid[t][0]
+        df = pd.DataFrame({"frame": np.full(present.sum(), t, np.int64),
+                           "region": pd.array([layer] * int(present.sum()), dtype="string"),
+                           "region_id": region_id[present].astype(np.int64), "area": area[present]})
+        for name, values in zip(names, block):
+            df[name] = values[present]
+        df["n_triangles"] = info["n_triangles"] if layer == "tissue" else -1
+        df["n_flipped"] = info["n_flipped"] if layer == "tissue" else -1
+        parts.append(df)
+    return pd.concat(parts, ignore_index=True)
