@@ -6,27 +6,29 @@ pair ``frame -> frame + 1``, rates per frame, ``frame`` = the pair's first frame
 ``<name>_xx`` and ``<name>_xy``:
 
 ==================  =================================================  =======================
-TissueMiner         meaning                                            hexatissue (planned)
+TissueMiner         meaning                                            hexatissue
 ==================  =================================================  =======================
 nu                  total pure shear (area-weighted mean of the        total
                     triangles' linearised displacement gradient)
-ShearCE             change of the mean triangle elongation Q           elongation
+ShearCE             change of the mean triangle elongation Q           cell_shape
 ct                  corotational term                                  corotation
 cagc                area-growth correlation                            growth_correlation
 crc                 rotation correlation                               rotation_correlation
-ShearT1             T1 transitions (I2 -> I3)                          rearrangement (or the sum
-                                                                       t1_cycle + t1_intercalation
-                                                                       + t1_unresolved)
+ShearT1             T1 transitions (I2 -> I3: every retriangulation    t1_cycle + t1_intercalation
+                    but divisions)                                     + t1_unresolved + rearrangement
 ShearCD             cell divisions (I3 -> t+1)                         division
 ShearT2             extrusions ("T2", t -> I1)                         extrusion
-deltaCheck          TissueMiner's own residual nu - (cecr + ct +       (none)
-                    cagc + crc), cecr = Q(I2) - Q(I1)
+deltaCheck          TissueMiner's own residual nu - (cecr + ct +       nonlinear + closure
+                    cagc + crc), cecr = Q(I2) - Q(I1): the nonlinear
+                    corotational term TissueMiner leaves out
 ==================  =================================================  =======================
 
 The sum TissueMiner plots: ShearCE + ct + (cagc + crc) + ShearT1 + ShearT2 + ShearCD ("sumContrib").
 
-Names on either side live in the dicts below (TM_TERMS, HX_TERMS): edit them when hexatissue's
-``deformation`` table settles.  Both codes get the same coordinates (x = column, y = row, px), so
+Names on either side live in the dicts below (TM_TERMS, HX_TERMS; hexatissue's names as of main
+80a67c9, ``hexatissue.schema.DEFORMATION_TERMS``).  hexatissue's tissue triangulation uses interior
+cells only: compare it with TissueMiner's ``interior`` ROI (``raw`` also has the border cells'
+triangles).  hexatissue's ``border`` and ``advection`` terms have no TissueMiner counterpart.  Both codes get the same coordinates (x = column, y = row, px), so
 components are compared as they are.
 
 Usage::
@@ -59,13 +61,16 @@ TM_TERMS = {
 #: alternative whose columns all exist is used (<stem>_xx, <stem>_xy)
 HX_TERMS = {
     "total": [["total"]],
-    "elongation": [["elongation"]],
+    "elongation": [["cell_shape"], ["elongation"]],
     "corotation": [["corotation"]],
     "growth_correlation": [["growth_correlation"]],
     "rotation_correlation": [["rotation_correlation"]],
-    "t1": [["rearrangement"], ["t1_cycle", "t1_intercalation", "t1_unresolved"], ["t1"]],
+    # TissueMiner's ShearT1 is every change of triangulation I2 -> I3 (all but divisions)
+    "t1": [["t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement"], ["rearrangement"], ["t1"]],
     "division": [["division"]],
     "extrusion": [["extrusion"]],
+    # TissueMiner leaves out the nonlinear corotational term: its residual deltaCheck is that term
+    "residual": [["nonlinear", "closure"], ["nonlinear"]],
 }
 #: hexatissue's deformation table: frame column, region column and the region to use
 HX_FRAME, HX_REGION, HX_REGION_VALUE = "frame", "region", "tissue"

@@ -14,13 +14,28 @@ for k in $KINDS; do
     rm -rf "$OUT/tm_$k"; python "$HERE/write_db.py" "$OUT/$k/tables" "$OUT/tm_$k/movie_$k"
     # 2) the same with the exact centroids of the continuous cells (no rasterisation error)
     rm -rf "$OUT/tm_${k}_exact"; python "$HERE/write_db.py" "$OUT/$k/tables" "$OUT/tm_${k}_exact/movie_${k}_exact" --centres "$OUT/$k/exact_centres.csv"
+    # hexatissue's own budget on the same tables (pixel centroids / exact centres)
+    python "$HERE/hexatissue_budget.py" "$OUT/$k/tables" --out "$OUT/$k/deformation.parquet" > "$OUT/$k/deformation.txt"
+    python "$HERE/hexatissue_budget.py" "$OUT/$k/tables" --out "$OUT/$k/deformation_exact.parquet" --centres "$OUT/$k/exact_centres.csv" > "$OUT/$k/deformation_exact.txt"
     bash "$HERE/run_tissueminer.sh" "$OUT/tm_$k/movie_$k" "$OUT/tm_${k}_exact/movie_${k}_exact"
-    for run in "movie_$k:tm_$k" "movie_${k}_exact:tm_${k}_exact"; do
-        m="${run%%:*}"; d="${run##*:}"
+    for run in "movie_$k:tm_$k:deformation" "movie_${k}_exact:tm_${k}_exact:deformation_exact"; do
+        m="${run%%:*}"; rest="${run#*:}"; d="${rest%%:*}"; hx="${rest#*:}"
         for roi in raw interior; do
             python "$HERE/compare.py" --tm "$OUT/$d/$m" --roi $roi --truth "$OUT/$k/truth.json" \
-                --hexatissue "$OUT/$k/tables" --csv "$OUT/$d/compare_$roi.csv" --md "$MD" > "$OUT/$d/compare_$roi.txt"
+                --hexatissue "$OUT/$k/$hx.parquet" --csv "$OUT/$d/compare_$roi.csv" --md "$MD" > "$OUT/$d/compare_$roi.txt"
         done
+    done
+done
+# diagnostic: TissueMiner's shear code on the t1 movie (exact centres) with a tiling triangulation
+# (hexatissue's vertices, fans at four-fold vertices) instead of CreateTriangles.R's overlapping ones
+for k in ${FAN_KINDS:-t1}; do
+    rm -rf "$OUT/tm_${k}_exact_fan"
+    python "$HERE/write_db.py" "$OUT/$k/tables" "$OUT/tm_${k}_exact_fan/movie_${k}_exact_fan" --centres "$OUT/$k/exact_centres.csv" --triangles hexatissue
+    bash "$HERE/run_tissueminer.sh" "$OUT/tm_${k}_exact_fan/movie_${k}_exact_fan"
+    for roi in raw interior; do
+        python "$HERE/compare.py" --tm "$OUT/tm_${k}_exact_fan/movie_${k}_exact_fan" --roi $roi --truth "$OUT/$k/truth.json" \
+            --hexatissue "$OUT/$k/deformation_exact.parquet" --label "movie_${k}_exact_fan / $roi (hexatissue's tiling triangles)" \
+            --csv "$OUT/tm_${k}_exact_fan/compare_$roi.csv" --md "$MD" > "$OUT/tm_${k}_exact_fan/compare_$roi.txt"
     done
 done
 echo "summary: $MD"

@@ -28,8 +28,10 @@ decomposition (``shear/CalculateShearContributions.R`` -> ``CreateIntermediates.
   ``neighbors.RData`` (frame, cell_id.x, dbond_id, left_dbond_id, cell_id.y).  By default
   these are made by TissueMiner's own ``triangles/CreateTriangles.R`` from ``directed_bonds``
   (run_tissueminer.sh does it); ``--triangles hexatissue`` writes them here instead, from
-  hexatissue's vertices: one triangle per interior three-fold vertex (its three cells,
-  counter-clockwise in (x, y), i.e. positive signed area as TissueMiner's formulas need).
+  hexatissue's vertices: one triangle per three-fold vertex not touching the background (its
+  three cells, counter-clockwise in (x, y), i.e. positive signed area as TissueMiner's formulas
+  need) and a fan of n - 2 triangles per n-fold one.  (CreateTriangles.R makes n overlapping
+  triangles at an n-fold vertex: each cell with its two neighbours there.)
 
 Mapping of hexatissue's tables: TissueMiner cell_id = 10001 + track (a dividing mother's
 track ends, its daughters are new tracks, as TissueMiner's ids); center = the pixel centroid
@@ -129,25 +131,32 @@ def neighbors_table(dbonds):
 
 
 def triangles_from_vertices(movie):
-    """One triangle per interior three-fold vertex: (frame, tri_id, cell_id, tri_order), CCW in (x, y)."""
+    """Triangles dual to the interior vertices: (frame, tri_id, cell_id, tri_order), CCW in (x, y).
+
+    A three-fold vertex gives its three cells; an n-fold vertex (n >= 4) a fan of n - 2 triangles
+    from its smallest cell id over the cells in angular order (a tiling, unlike the n overlapping
+    triangles TissueMiner's CreateTriangles.R makes from the directed bonds).  Vertices touching
+    the background are left out (TissueMiner leaves out the triangles with its void cell).
+    """
     cells, cv, verts = movie.cells, movie.cell_vertices, movie.vertices
     ids = cell_ids(cells)
     pos = dict(zip(zip(cells["frame"], cells["cell"]), zip(cells["x"], cells["y"])))
-    inner = verts[(verts["degree"] == 3) & ~verts["is_border"].astype(bool)]
-    keep = set(zip(inner["frame"], inner["vertex"]))
-    around = cv[[k in keep for k in zip(cv["frame"], cv["vertex"])]]
+    inner = verts[(verts["degree"] >= 3) & ~verts["is_border"].astype(bool)]
+    vpos = dict(zip(zip(inner["frame"], inner["vertex"]), zip(inner["x"], inner["y"])))
+    around = cv[[k in vpos for k in zip(cv["frame"], cv["vertex"])]]
     out, tri = [], 0
     for (f, v), g in around.groupby(["frame", "vertex"], sort=True):
-        cs = [c for c in g["cell"] if c != 0]
-        if len(cs) != 3:
+        cs = sorted({c for c in g["cell"] if c != 0})
+        if len(cs) < 3:
             continue
-        xy = np.array([pos[(f, c)] for c in cs])
-        # order counter-clockwise around the triangle's centre
-        ang = np.arctan2(*(xy - xy.mean(0))[:, ::-1].T)
-        order = np.argsort(ang)
-        tri += 1
-        for k, i in enumerate(order, 1):
-            out.append((int(f), tri, ids[(f, cs[i])], k))
+        xy = np.array([pos[(f, c)] for c in cs]) - np.array(vpos[(f, v)])
+        ring = [cs[i] for i in np.argsort(np.arctan2(xy[:, 1], xy[:, 0]), kind="stable")]
+        s0 = ring.index(min(ring))
+        ring = ring[s0:] + ring[:s0]
+        for k in range(1, len(ring) - 1):
+            tri += 1
+            for order, c in enumerate((ring[0], ring[k], ring[k + 1]), 1):
+                out.append((int(f), tri, ids[(f, c)], order))
     return pd.DataFrame(out, columns=["frame", "tri_id", "cell_id", "tri_order"])
 
 
