@@ -26,16 +26,23 @@ for k in $KINDS; do
         done
     done
 done
-# diagnostic: TissueMiner's shear code on the t1 movie (exact centres) with a tiling triangulation
-# (hexatissue's vertices, fans at four-fold vertices) instead of CreateTriangles.R's overlapping ones
-for k in ${FAN_KINDS:-t1}; do
-    rm -rf "$OUT/tm_${k}_exact_fan"
-    python "$HERE/write_db.py" "$OUT/$k/tables" "$OUT/tm_${k}_exact_fan/movie_${k}_exact_fan" --centres "$OUT/$k/exact_centres.csv" --triangles hexatissue
-    bash "$HERE/run_tissueminer.sh" "$OUT/tm_${k}_exact_fan/movie_${k}_exact_fan"
-    for roi in raw interior; do
-        python "$HERE/compare.py" --tm "$OUT/tm_${k}_exact_fan/movie_${k}_exact_fan" --roi $roi --truth "$OUT/$k/truth.json" \
-            --hexatissue "$OUT/$k/deformation_exact.parquet" --label "movie_${k}_exact_fan / $roi (hexatissue's tiling triangles)" \
-            --csv "$OUT/tm_${k}_exact_fan/compare_$roi.csv" --md "$MD" > "$OUT/tm_${k}_exact_fan/compare_$roi.txt"
+# diagnostics (exact centres): TissueMiner's shear code with other triangulations than
+# CreateTriangles.R's (which makes n overlapping triangles at an n-fold vertex):
+#   fan   = a tiling from hexatissue's vertices (fans from the smallest id at n-fold vertices)
+#   stage = exactly the triangles of hexatissue's deformation stage (interior cells; a four-fold
+#           vertex keeps the previous frame's diagonal): the like-for-like check of the two codes
+for k in ${DIAG_KINDS:-t1 division}; do
+    for variant in fan:hexatissue stage:stage; do
+        name="${variant%%:*}"; opt="${variant##*:}"
+        d="$OUT/tm_${k}_exact_$name"; m="movie_${k}_exact_$name"
+        rm -rf "$d"
+        python "$HERE/write_db.py" "$OUT/$k/tables" "$d/$m" --centres "$OUT/$k/exact_centres.csv" --triangles $opt
+        bash "$HERE/run_tissueminer.sh" "$d/$m"
+        for roi in raw interior; do
+            python "$HERE/compare.py" --tm "$d/$m" --roi $roi --truth "$OUT/$k/truth.json" \
+                --hexatissue "$OUT/$k/deformation_exact.parquet" --label "$m / $roi (triangles: $name)" \
+                --csv "$d/compare_$roi.csv" --md "$MD" > "$d/compare_$roi.txt"
+        done
     done
 done
 echo "summary: $MD"

@@ -30,7 +30,8 @@ decomposition (``shear/CalculateShearContributions.R`` -> ``CreateIntermediates.
   (run_tissueminer.sh does it); ``--triangles hexatissue`` writes them here instead, from
   hexatissue's vertices: one triangle per three-fold vertex not touching the background (its
   three cells, counter-clockwise in (x, y), i.e. positive signed area as TissueMiner's formulas
-  need) and a fan of n - 2 triangles per n-fold one.  (CreateTriangles.R makes n overlapping
+  need) and a fan of n - 2 triangles per n-fold one; ``--triangles stage`` writes exactly the
+  triangles of hexatissue's deformation stage (``hexatissue.deformation.frame_triangles``).  (CreateTriangles.R makes n overlapping
   triangles at an n-fold vertex: each cell with its two neighbours there.)
 
 Mapping of hexatissue's tables: TissueMiner cell_id = 10001 + track (a dividing mother's
@@ -160,6 +161,28 @@ def triangles_from_vertices(movie):
     return pd.DataFrame(out, columns=["frame", "tri_id", "cell_id", "tri_order"])
 
 
+def triangles_of_stage(movie, centres=None):
+    """The triangles hexatissue's deformation stage uses (hexatissue.deformation.frame_triangles, frame
+    by frame with the previous frame's diagonals): interior cells only, two triangles per four-fold
+    vertex.  Returns (frame, tri_id, cell_id, tri_order), counter-clockwise in (x, y)."""
+    from hexatissue.deformation import frame_triangles, triangle_edges
+    cells = movie.cells.sort_values(["frame", "track"])
+    if centres is not None:
+        ex = pd.read_csv(centres)
+        cells = cells.drop(columns=["x", "y"]).merge(ex[["frame", "cell", "x", "y"]], on=["frame", "cell"], how="left")
+    out, tri, previous = [], 0, set()
+    for f, c in cells.groupby("frame", sort=True):
+        ids, _ = frame_triangles(c["track"].to_numpy(np.int64), c[["x", "y"]].to_numpy(float), c["cell"].to_numpy(np.int64),
+                                 movie.vertices[movie.vertices["frame"] == f], movie.cell_vertices[movie.cell_vertices["frame"] == f],
+                                 None, previous, ~c["is_border"].to_numpy(bool))
+        previous = triangle_edges(ids)
+        for row in ids:
+            tri += 1
+            for order, t in enumerate(row, 1):
+                out.append((int(f), tri, int(t) + OFFSET, order))
+    return pd.DataFrame(out, columns=["frame", "tri_id", "cell_id", "tri_order"])
+
+
 def cell_histories(movie):
     lin = movie.lineage.copy()
     lin["cell_id"] = lin["track"].astype(np.int64) + OFFSET
@@ -232,6 +255,10 @@ def write(movie, out: Path, triangles="tm", centres=None):
     tri_hx.to_csv(out / "csv" / "triList_hexatissue.csv", index=False)
     nb = neighbors_table(dbonds)
     nb.to_csv(out / "csv" / "neighbors.csv", index=False)
+    if triangles == "stage":
+        triangles_of_stage(movie, centres).to_csv(out / "csv" / "triList_stage.csv", index=False)
+        r_save([("triList", out / "csv" / "triList_stage.csv")], out / "shear_contrib" / "triList.RData", "triList")
+        r_save([("neighbors", out / "csv" / "neighbors.csv")], out / "shear_contrib" / "neighbors.RData", "neighbors")
     if triangles == "hexatissue":
         r_save([("triList", out / "csv" / "triList_hexatissue.csv")], out / "shear_contrib" / "triList.RData", "triList")
         r_save([("neighbors", out / "csv" / "neighbors.csv")], out / "shear_contrib" / "neighbors.RData", "neighbors")
@@ -243,9 +270,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("results", help="hexatissue results folder (Movie.write / hexatissue analyze --out)")
     ap.add_argument("out", help="TissueMiner movie folder to create (its name is the movie / database name)")
-    ap.add_argument("--triangles", choices=["tm", "hexatissue"], default="tm",
+    ap.add_argument("--triangles", choices=["tm", "hexatissue", "stage"], default="tm",
                     help="tm: leave triList/neighbors to TissueMiner's CreateTriangles.R (default); "
-                         "hexatissue: write them here from hexatissue's interior three-fold vertices")
+                         "hexatissue: write them here from hexatissue's vertices (fans at n-fold vertices); "
+                         "stage: the triangles of hexatissue's deformation stage (frame_triangles: interior "
+                         "cells only, a four-fold vertex keeps the previous frame's diagonal)")
     ap.add_argument("--centres", help="CSV (frame, cell, x, y, area) of exact cell centres to write instead of "
                     "hexatissue's pixel centroids (movies.py's exact_centres.csv)")
     args = ap.parse_args(argv)
