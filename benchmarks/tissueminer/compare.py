@@ -23,7 +23,9 @@ deltaCheck          TissueMiner's own residual nu - (cecr + ct +       nonlinear
                     corotational term TissueMiner leaves out
 ==================  =================================================  =======================
 
-The sum TissueMiner plots: ShearCE + ct + (cagc + crc) + ShearT1 + ShearT2 + ShearCD ("sumContrib").
+The sum TissueMiner plots: ShearCE + ct + (cagc + crc) + ShearT1 + ShearT2 + ShearCD ("sumContrib");
+compare.py adds the rows ``correlation`` (cagc + crc, TissueMiner's "correlationEffects"; hexatissue:
+growth_correlation + rotation_correlation) and ``sum`` (compared with the exact / hexatissue total).
 
 Names on either side live in the dicts below (TM_TERMS, HX_TERMS; hexatissue's names as of main
 80a67c9, ``hexatissue.schema.DEFORMATION_TERMS``).  hexatissue's tissue triangulation uses interior
@@ -87,6 +89,9 @@ def read_tm(movie_dir, roi="raw"):
         for c in COMPONENTS:
             out[f"{term}_{c}"] = d[f"{stem}_{c}"] if f"{stem}_{c}" in d else np.nan
     for c in COMPONENTS:
+        # TissueMiner's "correlationEffects" = cagc + crc
+        out[f"correlation_{c}"] = out[f"growth_correlation_{c}"] + out[f"rotation_correlation_{c}"]
+    for c in COMPONENTS:
         out[f"sum_{c}"] = sum(d[f"{TM_TERMS[t]}_{c}"] for t in ("elongation", "corotation", "growth_correlation",
                                                                    "rotation_correlation", "t1", "division", "extrusion"))
     return out
@@ -112,6 +117,9 @@ def read_hexatissue(path):
                 for c in COMPONENTS:
                     out[f"{term}_{c}"] = sum(d[f"{s}_{c}"].to_numpy() for s in alt)
                 break
+    for c in COMPONENTS:
+        if f"growth_correlation_{c}" in out and f"rotation_correlation_{c}" in out:
+            out[f"correlation_{c}"] = out[f"growth_correlation_{c}"] + out[f"rotation_correlation_{c}"]
     return out
 
 
@@ -149,7 +157,7 @@ def truth_table(truth, frames):
             # t1 movie: the segmented topology may lag the exact one (a four-fold vertex lasting a
             # few frames), so T1 = 0 is only known before the first exact change
             r[f"t1_{c}"] = np.nan if kind == "t1" and changes and f >= min(changes) else 0.0
-            for term in ("corotation", "rotation_correlation", "growth_correlation"):
+            for term in ("corotation", "rotation_correlation", "growth_correlation", "correlation"):
                 r[f"{term}_{c}"] = 0.0 if aff else np.nan
             r[f"elongation_{c}"] = nu if aff else np.nan   # first order only (see above)
             r[f"residual_{c}"] = 0.0 if aff else np.nan    # first order only
@@ -159,7 +167,7 @@ def truth_table(truth, frames):
 
 
 def long_table(tm, truth=None, hx=None):
-    terms = list(TM_TERMS) + ["sum"]
+    terms = list(TM_TERMS) + ["correlation", "sum"]
     rows = []
     for _, r in tm.iterrows():
         f = int(r["frame"])
@@ -255,7 +263,7 @@ def main(argv=None):
                 fh.write(f"Triangles (TissueMiner's triList vs the triangles of hexatissue's vertices off the background): {tri}\n\n")
             fh.write(f"|shear rate per frame (|exact total| = {scale:.4e})|" if truth else "|")
             fh.write(" per-frame values (xx / xy), frames " + ", ".join(str(f) for f in tm["frame"]) + "|\n|---|---|\n")
-            for term in list(TM_TERMS) + ["sum"]:
+            for term in list(TM_TERMS) + ["correlation", "sum"]:
                 vals = "; ".join(f"{x:+.2e}/{y:+.2e}" for x, y in zip(tm[f"{term}_xx"], tm[f"{term}_xy"]))
                 fh.write(f"|{term}|{vals}|\n")
             fh.write("\n" + markdown(summ) + "\n")
