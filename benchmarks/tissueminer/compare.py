@@ -129,7 +129,7 @@ def truth_table(truth, frames):
     * total: TissueMiner's linearised nu = sinh(eps) (cos 2phi, sin 2phi) at every frame pair: the
       area-weighted mean displacement gradient of a triangulated patch depends only on the motion of
       its boundary cells, which move with the uniform affine map in every movie (events are interior);
-    * extrusion: 0 everywhere (no cell is lost); division: 0 except at the division pair; t1: 0
+    * extrusion: 0 except at the extrusion movie's extrusion pair; division: 0 except at the division pair; t1: 0
       except, in the t1 movie, from the first pair where the exact neighbours change on (the
       segmented topology can lag the exact one by a frame or two: four-fold vertices);
     * corotation, rotation_correlation, growth_correlation: 0 at the pairs where every cell moves
@@ -152,11 +152,13 @@ def truth_table(truth, frames):
         for c in COMPONENTS:
             nu = ex[f"nu_{c}"]
             r[f"total_{c}"] = nu
-            r[f"extrusion_{c}"] = 0.0
+            r[f"extrusion_{c}"] = np.nan if kind == "extrusion" and f in changes else 0.0
             r[f"division_{c}"] = np.nan if kind == "division" and f in changes else 0.0
             # t1 movie: the segmented topology may lag the exact one (a four-fold vertex lasting a
             # few frames), so T1 = 0 is only known before the first exact change
-            r[f"t1_{c}"] = np.nan if kind == "t1" and changes and f >= min(changes) else 0.0
+            # (extrusion movie: TissueMiner counts the hole's retriangulation as T1, hexatissue as extrusion)
+            r[f"t1_{c}"] = np.nan if (kind == "t1" and changes and f >= min(changes)) or \
+                (kind == "extrusion" and f in changes) else 0.0
             for term in ("corotation", "rotation_correlation", "growth_correlation", "correlation"):
                 r[f"{term}_{c}"] = 0.0 if aff else np.nan
             r[f"elongation_{c}"] = nu if aff else np.nan   # first order only (see above)

@@ -26,6 +26,11 @@ Kinds (``--kind``):
                  replaced by two daughters (its seed split in two, 0.3 spacing apart);
                  the daughters get new label ids, the mother's id ends.
 
+* ``extrusion`` : the same shear; the central cell shrinks steadily (a power diagram: its weight
+                 falls linearly to EXTRUDE_LAST x the weight at which it vanishes, at frame
+                 ``event_frame``) and is gone from frame ``event_frame + 1`` on (an interior
+                 disappearance: hexatissue's ``extrusion``, TissueMiner's ``Apoptosis``).
+
 Labels are int32, ``[row, col]``; x = column, y = row (hexatissue's convention).
 
 Usage::
@@ -49,6 +54,7 @@ RADIUS = 95.0          # reference seeds within this distance of the centre are 
 EPS = 0.01             # log strain per frame
 PHI = np.pi / 8        # shear axis: both xx and xy components nonzero
 N_FRAMES = 7
+EXTRUDE_LAST = 0.6  # extrusion movie: weight at the last frame the cell is present, x the vanishing weight
 T1_PULL = 0.6       # t1 movie: c and d end at 0.4 of their initial distance from their midpoint
 
 
@@ -97,6 +103,73 @@ def exact_centres(seeds, labels_of_seeds, keep, F, shape=SHAPE):
         cx, cy = ((x + xn) * cross).sum() / (6 * a), ((y + yn) * cross).sum() / (6 * a)
         out.append((int(labels_of_seeds[k]), cx, cy, abs(a)))
     return out
+
+
+def power_cells(seeds, weights, keep, F, shape=SHAPE):
+    """Exact cells of the power diagram |q - s_i|^2 - w_i (kept ones), mapped by F about the centre.
+
+    Returns ``{index: (polygon (m, 2) after F, set of neighbour indices)}``; empty cells are left out.
+    """
+    rows, cols = shape
+    centre = np.array([(cols - 1) / 2, (rows - 1) / 2])
+    tree = cKDTree(seeds)
+    out = {}
+    for i in np.flatnonzero(keep):
+        si = seeds[i]
+        poly = [si + SPACING * 3 * np.array(c) for c in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        src = [-1] * 4  # which neighbour made each edge (edge k: poly[k] -> poly[k+1])
+        for j in tree.query_ball_point(si, 4 * SPACING):
+            if j == i or not poly:
+                continue
+            n = 2 * (seeds[j] - si)
+            c = seeds[j] @ seeds[j] - si @ si - weights[j] + weights[i]
+            new, new_src = [], []
+            m = len(poly)
+            for k in range(m):
+                a, b = poly[k], poly[(k + 1) % m]
+                ina, inb = a @ n <= c, b @ n <= c
+                if ina:
+                    new.append(a)
+                    new_src.append(src[k])
+                if ina != inb:
+                    x = a + (c - a @ n) / ((b - a) @ n) * (b - a)
+                    new.append(x)
+                    new_src.append(src[k] if ina else j)
+            # the edge that starts at an entering point lies on the clipping line
+            poly, src = new, new_src
+            for k in range(len(poly)):
+                a, b = poly[k], poly[(k + 1) % len(poly)]
+                if abs(a @ n - c) < 1e-9 and abs(b @ n - c) < 1e-9:
+                    src[k] = j
+        if len(poly) < 3:
+            continue
+        xy = (np.array(poly) - centre) @ F.T + centre
+        x, y = xy[:, 0], xy[:, 1]
+        if abs((x * np.roll(y, -1) - np.roll(x, -1) * y).sum()) < 1e-9:
+            continue
+        out[int(i)] = (xy, {k for k in src if k >= 0})
+    return out
+
+
+def render_power(seeds, weights, labels_of_seeds, keep, F, shape=SHAPE):
+    """Label image of the power diagram (lifted to 3-D: the nearest lifted seed is the power cell)."""
+    rows, cols = shape
+    centre = np.array([(cols - 1) / 2, (rows - 1) / 2])
+    gx, gy = np.meshgrid(np.arange(cols, dtype=float), np.arange(rows, dtype=float))
+    pix = np.c_[gx.ravel(), gy.ravel()]
+    ref = (pix - centre) @ np.linalg.inv(F).T + centre
+    lift = np.sqrt(weights.max() - weights)
+    idx = cKDTree(np.c_[seeds, lift]).query(np.c_[ref, np.zeros(len(ref))])[1]
+    lab = np.where(keep[idx], labels_of_seeds[idx], 0)
+    return lab.reshape(rows, cols).astype(np.int32)
+
+
+def _polygon_centroid(xy):
+    x, y = xy[:, 0], xy[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    a = cross.sum() / 2
+    return ((x + xn) * cross).sum() / (6 * a), ((y + yn) * cross).sum() / (6 * a), abs(a)
 
 
 def _contacts(seeds, labels_of_seeds, keep):
@@ -179,20 +252,52 @@ def make(kind="shear", n_frames=N_FRAMES, eps=EPS, phi=PHI, event_frame=3, seed=
         def at(t):  # the mother's seed splits in two at event_frame
             return split if t >= event_frame else (seeds, ids, keep)
         info.update(event_frame=event_frame, mother=int(ids[k]), daughters=[n + 1, n + 2])
+    elif kind == "extrusion":
+        k = int(np.argmin(np.hypot(*(seeds - centre).T)))
+        # the weight at which the central cell's power cell vanishes (bisection on its area)
+        lo, hi = -4.0 * SPACING ** 2, 0.0
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            w = np.zeros(len(seeds))
+            w[k] = mid
+            if k in power_cells(seeds, w, keep, np.eye(2)):
+                hi = mid
+            else:
+                lo = mid
+        w_gone = lo
+        last = event_frame  # the last frame the cell is present
+
+        def weights(t):  # shrinks steadily to 0.6 of the vanishing weight at `last`, gone after
+            w = np.zeros(len(seeds))
+            w[k] = w_gone * (EXTRUDE_LAST * t / last if t <= last else 1.3)
+            return w
+        info.update(event_frame=last + 1, extruded=int(ids[k]), w_gone=float(w_gone))
     elif kind == "shear":
         def at(t):
             return seeds, ids, keep
     else:
         raise SystemExit(f"unknown kind {kind!r}")
     centres, contacts = [], []
-    for t in range(n_frames):
-        s, i, k = at(t)
-        frames.append(render(s, i, k, shear_map(t, eps, phi)))
-        centres += [(t,) + row for row in exact_centres(s, i, k, shear_map(t, eps, phi))]
-        contacts.append(_contacts(s, i, k))
+    if kind == "extrusion":
+        for t in range(n_frames):
+            F = shear_map(t, eps, phi)
+            cellsp = power_cells(seeds, weights(t), keep, F)
+            present = np.zeros(len(seeds), bool)
+            present[list(cellsp)] = True
+            frames.append(render_power(seeds, weights(t), ids, present, F))
+            centres += [(t, int(ids[i])) + _polygon_centroid(xy) for i, (xy, _) in sorted(cellsp.items())]
+            contacts.append({tuple(sorted((int(ids[i]), int(ids[j])))) for i, (_, nb) in cellsp.items() for j in nb
+                             if j in cellsp})
+        same = [np.array_equal(weights(t), weights(t + 1)) for t in range(n_frames - 1)]
+    else:
+        for t in range(n_frames):
+            s, i, k = at(t)
+            frames.append(render(s, i, k, shear_map(t, eps, phi)))
+            centres += [(t,) + row for row in exact_centres(s, i, k, shear_map(t, eps, phi))]
+            contacts.append(_contacts(s, i, k))
+        same = [len(at(t)[0]) == len(at(t + 1)[0]) and np.array_equal(at(t)[0], at(t + 1)[0]) for t in range(n_frames - 1)]
     # frame pairs t -> t+1 over which every cell moves with the uniform affine map (reference
     # seeds unchanged): there the rotation and growth terms vanish exactly
-    same = [len(at(t)[0]) == len(at(t + 1)[0]) and np.array_equal(at(t)[0], at(t + 1)[0]) for t in range(n_frames - 1)]
     info["affine_pairs"] = [t for t in range(n_frames - 1) if same[t]]
     # frame pairs t -> t+1 whose exact neighbour relations change (T1s, divisions)
     info["topology_changes"] = [
@@ -205,7 +310,7 @@ def make(kind="shear", n_frames=N_FRAMES, eps=EPS, phi=PHI, event_frame=3, seed=
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--kind", default="shear", choices=["shear", "t1", "division"])
+    ap.add_argument("--kind", default="shear", choices=["shear", "t1", "division", "extrusion"])
     ap.add_argument("--frames", type=int, default=N_FRAMES)
     ap.add_argument("--eps", type=float, default=EPS)
     ap.add_argument("--phi", type=float, default=PHI)

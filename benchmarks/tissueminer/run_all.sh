@@ -5,7 +5,7 @@
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 OUT="${1:-/tmp/tmbench}"
-KINDS="${KINDS:-shear t1 division}"
+KINDS="${KINDS:-shear t1 division extrusion}"
 mkdir -p "$OUT"
 MD="$OUT/results.md"; : > "$MD"
 for k in $KINDS; do
@@ -31,7 +31,7 @@ done
 #   fan   = a tiling from hexatissue's vertices (fans from the smallest id at n-fold vertices)
 #   stage = exactly the triangles of hexatissue's deformation stage (interior cells; a four-fold
 #           vertex keeps the previous frame's diagonal): the like-for-like check of the two codes
-for k in ${DIAG_KINDS:-t1 division}; do
+for k in ${DIAG_KINDS:-t1 division extrusion}; do
     for variant in fan:hexatissue stage:stage; do
         name="${variant%%:*}"; opt="${variant##*:}"
         d="$OUT/tm_${k}_exact_$name"; m="movie_${k}_exact_$name"
