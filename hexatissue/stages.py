@@ -178,6 +178,12 @@ def _fields(frame, options):
     grid = coarse_grain(cells, p=options.p, radius=options.radius, spacing=options.spacing, box=frame.box,
                         min_coverage=options.min_coverage, r_cell=options.r_cell, origin=options.origin,
                         shape=options.shape, validity=options.validity)
+    rows, cols = (int(grid["row"].max()) + 1, int(grid["col"].max()) + 1) if len(grid) else (0, 0)
+    if min(rows, cols) < 2:  # a small field of view: the field is kept, but no plaquette winds around a defect
+        warnings.warn(f"the Gamma_p grid is only {rows} x {cols} node(s) (a small field of view): no defects; a "
+                      f"smaller --spacing gives more nodes", HexatissueWarning, stacklevel=user_stacklevel())
+        frame.tables.update(grid=grid, defects=empty_table("defects"))
+        return
     frame.tables.update(grid=grid, defects=find_defects(grid, p=options.p, box=frame.box))
 
 

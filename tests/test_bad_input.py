@@ -605,3 +605,17 @@ def test_pool_workers_die_with_a_killed_parent(tmp_path):
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+def test_a_small_field_of_view_is_analysed_with_a_warning_per_frame_not_refused(tmp_path):
+    """Issue 32: a crop with 1-2 interior cells gave 'grid must have at least 2 x 2 nodes' and no table."""
+    import tifffile
+
+    sample = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+    crop = tifffile.imread(sample)[:, 68:127, 0:59]
+    with pytest.warns(HexatissueWarning, match=r"grid is only 1 x 1 node\(s\).*no defects"):
+        movie = ht.analyze(crop, progress=False, workers=1)
+    assert len(movie.grid) and len(movie.defects) == 0 and movie.grid["frame"].nunique() == 11
+    tifffile.imwrite(tmp_path / "crop.tif", crop)
+    assert main(["analyze", str(tmp_path / "crop.tif"), "--out", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "metadata.json").exists()
