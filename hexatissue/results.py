@@ -29,7 +29,7 @@ from .errors import InputError
 from .frame import MESH_TABLES, Frame, Tables
 from .io import atomic_path, check_output_folder, read_table, write_table
 from .options import OPTION_CLASSES
-from .schema import TABLES as SCHEMAS, coerce
+from .schema import TABLES as SCHEMAS, coerce, validate
 from .units import Calibration
 
 __all__ = ["Movie", "write_results", "read_results", "FORMATS", "METADATA"]
@@ -312,7 +312,11 @@ def read_results(directory) -> Movie:
             path = folder / f"{name}.{fmt}"
             if path.exists():
                 table = read_table(path)
-                tables[name] = coerce(table, name) if fmt == "csv" else table
+                table = coerce(table, name) if fmt == "csv" else table
+                try:  # a table edited by hand or by another tool: every schema column, of its kind
+                    tables[name] = validate(table, name)
+                except InputError as exc:
+                    raise InputError(f"results folder {str(folder)!r}: {path.name}: {exc}") from None
                 break
     # metadata.json is the manifest: every table it lists must be there, with the row count it gives
     listed = meta.get("tables", {})

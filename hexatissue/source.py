@@ -404,6 +404,9 @@ def _make(opened: Opened) -> Source:
     desc = {"key": None, "channel": None, "level": None, **opened.description, **reader.describe()}
     if opened.notes:
         desc["notes"].extend(opened.notes)
+    if int(reader.n_frames) == 0:
+        raise InputError(f"{desc.get('path') or 'the input'} holds no frame (a stack of 0 images); expected at least "
+                         f"one label image")
     return Source(n_frames=int(reader.n_frames), shape=tuple(reader.shape), box=opened.box,
                   ids_consistent=opened.ids_consistent, calibration=opened.calibration or Calibration(),
                   description=desc, _reader=reader, parents=opened.parents)
@@ -422,6 +425,9 @@ def _open_path(path: Path, key, channel, level) -> Source:
     if not path.exists():
         raise InputError(f"path {str(path)!r} does not exist; expected a label image or polygon file "
                          f"({', '.join(FILE_SUFFIXES)}), a folder of images, a zarr store or an MPF run (.zarr)")
+    if not (path.is_file() or path.is_dir()):  # a FIFO, socket or device would block or stream forever
+        raise InputError(f"path {str(path)!r} is not a regular file or a folder (a pipe, socket or device); "
+                         f"expected a label image or polygon file, a folder of images or a zarr store")
     try:
         return _make(_path_reader(path, key, channel, level))
     except InputError:

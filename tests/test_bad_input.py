@@ -95,7 +95,7 @@ API_ERRORS = {
     "pixel_size without unit": (lambda f: ht.open_source(LAB, pixel_size=0.5), "length_unit"),
     "length_unit unknown": (lambda f: ht.open_source(LAB, pixel_size=0.5, length_unit="furlong"), "unit"),
     "frame_interval 0": (lambda f: ht.open_source(LAB, frame_interval=0, time_unit="s"), "frame_interval"),
-    "0-frame stack": (lambda f: ht.open_source(np.zeros((0, 8, 8), int)), "n_frames"),
+    "0-frame stack": (lambda f: ht.open_source(np.zeros((0, 8, 8), int)), "holds no frame"),
     "empty list": (lambda f: ht.open_source([]), "list"),
     "frames of two shapes": (lambda f: ht.open_source([LAB, LAB[:16]]), "shape"),
     "channel -1": (lambda f: ht.open_source(LAB, channel=-1), "channel"),
@@ -491,7 +491,7 @@ CLI_CASES = {
     "--out below a file": ("analyze {d}/labels.npy --out {d}/afile/sub", "below the file"),
     "--checkpoint is a file": ("analyze {d}/labels.npy --out {d}/o1 --checkpoint {d}/afile", "--checkpoint"),
     "missing input": ("analyze {d}/nothing.tif --out {d}/o2", "nothing.tif"),
-    "0-frame stack": ("analyze {d}/empty.npy --out {d}/o3", "n_frames"),
+    "0-frame stack": ("analyze {d}/empty.npy --out {d}/o3", "holds no frame"),
     "--workers 0": ("analyze {d}/labels.npy --out {d}/o4 --workers 0", "workers"),
     "--p 0": ("analyze {d}/labels.npy --out {d}/o5 --p 0", "p must"),
     "--merge-distance -1": ("analyze {d}/labels.npy --out {d}/o6 --merge-distance -1", "--merge-distance must"),
@@ -619,3 +619,72 @@ def test_a_small_field_of_view_is_analysed_with_a_warning_per_frame_not_refused(
     tifffile.imwrite(tmp_path / "crop.tif", crop)
     assert main(["analyze", str(tmp_path / "crop.tif"), "--out", str(tmp_path / "out")]) == 0
     assert (tmp_path / "out" / "metadata.json").exists()
+
+
+def _cli_error(args, capsys):
+    """The one-line error of a CLI call that must fail with exit code 2."""
+    assert main(args) == 2
+    return capsys.readouterr().err.strip().splitlines()[-1]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this system")
+def test_a_pipe_given_as_input_is_refused_not_read_forever(tmp_path, capsys):
+    os.mkfifo(tmp_path / "labels.tif")
+    with pytest.raises(InputError, match="not a regular file or a folder"):
+        ht.open_source(tmp_path / "labels.tif")
+    assert "not a regular file" in _cli_error(["analyze", str(tmp_path / "labels.tif"), "--out",
+                                               str(tmp_path / "o")], capsys)
+
+
+def test_empty_containers_say_they_are_empty(tmp_path):
+    np.save(tmp_path / "zero.npy", np.zeros((0, 10, 10), np.int32))
+    with pytest.raises(InputError, match=r"holds no frame \(a stack of 0 images\)"):
+        ht.open_source(tmp_path / "zero.npy")
+    np.savez(tmp_path / "empty.npz")
+    with pytest.raises(InputError, match="holds no array"):
+        ht.open_source(tmp_path / "empty.npz")
+    np.save(tmp_path / "plain_seg.npy", np.zeros((5, 5)))
+    with pytest.raises(InputError, match="holds a plain float64 array of shape \\(5, 5\\): rename it"):
+        ht.open_source(tmp_path / "plain_seg.npy").frame(0)
+
+
+def test_vertices_tables_with_holes_or_crossings_are_refused(tmp_path):
+    (tmp_path / "header.csv").write_text("cell,x,y\n")
+    with pytest.raises(InputError, match="has no rows"):
+        ht.open_source(tmp_path / "header.csv")
+    pd.DataFrame({"cell": [1, 1, 1], "x": [0, 1, np.nan], "y": [0, 0, 1]}).to_csv(tmp_path / "nan.csv", index=False)
+    with pytest.raises(InputError, match=r"column 'x' is empty, NaN or infinite on row 2 \(cell 1\)"):
+        ht.open_source(tmp_path / "nan.csv")
+    # a bow-tie: its shoelace area (3.0) is not the area it encloses (3.75)
+    bowtie = {1: np.array([[0.0, 0.0], [4.0, 3.0], [4.0, 0.0], [0.0, 2.0]])}
+    with pytest.raises(InputError, match="polygon of cell 1 crosses itself"):
+        ht.mesh_from_polygons(bowtie)
+    square = {1: np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]])}
+    assert ht.mesh_from_polygons(square).cells["polygon_area"].iloc[0] == 12.0
+
+
+def test_min_area_is_checked_and_named():
+    labels = np.repeat(np.repeat(np.arange(1, 10).reshape(3, 3), 10, 0), 10, 1)
+    for value in ("5", True, -1.0, float("nan")):
+        with pytest.raises(InputError, match="min_area must be a non-negative number of px"):
+            ht.mesh_from_labels(labels, min_area=value)
+    with pytest.raises(InputError, match=r"regions smaller than min_area = 1e\+09 px"):
+        ht.mesh_from_labels(labels, min_area=10**9)
+
+
+def test_hydro_flags_out_of_range_are_named(tmp_path, capsys):
+    base = ["hydro", "quadrupole", "--alpha", "1", "--n", "64", "--out", str(tmp_path / "h.zarr")]
+    assert "--max-time must be a positive simulated time" in _cli_error(base + ["--max-time", "-1"], capsys)
+    assert "--orientation-deg must be a finite angle in degrees" in _cli_error(base + ["--orientation-deg", "nan"],
+                                                                              capsys)
+    assert _cli_error(base + ["--ell", "-3"], capsys).startswith("hexatissue hydro: error: --distance (dipole) or 2 x --ell")
+
+
+def test_a_results_table_that_lost_a_column_is_refused(tmp_path, capsys):
+    labels = np.repeat(np.repeat(np.arange(1, 26).reshape(5, 5), 12, 0), 12, 1)
+    ht.analyze(labels, progress=False, workers=1).write(tmp_path / "res", formats=("csv",))
+    cells = pd.read_csv(tmp_path / "res" / "cells.csv")
+    cells.drop(columns=["x"]).to_csv(tmp_path / "res" / "cells.csv", index=False)
+    with pytest.raises(InputError, match="cells.csv: cells table is missing column 'x'"):
+        ht.read_results(tmp_path / "res")
+    assert "cells.csv: cells table is missing column 'x'" in _cli_error(["report", str(tmp_path / "res")], capsys)

@@ -36,8 +36,13 @@ def add_parser(subparsers):
 
 
 def cli_text(text: str) -> str:
-    """An error text of the library with HydroParams fields replaced by the ``hydro`` options that set them."""
-    return text.replace("HydroParams.dt", "--dt").replace("HydroParams.alpha6", "--alpha")
+    """An error text of the library with the names of its arguments replaced by the ``hydro`` options that set them."""
+    for name, flag in (("HydroParams.dt", "--dt"), ("HydroParams.alpha6", "--alpha"), ("max_time", "--max-time"),
+                       ("defect separation and disk radius", "--distance (dipole) or 2 x --ell (quadrupole), and "
+                                                             "the disk radius,"),
+                       ("defects plus fixed disks", "--distance / --ell: defects plus fixed disks")):
+        text = text.replace(name, flag)
+    return text
 
 
 def _run(args) -> int:
@@ -49,6 +54,8 @@ def _run(args) -> int:
     if args.resume and not (Path(args.out) / "checkpoint.npz").exists():
         raise InputError(f"--resume: {args.out!r} holds no hydro run checkpoint to continue; expected the --out "
                          f"of an earlier run (or drop --resume to start a new one)")
+    if not np.isfinite(args.orientation_deg):
+        raise InputError(f"--orientation-deg must be a finite angle in degrees; got {args.orientation_deg!r}")
     common = dict(n=args.n, steps=args.steps, dt=args.dt, seed=args.seed, out=args.out, resume=args.resume,
                   progress=True, orientation=float(np.deg2rad(args.orientation_deg)))
     if args.max_time is not None:

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..box import Box
 from ..defects import track_defects
-from ..errors import InputError
+from ..errors import InputError, is_real
 from .initial import dipole_initial, quadrupole_initial
 from .params import HydroParams
 from .run import integrate
@@ -44,6 +44,8 @@ def _track(result, box, max_distance):
 
 def _run(kind, psi_fn, alpha, n, steps, dt, seed, out, params, max_time, save_every, field_every,
          resume, progress, stop, meta):
+    if max_time is not None and not (is_real(max_time) and max_time > 0):
+        raise InputError(f"max_time must be a positive simulated time (or None: the default); got {max_time!r}")
     params = params if params is not None else default_params(alpha, dt)
     if params.alpha6 != alpha:
         raise InputError(f"params.alpha6 ({params.alpha6}) differs from alpha ({alpha})")

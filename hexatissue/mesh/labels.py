@@ -50,7 +50,7 @@ import numpy as np
 from scipy import ndimage
 
 from .._components import components
-from ..errors import InputError
+from ..errors import InputError, is_real
 from ..options import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
 
@@ -232,6 +232,9 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         raise InputError(f"membrane_width must be a non-negative whole number of px; got {membrane_width!r}")
     if not (isinstance(fill_holes, (int, np.integer)) and not isinstance(fill_holes, bool) and fill_holes >= 0):
         raise InputError(f"fill_holes must be a non-negative whole number of px; got {fill_holes!r}")
+    if min_area is not None and not (is_real(min_area) and min_area >= 0):
+        raise InputError(f"min_area must be a non-negative number of px (or None: the kind's default); "
+                         f"got {min_area!r}")
     background = check_background(background)
     if kind != "skeleton":
         _refuse_white_membranes(lab, background)
@@ -248,15 +251,17 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = np.where(mask, lab, 0)
     if min_area is None:
         min_area = SKELETON_MIN_AREA if kind == "skeleton" else 0
-    if min_area > 0:
+    dropped = min_area > 0
+    if dropped:
         lab = _drop_small(lab, min_area)
     if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
         lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
     # no 0 pixel (ids are non-negative): a min does not build a mask
     positive = (lab.min() if lowest is None or lab is not given else lowest) > 0
     if not positive and not lab.any():
-        raise InputError("labels: no cell is left after removing the background, the outside and the pixels "
-                         "outside the mask")
+        removed = ["the background", "the outside", "the pixels outside the mask"] + \
+            ([f"the regions smaller than min_area = {min_area:g} px"] if dropped else [])
+        raise InputError(f"labels: no cell is left after removing {', '.join(removed[:-1])} and {removed[-1]}")
     membrane = np.zeros(lab.shape, bool)
     if positive:
         return lab, membrane

@@ -106,8 +106,8 @@ def polygon_network(polygons, frame=0, tolerance=SHARED_TOLERANCE, where="") -> 
     ------
     InputError
         Ids not positive or repeated, coordinates not finite, a polygon with
-        fewer than 3 distinct vertices, of zero area or passing through one
-        vertex twice.
+        fewer than 3 distinct vertices, of zero area, passing through one
+        vertex twice or crossing itself.
 
     Warns
     -----
@@ -132,6 +132,7 @@ def polygon_network(polygons, frame=0, tolerance=SHARED_TOLERANCE, where="") -> 
     lengths = np.bincount(owner, minlength=len(cell))
     starts = (np.cumsum(lengths) - lengths).astype(np.int64)
     _check_polygons(cell, vid, owner, lengths, at)
+    _check_simple(cell, position[vid], starts, lengths, at)
     area, _ = polygon_area_centroid(position[vid], starts)
     flat = np.abs(area) <= 1e-12 * np.maximum(1.0, _extent(position) ** 2)
     if flat.any():
@@ -222,6 +223,28 @@ def _shared_vertices(xy, tolerance):
     count = np.bincount(owner, minlength=n)
     position = np.stack([np.bincount(owner, points[:, k], minlength=n) for k in (0, 1)], axis=1)
     return rank[group], position / np.maximum(count, 1)[:, None]
+
+
+def _check_simple(cell, xy, starts, lengths, at):
+    """Refuse a polygon two of whose sides cross (a bow-tie: its shoelace area is not the cell's)."""
+    for n in np.unique(lengths[lengths >= 4]):
+        polys = np.flatnonzero(lengths == n)
+        i, j = np.triu_indices(n, 2)
+        keep = ~((i == 0) & (j == n - 1))  # the first and the last side meet at vertex 0
+        i, j = i[keep], j[keep]
+        base = starts[polys][:, None]
+        p, q = xy[base + i], xy[base + (i + 1) % n]
+        r, s = xy[base + j], xy[base + (j + 1) % n]
+
+        def turn(a, b, c):
+            return (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
+
+        cross = (turn(p, q, r) * turn(p, q, s) < 0) & (turn(r, s, p) * turn(r, s, q) < 0)
+        if cross.any():
+            k, m = np.argwhere(cross)[0]
+            raise InputError(f"polygon of cell {cell[polys[k]]}{at} crosses itself (its sides {i[m]} and {j[m]}, "
+                             f"counted from its first vertex); expected a simple polygon, its vertices in order "
+                             f"around the cell")
 
 
 def _check_polygons(cell, vid, owner, lengths, at):

@@ -134,7 +134,15 @@ def open_npz(path: Path, key, channel) -> Opened:
 
 def _cellpose_entry(path, key):
     # Cellpose saves a pickled dict; only files of that name are unpickled
-    data = np.load(path, allow_pickle=True).item()
+    data = np.load(path, allow_pickle=True)
+    if data.dtype != object or data.shape != ():
+        raise InputError(f"{Path(path).name}: a Cellpose _seg.npy holds a dict (masks, outlines, ...); this file "
+                         f"holds a plain {data.dtype} array of shape {data.shape}: rename it without '_seg' to read "
+                         f"it as labels")
+    data = data.item()
+    if not isinstance(data, dict):
+        raise InputError(f"{Path(path).name}: a Cellpose _seg.npy holds a dict (masks, outlines, ...); this file "
+                         f"holds a {type(data).__name__}")
     arrays = sorted(k for k, v in data.items() if isinstance(v, np.ndarray) and v.ndim >= 2)
     if key not in arrays:
         raise InputError(f"{Path(path).name}: key={key!r} is not an image array of this Cellpose file; "
@@ -145,6 +153,9 @@ def _cellpose_entry(path, key):
 def _npz_key(path, key):
     with np.load(path, allow_pickle=False) as data:
         names = list(data.keys())
+    if not names:
+        raise InputError(f"{path.name} holds no array; expected a .npz with a label array (named 'labels', or "
+                         f"chosen with key=, --key on the command line)")
     if key is None:
         key = "labels" if "labels" in names else (names[0] if len(names) == 1 else None)
         if key is None:

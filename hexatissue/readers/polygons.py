@@ -68,6 +68,8 @@ def read_vertices_table(path) -> tuple[list, list]:
     if missing:
         raise InputError(f"vertices table {path.name!r} is missing column(s) {missing}; expected columns cell, x, y "
                          f"(one row per polygon vertex, in order) and optionally frame; it has {list(table.columns)}")
+    if len(table) == 0:
+        raise InputError(f"vertices table {path.name!r} has no rows; expected one row per polygon vertex")
     for name in ("cell", "frame") if "frame" in table.columns else ("cell",):
         column = table[name]
         if not pd.api.types.is_numeric_dtype(column) or column.isna().any() or (column % 1 != 0).any():
@@ -77,6 +79,11 @@ def read_vertices_table(path) -> tuple[list, list]:
         if not pd.api.types.is_numeric_dtype(table[name]):
             raise InputError(f"vertices table {path.name!r}: column {name!r} must hold numbers (px); got dtype "
                              f"{table[name].dtype}")
+        bad = ~np.isfinite(table[name].to_numpy(float))
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise InputError(f"vertices table {path.name!r}: column {name!r} is empty, NaN or infinite on row {row} "
+                             f"(cell {table['cell'].iloc[row]}); expected a finite coordinate (px) on every row")
     frame = table["frame"].to_numpy(np.int64) if "frame" in table.columns else np.zeros(len(table), np.int64)
     cell = table["cell"].to_numpy(np.int64)
     xy = table[["x", "y"]].to_numpy(float)
