@@ -500,3 +500,13 @@ def test_write_ctc_refuses_gap_ids_beyond_16_bits(tmp_path):
     lineage = pd.DataFrame({"track": [5, 65535], "frame_start": [0, 0], "frame_end": [2, 2], "parent": [0, 0]})
     with pytest.raises(InputError, match="16-bit"):
         write_ctc(masks, lineage, tmp_path / "ctc")
+
+
+def test_a_ctc_folder_whose_track_file_lost_its_lines_is_refused(epicure, tmp_path, capsys):
+    """Issue 32: an empty res_track.txt was accepted and the EpiCure division silently lost."""
+    main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")])
+    (tmp_path / "ctc" / "res_track.txt").write_text("")
+    with pytest.raises(InputError, match=r"res_track.txt has no line for \d+ id\(s\) of frame 0"):
+        ht.open_source(tmp_path / "ctc")
+    assert main(["analyze", str(tmp_path / "ctc"), "--out", str(tmp_path / "o")]) == 2
+    assert "check_ctc" in capsys.readouterr().err

@@ -161,6 +161,14 @@ class CtcReader:
         self._new = np.array([self.same[i] for i in self._old.tolist()], np.int64)
         self._files = FilesReader(list(paths.values()), None, f"CTC folder {str(folder)!r}")
         self.n_frames, self.shape, self.calibration = self._files.n_frames, self._files.shape, self._files.calibration
+        # the first frame's ids must have their track lines (an empty or foreign track file loses every
+        # division); hexatissue.exchange.check_ctc checks every frame
+        ids = np.unique(self._files.read(0))
+        unlisted = np.setdiff1d(ids[ids > 0], tracks["track"].to_numpy(np.int64))
+        if len(unlisted):
+            raise InputError(f"CTC folder {str(folder)!r}: {track_file.name} has no line for {len(unlisted)} id(s) of "
+                             f"frame 0 (e.g. {unlisted[:5].tolist()}); a CTC track file lists every id of the masks "
+                             f"as 'L B E P' (hexatissue.exchange.check_ctc checks the whole folder)")
 
     def describe(self) -> dict:
         return self._files.describe()
