@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import pickle
 import warnings
+from pathlib import Path
 from collections import deque
 
 from . import mesh, track
@@ -135,8 +136,8 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     store = None
     if checkpoint is not None:
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
-                   source=src.description, options={k: v.to_dict() for k, v in options.items()}, mask=mask_info,
-                   images={name: image.description for name, image in images.items()})
+                   source=_identity(src.description), options={k: v.to_dict() for k, v in options.items()},
+                   mask=mask_info, images={name: _identity(image.description) for name, image in images.items()})
         store = Checkpoint(checkpoint, key, checkpoint_every, tables)
     rows, tracker = _extract(src, box, frame_work, options, mask, images, tracker, tables, client, workers, store,
                              progress)
@@ -151,6 +152,21 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     return Movie(**movie.tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
                  options=movie.options, source=_described(src.description, mask_info, images), version=__version__,
                  summary=movie.summary)
+
+
+def _identity(description):
+    """A source's description as a checkpoint key: its path resolved (the same file by a relative or an absolute
+    path, or through a link, is the same input), and a file's size and modification time (a file rewritten
+    under the same name is not)."""
+    path = description.get("path")
+    if not path:
+        return description
+    resolved = Path(path).resolve()
+    out = dict(description, path=str(resolved))
+    if resolved.is_file():
+        stat = resolved.stat()
+        out.update(size=stat.st_size, mtime_ns=stat.st_mtime_ns)
+    return out
 
 
 def _described(description, mask_info, images):

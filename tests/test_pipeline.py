@@ -282,3 +282,17 @@ def test_frames_without_a_field_are_counted_in_one_warning():
         movie = analyze(open_source(np.stack([tissue, np.ones_like(tissue), tissue])))
     assert sum("have no interior cell" in str(w.message) for w in record) == 1
     assert sorted(movie.grid["frame"].unique()) == [0, 2]
+
+
+def test_checkpoint_knows_its_file_by_any_path_and_a_rewritten_file_as_another(tmp_path, monkeypatch):
+    """Issue 32: a checkpoint made with an absolute path was refused when resumed with a relative one."""
+    mov = voronoi_movie(20, (60, 70), 4, periodic=False, amplitude=0.5, seed=3)
+    stack = np.stack([mov[t] for t in range(4)])
+    np.save(tmp_path / "movie.npy", stack)
+    first = analyze_movie(tmp_path / "movie.npy", workers=1, checkpoint=tmp_path / "ck")
+    monkeypatch.chdir(tmp_path)
+    again = analyze_movie("movie.npy", workers=1, checkpoint="ck")  # the same file, by a relative path
+    pd.testing.assert_frame_equal(again.cells, first.cells)
+    np.save(tmp_path / "movie.npy", stack[::-1])  # rewritten under the same name: another movie
+    with pytest.raises(InputError, match="holds another movie"):
+        analyze_movie("movie.npy", workers=1, checkpoint="ck")
