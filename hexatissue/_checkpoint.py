@@ -2,13 +2,12 @@
 from __future__ import annotations
 
 import json
-import os
 import pickle
 
 import pandas as pd
 
 from .errors import InputError, check_positive
-from .io import atomic_path, check_output_folder, read_table
+from .io import atomic_path, check_output_folder, lock_folder, read_table
 
 __all__ = ["Checkpoint"]
 
@@ -29,28 +28,9 @@ class Checkpoint:
         self._lock = None
 
     def lock(self):
-        """Take the folder's exclusive lock (``checkpoint.lock``, fcntl); InputError when another run holds it.
-
-        The lock is released by :meth:`unlock`, or by the OS when the
-        process ends.  Where fcntl is missing (Windows) nothing is locked.
-        """
-        try:
-            import fcntl
-        except ImportError:
-            return
-        self.dir.mkdir(parents=True, exist_ok=True)
-        handle = open(self.dir / "checkpoint.lock", "a+")
-        try:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            handle.close()
-            raise InputError(f"checkpoint folder {str(self.dir)!r} is in use by another running analysis "
-                             f"(its checkpoint.lock is held); wait for it to finish or use another folder") from None
-        handle.seek(0)
-        handle.truncate()
-        handle.write(f"{os.getpid()}\n")
-        handle.flush()
-        self._lock = handle
+        """Take the folder's exclusive lock (``checkpoint.lock``, :func:`hexatissue.io.lock_folder`); InputError
+        when another run holds it.  Released by :meth:`unlock`, or by the OS when the process ends."""
+        self._lock = lock_folder(self.dir, "checkpoint.lock", "checkpoint folder")
 
     def unlock(self):
         """Release the lock taken by :meth:`lock`."""

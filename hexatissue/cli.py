@@ -5,6 +5,7 @@ Run ``hexatissue --help`` or ``hexatissue SUBCOMMAND --help``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 import warnings
@@ -92,15 +93,32 @@ def open_cli_source(args):
 
 
 def _run_analyze(args) -> int:
-    from .results import write_results
-    from .io import check_output_folder
-    from .pipeline import analyze
+    from .io import check_output_folder, lock_folder
 
     source = open_cli_source(args)
     options = stage_options(args)
-    check_output_folder(args.out, "--out")  # now, not after the whole computation
+    out = check_output_folder(args.out, "--out")  # now, not after the whole computation
     if args.checkpoint is not None:
         check_output_folder(args.checkpoint, "--checkpoint")
+    made = not out.exists()
+    lock = lock_folder(out, ".hexatissue.lock", "--out folder")  # two runs into one folder: the second is refused
+    try:
+        return _analyze_into(args, source, options)
+    except BaseException:
+        if made:  # a folder this run made, holding nothing but its lock: not left behind
+            (out / ".hexatissue.lock").unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
+    finally:
+        if lock is not None:
+            lock.close()
+
+
+def _analyze_into(args, source, options) -> int:
+    from .results import write_results
+    from .pipeline import analyze
+
     client = connect_scheduler(args.scheduler) if args.scheduler else None
     start = time.perf_counter()
     try:

@@ -145,6 +145,34 @@ def check_output_folder(path, name="out") -> Path:
     return path
 
 
+def lock_folder(folder, filename, what):
+    """Take the exclusive lock of ``folder`` (the file ``filename`` in it, fcntl); InputError when another run holds it.
+
+    Returns the open lock file (closing it releases the lock; so does the
+    end of the process), or None where fcntl is missing (Windows: nothing
+    is locked).  ``what`` names the folder in the message (``"--out
+    folder"``).  The folder is made if it does not exist.
+    """
+    try:
+        import fcntl
+    except ImportError:
+        return None
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    handle = open(folder / filename, "a+")
+    try:
+        fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        handle.close()
+        raise InputError(f"{what} {str(folder)!r} is in use by another running analysis (its {filename} is held); "
+                         f"wait for it to finish or use another folder") from None
+    handle.seek(0)
+    handle.truncate()
+    handle.write(f"{os.getpid()}\n")
+    handle.flush()
+    return handle
+
+
 #: Rows per Parquet row group: the writer holds one group's encoded columns at a time.
 PARQUET_ROW_GROUP = 65536
 

@@ -560,7 +560,6 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     sl_next = frames.rows(t_next)
     merged = {m: np.searchsorted(frames.track[sl_next], np.array(ds, np.int64)) for m, ds in mothers.items()}
     sizes = layers.sizes(t)
-    states = []  # (term, per-layer sums) after each step
 
     ids0, xy0 = tri_t
     s0 = _State(ids0, xy0, layers.labels(t, ids0, xy0))

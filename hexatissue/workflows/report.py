@@ -8,7 +8,6 @@ the small analysis tables as CSV and ``report.md`` with the key numbers.
 """
 from __future__ import annotations
 
-import json
 import warnings
 from pathlib import Path
 
