@@ -709,3 +709,36 @@ def test_an_out_folder_in_use_by_another_run_is_refused(tmp_path, capsys):
     np.save(tmp_path / "empty.npy", np.zeros((2, 30, 30), np.int32))  # no cell: refused frame by frame
     assert main(["analyze", str(tmp_path / "empty.npy"), "--out", str(tmp_path / "new")]) == 2
     assert not (tmp_path / "new").exists()
+
+
+def _random_crops(stack, n, seed=0):
+    """``n`` crops of 40-109 px a side of a (T, rows, cols) label stack, at random places."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        h, w = rng.integers(40, 110, 2)
+        y, x = rng.integers(0, max(1, stack.shape[1] - h)), rng.integers(0, max(1, stack.shape[2] - w))
+        yield stack[:, y:y + h, x:x + w]
+
+
+def _every_crop_is_analysed(stack):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)  # small fields: no defects, cells without polygon
+        for crop in _random_crops(stack, 40):
+            movie = ht.analyze(crop, progress=False, workers=1)
+            assert len(movie) == len(crop) and movie.cells["frame"].nunique() == len(crop)
+
+
+def test_random_crops_of_the_bundled_sample_are_all_analysed():
+    """Issue 32: 17 of 80 random crops of the EpiCure stack ended the analysis (too small a Gamma_p grid)."""
+    import tifffile
+
+    _every_crop_is_analysed(tifffile.imread(Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum"
+                                            / "013_crop_labels.tif"))
+
+
+def test_random_crops_of_real_stacks_are_all_analysed(real_data):
+    from .conftest import real_subdir
+
+    _every_crop_is_analysed(np.load(real_subdir(real_data, "mouse_epidermis_laptrack") / "labels.npy"))
+    wing = np.load(real_subdir(real_data, "epitools_wingdisc") / "SegResults_CLabels_RegIm_TYX.npz")["CLabels"]
+    _every_crop_is_analysed(wing)
