@@ -1,0 +1,195 @@
+"""Tissue flow: cell velocities, velocity-gradient fields on the Gamma_p grid, and their statistics.
+
+- :func:`cell_velocities`: every tracked cell's velocity by centred differences in time;
+- :func:`flow_fields`: velocity, vorticity, divergence and strain rate on the nodes of the
+  coarse-grained order field (:func:`hexatissue.coarse_grain`), from a least-squares affine fit
+  to the cells within each node's disk;
+- :func:`flow_statistics`, :func:`velocity_correlation`, :func:`mean_squared_displacement`:
+  mean speed, polar order, spatial velocity correlation and its length, MSD and its exponent.
+
+Tables stay in px and frames (velocities in px/frame, rates in 1/frame); :func:`velocity_unit`
+and :func:`in_units` give them in a calibration's units (µm/min) for figures and reports.
+Positions are (x, y) = (column, row), so y grows downwards: a positive vorticity
+``dvy/dx - dvx/dy`` turns clockwise on the image as displayed.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..box import as_box
+from ..errors import InputError, check_positive
+from ..schema import interior_mask, require_columns, track_ids, validate
+from ..units import as_calibration
+from . import _kernels as K
+
+__all__ = ["cell_velocities", "flow_fields", "velocity_unit", "in_units", "MIN_CELLS"]
+
+#: Fewest cells an affine fit takes (three non-collinear points fix a 2-D affine map).
+MIN_CELLS = 3
+
+
+def _sorted_by_track(track, frame):
+    """Row order by (track, frame): one stable argsort of ``track`` when ``frame`` is already sorted."""
+    if len(frame) < 2 or bool(np.all(frame[1:] >= frame[:-1])):
+        return np.argsort(track, kind="stable")
+    return np.lexsort((frame, track))
+
+
+def cell_velocities(cells, box=None):
+    """Velocity of every cell, px/frame, by centred differences along its track.
+
+    ``v(t) = (r(t + 1) - r(t - 1)) / 2`` of the cell's centroid ``r = (x, y)``
+    (minimum image in a periodic box), for a cell whose track is present in
+    both frames ``t - 1`` and ``t + 1``.  A track starts at a division and
+    ends at one (the daughters are new tracks), so the velocity is NaN on the
+    first and last frame of every track (movie ends, divisions, cells
+    entering or leaving the field of view) and beside a gap closed by the
+    tracker (a missing neighbouring frame).  Untracked frames (tracking
+    ``off``: every cell its own track) have no velocities.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table: ``frame``, ``x``, ``y`` (px) and ``track`` (or ``cell``,
+        whose ids are then the tracks).
+    box : Box, optional
+        Periodic box (minimum-image displacements); None for an open image.
+
+    Returns
+    -------
+    vx, vy : numpy.ndarray of float
+        Velocity along x (columns) and y (rows) of every row of ``cells``, in
+        row order, px/frame (NaN where undefined, see above).
+    """
+    require_columns(cells, ["frame", "x", "y"], "cells")
+    box = as_box(box)
+    track, frame = track_ids(cells), cells["frame"].to_numpy(np.int64)
+    order = _sorted_by_track(track, frame)
+    t, f = track[order], frame[order]
+    xy = cells[["x", "y"]].to_numpy(float)[order]
+    # row k (in track order) is followed by the same track one frame later
+    step = (t[1:] == t[:-1]) & (f[1:] == f[:-1] + 1)
+    centred = np.zeros(len(t), bool)
+    centred[1:-1] = step[1:] & step[:-1]
+    v = np.full((len(t), 2), np.nan)
+    inner = np.flatnonzero(centred)
+    d = xy[inner + 1] - xy[inner - 1]
+    v[inner] = 0.5 * (d if box is None else box.min_image(d))
+    out = np.empty_like(v)
+    out[order] = v
+    return out[:, 0].copy(), out[:, 1].copy()
+
+
+def _frame_bounds(frames, blocks):
+    """Start of each of ``blocks`` (sorted distinct frames) in the sorted ``frames``, plus the end."""
+    return np.searchsorted(frames, np.r_[blocks, np.iinfo(np.int64).max]).astype(np.int64)
+
+
+def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
+    """Velocity, vorticity, divergence and strain rate on the nodes of a coarse-grained grid.
+
+    For every node, the velocities ``v`` of the cells within a disk of radius
+    ``radius_factor x`` the node's coarse-graining radius (centroid distance,
+    minimum image in a periodic box) are fitted by least squares, with equal
+    weights (the coarse-grained order field weighs the cells of its disk
+    equally), by the affine field ``v(r) = v0 + L (r - r_node)``;
+    ``L_ij = d v_i / d x_j`` is the velocity gradient.  Border cells do not
+    enter the fits (their centroids move as they are cut by the image edge),
+    as they do not enter Gamma_p.
+
+    The default disk (twice the order field's, 3 R_cell) holds ~9 cells: the
+    order field's own disk of 1.5 R_cell holds 2.25 cells on average, too few
+    for a gradient at most nodes.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with ``frame``, ``x``, ``y`` (px), ``vx``, ``vy``
+        (px/frame, e.g. from :func:`cell_velocities`; NaN rows are left out)
+        and optionally ``is_border``.
+    grid : pandas.DataFrame
+        Grid table of :func:`hexatissue.coarse_grain`: ``frame``, ``node``,
+        ``x``, ``y``, ``radius`` (px), ``valid``.
+    box : Box, optional
+        Periodic box; None for an open image.
+    radius_factor : float
+        Disk radius of the fits in units of the grid's ``radius``.
+    min_cells : int
+        Fewest cells a fit takes (at least 3).  A fit also needs its cells
+        spread across the disk: their root-mean-square distance from their
+        mean, in the narrowest direction, at least
+        ``hexatissue.flow._kernels.MIN_SPREAD`` (0.1) x the radius.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The ``flow`` table, one row per row of ``grid``, in its order:
+        ``frame``, ``node`` (the grid's), ``x``, ``y`` (node position, px),
+        ``radius`` (disk radius of the fit, px), ``vx``, ``vy`` (fitted
+        velocity at the node, px/frame), ``vorticity`` (``dvy/dx - dvx/dy``,
+        1/frame; positive is clockwise on the displayed image, whose y axis
+        points down), ``divergence`` (``dvx/dx + dvy/dy``, 1/frame),
+        ``strain_xx`` (``(dvx/dx - dvy/dy) / 2``, 1/frame), ``strain_xy``
+        (``(dvx/dy + dvy/dx) / 2``, 1/frame; the traceless symmetric strain
+        rate is ``[[strain_xx, strain_xy], [strain_xy, -strain_xx]]``),
+        ``dvx_dx``, ``dvx_dy``, ``dvy_dx``, ``dvy_dy`` (the velocity gradient,
+        1/frame), ``n_cells`` (cells in the disk) and ``valid`` (the grid node
+        is valid and the fit exists).  Fields are NaN where there is no fit.
+    """
+    require_columns(cells, ["frame", "x", "y", "vx", "vy"], "cells")
+    require_columns(grid, ["frame", "node", "x", "y", "radius", "valid"], "grid")
+    box = as_box(box)
+    radius_factor = check_positive(radius_factor, "radius_factor")
+    if isinstance(min_cells, bool) or not isinstance(min_cells, (int, np.integer)) or min_cells < 3:
+        raise InputError(f"min_cells must be an integer >= 3 (an affine fit needs three cells); got {min_cells!r}")
+    xy = cells[["x", "y"]].to_numpy(float)
+    uv = cells[["vx", "vy"]].to_numpy(float)
+    use = interior_mask(cells) & np.isfinite(xy).all(axis=1) & np.isfinite(uv).all(axis=1)
+    frame = cells["frame"].to_numpy(np.int64)[use]
+    c_order = np.argsort(frame, kind="stable")
+    xy, uv, frame = xy[use][c_order], uv[use][c_order], frame[c_order]
+    g_frame = grid["frame"].to_numpy(np.int64)
+    g_order = np.argsort(g_frame, kind="stable")
+    g_sorted = g_frame[g_order]
+    blocks = np.unique(g_sorted)
+    radius = grid["radius"].to_numpy(float) * radius_factor
+    nodes = grid[["x", "y"]].to_numpy(float)[g_order]
+    fits = np.empty((len(grid), 6))
+    counts = np.empty(len(grid), np.int64)
+    period = np.zeros(2) if box is None else box.lengths
+    K.affine_fits(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]), np.ascontiguousarray(uv[:, 0]),
+                  np.ascontiguousarray(uv[:, 1]), _frame_bounds(frame, blocks),
+                  np.ascontiguousarray(nodes[:, 0]), np.ascontiguousarray(nodes[:, 1]), radius[g_order],
+                  _frame_bounds(g_sorted, blocks), period, int(min_cells), fits, counts)
+    out = np.empty_like(fits)
+    out[g_order] = fits
+    n_cells = np.empty_like(counts)
+    n_cells[g_order] = counts
+    v0x, v0y, lxx, lxy, lyx, lyy = out.T
+    table = pd.DataFrame({
+        "frame": g_frame, "node": grid["node"].to_numpy(np.int64),
+        "x": grid["x"].to_numpy(float), "y": grid["y"].to_numpy(float), "radius": radius,
+        "vx": v0x, "vy": v0y, "vorticity": lyx - lxy, "divergence": lxx + lyy,
+        "strain_xx": 0.5 * (lxx - lyy), "strain_xy": 0.5 * (lxy + lyx),
+        "dvx_dx": lxx, "dvx_dy": lxy, "dvy_dx": lyx, "dvy_dy": lyy,
+        "n_cells": n_cells, "valid": grid["valid"].to_numpy(bool) & np.isfinite(lxx),
+    })
+    return validate(table, "flow")
+
+
+def velocity_unit(calibration=None) -> str:
+    """Unit of a velocity in ``calibration``: ``"µm/min"``, or ``"px/frame"`` when uncalibrated."""
+    cal = as_calibration(calibration)
+    time = cal.time_unit if cal.has_time else "frame"
+    return f"{cal.length_label}/{time}"
+
+
+def in_units(values, calibration=None, length_power=1, time_power=-1):
+    """``values`` in px^length_power frame^time_power converted to ``calibration``'s units.
+
+    Velocities are ``(1, -1)`` (px/frame -> µm/min), rates ``(0, -1)``,
+    mean squared displacements ``(2, 0)``.
+    """
+    cal = as_calibration(calibration)
+    return np.asarray(values, float) * cal.pixel_size ** length_power * cal.frame_interval ** time_power

@@ -1,0 +1,167 @@
+"""Tissue flow: cell velocities and the velocity-gradient fields on the Gamma_p grid, against exact truth."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue import Box, InputError, analyze
+from hexatissue.flow import cell_velocities, flow_fields
+from hexatissue.flow import _kernels as K
+from hexatissue.flow import _reference as R
+from hexatissue.order import coarse_grain
+from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+pytestmark = pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+
+SHAPE = (200, 240)
+CENTRE = np.array([120.0, 100.0])
+
+
+@pytest.fixture(scope="module")
+def tissue():
+    """One open Voronoi tissue analysed by hexatissue: its cells table (x, y, area, is_border, gamma)."""
+    labels = voronoi_labels(jittered_seeds(SHAPE, 12.0, seed=3), SHAPE)
+    return analyze(labels, workers=1, progress=False).cells
+
+
+def moved(cells, maps, box=None):
+    """The cells of ``tissue`` at frames 0, 1, ...: centroids moved by ``maps[t]`` (a function of (n, 2) xy)."""
+    frames = []
+    for t, move in enumerate(maps):
+        frame = cells.copy()
+        xy = move(cells[["x", "y"]].to_numpy(float))
+        if box is not None:
+            xy = box.wrap(xy)
+        frame["x"], frame["y"] = xy[:, 0], xy[:, 1]
+        frame["frame"], frame["track"] = t, cells["cell"].to_numpy()
+        frames.append(frame)
+    return pd.concat(frames, ignore_index=True)
+
+
+def fields_of(cells, box=None):
+    vx, vy = cell_velocities(cells, box)
+    cells = cells.assign(vx=vx, vy=vy)
+    grid = coarse_grain(cells, p=6, box=box)
+    return cells, grid, flow_fields(cells, grid, box)
+
+
+def rotation(angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return lambda xy: CENTRE + (xy - CENTRE) @ np.array([[c, -s], [s, c]]).T
+
+
+def interior(flow, t):
+    rows = flow[(flow["frame"] == t) & flow["valid"]]
+    assert len(rows) > 50  # the check is over many nodes
+    return rows
+
+
+def test_velocities_are_centred_differences_nan_at_track_ends_and_gaps():
+    cells = pd.DataFrame({"frame": [0, 1, 2, 3, 0, 1, 3, 4, 5],
+                          "track": [1, 1, 1, 1, 2, 2, 2, 2, 2],
+                          "x": [0.0, 1.0, 3.0, 6.0, 10.0, 10.0, 10.0, 12.0, 15.0],
+                          "y": [0.0, 0.0, 0.0, 0.0, 5.0, 4.0, 3.0, 2.0, 0.0]})
+    shuffled = cells.sample(frac=1.0, random_state=1)  # row order does not matter
+    vx, vy = cell_velocities(shuffled)
+    got = pd.DataFrame({"vx": vx, "vy": vy}, index=shuffled.index).sort_index()
+    nan = np.nan
+    # track 1: ends NaN, (3 - 0) / 2 and (6 - 1) / 2; track 2: frame 2 is missing, so only frame 4 is centred
+    np.testing.assert_array_equal(got["vx"], [nan, 1.5, 2.5, nan, nan, nan, nan, 2.5, nan])
+    np.testing.assert_array_equal(got["vy"], [nan, 0.0, 0.0, nan, nan, nan, nan, -1.5, nan])
+
+
+def test_velocities_take_the_minimum_image_and_divisions_end_tracks():
+    box = Box(100.0, 50.0)
+    cells = pd.DataFrame({"frame": [0, 1, 2, 2, 3, 3], "track": [1, 1, 1, 2, 2, 3],
+                          "x": [98.0, 99.5, 1.0, 40.0, 41.0, 39.0], "y": [49.0, 0.0, 1.0, 10.0, 10.0, 10.0]})
+    vx, vy = cell_velocities(cells, box)
+    np.testing.assert_allclose(vx, [np.nan, 1.5, np.nan, np.nan, np.nan, np.nan])
+    np.testing.assert_allclose(vy, [np.nan, 1.0, np.nan, np.nan, np.nan, np.nan])
+    ids = cells.drop(columns="track").rename(columns={"frame": "frame"}).assign(cell=cells["track"])
+    np.testing.assert_array_equal(cell_velocities(ids, box)[0], vx)  # without track: the label ids are the tracks
+
+
+@pytest.mark.parametrize("case", ["rotation", "shear", "dilation"])
+def test_affine_motions_are_recovered_within_one_percent(tissue, case):
+    omega, gamma, eps = 0.02, 0.03, 0.01  # rad/frame, 1/frame, 1/frame
+    if case == "rotation":
+        maps = [rotation(omega * t) for t in range(5)]
+        truth = {"vorticity": 2 * omega, "divergence": 0.0, "strain_xx": 0.0, "strain_xy": 0.0}
+        exact = {"vorticity": 2 * np.sin(omega)}  # what centred differences of a rotation give
+    elif case == "shear":  # vx = gamma y
+        maps = [lambda xy, t=t: xy + np.c_[gamma * t * (xy[:, 1] - CENTRE[1]), 0 * xy[:, 1]] for t in range(5)]
+        truth = {"vorticity": -gamma, "divergence": 0.0, "strain_xx": 0.0, "strain_xy": gamma / 2}
+        exact = truth
+    else:  # r(t) = c + exp(eps t) (r0 - c): v = eps (r - c)
+        maps = [lambda xy, t=t: CENTRE + np.exp(eps * t) * (xy - CENTRE) for t in range(5)]
+        truth = {"vorticity": 0.0, "divergence": 2 * eps, "strain_xx": 0.0, "strain_xy": 0.0}
+        exact = {"divergence": 2 * np.sinh(eps)}
+    cells, grid, flow = fields_of(moved(tissue, maps))
+    rows = interior(flow, 2)
+    for name, value in truth.items():
+        got = rows[name].to_numpy()
+        scale = max(abs(v) for v in truth.values())
+        assert np.abs(got - value).max() <= 0.01 * scale, (name, got.min(), got.max(), value)
+        if name in exact:
+            np.testing.assert_allclose(got, exact[name], rtol=1e-9, atol=1e-12)
+    # the fitted velocity at each node is the motion's velocity there
+    node = rows[["x", "y"]].to_numpy() - CENTRE
+    if case == "shear":
+        np.testing.assert_allclose(rows["vx"], gamma * node[:, 1], atol=1e-9)
+        np.testing.assert_allclose(rows["vy"], 0.0, atol=1e-9)
+    assert (flow["frame"].isin([0, 4]) & flow["valid"]).sum() == 0  # no velocity on the first and last frame
+    pd.testing.assert_series_equal(flow["node"], grid["node"])
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_a_uniform_translation_has_zero_gradients(tissue, periodic):
+    box = Box(SHAPE[1], SHAPE[0]) if periodic else None
+    shift = np.array([1.7, -0.6])
+    cells, grid, flow = fields_of(moved(tissue, [lambda xy, t=t: xy + t * shift for t in range(4)], box), box)
+    rows = interior(flow, 1)
+    for name in ("vorticity", "divergence", "strain_xx", "strain_xy", "dvx_dx", "dvx_dy", "dvy_dx", "dvy_dy"):
+        assert np.abs(rows[name]).max() < 1e-12, name
+    np.testing.assert_allclose(rows[["vx", "vy"]].to_numpy(), np.broadcast_to(shift, (len(rows), 2)), rtol=1e-12)
+
+
+def test_kernel_matches_reference_and_counts_the_disk():
+    rng = np.random.default_rng(0)
+    for period in (np.zeros(2), np.array([60.0, 50.0])):
+        n_frames, m = 3, 60
+        frames = np.sort(rng.integers(0, n_frames, m))
+        cx, cy = rng.uniform(0, 60, m), rng.uniform(0, 50, m)
+        cu, cv = rng.normal(size=m), rng.normal(size=m)
+        cx[:4], cy[:4] = [10, 12, 14, 16], 20.0  # four collinear cells: no fit around them alone
+        blocks = np.arange(n_frames)
+        cb = np.searchsorted(frames, np.r_[blocks, n_frames]).astype(np.int64)
+        nf = np.repeat(blocks, 40)
+        nx, ny = rng.uniform(-5, 65, len(nf)), rng.uniform(-5, 55, len(nf))
+        nr = rng.choice([4.0, 9.0, 14.0, 40.0], len(nf))
+        nb = np.searchsorted(nf, np.r_[blocks, n_frames]).astype(np.int64)
+        out_k, out_r = np.empty((len(nf), 6)), np.empty((len(nf), 6))
+        n_k, n_r = np.empty(len(nf), np.int64), np.empty(len(nf), np.int64)
+        K.affine_fits(cx, cy, cu, cv, cb, nx, ny, nr, nb, period, 3, out_k, n_k)
+        R.affine_fits(cx, cy, cu, cv, cb, nx, ny, nr, nb, period, 3, out_r, n_r)
+        np.testing.assert_array_equal(n_k, n_r)
+        np.testing.assert_allclose(out_k, out_r, rtol=1e-9, atol=1e-9)
+        assert np.isfinite(out_k).all(axis=1).sum() > 20 and np.isnan(out_k).all(axis=1).sum() > 5
+
+
+def test_collinear_cells_give_no_gradient():
+    cells = pd.DataFrame({"frame": 0, "x": [0.0, 1.0, 2.0, 3.0], "y": 0.0, "vx": [0.0, 1.0, 2.0, 3.0], "vy": 0.0})
+    grid = pd.DataFrame({"frame": [0], "node": [0], "x": [1.5], "y": [0.0], "radius": [5.0], "valid": [True]})
+    flow = flow_fields(cells, grid, radius_factor=1.0)
+    assert flow["n_cells"].tolist() == [4] and not flow["valid"].any() and np.isnan(flow["vorticity"]).all()
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"radius_factor": 0}, "radius_factor must be a positive"),
+    ({"min_cells": 2}, "min_cells must be an integer >= 3"),
+    ({"box": "periodic"}, "box must be a hexatissue.Box"),
+])
+def test_flow_fields_bad_input(kwargs, match):
+    cells = pd.DataFrame({"frame": [0], "x": [0.0], "y": [0.0], "vx": [0.0], "vy": [0.0]})
+    grid = pd.DataFrame({"frame": [0], "node": [0], "x": [0.0], "y": [0.0], "radius": [5.0], "valid": [True]})
+    with pytest.raises(InputError, match=match):
+        flow_fields(cells, grid, **kwargs)
+    with pytest.raises(InputError, match=r"cells is missing column\(s\) \['vx', 'vy'\]"):
+        flow_fields(cells.drop(columns=["vx", "vy"]), grid)
