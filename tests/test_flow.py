@@ -165,3 +165,77 @@ def test_flow_fields_bad_input(kwargs, match):
         flow_fields(cells, grid, **kwargs)
     with pytest.raises(InputError, match=r"cells is missing column\(s\) \['vx', 'vy'\]"):
         flow_fields(cells.drop(columns=["vx", "vy"]), grid)
+
+
+# --- statistics ----------------------------------------------------------------------------------------------
+
+def test_velocity_statistics_of_a_drift_and_of_opposite_motions():
+    from hexatissue.flow import velocity_statistics
+
+    cells = pd.DataFrame({"frame": [0, 0, 0, 1, 1, 1], "x": 0.0, "y": 0.0,
+                          "vx": [3.0, 3.0, 3.0, 1.0, -1.0, np.nan], "vy": [4.0, 4.0, 4.0, 0.0, 0.0, 0.0],
+                          "is_border": [False, False, False, False, False, False]})
+    stats = velocity_statistics(cells)
+    assert stats["frame"].tolist() == [0, 1] and stats["n_cells"].tolist() == [3, 2]
+    np.testing.assert_allclose(stats["mean_speed"], [5.0, 1.0])
+    np.testing.assert_allclose(stats["polar_order"], [1.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(stats[["mean_vx", "mean_vy"]].to_numpy(), [[3.0, 4.0], [0.0, 0.0]], atol=1e-15)
+
+
+def test_velocity_correlation_is_the_normalised_pair_mean_of_the_fluctuations():
+    from hexatissue.flow import velocity_correlation
+
+    rng = np.random.default_rng(2)
+    box = Box(40.0, 30.0)
+    cells = pd.DataFrame({"frame": np.repeat([0, 1], 12), "x": rng.uniform(0, 40, 24), "y": rng.uniform(0, 30, 24),
+                          "vx": rng.normal(size=24), "vy": rng.normal(size=24)})
+    got = velocity_correlation(cells, box, r_max=15.0, bins=3)
+    # brute force: every pair of the same frame, minimum image
+    total, count, var = np.zeros(3), np.zeros(3), []
+    for _, f in cells.groupby("frame"):
+        xy, dv = f[["x", "y"]].to_numpy(), f[["vx", "vy"]].to_numpy()
+        dv = dv - dv.mean(axis=0)
+        var.append((dv ** 2).sum(axis=1))
+        for i in range(len(f)):
+            for j in range(i + 1, len(f)):
+                r = np.hypot(*box.min_image(xy[j] - xy[i]))
+                if r <= 15.0:
+                    k = min(int(r // 5.0), 2)
+                    total[k] += dv[i] @ dv[j]
+                    count[k] += 1
+    np.testing.assert_array_equal(got["n_pairs"], count)
+    np.testing.assert_allclose(got["correlation"], total / count / np.concatenate(var).mean(), rtol=1e-12)
+    np.testing.assert_allclose(got["r"], [2.5, 7.5, 12.5])
+
+
+def test_correlation_length_interpolates_the_one_over_e_crossing():
+    from hexatissue.flow import correlation_length
+
+    r = np.arange(1.0, 11.0)
+    table = pd.DataFrame({"r": r, "correlation": 1.0 - r / 8.0})  # linear: crosses 1/e at 8 (1 - 1/e)
+    assert correlation_length(table) == pytest.approx(8.0 * (1 - np.exp(-1.0)), rel=1e-12)
+    assert np.isnan(correlation_length(table.assign(correlation=0.9)))
+
+
+def test_msd_of_ballistic_tracks_is_quadratic_across_the_periodic_edge():
+    from hexatissue.flow import mean_squared_displacement, msd_exponent
+
+    box = Box(50.0, 50.0)
+    t = np.arange(30)
+    speed = np.array([[1.5, 0.5], [-2.0, 1.0]])
+    rows = []
+    for k, v in enumerate(speed):
+        xy = box.wrap(np.array([10.0, 20.0]) + t[:, None] * v)
+        rows.append(pd.DataFrame({"frame": t, "track": k + 1, "x": xy[:, 0], "y": xy[:, 1]}))
+    cells = pd.concat(rows, ignore_index=True)
+    cells = cells[~((cells["track"] == 2) & (cells["frame"] == 10))]  # a gap: no pair spans it
+    msd = mean_squared_displacement(cells, box, lags=[1, 5, 20])
+    # track 1: 30 - lag pairs; track 2 is frames 0-9 and 11-29: (10 - lag)+ + (19 - lag)+
+    assert msd["n_pairs"].tolist() == [29 + 27, 25 + 19, 10 + 0]
+    lag = msd["lag"].to_numpy(float)
+    pairs = msd["n_pairs"].to_numpy(float)
+    n1 = 30 - lag
+    expected = (n1 * (speed[0] ** 2).sum() + (pairs - n1) * (speed[1] ** 2).sum()) * lag ** 2 / pairs
+    np.testing.assert_allclose(msd["msd"], expected, rtol=1e-12)
+    lags = np.array([1.0, 2.0, 4.0, 8.0, 16.0])
+    assert msd_exponent(pd.DataFrame({"lag": lags, "msd": 3.0 * lags ** 1.5})) == pytest.approx(1.5, rel=1e-12)

@@ -23,7 +23,8 @@ from ..schema import interior_mask, require_columns, track_ids, validate
 from ..units import as_calibration
 from . import _kernels as K
 
-__all__ = ["cell_velocities", "flow_fields", "velocity_unit", "in_units", "MIN_CELLS"]
+__all__ = ["cell_velocities", "flow_fields", "velocity_statistics", "velocity_correlation", "correlation_length",
+           "mean_squared_displacement", "msd_exponent", "flow_summary", "velocity_unit", "in_units", "MIN_CELLS"]
 
 #: Fewest cells an affine fit takes (three non-collinear points fix a 2-D affine map).
 MIN_CELLS = 3
@@ -193,3 +194,260 @@ def in_units(values, calibration=None, length_power=1, time_power=-1):
     """
     cal = as_calibration(calibration)
     return np.asarray(values, float) * cal.pixel_size ** length_power * cal.frame_interval ** time_power
+
+
+# ----------------------------------------------------------------------------
+# Statistics
+# ----------------------------------------------------------------------------
+
+def _moving_cells(cells):
+    """Rows that enter the statistics: interior cells with a finite position and velocity."""
+    require_columns(cells, ["frame", "x", "y", "vx", "vy"], "cells")
+    xy = cells[["x", "y"]].to_numpy(float)
+    uv = cells[["vx", "vy"]].to_numpy(float)
+    return interior_mask(cells) & np.isfinite(xy).all(axis=1) & np.isfinite(uv).all(axis=1)
+
+
+def velocity_statistics(cells):
+    """Mean speed and polar order of the cell velocities, per frame.
+
+    Interior cells (not ``is_border``) with a finite velocity enter.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with ``frame``, ``x``, ``y``, ``vx``, ``vy`` (px/frame) and
+        optionally ``is_border``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per frame with at least one such cell: ``frame``, ``n_cells``,
+        ``mean_speed`` (mean of ``|v|``, px/frame), ``mean_vx``, ``mean_vy``
+        (the mean velocity, px/frame), ``polar_order`` (``|mean of v / |v||``,
+        dimensionless, 0 for random directions and 1 when all cells move the
+        same way; cells at rest do not count in it).
+    """
+    use = _moving_cells(cells)
+    frame = cells["frame"].to_numpy(np.int64)[use]
+    uv = cells[["vx", "vy"]].to_numpy(float)[use]
+    frames, index = np.unique(frame, return_inverse=True)
+    speed = np.hypot(uv[:, 0], uv[:, 1])
+    moving = speed > 0
+    unit = np.zeros_like(uv)
+    unit[moving] = uv[moving] / speed[moving, None]
+    n = np.bincount(index, minlength=len(frames))
+    n_moving = np.bincount(index, moving, minlength=len(frames))
+    sums = [np.bincount(index, w, minlength=len(frames)) for w in (speed, uv[:, 0], uv[:, 1], unit[:, 0], unit[:, 1])]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        polar = np.where(n_moving > 0, np.hypot(sums[3], sums[4]) / n_moving, np.nan)
+    return pd.DataFrame({"frame": frames, "n_cells": n, "mean_speed": sums[0] / n, "mean_vx": sums[1] / n,
+                         "mean_vy": sums[2] / n, "polar_order": polar})
+
+
+def _sampled_frames(frames, max_frames):
+    """At most ``max_frames`` of the sorted distinct ``frames``, evenly spread."""
+    if len(frames) <= max_frames:
+        return frames
+    return frames[np.unique(np.linspace(0, len(frames) - 1, max_frames).round().astype(np.int64))]
+
+
+def velocity_correlation(cells, box=None, r_max=None, bins=30, max_frames=50):
+    """Spatial correlation of the velocity fluctuations, averaged over frames.
+
+    ``C(r) = <dv_i . dv_j> / <|dv|^2>`` over the pairs of cells at centroid
+    distance ``r`` (minimum image in a periodic box) in the same frame, with
+    ``dv = v - <v>`` the velocity minus its frame mean (a uniform drift does
+    not count as correlation).  Interior cells with a finite velocity enter.
+    Frames are pooled: the pair sums and counts of every frame, and the
+    variance over every cell.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with ``frame``, ``x``, ``y`` (px), ``vx``, ``vy``
+        (px/frame) and optionally ``is_border``.
+    box : Box, optional
+        Periodic box; None for an open image.
+    r_max : float, optional
+        Largest distance, px.  Default: half the shorter side of the box, or
+        of the cells' extent on an open image.
+    bins : int
+        Number of distance bins of equal width in ``(0, r_max]``.
+    max_frames : int
+        At most this many frames, evenly spread over the movie, enter (the
+        cost grows with the frames; 50 frames give smooth curves).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per bin: ``r`` (bin centre, px), ``correlation`` (C(r),
+        dimensionless; NaN for an empty bin), ``n_pairs`` (pairs in the bin,
+        every frame).
+    """
+    from scipy.spatial import cKDTree
+
+    box = as_box(box)
+    use = _moving_cells(cells)
+    bins = int(check_positive(bins, "bins", integer=True))
+    max_frames = int(check_positive(max_frames, "max_frames", integer=True))
+    frame = cells["frame"].to_numpy(np.int64)[use]
+    xy = cells[["x", "y"]].to_numpy(float)[use]
+    uv = cells[["vx", "vy"]].to_numpy(float)[use]
+    if r_max is None:
+        extent = box.lengths if box is not None else (np.ptp(xy, axis=0) if len(xy) else np.zeros(2))
+        r_max = 0.5 * float(np.min(extent))
+    if not r_max > 0:
+        return pd.DataFrame({"r": np.zeros(0), "correlation": np.zeros(0), "n_pairs": np.zeros(0, np.int64)})
+    r_max = check_positive(r_max, "r_max", unit="px")
+    edges = np.linspace(0.0, r_max, bins + 1)
+    total, count, variance, n_cells = np.zeros(bins), np.zeros(bins, np.int64), 0.0, 0
+    order = np.argsort(frame, kind="stable")
+    frame, xy, uv = frame[order], xy[order], uv[order]
+    distinct = np.unique(frame)
+    starts = np.searchsorted(frame, distinct)
+    ends = np.searchsorted(frame, distinct, "right")
+    for k in np.searchsorted(distinct, _sampled_frames(distinct, max_frames)):
+        p, dv = xy[starts[k]:ends[k]], uv[starts[k]:ends[k]]
+        dv = dv - dv.mean(axis=0)
+        variance, n_cells = variance + float((dv ** 2).sum()), n_cells + len(dv)
+        tree = cKDTree(box.wrap(p), boxsize=box.lengths) if box is not None else cKDTree(p)
+        pairs = tree.query_pairs(r_max, output_type="ndarray")
+        if not len(pairs):
+            continue
+        d = p[pairs[:, 1]] - p[pairs[:, 0]]
+        r = np.hypot(*(d if box is None else box.min_image(d)).T)
+        which = np.clip(np.searchsorted(edges, r, "left") - 1, 0, bins - 1)  # r = 0 (two cells at one spot): bin 0
+        total += np.bincount(which, (dv[pairs[:, 0]] * dv[pairs[:, 1]]).sum(axis=1), minlength=bins)
+        count += np.bincount(which, minlength=bins)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        correlation = np.where(count > 0, total / np.maximum(count, 1), np.nan) / (variance / max(n_cells, 1))
+    return pd.DataFrame({"r": 0.5 * (edges[1:] + edges[:-1]), "correlation": correlation, "n_pairs": count})
+
+
+def correlation_length(correlation, level=np.exp(-1.0)):
+    """Distance at which a velocity correlation first falls to ``level`` (1/e), px.
+
+    Linear interpolation between the bins of :func:`velocity_correlation`
+    (from C(0) = 1); NaN when it never falls that low within its ``r_max``.
+    """
+    require_columns(correlation, ["r", "correlation"], "correlation")
+    r = np.r_[0.0, correlation["r"].to_numpy(float)]
+    c = np.r_[1.0, correlation["correlation"].to_numpy(float)]
+    keep = np.isfinite(c)
+    r, c = r[keep], c[keep]
+    below = np.flatnonzero(c < level)
+    if not len(below):
+        return float("nan")
+    k = below[0]
+    return float(r[k - 1] + (c[k - 1] - level) / (c[k - 1] - c[k]) * (r[k] - r[k - 1]))
+
+
+def _default_lags(n_frames, count=20):
+    """About ``count`` log-spaced lags from 1 to half the movie, frames."""
+    top = max(1, n_frames // 2)
+    return np.unique(np.geomspace(1, top, count).round().astype(np.int64))
+
+
+def mean_squared_displacement(cells, box=None, lags=None):
+    """Mean squared displacement of the cells' centroids against the time lag.
+
+    ``MSD(tau) = <|r(t + tau) - r(t)|^2>`` over every track and every ``t``
+    at which the track is present in all of ``t .. t + tau`` (a gap closed by
+    the tracker, or a division, which ends the track, breaks the pairs over
+    it) and interior (not ``is_border``) at both ends.  In a periodic box a
+    track is unwrapped by its minimum-image steps, so displacements may
+    exceed the box.  The mean drift of the tissue is not removed.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with ``frame``, ``x``, ``y`` (px), ``track`` (or
+        ``cell``) and optionally ``is_border``.
+    box : Box, optional
+        Periodic box; None for an open image.
+    lags : sequence of int, optional
+        Lags, frames (default: ~20 log-spaced lags up to half the movie).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per lag: ``lag`` (frames), ``msd`` (px^2; NaN without pairs),
+        ``n_pairs``.
+    """
+    require_columns(cells, ["frame", "x", "y"], "cells")
+    box = as_box(box)
+    track, frame = track_ids(cells), cells["frame"].to_numpy(np.int64)
+    if lags is None:
+        lags = _default_lags(int(frame.max() - frame.min()) + 1 if len(frame) else 1)
+    lags = np.asarray([check_positive(v, "lags", integer=True) for v in np.atleast_1d(lags)], np.int64)
+    order = _sorted_by_track(track, frame)
+    t, f = track[order], frame[order]
+    xy = cells[["x", "y"]].to_numpy(float)[order]
+    inner = interior_mask(cells)[order] & np.isfinite(xy).all(axis=1)
+    if box is not None and len(xy):  # unwrap: each track's path from minimum-image steps
+        step = box.min_image(np.diff(xy, axis=0))
+        step[t[1:] != t[:-1]] = 0.0
+        path = np.vstack([xy[:1], xy[:1] + np.cumsum(step, axis=0)])
+        # each track starts at its own (wrapped) position; only differences within a track are used
+        xy = path
+    msd, n_pairs = np.full(len(lags), np.nan), np.zeros(len(lags), np.int64)
+    for k, lag in enumerate(lags):
+        if lag >= len(t):
+            continue
+        # rows are sorted by (track, frame) with one row per frame: row i + lag is frame f + lag of the same
+        # track exactly when the track has no gap between them
+        ok = (t[lag:] == t[:-lag]) & (f[lag:] == f[:-lag] + lag) & inner[lag:] & inner[:-lag]
+        d = xy[lag:][ok] - xy[:-lag][ok]
+        n_pairs[k] = len(d)
+        if len(d):
+            msd[k] = float((d ** 2).sum(axis=1).mean())
+    return pd.DataFrame({"lag": lags, "msd": msd, "n_pairs": n_pairs})
+
+
+def msd_exponent(msd):
+    """Exponent alpha of ``MSD ~ lag^alpha``: least-squares slope of log MSD against log lag.
+
+    Lags with a finite positive MSD enter (1: diffusive, 2: ballistic); NaN with fewer than two.
+    """
+    require_columns(msd, ["lag", "msd"], "msd")
+    lag, value = msd["lag"].to_numpy(float), msd["msd"].to_numpy(float)
+    keep = np.isfinite(value) & (value > 0) & (lag > 0)
+    if keep.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(lag[keep]), np.log(value[keep]), 1)[0])
+
+
+def flow_summary(cells, box=None, correlation=None, msd=None):
+    """The key numbers of a movie's flow, px and frames (see :func:`in_units` for physical units).
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with velocities (``vx``, ``vy``, px/frame) and tracks.
+    box : Box, optional
+        Periodic box; None for an open image.
+    correlation, msd : pandas.DataFrame, optional
+        :func:`velocity_correlation` and :func:`mean_squared_displacement`
+        of ``cells`` (computed with their defaults when not given).
+
+    Returns
+    -------
+    dict
+        ``n_velocities`` (cell-frames with a velocity entering), ``mean_speed``
+        (px/frame, over every such cell-frame), ``rms_velocity`` (px/frame),
+        ``polar_order`` (mean over frames, dimensionless),
+        ``correlation_length`` (px, :func:`correlation_length`),
+        ``msd_exponent`` (:func:`msd_exponent`).
+    """
+    use = _moving_cells(cells)
+    uv = cells[["vx", "vy"]].to_numpy(float)[use]
+    per_frame = velocity_statistics(cells)
+    correlation = velocity_correlation(cells, box) if correlation is None else correlation
+    msd = mean_squared_displacement(cells, box) if msd is None else msd
+    return {"n_velocities": int(len(uv)),
+            "mean_speed": float(np.hypot(*uv.T).mean()) if len(uv) else float("nan"),
+            "rms_velocity": float(np.sqrt((uv ** 2).sum(axis=1).mean())) if len(uv) else float("nan"),
+            "polar_order": float(per_frame["polar_order"].mean()) if len(per_frame) else float("nan"),
+            "correlation_length": correlation_length(correlation),
+            "msd_exponent": msd_exponent(msd)}
