@@ -82,6 +82,11 @@ def cell_velocities(cells, box=None):
     return out[:, 0].copy(), out[:, 1].copy()
 
 
+def period_of(box):
+    """``(Lx, Ly)`` of a periodic box, ``(0, 0)`` for an open image (the kernels' convention)."""
+    return np.zeros(2) if box is None else box.lengths
+
+
 def _frame_bounds(frames, blocks):
     """Start of each of ``blocks`` (sorted distinct frames) in the sorted ``frames``, plus the end."""
     return np.searchsorted(frames, np.r_[blocks, np.iinfo(np.int64).max]).astype(np.int64)
@@ -133,10 +138,11 @@ def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
         points down), ``divergence`` (``dvx/dx + dvy/dy``, 1/frame),
         ``strain_xx`` (``(dvx/dx - dvy/dy) / 2``, 1/frame), ``strain_xy``
         (``(dvx/dy + dvy/dx) / 2``, 1/frame; the traceless symmetric strain
-        rate is ``[[strain_xx, strain_xy], [strain_xy, -strain_xx]]``),
-        ``dvx_dx``, ``dvx_dy``, ``dvy_dx``, ``dvy_dy`` (the velocity gradient,
-        1/frame), ``n_cells`` (cells in the disk) and ``valid`` (the grid node
-        is valid and the fit exists).  Fields are NaN where there is no fit.
+        rate is ``[[strain_xx, strain_xy], [strain_xy, -strain_xx]]``; with
+        the vorticity and the divergence they give the whole gradient,
+        ``dvx/dy = strain_xy - vorticity / 2``, ...), ``n_cells`` (cells with a
+        velocity in the disk) and ``valid`` (the grid node is valid and the fit
+        exists).  Fields are NaN where there is no fit.
     """
     require_columns(cells, ["frame", "x", "y", "vx", "vy"], "cells")
     require_columns(grid, ["frame", "node", "x", "y", "radius", "valid"], "grid")
@@ -150,32 +156,40 @@ def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
     frame = cells["frame"].to_numpy(np.int64)[use]
     c_order = np.argsort(frame, kind="stable")
     xy, uv, frame = xy[use][c_order], uv[use][c_order], frame[c_order]
+    if box is not None:
+        xy = box.wrap(xy)
     g_frame = grid["frame"].to_numpy(np.int64)
-    g_order = np.argsort(g_frame, kind="stable")
-    g_sorted = g_frame[g_order]
-    blocks = np.unique(g_sorted)
-    radius = grid["radius"].to_numpy(float) * radius_factor
-    nodes = grid[["x", "y"]].to_numpy(float)[g_order]
-    fits = np.empty((len(grid), 6))
+    # the grid of analyze is in frame order: then its rows go to the kernel as they are
+    g_order = None if bool(np.all(g_frame[1:] >= g_frame[:-1])) else np.argsort(g_frame, kind="stable")
+
+    def sorted_(values):
+        return values if g_order is None else values[g_order]
+
+    blocks = np.unique(g_frame)
+    names = ["x", "y", "radius", "vx", "vy", "vorticity", "divergence", "strain_xx", "strain_xy"]
+    # one float block whose rows are the columns (as coarse_grain's grid): no copy into the DataFrame
+    block = np.empty((len(names), len(grid)))
+    columns = dict(zip(names, block))
+    columns["x"][:], columns["y"][:] = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
+    np.multiply(grid["radius"].to_numpy(float), radius_factor, out=columns["radius"])
+    fits = np.empty((6, len(grid)))
     counts = np.empty(len(grid), np.int64)
-    period = np.zeros(2) if box is None else box.lengths
     K.affine_fits(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]), np.ascontiguousarray(uv[:, 0]),
                   np.ascontiguousarray(uv[:, 1]), _frame_bounds(frame, blocks),
-                  np.ascontiguousarray(nodes[:, 0]), np.ascontiguousarray(nodes[:, 1]), radius[g_order],
-                  _frame_bounds(g_sorted, blocks), period, int(min_cells), fits, counts)
-    out = np.empty_like(fits)
-    out[g_order] = fits
-    n_cells = np.empty_like(counts)
-    n_cells[g_order] = counts
-    v0x, v0y, lxx, lxy, lyx, lyy = out.T
-    table = pd.DataFrame({
-        "frame": g_frame, "node": grid["node"].to_numpy(np.int64),
-        "x": grid["x"].to_numpy(float), "y": grid["y"].to_numpy(float), "radius": radius,
-        "vx": v0x, "vy": v0y, "vorticity": lyx - lxy, "divergence": lxx + lyy,
-        "strain_xx": 0.5 * (lxx - lyy), "strain_xy": 0.5 * (lxy + lyx),
-        "dvx_dx": lxx, "dvx_dy": lxy, "dvy_dx": lyx, "dvy_dy": lyy,
-        "n_cells": n_cells, "valid": grid["valid"].to_numpy(bool) & np.isfinite(lxx),
-    })
+                  np.ascontiguousarray(sorted_(columns["x"])), np.ascontiguousarray(sorted_(columns["y"])),
+                  np.ascontiguousarray(sorted_(columns["radius"])), _frame_bounds(sorted_(g_frame), blocks), period_of(box),
+                  int(min_cells), fits, counts)
+    if g_order is not None:
+        fits[:, g_order], counts[g_order] = fits.copy(), counts.copy()
+    v0x, v0y, lxx, lxy, lyx, lyy = fits
+    columns["vx"][:], columns["vy"][:] = v0x, v0y
+    np.subtract(lyx, lxy, out=columns["vorticity"])
+    np.add(lxx, lyy, out=columns["divergence"])
+    np.multiply(np.subtract(lxx, lyy, out=columns["strain_xx"]), 0.5, out=columns["strain_xx"])
+    np.multiply(np.add(lxy, lyx, out=columns["strain_xy"]), 0.5, out=columns["strain_xy"])
+    valid = grid["valid"].to_numpy(bool) & np.isfinite(lxx)
+    table = pd.DataFrame({"frame": g_frame, "node": grid["node"].to_numpy(np.int64), **columns, "n_cells": counts,
+                          "valid": valid}, copy=False)
     return validate(table, "flow")
 
 
@@ -252,7 +266,7 @@ def _sampled_frames(frames, max_frames):
     return frames[np.unique(np.linspace(0, len(frames) - 1, max_frames).round().astype(np.int64))]
 
 
-def velocity_correlation(cells, box=None, r_max=None, bins=30, max_frames=50):
+def velocity_correlation(cells, box=None, r_max=None, bins=30, max_frames=20):
     """Spatial correlation of the velocity fluctuations, averaged over frames.
 
     ``C(r) = <dv_i . dv_j> / <|dv|^2>`` over the pairs of cells at centroid
@@ -276,7 +290,8 @@ def velocity_correlation(cells, box=None, r_max=None, bins=30, max_frames=50):
         Number of distance bins of equal width in ``(0, r_max]``.
     max_frames : int
         At most this many frames, evenly spread over the movie, enter (the
-        cost grows with the frames; 50 frames give smooth curves).
+        cost grows with the frames and the pairs; 20 frames of 440 cells
+        give ~2 million pairs, smooth curves).
 
     Returns
     -------
@@ -343,7 +358,7 @@ def correlation_length(correlation, level=np.exp(-1.0)):
     return float(r[k - 1] + (c[k - 1] - level) / (c[k - 1] - c[k]) * (r[k] - r[k - 1]))
 
 
-def _default_lags(n_frames, count=20):
+def _default_lags(n_frames, count=12):
     """About ``count`` log-spaced lags from 1 to half the movie, frames."""
     top = max(1, n_frames // 2)
     return np.unique(np.geomspace(1, top, count).round().astype(np.int64))
@@ -367,7 +382,7 @@ def mean_squared_displacement(cells, box=None, lags=None):
     box : Box, optional
         Periodic box; None for an open image.
     lags : sequence of int, optional
-        Lags, frames (default: ~20 log-spaced lags up to half the movie).
+        Lags, frames (default: ~12 log-spaced lags up to half the movie).
 
     Returns
     -------

@@ -23,15 +23,19 @@ MIN_SPREAD = 0.1
 
 @njit(cache=True)
 def _offset(d, period):
-    """Minimum-image displacement along one axis (``d`` itself when ``period`` is 0: open image)."""
+    """Minimum-image displacement along one axis of two positions inside ``[0, period)`` (``d`` itself when
+    ``period`` is 0: open image); a comparison, not a division, as it runs for every cell a node scans."""
     if period > 0.0:
-        return d - period * np.rint(d / period)
+        if d > 0.5 * period:
+            return d - period
+        if d < -0.5 * period:
+            return d + period
     return d
 
 
 @njit(cache=True)
 def _bins_of_frame(cx, cy, lo, hi, size, period):
-    """Counting sort of the cells ``lo:hi`` into square-ish bins of side >= ``size``.
+    """Counting sort of the cells ``lo:hi`` (inside the box when periodic) into bins of side >= ``size``.
 
     Returns ``(order, starts, origin_x, origin_y, bin_x, bin_y, nbx, nby)``: the cells of bin
     ``b = by * nbx + bx`` are ``order[starts[b]:starts[b + 1]]`` (indices into the whole arrays).
@@ -53,12 +57,8 @@ def _bins_of_frame(cx, cy, lo, hi, size, period):
     key = np.empty(n, np.int64)
     starts = np.zeros(nbx * nby + 1, np.int64)
     for k in range(n):
-        x, y = cx[lo + k] - ox, cy[lo + k] - oy
-        if period[0] > 0.0:
-            x -= period[0] * math.floor(x / period[0])
-            y -= period[1] * math.floor(y / period[1])
-        bx = min(max(int(x // bx_size), 0), nbx - 1)
-        by = min(max(int(y // by_size), 0), nby - 1)
+        bx = min(max(int((cx[lo + k] - ox) // bx_size), 0), nbx - 1)
+        by = min(max(int((cy[lo + k] - oy) // by_size), 0), nby - 1)
         key[k] = by * nbx + bx
         starts[key[k] + 1] += 1
     for b in range(nbx * nby):
@@ -90,8 +90,8 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
     Parameters
     ----------
     cx, cy, cu, cv : (m,) float
-        Counted cells (interior, finite position and velocity) sorted by frame: position, px, and
-        velocity, px/frame.
+        Counted cells (interior, finite position and velocity) sorted by frame: position, px (inside
+        ``[0, L)`` in a periodic box), and velocity, px/frame.
     cell_bounds : (n_frames + 1,) int64
         The cells of frame block ``f`` are ``cell_bounds[f]:cell_bounds[f + 1]``.
     nx, ny, nr : (n,) float
@@ -102,7 +102,7 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
         ``(Lx, Ly)`` of a periodic box (minimum-image distances), or ``(0, 0)`` for an open image.
     min_cells : int
         Fewest cells a fit takes (at least 3).
-    out : (n, 6) float, written
+    out : (6, n) float, written
         Per node ``v0x, v0y, Lxx, Lxy, Lyx, Lyy`` with ``L_ij = d v_i / d x_j`` (px/frame and
         1/frame); NaN where there are fewer than ``min_cells`` cells or they are not spread by
         :data:`MIN_SPREAD` x the radius across their narrowest direction.
@@ -160,7 +160,7 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
                         s_xv += dx * v
                         s_yv += dy * v
             counts[i] = n
-            out[i, :] = np.nan
+            out[:, i] = np.nan
             if n < max(min_cells, 3):
                 continue
             mx, my, mu, mv = s_x / n, s_y / n, s_u / n, s_v / n
@@ -177,6 +177,6 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
             lxy = (cxx * cyu - cxy * cxu) / det
             lyx = (cyy * cxv - cxy * cyv) / det
             lyy = (cxx * cyv - cxy * cxv) / det
-            out[i, 0] = mu - lxx * mx - lxy * my
-            out[i, 1] = mv - lyx * mx - lyy * my
-            out[i, 2], out[i, 3], out[i, 4], out[i, 5] = lxx, lxy, lyx, lyy
+            out[0, i] = mu - lxx * mx - lxy * my
+            out[1, i] = mv - lyx * mx - lyy * my
+            out[2, i], out[3, i], out[4, i], out[5, i] = lxx, lxy, lyx, lyy

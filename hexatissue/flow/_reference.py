@@ -23,7 +23,7 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
                 d = d - period * np.rint(d / period)
             inside = (d ** 2).sum(axis=1) <= nr[i] ** 2
             counts[i] = inside.sum()
-            out[i] = np.nan
+            out[:, i] = np.nan
             if counts[i] < max(min_cells, 3):
                 continue
             spread = np.linalg.eigvalsh(np.cov(d[inside].T, bias=True))[0]
@@ -31,4 +31,4 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
                 continue
             design = np.c_[np.ones(counts[i]), d[inside]]
             coef = np.linalg.lstsq(design, uv[inside], rcond=None)[0]  # rows: v0, d/dx, d/dy; columns: vx, vy
-            out[i] = [coef[0, 0], coef[0, 1], coef[1, 0], coef[2, 0], coef[1, 1], coef[2, 1]]
+            out[:, i] = [coef[0, 0], coef[0, 1], coef[1, 0], coef[2, 0], coef[1, 1], coef[2, 1]]
