@@ -239,3 +239,43 @@ def test_msd_of_ballistic_tracks_is_quadratic_across_the_periodic_edge():
     np.testing.assert_allclose(msd["msd"], expected, rtol=1e-12)
     lags = np.array([1.0, 2.0, 4.0, 8.0, 16.0])
     assert msd_exponent(pd.DataFrame({"lag": lags, "msd": 3.0 * lags ** 1.5})) == pytest.approx(1.5, rel=1e-12)
+
+
+# --- the stage, end to end ------------------------------------------------------------------------------------
+
+def test_analyze_of_a_rotating_voronoi_movie_recovers_its_vorticity_and_reports_it(tmp_path):
+    from hexatissue import Calibration, FlowOptions, read_results
+    from hexatissue.workflows.report import report
+
+    omega = 0.02  # rad/frame; Voronoi tessellations rotate with their seeds, so the cells rotate rigidly
+    seeds = jittered_seeds(SHAPE, 12.0, seed=3)
+    labels = np.stack([voronoi_labels(rotation(omega * t)(seeds), SHAPE) for t in range(5)])
+    movie = analyze(labels, workers=1, progress=False)
+    movie.calibration = Calibration(0.5, "um", 2.0, "min")
+    rows = interior(movie.flow, 2)
+    # pixel centroids rotate with the cells up to their rasterisation
+    assert np.median(rows["vorticity"]) == pytest.approx(2 * np.sin(omega), rel=0.01)
+    assert np.abs(np.median(rows["divergence"])) < 0.01 * 2 * omega
+    assert np.isnan(movie.cells.loc[movie.cells["frame"].isin([0, 4]), "vx"]).all()
+    movie.write(tmp_path / "out")
+    back = read_results(tmp_path / "out")
+    pd.testing.assert_frame_equal(back.flow, movie.flow)
+    assert back.options["flow"] == FlowOptions()
+    numbers = report(tmp_path / "out")
+    text = (tmp_path / "out" / "report" / "report.md").read_text()
+    assert "## Tissue flow" in text and "µm/min" in text and "flow_frame0002.png" in text
+    assert (tmp_path / "out" / "report" / "flow_frame0002.png").stat().st_size > 10_000
+    speed = np.hypot(movie.cells["vx"], movie.cells["vy"])[~movie.cells["is_border"]].mean()
+    assert numbers["flow"]["mean_speed"] == pytest.approx(speed)
+    off = analyze(labels, workers=1, progress=False, flow=FlowOptions(enabled=False))
+    assert "vx" not in off.cells.columns and "flow" not in off.tables
+
+
+def test_flow_flags():
+    from hexatissue import FlowOptions
+    from hexatissue.cli import build_parser, stage_options
+
+    args = build_parser().parse_args(["analyze", "x.tif", "--out", "o", "--no-flow", "--flow-radius-factor", "3"])
+    assert stage_options(args)["flow"] == FlowOptions(enabled=False, radius_factor=3.0)
+    with pytest.raises(InputError, match="FlowOptions.min_cells must be an integer >= 3"):
+        FlowOptions(min_cells=2)

@@ -12,11 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import as_generator
+from ..flow import correlation_length, in_units, msd_exponent, velocity_unit
 from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
 from ..units import as_calibration
 
 __all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
-           "plot_event_overview"]
+           "plot_event_overview", "plot_flow_statistics"]
 
 EVENT_COLOR = "#2a7f62"
 CONTROL_COLOR = "#7f7f7f"
@@ -380,3 +381,57 @@ def _duration_bins(durations, max_bins=30):
     step = max(1, int(np.ceil((hi - lo) / max_bins)))
     n = max(1, int(np.ceil((hi + 0.5 - lo) / step)))
     return lo + step * np.arange(n + 1)
+
+
+def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=None, figsize=(12, 3.8)):
+    """Mean speed and polar order over time, the velocity correlation C(r), and the MSD.
+
+    Parameters
+    ----------
+    per_frame, correlation, msd : pandas.DataFrame
+        :func:`hexatissue.flow.velocity_statistics`,
+        :func:`hexatissue.flow.velocity_correlation` and
+        :func:`hexatissue.flow.mean_squared_displacement` (px and frames).
+    calibration : Calibration, optional
+        Units of the axes (px and frames when None).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three panels; the correlation length (C = 1/e) and the MSD exponent
+        are marked.
+    """
+    cal = as_calibration(calibration)
+    fig, (a, b, c) = _figure(3, figsize)
+    time = cal.time(per_frame["frame"].to_numpy(float))
+    a.plot(time, in_units(per_frame["mean_speed"].to_numpy(float), cal), color="k", lw=1)
+    a.set_xlabel(f"time ({cal.time_label})")
+    a.set_ylabel(f"mean speed ({velocity_unit(cal)})")
+    twin = a.twinx()
+    twin.plot(time, per_frame["polar_order"].to_numpy(float), color=FAST_COLOR, lw=1)
+    twin.set_ylabel("polar order", color=FAST_COLOR)
+    twin.set_ylim(0, 1)
+    r = cal.length(correlation["r"].to_numpy(float))
+    b.plot(r, correlation["correlation"].to_numpy(float), "o-", ms=3, color=SLOW_COLOR)
+    b.axhline(np.exp(-1.0), color="0.5", lw=0.8, ls="--")
+    b.axhline(0.0, color="0.7", lw=0.6)
+    xi = correlation_length(correlation)
+    if np.isfinite(xi):
+        b.axvline(cal.length(xi), color="0.3", lw=0.8, ls=":")
+    b.set_xlabel(f"r ({cal.length_label})")
+    b.set_ylabel("velocity correlation C(r)")
+    b.set_title(f"correlation length {cal.length(xi):.3g} {cal.length_label}" if np.isfinite(xi)
+                else "C(r) stays above 1/e", fontsize=9)
+    ok = np.isfinite(msd["msd"].to_numpy(float)) & (msd["msd"].to_numpy(float) > 0)
+    if ok.any():
+        c.loglog(cal.time(msd["lag"].to_numpy(float)[ok]), in_units(msd["msd"].to_numpy(float)[ok], cal, 2, 0),
+                 "o-", ms=3, color="k")
+        c.set_title(f"MSD exponent {msd_exponent(msd):.2f}", fontsize=9)
+        from matplotlib.ticker import NullFormatter
+
+        c.xaxis.set_minor_formatter(NullFormatter())  # log minor labels overlap over a decade or two
+    else:
+        _empty(c, "no displacement pairs")
+    c.set_xlabel(f"lag ({cal.time_label})")
+    c.set_ylabel(f"MSD ({cal.length_label}$^2$)")
+    return _finish(fig, path)

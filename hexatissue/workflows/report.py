@@ -191,6 +191,7 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     elif len(movie) > 1:
         lines += _movie_sections(movie, out, written, numbers, p=p, dl=dl, dt=dt, n_control=n_control, seed=seed,
                                  include_border=include_border, control=control)
+        lines += _flow_section(movie, out, written, numbers)
     md = out / "report.md"
     with atomic_path(md) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -356,4 +357,67 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
                   _md_table(timing_summary(per_cell)), "",
                   f"- Welch two-sided t-test: t = {test_pc['t_statistic']:.3g}, p = {test_pc['pvalue']:.3g}", ""]
     lines += _figure_line(path, out, "timing")
+    return lines
+
+
+def _rate(cal, value, length_power=1):
+    """A velocity (``length_power`` 1, px/frame) or a rate (0, 1/frame) as text, also in the calibration's units."""
+    from ..flow import in_units, velocity_unit
+
+    text = f"{value:.3g} {'px/frame' if length_power else '1/frame'}"
+    if not (cal.has_length or cal.has_time):
+        return text
+    unit = velocity_unit(cal) if length_power else f"1/{cal.time_unit if cal.has_time else 'frame'}"
+    return text + f" ({float(in_units(value, cal, length_power, -1)):.3g} {unit})"
+
+
+def _flow_section(movie, out, written, numbers):
+    """The tissue flow: velocity statistics, the flow field of a middle frame, C(r) and the MSD."""
+    from .. import plot
+    from ..analysis.plots import plot_flow_statistics
+    from ..flow import flow_summary, mean_squared_displacement, velocity_correlation, velocity_statistics
+
+    cells, cal, box = movie.cells, movie.calibration, movie.box
+    if "vx" not in cells.columns:
+        return ["## Tissue flow", "", "No cell velocities in the results folder (analysed with `--no-flow`).", ""]
+    per_frame = velocity_statistics(cells)
+    correlation = velocity_correlation(cells, box)
+    msd = mean_squared_displacement(cells, box)
+    summary = flow_summary(cells, box, correlation, msd)
+    numbers["flow"] = summary
+    lines = ["## Tissue flow", "",
+             f"- cell velocities: {summary['n_velocities']} cell-frames (centred differences along the tracks; none "
+             f"on the first and last frame of a track, at divisions or beside gaps; border cells left out)"]
+    if summary["n_velocities"] == 0:
+        return lines + ["", "No interior cell has a velocity (every track is shorter than three frames).", ""]
+    xi = summary["correlation_length"]
+    lines += [f"- mean speed {_rate(cal, summary['mean_speed'])}; rms velocity {_rate(cal, summary['rms_velocity'])}",
+              f"- polar order of the velocities (mean over frames): {summary['polar_order']:.3g}",
+              "- velocity correlation length (C(r) of the velocity fluctuations falls to 1/e): "
+              + (_length(cal, xi) if np.isfinite(xi) else "C(r) stays above 1/e"),
+              f"- MSD exponent (MSD ~ lag^alpha, lags {int(msd['lag'].min())}-{int(msd['lag'].max())} frames): "
+              f"{summary['msd_exponent']:.3g}"]
+    flow = movie.tables.get("flow")
+    shown = None
+    if flow is not None and flow["valid"].any():
+        valid = flow[flow["valid"]]
+        numbers["flow"]["valid_nodes"] = float(flow["valid"].mean())
+        lines += [f"- flow fields on the Gamma_p grid: {100 * flow['valid'].mean():.1f} % of the nodes have a fit "
+                  f"(disks of {_length(cal, float(valid['radius'].median()))}); mean |vorticity| "
+                  f"{_rate(cal, float(valid['vorticity'].abs().mean()), 0)}, mean |divergence| "
+                  f"{_rate(cal, float(valid['divergence'].abs().mean()), 0)}"]
+        frames = np.unique(valid["frame"].to_numpy())
+        shown = int(frames[len(frames) // 2])
+    lines.append("")
+    path = out / "flow_statistics.png"
+    plot_flow_statistics(per_frame, correlation, msd, path=path, calibration=cal)
+    written += [path, write_table(per_frame, out / "flow_per_frame.csv"),
+                write_table(correlation, out / "velocity_correlation.csv"), write_table(msd, out / "msd.csv")]
+    lines += _figure_line(path, out, "flow statistics")
+    if shown is not None:
+        path = out / f"flow_frame{shown:04d}.png"
+        plot.plot_flow(movie.table_at("flow", shown), polygons=movie.polygons(shown), box=box, calibration=cal,
+                       path=path)
+        written.append(path)
+        lines += _figure_line(path, out, f"flow, frame {shown}")
     return lines
