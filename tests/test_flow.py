@@ -279,3 +279,50 @@ def test_flow_flags():
     assert stage_options(args)["flow"] == FlowOptions(enabled=False, radius_factor=3.0)
     with pytest.raises(InputError, match="FlowOptions.min_cells must be an integer >= 3"):
         FlowOptions(min_cells=2)
+
+
+# --- flow around T1 events -------------------------------------------------------------------------------------
+
+def _event_field(rho):
+    """A flow in an event's axes: v_r = 0.3 cos 6 phi, v_phi = -0.2 sin 2 phi (px/frame)."""
+    phi = np.arctan2(rho[:, 1], rho[:, 0])
+    vr, vt = 0.3 * np.cos(6 * phi), -0.2 * np.sin(2 * phi)
+    return np.c_[vr * np.cos(phi) - vt * np.sin(phi), vr * np.sin(phi) + vt * np.cos(phi)]
+
+
+def test_t1_flow_rotates_each_event_into_its_axes_and_the_harmonics_are_exact():
+    from hexatissue.flow import angular_harmonics, t1_flow
+
+    rng = np.random.default_rng(4)
+    tables, events, s = [], [], 6.0
+    for e in range(6):
+        centre, theta, drift = rng.uniform(40, 60, 2), rng.uniform(-np.pi, np.pi), rng.normal(size=2)
+        rot = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+        rho = np.r_[[[0, s], [0, -s], [-s, 0], [s, 0]], rng.uniform(-30, 30, (60, 2))]  # a, b, c, d, others
+        xy = centre + rho @ rot.T
+        v = _event_field(rho) @ rot.T + drift
+        track = 100 * e + np.arange(len(rho))
+        tables.append(pd.DataFrame({"frame": e, "track": track, "x": xy[:, 0], "y": xy[:, 1],
+                                    "vx": v[:, 0], "vy": v[:, 1]}))
+        events.append((e, "cycle" if e % 2 else "intercalation", e, *track[:4]))
+    cells = pd.concat(tables, ignore_index=True)
+    events = pd.DataFrame(events, columns=["event", "kind", "frame_start", "cell_a", "cell_b", "cell_c", "cell_d"])
+    average, samples = t1_flow(cells, events, offsets=[0, 1], extent=20.0, bin_size=4.0)
+    assert set(samples["offset"]) == {0}  # no frame 1 of any event: nothing at offset 1
+    d = samples[np.isclose(samples["x"], s) & np.isclose(samples["y"], 0.0)]
+    assert sorted(d["event"]) == list(range(6))  # cell d lands on +x in every event's axes
+    rho = samples[["x", "y"]].to_numpy()
+    np.testing.assert_allclose(samples[["vx", "vy"]].to_numpy(), _event_field(rho), atol=1e-12)  # drift removed
+    assert np.hypot(*rho.T).max() <= 20.0
+    harmonics = angular_harmonics(samples, r_min=1.0)
+    for kind, group in harmonics.groupby("kind"):
+        radial = group.set_index("n")[["radial_cos", "radial_sin"]]
+        tangential = group.set_index("n")[["tangential_cos", "tangential_sin"]]
+        expected_r, expected_t = np.zeros((9, 2)), np.zeros((9, 2))
+        expected_r[6, 0], expected_t[2, 1] = 0.3, -0.2
+        np.testing.assert_allclose(radial.to_numpy(), expected_r, atol=1e-10)
+        np.testing.assert_allclose(tangential.to_numpy(), expected_t, atol=1e-10)
+    # the bins hold the means of their samples, and count the events of each kind
+    assert set(average["n_events"]) == {3}
+    np.testing.assert_allclose((average["vx"] * average["n_samples"]).sum(), samples["vx"].sum())
+    assert average["n_samples"].sum() == len(samples)

@@ -17,7 +17,7 @@ from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
 from ..units import as_calibration
 
 __all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
-           "plot_event_overview", "plot_flow_statistics"]
+           "plot_event_overview", "plot_flow_statistics", "plot_event_flow"]
 
 EVENT_COLOR = "#2a7f62"
 CONTROL_COLOR = "#7f7f7f"
@@ -435,3 +435,66 @@ def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=Non
     c.set_xlabel(f"lag ({cal.time_label})")
     c.set_ylabel(f"MSD ({cal.length_label}$^2$)")
     return _finish(fig, path)
+
+
+def plot_event_flow(average, path=None, calibration=None, title=None):
+    """Event-centred mean flow: one panel per kind (rows) and time offset (columns).
+
+    Arrows are the mean relative velocity of each bin, over the radial
+    velocity ``v_r`` in colour (red: outward); the event's axes have the
+    vanishing junction along x (:func:`hexatissue.flow.t1_flow`).
+
+    Parameters
+    ----------
+    average : pandas.DataFrame
+        The ``average`` table of :func:`hexatissue.flow.t1_flow` (px, px/frame).
+    calibration : Calibration, optional
+        Units of the axes, the colour bar and the key arrow (px and frames when None).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    cal = as_calibration(calibration)
+    kinds = list(dict.fromkeys(average["kind"].astype(str)))
+    offsets = sorted(set(average["offset"].tolist()))
+    fig = Figure(figsize=(3.2 * max(len(offsets), 1) + 1.0, 3.0 * max(len(kinds), 1)), dpi=100, layout="constrained")
+    axes = fig.subplots(max(len(kinds), 1), max(len(offsets), 1), squeeze=False)
+    if not len(average):
+        _empty(axes[0, 0], "no event with velocities")
+        return _finish(fig, path, title)
+    x, y = average["x"].to_numpy(float), average["y"].to_numpy(float)
+    u, v = average["vx"].to_numpy(float), average["vy"].to_numpy(float)
+    r = np.hypot(x, y)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        radial = np.where(r > 0, (x * u + y * v) / r, 0.0)
+    top = float(np.nanpercentile(np.abs(in_units(radial, cal)), 98)) or 1.0
+    speed = float(np.percentile(np.hypot(u, v), 95)) or 1.0
+    gx, gy = np.unique(x), np.unique(y)  # the bins' lattice, shared by the panels
+    step = float(np.min(np.diff(gx))) if len(gx) > 1 else 1.0
+    mesh = None
+    for i, kind in enumerate(kinds):
+        for j, offset in enumerate(offsets):
+            ax = axes[i, j]
+            sel = (average["kind"].astype(str).to_numpy() == kind) & (average["offset"].to_numpy() == offset)
+            if not sel.any():
+                _empty(ax, "no event")
+                continue
+            image = np.full((len(gy), len(gx)), np.nan)
+            image[np.searchsorted(gy, y[sel]), np.searchsorted(gx, x[sel])] = in_units(radial[sel], cal)
+            mesh = ax.pcolormesh(cal.length(gx), cal.length(gy), np.ma.masked_invalid(image), cmap="RdBu_r",
+                                 vmin=-top, vmax=top, shading="nearest")
+            ax.quiver(cal.length(x[sel]), cal.length(y[sel]), u[sel], v[sel], angles="xy", scale_units="xy",
+                      scale=speed / (0.9 * cal.length(step)), width=0.006)
+            ax.plot([0], [0], "k+", ms=8)
+            ax.set_aspect("equal")
+            ax.invert_yaxis()  # image orientation, as the tissue figures
+            n_events = int(average.loc[sel, "n_events"].iloc[0])
+            ax.set_title(f"{kind}, offset {offset:+d} frames ({n_events} events)", fontsize=8)
+            ax.set_xlabel(f"x along the junction ({cal.length_label})", fontsize=8)
+            ax.set_ylabel(f"y ({cal.length_label})", fontsize=8)
+    if mesh is not None:
+        fig.colorbar(mesh, ax=axes, shrink=0.6, label=f"radial velocity ({velocity_unit(cal)})")
+    return _finish(fig, path, title)

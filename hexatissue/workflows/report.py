@@ -420,4 +420,64 @@ def _flow_section(movie, out, written, numbers):
                        path=path)
         written.append(path)
         lines += _figure_line(path, out, f"flow, frame {shown}")
+    if movie.events is not None and len(movie.events):
+        lines += _t1_flow_lines(movie, out, written, numbers)
     return lines
+
+
+#: Offsets (frames from the T1's frame_start) of the report's T1-centred flow.
+T1_OFFSETS = (-4, 0, 4)
+
+
+def _quadrupole_harmonics():
+    """Radial harmonics of the paper's quadrupole flow (:func:`hexatissue.theory.quadrupole_flow`), 2-4 ell."""
+    from ..flow import angular_harmonics
+    from ..theory import quadrupole_flow
+
+    r, phi = np.meshgrid(np.linspace(2.0, 4.0, 9), np.linspace(-np.pi, np.pi, 97)[:-1])
+    x, y = (r * np.cos(phi)).ravel(), (r * np.sin(phi)).ravel()
+    vx, vy = quadrupole_flow(x, y, 1.0, 1.0)
+    samples = pd.DataFrame({"kind": "theory", "offset": 0, "x": x, "y": y, "vx": vx, "vy": vy})
+    return angular_harmonics(samples)
+
+
+def _n6_share(harmonics):
+    """Share of n = 6 in the radial harmonics 1 .. max of one group (by amplitude)."""
+    h = harmonics[harmonics["n"] > 0]
+    total = h["radial_amplitude"].sum()
+    return float(h.loc[h["n"] == 6, "radial_amplitude"].sum() / total) if total > 0 else float("nan")
+
+
+def _t1_flow_lines(movie, out, written, numbers):
+    """The flow averaged around the T1s (cycles and intercalations apart), its harmonics, and the theory's."""
+    from ..analysis.plots import plot_event_flow
+    from ..flow import angular_harmonics, t1_flow
+
+    cal = movie.calibration
+    average, samples = t1_flow(movie.cells, movie.events, movie.box, offsets=T1_OFFSETS)
+    if not len(samples):
+        return ["### Flow around T1 events", "", "No T1 event has its four cells with velocities at the offsets "
+                f"{list(T1_OFFSETS)} frames.", ""]
+    r_cell = float(np.sqrt(np.nanmean(movie.cells["area"].to_numpy(float)) / np.pi))
+    harmonics = angular_harmonics(samples, r_min=r_cell)
+    theory = _n6_share(_quadrupole_harmonics())
+    path = out / "t1_flow.png"
+    plot_event_flow(average, path=path, calibration=cal, title="mean flow around T1s (quartet frame)")
+    written += [path, write_table(average, out / "t1_flow.csv"), write_table(harmonics, out / "t1_flow_harmonics.csv")]
+    at0 = harmonics[harmonics["offset"] == 0]
+    numbers["t1_flow"] = {"n6_share_quadrupole_theory": theory}
+    lines = ["### Flow around T1 events", "",
+             f"Cells within {_length(cal, 4 * r_cell)} of each T1's quartet centre, their velocity minus the "
+             f"quartet's mean, in axes with the vanishing junction (c -> d) along x, averaged over the events "
+             f"of each kind at {', '.join(f'{o:+d}' for o in T1_OFFSETS)} frames from the T1. Radial harmonics "
+             f"of the relative velocity (least squares over the samples beyond {_length(cal, r_cell)}, offset 0):",
+             "", "| kind | n = 2 | n = 4 | n = 6 | share of n = 6 |", "|---|---|---|---|---|"]
+    for kind, group in at0.groupby("kind"):
+        amp = group.set_index("n")["radial_amplitude"]
+        share = _n6_share(group)
+        numbers["t1_flow"][str(kind)] = {"radial_n2": float(amp[2]), "radial_n4": float(amp[4]),
+                                         "radial_n6": float(amp[6]), "n6_share": share}
+        lines.append(f"| {kind} | {_rate(cal, amp[2])} | {_rate(cal, amp[4])} | {_rate(cal, amp[6])} | {share:.2f} |")
+    lines += ["", f"The paper's unbinding-quadrupole flow (`hexatissue.theory.quadrupole_flow`, 2-4 ell) puts "
+              f"{theory:.2f} of its radial harmonics 1-8 in n = 6.", ""]
+    return lines + _figure_line(path, out, "flow around T1s")
