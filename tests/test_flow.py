@@ -326,3 +326,38 @@ def test_t1_flow_rotates_each_event_into_its_axes_and_the_harmonics_are_exact():
     assert set(average["n_events"]) == {3}
     np.testing.assert_allclose((average["vx"] * average["n_samples"]).sum(), samples["vx"].sum())
     assert average["n_samples"].sum() == len(samples)
+
+
+@pytest.mark.parametrize("charge", [1, -1])
+def test_defect_flow_turns_each_defect_by_its_orientation(charge):
+    from hexatissue.flow import defect_flow
+
+    p, rng = 6, np.random.default_rng(5 + charge)
+    s = charge / p
+    box = Box(80.0, 80.0)
+    tables, grids, defects = [], [], []
+    for t in range(3):
+        centre, theta0 = rng.uniform(0, 80, 2), rng.uniform(-0.9, 0.9) * np.pi / p
+        alpha = theta0 / (1 - s)
+        gx, gy = np.meshgrid(np.arange(2.5, 80, 5.0), np.arange(2.5, 80, 5.0))
+        d = box.min_image(np.c_[gx.ravel(), gy.ravel()] - centre)
+        gamma = 0.8 * np.exp(1j * p * (s * np.arctan2(d[:, 1], d[:, 0]) + theta0))
+        grids.append(pd.DataFrame({"frame": t, "x": gx.ravel(), "y": gy.ravel(), "Gamma6_re": gamma.real,
+                                   "Gamma6_im": gamma.imag, "valid": True, "spacing": 5.0}))
+        rho = rng.uniform(-25, 25, (80, 2))
+        rot = np.array([[np.cos(alpha), -np.sin(alpha)], [np.sin(alpha), np.cos(alpha)]])
+        xy = box.wrap(centre + rho @ rot.T)
+        v = _event_field(rho) @ rot.T + rng.normal(size=2)
+        tables.append(pd.DataFrame({"frame": t, "track": np.arange(80), "x": xy[:, 0], "y": xy[:, 1],
+                                    "vx": v[:, 0], "vy": v[:, 1]}))
+        defects.append((t, 10 + t, *centre, s, p))
+    cells = pd.concat(tables, ignore_index=True)
+    defects = pd.DataFrame(defects, columns=["frame", "defect", "x", "y", "charge", "p"])
+    average, samples = defect_flow(cells, defects, pd.concat(grids, ignore_index=True), p=p, box=box,
+                                   extent=20.0, bin_size=4.0)
+    assert set(samples["kind"]) == {"+1/6" if charge > 0 else "-1/6"} and set(samples["event"]) == {10, 11, 12}
+    for _, group in samples.groupby("event"):
+        rho = group[["x", "y"]].to_numpy()
+        expected = _event_field(rho)
+        np.testing.assert_allclose(group[["vx", "vy"]].to_numpy(), expected - expected.mean(axis=0), atol=1e-9)
+        assert np.hypot(*rho.T).max() <= 20.0

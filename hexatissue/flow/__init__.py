@@ -7,8 +7,9 @@
 - :func:`velocity_statistics`, :func:`velocity_correlation`, :func:`mean_squared_displacement`,
   :func:`flow_summary`: mean speed, polar order, spatial velocity correlation and its length, MSD
   and its exponent;
-- :func:`t1_flow`, :func:`angular_harmonics` (:mod:`hexatissue.flow.centred`): the flow averaged
-  around T1 events in their own axes, and its angular harmonics.
+- :func:`t1_flow`, :func:`defect_flow`, :func:`angular_harmonics` (:mod:`hexatissue.flow.centred`):
+  the flow averaged around T1 events and around ±1/p defects in their own axes, and its angular
+  harmonics.
 
 Tables stay in px and frames (velocities in px/frame, rates in 1/frame); :func:`velocity_unit`
 and :func:`in_units` give them in a calibration's units (µm/min) for figures and reports.
@@ -25,11 +26,11 @@ from ..errors import InputError, check_positive
 from ..schema import interior_mask, require_columns, track_ids, validate
 from ..units import as_calibration
 from . import _kernels as K
-from .centred import angular_harmonics, t1_flow
+from .centred import angular_harmonics, defect_flow, t1_flow
 
 __all__ = ["cell_velocities", "flow_fields", "velocity_statistics", "velocity_correlation", "correlation_length",
            "mean_squared_displacement", "msd_exponent", "flow_summary", "velocity_unit", "in_units", "MIN_CELLS",
-           "t1_flow", "angular_harmonics"]
+           "t1_flow", "defect_flow", "angular_harmonics"]
 
 #: Fewest cells an affine fit takes (three non-collinear points fix a 2-D affine map).
 MIN_CELLS = 3

@@ -1,4 +1,5 @@
-"""Flow averaged around events: every T1 (centred on its quartet, its junction along x) and its angular harmonics.
+"""Flow averaged around events: every T1 (centred on its quartet, its junction along x), every ±1/p defect
+(rotated by its orientation), and the angular harmonics of the averages.
 
 Each event gives one *sample* per cell near it: the cell's position and
 velocity relative to the event centre, in the event's own axes, and minus the
@@ -12,10 +13,10 @@ import numpy as np
 import pandas as pd
 
 from ..box import as_box
-from ..errors import InputError, check_positive
+from ..errors import InputError, check_p, check_positive
 from ..schema import interior_mask, require_columns, track_ids
 
-__all__ = ["t1_flow", "angular_harmonics", "MAX_HARMONIC"]
+__all__ = ["t1_flow", "defect_flow", "angular_harmonics", "MAX_HARMONIC"]
 
 #: Highest angular harmonic fitted (the paper's quadrupole flow has sin 6, 8 and 10 phi modes).
 MAX_HARMONIC = 8
@@ -102,6 +103,112 @@ def t1_flow(cells, events, box=None, offsets=(-4, 0, 4), extent=None, bin_size=N
     box = as_box(box)
     offsets = _offsets(offsets)
     kinds = tuple(kinds)
+    extent, bin_size = _extent_and_bins(cells, extent, bin_size)
+    near = _Neighbourhoods(cells, box)
+    find = _row_lookup(cells)
+    chosen = events[events["kind"].astype(str).isin(kinds)]
+    quartet = chosen[["cell_a", "cell_b", "cell_c", "cell_d"]].to_numpy(np.int64)
+    start = chosen["frame_start"].to_numpy(np.int64)
+    kind_code = np.array([kinds.index(k) for k in chosen["kind"].astype(str)], np.int64)
+    xy, uv = near.xy, near.uv
+    # the axes of each event: the c -> d direction at frame_start
+    rc, rd = find(quartet[:, 2], start), find(quartet[:, 3], start)
+    has_axis = (rc >= 0) & (rd >= 0)
+    axis = np.full((len(chosen), 2), np.nan)
+    axis[has_axis] = near.displacement(xy[rd[has_axis]] - xy[rc[has_axis]])
+    angle = np.arctan2(axis[:, 1], axis[:, 0])
+    parts = []
+    for o, tau in enumerate(offsets):
+        t = start + tau
+        rows = np.stack([find(quartet[:, k], t) for k in range(4)], axis=1)
+        ok = has_axis & (rows >= 0).all(axis=1)
+        ok[ok] = near.usable[rows[ok]].all(axis=1)
+        for e in np.flatnonzero(ok):
+            first = xy[rows[e, 0]]
+            centre = first + near.displacement(xy[rows[e]] - first).mean(axis=0)
+            parts.append((kind_code[e], o, e, *near.samples(t[e], centre, uv[rows[e]].mean(axis=0), angle[e],
+                                                             extent)))
+    samples, codes = _sample_table(parts, kinds, offsets, chosen["event"].to_numpy(np.int64))
+    return _binned(samples, *codes, kinds, offsets, extent, bin_size), samples
+
+
+def defect_flow(cells, defects, grid, p=6, box=None, extent=None, bin_size=None):
+    """The flow around the +1/p and -1/p defects, averaged per charge, in each defect's own axes.
+
+    Near a defect of charge ``s`` the orientation of the field is
+    ``theta = arg(Gamma_p) / p = s phi + theta_0``; ``theta_0`` is measured
+    from the valid grid nodes within 1.5 grid spacings of the defect
+    (``arg sum Gamma_p / |Gamma_p| exp(-i p s phi)`` / p, ``phi`` the node's
+    direction from the defect), and the defect's axes are rotated by
+    ``theta_0 / (1 - s)``: a direction along which the orientation is radial
+    (a +1/6 defect has 5 such directions, a -1/6 defect 7, so the average
+    keeps that symmetry).  Every interior cell with a velocity within
+    ``extent`` gives a sample: its position and its velocity minus the mean
+    velocity of those cells, in the defect's axes.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Cells table with ``frame``, ``x``, ``y`` (px), ``vx``, ``vy``
+        (px/frame) and optionally ``is_border`` and ``area`` (px^2).
+    defects : pandas.DataFrame
+        The ``defects`` table: ``frame``, ``defect``, ``x``, ``y`` (px),
+        ``charge`` and ``p``.
+    grid : pandas.DataFrame
+        The ``grid`` table: ``frame``, ``x``, ``y`` (px), ``Gamma{p}_re``,
+        ``Gamma{p}_im``, ``valid``.
+    p : int
+        Symmetry order; its ±1/p defects enter.
+    box : Box, optional
+        Periodic box; None for an open image.
+    extent, bin_size : float, optional
+        As for :func:`t1_flow` (defaults 4 R_cell and R_cell / 2).
+
+    Returns
+    -------
+    average, samples : pandas.DataFrame
+        As for :func:`t1_flow`, with ``kind`` ``"+1/p"`` or ``"-1/p"`` (e.g.
+        ``"+1/6"``), ``offset`` 0 and ``event`` the defect id.
+    """
+    require_columns(cells, ["frame", "x", "y", "vx", "vy"], "cells")
+    require_columns(defects, ["frame", "defect", "x", "y", "charge", "p"], "defects")
+    p = check_p(p)
+    require_columns(grid, ["frame", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im", "valid"], "grid")
+    box = as_box(box)
+    extent, bin_size = _extent_and_bins(cells, extent, bin_size)
+    near = _Neighbourhoods(cells, box)
+    kinds = (f"+1/{p}", f"-1/{p}")
+    units = np.rint(defects["charge"].to_numpy(float) * p)
+    chosen = defects[(defects["p"].to_numpy() == p) & (np.abs(units) == 1)]
+    charge = np.rint(chosen["charge"].to_numpy(float) * p) / p
+    g_frame = grid["frame"].to_numpy(np.int64)
+    g_xy = grid[["x", "y"]].to_numpy(float)
+    gamma = grid[f"Gamma{p}_re"].to_numpy(float) + 1j * grid[f"Gamma{p}_im"].to_numpy(float)
+    g_ok = grid["valid"].to_numpy(bool) & np.isfinite(gamma) & (np.abs(gamma) > 0)
+    spacing = float(grid["spacing"].iloc[0]) if "spacing" in grid.columns and len(grid) else np.nan
+    g_order = np.argsort(g_frame, kind="stable")
+    g_sorted = g_frame[g_order]
+    parts = []
+    for e, (t, x, y, s) in enumerate(zip(chosen["frame"].to_numpy(np.int64), chosen["x"].to_numpy(float),
+                                         chosen["y"].to_numpy(float), charge)):
+        nodes = g_order[np.searchsorted(g_sorted, t):np.searchsorted(g_sorted, t, "right")]
+        nodes = nodes[g_ok[nodes]]
+        d = near.displacement(g_xy[nodes] - [x, y])
+        r = np.hypot(d[:, 0], d[:, 1])
+        step = spacing if np.isfinite(spacing) else (np.min(r) * 2 if len(r) else np.nan)
+        close = r <= 1.5 * step
+        if not close.any():
+            continue
+        phi = np.arctan2(d[close, 1], d[close, 0])
+        g = gamma[nodes[close]]
+        theta0 = np.angle(np.sum(g / np.abs(g) * np.exp(-1j * p * s * phi))) / p
+        parts.append((0 if s > 0 else 1, 0, e, *near.samples(t, np.array([x, y]), None, theta0 / (1 - s), extent)))
+    samples, codes = _sample_table(parts, kinds, np.zeros(1, np.int64), chosen["defect"].to_numpy(np.int64))
+    return _binned(samples, *codes, kinds, np.zeros(1, np.int64), extent, bin_size), samples
+
+
+def _extent_and_bins(cells, extent, bin_size):
+    """``extent`` and ``bin_size`` checked, px; the defaults 4 R_cell and R_cell / 2 from the cells' areas."""
     r_cell = None
     if extent is None or bin_size is None:
         if "area" not in cells.columns:
@@ -113,58 +220,51 @@ def t1_flow(cells, events, box=None, offsets=(-4, 0, 4), extent=None, bin_size=N
         r_cell = float(np.sqrt(area.mean() / np.pi))
     extent = check_positive(4 * r_cell if extent is None else extent, "extent", unit="px")
     bin_size = check_positive(0.5 * r_cell if bin_size is None else bin_size, "bin_size", unit="px")
-    xy = cells[["x", "y"]].to_numpy(float)
-    uv = cells[["vx", "vy"]].to_numpy(float)
-    frame = cells["frame"].to_numpy(np.int64)
-    usable = interior_mask(cells) & np.isfinite(xy).all(axis=1) & np.isfinite(uv).all(axis=1)
-    find = _row_lookup(cells)
-    chosen = events[events["kind"].astype(str).isin(kinds)]
-    quartet = chosen[["cell_a", "cell_b", "cell_c", "cell_d"]].to_numpy(np.int64)
-    start = chosen["frame_start"].to_numpy(np.int64)
-    kind_code = np.array([kinds.index(k) for k in chosen["kind"].astype(str)], np.int64)
+    return extent, bin_size
 
-    def displacement(d):
-        return d if box is None else box.min_image(d)
 
-    # the axes of each event: the c -> d direction at frame_start
-    rc, rd = find(quartet[:, 2], start), find(quartet[:, 3], start)
-    has_axis = (rc >= 0) & (rd >= 0)
-    axis = np.full((len(chosen), 2), np.nan)
-    axis[has_axis] = displacement(xy[rd[has_axis]] - xy[rc[has_axis]])
-    angle = np.arctan2(axis[:, 1], axis[:, 0])
-    cos, sin = np.cos(angle), np.sin(angle)
+class _Neighbourhoods:
+    """The usable cells of a movie (interior, finite position and velocity), found by frame and distance."""
 
-    by_frame = np.argsort(frame, kind="stable")
-    frame_sorted = frame[by_frame]
-    parts = []
-    for o, tau in enumerate(offsets):
-        t = start + tau
-        rows = np.stack([find(quartet[:, k], t) for k in range(4)], axis=1)
-        ok = has_axis & (rows >= 0).all(axis=1)
-        ok[ok] = usable[rows[ok]].all(axis=1)
-        for e in np.flatnonzero(ok):
-            first = xy[rows[e, 0]]
-            centre = first + displacement(xy[rows[e]] - first).mean(axis=0)
-            reference = uv[rows[e]].mean(axis=0)
-            lo, hi = np.searchsorted(frame_sorted, [t[e], t[e] + 1])
-            near = by_frame[lo:hi]
-            near = near[usable[near]]
-            d = displacement(xy[near] - centre)
-            keep = (d ** 2).sum(axis=1) <= extent ** 2  # a disk: the same cells whatever the event's axes
-            d, v = d[keep], uv[near[keep]] - reference
-            # rotate by -angle: the event's c -> d axis becomes +x
-            parts.append((np.full(len(d), kind_code[e]), np.full(len(d), o), np.full(len(d), e),
-                          cos[e] * d[:, 0] + sin[e] * d[:, 1], -sin[e] * d[:, 0] + cos[e] * d[:, 1],
-                          cos[e] * v[:, 0] + sin[e] * v[:, 1], -sin[e] * v[:, 0] + cos[e] * v[:, 1]))
+    def __init__(self, cells, box):
+        self.box = box
+        self.xy = cells[["x", "y"]].to_numpy(float)
+        self.uv = cells[["vx", "vy"]].to_numpy(float)
+        frame = cells["frame"].to_numpy(np.int64)
+        self.usable = interior_mask(cells) & np.isfinite(self.xy).all(axis=1) & np.isfinite(self.uv).all(axis=1)
+        self.by_frame = np.argsort(frame, kind="stable")
+        self.frame_sorted = frame[self.by_frame]
+
+    def displacement(self, d):
+        return d if self.box is None else self.box.min_image(d)
+
+    def samples(self, t, centre, reference, angle, extent):
+        """``(x, y, vx, vy)`` of the usable cells of frame ``t`` within ``extent`` of ``centre``, relative
+        to it and to the ``reference`` velocity (None: their mean), rotated by ``-angle``."""
+        lo, hi = np.searchsorted(self.frame_sorted, [t, t + 1])
+        rows = self.by_frame[lo:hi]
+        rows = rows[self.usable[rows]]
+        d = self.displacement(self.xy[rows] - centre)
+        keep = (d ** 2).sum(axis=1) <= extent ** 2  # a disk: the same cells whatever the axes
+        d, v = d[keep], self.uv[rows[keep]]
+        v = v - (v.mean(axis=0) if reference is None else reference)
+        c, s = np.cos(angle), np.sin(angle)
+        return c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], c * v[:, 0] + s * v[:, 1], \
+            -s * v[:, 0] + c * v[:, 1]
+
+
+def _sample_table(parts, kinds, offsets, ids):
+    """The samples table from ``(kind code, offset index, centre index, x, y, vx, vy)`` parts, and the codes."""
     if parts:
-        k, o, e, x, y, vx, vy = (np.concatenate(column) for column in zip(*parts))
+        k, o, e = (np.concatenate([np.full(len(part[3]), part[j]) for part in parts]).astype(np.int64)
+                   for j in range(3))
+        x, y, vx, vy = (np.concatenate([part[j] for part in parts]) for j in range(3, 7))
     else:
         k = o = e = np.zeros(0, np.int64)
         x = y = vx = vy = np.zeros(0)
     samples = pd.DataFrame({"kind": pd.array(np.array(kinds, dtype=object)[k] if len(k) else [], dtype="string"),
-                            "offset": offsets[o], "event": chosen["event"].to_numpy(np.int64)[e],
-                            "x": x, "y": y, "vx": vx, "vy": vy})
-    return _binned(samples, k, o, e, kinds, offsets, extent, bin_size), samples
+                            "offset": offsets[o], "event": ids[e], "x": x, "y": y, "vx": vx, "vy": vy})
+    return samples, (k, o, e)
 
 
 def _binned(samples, k, o, e, kinds, offsets, extent, bin_size):

@@ -191,7 +191,7 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     elif len(movie) > 1:
         lines += _movie_sections(movie, out, written, numbers, p=p, dl=dl, dt=dt, n_control=n_control, seed=seed,
                                  include_border=include_border, control=control)
-        lines += _flow_section(movie, out, written, numbers)
+        lines += _flow_section(movie, out, written, numbers, p)
     md = out / "report.md"
     with atomic_path(md) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -371,7 +371,7 @@ def _rate(cal, value, length_power=1):
     return text + f" ({float(in_units(value, cal, length_power, -1)):.3g} {unit})"
 
 
-def _flow_section(movie, out, written, numbers):
+def _flow_section(movie, out, written, numbers, p):
     """The tissue flow: velocity statistics, the flow field of a middle frame, C(r) and the MSD."""
     from .. import plot
     from ..analysis.plots import plot_flow_statistics
@@ -422,7 +422,43 @@ def _flow_section(movie, out, written, numbers):
         lines += _figure_line(path, out, f"flow, frame {shown}")
     if movie.events is not None and len(movie.events):
         lines += _t1_flow_lines(movie, out, written, numbers)
+    if movie.grid is not None and movie.defects is not None and f"Gamma{p}_re" in movie.grid.columns:
+        lines += _defect_flow_lines(movie, out, written, numbers, p)
     return lines
+
+
+def _harmonics_table(harmonics, cal):
+    """Markdown rows of the radial harmonics n = 2, 4, 6 of each kind, and the numbers by kind."""
+    lines, numbers = ["| kind | n = 2 | n = 4 | n = 6 | share of n = 6 |", "|---|---|---|---|---|"], {}
+    for kind, group in harmonics.groupby("kind"):
+        amp = group.set_index("n")["radial_amplitude"]
+        share = _n6_share(group)
+        numbers[str(kind)] = {"radial_n2": float(amp[2]), "radial_n4": float(amp[4]), "radial_n6": float(amp[6]),
+                              "n6_share": share}
+        lines.append(f"| {kind} | {_rate(cal, amp[2])} | {_rate(cal, amp[4])} | {_rate(cal, amp[6])} | {share:.2f} |")
+    return lines, numbers
+
+
+def _defect_flow_lines(movie, out, written, numbers, p):
+    """The flow averaged around the ±1/p defects in their own axes, and its harmonics."""
+    from ..analysis.plots import plot_event_flow
+    from ..flow import angular_harmonics, defect_flow
+
+    cal = movie.calibration
+    average, samples = defect_flow(movie.cells, movie.defects, movie.grid, p=p, box=movie.box)
+    if not len(samples):
+        return [f"### Flow around ±1/{p} defects", "", f"No ±1/{p} defect has cells with velocities around it.", ""]
+    r_cell = float(np.sqrt(np.nanmean(movie.cells["area"].to_numpy(float)) / np.pi))
+    harmonics = angular_harmonics(samples, r_min=r_cell)
+    path = out / "defect_flow.png"
+    plot_event_flow(average, path=path, calibration=cal, title=f"mean flow around ±1/{p} defects (defect axes)")
+    written += [path, write_table(average, out / "defect_flow.csv"),
+                write_table(harmonics, out / "defect_flow_harmonics.csv")]
+    table, numbers["defect_flow"] = _harmonics_table(harmonics, cal)
+    return [f"### Flow around ±1/{p} defects", "",
+            f"Cells within {_length(cal, 4 * r_cell)} of each ±1/{p} defect, their velocity minus their mean, in "
+            f"axes turned by the defect's orientation from the Gamma_{p} phase. Radial harmonics (samples beyond "
+            f"{_length(cal, r_cell)}):", "", *table, "", *_figure_line(path, out, f"flow around ±1/{p} defects")]
 
 
 #: Offsets (frames from the T1's frame_start) of the report's T1-centred flow.
@@ -471,13 +507,10 @@ def _t1_flow_lines(movie, out, written, numbers):
              f"quartet's mean, in axes with the vanishing junction (c -> d) along x, averaged over the events "
              f"of each kind at {', '.join(f'{o:+d}' for o in T1_OFFSETS)} frames from the T1. Radial harmonics "
              f"of the relative velocity (least squares over the samples beyond {_length(cal, r_cell)}, offset 0):",
-             "", "| kind | n = 2 | n = 4 | n = 6 | share of n = 6 |", "|---|---|---|---|---|"]
-    for kind, group in at0.groupby("kind"):
-        amp = group.set_index("n")["radial_amplitude"]
-        share = _n6_share(group)
-        numbers["t1_flow"][str(kind)] = {"radial_n2": float(amp[2]), "radial_n4": float(amp[4]),
-                                         "radial_n6": float(amp[6]), "n6_share": share}
-        lines.append(f"| {kind} | {_rate(cal, amp[2])} | {_rate(cal, amp[4])} | {_rate(cal, amp[6])} | {share:.2f} |")
+             ""]
+    table, by_kind = _harmonics_table(at0, cal)
+    numbers["t1_flow"].update(by_kind)
+    lines += table
     lines += ["", f"The paper's unbinding-quadrupole flow (`hexatissue.theory.quadrupole_flow`, 2-4 ell) puts "
               f"{theory:.2f} of its radial harmonics 1-8 in n = 6.", ""]
     return lines + _figure_line(path, out, "flow around T1s")
