@@ -247,7 +247,8 @@ class _Neighbourhoods:
         d = self.displacement(self.xy[rows] - centre)
         keep = (d ** 2).sum(axis=1) <= extent ** 2  # a disk: the same cells whatever the axes
         d, v = d[keep], self.uv[rows[keep]]
-        v = v - (v.mean(axis=0) if reference is None else reference)
+        if len(v):  # a defect on the first or last frame has no cell with a velocity around it
+            v = v - (v.mean(axis=0) if reference is None else reference)
         c, s = np.cos(angle), np.sin(angle)
         return c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], c * v[:, 0] + s * v[:, 1], \
             -s * v[:, 0] + c * v[:, 1]

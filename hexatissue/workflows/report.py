@@ -365,7 +365,7 @@ def _rate(cal, value, length_power=1):
     from ..flow import in_units, velocity_unit
 
     text = f"{value:.3g} {'px/frame' if length_power else '1/frame'}"
-    if not (cal.has_length or cal.has_time):
+    if not (cal.has_time or (length_power and cal.has_length)):  # nothing to convert
         return text
     unit = velocity_unit(cal) if length_power else f"1/{cal.time_unit if cal.has_time else 'frame'}"
     return text + f" ({float(in_units(value, cal, length_power, -1)):.3g} {unit})"
