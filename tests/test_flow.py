@@ -127,16 +127,16 @@ def test_kernel_matches_reference_and_counts_the_disk():
     rng = np.random.default_rng(0)
     for period in (np.zeros(2), np.array([60.0, 50.0])):
         n_frames, m = 3, 60
-        frames = np.sort(rng.integers(0, n_frames, m))
+        frames = np.sort(rng.integers(0, n_frames + 1, m))  # frame 3 has cells but no nodes
         cx, cy = rng.uniform(0, 60, m), rng.uniform(0, 50, m)  # inside the box, as the kernel wants
         cu, cv = rng.normal(size=m), rng.normal(size=m)
         cx[:4], cy[:4] = [10, 12, 14, 16], 20.0  # four collinear cells: no fit around them alone
         blocks = np.arange(n_frames)
-        cb = np.searchsorted(frames, np.r_[blocks, n_frames]).astype(np.int64)
+        cb = np.c_[np.searchsorted(frames, blocks), np.searchsorted(frames, blocks, "right")]
         nf = np.repeat(blocks, 40)
         nx, ny = rng.uniform(-5, 65, len(nf)), rng.uniform(-5, 55, len(nf))
         nr = rng.choice([4.0, 9.0, 14.0, 40.0], len(nf))
-        nb = np.searchsorted(nf, np.r_[blocks, n_frames]).astype(np.int64)
+        nb = np.c_[np.searchsorted(nf, blocks), np.searchsorted(nf, blocks, "right")]
         out_k, out_r = np.empty((6, len(nf))), np.empty((6, len(nf)))
         n_k, n_r = np.empty(len(nf), np.int64), np.empty(len(nf), np.int64)
         K.affine_fits(cx, cy, cu, cv, cb, nx, ny, nr, nb, period, 3, out_k, n_k)
@@ -361,3 +361,14 @@ def test_defect_flow_turns_each_defect_by_its_orientation(charge):
         expected = _event_field(rho)
         np.testing.assert_allclose(group[["vx", "vy"]].to_numpy(), expected - expected.mean(axis=0), atol=1e-9)
         assert np.hypot(*rho.T).max() <= 20.0
+
+
+def test_a_frame_without_grid_nodes_lends_its_cells_to_no_other_frame():
+    rng = np.random.default_rng(7)
+    xy = rng.uniform(0, 40, (30, 2))
+    cells = pd.concat([pd.DataFrame({"frame": t, "x": xy[:, 0], "y": xy[:, 1], "vx": float(t + 1), "vy": 0.0})
+                       for t in range(3)], ignore_index=True)
+    grid = pd.DataFrame({"frame": [2, 0], "node": [0, 0], "x": 20.0, "y": 20.0, "radius": 15.0, "valid": True})
+    flow = flow_fields(cells, grid, radius_factor=1.0)  # frame 1 has cells but no node; the grid is not sorted
+    np.testing.assert_allclose(flow["vx"], [3.0, 1.0], rtol=1e-12)
+    assert flow["frame"].tolist() == [2, 0] and flow["valid"].all()

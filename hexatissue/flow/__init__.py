@@ -88,14 +88,14 @@ def cell_velocities(cells, box=None):
     return out[:, 0].copy(), out[:, 1].copy()
 
 
-def period_of(box):
+def _period(box):
     """``(Lx, Ly)`` of a periodic box, ``(0, 0)`` for an open image (the kernels' convention)."""
     return np.zeros(2) if box is None else box.lengths
 
 
-def _frame_bounds(frames, blocks):
-    """Start of each of ``blocks`` (sorted distinct frames) in the sorted ``frames``, plus the end."""
-    return np.searchsorted(frames, np.r_[blocks, np.iinfo(np.int64).max]).astype(np.int64)
+def _frame_rows(frames, blocks):
+    """``(start, end)`` of the rows of each of the frames ``blocks`` in the sorted ``frames`` (empty if absent)."""
+    return np.c_[np.searchsorted(frames, blocks, "left"), np.searchsorted(frames, blocks, "right")].astype(np.int64)
 
 
 def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
@@ -181,9 +181,9 @@ def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
     fits = np.empty((6, len(grid)))
     counts = np.empty(len(grid), np.int64)
     K.affine_fits(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]), np.ascontiguousarray(uv[:, 0]),
-                  np.ascontiguousarray(uv[:, 1]), _frame_bounds(frame, blocks),
+                  np.ascontiguousarray(uv[:, 1]), _frame_rows(frame, blocks),
                   np.ascontiguousarray(sorted_(columns["x"])), np.ascontiguousarray(sorted_(columns["y"])),
-                  np.ascontiguousarray(sorted_(columns["radius"])), _frame_bounds(sorted_(g_frame), blocks), period_of(box),
+                  np.ascontiguousarray(sorted_(columns["radius"])), _frame_rows(sorted_(g_frame), blocks), _period(box),
                   int(min_cells), fits, counts)
     if g_order is not None:
         fits[:, g_order], counts[g_order] = fits.copy(), counts.copy()

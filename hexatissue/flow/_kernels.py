@@ -84,7 +84,7 @@ def _bin_span(q, r, origin, size, nb, periodic):
 
 
 @njit(cache=True)
-def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, min_cells, out, counts):
+def affine_fits(cx, cy, cu, cv, cell_rows, nx, ny, nr, node_rows, period, min_cells, out, counts):
     """Least-squares fit ``v = v0 + L (r - r_node)`` to the cells within each node's disk.
 
     Parameters
@@ -92,12 +92,12 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
     cx, cy, cu, cv : (m,) float
         Counted cells (interior, finite position and velocity) sorted by frame: position, px (inside
         ``[0, L)`` in a periodic box), and velocity, px/frame.
-    cell_bounds : (n_frames + 1,) int64
-        The cells of frame block ``f`` are ``cell_bounds[f]:cell_bounds[f + 1]``.
+    cell_rows : (n_frames, 2) int64
+        The cells of frame ``f`` (of the frames that have nodes) are ``cell_rows[f, 0]:cell_rows[f, 1]``.
     nx, ny, nr : (n,) float
         Nodes sorted by the same frame blocks: position and disk radius, px.
-    node_bounds : (n_frames + 1,) int64
-        The nodes of frame block ``f``.
+    node_rows : (n_frames, 2) int64
+        The nodes of frame ``f``, likewise.
     period : (2,) float
         ``(Lx, Ly)`` of a periodic box (minimum-image distances), or ``(0, 0)`` for an open image.
     min_cells : int
@@ -118,14 +118,14 @@ def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, mi
     rounding size (its covariances cancel exactly but for the last bits of the means).
     """
     periodic = period[0] > 0.0
-    for f in range(cell_bounds.shape[0] - 1):
-        a, b = node_bounds[f], node_bounds[f + 1]
+    for f in range(cell_rows.shape[0]):
+        a, b = node_rows[f, 0], node_rows[f, 1]
         if b == a:
             continue
         rmax = 0.0
         for i in range(a, b):
             rmax = max(rmax, nr[i])
-        order, starts, ox, oy, sx, sy, nbx, nby = _bins_of_frame(cx, cy, cell_bounds[f], cell_bounds[f + 1],
+        order, starts, ox, oy, sx, sy, nbx, nby = _bins_of_frame(cx, cy, cell_rows[f, 0], cell_rows[f, 1],
                                                                  max(rmax, 1e-9), period)
         for i in range(a, b):
             qx, qy, r = nx[i], ny[i], nr[i]

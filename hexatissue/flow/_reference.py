@@ -11,13 +11,13 @@ import numpy as np
 from ._kernels import MIN_SPREAD
 
 
-def affine_fits(cx, cy, cu, cv, cell_bounds, nx, ny, nr, node_bounds, period, min_cells, out, counts):
+def affine_fits(cx, cy, cu, cv, cell_rows, nx, ny, nr, node_rows, period, min_cells, out, counts):
     """Reference of :func:`hexatissue.flow._kernels.affine_fits`."""
-    for f in range(len(cell_bounds) - 1):
-        cells = slice(cell_bounds[f], cell_bounds[f + 1])
+    for f in range(len(cell_rows)):
+        cells = slice(cell_rows[f, 0], cell_rows[f, 1])
         xy = np.c_[cx[cells], cy[cells]]
         uv = np.c_[cu[cells], cv[cells]]
-        for i in range(node_bounds[f], node_bounds[f + 1]):
+        for i in range(node_rows[f, 0], node_rows[f, 1]):
             d = xy - [nx[i], ny[i]]
             if period[0] > 0:
                 d = d - period * np.rint(d / period)
