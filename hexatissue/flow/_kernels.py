@@ -7,7 +7,8 @@
 The whole movie goes in one call (frame after frame inside the kernel), so a
 1000-frame movie costs no Python loop: per frame the counted cells are binned
 on a lattice of bins at least as large as the largest disk radius of the
-frame, and every node scans the (at most 3 x 3) bins its disk overlaps.
+frame (copied in bin order, so each bin is a run of consecutive memory), and
+every node scans the (at most 3 x 3) bins its disk overlaps.
 """
 from __future__ import annotations
 
@@ -34,11 +35,12 @@ def _offset(d, period):
 
 
 @njit(cache=True)
-def _bins_of_frame(cx, cy, lo, hi, size, period):
+def _bins_of_frame(cx, cy, cu, cv, lo, hi, size, period):
     """Counting sort of the cells ``lo:hi`` (inside the box when periodic) into bins of side >= ``size``.
 
-    Returns ``(order, starts, origin_x, origin_y, bin_x, bin_y, nbx, nby)``: the cells of bin
-    ``b = by * nbx + bx`` are ``order[starts[b]:starts[b + 1]]`` (indices into the whole arrays).
+    Returns ``(xs, ys, us, vs, starts, origin_x, origin_y, bin_x, bin_y, nbx, nby)``: the cells'
+    positions and velocities in bin order (so a bin is a run of consecutive memory), the cells of
+    bin ``b = by * nbx + bx`` being ``starts[b]:starts[b + 1]``.
     """
     n = hi - lo
     if period[0] > 0.0:
@@ -64,11 +66,12 @@ def _bins_of_frame(cx, cy, lo, hi, size, period):
     for b in range(nbx * nby):
         starts[b + 1] += starts[b]
     fill = starts[:-1].copy()
-    order = np.empty(n, np.int64)
+    xs, ys, us, vs = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     for k in range(n):
-        order[fill[key[k]]] = lo + k
+        j = fill[key[k]]
+        xs[j], ys[j], us[j], vs[j] = cx[lo + k], cy[lo + k], cu[lo + k], cv[lo + k]
         fill[key[k]] += 1
-    return order, starts, ox, oy, bx_size, by_size, nbx, nby
+    return xs, ys, us, vs, starts, ox, oy, bx_size, by_size, nbx, nby
 
 
 @njit(cache=True)
@@ -125,10 +128,11 @@ def affine_fits(cx, cy, cu, cv, cell_rows, nx, ny, nr, node_rows, period, min_ce
         rmax = 0.0
         for i in range(a, b):
             rmax = max(rmax, nr[i])
-        order, starts, ox, oy, sx, sy, nbx, nby = _bins_of_frame(cx, cy, cell_rows[f, 0], cell_rows[f, 1],
-                                                                 max(rmax, 1e-9), period)
+        xs, ys, us, vs, starts, ox, oy, sx, sy, nbx, nby = _bins_of_frame(cx, cy, cu, cv, cell_rows[f, 0],
+                                                                          cell_rows[f, 1], max(rmax, 1e-9), period)
         for i in range(a, b):
             qx, qy, r = nx[i], ny[i], nr[i]
+            r2 = r * r
             if periodic:
                 qx -= period[0] * math.floor(qx / period[0])
                 qy -= period[1] * math.floor(qy / period[1])
@@ -141,12 +145,11 @@ def affine_fits(cx, cy, cu, cv, cell_rows, nx, ny, nr, node_rows, period, min_ce
                 for bxu in range(x0, x1 + 1):
                     bin_ = row + bxu % nbx
                     for s in range(starts[bin_], starts[bin_ + 1]):
-                        c = order[s]
-                        dx = _offset(cx[c] - qx, period[0])
-                        dy = _offset(cy[c] - qy, period[1])
-                        if dx * dx + dy * dy > r * r:
+                        dx = _offset(xs[s] - qx, period[0])
+                        dy = _offset(ys[s] - qy, period[1])
+                        if dx * dx + dy * dy > r2:
                             continue
-                        u, v = cu[c], cv[c]
+                        u, v = us[s], vs[s]
                         n += 1
                         s_x += dx
                         s_y += dy
