@@ -372,3 +372,19 @@ def test_a_frame_without_grid_nodes_lends_its_cells_to_no_other_frame():
     flow = flow_fields(cells, grid, radius_factor=1.0)  # frame 1 has cells but no node; the grid is not sorted
     np.testing.assert_allclose(flow["vx"], [3.0, 1.0], rtol=1e-12)
     assert flow["frame"].tolist() == [2, 0] and flow["valid"].all()
+
+
+def test_event_flow_bad_input():
+    from hexatissue.flow import t1_flow
+
+    cells = pd.DataFrame({"frame": [0], "track": [1], "x": [0.0], "y": [0.0], "vx": [0.0], "vy": [0.0]})
+    events = pd.DataFrame({"event": [0], "kind": ["cycle"], "frame_start": [0], "cell_a": [1], "cell_b": [2],
+                           "cell_c": [3], "cell_d": [4]})
+    with pytest.raises(InputError, match="cells needs an 'area' column"):
+        t1_flow(cells, events)
+    with pytest.raises(InputError, match="offsets must be one or more integers"):
+        t1_flow(cells, events, offsets=[0.5], extent=10.0, bin_size=2.0)
+    with pytest.raises(InputError, match=r"events is missing column\(s\) \['cell_d'\]"):
+        t1_flow(cells, events.drop(columns="cell_d"), extent=10.0, bin_size=2.0)
+    average, samples = t1_flow(cells, events, extent=10.0, bin_size=2.0)  # cells b, c, d absent: no sample
+    assert len(average) == 0 and len(samples) == 0

@@ -1,10 +1,10 @@
 """Flow averaged around events: every T1 (centred on its quartet, its junction along x), every ±1/p defect
 (rotated by its orientation), and the angular harmonics of the averages.
 
-Each event gives one *sample* per cell near it: the cell's position and
-velocity relative to the event centre, in the event's own axes, and minus the
-event centre's velocity (the mean of its four cells), so the tissue's drift
-does not enter.  The samples of every event of a kind, at one time offset,
+Each event gives one *sample* per cell near it: the cell's position relative
+to the event centre and its velocity minus a reference velocity (a T1's: the
+mean of its four cells; a defect's: the mean of the cells around it, so the
+tissue's drift does not enter), both in the event's own axes.  The samples of every event of a kind, at one time offset,
 are averaged on a square grid of bins and fitted by angular harmonics.
 """
 from __future__ import annotations
@@ -44,9 +44,12 @@ def _row_lookup(cells):
 
 
 def _offsets(offsets):
-    values = np.atleast_1d(np.asarray(offsets))
-    if values.size == 0 or values.dtype.kind not in "iu" and not np.all(values == np.round(values)):
-        raise InputError(f"offsets must be integers (frames from the event's frame_start); got {offsets!r}")
+    """``offsets`` as an int64 array; :class:`InputError` unless they are one or more whole numbers."""
+    values = np.atleast_1d(np.asarray(offsets, dtype=object))
+    whole = values.size > 0 and all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in values)
+    if not whole:
+        raise InputError(f"offsets must be one or more integers (frames from the event's frame_start); "
+                         f"got {offsets!r}")
     return values.astype(np.int64)
 
 
