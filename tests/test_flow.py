@@ -212,9 +212,13 @@ def test_correlation_length_interpolates_the_one_over_e_crossing():
     from hexatissue.flow import correlation_length
 
     r = np.arange(1.0, 11.0)
-    table = pd.DataFrame({"r": r, "correlation": 1.0 - r / 8.0})  # linear: crosses 1/e at 8 (1 - 1/e)
+    table = pd.DataFrame({"r": r, "correlation": 1.0 - r / 8.0, "n_pairs": 1000})  # crosses 1/e at 8 (1 - 1/e)
     assert correlation_length(table) == pytest.approx(8.0 * (1 - np.exp(-1.0)), rel=1e-12)
     assert np.isnan(correlation_length(table.assign(correlation=0.9)))
+    # a bin of a few pairs (two tiny cells) does not decide it
+    sparse = table.assign(correlation=np.where(r == 1.0, -0.5, table["correlation"]),
+                          n_pairs=np.where(r == 1.0, 3, 1000))
+    assert correlation_length(sparse) == pytest.approx(8.0 * (1 - np.exp(-1.0)), rel=1e-12)
 
 
 def test_msd_of_ballistic_tracks_is_quadratic_across_the_periodic_edge():

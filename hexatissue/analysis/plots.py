@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import as_generator
-from ..flow import correlation_length, in_units, msd_exponent, velocity_unit
+from ..flow import correlation_length, in_units, msd_exponent, reliable_bins, velocity_unit
 from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
 from ..units import as_calibration
 
@@ -399,7 +399,7 @@ def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=Non
     -------
     matplotlib.figure.Figure
         Three panels; the correlation length (C = 1/e) and the MSD exponent
-        are marked.
+        are marked; C(r) shows its :func:`hexatissue.flow.reliable_bins`.
     """
     cal = as_calibration(calibration)
     fig, (a, b, c) = _figure(3, figsize)
@@ -411,8 +411,9 @@ def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=Non
     twin.plot(time, per_frame["polar_order"].to_numpy(float), color=FAST_COLOR, lw=1)
     twin.set_ylabel("polar order", color=FAST_COLOR)
     twin.set_ylim(0, 1)
-    r = cal.length(correlation["r"].to_numpy(float))
-    b.plot(r, correlation["correlation"].to_numpy(float), "o-", ms=3, color=SLOW_COLOR)
+    shown = reliable_bins(correlation)  # bins of a few pairs (tiny cells) are noise
+    r = cal.length(correlation["r"].to_numpy(float)[shown])
+    b.plot(r, correlation["correlation"].to_numpy(float)[shown], "o-", ms=3, color=SLOW_COLOR)
     b.axhline(np.exp(-1.0), color="0.5", lw=0.8, ls="--")
     b.axhline(0.0, color="0.7", lw=0.6)
     xi = correlation_length(correlation)
@@ -427,9 +428,12 @@ def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=Non
         c.loglog(cal.time(msd["lag"].to_numpy(float)[ok]), in_units(msd["msd"].to_numpy(float)[ok], cal, 2, 0),
                  "o-", ms=3, color="k")
         c.set_title(f"MSD exponent {msd_exponent(msd):.2f}", fontsize=9)
-        from matplotlib.ticker import NullFormatter
+        from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
 
-        c.xaxis.set_minor_formatter(NullFormatter())  # log minor labels overlap over a decade or two
+        # lags of one or two decades: plain numbers at 1, 2, 5 x 10^k (log minor labels overlap)
+        c.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        c.xaxis.set_major_formatter(ScalarFormatter())
+        c.xaxis.set_minor_formatter(NullFormatter())
     else:
         _empty(c, "no displacement pairs")
     c.set_xlabel(f"lag ({cal.time_label})")
@@ -437,19 +441,23 @@ def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=Non
     return _finish(fig, path)
 
 
-def plot_event_flow(average, path=None, calibration=None, title=None):
+def plot_event_flow(average, path=None, calibration=None, title=None, x_label="x along the junction"):
     """Event-centred mean flow: one panel per kind (rows) and time offset (columns).
 
     Arrows are the mean relative velocity of each bin, over the radial
-    velocity ``v_r`` in colour (red: outward); the event's axes have the
-    vanishing junction along x (:func:`hexatissue.flow.t1_flow`).
+    velocity ``v_r`` in colour (red: outward), in the event's axes (a T1's
+    vanishing junction along x, :func:`hexatissue.flow.t1_flow`; a defect's
+    orientation, :func:`hexatissue.flow.defect_flow`).
 
     Parameters
     ----------
     average : pandas.DataFrame
-        The ``average`` table of :func:`hexatissue.flow.t1_flow` (px, px/frame).
+        The ``average`` table of :func:`hexatissue.flow.t1_flow` or
+        :func:`hexatissue.flow.defect_flow` (px, px/frame).
     calibration : Calibration, optional
-        Units of the axes, the colour bar and the key arrow (px and frames when None).
+        Units of the axes and the colour bar (px and frames when None).
+    x_label : str
+        What the x axis of the event's axes is.
 
     Returns
     -------
@@ -493,7 +501,7 @@ def plot_event_flow(average, path=None, calibration=None, title=None):
             ax.invert_yaxis()  # image orientation, as the tissue figures
             n_events = int(average.loc[sel, "n_events"].iloc[0])
             ax.set_title(f"{kind}, offset {offset:+d} frames ({n_events} events)", fontsize=8)
-            ax.set_xlabel(f"x along the junction ({cal.length_label})", fontsize=8)
+            ax.set_xlabel(f"{x_label} ({cal.length_label})", fontsize=8)
             ax.set_ylabel(f"y ({cal.length_label})", fontsize=8)
     if mesh is not None:
         fig.colorbar(mesh, ax=axes, shrink=0.6, label=f"radial velocity ({velocity_unit(cal)})")

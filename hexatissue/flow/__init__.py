@@ -30,7 +30,7 @@ from .centred import angular_harmonics, defect_flow, t1_flow
 
 __all__ = ["cell_velocities", "flow_fields", "velocity_statistics", "velocity_correlation", "correlation_length",
            "mean_squared_displacement", "msd_exponent", "flow_summary", "velocity_unit", "in_units", "MIN_CELLS",
-           "t1_flow", "defect_flow", "angular_harmonics"]
+           "t1_flow", "defect_flow", "angular_harmonics", "reliable_bins", "SPARSE_BIN"]
 
 #: Fewest cells an affine fit takes (three non-collinear points fix a 2-D affine map).
 MIN_CELLS = 3
@@ -346,17 +346,31 @@ def velocity_correlation(cells, box=None, r_max=None, bins=30, max_frames=20):
     return pd.DataFrame({"r": 0.5 * (edges[1:] + edges[:-1]), "correlation": correlation, "n_pairs": count})
 
 
+#: Bins of a velocity correlation holding fewer than this fraction of the pairs of its fullest bin are too
+#: few to trust: below a cell size they hold the odd pair of tiny or dividing cells.
+SPARSE_BIN = 0.01
+
+
+def reliable_bins(correlation):
+    """Bins of :func:`velocity_correlation` with a finite C(r) and at least :data:`SPARSE_BIN` x the pairs of
+    the fullest bin (a boolean array)."""
+    require_columns(correlation, ["correlation", "n_pairs"], "correlation")
+    pairs = correlation["n_pairs"].to_numpy(float)
+    top = pairs.max() if len(pairs) else 0.0
+    return np.isfinite(correlation["correlation"].to_numpy(float)) & (pairs > 0) & (pairs >= SPARSE_BIN * top)
+
+
 def correlation_length(correlation, level=np.exp(-1.0)):
     """Distance at which a velocity correlation first falls to ``level`` (1/e), px.
 
     Linear interpolation between the bins of :func:`velocity_correlation`
-    (from C(0) = 1); NaN when it never falls that low within its ``r_max``.
+    (from C(0) = 1), over the :func:`reliable_bins`; NaN when it never falls
+    that low within its ``r_max``.
     """
-    require_columns(correlation, ["r", "correlation"], "correlation")
-    r = np.r_[0.0, correlation["r"].to_numpy(float)]
-    c = np.r_[1.0, correlation["correlation"].to_numpy(float)]
-    keep = np.isfinite(c)
-    r, c = r[keep], c[keep]
+    require_columns(correlation, ["r", "correlation", "n_pairs"], "correlation")
+    keep = reliable_bins(correlation)
+    r = np.r_[0.0, correlation["r"].to_numpy(float)[keep]]
+    c = np.r_[1.0, correlation["correlation"].to_numpy(float)[keep]]
     below = np.flatnonzero(c < level)
     if not len(below):
         return float("nan")

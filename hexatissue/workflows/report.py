@@ -393,7 +393,8 @@ def _flow_section(movie, out, written, numbers, p):
     xi = summary["correlation_length"]
     lines += [f"- mean speed {_rate(cal, summary['mean_speed'])}; rms velocity {_rate(cal, summary['rms_velocity'])}",
               f"- polar order of the velocities (mean over frames): {summary['polar_order']:.3g}",
-              "- velocity correlation length (C(r) of the velocity fluctuations falls to 1/e): "
+              "- velocity correlation length (C(r) of the velocity fluctuations falls to 1/e; bins with under 1 % "
+              "of the fullest bin's pairs left out): "
               + (_length(cal, xi) if np.isfinite(xi) else "C(r) stays above 1/e"),
               f"- MSD exponent (MSD ~ lag^alpha, lags {int(msd['lag'].min())}-{int(msd['lag'].max())} frames): "
               f"{summary['msd_exponent']:.3g}"]
@@ -451,7 +452,8 @@ def _defect_flow_lines(movie, out, written, numbers, p):
     r_cell = float(np.sqrt(np.nanmean(movie.cells["area"].to_numpy(float)) / np.pi))
     harmonics = angular_harmonics(samples, r_min=r_cell)
     path = out / "defect_flow.png"
-    plot_event_flow(average, path=path, calibration=cal, title=f"mean flow around ±1/{p} defects (defect axes)")
+    plot_event_flow(average, path=path, calibration=cal, title=f"mean flow around ±1/{p} defects (defect axes)",
+                    x_label="x along the defect's axis")
     written += [path, write_table(average, out / "defect_flow.csv"),
                 write_table(harmonics, out / "defect_flow_harmonics.csv")]
     table, numbers["defect_flow"] = _harmonics_table(harmonics, cal)
