@@ -367,7 +367,7 @@ def flow_layer(movie) -> tuple | None:
     start = _coords(movie, rows["frame"], rows["x"], rows["y"])
     step = _coords(movie, np.zeros(len(rows)), u * per_velocity, v * per_velocity)
     features = rows[["frame", "node", "vorticity", "divergence"]].assign(speed=speed)
-    kwargs = {"name": "flow", "edge_width": 0.6, "edge_color": FLOW_COLOR, "vector_style": "arrow",
+    kwargs = {"name": "flow", "edge_width": 1.2, "edge_color": FLOW_COLOR, "vector_style": "arrow",
               "length": 1.0, "features": features, **_common(movie, px_per_velocity=per_velocity)}
     return np.stack([start, step], axis=1), kwargs, "vectors"
 
