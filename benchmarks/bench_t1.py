@@ -11,6 +11,8 @@ Stages, each in its own forked process so that its peak resident memory
 - ``mesh``: ``mesh_from_labels`` of every frame, one process;
 - ``events``: ``t1_tables`` (``detect_t1`` and ``neighbour_events`` in one pass, as ``analyze``)
   + lineage + per-cell statistics on the mesh tables;
+- ``flow``: cell velocities, the flow fields on the Gamma_p grid (the grid itself, made by the order
+  stage, not timed) and the flow statistics (``hexatissue.flow``) on the mesh tables;
 - ``analyze``: everything end to end with ``--workers`` processes, for
   several movie lengths (cost per frame should not grow with length).
 
@@ -152,6 +154,23 @@ def stage_events(tables_dir, box):
     return elapsed, len(events), events["kind"].value_counts().to_dict()
 
 
+def stage_flow(tables_dir, box):
+    import pandas as pd
+
+    from hexatissue.flow import cell_velocities, flow_fields, flow_summary
+    from hexatissue.order import coarse_grain
+
+    cells = pd.read_parquet(Path(tables_dir) / "cells.parquet")
+    cells["track"] = cells["cell"]  # the movie's ids are its tracks
+    grid = coarse_grain(cells, p=(6, 2), box=box)  # the order stage's field: not the flow's cost
+    t0 = time.perf_counter()
+    cells["vx"], cells["vy"] = cell_velocities(cells, box)
+    flow = flow_fields(cells, grid, box)
+    fields = time.perf_counter() - t0
+    summary = flow_summary(cells, box)
+    return fields, time.perf_counter() - t0, float(flow["valid"].mean()), summary
+
+
 def stage_analyze(path, n_frames, box, workers):
     from hexatissue import OrderOptions, analyze
 
@@ -212,6 +231,13 @@ def main(argv=None):
     res = [run_isolated(stage_events, str(tables), box) for _ in range(args.repeats)]
     rows.append(("events (both T1 tables) + lineage + stats", n, med([r[0][0] for r in res]), max(r[2] - r[1] for r in res), None))
     n_events, kinds = res[0][0][1], res[0][0][2]
+    flow = None
+    if Path(__file__).resolve().parents[1].joinpath("hexatissue", "flow").is_dir():  # trees without it: skipped
+        res = [run_isolated(stage_flow, str(tables), box) for _ in range(args.repeats)]
+        flow = res[0][0]
+        rows.append(("flow: velocities + fields", n, med([r[0][0] for r in res]), max(r[2] - r[1] for r in res), None))
+        rows.append(("flow: velocities + fields + statistics", n, med([r[0][1] for r in res]),
+                     max(r[2] - r[1] for r in res), None))
     for frames in sorted({max(1, n // 4), max(1, n // 2), n}):
         reps = args.repeats if frames == n else 1
         res = [run_isolated(stage_analyze, path, frames, box, args.workers) for _ in range(reps)]
@@ -225,6 +251,8 @@ def main(argv=None):
         w = "" if worker is None else f"{worker:.0f}"
         print(f"| {name} | {frames} | {sec:.1f} | {1000 * sec / frames:.1f} | {mem:.0f} | {w} |")
     print(f"\nevents in the {n}-frame movie: {n_events} {kinds}")
+    if flow is not None:
+        print(f"flow: {100 * flow[2]:.1f} % of the grid nodes valid; {flow[3]}")
     print(f"uptime after: {subprocess.run(['uptime'], capture_output=True, text=True).stdout.strip()}")
 
 

@@ -21,6 +21,8 @@ from .pipeline import analyze
 from .source import Source, open_source, read_labels
 from .track import Tracker, lineage_table, track_labels
 from .theory import active_force, ell6, quadrupole_flow, quadrupole_psi
+from .options import FlowOptions
+from .flow import cell_velocities, flow_fields
 
 __all__ = [
     "Box",
@@ -75,6 +77,9 @@ __all__ = [
     "contact_table",
     "score",
     "__version__",
+    "FlowOptions",
+    "cell_velocities",
+    "flow_fields",
 ]
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from .errors import InputError, check_orders, check_positive, is_real
 
 __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "DeformationOptions",
-           "OPTION_CLASSES",
+           "FlowOptions", "OPTION_CLASSES",
            "cli_field", "add_flags", "from_flags", "flag_text"]
 
 # The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
@@ -489,6 +489,34 @@ class DeformationOptions(_Options, stage="deformation", title="deformation budge
         out = super().to_dict()
         out["roi"] = os.fspath(self.roi) if isinstance(self.roi, (str, os.PathLike)) else None
         return out
+
+
+@dataclass(frozen=True)
+class FlowOptions(_Options, stage="flow", title="tissue flow"):
+    """Tissue flow: cell velocities and velocity-gradient fields on the Gamma_p grid (:mod:`hexatissue.flow`).
+
+    Parameters
+    ----------
+    enabled : bool
+        Compute ``cells.vx``, ``cells.vy`` and, with the order fields, the
+        ``flow`` table.
+    radius_factor : float
+        Disk radius of each node's affine fit in units of the order field's
+        radius (:func:`hexatissue.flow.flow_fields`; default 2: ~9 cells).
+    min_cells : int
+        Fewest cells a fit takes (at least 3).
+    """
+
+    enabled: bool = cli_field(True, "--no-flow", "no cell velocities or flow fields", action="store_false")
+    radius_factor: float = cli_field(2.0, "--flow-radius-factor", "disk radius of the flow fields' fits, in units "
+                                     "of the order field's radius")
+    min_cells: int = cli_field(3, "--flow-min-cells", "fewest cells in a flow field's fit (at least 3)")
+
+    def __post_init__(self):
+        if not isinstance(self.enabled, bool):
+            _fail(type(self), "enabled", self.enabled, "True or False")
+        self._number("radius_factor", strict=True)
+        self._number("min_cells", low=3, integer=True)
 
 
 def check_options(value, name):

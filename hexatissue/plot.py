@@ -25,6 +25,7 @@ import numpy as np
 from .box import as_box
 from .defects import find_defects
 from .errors import InputError, as_generator
+from .flow import in_units, velocity_unit
 from .io import atomic_path
 from .order import coarse_grain
 from .units import as_calibration
@@ -682,4 +683,70 @@ def plot_deformation_map(deformation, grid, calibration=None, ax=None, path=None
     rate = largest / cal.time(1.0)
     ax.set_title(f"mean shear rate: total (black), T1s (red); longest bar {rate:.3g} / {cal.time_label}",
                  fontsize=9)
+    return _finish(fig, path)
+
+
+def _node_lattice(x, y):
+    """Row and column of every node of a regular grid from its positions (the grid's own x and y values)."""
+    gx, col = np.unique(x, return_inverse=True)
+    gy, row = np.unique(y, return_inverse=True)
+    return row, col, (len(gy), len(gx))
+
+
+def plot_flow(flow, polygons=None, ax=None, path=None, box=None, calibration=None, figsize=(6.6, 6)):
+    """Flow field of one frame: velocity arrows on the valid nodes over the vorticity map.
+
+    Velocities and vorticity are shown in the calibration's units (µm/min and
+    1/min when calibrated, else px/frame and 1/frame): a key arrow gives the
+    velocity scale and a scale bar the length scale.
+
+    Parameters
+    ----------
+    flow : pandas.DataFrame
+        One frame of the ``flow`` table (:func:`hexatissue.flow.flow_fields`).
+    polygons : dict, optional
+        Cell outlines drawn underneath (``{cell: (n, 2) array}``).
+    box : Box, optional
+        Periodic box: sets the plot limits.
+    calibration : Calibration, optional
+        Pixel size, frame interval and their units (px and frames when None).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Vorticity ``dvy/dx - dvx/dy`` in colour (red > 0: clockwise on the
+        image, whose y axis points down), arrows of the fitted velocity.
+    """
+    if "frame" in flow.columns and flow["frame"].nunique() > 1:
+        raise InputError("flow holds several frames; select one frame to plot")
+    cal = as_calibration(calibration)
+    fig, ax = _new_axes(ax, figsize)
+    valid = flow["valid"].to_numpy(bool)
+    x, y = flow["x"].to_numpy(float), flow["y"].to_numpy(float)
+    _draw_polygons(ax, polygons, color="0.6", linewidth=0.4, box=as_box(box))
+    time_unit = cal.time_unit if cal.has_time else "frame"
+    if valid.any():
+        row, col, shape = _node_lattice(x, y)
+        vort = np.full(shape, np.nan)
+        vort[row[valid], col[valid]] = in_units(flow["vorticity"].to_numpy(float)[valid], cal, 0, -1)
+        gx, gy = np.full(shape, np.nan), np.full(shape, np.nan)
+        gx[row, col], gy[row, col] = x, y
+        top = float(np.nanpercentile(np.abs(vort), 98)) or 1.0
+        mesh = ax.pcolormesh(gx, gy, np.ma.masked_invalid(vort), cmap="RdBu_r", vmin=-top, vmax=top,
+                             shading="nearest", alpha=0.75)
+        fig.colorbar(mesh, ax=ax, shrink=0.7, label=f"vorticity (1/{time_unit}; > 0 clockwise)")
+        u, v = flow["vx"].to_numpy(float)[valid], flow["vy"].to_numpy(float)[valid]
+        speed = np.hypot(u, v)
+        typical = float(np.percentile(speed, 95)) if speed.max() > 0 else 1.0
+        # the 95th-percentile speed spans 0.9 grid steps, so arrows rarely cross their neighbours
+        step = _typical_spacing(np.c_[x, y])
+        ax.quiver(x[valid], y[valid], u, v, angles="xy", scale_units="xy", scale=typical / (0.9 * step),
+                  width=0.004, color="k", zorder=4)
+        key = scale_bar_length(float(in_units(typical, cal)), 1.0)  # a round speed near the typical one
+        arrows = ax.collections[-1]
+        ax.quiverkey(arrows, 0.16, 1.03, key / float(in_units(1.0, cal)), f"{key:g} {velocity_unit(cal)}",
+                     labelpos="E", coordinates="axes", fontproperties={"size": 9})
+    _image_axes(ax, _extent_of(None, polygons, np.c_[x, y], as_box(box)), cal)
+    frame = f", frame {int(flow['frame'].iloc[0])}" if "frame" in flow.columns and len(flow) else ""
+    ax.set_title(f"velocity and vorticity{frame}", pad=18)
     return _finish(fig, path)

@@ -74,6 +74,9 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "junction_polarity_im": ("f", "", "nematic of the junctions' integrated intensity, imaginary part"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
+        "vx": ("f", "px/frame", "velocity along x: centred difference of the centroid along the track (NaN at track "
+               "ends, divisions and gaps; hexatissue.flow.cell_velocities)"),
+        "vy": ("f", "px/frame", "velocity along y (rows), as vx"),
     },
     "vertices": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -188,6 +191,21 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "n_intervals": ("i", "", "intervals between consecutive intercalations of the cell"),
         "mean_intercalation_interval": ("f", "frame", "mean time between consecutive intercalations of the cell (NaN if fewer than 2)"),
     },
+    "flow": {
+        "frame": ("i", "frame", "time point"),
+        "node": ("i", "", "grid node id (the grid table's)"),
+        "x": ("f", "px", "node position, column"),
+        "y": ("f", "px", "node position, row"),
+        "radius": ("f", "px", "disk radius of the affine fit"),
+        "vx": ("f", "px/frame", "fitted velocity at the node, along x"),
+        "vy": ("f", "px/frame", "fitted velocity at the node, along y"),
+        "vorticity": ("f", "1/frame", "dvy/dx - dvx/dy (positive: clockwise on the displayed image, y down)"),
+        "divergence": ("f", "1/frame", "dvx/dx + dvy/dy"),
+        "strain_xx": ("f", "1/frame", "traceless strain rate (dvx/dx - dvy/dy) / 2"),
+        "strain_xy": ("f", "1/frame", "traceless strain rate (dvx/dy + dvy/dx) / 2"),
+        "n_cells": ("i", "", "cells in the disk with a velocity"),
+        "valid": ("b", "", "the grid node is valid and the fit exists"),
+    },
     "deformation": {
         "frame": ("i", "frame", "the interval from this frame to the next"),
         "region": ("O", "", "tissue (the whole triangulation), grid (a node's region of the Gamma_p grid) or roi"),
@@ -202,7 +220,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
-             "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy"}
+             "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

@@ -30,13 +30,14 @@ from .defects import find_defects, link_movie_defects
 from .deformation import deformation_budget, read_roi
 from .errors import HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
+from .flow import cell_velocities, flow_fields
 from .geometry import distinct_count
 from .intensity import measure_intensity
 from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
 from .mesh.polygons import polygon_network
-from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, IntensityOptions, MeshOptions, OrderOptions,
-                      TrackOptions)
+from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOptions, IntensityOptions, MeshOptions,
+                      OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .track import cells_with_tracks, lineage_table, tracking_summary
@@ -221,6 +222,15 @@ def _defect_tracks(movie, options):
     link_movie_defects(tables, options.p, options.defect_max_distance, movie.box, n_frames, linked)
 
 
+def _flow(movie, options):
+    """Every tracked cell's velocity (``cells.vx``, ``vy``) and, on the Gamma_p grid when there is one, ``flow``."""
+    cells = movie.tables["cells"]
+    cells["vx"], cells["vy"] = cell_velocities(cells, movie.box)
+    if "grid" in movie.tables:
+        movie.tables["flow"] = flow_fields(cells, movie.tables["grid"], movie.box, options.radius_factor,
+                                           options.min_cells)
+
+
 def _t1_events(movie, options):
     """Quartet T1s and per-cell neighbour changes from one pass over the contacts, classified."""
     censor = default_censor(movie.n_frames) if options.censor is None else options.censor
@@ -288,6 +298,8 @@ STAGES = (
     Stage("tracks", TrackOptions, "movie", reads=("cells",), writes=("cells.track", "lineage"), run=_tracks),
     Stage("defect tracks", OrderOptions, "movie", reads=("cells", "grid", "defects"),
           writes=("defects.track", "defect_events"), run=_defect_tracks, enabled=_fields_on),
+    Stage("tissue flow", FlowOptions, "movie", reads=("cells", "grid"), writes=("cells.vx", "cells.vy", "flow"),
+          run=_flow, enabled=_enabled),
     Stage("T1 events", EventOptions, "movie", reads=("cells", "edges"), writes=("events", "neighbour_events"),
           run=_t1_events),
     Stage("cell events", EventOptions, "movie", reads=("events", "cells"), writes=("cell_events",),

@@ -39,7 +39,7 @@ def test_the_reader_opens_a_results_folder_as_the_layers(viewer, epicure):
     movie = read_results(epicure)
     names = [layer.name for layer in viewer.layers]
     assert names == ["labels", "polygons", "vertices", "gamma6 stars", "Gamma2 defects", "Gamma6 defects",
-                     "T1 events", "tracks"]
+                     "T1 events", "tracks", "flow"]
     assert _layer(viewer, "polygons").nshapes == int((movie.cells["n_sides"] >= 3).sum())
     assert len(_layer(viewer, "vertices").data) == len(movie.vertices)
     assert list(_layer(viewer, "vertices").features["degree"]) == list(movie.vertices["degree"])
@@ -151,8 +151,8 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
     assert done, "the analysis did not finish"
     names = [layer.name for layer in viewer.layers]
     assert names == ["epicure", "polygons", "vertices", "gamma6 stars", "Gamma6 defects", "T1 events", "tracks",
-                     "shear rate (total)", "shear rate (T1s)"]
-    assert widget.status.value == "added 8 layers"
+                     "flow", "shear rate (total)", "shear rate (T1s)"]
+    assert widget.status.value == "added 9 layers"
     assert viewer.layers["polygons"].nshapes == int((movie.cells["n_sides"] >= 3).sum())
     assert len(viewer.layers["Gamma6 defects"].data) == len(movie.defects)
     assert tuple(viewer.layers["polygons"].scale) == (1.0, 0.2, 0.2)

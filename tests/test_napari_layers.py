@@ -39,7 +39,7 @@ def layers(epicure):
 def test_every_layer_of_the_epicure_results_has_the_table_counts_and_the_scale(layers):
     movie, by_name = layers
     assert list(by_name) == ["labels", "polygons", "vertices", "gamma6 stars", "Gamma2 defects", "Gamma6 defects",
-                             "T1 events", "tracks"]
+                             "T1 events", "tracks", "flow"]
     for data, kw, kind in by_name.values():
         assert kw["scale"] == (300.0, 0.2, 0.2), kw["name"]
         assert kw["metadata"]["units"] == {"t": "s", "y": "um", "x": "um"}, kw["name"]
@@ -58,6 +58,17 @@ def test_every_layer_of_the_epicure_results_has_the_table_counts_and_the_scale(l
     # the annotated division of the sample: 73 -> 477 + 490 at frame 3
     assert by_name["tracks"][1]["graph"] == {477: [73], 490: [73]}
     assert by_name["tracks"][0][tracks[:, 0] == 477][:, 1].min() == 3
+
+
+def test_flow_arrows_are_the_valid_nodes_velocities_at_one_scale(layers):
+    movie, by_name = layers
+    data, kw, kind = by_name["flow"]
+    valid = movie.flow[movie.flow["valid"]].reset_index(drop=True)
+    assert kind == "vectors" and len(data) == len(valid) > 0
+    np.testing.assert_allclose(data[:, 0], valid[["frame", "y", "x"]].to_numpy(float))  # (t, row, col) in px
+    scale = kw["metadata"]["px_per_velocity"]
+    np.testing.assert_allclose(data[:, 1], np.c_[np.zeros(len(valid)), scale * valid[["vy", "vx"]].to_numpy()])
+    np.testing.assert_allclose(kw["features"]["speed"], np.hypot(valid["vx"], valid["vy"]))
 
 
 def test_labels_are_the_sample_frames(layers):

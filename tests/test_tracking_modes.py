@@ -230,5 +230,7 @@ def test_mode_off_makes_every_cell_its_own_track():
     assert movie.cells["track"].is_unique and (movie.lineage["n_frames"] == 1).all()
     assert len(movie.events) == 0 and len(movie.defect_events) == 0
     assert not movie.defects.duplicated(["p", "track"]).any()
-    same = _run(stack, mode="never")  # the tables other than tracks do not depend on the mode
-    pd.testing.assert_frame_equal(movie.cells.drop(columns="track"), same.cells.drop(columns="track"))
+    same = _run(stack, mode="never")  # the tables other than tracks (and the velocities along them) do not
+    track_columns = ["track", "vx", "vy"]  # depend on the mode
+    pd.testing.assert_frame_equal(movie.cells.drop(columns=track_columns), same.cells.drop(columns=track_columns))
+    assert movie.cells[["vx", "vy"]].isna().all().all() and same.cells["vx"].notna().any()

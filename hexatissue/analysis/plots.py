@@ -12,11 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import as_generator
+from ..flow import correlation_length, in_units, msd_exponent, reliable_bins, velocity_unit
 from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
 from ..units import as_calibration
 
 __all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
-           "plot_event_overview"]
+           "plot_event_overview", "plot_flow_statistics", "plot_event_flow"]
 
 EVENT_COLOR = "#2a7f62"
 CONTROL_COLOR = "#7f7f7f"
@@ -380,3 +381,128 @@ def _duration_bins(durations, max_bins=30):
     step = max(1, int(np.ceil((hi - lo) / max_bins)))
     n = max(1, int(np.ceil((hi + 0.5 - lo) / step)))
     return lo + step * np.arange(n + 1)
+
+
+def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=None, figsize=(12, 3.8)):
+    """Mean speed and polar order over time, the velocity correlation C(r), and the MSD.
+
+    Parameters
+    ----------
+    per_frame, correlation, msd : pandas.DataFrame
+        :func:`hexatissue.flow.velocity_statistics`,
+        :func:`hexatissue.flow.velocity_correlation` and
+        :func:`hexatissue.flow.mean_squared_displacement` (px and frames).
+    calibration : Calibration, optional
+        Units of the axes (px and frames when None).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three panels; the correlation length (C = 1/e) and the MSD exponent
+        are marked; C(r) shows its :func:`hexatissue.flow.reliable_bins`.
+    """
+    cal = as_calibration(calibration)
+    fig, (a, b, c) = _figure(3, figsize)
+    time = cal.time(per_frame["frame"].to_numpy(float))
+    a.plot(time, in_units(per_frame["mean_speed"].to_numpy(float), cal), color="k", lw=1)
+    a.set_xlabel(f"time ({cal.time_label})")
+    a.set_ylabel(f"mean speed ({velocity_unit(cal)})")
+    twin = a.twinx()
+    twin.plot(time, per_frame["polar_order"].to_numpy(float), color=FAST_COLOR, lw=1)
+    twin.set_ylabel("polar order", color=FAST_COLOR)
+    twin.set_ylim(0, 1)
+    shown = reliable_bins(correlation)  # bins of a few pairs (tiny cells) are noise
+    r = cal.length(correlation["r"].to_numpy(float)[shown])
+    b.plot(r, correlation["correlation"].to_numpy(float)[shown], "o-", ms=3, color=SLOW_COLOR)
+    b.axhline(np.exp(-1.0), color="0.5", lw=0.8, ls="--")
+    b.axhline(0.0, color="0.7", lw=0.6)
+    xi = correlation_length(correlation)
+    if np.isfinite(xi):
+        b.axvline(cal.length(xi), color="0.3", lw=0.8, ls=":")
+    b.set_xlabel(f"r ({cal.length_label})")
+    b.set_ylabel("velocity correlation C(r)")
+    b.set_title(f"correlation length {cal.length(xi):.3g} {cal.length_label}" if np.isfinite(xi)
+                else "C(r) stays above 1/e", fontsize=9)
+    ok = np.isfinite(msd["msd"].to_numpy(float)) & (msd["msd"].to_numpy(float) > 0)
+    if ok.any():
+        c.loglog(cal.time(msd["lag"].to_numpy(float)[ok]), in_units(msd["msd"].to_numpy(float)[ok], cal, 2, 0),
+                 "o-", ms=3, color="k")
+        c.set_title(f"MSD exponent {msd_exponent(msd):.2f}", fontsize=9)
+        from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+
+        # lags of one or two decades: plain numbers at 1, 2, 5 x 10^k (log minor labels overlap)
+        c.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        c.xaxis.set_major_formatter(ScalarFormatter())
+        c.xaxis.set_minor_formatter(NullFormatter())
+    else:
+        _empty(c, "no displacement pairs")
+    c.set_xlabel(f"lag ({cal.time_label})")
+    c.set_ylabel(f"MSD ({cal.length_label}$^2$)")
+    return _finish(fig, path)
+
+
+def plot_event_flow(average, path=None, calibration=None, title=None, x_label="x along the junction"):
+    """Event-centred mean flow: one panel per kind (rows) and time offset (columns).
+
+    Arrows are the mean relative velocity of each bin, over the radial
+    velocity ``v_r`` in colour (red: outward), in the event's axes (a T1's
+    vanishing junction along x, :func:`hexatissue.flow.t1_flow`; a defect's
+    orientation, :func:`hexatissue.flow.defect_flow`).
+
+    Parameters
+    ----------
+    average : pandas.DataFrame
+        The ``average`` table of :func:`hexatissue.flow.t1_flow` or
+        :func:`hexatissue.flow.defect_flow` (px, px/frame).
+    calibration : Calibration, optional
+        Units of the axes and the colour bar (px and frames when None).
+    x_label : str
+        What the x axis of the event's axes is.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    cal = as_calibration(calibration)
+    kinds = list(dict.fromkeys(average["kind"].astype(str)))
+    offsets = sorted(set(average["offset"].tolist()))
+    fig = Figure(figsize=(3.2 * max(len(offsets), 1) + 1.0, 3.0 * max(len(kinds), 1)), dpi=100, layout="constrained")
+    axes = fig.subplots(max(len(kinds), 1), max(len(offsets), 1), squeeze=False)
+    if not len(average):
+        _empty(axes[0, 0], "no event with velocities")
+        return _finish(fig, path, title)
+    x, y = average["x"].to_numpy(float), average["y"].to_numpy(float)
+    u, v = average["vx"].to_numpy(float), average["vy"].to_numpy(float)
+    r = np.hypot(x, y)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        radial = np.where(r > 0, (x * u + y * v) / r, 0.0)
+    top = float(np.nanpercentile(np.abs(in_units(radial, cal)), 98)) or 1.0
+    speed = float(np.percentile(np.hypot(u, v), 95)) or 1.0
+    gx, gy = np.unique(x), np.unique(y)  # the bins' lattice, shared by the panels
+    step = float(np.min(np.diff(gx))) if len(gx) > 1 else 1.0
+    mesh = None
+    for i, kind in enumerate(kinds):
+        for j, offset in enumerate(offsets):
+            ax = axes[i, j]
+            sel = (average["kind"].astype(str).to_numpy() == kind) & (average["offset"].to_numpy() == offset)
+            if not sel.any():
+                _empty(ax, "no event")
+                continue
+            image = np.full((len(gy), len(gx)), np.nan)
+            image[np.searchsorted(gy, y[sel]), np.searchsorted(gx, x[sel])] = in_units(radial[sel], cal)
+            mesh = ax.pcolormesh(cal.length(gx), cal.length(gy), np.ma.masked_invalid(image), cmap="RdBu_r",
+                                 vmin=-top, vmax=top, shading="nearest")
+            ax.quiver(cal.length(x[sel]), cal.length(y[sel]), u[sel], v[sel], angles="xy", scale_units="xy",
+                      scale=speed / (0.9 * cal.length(step)), width=0.006)
+            ax.plot([0], [0], "k+", ms=8)
+            ax.set_aspect("equal")
+            ax.invert_yaxis()  # image orientation, as the tissue figures
+            n_events = int(average.loc[sel, "n_events"].iloc[0])
+            ax.set_title(f"{kind}, offset {offset:+d} frames ({n_events} events)", fontsize=8)
+            ax.set_xlabel(f"{x_label} ({cal.length_label})", fontsize=8)
+            ax.set_ylabel(f"y ({cal.length_label})", fontsize=8)
+    if mesh is not None:
+        fig.colorbar(mesh, ax=axes, shrink=0.6, label=f"radial velocity ({velocity_unit(cal)})")
+    return _finish(fig, path, title)

@@ -374,13 +374,49 @@ def track_layer(movie) -> tuple | None:
 
 
 # ---------------------------------------------------------------------------------------------------------
+# tissue flow
+# ---------------------------------------------------------------------------------------------------------
+#: Arrow length of the 95th-percentile node speed of the flow layer, in grid spacings (as hexatissue.plot.plot_flow).
+FLOW_ARROW = 0.9
+FLOW_COLOR = "#00c8ff"
+
+
+def flow_layer(movie) -> tuple | None:
+    """Vectors layer of the tissue flow: an arrow of the fitted velocity at every valid node of ``flow``.
+
+    None when the results have no ``flow`` table or no valid node.  Arrows
+    are drawn to one scale over the movie: the 95th-percentile speed spans
+    :data:`FLOW_ARROW` grid spacings (``metadata["px_per_velocity"]``: px of
+    arrow per px/frame).  ``features``: frame, node, ``speed`` (px/frame),
+    ``vorticity`` and ``divergence`` (1/frame) of each node.
+    """
+    flow = movie.tables.get("flow")
+    if flow is None:
+        return None
+    rows = flow[flow["valid"].to_numpy(bool)].reset_index(drop=True)
+    if not len(rows):
+        return None
+    u, v = rows["vx"].to_numpy(float), rows["vy"].to_numpy(float)
+    speed = np.hypot(u, v)
+    typical = float(np.percentile(speed, 95)) or 1.0
+    first = rows[rows["frame"] == rows["frame"].iloc[0]]
+    per_velocity = FLOW_ARROW * _typical_spacing(first[["x", "y"]].to_numpy(float)) / typical
+    start = _coords(movie, rows["frame"], rows["x"], rows["y"])
+    step = _coords(movie, np.zeros(len(rows)), u * per_velocity, v * per_velocity)
+    features = rows[["frame", "node", "vorticity", "divergence"]].assign(speed=speed)
+    kwargs = {"name": "flow", "edge_width": 1.2, "edge_color": FLOW_COLOR, "vector_style": "arrow",
+              "length": 1.0, "features": features, **_common(movie, px_per_velocity=per_velocity)}
+    return np.stack([start, step], axis=1), kwargs, "vectors"
+
+
+# ---------------------------------------------------------------------------------------------------------
 # everything
 # ---------------------------------------------------------------------------------------------------------
 def movie_layers(movie, labels=None, p=6) -> list:
     """Every layer of a Movie, bottom to top: labels (when given), polygons, vertices, gamma_p stars,
-    Gamma_p defects (one layer per p), T1 events, tracks, the deformation budget's shear rates
-    (when the results have them); vertices, tracks, the T1s' shear and the defects of other orders
-    than ``p`` start hidden.
+    Gamma_p defects (one layer per p), T1 events, tracks, the tissue flow and the deformation budget's
+    shear rates (when the results have them); vertices, tracks, the T1s' shear and the defects of other
+    orders than ``p`` start hidden.
 
     Parameters
     ----------
@@ -402,6 +438,6 @@ def movie_layers(movie, labels=None, p=6) -> list:
     if f"gamma{p}_re" in movie.cells.columns:
         layers.append(star_layer(movie, p))
     layers += defect_layers(movie, shown=p)
-    layers += [t for t in (event_layer(movie), track_layer(movie)) if t is not None]
+    layers += [t for t in (event_layer(movie), track_layer(movie), flow_layer(movie)) if t is not None]
     layers += deformation_layers(movie)
     return layers

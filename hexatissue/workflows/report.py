@@ -190,6 +190,7 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     elif len(movie) > 1:
         lines += _movie_sections(movie, out, written, numbers, p=p, dl=dl, dt=dt, n_control=n_control, seed=seed,
                                  include_border=include_border, control=control)
+        lines += _flow_section(movie, out, written, numbers, p)
     md = out / "report.md"
     with atomic_path(md) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -397,3 +398,161 @@ def _deformation_section(movie, out, written, numbers):
         written.append(path)
         lines += _figure_line(path, out, "deformation map")
     return lines
+
+
+def _rate(cal, value, length_power=1):
+    """A velocity (``length_power`` 1, px/frame) or a rate (0, 1/frame) as text, also in the calibration's units."""
+    from ..flow import in_units, velocity_unit
+
+    text = f"{value:.3g} {'px/frame' if length_power else '1/frame'}"
+    if not (cal.has_time or (length_power and cal.has_length)):  # nothing to convert
+        return text
+    unit = velocity_unit(cal) if length_power else f"1/{cal.time_unit if cal.has_time else 'frame'}"
+    return text + f" ({float(in_units(value, cal, length_power, -1)):.3g} {unit})"
+
+
+def _flow_section(movie, out, written, numbers, p):
+    """The tissue flow: velocity statistics, the flow field of a middle frame, C(r) and the MSD."""
+    from .. import plot
+    from ..analysis.plots import plot_flow_statistics
+    from ..flow import flow_summary, mean_squared_displacement, velocity_correlation, velocity_statistics
+
+    cells, cal, box = movie.cells, movie.calibration, movie.box
+    if "vx" not in cells.columns:
+        return ["## Tissue flow", "", "No cell velocities in the results folder (analysed with `--no-flow`).", ""]
+    per_frame = velocity_statistics(cells)
+    correlation = velocity_correlation(cells, box)
+    msd = mean_squared_displacement(cells, box)
+    summary = flow_summary(cells, box, correlation, msd)
+    numbers["flow"] = summary
+    lines = ["## Tissue flow", "",
+             f"- cell velocities: {summary['n_velocities']} cell-frames (centred differences along the tracks; none "
+             f"on the first and last frame of a track, at divisions or beside gaps; border cells left out)"]
+    if summary["n_velocities"] == 0:
+        return lines + ["", "No interior cell has a velocity (every track is shorter than three frames).", ""]
+    xi = summary["correlation_length"]
+    lines += [f"- mean speed {_rate(cal, summary['mean_speed'])}; rms velocity {_rate(cal, summary['rms_velocity'])}",
+              f"- polar order of the velocities (mean over frames): {summary['polar_order']:.3g}",
+              "- velocity correlation length (C(r) of the velocity fluctuations falls to 1/e; bins with under 1 % "
+              "of the fullest bin's pairs left out): "
+              + (_length(cal, xi) if np.isfinite(xi) else "C(r) stays above 1/e"),
+              f"- MSD exponent (MSD ~ lag^alpha, lags {int(msd['lag'].min())}-{int(msd['lag'].max())} frames): "
+              f"{summary['msd_exponent']:.3g}"]
+    flow = movie.tables.get("flow")
+    shown = None
+    if flow is not None and flow["valid"].any():
+        valid = flow[flow["valid"]]
+        numbers["flow"]["valid_nodes"] = float(flow["valid"].mean())
+        lines += [f"- flow fields on the Gamma_p grid: {100 * flow['valid'].mean():.1f} % of the nodes have a fit "
+                  f"(disks of {_length(cal, float(valid['radius'].median()))}); mean |vorticity| "
+                  f"{_rate(cal, float(valid['vorticity'].abs().mean()), 0)}, mean |divergence| "
+                  f"{_rate(cal, float(valid['divergence'].abs().mean()), 0)}"]
+        frames = np.unique(valid["frame"].to_numpy())
+        shown = int(frames[len(frames) // 2])
+    lines.append("")
+    path = out / "flow_statistics.png"
+    plot_flow_statistics(per_frame, correlation, msd, path=path, calibration=cal)
+    written += [path, write_table(per_frame, out / "flow_per_frame.csv"),
+                write_table(correlation, out / "velocity_correlation.csv"), write_table(msd, out / "msd.csv")]
+    lines += _figure_line(path, out, "flow statistics")
+    if shown is not None:
+        path = out / f"flow_frame{shown:04d}.png"
+        plot.plot_flow(movie.table_at("flow", shown), polygons=movie.polygons(shown), box=box, calibration=cal,
+                       path=path)
+        written.append(path)
+        lines += _figure_line(path, out, f"flow, frame {shown}")
+    if movie.events is not None and len(movie.events):
+        lines += _t1_flow_lines(movie, out, written, numbers)
+    if movie.grid is not None and movie.defects is not None and f"Gamma{p}_re" in movie.grid.columns:
+        lines += _defect_flow_lines(movie, out, written, numbers, p)
+    return lines
+
+
+def _harmonics_table(harmonics, cal):
+    """Markdown rows of the radial harmonics n = 2, 4, 6 of each kind, and the numbers by kind."""
+    lines, numbers = ["| kind | n = 2 | n = 4 | n = 6 | share of n = 6 |", "|---|---|---|---|---|"], {}
+    for kind, group in harmonics.groupby("kind"):
+        amp = group.set_index("n")["radial_amplitude"]
+        share = _n6_share(group)
+        numbers[str(kind)] = {"radial_n2": float(amp[2]), "radial_n4": float(amp[4]), "radial_n6": float(amp[6]),
+                              "n6_share": share}
+        lines.append(f"| {kind} | {_rate(cal, amp[2])} | {_rate(cal, amp[4])} | {_rate(cal, amp[6])} | {share:.2f} |")
+    return lines, numbers
+
+
+def _defect_flow_lines(movie, out, written, numbers, p):
+    """The flow averaged around the ±1/p defects in their own axes, and its harmonics."""
+    from ..analysis.plots import plot_event_flow
+    from ..flow import angular_harmonics, defect_flow
+
+    cal = movie.calibration
+    average, samples = defect_flow(movie.cells, movie.defects, movie.grid, p=p, box=movie.box)
+    if not len(samples):
+        return [f"### Flow around ±1/{p} defects", "", f"No ±1/{p} defect has cells with velocities around it.", ""]
+    r_cell = float(np.sqrt(np.nanmean(movie.cells["area"].to_numpy(float)) / np.pi))
+    harmonics = angular_harmonics(samples, r_min=r_cell)
+    path = out / "defect_flow.png"
+    plot_event_flow(average, path=path, calibration=cal, title=f"mean flow around ±1/{p} defects (defect axes)",
+                    x_label="x along the defect's axis")
+    written += [path, write_table(average, out / "defect_flow.csv"),
+                write_table(harmonics, out / "defect_flow_harmonics.csv")]
+    table, numbers["defect_flow"] = _harmonics_table(harmonics, cal)
+    return [f"### Flow around ±1/{p} defects", "",
+            f"Cells within {_length(cal, 4 * r_cell)} of each ±1/{p} defect, their velocity minus their mean, in "
+            f"axes turned by the defect's orientation from the Gamma_{p} phase. Radial harmonics (samples beyond "
+            f"{_length(cal, r_cell)}):", "", *table, "", *_figure_line(path, out, f"flow around ±1/{p} defects")]
+
+
+#: Offsets (frames from the T1's frame_start) of the report's T1-centred flow.
+T1_OFFSETS = (-4, 0, 4)
+
+
+def _quadrupole_harmonics():
+    """Radial harmonics of the paper's quadrupole flow (:func:`hexatissue.theory.quadrupole_flow`), 2-4 ell."""
+    from ..flow import angular_harmonics
+    from ..theory import quadrupole_flow
+
+    r, phi = np.meshgrid(np.linspace(2.0, 4.0, 9), np.linspace(-np.pi, np.pi, 97)[:-1])
+    x, y = (r * np.cos(phi)).ravel(), (r * np.sin(phi)).ravel()
+    vx, vy = quadrupole_flow(x, y, 1.0, 1.0)
+    samples = pd.DataFrame({"kind": "theory", "offset": 0, "x": x, "y": y, "vx": vx, "vy": vy})
+    return angular_harmonics(samples)
+
+
+def _n6_share(harmonics):
+    """Share of n = 6 in the radial harmonics 1 .. max of one group (by amplitude)."""
+    h = harmonics[harmonics["n"] > 0]
+    total = h["radial_amplitude"].sum()
+    return float(h.loc[h["n"] == 6, "radial_amplitude"].sum() / total) if total > 0 else float("nan")
+
+
+def _t1_flow_lines(movie, out, written, numbers):
+    """The flow averaged around the T1s (cycles and intercalations apart), its harmonics, and the theory's."""
+    from ..analysis.plots import plot_event_flow
+    from ..flow import angular_harmonics, t1_flow
+
+    cal = movie.calibration
+    average, samples = t1_flow(movie.cells, movie.events, movie.box, offsets=T1_OFFSETS)
+    if not len(samples):
+        return ["### Flow around T1 events", "", "No T1 event has its four cells with velocities at the offsets "
+                f"{list(T1_OFFSETS)} frames.", ""]
+    r_cell = float(np.sqrt(np.nanmean(movie.cells["area"].to_numpy(float)) / np.pi))
+    harmonics = angular_harmonics(samples, r_min=r_cell)
+    theory = _n6_share(_quadrupole_harmonics())
+    path = out / "t1_flow.png"
+    plot_event_flow(average, path=path, calibration=cal, title="mean flow around T1s (quartet frame)")
+    written += [path, write_table(average, out / "t1_flow.csv"), write_table(harmonics, out / "t1_flow_harmonics.csv")]
+    at0 = harmonics[harmonics["offset"] == 0]
+    numbers["t1_flow"] = {"n6_share_quadrupole_theory": theory}
+    lines = ["### Flow around T1 events", "",
+             f"Cells within {_length(cal, 4 * r_cell)} of each T1's quartet centre, their velocity minus the "
+             f"quartet's mean, in axes with the vanishing junction (c -> d) along x, averaged over the events "
+             f"of each kind at {', '.join(f'{o:+d}' for o in T1_OFFSETS)} frames from the T1. Radial harmonics "
+             f"of the relative velocity (least squares over the samples beyond {_length(cal, r_cell)}, offset 0):",
+             ""]
+    table, by_kind = _harmonics_table(at0, cal)
+    numbers["t1_flow"].update(by_kind)
+    lines += table
+    lines += ["", f"The paper's unbinding-quadrupole flow (`hexatissue.theory.quadrupole_flow`, 2-4 ell) puts "
+              f"{theory:.2f} of its radial harmonics 1-8 in n = 6.", ""]
+    return lines + _figure_line(path, out, "flow around T1s")
