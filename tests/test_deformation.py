@@ -300,7 +300,7 @@ def test_columns_match_the_schema():
         deformation_budget(None, None, None, None, t1_events="pairs")
 
 
-def test_flow_kernel_matches_its_numpy_reference():
+def test_kernels_match_their_numpy_references():
     from hexatissue.deformation import _kernels, _reference
 
     rng = np.random.default_rng(7)
@@ -315,6 +315,11 @@ def test_flow_kernel_matches_its_numpy_reference():
     labels = np.stack([np.zeros(len(M), np.int64), rng.integers(-1, 5, len(M))])
     args = (M, S0, A0, np.linspace(0.05, 0.95, 6), labels, np.array([0, 1]), 6)
     np.testing.assert_allclose(_kernels.flow_sums(*args), _reference.flow_sums(*args), rtol=1e-10, atol=1e-12)
+    from hexatissue.deformation.triangles import REFERENCE_INVERSE
+
+    for got, expected in zip(_kernels.triangle_shapes(xy0, REFERENCE_INVERSE),
+                             _reference.triangle_shapes(xy0, REFERENCE_INVERSE)):
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-14)
 
 
 def test_bad_regions_of_interest_are_refused_before_the_analysis(tmp_path):

@@ -39,7 +39,8 @@ from ..errors import InputError
 from ..options import T1_SOURCES
 from ..schema import DEFORMATION_TERMS, ISOTROPIC_TERMS, empty_table, require_columns
 from .flow import integrate_flow
-from .triangles import det2, edge_matrices, elongation, inv2, state_tensors
+from ._kernels import triangle_shapes
+from .triangles import REFERENCE_INVERSE, det2, edge_matrices, inv2
 
 __all__ = ["frame_triangles", "deformation_budget", "roi_tracks", "read_roi"]
 
@@ -226,7 +227,7 @@ class _State:
 
     def __init__(self, ids, xy, labels, shape=None):
         self.ids, self.xy, self.labels = ids, xy, labels
-        self.area, self.qxx, self.qxy = elongation(state_tensors(edge_matrices(xy)))[:3] if shape is None else shape
+        self.area, self.qxx, self.qxy = triangle_shapes(xy, REFERENCE_INVERSE) if shape is None else shape
 
     def take(self, keep):
         return _State(self.ids[keep], self.xy[keep], [lab[keep] for lab in self.labels],

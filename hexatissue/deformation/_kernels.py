@@ -1,7 +1,9 @@
-"""Numba kernel of the deformation budget's continuous part (:mod:`hexatissue.deformation.flow`).
+"""Numba kernels of the deformation budget: triangle shapes and the continuous part (:mod:`.flow`).
 
-:func:`flow_sums` has a plain-numpy twin of the same name and signature in
-:mod:`hexatissue.deformation._reference`; the tests compare the two.  For
+Each kernel has a plain-numpy twin of the same name and signature in
+:mod:`hexatissue.deformation._reference`; the tests compare the two.
+:func:`triangle_shapes` gives the area and elongation of triangles from
+their corners.  For :func:`flow_sums`, for
 every path point ``tau`` and triangle it forms ``F = I + tau M``, the
 velocity gradient ``L = M F^-1``, the area ``A0 det F`` and the elongation of
 ``F S0``, and adds the area-weighted quantities of :data:`SUMS` into the
@@ -24,6 +26,38 @@ def _corotation_factor(q2):
         return -4.0 / 3.0 + 16.0 / 45.0 * q2 - 128.0 / 945.0 * q2 * q2
     q = np.sqrt(q2)
     return (1.0 - 2.0 * q / np.tanh(2.0 * q)) / q2
+
+
+@njit(cache=True)
+def _elongation(a, b, c, d):
+    """Area and elongation (xx, xy) of the state tensor [[a, b], [c, d]] (see :mod:`.triangles`)."""
+    area = a * d - b * c
+    sdet = np.sqrt(abs(area))
+    px, py = 0.5 * (a - d), 0.5 * (b + c)
+    # Q is P turned by the rotation theta = atan2(W, T): its cosine and sine without the angle
+    tr, wr = 0.5 * (a + d), 0.5 * (c - b)
+    rr = np.sqrt(tr * tr + wr * wr)
+    cs, sn = tr / rr, wr / rr
+    ratio = np.sqrt(px * px + py * py) / sdet
+    if ratio < 1e-4:
+        scale = (1.0 - ratio * ratio / 6.0) / sdet
+    else:
+        scale = np.arcsinh(ratio) / ratio / sdet
+    return area, scale * (cs * px - sn * py), scale * (sn * px + cs * py)
+
+
+@njit(cache=True)
+def triangle_shapes(xy, reference_inverse):
+    """Area, Q_xx, Q_xy of triangles with corners ``xy`` (m, 3, 2): the state tensor ``R C^-1``'s."""
+    m = xy.shape[0]
+    area, qxx, qxy = np.empty(m), np.empty(m), np.empty(m)
+    c00, c01, c10, c11 = reference_inverse[0, 0], reference_inverse[0, 1], reference_inverse[1, 0], reference_inverse[1, 1]
+    for n in range(m):
+        r00, r10 = xy[n, 1, 0] - xy[n, 0, 0], xy[n, 1, 1] - xy[n, 0, 1]
+        r01, r11 = xy[n, 2, 0] - xy[n, 0, 0], xy[n, 2, 1] - xy[n, 0, 1]
+        area[n], qxx[n], qxy[n] = _elongation(r00 * c00 + r01 * c10, r00 * c01 + r01 * c11,
+                                              r10 * c00 + r11 * c10, r10 * c01 + r11 * c11)
+    return area, qxx, qxy
 
 
 @njit(cache=True)
@@ -51,19 +85,7 @@ def flow_sums(M, S0, A0, tau, labels, offsets, n_regions):
             b = f00 * S0[n, 0, 1] + f01 * S0[n, 1, 1]
             c = f10 * S0[n, 0, 0] + f11 * S0[n, 1, 0]
             d = f10 * S0[n, 0, 1] + f11 * S0[n, 1, 1]
-            sdet = abs(a * d - b * c)
-            px, py = 0.5 * (a - d), 0.5 * (b + c)
-            # Q is P turned by the rotation theta = atan2(W, T): its cosine and sine without the angle
-            tr, wr = 0.5 * (a + d), 0.5 * (c - b)
-            rr = np.sqrt(tr * tr + wr * wr)
-            cs, sn = tr / rr, wr / rr
-            ratio = np.sqrt(px * px + py * py) / np.sqrt(sdet)
-            if ratio < 1e-4:
-                scale = (1.0 - ratio * ratio / 6.0) / np.sqrt(sdet)
-            else:
-                scale = np.arcsinh(ratio) / ratio / np.sqrt(sdet)
-            qxx = scale * (cs * px - sn * py)
-            qxy = scale * (sn * px + cs * py)
+            _, qxx, qxy = _elongation(a, b, c, d)
             vxx, vxy = 0.5 * (l00 - l11), 0.5 * (l01 + l10)
             iso = l00 + l11
             w = 0.5 * (l10 - l01)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .triangles import elongation
+from .triangles import edge_matrices, elongation
 
 
 def _corotation_factor(q2):
@@ -12,6 +12,12 @@ def _corotation_factor(q2):
     exact = (1.0 - 2.0 * q / np.tanh(2.0 * q)) / q ** 2
     series = -4.0 / 3.0 + 16.0 / 45.0 * q2 - 128.0 / 945.0 * q2 ** 2
     return np.where(small, series, exact)
+
+
+def triangle_shapes(xy, reference_inverse):
+    """As :func:`hexatissue.deformation._kernels.triangle_shapes`, with whole-array numpy."""
+    area, qxx, qxy, _ = elongation(edge_matrices(xy) @ reference_inverse)
+    return area, qxx, qxy
 
 
 def flow_sums(M, S0, A0, tau, labels, offsets, n_regions):
