@@ -36,6 +36,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import InputError
+from ..geometry import in_sorted
 from ..options import T1_SOURCES
 from ..schema import DEFORMATION_TERMS, ISOTROPIC_TERMS, empty_table, require_columns
 from .flow import integrate_flow
@@ -109,8 +110,8 @@ def _fans(ids, pos, previous, K):
     """
     n, k = ids.shape
     if k == 4:
-        had02 = np.isin(pair_keys(ids[:, 0], ids[:, 2], K), previous)
-        had13 = np.isin(pair_keys(ids[:, 1], ids[:, 3], K), previous)
+        had02 = in_sorted(pair_keys(ids[:, 0], ids[:, 2], K), previous)
+        had13 = in_sorted(pair_keys(ids[:, 1], ids[:, 3], K), previous)
         shorter13 = np.hypot(*(pos[:, 1] - pos[:, 3]).T) < np.hypot(*(pos[:, 0] - pos[:, 2]).T)
         first = np.where(had02 != had13, had13, shorter13).astype(np.int64)
         fan = np.stack([first, first + 1, first + 2, first, first + 2, (first + 3) % 4], axis=1).reshape(n, 2, 3)
@@ -531,11 +532,11 @@ class _Candidates:
             frames = ["frame_start", "frame_end"]
             cells = t1[["track"]].to_numpy(np.int64)
         events, kinds = t1["event"].to_numpy(np.int64), t1["kind"].astype(str).to_numpy()
-        for i, (e, k, c) in enumerate(zip(events.tolist(), kinds, cells.tolist())):
+        when = t1[frames].to_numpy(float)
+        for e, k, c, f in zip(events.tolist(), kinds, cells.tolist(), when.tolist()):
             entry = (e, _T1_KINDS.get(k, "t1_unresolved"), set(c))
-            for f in {t1[name].iat[i] for name in frames}:
-                if f == f:  # not NaN
-                    self.by_frame.setdefault(int(f), []).append(entry)
+            for frame in {v for v in f if v == v}:  # its distinct frames, NaN left out
+                self.by_frame.setdefault(int(frame), []).append(entry)
 
     def at(self, frame):
         return self.by_frame.get(frame, [])
@@ -791,7 +792,7 @@ def deformation_budget(cells, vertices, cell_vertices, lineage, t1=None, *, box=
         tri_prev = tri
         if progress is not None:
             progress(i + 1, len(times))
-    table = pd.concat(rows, ignore_index=True) if rows else empty_table("deformation")
+    table = _table(rows)
     shear = pd.DataFrame(events, columns=["event", "shear_xx", "shear_xy"])
     shear = shear.groupby("event", as_index=False).sum() if len(shear) else shear
     return table, shear
@@ -810,6 +811,7 @@ def _part(table, index, t):
 
 
 def _rows(t, blocks, layers, info):
+    """The interval's rows, as per-layer dicts of numpy columns (one DataFrame is made at the end)."""
     names = _columns()
     parts = []
     for i, (layer, block) in enumerate(zip(layers.names(), blocks)):
@@ -819,10 +821,20 @@ def _rows(t, blocks, layers, info):
             region_id = layers.grid[t][0]
         else:
             region_id = np.arange(block.shape[1]) if layer == "roi" else np.full(block.shape[1], -1)
-        columns = {"frame": np.full(n, t, np.int64), "region": pd.array([layer] * n, dtype="string"),
+        columns = {"frame": np.full(n, t, np.int64), "region": np.full(n, layer, object),
                    "region_id": region_id[present].astype(np.int64), "area": info["area"][i][present]}
         columns.update(zip(names, block[:, present]))
         columns["n_triangles"] = np.full(n, info["n_triangles"] if layer == "tissue" else -1, np.int64)
         columns["n_flipped"] = np.full(n, info["n_flipped"] if layer == "tissue" else -1, np.int64)
-        parts.append(pd.DataFrame(columns))
-    return pd.concat(parts, ignore_index=True)
+        parts.append(columns)
+    return parts
+
+
+def _table(rows):
+    """The ``deformation`` table from the intervals' column dicts."""
+    parts = [part for interval in rows for part in interval]
+    if not parts:
+        return empty_table("deformation")
+    table = pd.DataFrame({name: np.concatenate([p[name] for p in parts]) for name in parts[0]})
+    table["region"] = table["region"].astype("string")
+    return table
