@@ -45,6 +45,8 @@ def _analyze_parser(sub):
     src.add_argument("--key", help="array inside an .npz, zarr group or Cellpose _seg.npy file")
     src.add_argument("--channel", type=int, help="channel of a multi-channel image (0-based)")
     src.add_argument("--level", type=int, help="resolution level of an OME-Zarr image (default 0)")
+    src.add_argument("--axes", help="the input's dimensions, one letter each from TCZYXS (e.g. TYX: a stack of 3 or "
+                                    "4 frames that would read as one colour image)")
     src.add_argument("--periodic", action="store_true", help="the images tile a periodic box (simulations)")
     src.add_argument("--pixel-size", type=float, help="physical size of a pixel (default: from the file)")
     src.add_argument("--units", help="length unit of --pixel-size (default: from the file, else um)")
@@ -85,7 +87,7 @@ def open_cli_source(args):
 
     from .units import override_units
 
-    source = open_source(args.input, key=args.key, channel=args.channel, level=args.level)
+    source = open_source(args.input, key=args.key, channel=args.channel, level=args.level, axes=args.axes)
     units, time_unit = override_units(source.calibration, pixel_size=args.pixel_size, length_unit=args.units,
                                       frame_interval=args.frame_interval, time_unit=args.time_unit)
     return source.with_calibration(pixel_size=args.pixel_size, length_unit=units,

@@ -278,7 +278,7 @@ def _cal_text(cal: Calibration) -> str:
 # ---------------------------------------------------------------------------------------------------------
 # open_source
 # ---------------------------------------------------------------------------------------------------------
-def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, length_unit=None,
+def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_size=None, length_unit=None,
                 frame_interval=None, time_unit=None) -> Source:
     """Open label images, a label movie or an MPF run as a lazily read :class:`Source`.
 
@@ -319,6 +319,13 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
         Index along the channel (C) axis; required when there are several.
     level : int, optional
         Resolution level of an OME-Zarr image (default 0, the full one).
+    axes : str, optional
+        What the dimensions of an array, ``.npy``/``.npz`` or TIFF are, one
+        letter each from ``TCZYXS`` (time, channel, depth, rows, cols, RGB
+        samples), ending in ``YX`` (or ``YXS``): e.g. ``"TYX"`` for a stack
+        of 3 or 4 frames that would otherwise read as one colour image (a
+        TIFF written by ``tifffile.imwrite`` stores such a stack as planar
+        RGB: it is refused until ``axes`` says which).
     pixel_size : float, optional
         Overrides the file's pixel size (in ``length_unit``, else in the
         file's unit).
@@ -374,21 +381,22 @@ def open_source(obj, *, key=None, channel=None, level=None, pixel_size=None, len
     if key is not None and not isinstance(key, str):
         raise InputError(f"key must be a str naming an array; got {key!r} ({type(key).__name__})")
     if isinstance(obj, Source):
-        refuse(f"a Source that is already open", key=key, channel=channel, level=level)
+        refuse(f"a Source that is already open", key=key, channel=channel, level=level, axes=axes)
         source = obj
     elif isinstance(obj, (str, os.PathLike)):
-        source = _open_path(Path(obj), key, channel, level)
+        source = _open_path(Path(obj), key, channel, level, axes)
     elif is_run(obj):
-        refuse("an MPF run", key=key, channel=channel, level=level)
+        refuse("an MPF run", key=key, channel=channel, level=level, axes=axes)
         source = _make(open_run(obj))
     elif is_zarr_group(obj):
+        refuse("a zarr group (its arrays name their axes)", axes=axes)
         source = _make(open_zarr_group(obj, None, key, channel, level))
     elif isinstance(obj, (list, tuple)):
-        refuse("a list of frames", key=key, level=level)
+        refuse("a list of frames", key=key, level=level, axes=axes)
         source = _make(_from_list(obj, channel))
     elif hasattr(obj, "shape") and hasattr(obj, "__getitem__"):
         refuse("an array", key=key, level=level)
-        source = _make(open_array(obj, channel))
+        source = _make(open_array(obj, channel, axes))
     else:
         raise InputError(f"obj must be a path, an array (rows x cols or T x rows x cols), a list of 2-D arrays, "
                          f"an MPF run or a Source; got {type(obj).__name__}")
@@ -421,7 +429,7 @@ def _from_list(frames, channel) -> Opened:
     return open_list(frames)
 
 
-def _open_path(path: Path, key, channel, level) -> Source:
+def _open_path(path: Path, key, channel, level, axes=None) -> Source:
     if not path.exists():
         raise InputError(f"path {str(path)!r} does not exist; expected a label image or polygon file "
                          f"({', '.join(FILE_SUFFIXES)}), a folder of images, a zarr store or an MPF run (.zarr)")
@@ -429,16 +437,17 @@ def _open_path(path: Path, key, channel, level) -> Source:
         raise InputError(f"path {str(path)!r} is not a regular file or a folder (a pipe, socket or device); "
                          f"expected a label image or polygon file, a folder of images or a zarr store")
     try:
-        return _make(_path_reader(path, key, channel, level))
+        return _make(_path_reader(path, key, channel, level, axes))
     except InputError:
         raise
     except Exception as exc:  # any reader failure becomes a clear InputError
         raise read_error(repr(str(path)), exc) from exc
 
 
-def _path_reader(path: Path, key, channel, level) -> Opened:
+def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
     """The reader of an existing path, chosen by what it is (folder, zarr store) and its suffix."""
     if path.is_dir():
+        refuse("a folder or a zarr store", axes=axes)
         if is_zarr_dir(path):
             return open_zarr_path(path, key, channel, level)
         if path.suffix.lower() == ".zarr":
@@ -452,20 +461,20 @@ def _path_reader(path: Path, key, channel, level) -> Opened:
         return open_folder(path, channel)
     suffix = path.suffix.lower()
     if suffix in POLYGON_SUFFIXES:
-        refuse("a polygon file", key=key, channel=channel, level=level)
+        refuse("a polygon file", key=key, channel=channel, level=level, axes=axes)
         return open_polygons(path)
     if suffix in (".tif", ".tiff"):
         refuse("a TIFF file", key=key, level=level)
-        return open_tiff(path, channel)
+        return open_tiff(path, channel, axes)
     if suffix == ".png":
-        refuse("a PNG file", key=key, channel=channel, level=level)
+        refuse("a PNG file", key=key, channel=channel, level=level, axes=axes)
         return open_png(path)
     if suffix == ".npy":
         refuse("a .npy file", level=level)
-        return open_npy(path, key, channel)
+        return open_npy(path, key, channel, axes)
     if suffix == ".npz":
         refuse("a .npz file", level=level)
-        return open_npz(path, key, channel)
+        return open_npz(path, key, channel, axes)
     raise InputError(f"path {str(path)!r} has unknown suffix {path.suffix!r}; expected one of {FILE_SUFFIXES}, "
                      f"a folder of images or a zarr store")
 

@@ -158,13 +158,46 @@ def test_8bit_rgb_keeps_its_documented_ids():
     assert set(np.unique(lab)) == {(1 << 16) | (2 << 8) | 3, (4 << 16) | (5 << 8) | 6}
 
 
-def test_t_y_3_stack_warns_and_list_reads_frames():
+def test_t_y_3_stack_warns_and_axes_or_a_list_read_frames(tmp_path, capsys):
     stack = np.stack([np.repeat([[1, 2, 3]], 10, axis=0)] * 4)  # 4 frames of 10 x 3 px
-    with pytest.warns(HexatissueWarning, match=r"pass list\(array\)"):
+    with pytest.warns(HexatissueWarning, match=r"pass axes='TYX' \(--axes TYX on the command line\)"):
         src = ht.open_source(stack)
     assert (src.n_frames, src.shape) == (1, (4, 10))
-    src = ht.open_source(list(stack))
-    assert (src.n_frames, src.shape) == (4, (10, 3))
+    for src in (ht.open_source(list(stack)), ht.open_source(stack, axes="TYX")):
+        assert (src.n_frames, src.shape) == (4, (10, 3))
+    np.save(tmp_path / "tiles.npy", stack)
+    assert main(["analyze", str(tmp_path / "tiles.npy"), "--axes", "TYX", "--out", str(tmp_path / "o")]) == 0
+    assert ht.read_results(tmp_path / "o").n_frames == 4
+
+
+def test_a_stack_of_three_or_four_frames_saved_by_tifffile_is_not_read_as_one_colour_image(tmp_path, capsys):
+    """Issue 32: tifffile.imwrite(path, stack) of 3-4 frames stores planar RGB; it was read as one frame of
+    merged colour ids, silently."""
+    import tifffile
+
+    stack = np.stack([np.repeat(np.repeat(np.arange(1, 17).reshape(4, 4) + 20 * t, 8, 0), 8, 1)
+                      for t in range(3)]).astype(np.uint16)
+    tifffile.imwrite(tmp_path / "stack.tif", stack)
+    with pytest.raises(InputError, match=r"holds 3 planes .* axes='TYX' \(3 frames\) or axes='SYX'"):
+        ht.open_source(tmp_path / "stack.tif")
+    src = ht.open_source(tmp_path / "stack.tif", axes="TYX")
+    assert src.n_frames == 3 and all(np.array_equal(src.frame(t), stack[t]) for t in range(3))
+    colour = ht.open_source(tmp_path / "stack.tif", axes="SYX")
+    assert colour.n_frames == 1 and len(np.unique(colour.frame(0))) == 16
+    tifffile.imwrite(tmp_path / "zipped.tif", stack, compression="zlib")  # pages, not one contiguous block
+    src = ht.open_source(tmp_path / "zipped.tif", axes="TYX")
+    assert all(np.array_equal(src.frame(t), stack[t]) for t in range(3))
+    tifffile.imwrite(tmp_path / "imagej.tif", stack, imagej=True, metadata={"axes": "TYX"})  # the file says: no question
+    assert ht.open_source(tmp_path / "imagej.tif").n_frames == 3
+    err = _cli_error(["analyze", str(tmp_path / "stack.tif"), "--out", str(tmp_path / "o")], capsys)
+    assert "--axes on the command line" in err
+    with pytest.raises(InputError, match="axes='TXY': expected one letter per stored dimension"):
+        ht.open_source(tmp_path / "stack.tif", axes="TXY")
+    with pytest.raises(InputError, match="axes='TCYX' has 4 letter"):
+        ht.open_source(tmp_path / "stack.tif", axes="TCYX")
+    with pytest.raises(InputError, match="axes='TYX' means nothing for a polygon file"):
+        pd.DataFrame({"cell": [1, 1, 1], "x": [0, 1, 0], "y": [0, 0, 1.0]}).to_csv(tmp_path / "v.csv", index=False)
+        ht.open_source(tmp_path / "v.csv", axes="TYX")
 
 
 @pytest.mark.parametrize("labels, kwargs", [(island(), {}), (np.array([[1, 2], [3, 4]]), {}),

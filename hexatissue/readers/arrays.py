@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .base import Opened, array_axes, collapse_rgb, layout_description, optional_int, plan, read_error, refuse
+from .base import (Opened, array_axes, check_axes, collapse_rgb, layout_description, optional_int, plan, read_error,
+                   refuse)
 
 __all__ = ["ArrayReader", "ListReader", "open_array", "open_list", "open_npy", "open_npz"]
 
@@ -28,9 +29,11 @@ class ArrayReader:
         self.what, self._opener = what, opener
         self._arr = array if array is not None else opener()
         shape = tuple(int(n) for n in self._arr.shape)
-        self.axes = axes or array_axes(shape, rgb_allowed)
+        self.axes = check_axes(axes, len(shape), what) if axes else array_axes(shape, rgb_allowed)
         if len(self.axes) != len(shape):
             raise InputError(f"{what} has shape {shape}, which does not match its axes {self.axes!r}")
+        if self.axes.endswith("SYX"):
+            raise InputError(f"axes={self.axes!r}: an array's RGB samples must be its last axis ('YXS')")
         self.rgb = self.axes.endswith("S")
         tail = 3 if self.rgb else 2
         self.layout = plan(self.axes[:-tail], shape[:-tail], channel, what, self.axes)
@@ -102,9 +105,9 @@ class ListReader:
         return collapse_rgb(arr) if self.rgb else arr
 
 
-def open_array(array, channel) -> Opened:
+def open_array(array, channel, axes=None) -> Opened:
     """An array or lazily indexable array-like with ``.shape`` (frame ``t`` read as ``array[t]``)."""
-    reader = ArrayReader("the array", array=array, channel=channel)
+    reader = ArrayReader("the array", array=array, channel=channel, axes=axes)
     return Opened(reader, {"kind": "array", "path": None, "channel": optional_int(channel)})
 
 
@@ -113,22 +116,22 @@ def open_list(frames) -> Opened:
     return Opened(ListReader(frames), {"kind": "list", "path": None})
 
 
-def open_npy(path: Path, key, channel) -> Opened:
+def open_npy(path: Path, key, channel, axes=None) -> Opened:
     """A ``.npy`` file (memory-mapped), or a Cellpose ``*_seg.npy`` (its ``masks``, or ``key``)."""
     if path.name.endswith("_seg.npy"):
         key = key or "masks"
-        reader = ArrayReader(repr(str(path)), opener=partial(_cellpose_entry, path, key), channel=channel)
+        reader = ArrayReader(repr(str(path)), opener=partial(_cellpose_entry, path, key), channel=channel, axes=axes)
         return Opened(reader, {"kind": "cellpose", "path": str(path), "key": key, "channel": optional_int(channel)})
     refuse("a .npy file (it holds one array)", key=key)
     opener = partial(np.load, path, mmap_mode="r", allow_pickle=False)
-    reader = ArrayReader(repr(str(path)), opener=opener, channel=channel)
+    reader = ArrayReader(repr(str(path)), opener=opener, channel=channel, axes=axes)
     return Opened(reader, {"kind": "npy", "path": str(path), "channel": optional_int(channel)})
 
 
-def open_npz(path: Path, key, channel) -> Opened:
+def open_npz(path: Path, key, channel, axes=None) -> Opened:
     """Array ``key`` of a ``.npz`` (default ``"labels"`` or the only array), read whole on first use."""
     key = _npz_key(path, key)
-    reader = ArrayReader(repr(str(path)), opener=partial(_npz_entry, path, key), channel=channel)
+    reader = ArrayReader(repr(str(path)), opener=partial(_npz_entry, path, key), channel=channel, axes=axes)
     return Opened(reader, {"kind": "npz", "path": str(path), "key": key, "channel": optional_int(channel)})
 
 

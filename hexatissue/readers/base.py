@@ -17,11 +17,12 @@ import numpy as np
 from ..errors import HexatissueWarning, InputError, user_stacklevel
 
 __all__ = ["Opened", "KEY_USE", "LEVEL_USE", "CHANNEL_USE", "refuse", "optional_int", "read_error", "natural_key", "Layout",
-           "plan", "collapse_rgb", "array_axes", "layout_description"]
+           "plan", "collapse_rgb", "array_axes", "layout_description", "check_axes", "AXIS_LETTERS"]
 
 KEY_USE = "key= selects an array in a .npz, a Cellpose _seg.npy or a zarr group"
 LEVEL_USE = "level= selects a resolution level of an OME-Zarr image"
 CHANNEL_USE = "channel= selects one index of a channel (C) axis"
+AXES_USE = "axes= names the dimensions of an array, a .npy / .npz file or a TIFF file"
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,8 +58,8 @@ class Opened:
 
 
 def refuse(what, **given):
-    """InputError for key/channel/level given where they select nothing."""
-    use = {"key": KEY_USE, "channel": CHANNEL_USE, "level": LEVEL_USE}
+    """InputError for key/channel/level/axes given where they select nothing."""
+    use = {"key": KEY_USE, "channel": CHANNEL_USE, "level": LEVEL_USE, "axes": AXES_USE}
     for name, value in given.items():
         if value is not None:
             raise InputError(f"{name}={value!r} means nothing for {what}; {use[name]}")
@@ -173,8 +174,28 @@ def array_axes(shape, rgb_allowed=True):
         # as likely a T x rows x cols stack of 3 or 4 px wide frames: say which reading was taken
         warnings.warn(f"an array of shape {tuple(shape)} is read as one RGB(A) image of {shape[0]} x {shape[1]} "
                       f"px (last axis = colour); to read it as {shape[0]} frames of {shape[1]} x {shape[2]} px, "
-                      f"pass list(array)", HexatissueWarning, stacklevel=user_stacklevel())
+                      f"pass axes='TYX' (--axes TYX on the command line)", HexatissueWarning,
+                      stacklevel=user_stacklevel())
     return ("", "T", "TC")[lead] + "YX" + ("S" if rgb else "")
+
+
+#: Axis letters a stored array or TIFF series may be given (``axes=``): time, channel, depth, rows, cols, RGB(A).
+AXIS_LETTERS = "TCZYXS"
+
+
+def check_axes(axes, ndim, what):
+    """``axes`` (letters of :data:`AXIS_LETTERS`, one per stored dimension, ending in YX or YXS) as a str."""
+    if not isinstance(axes, str) or not axes:
+        raise InputError(f"axes must be a string of axis letters ({AXIS_LETTERS}); got {axes!r}")
+    axes = axes.upper()
+    if set(axes) - set(AXIS_LETTERS) or len(set(axes)) < len(axes) or not axes.replace("S", "").endswith("YX") \
+            or ("S" in axes and not axes.endswith(("YXS", "SYX"))):
+        raise InputError(f"axes={axes!r}: expected one letter per stored dimension from {AXIS_LETTERS!r}, each "
+                         f"once, ending in 'YX' (rows, cols), optionally with RGB samples 'S' (e.g. 'TYX', 'YXS', "
+                         f"'TCYX')")
+    if len(axes) != ndim:
+        raise InputError(f"axes={axes!r} has {len(axes)} letter(s) but {what} has {ndim} dimension(s)")
+    return axes
 
 
 def layout_description(axes, stored_shape, dtype, layout, notes=()) -> dict:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import HexatissueWarning, InputError, user_stacklevel
-from .base import Opened, collapse_rgb, layout_description, optional_int, plan, read_error
+from .base import Opened, check_axes, collapse_rgb, layout_description, optional_int, plan, read_error
 from .calibration import tiff_calibration
 
 __all__ = ["TiffReader", "open_tiff"]
@@ -23,7 +23,7 @@ class TiffReader:
     the reader's RSS by the whole file.
     """
 
-    def __init__(self, path, channel):
+    def __init__(self, path, channel, axes=None):
         import tifffile
 
         self.path, self.what = Path(path), repr(str(path))
@@ -32,7 +32,7 @@ class TiffReader:
         self._tf = None
         tf = tifffile.TiffFile(self.path)
         try:
-            self._inspect(tf, channel)
+            self._inspect(tf, channel, axes)
         except BaseException:
             tf.close()
             raise
@@ -41,7 +41,7 @@ class TiffReader:
         else:
             self._tf = tf
 
-    def _inspect(self, tf, channel):
+    def _inspect(self, tf, channel, axes):
         series = tf.series[0]
         if len(tf.series) > 1:
             self.notes.append(f"the file holds {len(tf.series)} image series; series 0 is read")
@@ -51,11 +51,32 @@ class TiffReader:
         if not self.axes.endswith(page_axes) or page_axes.replace("S", "") != "YX":
             raise InputError(f"TIFF {self.what} has axes {self.axes!r} with pages of axes {page_axes!r}; expected "
                              f"pages of rows x cols (YX, optionally with RGB samples S)")
+        # planes a page holds besides its rows and cols (planar RGB: samples first) that axes= calls frames
+        self._inner = 1
+        if axes is not None:
+            axes = check_axes(axes, len(self.axes), f"TIFF {self.what} (axes {self.axes!r})")
+            if "S" in axes and "S" in page_axes:  # colour as the file says (planar or not): its own axes
+                axes = axes[: len(axes) - 3] + page_axes
+            if page_axes == "SYX" and "S" not in axes:  # the planes of each page are frames or channels
+                self._inner = self.stored_shape[-3]
+                page_axes = "YX"
+            elif axes[len(axes) - len(page_axes):] not in (page_axes, page_axes.replace("SYX", "YXS")):
+                raise InputError(f"axes={axes!r} does not fit TIFF {self.what}: its pages are {page_axes!r}; only "
+                                 f"the axes before the pages, or the planes of planar RGB pages, can be renamed")
+            self.notes.append(f"axes {axes!r} given for the file's {self.axes!r}")
+            self.axes = axes
+        elif page_axes == "SYX" and self.stored_shape[-3] in (3, 4) and not (tf.is_imagej or tf.is_ome):
+            # tifffile.imwrite(path, stack) of 3 or 4 frames stores them as planar RGB(A): the file cannot tell
+            n = self.stored_shape[-3]
+            raise InputError(f"TIFF {self.what} holds {n} planes of {self.stored_shape[-2]} x {self.stored_shape[-1]} "
+                             f"px marked as planar RGB{'A' if n == 4 else ''} samples, as tifffile.imwrite stores a "
+                             f"stack of {n} frames too: say which with axes='TYX' ({n} frames) or axes='SYX' (one "
+                             f"colour-labelled image) (--axes on the command line)")
         self.page_axes = page_axes
         lead_axes = self.axes[: len(self.axes) - len(page_axes)]
         lead_sizes = self.stored_shape[: len(lead_axes)]
         self.calibration = tiff_calibration(tf, self.notes)
-        n_pages = int(np.prod(lead_sizes, dtype=np.int64))
+        n_pages = int(np.prod(lead_sizes, dtype=np.int64)) // self._inner
         if series.dataoffset is not None:
             self.mode = "contiguous"
             self._offset = int(series.dataoffset)
@@ -76,7 +97,8 @@ class TiffReader:
             self.mode = "pages"
         self.layout = plan(lead_axes, lead_sizes, channel, f"TIFF {self.what}", self.axes)
         self.n_frames = self.layout.n_frames
-        self.shape = tuple(int(n) for n, a in zip(series.keyframe.shape, page_axes) if a != "S")
+        keyframe = series.keyframe
+        self.shape = tuple(int(n) for n, a in zip(keyframe.shape, keyframe.axes) if a in "YX")
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -110,14 +132,21 @@ class TiffReader:
                         import tifffile
 
                         self._tf = tifffile.TiffFile(self.path)
-                    k = int(np.ravel_multi_index(idx, self.layout.sizes)) if idx else 0
+                    k, plane = self._page_and_plane(idx)
                     pages = self._tf.pages if self.mode == "ifds" else self._tf.series[0].pages
                     arr = pages[k].asarray()
+                    if self._inner > 1:
+                        arr = arr[plane]
         except Exception as exc:
             raise read_error(f"{self.what} (frame {t})", exc) from exc
         if "S" in self.page_axes:
             arr = collapse_rgb(np.moveaxis(arr, self.page_axes.index("S"), -1))
         return arr
+
+    def _page_and_plane(self, idx):
+        """The page holding frame ``idx`` and its plane in that page (planes named frames by ``axes=``)."""
+        k = int(np.ravel_multi_index(idx, self.layout.sizes)) if idx else 0
+        return divmod(k, self._inner)
 
     def _read_contiguous(self, idx) -> np.ndarray:
         page_shape = self.stored_shape[len(idx):]
@@ -139,7 +168,7 @@ def _has_page(series, k) -> bool:
         return False
 
 
-def open_tiff(path: Path, channel) -> Opened:
+def open_tiff(path: Path, channel, axes=None) -> Opened:
     """A ``.tif``/``.tiff`` file, with the calibration of its ImageJ or OME metadata."""
-    reader = TiffReader(path, channel)
+    reader = TiffReader(path, channel, axes)
     return Opened(reader, {"kind": "tiff", "path": str(path), "channel": optional_int(channel)}, reader.calibration)
