@@ -342,3 +342,41 @@ def test_triangle_keys_name_the_cell_set_for_small_and_huge_ids():
         b = np.array([[2, 3, 1], [4, 3, 2]]) + base
         ka, kb = _triple_keys(a, b)
         assert ka[0] == ka[1] == kb[0] and ka[2] == ka[3] and len({ka[0], ka[2], kb[1]}) == 3
+
+
+def test_a_movie_without_t1s_writes_an_events_table_that_reads_back(tmp_path):
+    """Real data (EpiCure 013: no T1): the empty events table got object columns from the budget's merge."""
+    movie, d = _budget(_warped_movie(lambda t: expm(t * np.diag([0.01, -0.01])), 3), grid=False)
+    assert len(movie.events) == 0 and movie.events["event"].dtype == np.int64
+    assert movie.events["shear_xx"].dtype == float
+    movie.write(tmp_path / "res")
+    back = ht.read_results(tmp_path / "res")
+    assert list(back.events.columns) == list(movie.events.columns) and len(back.deformation) == len(d)
+
+
+def test_an_extruded_cell_with_two_neighbours_left_makes_no_flat_triangle():
+    """Real data (Skeletor pupal abdomen): a ghost at the mean of two neighbours is on their line."""
+    from hexatissue.deformation import _stays_positive
+
+    xy0 = np.array([[[0.0, 0.0], [10.0, 0.0], [5.0, 8.0]]])
+    flat = np.array([[[0.0, 0.0], [10.0, 0.0], [5.0, 0.0]]])  # the third corner on the others' line
+    assert _stays_positive(xy0, xy0) and not _stays_positive(xy0, flat)[0]
+
+
+def test_real_movies_give_finite_budgets_that_close(real_data, tmp_path):
+    """The user trial's failures: Skeletor (flat ghost triangles: NaN terms) and EpiCure 013 (no T1: events
+    table unreadable); each budget is finite, closes, and its folder reads back."""
+    from pathlib import Path
+
+    from .conftest import real_subdir
+
+    sample = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+    for name, source in (("epicure", sample), ("skeletor", real_subdir(real_data, "skeletor_pupal_abdomen")
+                                               / "Final_Skeleton")):
+        with pytest.warns(ht.HexatissueWarning):
+            movie = ht.analyze(source, progress=False, workers=1, deformation=ht.DeformationOptions(enabled=True))
+        d = movie.deformation
+        assert len(d) and np.isfinite(d.drop(columns=["region"]).to_numpy(float)).all(), name
+        _closure_ok(d)
+        movie.write(tmp_path / name)
+        assert len(ht.read_results(tmp_path / name).deformation) == len(d)

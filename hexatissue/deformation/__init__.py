@@ -576,7 +576,7 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     for c in sorted(dying):
         rows = (s1.ids == c).any(axis=1)
         ring = np.setdiff1d(s1.ids[rows].ravel(), np.array(sorted(dying), np.int64))
-        if len(ring) < 2:
+        if len(ring) < 3:  # at the mean of two neighbours the ghost's triangles would be flat
             continue
         p_now = frames.positions(t, ring)
         p_next = frames.positions(t_next, ring, merged)
@@ -590,6 +590,8 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
         pos_now[s1b.ids == c] = g
     xy2 = _corners(s1b.ids, pos_now, box)
     s2 = _State(s1b.ids, xy2, s1b.labels)
+    s2 = s2.take(s2.area > 0)  # a ghost on its neighbours' line leaves a flat triangle: out, with the extrusion
+    xy2 = s2.xy
     chain.append(("extrusion", s2.sums(sizes)))
     # 3. the continuous motion; triangles that would flip over on the way are retriangulated in step 4
     pos_next = frames.positions(t_next, s2.ids.ravel(), merged).reshape(-1, 3, 2)
@@ -674,7 +676,9 @@ def _stays_positive(xy0, xy1):
         vertex = np.where(dt != 0, -tr / (2 * dt), -1.0)
     inner = (vertex > 0) & (vertex < 1)
     low = np.where(inner, 1 + vertex * tr + vertex ** 2 * dt, 1.0)
-    return ok & (end > 1e-9) & (low > 1e-9)
+    # and not flat at the end, relative to its size (an area of rounding errors is no shape)
+    flat = det2(R1) <= 1e-12 * np.einsum("nij,nij->n", R1, R1)
+    return ok & (end > 1e-9) & (low > 1e-9) & ~flat
 
 
 def _block(chain, flow, layer, n):
@@ -793,8 +797,9 @@ def deformation_budget(cells, vertices, cell_vertices, lineage, t1=None, *, box=
         if progress is not None:
             progress(i + 1, len(times))
     table = _table(rows)
-    shear = pd.DataFrame(events, columns=["event", "shear_xx", "shear_xy"])
-    shear = shear.groupby("event", as_index=False).sum() if len(shear) else shear
+    ids, sxx, sxy = (np.array(v, dtype) for v, dtype in zip(zip(*events) if events else ((), (), ()),
+                                                            (np.int64, float, float)))
+    shear = pd.DataFrame({"event": ids, "shear_xx": sxx, "shear_xy": sxy}).groupby("event", as_index=False).sum()
     return table, shear
 
 

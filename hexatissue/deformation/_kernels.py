@@ -28,7 +28,7 @@ def _corotation_factor(q2):
     return (1.0 - 2.0 * q / np.tanh(2.0 * q)) / q2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _elongation(a, b, c, d):
     """Area and elongation (xx, xy) of the state tensor [[a, b], [c, d]] (see :mod:`.triangles`)."""
     area = a * d - b * c
@@ -46,7 +46,7 @@ def _elongation(a, b, c, d):
     return area, scale * (cs * px - sn * py), scale * (sn * px + cs * py)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")  # a degenerate triangle: NaN elongation, as numpy, not an exception
 def triangle_shapes(xy, reference_inverse):
     """Area, Q_xx, Q_xy of triangles with corners ``xy`` (m, 3, 2): the state tensor ``R C^-1``'s."""
     m = xy.shape[0]
@@ -60,7 +60,7 @@ def triangle_shapes(xy, reference_inverse):
     return area, qxx, qxy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flow_sums(M, S0, A0, tau, labels, offsets, n_regions):
     """Area-weighted sums (:data:`SUMS`) per path point and region: ``(len(tau), n_regions, 13)``.
 
