@@ -380,3 +380,15 @@ def test_real_movies_give_finite_budgets_that_close(real_data, tmp_path):
         _closure_ok(d)
         movie.write(tmp_path / name)
         assert len(ht.read_results(tmp_path / name).deformation) == len(d)
+
+
+def test_the_itasc_movie_closes_with_near_collapsing_triangles_retriangulated(real_data):
+    """User trial: on the ITASC islands a triangle nearly collapsing within a frame left a closure of 2e-6 of
+    the total (the quadrature cannot follow a diverging gradient); such triangles are now retriangulated."""
+    from .conftest import real_subdir
+
+    path = real_subdir(real_data, "itasc_micropattern") / "pos00" / "cell_labels.tif"
+    with pytest.warns(ht.HexatissueWarning):
+        movie = ht.analyze(path, progress=False, workers=1, deformation=ht.DeformationOptions(enabled=True))
+    _closure_ok(movie.deformation)
+    assert movie.deformation["n_flipped"].max() > 0
