@@ -31,7 +31,7 @@ FLOW_TERMS = ("total_xx", "total_xy", "total_iso", "corotation_xx", "corotation_
               "rotation_correlation_xy", "rotation")
 
 _GAUSS = np.polynomial.legendre.leggauss(8)
-_MAX_SPLITS = 64
+_MAX_SPLITS = 1024
 
 
 def _integrate(M, S0, A0, layers, splits):
@@ -68,7 +68,8 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
     elongation_change : list of (2, n_regions) arrays
         Per layer, the exact change of the mean elongation (xx, xy) between
         the end states; the quadrature is refined until the identity closes
-        to ``tolerance`` x the size of its terms (at most 64 sub-intervals).
+        to ``tolerance`` x the size of its terms (at most 1024 sub-intervals; only the regions still open
+        are integrated again).
 
     Returns
     -------
