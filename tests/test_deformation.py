@@ -69,8 +69,9 @@ def _random_triangles(n, seed=0):
 
 
 def _mean_q(xy):
+    """Mean elongation (xx, xy) and log area of triangles: what integrate_flow's identities end on."""
     area, qxx, qxy, _ = elongation(state_tensors(edge_matrices(xy)))
-    return np.array([[np.sum(area * qxx) / area.sum()], [np.sum(area * qxy) / area.sum()]])
+    return np.array([[np.sum(area * qxx) / area.sum()], [np.sum(area * qxy) / area.sum()], [np.log(area.sum())]])
 
 
 @pytest.mark.parametrize("L", [np.array([[0.02, 0.01], [0.01, -0.02]]),  # pure shear
@@ -102,8 +103,9 @@ def test_identity_closes_for_any_motion():
     for layers, ch in (([(np.zeros(len(xy0), int), 1)], change), ([(labels, 4)], by_region)):
         out, _ = integrate_flow(xy0, xy1, layers, ch)
         t = out[0]
-        closure = t[:2] - (ch[0] + t[3:5] + t[5:7] + t[7:9] + t[9:11])
+        closure = t[:2] - (ch[0][:2] + t[3:5] + t[5:7] + t[7:9] + t[9:11])
         assert np.abs(closure).max() <= 1e-10 * np.abs(t[:2]).max()
+        assert np.abs(t[2] - ch[0][2]).max() <= 1e-10 * np.abs(t[:3]).max()  # growth: the log of the area ratio
         assert np.abs(t[7:11]).max() > 1e-4  # the correlation terms are there
 
 

@@ -65,9 +65,10 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
         positive area all along the path.
     layers : list of (labels, n_regions)
         Region labels (``(m,)`` ints, -1 for none) of each layer of regions.
-    elongation_change : list of (2, n_regions) arrays
-        Per layer, the exact change of the mean elongation (xx, xy) between
-        the end states; the quadrature is refined until the identity closes
+    elongation_change : list of (3, n_regions) arrays
+        Per layer, the exact change of the mean elongation (xx, xy) and of
+        the log area between the end states; the quadrature is refined until
+        the identities close
         to ``tolerance`` x the size of its terms (at most 1024 sub-intervals; only the regions still open
         are integrated again).
 
@@ -101,9 +102,11 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
         for i, (new, change) in enumerate(zip(terms, elongation_change)):
             out[i][:, pending[i]] = new
             t = out[i]
-            parts = change + t[3:11].reshape(4, 2, -1).sum(axis=0)
-            size = np.abs(t[:2]) + np.abs(change) + np.abs(t[3:11]).reshape(4, 2, -1).sum(axis=0)
+            parts = change[:2] + t[3:11].reshape(4, 2, -1).sum(axis=0)
+            size = np.abs(t[:2]) + np.abs(change[:2]) + np.abs(t[3:11]).reshape(4, 2, -1).sum(axis=0)
             gap = (np.abs(t[:2] - parts) / np.maximum(size, 1e-14)).max(axis=0)
+            # the growth: the integral of <tr L> is the log of the area ratio
+            gap = np.maximum(gap, np.abs(t[2] - change[2]) / np.maximum(np.abs(t[2]) + size.max(axis=0), 1e-14))
             pending[i] &= gap > tolerance  # NaN (an empty region) is closed
         if splits >= _MAX_SPLITS or not any(p.any() for p in pending):
             return out, splits
