@@ -346,6 +346,10 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         # multiple of the solution, which the deepest tension removes
         probe -= np.outer(x_lsq, probe[t_ref] / x_lsq[t_ref])
         free = np.abs(probe).max(axis=1) > _FREE
+        # the anchors pass the test by construction: alone, they are no estimate (a ratio of a value to itself)
+        for block in (slice(0, n_t), slice(n_t, n)):
+            if np.count_nonzero(~free[block]) <= 1:
+                free[block] = True
         if method == "lsq":
             x = scale * x_lsq
         else:
