@@ -263,3 +263,22 @@ def test_surface_evolver_forces_from_its_triple_junction_network(real_data):
     assert np.isfinite([t_err, p_err]).all()
     lsq = _infer(tables, None, method="lsq")
     assert lsq.edges["tension"].isna().all()  # an open tissue: least squares leaves everything free
+
+
+def test_report_has_a_force_inference_section_with_its_figures(tmp_path):
+    from hexatissue.workflows.report import report
+
+    labels = voronoi_labels(jittered_seeds((144, 144), 24, seed=6), (144, 144), periodic=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = ht.analyze(labels, box=ht.Box(144, 144), mechanics=ht.MechanicsOptions(enabled=True, sd=False))
+    movie.write(tmp_path / "res")
+    numbers = report(tmp_path / "res", out=tmp_path / "rep")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "## Force inference" in text and "tensions.png" in text and "pressure.png" in text
+    assert (tmp_path / "rep" / "tensions.png").stat().st_size > 0
+    row = numbers["mechanics"]["frames"][0]
+    assert row["tensions"] == int(np.isfinite(movie.tables["edges"]["tension"]).sum())
+    stress = movie.cells[["stress_xx", "stress_xy", "stress_yy"]]
+    whole = tissue_stress(movie.cells, stress)
+    assert row["stress_xx"] == pytest.approx(whole[0, 0], rel=1e-12)

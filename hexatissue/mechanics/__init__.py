@@ -18,10 +18,13 @@ known up to a scale (fixed here by mean tension = 1) and pressures up to a
 constant (fixed by mean pressure = 0).  :func:`infer_forces` solves it by
 least squares (``method="lsq"``) or as the Bayesian MAP estimate with a
 Gaussian prior on the tensions whose weight is chosen by ABIC
-(``method="bayes"``), with posterior standard deviations.  Near the edge of
-an open image the equations leave some unknowns free (there are more unknowns
-than equations there); those are found and reported, never given a silent
-number (:func:`infer_forces`).  :mod:`hexatissue.mechanics.stress` turns
+(``method="bayes"``), with posterior standard deviations.  Where the
+equations leave unknowns free (open images: the vertices on the tissue's edge
+give no equation but their junctions and cells are unknowns; four-fold
+vertices), those are found and reported, never given a silent number
+(:func:`infer_forces`); the free modes are extended, so on an open image
+least squares determines nothing and only the Bayesian prior makes an
+estimate (docs/mechanics.md).  :mod:`hexatissue.mechanics.stress` turns
 the forces into the Batchelor stress of each cell, of the tissue and on the
 Gamma_p grid.
 """
@@ -48,9 +51,12 @@ METHODS = ("lsq", "bayes")
 # Relative regularisation of the normal equations: it lifts the null modes (so one factorisation serves the solve
 # and the test of which unknowns are determined) and biases the determined ones by ~1e-10 only.
 _EPS = 1e-12
-# A component of a null-space probe above this (the probe's entries are O(0.01-1)) marks an unknown the force
-# balance leaves free; modes with relative eigenvalue below ~1e-6 count as free.
-_FREE = 1e-4
+# The free unknowns: a random vector multiplied _PROBE_STEPS times by eps M^-1 keeps its null-mode part and loses
+# a factor eps / (eps + lambda) of every other mode each time (lambda, an eigenvalue of the pinned, unit-diagonal
+# normal equations).  A component above _FREE marks a free unknown: null modes give O(1e-3 - 1), a mode with
+# lambda = 1e-10 gives 1e-8 after four steps.
+_PROBE_STEPS = 4
+_FREE = 1e-6
 _SD_BLOCK = 256  # right-hand sides per solve when the posterior variances are computed
 
 
@@ -97,8 +103,9 @@ class Forces:
         ``reason`` of every interior junction and cell without an estimate
         from the force balance: ``"no polygon"``, ``"no balanced vertex"``
         (all its vertices touch the outside or are not at a junction of three
-        or more cells), ``"free"`` (the force balance leaves it free: near
-        the edge of the tissue, more unknowns than equations).  ``lsq``
+        or more cells), ``"free"`` (the force balance leaves it free: more
+        unknowns than independent equations, as on any open image or with
+        four-fold vertices).  ``lsq``
         gives these NaN; ``bayes`` gives a ``free`` unknown its prior-dominated
         estimate and s.d.
     method : str
@@ -358,8 +365,17 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         x_lsq = (1.0 - m_e[t_ref]) * m_c + m_c[t_ref] * m_e
         # the null modes of the pinned equations (beyond scale and pressure constant), probed at random: the
         # regularisation keeps them at O(1), every determined unknown at O(eps / eigenvalue)
-        probe = _EPS * lu.solve(as_generator(seed).standard_normal((n, 2)))
-        free = np.abs(probe).max(axis=1) > _FREE
+        # Counting first: with both gauges pinned, a generic network has n - 2 - (equations - identities) free
+        # modes; the identities are the two components of the total force, which vanish term by term when every
+        # vertex is balanced (a periodic tissue).  None: every unknown is determined, and the probe is skipped (it
+        # would take the softest long-wavelength stress modes, eigenvalues ~1e-12 at 10,000 cells, for free ones).
+        identities = 2 if box is not None and system.balanced.all() else 0
+        free = np.zeros(n, bool)
+        if n - 2 - (A.shape[0] - identities) > 0:
+            probe = as_generator(seed).standard_normal((n, 2))
+            for _ in range(_PROBE_STEPS):
+                probe = _EPS * lu.solve(probe)
+            free = np.abs(probe).max(axis=1) > _FREE
         # the anchors pass the test by construction: alone, they are no estimate (a ratio of a value to itself)
         for block in (slice(0, n_t), slice(n_t, n)):
             if np.count_nonzero(~free[block]) <= 1:
