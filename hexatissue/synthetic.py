@@ -7,6 +7,8 @@ with x = column and y = row, origin at the centre of pixel (0, 0).  Label
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Voronoi, cKDTree
 
 from .box import Box
@@ -21,6 +23,8 @@ __all__ = [
     "hexagonal_seeds",
     "square_labels",
     "draw_membranes",
+    "periodic_voronoi_network",
+    "vertex_model_tissue",
 ]
 
 
@@ -614,8 +618,6 @@ def periodic_voronoi_network(seeds, box) -> dict:
         px (vertices wrapped into ``[0, L)``), polygons counter-clockwise in
         (x, y); no cell is a border cell.
     """
-    import pandas as pd
-
     seeds = box.wrap(np.asarray(seeds, dtype=float))
     n = len(seeds)
     if seeds.ndim != 2 or seeds.shape[1] != 2 or n < 9:
@@ -627,9 +629,6 @@ def periodic_voronoi_network(seeds, box) -> dict:
     wrapped = box.wrap(vor.vertices)
     tree = cKDTree(wrapped, boxsize=box.lengths)
     pairs = tree.query_pairs(1e-7, output_type="ndarray")
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     m = len(wrapped)
     same = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
     _, canon = connected_components(same, directed=False)
@@ -708,7 +707,7 @@ class _VertexModel:
         self.v = np.array([vpos[v] for v in cv["vertex"].to_numpy()[order]])
         self.nxt, self.first = nxt, first
         cells = tables["cells"]["cell"].to_numpy()
-        self.cell = pd_index(cells).get_indexer(cv["cell"].to_numpy()[order])
+        self.cell = pd.Index(cells).get_indexer(cv["cell"].to_numpy()[order])
         self.n_cells = len(cells)
 
     def areas(self, xy):
@@ -733,12 +732,6 @@ class _VertexModel:
         dA = 0.5 * np.stack([chord[:, 1], -chord[:, 0]], axis=1)
         np.add.at(grad, self.v, (self.K * (area - self.A0))[self.cell, None] * dA)
         return energy, grad.ravel()
-
-
-def pd_index(values):
-    import pandas as pd
-
-    return pd.Index(values)
 
 
 def vertex_model_tissue(nx=10, ny=10, spacing=20.0, jitter=0.1, tension_spread=0.15, area_spread=0.1, K=0.01,
@@ -826,7 +819,7 @@ def _with_positions(tables, xy, box):
     out = {k: v.copy() for k, v in tables.items()}
     out["vertices"]["x"], out["vertices"]["y"] = xy[:, 0], xy[:, 1]
     edges = out["edges"]
-    vpos = pd_index(out["vertices"]["vertex"].to_numpy()).get_indexer
+    vpos = pd.Index(out["vertices"]["vertex"].to_numpy()).get_indexer
     d = box.min_image(xy[vpos(edges["vertex_b"].to_numpy())] - xy[vpos(edges["vertex_a"].to_numpy())])
     edges["length"] = np.hypot(d[:, 0], d[:, 1])
     cv = out["cell_vertices"].sort_values(["cell", "rank"])
