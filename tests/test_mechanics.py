@@ -282,3 +282,14 @@ def test_report_has_a_force_inference_section_with_its_figures(tmp_path):
     stress = movie.cells[["stress_xx", "stress_xy", "stress_yy"]]
     whole = tissue_stress(movie.cells, stress)
     assert row["stress_xx"] == pytest.approx(whole[0, 0], rel=1e-12)
+
+
+def test_a_frame_without_balanced_vertices_gets_nan_and_the_reason():
+    labels = np.zeros((40, 60), np.int64)
+    labels[:, :20], labels[:, 20:40], labels[:, 40:] = 1, 2, 3  # three strips, every vertex on the image edge
+    tables = {k: pd.DataFrame(v) for k, v in ht.mesh_from_labels(labels).tables.items()}
+    for method in ("lsq", "bayes"):
+        forces = _infer(tables, None, method=method)
+        assert forces.edges["tension"].isna().all() and forces.cells["pressure"].isna().all()
+        cells = forces.undetermined[forces.undetermined["kind"] == "cell"]
+        assert sorted(cells["id"]) == [1, 2, 3] and set(cells["reason"]) <= {"no balanced vertex", "no polygon"}

@@ -102,8 +102,8 @@ class Forces:
         ``kind`` (``"edge"`` or ``"cell"``), ``id`` (edge or cell id) and
         ``reason`` of every interior junction and cell without an estimate
         from the force balance: ``"no polygon"``, ``"no balanced vertex"``
-        (all its vertices touch the outside or are not at a junction of three
-        or more cells), ``"free"`` (the force balance leaves it free: more
+        (each of its vertices touches the outside, or a junction of zero
+        length, or a cell without a polygon), ``"free"`` (the force balance leaves it free: more
         unknowns than independent equations, as on any open image or with
         four-fold vertices).  ``lsq``
         gives these NaN; ``bayes`` gives a ``free`` unknown its prior-dominated
@@ -162,7 +162,7 @@ def force_system(cells, vertices, edges, cell_vertices, box=None) -> ForceSystem
     """The force balance of every vertex inside the tissue, as a sparse matrix in the tensions and pressures.
 
     A vertex is balanced (gives two equations) when it touches no outside
-    (``is_border`` False), joins three or more junctions of non-zero length,
+    (``is_border`` False), joins two or more junctions of non-zero length,
     and has as many cells with a polygon around it (``cell_vertices``) as
     junctions.  The unknowns are the tensions of the junctions with a
     balanced end and the pressures of the cells with a balanced vertex.
@@ -245,11 +245,10 @@ def force_system(cells, vertices, edges, cell_vertices, box=None) -> ForceSystem
 
 
 def _factor(matrix):
-    """Sparse LU of a symmetric matrix: minimum degree on its pattern, pivots on the diagonal.
+    """Sparse LU of a symmetric positive definite matrix: minimum degree on its pattern, pivots on the diagonal.
 
     Diagonal pivots keep the symmetric ordering (the default partial pivoting
-    fills a 2,500-cell system 15 x more and takes 40 x longer); the one zero
-    diagonal entry (the bordered constraint) is eliminated last.  Should a
+    fills a 2,500-cell system 15 x more and takes 40 x longer).  Should a
     diagonal pivot vanish, the factorisation is redone with partial pivoting.
     """
     matrix = csc_matrix(matrix)
@@ -282,8 +281,8 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         Periodic box; None for an open image.
     method : {"bayes", "lsq"}
     mu : float, optional
-        The prior's weight (``bayes``), relative to the force balance of
-        junctions normalised to unit weight; default: chosen by ABIC.
+        The prior's weight (``bayes``) in the units of ``|A x|^2`` (a
+        tension's coefficients are unit vectors); default: chosen by ABIC.
     sd : bool
         Compute the posterior standard deviations (``bayes``; one solve per
         unknown, the slow part on large frames).
