@@ -39,7 +39,7 @@ from scipy.sparse import csc_matrix, csr_matrix, diags, identity
 from scipy.sparse.csgraph import dijkstra
 from scipy.sparse.linalg import splu
 
-from ..errors import InputError, as_generator
+from ..errors import InputError, as_generator, is_real
 from ..schema import require_columns
 from .stress import cell_stress, stress_grid, tissue_stress
 
@@ -300,7 +300,7 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
     """
     if method not in METHODS:
         raise InputError(f"method must be one of {METHODS}; got {method!r}")
-    if mu is not None and not (np.isscalar(mu) and np.isfinite(mu) and mu > 0):
+    if mu is not None and not (is_real(mu) and mu > 0):
         raise InputError(f"mu must be a positive finite number or None; got {mu!r}")
     frame = _frame_of(cells, "cells")
     system = force_system(cells, vertices, edges, cell_vertices, box)
