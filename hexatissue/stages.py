@@ -284,7 +284,8 @@ def _mechanics(frame, options):
         free = missing[(missing["kind"] == "cell") & (missing["reason"] == "free")]["id"].to_numpy()
         where = (f" (free cells {free[:10].tolist()}{'...' if len(free) > 10 else ''}: the force balance of the "
                  f"vertices inside the tissue leaves them free)") if len(free) else ""
-        value = "NaN" if options.method == "lsq" else "NaN, or prior-set where free"
+        value = ("NaN" if options.method == "lsq" else
+                 "NaN, except that the free ones have the Bayesian estimate, which the prior sets (see their s.d.)")
         warnings.warn(f"force inference left {text}{where}; their values are {value}",
                       HexatissueWarning, stacklevel=user_stacklevel())
 
