@@ -10,7 +10,8 @@ from .errors import HexatissueWarning, InputError
 from .units import Calibration
 from .frame import Frame
 from .results import Movie, read_results
-from .options import DeformationOptions, EventOptions, IntensityOptions, MeshOptions, OrderOptions, TrackOptions
+from .options import (DeformationOptions, EventOptions, IntensityOptions, MechanicsOptions, MeshOptions, OrderOptions,
+                      TrackOptions)
 from .graph import contact_table, neighbor_graph, neighbour_graph
 from .io import read_table, write_table, write_tables
 from .mesh import mesh_from_labels, mesh_from_polygons
@@ -37,6 +38,7 @@ __all__ = [
     "EventOptions",
     "IntensityOptions",
     "DeformationOptions",
+    "MechanicsOptions",
     "shape_order",
     "InputError",
     "HexatissueWarning",

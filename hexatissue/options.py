@@ -19,7 +19,7 @@ import numpy as np
 from .errors import InputError, check_orders, check_positive, is_real
 
 __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "DeformationOptions",
-           "FlowOptions", "OPTION_CLASSES",
+           "FlowOptions", "MechanicsOptions", "OPTION_CLASSES",
            "cli_field", "add_flags", "from_flags", "flag_text"]
 
 # The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
@@ -36,6 +36,8 @@ VALIDITY = ("tissue", "occupied", "all")
 TRACK_MODES = ("auto", "always", "never", "off")
 #: Tables that name the kind of a T1 in the deformation budget (see :class:`DeformationOptions`).
 T1_SOURCES = ("quartets", "neighbours")
+#: Estimators of force inference (see :class:`MechanicsOptions`).
+FORCE_METHODS = ("bayes", "lsq")
 
 
 def check_background(background, name="background"):
@@ -517,6 +519,45 @@ class FlowOptions(_Options, stage="flow", title="tissue flow"):
             _fail(type(self), "enabled", self.enabled, "True or False")
         self._number("radius_factor", strict=True)
         self._number("min_cells", low=3, integer=True)
+
+
+@dataclass(frozen=True)
+class MechanicsOptions(_Options, stage="mechanics", title="force inference"):
+    """Junction tensions, cell pressures and stress from force balance (:func:`hexatissue.mechanics.infer_forces`).
+
+    Parameters
+    ----------
+    enabled : bool
+        Run the stage (off by default).
+    method : {"bayes", "lsq"}
+        Bayesian MAP with the prior's weight chosen by ABIC, or least squares
+        (determined only in periodic boxes; NaN where the balance leaves an
+        unknown free).
+    mu : float, optional
+        Fixed prior weight for ``bayes`` (default: ABIC).
+    sd : bool
+        Posterior standard deviations (``bayes``; one solve per unknown).
+    """
+
+    enabled: bool = cli_field(False, "--mechanics", "force inference: junction tensions, cell pressures and the "
+                              "Batchelor stress, per cell and on the Gamma_p grid", action="store_true")
+    method: str = cli_field("bayes", "--mechanics-method", "estimator: Bayesian with ABIC, or least squares",
+                            choices=FORCE_METHODS)
+    mu: float | None = cli_field(None, "--mechanics-mu", "fixed prior weight of the Bayesian estimator "
+                                 "(default: chosen by ABIC)", type=float)
+    sd: bool = cli_field(True, "--no-mechanics-sd", "no posterior standard deviations (faster on large frames)",
+                         action="store_false")
+
+    def __post_init__(self):
+        for name in ("enabled", "sd"):
+            if not isinstance(getattr(self, name), bool):
+                _fail(type(self), name, getattr(self, name), "True or False")
+        if self.method not in FORCE_METHODS:
+            _fail(type(self), "method", self.method, f"one of {FORCE_METHODS}")
+        if self.mu is not None and not (is_real(self.mu) and self.mu > 0):
+            _fail(type(self), "mu", self.mu, "a positive finite number or None")
+        if self.mu is not None:
+            object.__setattr__(self, "mu", float(self.mu))
 
 
 def check_options(value, name):

@@ -40,6 +40,8 @@ __all__ = [
     "plot_order_vs_radius",
     "plot_deformation_budget",
     "plot_deformation_map",
+    "plot_flow",
+    "plot_tensions",
     "save_figure",
     "save_analysis_figures",
 ]
@@ -749,4 +751,54 @@ def plot_flow(flow, polygons=None, ax=None, path=None, box=None, calibration=Non
     _image_axes(ax, _extent_of(None, polygons, np.c_[x, y], as_box(box)), cal)
     frame = f", frame {int(flow['frame'].iloc[0])}" if "frame" in flow.columns and len(flow) else ""
     ax.set_title(f"velocity and vorticity{frame}", pad=18)
+    return _finish(fig, path)
+
+
+def plot_tensions(edges, vertices, calibration=None, ax=None, path=None, box=None, cmap="viridis",
+                  figsize=(6.4, 6)):
+    """The junction network, each junction coloured by its inferred tension (force inference, ``--mechanics``).
+
+    Parameters
+    ----------
+    edges : pandas.DataFrame
+        One frame's ``edges`` with ``vertex_a``, ``vertex_b`` and ``tension``
+        (relative: mean interior tension 1).
+    vertices : pandas.DataFrame
+        The frame's ``vertices`` (``vertex``, ``x``, ``y``, px).
+    calibration : Calibration, optional
+        Pixel size and length unit of the scale bar (px when None).
+    box : Box, optional
+        Periodic box: junctions are drawn from their first vertex by minimum image.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Junctions without a tension (NaN) thin and grey, the others coloured
+        on a scale from the 2nd to the 98th percentile, with a colour bar
+        and a scale bar.
+    """
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import Normalize
+
+    for column in ("vertex_a", "vertex_b", "tension"):
+        if column not in edges.columns:
+            raise InputError(f"edges has no column {column!r} (run force inference: --mechanics)")
+    box = as_box(box)
+    v = vertices.set_index("vertex")[["x", "y"]]
+    a = v.reindex(edges["vertex_a"].to_numpy()).to_numpy(float)
+    b = v.reindex(edges["vertex_b"].to_numpy()).to_numpy(float)
+    d = b - a if box is None else box.min_image(b - a)
+    segments = np.stack([a, a + d], axis=1)
+    tension = edges["tension"].to_numpy(float)
+    known = np.isfinite(tension)
+    fig, ax = _new_axes(ax, figsize)
+    ax.add_collection(LineCollection(segments[~known], colors="0.75", linewidths=0.5))
+    low, high = (np.percentile(tension[known], [2, 98]) if known.any() else (0.0, 1.0))
+    lines = LineCollection(segments[known], cmap=cmap, norm=Normalize(low, high if high > low else low + 1),
+                           linewidths=1.6)
+    lines.set_array(tension[known])
+    ax.add_collection(lines)
+    fig.colorbar(lines, ax=ax, shrink=0.7, label="tension (mean interior tension = 1)")
+    _image_axes(ax, _extent_of(xy=vertices[["x", "y"]].to_numpy(float), box=box), calibration)
+    ax.set_title(f"inferred junction tensions ({int(known.sum())} of {len(tension)} junctions)", fontsize=10)
     return _finish(fig, path)

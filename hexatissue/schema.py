@@ -77,6 +77,11 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "vx": ("f", "px/frame", "velocity along x: centred difference of the centroid along the track (NaN at track "
                "ends, divisions and gaps; hexatissue.flow.cell_velocities)"),
         "vy": ("f", "px/frame", "velocity along y (rows), as vx"),
+        "pressure": ("f", "tension/px", "inferred pressure, relative to the frame's mean (with --mechanics)"),
+        "pressure_sd": ("f", "tension/px", "posterior s.d. of the pressure (Bayesian estimator)"),
+        "stress_xx": ("f", "tension/px", "Batchelor stress of the cell, xx (with --mechanics)"),
+        "stress_xy": ("f", "tension/px", "Batchelor stress of the cell, xy"),
+        "stress_yy": ("f", "tension/px", "Batchelor stress of the cell, yy"),
     },
     "vertices": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -97,6 +102,9 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "length": ("f", "px", "straight-line distance between the end vertices"),
         "intensity_mean": ("f", "intensity", "mean of the raw channel along the junction (with --intensity)"),
         "intensity_total": ("f", "intensity px", "intensity_mean x length: integrated junction intensity"),
+        "tension": ("f", "tension", "inferred tension, relative: the frame's mean interior tension is 1 "
+                    "(with --mechanics)"),
+        "tension_sd": ("f", "tension", "posterior s.d. of the tension (Bayesian estimator)"),
     },
     "cell_vertices": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -216,11 +224,27 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "n_triangles": ("i", "", "triangles of the tissue at the start of the interval (-1 on region rows)"),
         "n_flipped": ("i", "", "triangles that would flip over on the way, retriangulated instead (-1 on region rows)"),
     },
+    "stress": {
+        "frame": ("i", "frame", "time point (0 for a single image)"),
+        "node": ("i", "", "grid node id (as in grid)"),
+        "x": ("f", "px", "node position, column"),
+        "y": ("f", "px", "node position, row"),
+        "stress_xx": ("f", "tension/px", "area-weighted mean Batchelor stress of the cells in the node's disk, xx"),
+        "stress_xy": ("f", "tension/px", "mean stress, xy"),
+        "stress_yy": ("f", "tension/px", "mean stress, yy"),
+        "stress_iso": ("f", "tension/px", "isotropic part, (xx + yy) / 2"),
+        "stress2_re": ("f", "tension/px", "nematic (p = 2) part, (xx - yy) / 2"),
+        "stress2_im": ("f", "tension/px", "nematic (p = 2) part, xy"),
+        "stress6_re": ("f", "tension/px", "hexatic (p = 6) moment of the junction tensions, real part"),
+        "stress6_im": ("f", "tension/px", "hexatic (p = 6) moment of the junction tensions, imaginary part"),
+        "n_cells": ("i", "", "cells with a stress in the disk"),
+    },
 }
 
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
-             "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy"}
+             "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy",
+             "tension", "tension_sd", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

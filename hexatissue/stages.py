@@ -33,11 +33,12 @@ from .events import cell_event_stats, default_censor, events_summary, t1_tables
 from .flow import cell_velocities, flow_fields
 from .geometry import distinct_count
 from .intensity import measure_intensity
+from .mechanics import cell_stress, infer_forces, stress_grid
 from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
 from .mesh.polygons import polygon_network
-from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOptions, IntensityOptions, MeshOptions,
-                      OrderOptions, TrackOptions)
+from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOptions, IntensityOptions,
+                      MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .track import cells_with_tracks, lineage_table, tracking_summary
@@ -275,6 +276,39 @@ def _deformation(movie, options):
     }
 
 
+def _mechanics(frame, options):
+    """Tensions, pressures and stress of the frame from force balance, and the stress on its Gamma_p grid."""
+    tables = {name: pd.DataFrame(frame.tables[name]) for name in ("cells", "vertices", "edges", "cell_vertices")}
+    cells, edges = tables["cells"], tables["edges"]
+    forces = infer_forces(cells, tables["vertices"], edges, tables["cell_vertices"], box=frame.box,
+                          method=options.method, mu=options.mu, sd=options.sd)
+    stress = cell_stress(cells, tables["vertices"], edges, forces.edges["tension"].to_numpy(),
+                         forces.cells["pressure"].to_numpy(), box=frame.box)
+    columns = {"cells": {"pressure": forces.cells["pressure"], "pressure_sd": forces.cells["pressure_sd"],
+                         **{c: stress[c] for c in ("stress_xx", "stress_xy", "stress_yy")}},
+               "edges": {"tension": forces.edges["tension"], "tension_sd": forces.edges["tension_sd"]}}
+    for name, new in columns.items():
+        table = frame.tables[name]
+        for column, values in new.items():
+            table[column] = values.to_numpy(float)
+    grid = frame.tables.get("grid")
+    if grid is not None and len(grid):
+        frame.tables["stress"] = stress_grid(cells, stress, pd.DataFrame(grid), box=frame.box)
+    else:
+        frame.tables["stress"] = empty_table("stress")
+    missing = forces.undetermined
+    if len(missing):
+        counts = missing.groupby(["kind", "reason"]).size()
+        text = "; ".join(f"{n} {kind}(s): {reason}" for (kind, reason), n in counts.items())
+        free = missing[(missing["kind"] == "cell") & (missing["reason"] == "free")]["id"].to_numpy()
+        where = (f" (free cells {free[:10].tolist()}{'...' if len(free) > 10 else ''}: the force balance of the "
+                 f"vertices inside the tissue leaves them free)") if len(free) else ""
+        value = ("NaN" if options.method == "lsq" else
+                 "NaN, except that the free ones have the Bayesian estimate, which the prior sets (see their s.d.)")
+        warnings.warn(f"force inference left {text}{where}; their values are {value}",
+                      HexatissueWarning, stacklevel=user_stacklevel())
+
+
 def _fields_on(options):
     return options.fields
 
@@ -307,6 +341,10 @@ STAGES = (
     Stage("deformation budget", DeformationOptions, "movie",
           reads=("cells", "vertices", "cell_vertices", "lineage", "events", "neighbour_events", "grid"),
           writes=("deformation", "events.shear_xx", "events.shear_xy"), run=_deformation, enabled=_enabled),
+    # a frame stage: it runs after the order fields, whose grid it reads
+    Stage("mechanics", MechanicsOptions, "frame", reads=("cells", "vertices", "edges", "cell_vertices", "grid"),
+          writes=("edges.tension", "edges.tension_sd", "cells.pressure", "cells.pressure_sd", "cells.stress_xx",
+                  "cells.stress_xy", "cells.stress_yy", "stress"), run=_mechanics, enabled=_enabled),
 )
 
 

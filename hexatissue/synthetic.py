@@ -7,6 +7,8 @@ with x = column and y = row, origin at the centre of pixel (0, 0).  Label
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Voronoi, cKDTree
 
 from .box import Box
@@ -21,6 +23,8 @@ __all__ = [
     "hexagonal_seeds",
     "square_labels",
     "draw_membranes",
+    "periodic_voronoi_network",
+    "vertex_model_tissue",
 ]
 
 
@@ -590,3 +594,241 @@ class VoronoiMovie:
 def voronoi_movie(n_cells, shape, n_frames, periodic=True, amplitude=0.3, seed=0) -> VoronoiMovie:
     """A lazily rendered, smoothly moving Voronoi movie (see :class:`VoronoiMovie`)."""
     return VoronoiMovie(n_cells, shape, n_frames, periodic=periodic, amplitude=amplitude, seed=seed)
+
+
+# ----------------------------------------------------------------------------
+# Vertex-model tissues at force balance (truth for force inference)
+# ----------------------------------------------------------------------------
+
+def periodic_voronoi_network(seeds, box) -> dict:
+    """The exact junction network of the Voronoi tessellation of ``seeds`` in a periodic ``box``.
+
+    Parameters
+    ----------
+    seeds : (n, 2) array
+        Seed positions (x, y), px; cell ``k`` is the cell of ``seeds[k - 1]``.
+    box : Box
+        The periodic box.
+
+    Returns
+    -------
+    dict
+        The four tables of :mod:`hexatissue.schema` (``cells``, ``vertices``,
+        ``edges``, ``cell_vertices``) as DataFrames of frame 0, positions in
+        px (vertices wrapped into ``[0, L)``), polygons counter-clockwise in
+        (x, y); no cell is a border cell.
+    """
+    seeds = box.wrap(np.asarray(seeds, dtype=float))
+    n = len(seeds)
+    if seeds.ndim != 2 or seeds.shape[1] != 2 or n < 9:
+        raise InputError(f"seeds must be an (n, 2) array with n >= 9; got shape {seeds.shape}")
+    shifts = np.array([(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]) * box.lengths
+    vor = Voronoi(np.concatenate([seeds + s for s in shifts]))
+    centre = 4 * n  # the copies with shift (0, 0) are points 4n .. 5n - 1
+    # a Voronoi vertex and its periodic copies are one vertex: wrapped positions equal to 1e-7 px
+    wrapped = box.wrap(vor.vertices)
+    tree = cKDTree(wrapped, boxsize=box.lengths)
+    pairs = tree.query_pairs(1e-7, output_type="ndarray")
+    m = len(wrapped)
+    same = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    _, canon = connected_components(same, directed=False)
+    polygons = []
+    for k in range(n):
+        region = vor.regions[vor.point_region[centre + k]]
+        xy = vor.vertices[region]
+        area = polygon_area_centroid(xy, np.zeros(1, np.int64))[0][0]
+        order = np.asarray(region) if area > 0 else np.asarray(region)[::-1]
+        polygons.append(canon[order])
+    used, vid = np.unique(np.concatenate(polygons), return_inverse=True)
+    polygons = np.split(vid, np.cumsum([len(p) for p in polygons])[:-1])
+    first = np.full(canon.max() + 1, -1)
+    first[canon] = np.arange(m)  # any member of each class
+    vxy = wrapped[first[used]]
+    cell_rows, rank_rows, vertex_rows = [], [], []
+    sides = {}
+    for k, poly in enumerate(polygons):
+        cell_rows += [k + 1] * len(poly)
+        rank_rows += list(range(len(poly)))
+        vertex_rows += poly.tolist()
+        for a, b in zip(poly, np.roll(poly, -1)):
+            sides.setdefault((min(a, b), max(a, b)), []).append(k + 1)
+    keys = sorted(sides)
+    if any(len(sides[key]) != 2 for key in keys):
+        raise InputError("seeds give a tessellation with a junction not between two cells; use more seeds")
+    va = np.array([key[0] for key in keys])
+    vb = np.array([key[1] for key in keys])
+    ca = np.array([min(sides[key]) for key in keys])
+    cb = np.array([max(sides[key]) for key in keys])
+    length = np.hypot(*box.min_image(vxy[vb] - vxy[va]).T)
+    degree = np.bincount(np.r_[va, vb], minlength=len(vxy))
+    area, centroid, perimeter = [], [], []
+    for poly in polygons:
+        xy = box.unwrap_polygon(vxy[poly])
+        (a,), (c,) = polygon_area_centroid(xy, np.zeros(1, np.int64))
+        area.append(a)
+        centroid.append(box.wrap(c))
+        perimeter.append(np.hypot(*np.diff(np.vstack([xy, xy[:1]]), axis=0).T).sum())
+    centroid = np.array(centroid)
+    nv = len(vxy)
+    return {
+        "cells": pd.DataFrame({"frame": 0, "cell": np.arange(1, n + 1), "x": centroid[:, 0], "y": centroid[:, 1],
+                               "area": area, "polygon_area": area, "perimeter": perimeter,
+                               "n_sides": [len(p) for p in polygons], "n_boundaries": 1, "is_border": False}),
+        "vertices": pd.DataFrame({"frame": 0, "vertex": np.arange(nv), "x": vxy[:, 0], "y": vxy[:, 1],
+                                  "degree": degree, "is_border": False}),
+        "edges": pd.DataFrame({"frame": 0, "edge": np.arange(len(keys)), "vertex_a": va, "vertex_b": vb,
+                               "cell_a": ca, "cell_b": cb, "length": length}),
+        "cell_vertices": pd.DataFrame({"frame": 0, "cell": cell_rows, "rank": rank_rows, "vertex": vertex_rows}),
+    }
+
+
+def _polygon_rows(cell_vertices):
+    """Row order of cell_vertices by (cell, rank), the next row in each polygon, and each row's first row."""
+    cell = cell_vertices["cell"].to_numpy(np.int64)
+    order = np.lexsort((cell_vertices["rank"].to_numpy(np.int64), cell))
+    c = cell[order]
+    start = np.r_[True, c[1:] != c[:-1]]
+    first = np.maximum.accumulate(np.where(start, np.arange(len(c)), 0))
+    end = np.r_[start[1:], True]
+    nxt = np.where(end, first, np.arange(len(c)) + 1)
+    return order, nxt, first
+
+
+class _VertexModel:
+    """E = sum_j Lambda_j l_j + sum_c K / 2 (A_c - A0_c)^2 of a periodic network, and its gradient."""
+
+    def __init__(self, tables, box, line_tension, K, A0):
+        self.box, self.lam, self.K, self.A0 = box, line_tension, K, A0
+        vpos = {v: k for k, v in enumerate(tables["vertices"]["vertex"].to_numpy())}
+        edges, cv = tables["edges"], tables["cell_vertices"]
+        self.va = np.array([vpos[v] for v in edges["vertex_a"].to_numpy()])
+        self.vb = np.array([vpos[v] for v in edges["vertex_b"].to_numpy()])
+        order, nxt, first = _polygon_rows(cv)
+        self.v = np.array([vpos[v] for v in cv["vertex"].to_numpy()[order]])
+        self.nxt, self.first = nxt, first
+        cells = tables["cells"]["cell"].to_numpy()
+        self.cell = pd.Index(cells).get_indexer(cv["cell"].to_numpy()[order])
+        self.n_cells = len(cells)
+
+    def areas(self, xy):
+        r = self.box.min_image(xy[self.v] - xy[self.v[self.first]])  # positions relative to each polygon's first
+        cross = r[:, 0] * r[self.nxt, 1] - r[self.nxt, 0] * r[:, 1]
+        return 0.5 * np.bincount(self.cell, weights=cross, minlength=self.n_cells)
+
+    def energy(self, flat):
+        xy = flat.reshape(-1, 2)
+        d = self.box.min_image(xy[self.vb] - xy[self.va])
+        length = np.hypot(d[:, 0], d[:, 1])
+        area = self.areas(xy)
+        energy = np.sum(self.lam * length) + 0.5 * self.K * np.sum((area - self.A0) ** 2)
+        grad = np.zeros_like(xy)
+        f = self.lam[:, None] * d / length[:, None]
+        np.add.at(grad, self.vb, f)
+        np.add.at(grad, self.va, -f)
+        prev = np.empty_like(self.nxt)
+        prev[self.nxt] = np.arange(len(self.nxt))
+        chord = (self.box.min_image(xy[self.v[self.nxt]] - xy[self.v])
+                 - self.box.min_image(xy[self.v[prev]] - xy[self.v]))
+        dA = 0.5 * np.stack([chord[:, 1], -chord[:, 0]], axis=1)
+        np.add.at(grad, self.v, (self.K * (area - self.A0))[self.cell, None] * dA)
+        return energy, grad.ravel()
+
+
+def vertex_model_tissue(nx=10, ny=10, spacing=20.0, jitter=0.1, tension_spread=0.15, area_spread=0.1, K=0.01,
+                        seed=0):
+    """A periodic vertex-model tissue at force balance, with its exact tensions and pressures.
+
+    The Voronoi tissue of a jittered hexagonal lattice in a periodic box,
+    relaxed to the minimum of ``E = sum_j Lambda_j l_j + sum_c K / 2 (A_c -
+    A0_c)^2`` (L-BFGS, then Newton steps with finite-difference Hessian
+    products to a largest vertex force below 1e-11 x the mean tension).  At the
+    minimum the tension of junction ``j`` is ``Lambda_j`` and the pressure of
+    cell ``c`` is ``-K (A_c - A0_c)``.
+
+    Parameters
+    ----------
+    nx, ny : int
+        Cells per lattice row and rows (``ny`` even: the lattice is periodic).
+    spacing : float
+        Lattice pitch, px.
+    jitter : float
+        Seeds moved by up to ``jitter x spacing`` along x and y.  Larger
+        values with larger ``tension_spread`` let junctions shrink to
+        nothing (the model has no T1s): an error then.
+    tension_spread : float
+        ``Lambda_j`` uniform in ``[1 - spread, 1 + spread]``.
+    area_spread : float
+        ``A0_c`` uniform in ``[1 - spread, 1 + spread]`` x the mean cell area.
+    K : float
+        Area stiffness, tension/px^3.
+    seed : int or numpy.random.Generator
+
+    Returns
+    -------
+    tables : dict
+        ``cells``, ``vertices``, ``edges``, ``cell_vertices`` at the minimum
+        (:func:`periodic_voronoi_network`).
+    tension : ndarray
+        Per row of ``edges``: ``Lambda_j`` (tension units).
+    pressure : ndarray
+        Per row of ``cells``: ``-K (A_c - A0_c)`` (tension/px).
+    box : Box
+    """
+    from scipy.optimize import minimize
+    from scipy.sparse.linalg import LinearOperator, minres
+
+    for name, value in (("nx", nx), ("ny", ny)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 4:
+            raise InputError(f"{name} must be an integer >= 4; got {value!r}")
+    if ny % 2:
+        raise InputError(f"ny must be even (a periodic hexagonal lattice); got {ny!r}")
+    rng = as_generator(seed)
+    row = spacing * np.sqrt(3) / 2
+    box = Box(nx * spacing, ny * row)
+    X, Y = np.meshgrid(np.arange(nx) * spacing, np.arange(ny) * row)
+    X = X + (np.arange(ny)[:, None] % 2) * spacing / 2
+    seeds = np.stack([X.ravel(), Y.ravel()], axis=1) + rng.uniform(-jitter, jitter, (nx * ny, 2)) * spacing
+    tables = periodic_voronoi_network(seeds, box)
+    lam = rng.uniform(1 - tension_spread, 1 + tension_spread, len(tables["edges"]))
+    A0 = box.Lx * box.Ly / (nx * ny) * rng.uniform(1 - area_spread, 1 + area_spread, nx * ny)
+    model = _VertexModel(tables, box, lam, K, A0)
+    x = minimize(model.energy, tables["vertices"][["x", "y"]].to_numpy(float).ravel(), jac=True, method="L-BFGS-B",
+                 options={"maxiter": 100000, "maxfun": 200000, "ftol": 0.0, "gtol": 1e-10, "maxcor": 30}).x
+    # L-BFGS stalls near 1e-7 (the energy's relative precision); Newton steps take the force to round-off
+    for _ in range(6):
+        grad = model.energy(x)[1]
+        if np.abs(grad).max() < 1e-11:
+            break
+        h = 1e-4
+        hess = LinearOperator((len(x), len(x)), dtype=float,
+                              matvec=lambda v, x=x: (model.energy(x + h * v)[1] - model.energy(x - h * v)[1]) / (2 * h))
+        x = x + minres(hess, -grad, rtol=1e-12, maxiter=5000)[0]
+    xy = box.wrap(x.reshape(-1, 2))
+    force = np.abs(model.energy(xy.ravel())[1]).max()
+    d = box.min_image(xy[model.vb] - xy[model.va])
+    shortest = float(np.hypot(d[:, 0], d[:, 1]).min())
+    if force > 1e-10 or shortest < 0.05 * spacing:
+        raise InputError(f"the vertex model did not reach a force balance with every junction kept (largest force "
+                         f"{force:.1e}, shortest junction {shortest:.2g} px): lower jitter or tension_spread")
+    tables = _with_positions(tables, xy, box)
+    return tables, lam, -K * (model.areas(xy) - A0), box
+
+
+def _with_positions(tables, xy, box):
+    """The network tables with the vertices moved to ``xy`` (geometry columns recomputed)."""
+    out = {k: v.copy() for k, v in tables.items()}
+    out["vertices"]["x"], out["vertices"]["y"] = xy[:, 0], xy[:, 1]
+    edges = out["edges"]
+    vpos = pd.Index(out["vertices"]["vertex"].to_numpy()).get_indexer
+    d = box.min_image(xy[vpos(edges["vertex_b"].to_numpy())] - xy[vpos(edges["vertex_a"].to_numpy())])
+    edges["length"] = np.hypot(d[:, 0], d[:, 1])
+    cv = out["cell_vertices"].sort_values(["cell", "rank"])
+    cells = out["cells"]
+    for row, (cell, group) in enumerate(cv.groupby("cell", sort=True)):
+        poly = box.unwrap_polygon(xy[vpos(group["vertex"].to_numpy())])
+        (a,), (c,) = polygon_area_centroid(poly, np.zeros(1, np.int64))
+        k = cells.index[cells["cell"] == cell][0]
+        cells.loc[k, ["x", "y"]] = box.wrap(c)
+        cells.loc[k, ["area", "polygon_area"]] = a
+        cells.loc[k, "perimeter"] = np.hypot(*np.diff(np.vstack([poly, poly[:1]]), axis=0).T).sum()
+    return out

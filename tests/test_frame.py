@@ -5,8 +5,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hexatissue import (Box, Calibration, DeformationOptions, EventOptions, InputError, Movie, OrderOptions, analyze,
-                        mesh_from_labels, read_results)
+from hexatissue import (Box, Calibration, DeformationOptions, EventOptions, InputError, MechanicsOptions, Movie,
+                        OrderOptions, analyze, mesh_from_labels, read_results)
 from hexatissue.schema import TABLES
 from hexatissue.synthetic import draw_membranes, jittered_seeds, voronoi_labels, voronoi_movie
 
@@ -17,7 +17,8 @@ def movie():
     source = np.stack([stack[t] for t in range(5)])
     # every stage on, so that every table of the schema is written and read back
     return analyze(source, box=True, events=EventOptions(censor=2), deformation=DeformationOptions(enabled=True),
-                   workers=1, progress=False).replace(calibration=Calibration(0.5, "um", 2.0, "min"))
+                   mechanics=MechanicsOptions(enabled=True, sd=False), workers=1,
+                   progress=False).replace(calibration=Calibration(0.5, "um", 2.0, "min"))
 
 
 @pytest.mark.parametrize("fmt", ["parquet", "csv"])

@@ -231,3 +231,25 @@ def test_deformation_bars_sit_on_their_grid_node_along_the_stretching_axis():
     assert np.allclose(np.sin(2 * (angle - axis)), 0, atol=1e-9)
     rate = np.hypot(rows["total_xx"], rows["total_xy"]).to_numpy()
     np.testing.assert_allclose(np.hypot(*step.T), kw["metadata"]["bar_per_unit_rate_px"] * rate, rtol=1e-9)
+
+
+def test_tension_layer_draws_each_junction_with_its_tension():
+    from hexatissue import Box, MechanicsOptions
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    labels = voronoi_labels(jittered_seeds((96, 96), 24, seed=5), (96, 96), periodic=True)
+    assert L.tension_layer(analyze(labels, box=Box(96, 96), workers=1, progress=False)) is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = analyze(labels, box=Box(96, 96), workers=1, progress=False,
+                        mechanics=MechanicsOptions(enabled=True, sd=False))
+    data, kw, kind = L.tension_layer(movie)
+    edges = movie.tables["edges"]
+    assert kind == "vectors" and len(data) == int(np.isfinite(edges["tension"]).sum())
+    np.testing.assert_allclose(kw["features"]["tension"], edges["tension"].dropna())
+    v = movie.vertices.set_index("vertex")
+    a = v.loc[kw["features"]["edge"].map(edges.set_index("edge")["vertex_a"]), ["y", "x"]].to_numpy()
+    np.testing.assert_allclose(data[:, 0], a)
+    np.testing.assert_allclose(np.hypot(*data[:, 1].T), edges.set_index("edge").loc[kw["features"]["edge"],
+                                                                                     "length"], rtol=1e-9)
+    assert kw["edge_color"] == "tension" and any(layer[1]["name"] == "tension" for layer in L.movie_layers(movie))

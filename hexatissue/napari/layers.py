@@ -410,13 +410,43 @@ def flow_layer(movie) -> tuple | None:
 
 
 # ---------------------------------------------------------------------------------------------------------
+# force inference
+# ---------------------------------------------------------------------------------------------------------
+def tension_layer(movie) -> tuple | None:
+    """Vectors layer of the junctions with an inferred tension (``--mechanics``), coloured by it.
+
+    Each junction is a line from ``vertex_a`` to ``vertex_b`` (minimum image
+    in a periodic box); colour: the ``tension`` feature on viridis, between
+    its 2nd and 98th percentiles.  ``features``: frame, edge, tension,
+    tension_sd.  None when the results have no tensions.
+    """
+    edges = movie.tables.get("edges")
+    if edges is None or "tension" not in edges.columns:
+        return None
+    edges = edges[np.isfinite(edges["tension"].to_numpy(float))].reset_index(drop=True)
+    v = movie.vertices.set_index(["frame", "vertex"])[["x", "y"]]
+    a = v.reindex(list(zip(edges["frame"], edges["vertex_a"]))).to_numpy(float)
+    b = v.reindex(list(zip(edges["frame"], edges["vertex_b"]))).to_numpy(float)
+    d = b - a if movie.box is None else movie.box.min_image(b - a)
+    start = _coords(movie, edges["frame"], a[:, 0], a[:, 1])
+    step = _coords(movie, np.zeros(len(edges)), d[:, 0], d[:, 1])
+    tension = edges["tension"].to_numpy(float)
+    low, high = np.percentile(tension, [2, 98]) if len(tension) else (0.0, 1.0)
+    features = edges[["frame", "edge", "tension"] + (["tension_sd"] if "tension_sd" in edges else [])]
+    kwargs = {"name": "tension", "edge_width": 1.5, "edge_color": "tension", "edge_colormap": "viridis",
+              "edge_contrast_limits": (float(low), float(high) if high > low else float(low) + 1.0),
+              "vector_style": "line", "length": 1.0, "features": features, "visible": False, **_common(movie)}
+    return np.stack([start, step], axis=1), kwargs, "vectors"
+
+
+# ---------------------------------------------------------------------------------------------------------
 # everything
 # ---------------------------------------------------------------------------------------------------------
 def movie_layers(movie, labels=None, p=6) -> list:
     """Every layer of a Movie, bottom to top: labels (when given), polygons, vertices, gamma_p stars,
-    Gamma_p defects (one layer per p), T1 events, tracks, the tissue flow and the deformation budget's
-    shear rates (when the results have them); vertices, tracks, the T1s' shear and the defects of other
-    orders than ``p`` start hidden.
+    Gamma_p defects (one layer per p), T1 events, tracks, the tissue flow, the deformation budget's
+    shear rates and the inferred junction tensions (when the results have them); vertices, tracks,
+    the T1s' shear, the tensions and the defects of other orders than ``p`` start hidden.
 
     Parameters
     ----------
@@ -440,4 +470,6 @@ def movie_layers(movie, labels=None, p=6) -> list:
     layers += defect_layers(movie, shown=p)
     layers += [t for t in (event_layer(movie), track_layer(movie), flow_layer(movie)) if t is not None]
     layers += deformation_layers(movie)
+    tensions = tension_layer(movie)
+    layers += [tensions] if tensions is not None else []
     return layers

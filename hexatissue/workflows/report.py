@@ -191,6 +191,7 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
         lines += _movie_sections(movie, out, written, numbers, p=p, dl=dl, dt=dt, n_control=n_control, seed=seed,
                                  include_border=include_border, control=control)
         lines += _flow_section(movie, out, written, numbers, p)
+    lines += _mechanics_section(movie, out, written, numbers)
     md = out / "report.md"
     with atomic_path(md) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -556,3 +557,49 @@ def _t1_flow_lines(movie, out, written, numbers):
     lines += ["", f"The paper's unbinding-quadrupole flow (`hexatissue.theory.quadrupole_flow`, 2-4 ell) puts "
               f"{theory:.2f} of its radial harmonics 1-8 in n = 6.", ""]
     return lines + _figure_line(path, out, "flow around T1s")
+def _mechanics_section(movie, out, written, numbers):
+    """Force inference: tensions and pressures of the first frame, the tissue stress per frame."""
+    from ..mechanics import tissue_stress
+    from ..plot import plot_stress, plot_tensions
+
+    edges = movie.tables.get("edges")
+    if edges is None or "tension" not in edges.columns:
+        return []
+    cells, cal = movie.cells, movie.calibration
+    per_frame = []
+    for t, rows in cells.groupby("frame", sort=True):
+        s = tissue_stress(rows, rows)
+        frame_edges = edges[edges["frame"] == t]
+        per_frame.append({"frame": int(t), "tensions": int(np.isfinite(frame_edges["tension"]).sum()),
+                          "junctions": int(len(frame_edges)),
+                          "pressures": int(np.isfinite(rows["pressure"]).sum()), "cells": int(len(rows)),
+                          "stress_xx": s[0, 0], "stress_xy": s[0, 1], "stress_yy": s[1, 1]})
+    table = pd.DataFrame(per_frame)
+    options = movie.options.get("mechanics")
+    method = getattr(options, "method", "?")
+    numbers["mechanics"] = {"method": method, "frames": table.to_dict("records")}
+    written.append(write_table(table, out / "mechanics.csv"))
+    first = int(table["frame"].iloc[0])
+    lines = ["## Force inference", "",
+             f"Junction tensions and cell pressures from the force balance of the vertices inside the tissue "
+             f"(estimator: {method}; tensions relative, mean interior tension 1 per frame; pressures relative to "
+             f"the frame's mean, in tension/px; docs/mechanics.md). Per frame: the junctions and cells with an "
+             f"estimate, and the tissue's Batchelor stress (area-weighted mean of the cells with a stress, "
+             f"tension/px):", "", _md_table(table.head(20)), ""]
+    if len(table) > 20:
+        lines += [f"(first 20 of {len(table)} frames; all in mechanics.csv)", ""]
+    if not np.isfinite(edges["tension"]).any():
+        lines += ["No junction has a tension: the force balance leaves every unknown free (least squares on an "
+                  "open image or a network with four-fold vertices; use the Bayesian estimator).", ""]
+        return lines
+    path = out / "tensions.png"
+    plot_tensions(edges[edges["frame"] == first], movie.vertices[movie.vertices["frame"] == first],
+                  calibration=cal, box=movie.box, path=path)
+    written.append(path)
+    lines += _figure_line(path, out, f"tensions, frame {first}")
+    path = out / "pressure.png"
+    plot_stress(cells[cells["frame"] == first], "pressure", movie.polygons(first), box=movie.box, calibration=cal,
+                title=f"inferred pressure relative to the mean (tension/px), frame {first}", path=path)
+    written.append(path)
+    lines += _figure_line(path, out, f"pressure, frame {first}")
+    return lines

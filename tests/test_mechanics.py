@@ -1,0 +1,295 @@
+"""Force inference and stress against exact truth: a vertex model at force balance, regular hexagons, Surface Evolver."""
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import hexatissue as ht
+from hexatissue.errors import HexatissueWarning, InputError
+from hexatissue.mechanics import cell_stress, force_system, infer_forces, stress_grid, tissue_stress
+from hexatissue.mechanics.evolver import evolver_network, read_evolver
+from hexatissue.schema import validate
+from hexatissue.synthetic import periodic_voronoi_network, vertex_model_tissue, voronoi_labels, jittered_seeds
+
+from .conftest import real_subdir
+
+
+@pytest.fixture(scope="module")
+def vertex_model():
+    return vertex_model_tissue(nx=10, ny=10, seed=1)
+
+
+def _infer(tables, box, **kw):
+    return infer_forces(tables["cells"], tables["vertices"], tables["edges"], tables["cell_vertices"], box, **kw)
+
+
+def _relative_truth(tension, pressure, t_ok, p_ok):
+    unit = tension[t_ok].mean()
+    return tension / unit, (pressure - pressure[p_ok].mean()) / unit
+
+
+def test_vertex_model_is_at_force_balance(vertex_model):
+    tables, tension, pressure, box = vertex_model
+    system = force_system(tables["cells"], tables["vertices"], tables["edges"], tables["cell_vertices"], box)
+    assert len(system.vertex_rows) == len(tables["vertices"])  # periodic: every vertex balanced
+    x = np.r_[tension[system.edge_rows], pressure[system.cell_rows]]
+    assert np.abs(system.matrix @ x).max() < 1e-9
+    # the pressure constant is an exact null mode
+    assert np.abs(system.matrix @ np.r_[np.zeros(len(system.edge_rows)), np.ones(len(system.cell_rows))]).max() < 1e-12
+
+
+def test_least_squares_recovers_vertex_model_tensions_and_pressures(vertex_model):
+    tables, tension, pressure, box = vertex_model
+    forces = _infer(tables, box, method="lsq")
+    assert forces.undetermined.empty
+    t, p = forces.edges["tension"].to_numpy(), forces.cells["pressure"].to_numpy()
+    want_t, want_p = _relative_truth(tension, pressure, np.isfinite(t), np.isfinite(p))
+    assert np.abs(t - want_t).max() < 1e-6
+    assert np.abs(p - want_p).max() < 1e-6 * np.abs(want_p).max()
+    assert t.mean() == pytest.approx(1.0, abs=1e-12) and abs(p.mean()) < 1e-12
+    assert forces.residual < 1e-9
+
+
+def test_bayesian_estimate_on_exact_vertices_takes_a_weak_prior(vertex_model):
+    tables, tension, pressure, box = vertex_model
+    forces = _infer(tables, box, method="bayes")
+    t, p = forces.edges["tension"].to_numpy(), forces.cells["pressure"].to_numpy()
+    want_t, want_p = _relative_truth(tension, pressure, np.isfinite(t), np.isfinite(p))
+    assert forces.mu <= 1e-6  # ABIC: exact equations need (almost) no prior
+    assert np.abs(t - want_t).max() < 1e-2
+    assert np.abs(p - want_p).max() < 0.05 * np.abs(want_p).max()
+    assert (forces.edges["tension_sd"] > 0).all() and (forces.cells["pressure_sd"] > 0).all()
+
+
+def test_map_and_posterior_sd_equal_the_dense_formulas(vertex_model):
+    tables, _, _, box = vertex_model
+    # noisy vertices: the equations are no longer exact and the prior matters
+    noisy = {k: v.copy() for k, v in tables.items()}
+    rng = np.random.default_rng(3)
+    noisy["vertices"][["x", "y"]] += rng.normal(0, 0.3, (len(noisy["vertices"]), 2))
+    mu = 0.05
+    forces = _infer(noisy, box, method="bayes", mu=mu)
+    system = force_system(noisy["cells"], noisy["vertices"], noisy["edges"], noisy["cell_vertices"], box)
+    A = system.matrix.toarray()
+    n_t, n_p = len(system.edge_rows), len(system.cell_rows)
+    # MAP with the pressure constant fixed by a zero-mean constraint (Lagrange multiplier)
+    H = A.T @ A + mu * np.diag(np.r_[np.ones(n_t), np.zeros(n_p)])
+    c = np.r_[np.zeros(n_t), np.ones(n_p)]
+    kkt = np.block([[H, c[:, None]], [c[None, :], np.zeros((1, 1))]])
+    x = np.linalg.solve(kkt, np.r_[mu * np.ones(n_t), np.zeros(n_p), 0.0])[:-1]
+    s2 = (np.sum((A @ x) ** 2) + mu * np.sum((x[:n_t] - 1) ** 2)) / (A.shape[0] + n_t - (n_t + n_p - 1))
+    cov = s2 * np.linalg.inv(kkt)[:-1, :-1]  # the covariance of the zero-mean-pressure solution
+    unit = x[:n_t].mean()
+    np.testing.assert_allclose(forces.edges["tension"].to_numpy()[system.edge_rows], x[:n_t] / unit, atol=1e-8)
+    np.testing.assert_allclose(forces.cells["pressure"].to_numpy()[system.cell_rows], x[n_t:] / unit, atol=1e-9)
+    sd = np.sqrt(np.diag(cov)) / unit
+    np.testing.assert_allclose(forces.edges["tension_sd"].to_numpy()[system.edge_rows], sd[:n_t], rtol=1e-6)
+    np.testing.assert_allclose(forces.cells["pressure_sd"].to_numpy()[system.cell_rows], sd[n_t:], rtol=1e-6)
+
+
+def test_open_tissue_least_squares_refuses_and_names_the_free_unknowns():
+    seeds = jittered_seeds((200, 200), 20, seed=2)
+    tables = ht.mesh_from_labels(voronoi_labels(seeds, (200, 200))).tables
+    tables = {k: pd.DataFrame(v) for k, v in tables.items()}
+    forces = _infer(tables, None, method="lsq")
+    missing = forces.undetermined
+    assert set(missing["reason"]) <= {"no polygon", "no balanced vertex", "free"}
+    edges = tables["edges"]
+    interior = (edges["cell_a"] != 0).to_numpy()
+    listed = set(missing.loc[missing["kind"] == "edge", "id"])
+    t = forces.edges["tension"].to_numpy()
+    # every interior junction has a tension or a reason, never both
+    for eid, value, inside in zip(edges["edge"], t, interior):
+        if inside:
+            assert np.isfinite(value) != (eid in listed)
+    # an open crop leaves extended null modes: nothing is determined by least squares alone
+    assert np.isnan(t).all()
+    border = set(tables["cells"].loc[tables["cells"]["is_border"], "cell"])
+    assert border <= set(missing.loc[missing["kind"] == "cell", "id"]) | set(
+        tables["cells"].loc[np.isfinite(forces.cells["pressure"].to_numpy()), "cell"])
+
+
+def test_bad_input_names_the_argument(vertex_model):
+    tables, _, _, box = vertex_model
+    with pytest.raises(InputError, match="method"):
+        _infer(tables, box, method="svd")
+    with pytest.raises(InputError, match="mu"):
+        _infer(tables, box, mu=-1.0)
+    with pytest.raises(InputError, match="tension"):
+        cell_stress(tables["cells"], tables["vertices"], tables["edges"], np.ones(3),
+                    np.zeros(len(tables["cells"])), box)
+    with pytest.raises(InputError, match="method"):
+        ht.MechanicsOptions(method="svd")
+    with pytest.raises(InputError, match="mu"):
+        ht.MechanicsOptions(mu=0)
+
+
+# ----------------------------------------------------------------------------
+# Stress
+# ----------------------------------------------------------------------------
+
+def _honeycomb(nx=6, ny=6, a=20.0):
+    row = a * np.sqrt(3) / 2
+    box = ht.Box(nx * a, ny * row)
+    X, Y = np.meshgrid(np.arange(nx) * a, np.arange(ny) * row)
+    X = X + (np.arange(ny)[:, None] % 2) * a / 2
+    return periodic_voronoi_network(np.stack([X.ravel(), Y.ravel()], axis=1) + 0.3, box), box, a
+
+
+def test_regular_hexagons_have_the_batchelor_stress_of_a_hexagon():
+    tables, box, a = _honeycomb()
+    side = a / np.sqrt(3)  # a regular hexagon's side for centre spacing a
+    P = 0.1
+    stress = cell_stress(tables["cells"], tables["vertices"], tables["edges"], np.ones(len(tables["edges"])),
+                         np.full(len(tables["cells"]), P), box)
+    # sigma = -P + (1 / 2A) sum_6 l u u = -P + 3 l / (2 A) with A = 3 sqrt(3) / 2 l^2
+    iso = -P + 1 / (np.sqrt(3) * side)
+    np.testing.assert_allclose(stress["stress_xx"], iso, rtol=1e-12)
+    np.testing.assert_allclose(stress["stress_yy"], iso, rtol=1e-12)
+    np.testing.assert_allclose(stress["stress_xy"], 0, atol=1e-14)
+    # p = 6: the six junctions add up; |sum l exp(6 i theta)| / 2A = 3 l / A
+    magnitude = np.hypot(stress["stress6_re"], stress["stress6_im"])
+    np.testing.assert_allclose(magnitude, 2 / (np.sqrt(3) * side), rtol=1e-12)
+    np.testing.assert_allclose(tissue_stress(tables["cells"], stress), iso * np.eye(2), atol=1e-14)
+
+
+def test_stress_grid_is_the_area_weighted_mean_over_the_disk(vertex_model):
+    tables, tension, pressure, box = vertex_model
+    stress = cell_stress(tables["cells"], tables["vertices"], tables["edges"], tension, pressure, box)
+    grid = pd.DataFrame({"frame": 0, "node": [0, 1], "x": [5.0, box.Lx - 1.0], "y": [5.0, 60.0],
+                         "radius": [30.0, 1e4]})
+    out = validate(stress_grid(tables["cells"], stress, grid, box), "stress")
+    cells = tables["cells"]
+    d = box.min_image(cells[["x", "y"]].to_numpy() - [5.0, 5.0])
+    inside = np.hypot(d[:, 0], d[:, 1]) <= 30.0
+    w = cells["polygon_area"].to_numpy()[inside]
+    assert out["n_cells"].tolist() == [inside.sum(), len(cells)]
+    assert out["stress_xx"][0] == pytest.approx(np.sum(w * stress["stress_xx"][inside]) / w.sum(), rel=1e-12)
+    whole = tissue_stress(cells, stress)
+    assert out["stress_iso"][1] == pytest.approx(0.5 * np.trace(whole), rel=1e-12)
+    assert out["stress2_re"][1] == pytest.approx(0.5 * (whole[0, 0] - whole[1, 1]), rel=1e-12)
+    assert out["stress2_im"][1] == pytest.approx(whole[0, 1], rel=1e-12)
+
+
+def test_tissue_stress_of_a_vertex_model_is_the_box_stress(vertex_model):
+    # at force balance sum_c A_c sigma_c = sum_j T_j l_j l_j / l_j - sum_c P_c A_c I (each junction once)
+    tables, tension, pressure, box = vertex_model
+    stress = cell_stress(tables["cells"], tables["vertices"], tables["edges"], tension, pressure, box)
+    edges, v = tables["edges"], tables["vertices"].set_index("vertex")
+    d = box.min_image(v.loc[edges["vertex_b"], ["x", "y"]].to_numpy() - v.loc[edges["vertex_a"], ["x", "y"]].to_numpy())
+    l = np.hypot(d[:, 0], d[:, 1])
+    area = tables["cells"]["polygon_area"].to_numpy()
+    want = (np.einsum("j,ja,jb->ab", tension / l, d, d) - np.sum(pressure * area) * np.eye(2)) / area.sum()
+    np.testing.assert_allclose(tissue_stress(tables["cells"], stress), want, rtol=1e-12, atol=1e-15)
+    assert area.sum() == pytest.approx(box.Lx * box.Ly, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------
+# The stage
+# ----------------------------------------------------------------------------
+
+def test_stage_writes_columns_and_the_stress_table(tmp_path):
+    seeds = jittered_seeds((192, 192), 24, seed=4)
+    labels = voronoi_labels(seeds, (192, 192), periodic=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = ht.analyze(labels, box=ht.Box(192, 192), mechanics=ht.MechanicsOptions(enabled=True, sd=False))
+    cells, edges, stress = movie.cells, movie.tables["edges"], movie.tables["stress"]
+    for column in ("pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"):
+        assert column in cells.columns
+    assert np.nanmean(edges["tension"]) == pytest.approx(1.0, abs=1e-12)
+    assert np.isfinite(edges["tension"]).all() and edges["tension_sd"].isna().all()
+    grid = movie.tables["grid"]
+    assert stress["node"].tolist() == grid["node"].tolist()
+    np.testing.assert_allclose(stress[["x", "y"]], grid[["x", "y"]])
+    movie.write(tmp_path / "out")
+    back = ht.read_results(tmp_path / "out")
+    pd.testing.assert_frame_equal(back.tables["stress"], stress, check_dtype=False)
+    assert back.options["mechanics"].enabled
+
+
+def test_stage_is_off_by_default_and_a_flag_of_analyze():
+    from hexatissue.cli import build_parser, stage_options
+
+    args = build_parser().parse_args(["analyze", "in.tif", "--out", "out", "--mechanics", "--mechanics-method", "lsq",
+                                      "--mechanics-mu", "0.5", "--no-mechanics-sd"])
+    assert stage_options(args)["mechanics"] == ht.MechanicsOptions(enabled=True, method="lsq", mu=0.5, sd=False)
+    labels = voronoi_labels(jittered_seeds((96, 96), 24, seed=5), (96, 96), periodic=True)
+    movie = ht.analyze(labels, box=ht.Box(96, 96))
+    assert "tension" not in movie.tables["edges"].columns and "stress" not in movie.tables
+
+
+# ----------------------------------------------------------------------------
+# Surface Evolver tissue with exact tensions and pressures
+# ----------------------------------------------------------------------------
+
+def _evolver(real_data):
+    return real_subdir(real_data, "forsys_skeletons") / "surface_evolver_12_12_step_24.dmp"
+
+
+def _errors(tables, tension, pressure, forces):
+    t, p = forces.edges["tension"].to_numpy(), forces.cells["pressure"].to_numpy()
+    t_ok, p_ok = np.isfinite(t), np.isfinite(p)
+    want_t, want_p = _relative_truth(tension, pressure, t_ok, p_ok)
+    return (np.median(np.abs(t[t_ok] - want_t[t_ok]) / want_t[t_ok]),
+            np.median(np.abs(p[p_ok] - want_p[p_ok])) / want_p[p_ok].std(),
+            np.corrcoef(t[t_ok], want_t[t_ok])[0, 1], np.corrcoef(p[p_ok], want_p[p_ok])[0, 1])
+
+
+def test_surface_evolver_dump_is_read_whole(real_data):
+    dump = read_evolver(_evolver(real_data))
+    assert len(dump["edges"]) == 2712 and len(dump["faces"]) == 100 and len(dump["bodies"]) == 100
+    tables, tension, pressure = evolver_network(_evolver(real_data))
+    assert len(tables["cells"]) == 100 and (tables["vertices"]["degree"] == 3).sum() > 150
+    for name in ("cells", "vertices", "edges", "cell_vertices"):
+        validate(tables[name], name)
+
+
+def test_surface_evolver_forces_from_its_exact_geometry(real_data):
+    # every edge of the dump a junction: the straight-segment equations hold up to the run's own imbalance
+    tables, tension, pressure = evolver_network(_evolver(real_data), fine=True)
+    forces = _infer(tables, None, method="bayes", sd=False)
+    t_err, p_err, t_r, p_r = _errors(tables, tension, pressure, forces)
+    assert t_r > 0.98 and p_r > 0.98
+    assert t_err < 0.2 and p_err < 0.15
+
+
+def test_surface_evolver_forces_from_its_triple_junction_network(real_data):
+    # the network an image gives: straight junctions between triple junctions (documented in docs/mechanics.md)
+    tables, tension, pressure = evolver_network(_evolver(real_data))
+    forces = _infer(tables, None, method="bayes", sd=False)
+    t_err, p_err, t_r, p_r = _errors(tables, tension, pressure, forces)
+    assert np.isfinite([t_err, p_err]).all()
+    lsq = _infer(tables, None, method="lsq")
+    assert lsq.edges["tension"].isna().all()  # an open tissue: least squares leaves everything free
+
+
+def test_report_has_a_force_inference_section_with_its_figures(tmp_path):
+    from hexatissue.workflows.report import report
+
+    labels = voronoi_labels(jittered_seeds((144, 144), 24, seed=6), (144, 144), periodic=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = ht.analyze(labels, box=ht.Box(144, 144), mechanics=ht.MechanicsOptions(enabled=True, sd=False))
+    movie.write(tmp_path / "res")
+    numbers = report(tmp_path / "res", out=tmp_path / "rep")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "## Force inference" in text and "tensions.png" in text and "pressure.png" in text
+    assert (tmp_path / "rep" / "tensions.png").stat().st_size > 0
+    row = numbers["mechanics"]["frames"][0]
+    assert row["tensions"] == int(np.isfinite(movie.tables["edges"]["tension"]).sum())
+    stress = movie.cells[["stress_xx", "stress_xy", "stress_yy"]]
+    whole = tissue_stress(movie.cells, stress)
+    assert row["stress_xx"] == pytest.approx(whole[0, 0], rel=1e-12)
+
+
+def test_a_frame_without_balanced_vertices_gets_nan_and_the_reason():
+    labels = np.zeros((40, 60), np.int64)
+    labels[:, :20], labels[:, 20:40], labels[:, 40:] = 1, 2, 3  # three strips, every vertex on the image edge
+    tables = {k: pd.DataFrame(v) for k, v in ht.mesh_from_labels(labels).tables.items()}
+    for method in ("lsq", "bayes"):
+        forces = _infer(tables, None, method=method)
+        assert forces.edges["tension"].isna().all() and forces.cells["pressure"].isna().all()
+        cells = forces.undetermined[forces.undetermined["kind"] == "cell"]
+        assert sorted(cells["id"]) == [1, 2, 3] and set(cells["reason"]) <= {"no balanced vertex", "no polygon"}
