@@ -176,6 +176,12 @@ class _Options:
             _fail(type(self), name, value, f"{what} {bound}" + (" or None" if allow_none else ""))
         object.__setattr__(self, name, int(value) if integer else float(value))
 
+    def _flags(self, *names):
+        """Check that the fields ``names`` are True or False (a switch given as 1 or "yes" is refused)."""
+        for name in names:
+            if not isinstance(getattr(self, name), bool):
+                _fail(type(self), name, getattr(self, name), "True or False")
+
     def to_dict(self) -> dict:
         """Plain dict (tuples as lists) for JSON."""
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
@@ -303,8 +309,7 @@ class OrderOptions(_Options, stage="order", title="shape order"):
             _fail(type(self), "p", self.p, "one or more positive integer symmetry orders")
         if self.center not in CENTERS:
             _fail(type(self), "center", self.center, f"one of {CENTERS}")
-        if not isinstance(self.fields, bool):
-            _fail(type(self), "fields", self.fields, "True or False")
+        self._flags("fields")
         for name in ("radius", "spacing", "r_cell", "defect_max_distance"):
             self._number(name, strict=True, allow_none=True)
         self._number("min_coverage", high=1.0)
@@ -467,9 +472,7 @@ class DeformationOptions(_Options, stage="deformation", title="deformation budge
     roi_frame: int = cli_field(0, "--deformation-roi-frame", "the frame the regions of interest are drawn on")
 
     def __post_init__(self):
-        for name in ("enabled", "grid"):
-            if not isinstance(getattr(self, name), bool):
-                _fail(type(self), name, getattr(self, name), "True or False")
+        self._flags("enabled", "grid")
         if self.t1_events not in T1_SOURCES:
             _fail(type(self), "t1_events", self.t1_events, f"one of {T1_SOURCES}")
         self._number("roi_frame", integer=True)
@@ -515,8 +518,7 @@ class FlowOptions(_Options, stage="flow", title="tissue flow"):
     min_cells: int = cli_field(3, "--flow-min-cells", "fewest cells in a flow field's fit (at least 3)")
 
     def __post_init__(self):
-        if not isinstance(self.enabled, bool):
-            _fail(type(self), "enabled", self.enabled, "True or False")
+        self._flags("enabled")
         self._number("radius_factor", strict=True)
         self._number("min_cells", low=3, integer=True)
 
@@ -549,9 +551,7 @@ class MechanicsOptions(_Options, stage="mechanics", title="force inference"):
                          action="store_false")
 
     def __post_init__(self):
-        for name in ("enabled", "sd"):
-            if not isinstance(getattr(self, name), bool):
-                _fail(type(self), name, getattr(self, name), "True or False")
+        self._flags("enabled", "sd")
         if self.method not in FORCE_METHODS:
             _fail(type(self), "method", self.method, f"one of {FORCE_METHODS}")
         if self.mu is not None and not (is_real(self.mu) and self.mu > 0):
