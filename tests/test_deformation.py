@@ -168,9 +168,22 @@ def test_affine_movie_total_is_the_imposed_rate_and_all_in_cell_shape(L):
     _closure_ok(d)
 
 
-def test_scripted_t1_movie_puts_each_jump_on_its_event_and_kind():
+@pytest.fixture(scope="module")
+def scripted():
+    """The scripted T1 movie (periodic) analysed once with the budget, grid regions included."""
     m = t1_movie(periodic=True)
-    movie, d = _budget(m.labels, m.box, grid=False)
+    movie, d = _budget(m.labels, m.box)
+    return m, movie, d
+
+
+def _again(movie, box, t1=None, **kwargs):
+    """The budget of an analysed movie's tables again, with other options."""
+    return deformation_budget(movie.cells, movie.vertices, movie.cell_vertices, movie.lineage,
+                              movie.events if t1 is None else t1, box=box, **kwargs)[0]
+
+
+def test_scripted_t1_movie_puts_each_jump_on_its_event_and_kind(scripted):
+    m, movie, d = scripted
     _closure_ok(d)
     tissue = d[d["region"] == "tissue"].set_index("frame")
     # the triangles tile the periodic box, which does not deform: no net shear or growth, exactly
@@ -238,12 +251,12 @@ def test_scripted_extrusion_is_the_extrusion_term():
     assert tissue.loc[2, others].abs().max() < 1e-12
 
 
-def test_regions_of_interest_follow_their_cells_and_the_grid_closes():
-    m = t1_movie(periodic=True)
+def test_regions_of_interest_follow_their_cells_and_the_grid_closes(scripted):
+    m, movie, _ = scripted
     roi = np.zeros(m.labels.shape[1:], np.int32)
     roi[:, : roi.shape[1] // 2] = 1
     roi[:, roi.shape[1] // 2:] = 2
-    movie, d = _budget(m.labels, m.box, roi=roi)
+    d = _again(movie, m.box, grid=movie.grid, roi=roi)
     _closure_ok(d)
     rois = d[d["region"] == "roi"]
     assert set(rois["region_id"]) == {1, 2}
@@ -251,7 +264,7 @@ def test_regions_of_interest_follow_their_cells_and_the_grid_closes():
     grid = d[d["region"] == "grid"]
     assert len(grid) and set(grid["region_id"]) <= set(movie.grid["node"])
     # one region holding every cell is the tissue
-    _, whole = _budget(m.labels, m.box, roi=np.ones_like(roi), grid=False)
+    whole = _again(movie, m.box, roi=np.ones_like(roi))
     values = [c for c in whole.columns if c not in ("region", "region_id", "n_triangles", "n_flipped")]
     np.testing.assert_allclose(whole.loc[whole["region"] == "roi", values].to_numpy(),
                                whole.loc[whole["region"] == "tissue", values].to_numpy(), rtol=1e-12, atol=1e-15)
@@ -260,16 +273,16 @@ def test_regions_of_interest_follow_their_cells_and_the_grid_closes():
     assert set(members) == set(first["track"]) and set(members.values()) == {1, 2}
 
 
-def test_neighbour_events_name_the_kinds_too():
-    m = t1_movie(periodic=True)
-    _, quartets = _budget(m.labels, m.box, grid=False)
-    _, per_cell = _budget(m.labels, m.box, grid=False, t1_events="neighbours")
+def test_neighbour_events_name_the_kinds_too(scripted):
+    m, movie, _ = scripted
+    quartets = _again(movie, m.box)
+    per_cell = _again(movie, m.box, movie.neighbour_events, t1_events="neighbours")
     cols = [f"{t}_{c}" for t in ("t1_cycle", "t1_intercalation") for c in ("xx", "xy")]
     np.testing.assert_allclose(per_cell[cols].to_numpy(), quartets[cols].to_numpy(), atol=1e-12)
 
 
-def test_no_tracks_is_refused_clearly():
-    m = t1_movie(periodic=True)
+def test_no_tracks_is_refused_clearly(scripted):
+    m = scripted[0]
     with pytest.raises(InputError, match="needs cell tracks"):
         ht.analyze(m.labels, progress=False, track=ht.TrackOptions(mode="off"),
                    deformation=ht.DeformationOptions(enabled=True))
@@ -293,9 +306,8 @@ def test_four_fold_vertex_keeps_the_previous_diagonal():
         assert diagonal in edges and len(ids) == 2
 
 
-def test_columns_match_the_schema():
-    m = t1_movie(periodic=True)
-    _, d = _budget(m.labels, m.box)
+def test_columns_match_the_schema(scripted):
+    d = scripted[2]
     expected = ["frame", "region", "region_id", "area"]
     for term in DEFORMATION_TERMS:
         expected += [f"{term}_xx", f"{term}_xy"] + ([f"{term}_iso"] if term in ISOTROPIC_TERMS else [])
@@ -326,14 +338,14 @@ def test_kernels_match_their_numpy_references():
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-14)
 
 
-def test_bad_regions_of_interest_are_refused_before_the_analysis(tmp_path):
+def test_bad_regions_of_interest_are_refused_before_the_analysis(tmp_path, scripted):
     with pytest.raises(InputError, match="roi .*an existing file"):
         ht.DeformationOptions(enabled=True, roi=tmp_path / "absent.tif")
     with pytest.raises(InputError, match="roi .*a .npy, .tif or .png"):
         ht.DeformationOptions(enabled=True, roi="regions.jpg")
     with pytest.raises(InputError, match="roi .*2-D label image"):
         ht.DeformationOptions(enabled=True, roi=np.zeros((4, 4), float))
-    m = t1_movie(periodic=True)
+    m = scripted[0]
     with pytest.raises(InputError, match=r"roi has shape \(3, 3\)"):
         _budget(m.labels[:3], m.box, roi=np.ones((3, 3), int))
 

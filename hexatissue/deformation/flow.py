@@ -32,6 +32,8 @@ FLOW_TERMS = ("total_xx", "total_xy", "total_iso", "corotation_xx", "corotation_
 
 _GAUSS = np.polynomial.legendre.leggauss(8)
 _MAX_SPLITS = 1024
+#: The smallest rate (1/interval) the closure is measured against (see integrate_flow).
+SCALE_FLOOR = 1e-3
 
 
 def _integrate(M, S0, A0, layers, splits):
@@ -104,9 +106,11 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
             t = out[i]
             parts = change[:2] + t[3:11].reshape(4, 2, -1).sum(axis=0)
             size = np.abs(t[:2]) + np.abs(change[:2]) + np.abs(t[3:11]).reshape(4, 2, -1).sum(axis=0)
-            gap = (np.abs(t[:2] - parts) / np.maximum(size, 1e-14)).max(axis=0)
+            # relative to the terms' size, but not below 1e-3 per interval: the log area ratio of two sums of
+            # areas carries ~1e-16 of rounding, which a motionless interval cannot resolve further
+            gap = (np.abs(t[:2] - parts) / np.maximum(size, SCALE_FLOOR)).max(axis=0)
             # the growth: the integral of <tr L> is the log of the area ratio
-            gap = np.maximum(gap, np.abs(t[2] - change[2]) / np.maximum(np.abs(t[2]) + size.max(axis=0), 1e-14))
+            gap = np.maximum(gap, np.abs(t[2] - change[2]) / np.maximum(np.abs(t[2]) + size.max(axis=0), SCALE_FLOOR))
             pending[i] &= gap > tolerance  # NaN (an empty region) is closed
         if splits >= _MAX_SPLITS or not any(p.any() for p in pending):
             return out, splits
