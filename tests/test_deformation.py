@@ -79,7 +79,7 @@ def _mean_q(xy):
 def test_affine_motion_total_is_the_imposed_gradient_exactly(L):
     xy0 = _random_triangles(200)
     xy1 = xy0 @ expm(L).T
-    out, _ = integrate_flow(xy0, xy1, [(np.zeros(200, int), 1)], [_mean_q(xy1) - _mean_q(xy0)])
+    out, _ = integrate_flow(xy0, xy1, [(np.zeros(200, int), 1)], [(_mean_q(xy1) - _mean_q(xy0))[:2]])
     terms = dict(zip(("total_xx", "total_xy", "total_iso", "corotation_xx", "corotation_xy", "nonlinear_xx",
                       "nonlinear_xy", "growth_xx", "growth_xy", "rot_xx", "rot_xy", "rotation"), out[0][:, 0]))
     assert terms["total_xx"] == pytest.approx(0.5 * (L[0, 0] - L[1, 1]), abs=1e-12)
@@ -101,7 +101,7 @@ def test_identity_closes_for_any_motion():
     change = [_mean_q(xy1) - _mean_q(xy0)]
     by_region = [np.hstack([_mean_q(xy1[labels == r]) - _mean_q(xy0[labels == r]) for r in range(4)])]
     for layers, ch in (([(np.zeros(len(xy0), int), 1)], change), ([(labels, 4)], by_region)):
-        out, _ = integrate_flow(xy0, xy1, layers, ch)
+        out, _ = integrate_flow(xy0, xy1, layers, [c[:2] for c in ch])
         t = out[0]
         closure = t[:2] - (ch[0][:2] + t[3:5] + t[5:7] + t[7:9] + t[9:11])
         assert np.abs(closure).max() <= 1e-10 * np.abs(t[:2]).max()
@@ -408,3 +408,14 @@ def test_the_itasc_movie_closes_with_near_collapsing_triangles_retriangulated(re
         movie = ht.analyze(path, progress=False, workers=1, deformation=ht.DeformationOptions(enabled=True))
     _closure_ok(movie.deformation)
     assert movie.deformation["n_flipped"].max() > 0
+
+
+def test_a_nearly_motionless_interval_needs_no_refinement():
+    """The benchmark movie's first interval: rounding alone (1e-15) was refined to 1,024 sub-intervals."""
+    rng = np.random.default_rng(9)
+    xy0 = _random_triangles(3000, seed=10)
+    xy1 = xy0 + rng.normal(0, 1e-7, xy0.shape)
+    keep = _stays_positive(xy0, xy1)
+    out, splits = integrate_flow(xy0[keep], xy1[keep], [(np.zeros(int(keep.sum()), int), 1)],
+                                 [(_mean_q(xy1[keep]) - _mean_q(xy0[keep]))[:2]])
+    assert splits == 1

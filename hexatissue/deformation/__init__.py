@@ -604,7 +604,7 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     chain.append(("rearrangement", s2b.sums(sizes)))
     s3 = _State(s2b.ids, xy3[usable], s2b.labels)
     start, end = s2b.sums(sizes), s3.sums(sizes)
-    change = [_means(e) - _means(s) for s, e in zip(start, end)]  # Q (xx, xy) and log area
+    change = [(_means(e) - _means(s))[:2] for s, e in zip(start, end)]
     layer_labels = [(lab, n) for lab, n in zip(s2b.labels, sizes)]
     flow, splits = integrate_flow(s2b.xy, s3.xy, layer_labels, change, tolerance) if len(s3.ids) else (None, 0)
     chain.append(("flow", end))

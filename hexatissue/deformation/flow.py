@@ -67,10 +67,11 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
         positive area all along the path.
     layers : list of (labels, n_regions)
         Region labels (``(m,)`` ints, -1 for none) of each layer of regions.
-    elongation_change : list of (3, n_regions) arrays
-        Per layer, the exact change of the mean elongation (xx, xy) and of
-        the log area between the end states; the quadrature is refined until
-        the identities close
+    elongation_change : list of (2, n_regions) arrays
+        Per layer, the exact change of the mean elongation (xx, xy) between
+        the end states; the quadrature is refined until this identity, and
+        the growth's (the integral of <tr L> is the log of the area ratio),
+        close
         to ``tolerance`` x the size of its terms (at most 1024 sub-intervals; only the regions still open
         are integrated again).
 
@@ -87,6 +88,14 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
     M = (R1 - R0) @ inv2(R0)
     S0 = R0 @ REFERENCE_INVERSE
     A0 = det2(S0)
+    # each region's log area ratio, from the triangles' own changes (A1 - A0 = A0 (tr M + det M)): the
+    # difference of the two sums would leave 1e-15 of rounding on a tissue that hardly grows
+    grown = A0 * (M[:, 0, 0] + M[:, 1, 1] + det2(M))
+    growth = []
+    for labels, n in layers:
+        ok = labels >= 0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            growth.append(np.log1p(np.bincount(labels[ok], grown[ok], n) / np.bincount(labels[ok], A0[ok], n)))
     out = [np.full((len(FLOW_TERMS), n), np.nan) for _, n in layers]
     pending = [np.ones(n, bool) for _, n in layers]
     splits = 1
@@ -104,13 +113,12 @@ def integrate_flow(xy0, xy1, layers, elongation_change, tolerance=1e-12):
         for i, (new, change) in enumerate(zip(terms, elongation_change)):
             out[i][:, pending[i]] = new
             t = out[i]
-            parts = change[:2] + t[3:11].reshape(4, 2, -1).sum(axis=0)
-            size = np.abs(t[:2]) + np.abs(change[:2]) + np.abs(t[3:11]).reshape(4, 2, -1).sum(axis=0)
-            # relative to the terms' size, but not below 1e-3 per interval: the log area ratio of two sums of
-            # areas carries ~1e-16 of rounding, which a motionless interval cannot resolve further
+            parts = change + t[3:11].reshape(4, 2, -1).sum(axis=0)
+            size = np.abs(t[:2]) + np.abs(change) + np.abs(t[3:11]).reshape(4, 2, -1).sum(axis=0)
+            # relative to the terms' size, but not below 1e-3 per interval (where rounding is all there is)
             gap = (np.abs(t[:2] - parts) / np.maximum(size, SCALE_FLOOR)).max(axis=0)
             # the growth: the integral of <tr L> is the log of the area ratio
-            gap = np.maximum(gap, np.abs(t[2] - change[2]) / np.maximum(np.abs(t[2]) + size.max(axis=0), SCALE_FLOOR))
+            gap = np.maximum(gap, np.abs(t[2] - growth[i]) / np.maximum(np.abs(t[2]) + size.max(axis=0), SCALE_FLOOR))
             pending[i] &= gap > tolerance  # NaN (an empty region) is closed
         if splits >= _MAX_SPLITS or not any(p.any() for p in pending):
             return out, splits
