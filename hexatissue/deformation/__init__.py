@@ -332,8 +332,8 @@ def _corners(ids, pos, box):
     return xy
 
 
-def _lookup(ids, keys, values):
-    """``values`` at the positions of ``ids`` in ``keys`` (sorted); NaN rows where absent."""
+def _lookup(ids, keys):
+    """Positions of ``ids`` in the sorted ``keys``, and whether each was found there."""
     at = np.minimum(np.searchsorted(keys, ids), len(keys) - 1)
     return at, keys[at] == ids
 
@@ -394,7 +394,7 @@ class _Membership:
     def get_many(self, ids):
         if len(self.keys) == 0:
             return np.full(len(ids), -1, np.int64)
-        at, found = _lookup(ids, self.keys, None)
+        at, found = _lookup(ids, self.keys)
         return np.where(found, self.values[at], -1)
 
 
@@ -617,7 +617,7 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     if mothers:  # each daughter's id replaced by its mother's
         daughters = np.array([d for ds in mothers.values() for d in ds], np.int64)
         mother_of = np.array([m for m, ds in mothers.items() for _ in ds], np.int64)
-        at, found = _lookup(mapped, np.sort(daughters), None)
+        at, found = _lookup(mapped, np.sort(daughters))
         mapped[found] = mother_of[np.argsort(daughters)][at[found]]
     good = (mapped[:, 0] != mapped[:, 1]) & (mapped[:, 1] != mapped[:, 2]) & (mapped[:, 0] != mapped[:, 2])
     good &= ~np.isin(ids_n, np.array(sorted(entering), np.int64)).any(axis=1)
