@@ -15,7 +15,7 @@ from ..options import POCKET_AREA
 from .labels import check_mask, checked_labels, compact_labels, normalize_valid
 from .segment import segment_membranes
 
-__all__ = ["mesh_from_labels", "network_tables", "warm_up"]
+__all__ = ["mesh_from_labels", "network_tables", "kernels_cached"]
 
 ARM_REACH = 8  # cracks per arm (at most; half the junction) in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
@@ -420,23 +420,16 @@ def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, 
     return vertices, edges, cell_vertices, (polygon_xy, first)
 
 
-def warm_up() -> None:
-    """Compile every mesh kernel once (or load it from numba's cache), on a tiny image.
+def kernels_cached() -> bool:
+    """Whether numba's cache holds the compiled mesh kernels (else the first analysis compiles every kernel).
 
-    Also the shape-function kernel of the order stage (:func:`hexatissue.order._kernels.shape_sums`). Call it
-    in a parent process before forking workers, so that they inherit the compiled code instead of
-    each compiling it again.
+    Numba keeps one index file per cached function; the mesh's cell-moment kernel stands for all (every
+    analysis of labels compiles it).  Unknown (a numba without this layout): True, so nothing is announced.
     """
-    from ..order._kernels import shape_sums
+    import os
 
-    labels = np.ones((12, 12), np.int32)
-    labels[:, 6:] = 2
-    labels[4:8, 2:4] = 3  # a cell inside another: a boundary with no vertex
-    labels[0, 7] = 0  # a one-pixel hole: the pocket fill
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", HexatissueWarning)  # cell 1 has a hole, on purpose
-        mesh_from_labels(labels)
-        # uint16 labels without 0 (the usual movie frame) keep their dtype into the id kernels
-        mesh_from_labels(np.where(labels == 0, 1, labels).astype(np.uint16), box=True)
-    # and the shape-function kernel, which every frame job runs on the mesh's polygons next
-    shape_sums(np.zeros((3, 2)), np.zeros(1, np.int64), np.zeros((0, 2)), True, np.ones(1, np.int64), 1.0)
+    try:
+        cache = K.cell_moments._cache._cache_file
+        return os.path.exists(cache._index_path)
+    except AttributeError:
+        return True

@@ -26,6 +26,11 @@ from .figures import shown_frames
 __all__ = ["report", "default_window"]
 
 
+#: Epithelial cell apical areas span about 5-500 µm^2 (Drosophila ~10-50, MDCK ~100-400); a mean outside this
+#: wider range says the pixel size is wrong more likely than the cells.
+CELL_AREA_UM2 = (1.0, 5000.0)
+
+
 def default_window(movie) -> int:
     """Migration window in frames: the paper's 25,000 iterations for MPF runs, else a quarter of the movie.
 
@@ -89,7 +94,8 @@ def _tissue_section(movie, order_p):
              f"- periodic box: {movie.box is not None}",
              f"- pixel size: " + (f"{cal.pixel_size:g} {cal.length_label}" if cal.has_length else "not calibrated (px)"),
              f"- frame interval: " + (f"{cal.frame_interval:g} {cal.time_label}" if cal.has_time
-                                     else "not calibrated (frames)")]
+                                     else "not calibrated (frames)"),
+             f"- calibration: {cal.origin_text}"]
     if len(inner):
         polygons = inner["n_sides"].to_numpy() >= 3
         left_out = int((~polygons).sum())
@@ -103,6 +109,9 @@ def _tissue_section(movie, order_p):
         area = inner["area"].mean()
         lines.append(f"- mean cell area (interior): {area:.4g} px^2"
                      + (f" ({cal.area(area):.4g} {cal.length_label}^2)" if cal.has_length else ""))
+        if cal.has_length and cal.length_unit == "um" and not CELL_AREA_UM2[0] <= cal.area(area) <= CELL_AREA_UM2[1]:
+            lines.append(f"- **check the pixel size**: a mean cell area of {cal.area(area):.4g} µm^2 is outside "
+                         f"{CELL_AREA_UM2[0]:g}-{CELL_AREA_UM2[1]:g} µm^2, the range of epithelial cells")
     for q in order_p:
         col = f"gamma{q}_re"
         if col in inner.columns and len(inner):
