@@ -202,10 +202,14 @@ def _check_polygon_run(box, mask, stages, options):
 
 
 class _FrameWarnings:
-    """Warnings of the frame jobs, reported once per distinct text with the frames it occurred in."""
+    """Warnings of the frame jobs, reported once per distinct text with the frames it occurred in.
 
-    def __init__(self):
+    ``files``: the file of each frame (a folder of images or polygon files), named instead of the frame number.
+    """
+
+    def __init__(self, files=None):
         self.frames = {}
+        self.files = files
 
     def add(self, t, found):
         for category, text in found:
@@ -214,9 +218,10 @@ class _FrameWarnings:
     def emit(self):
         for (category, text), frames in self.frames.items():
             frames = sorted(set(frames))
-            shown = ", ".join(str(f) for f in frames[:10]) + (f", ... ({len(frames)} frames)" if len(frames) > 10
-                                                              else "")
-            warnings.warn(f"frame{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
+            word = "file" if self.files else "frame"
+            names = [Path(self.files[f]).name if self.files else str(f) for f in frames[:10]]
+            shown = ", ".join(names) + (f", ... ({len(frames)} {word}s)" if len(frames) > 10 else "")
+            warnings.warn(f"{word}{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
                           stacklevel=user_stacklevel())
 
 
@@ -285,7 +290,8 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
     due = store.due(start, n_frames) if store is not None else set()
     saved = {name: r.n for name, r in rows.items()}  # rows already in checkpoint files
 
-    frame_warnings = _FrameWarnings()
+    files = src.description.get("files")
+    frame_warnings = _FrameWarnings(files if files is not None and len(files) == n_frames else None)
     polygons = src.kind == "polygons"
     pixels = not polygons and tracker.needs_pixels
 
