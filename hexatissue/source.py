@@ -396,8 +396,7 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
         refuse("an MPF run", key=key, channel=channel, level=level, axes=axes)
         source = _make(open_run(obj))
     elif is_zarr_group(obj):
-        refuse("a zarr group (its arrays name their axes)", axes=axes)
-        source = _make(open_zarr_group(obj, None, key, channel, level))
+        source = _make(open_zarr_group(obj, None, key, channel, level, axes))
     elif isinstance(obj, (list, tuple)):
         refuse("a list of frames", key=key, level=level, axes=axes)
         source = _make(_from_list(obj, channel))
@@ -454,9 +453,9 @@ def _open_path(path: Path, key, channel, level, axes=None) -> Source:
 def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
     """The reader of an existing path, chosen by what it is (folder, zarr store) and its suffix."""
     if path.is_dir():
-        refuse("a folder or a zarr store", axes=axes)
         if is_zarr_dir(path):
-            return open_zarr_path(path, key, channel, level)
+            return open_zarr_path(path, key, channel, level, axes)
+        refuse("a folder (each file is one frame)", axes=axes)
         if path.suffix.lower() == ".zarr":
             raise InputError(f"path {str(path)!r} is not a zarr store (no zarr.json, .zgroup or .zarray in it)")
         if is_polygon_folder(path):
