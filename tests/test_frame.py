@@ -40,7 +40,8 @@ def test_metadata_json_records_box_units_options_and_source(movie, tmp_path):
     movie.write(tmp_path)
     meta = json.loads((tmp_path / "metadata.json").read_text())
     assert meta["box"] == [90.0, 70.0] and meta["shape"] == [70, 90] and meta["n_frames"] == 5
-    assert meta["calibration"] == {"pixel_size": 0.5, "length_unit": "um", "frame_interval": 2.0, "time_unit": "min"}
+    assert meta["calibration"] == {"pixel_size": 0.5, "length_unit": "um", "frame_interval": 2.0, "time_unit": "min",
+                                   "length_from": "given", "time_from": "given"}
     assert meta["options"]["order"]["p"] == [6, 2]
     assert meta["source"]["kind"] == "array"
     assert meta["tables"]["cells"] == len(movie.cells)
