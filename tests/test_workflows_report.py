@@ -142,9 +142,11 @@ def test_report_on_the_bundled_epicure_sample(tmp_path):
     numbers = report(res, dt=3)
     out = res / "report"
     assert numbers["frames"] == 11
-    for name in ("order6_frame0000.png", "order6_frame0010.png", "events.png", "t1_defects.png", "migration.png",
-                 "timing.png"):
+    for name in ("order6_frame0000.png", "order6_frame0010.png", "migration.png", "cells.png"):
         assert _png_ok(out / name)
+    # the sample has no T1 event: no empty event, T1-defect or timing panels (issue 29)
+    assert numbers["events"] == {}
+    assert not any((out / name).exists() for name in ("events.png", "t1_defects.png", "timing.png"))
     assert numbers["migration"]["n_subregion_windows"] > 0
     assert "## T1 events" in (out / "report.md").read_text()
 
