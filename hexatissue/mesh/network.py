@@ -25,7 +25,7 @@ MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practi
 PIXELS_PER_ID = 64
 #: An image in which most ids come in pieces (several boundary cycles each, on average at least this many) is
 #: not a label image of cells: a pixel classifier's class map, a binary membrane map or a colour-mapped rendering
-#: whose colours repeat.  Real segmentations have 1.00-1.03 cycles per cell (docs/input.md).
+#: whose colours repeat.  Real segmentations have 1.000-1.016 cycles per cell (10 datasets, docs/input.md).
 PIECES_PER_ID = 3
 
 
@@ -360,11 +360,7 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, pol
         )
     # by design without a polygon: a lone cell on background (no vertex), and a border cell with one neighbour
     # (its boundary has two vertices, where the neighbour and the background meet); others have lost theirs
-    between = (junctions["left"] != 0) & (junctions["right"] != 0)
-    pairs = np.unique(np.sort(np.column_stack((junctions["left"], junctions["right"]))[between], axis=1), axis=0)
-    n_neighbours = np.bincount(pairs.ravel(), minlength=len(ids))[present]
-    two_vertex = border[present] & (n_neighbours == 1)
-    if (~has_poly & (n_neighbours > 0) & ~two_vertex).any():
+    if (~has_poly).any() and _lost_polygons(junctions, ids, present, border, has_poly):
         warnings.warn(
             "some cells have no boundary polygon (too small, or all their vertices merged within "
             "merge_distance): n_sides 0, no polygon_area, perimeter or shape function",
@@ -372,6 +368,16 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, pol
             stacklevel=3,
         )
     return data
+
+
+def _lost_polygons(junctions, ids, present, border, has_poly):
+    """Whether a cell lacks a polygon that should have one: it has neighbours and is not a border cell with one
+    neighbour (whose boundary has two vertices); counted only for frames with a cell without a polygon."""
+    between = (junctions["left"] != 0) & (junctions["right"] != 0)
+    pairs = np.unique(np.sort(np.column_stack((junctions["left"], junctions["right"]))[between], axis=1), axis=0)
+    n_neighbours = np.bincount(pairs.ravel(), minlength=len(ids))[present]
+    two_vertex = border[present] & (n_neighbours == 1)
+    return bool((~has_poly & (n_neighbours > 0) & ~two_vertex).any())
 
 
 def _refuse_ids_in_pieces(cycles):
