@@ -466,7 +466,8 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
         One row per sign: ``side`` ("extensile" for alpha6 < 0, "contractile" for alpha6 > 0), ``alpha``
         (the onset alpha6; NaN if stable up to ``alpha_max``; 0 if unstable at any activity), ``k``
         (|k| of the first growing wavevector, 1 / length), ``wavelength`` (2 pi / k, length), ``angle_deg``
-        (angle of that wavevector from the bond direction, degrees, folded into [0, 30]).
+        (angle of that wavevector from the bond direction, degrees, folded into [0, 30]), ``kx``, ``ky`` (that
+        wavevector, 1 / length).
     """
     import pandas as pd
 
@@ -479,7 +480,8 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
     kx, ky = _wavevectors(params, scheme, n)
     rows = []
     for sign, side in ((-1, "extensile"), (1, "contractile")):
-        row = {"side": side, "alpha": np.nan, "k": np.nan, "wavelength": np.nan, "angle_deg": np.nan}
+        row = {"side": side, "alpha": np.nan, "k": np.nan, "wavelength": np.nan, "angle_deg": np.nan,
+               "kx": np.nan, "ky": np.nan}
         lo, hi = 0.0, 1e-3
         while hi <= alpha_max and _max_growth(params, scheme, kx, ky, sign * hi)[0] <= threshold:
             lo, hi = hi, hi * 2
@@ -504,7 +506,8 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
                 bx, by, span = fx[i], fy[i], span / 10
         kk = float(np.hypot(bx, by))
         angle = np.degrees(np.arctan2(by, bx)) % 60.0
-        row.update(alpha=sign * a, k=kk, wavelength=2 * np.pi / kk, angle_deg=float(min(angle, 60.0 - angle)))
+        row.update(alpha=sign * a, k=kk, wavelength=2 * np.pi / kk, angle_deg=float(min(angle, 60.0 - angle)),
+                   kx=float(bx), ky=float(by))
         rows.append(row)
     return pd.DataFrame(rows)
 
