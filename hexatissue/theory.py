@@ -426,9 +426,9 @@ def _max_growth(params, scheme, kx, ky, alpha):
     return float(g[i]), i
 
 
-def _onset(params, scheme, kx, ky, sign, lo, hi, threshold):
+def _onset(params, scheme, kx, ky, sign, lo, hi, threshold, rtol=1e-7):
     """Bisection for the onset |alpha| in [lo, hi] (stable at lo, unstable at hi) on the wavevectors kx, ky."""
-    while hi - lo > 1e-7 * hi:
+    while hi - lo > rtol * hi:
         mid = (lo + hi) / 2
         if _max_growth(params, scheme, kx, ky, sign * mid)[0] > threshold:
             hi = mid
@@ -490,19 +490,19 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
         if lo == 0.0 or hi > alpha_max:
             rows.append(row)
             continue
-        a, i = _onset(params, scheme, kx, ky, sign, lo, hi, threshold)
+        a, i = _onset(params, scheme, kx, ky, sign, lo, hi, threshold, 1e-7 if n is not None else 1e-3)
         bx, by = kx[i], ky[i]
         if n is None:
             # refine around the first growing wavevector: the true onset is at most the coarse one
             span = 2 * max(np.abs(np.diff(np.unique(kx))).max(), np.abs(np.diff(np.unique(ky))).max())
             span = min(span, 0.5 * np.hypot(bx, by))
-            for _ in range(2):
+            for rtol in (1e-5, 1e-7):
                 fx, fy = np.meshgrid(np.linspace(bx - span, bx + span, 41), np.linspace(by - span, by + span, 41))
                 fx, fy = fx.ravel(), fy.ravel()
-                lo = a / 2
+                lo = 0.98 * a
                 while lo > 1e-9 and _max_growth(params, scheme, fx, fy, sign * lo)[0] > threshold:
                     lo /= 2
-                a, i = _onset(params, scheme, fx, fy, sign, lo, a, threshold)
+                a, i = _onset(params, scheme, fx, fy, sign, lo, a, threshold, rtol)
                 bx, by, span = fx[i], fy[i], span / 10
         kk = float(np.hypot(bx, by))
         angle = np.degrees(np.arctan2(by, bx)) % 60.0
