@@ -26,6 +26,7 @@ __all__ = [
     "dispersion",
     "Dispersion",
     "bulk_onset",
+    "stability_diagram",
     "regime",
     "quadrupole_psi",
     "quadrupole_phase",
@@ -511,6 +512,44 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
         row.update(alpha=sign * a, k=kk, wavelength=2 * np.pi / kk, angle_deg=float(min(angle, 60.0 - angle)),
                    kx=float(bx), ky=float(by))
         rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def stability_diagram(params, name, values, scheme="continuum", n=None):
+    """Bulk stability window of alpha6 as one model constant varies (the stability diagram).
+
+    Parameters
+    ----------
+    params : hydro.HydroParams
+        The other constants (a frozen dataclass: copies are made with ``dataclasses.replace``).
+    name : {"lambda6", "Gamma6", "eta", "L6", "rho"}
+        The constant varied.
+    values : array_like
+        Its values.
+    scheme, n
+        As :func:`bulk_onset`.
+
+    Returns
+    -------
+    DataFrame
+        ``value`` (of ``name``), ``alpha_extensile``, ``alpha_contractile`` (onsets of alpha6; the uniform
+        hexatic is stable strictly between them), ``k_extensile``, ``k_contractile`` (1 / length),
+        ``angle_extensile``, ``angle_contractile`` (degrees from the bond direction).
+    """
+    import dataclasses
+
+    import pandas as pd
+
+    allowed = ("lambda6", "Gamma6", "eta", "L6", "rho")
+    if name not in allowed:
+        raise InputError(f"name must be one of {allowed}; got {name!r}")
+    rows = []
+    for v in np.asarray(values, dtype=float).ravel():
+        onset = bulk_onset(dataclasses.replace(params, **{name: float(v)}), scheme, n)
+        ext, con = onset.iloc[0], onset.iloc[1]
+        rows.append({"value": float(v), "alpha_extensile": ext["alpha"], "alpha_contractile": con["alpha"],
+                     "k_extensile": ext["k"], "k_contractile": con["k"],
+                     "angle_extensile": ext["angle_deg"], "angle_contractile": con["angle_deg"]})
     return pd.DataFrame(rows)
 
 
