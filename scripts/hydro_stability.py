@@ -61,9 +61,13 @@ def main(argv=None):
     print(cont[["value", "alpha_extensile", "alpha_contractile", "closed_form"]])
     print(fd[["value", "alpha_extensile", "alpha_contractile"]])
     fig = plot_stability_diagram({"continuum / spectral": cont, "fd (paper's scheme)": fd}, "lambda6",
-                                 marked={"paper: lambda6 = 1.11, alpha6 = +-0.1": (1.11, -0.1)})
+                                 marked={"paper (alpha6 = +-0.1)": (1.11, -0.1)})
     ax = fig.axes[0]
     ax.plot([1.11], [0.1], "k*", ms=9)
+    for sign in (-1, 1):  # activity beats elasticity at the defect spacing ell = 7 beyond |alpha6| = L6 ell^2
+        ax.axhline(sign * p.L6 * 7.0**2, color="tab:green", ls=":", lw=1.2,
+                   label="|alpha6| = L6 ell^2 (ell6 = ell = 7)" if sign > 0 else None)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     ax.set_yscale("symlog", linthresh=1.0)
     ax.set_title("uniform hexatic: linear stability (paper's other constants)", fontsize=9)
     fig.tight_layout()

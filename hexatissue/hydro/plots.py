@@ -149,7 +149,7 @@ def plot_stability_diagram(tables, name, marked=None, ax=None):
     """
     plt = _plt()
     if ax is None:
-        fig, ax = plt.subplots(figsize=(5.5, 4.2))
+        fig, ax = plt.subplots(figsize=(5.5, 5.0))
     else:
         fig = ax.figure
     styles = ["-", "--", ":", "-."]
@@ -166,5 +166,5 @@ def plot_stability_diagram(tables, name, marked=None, ax=None):
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlabel(name)
     ax.set_ylabel("alpha6  (< 0 extensile, > 0 contractile)")
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     return fig
