@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from hexatissue.hydro import HydroParams, Solver  # noqa: E402
 from hexatissue.hydro.initial import dipole_initial  # noqa: E402
-from hexatissue.hydro.solver import fft2, ifft2  # noqa: E402
+from hexatissue.hydro.solver import ifft2  # noqa: E402
 
 
 def approach_rate(psi, params, positions):

@@ -91,7 +91,8 @@ def main(argv=None):
         rows.append({"r_over_ell": r, "grid_change": np.abs(a - b).max() / m, "box_change": np.abs(c - a).max() / m,
                      "far_field_error": np.abs(fx + 1j * fy - c).max() / m,
                      "posed_error": np.abs(px + 1j * py - c).max() / m,
-                     **{f"ref_h{k}": float((np.mean(c * np.exp(-1j * k * phi)) * r**5).real) for k in (-7, -5, 5, 7, 9)},
+                     **{f"ref_h{k}": float((np.mean(c * np.exp(-1j * k * phi)) * r**5).real)
+                        for k in (-7, -5, 5, 7, 9)},
                      **{f"posed_h{k}": float((np.mean((px + 1j * py) * np.exp(-1j * k * phi)) * r**5).real)
                         for k in (-7, -5, 5, 7, 9)}})
     out["flow"] = [{k: round(v, 4) for k, v in row.items()} for row in rows]
