@@ -404,7 +404,7 @@ def _wavevectors(params, scheme, n):
     if n is not None:
         k1 = 2 * np.pi * np.fft.fftfreq(int(n), d=dx)
         kx, ky = np.meshgrid(k1, k1)
-        keep = (kx != 0) | (ky != 0)
+        keep = (ky > 0) | ((ky == 0) & (kx > 0))  # one of each pair (k, -k): their rates are complex conjugates
         if scheme == "spectral":
             kc = (2.0 / 3.0) * np.abs(k1).max()  # the solver's 2/3 dealiasing mask
             keep &= (np.abs(kx) < kc) & (np.abs(ky) < kc)
@@ -493,7 +493,7 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
         if lo == 0.0 or hi > alpha_max:
             rows.append(row)
             continue
-        a, i = _onset(params, scheme, kx, ky, sign, lo, hi, threshold, 1e-7 if n is not None else 1e-3)
+        a, i = _onset(params, scheme, kx, ky, sign, lo, hi, threshold, 1e-6 if n is not None else 1e-3)
         bx, by = kx[i], ky[i]
         if n is None:
             # refine around the first growing wavevector: the true onset is at most the coarse one
