@@ -65,7 +65,7 @@ def test_dispersion_matches_solver_jacobian(scheme, alpha):
         for j in range(n):
             if not solver.ops.mask[i, j] or ((-i) % n == i and (-j) % n == j):
                 continue  # dealiased away, or k = -k (k = 0 and Nyquist corners)
-            if k1[i] < 0 or (k1[i] == 0 and k1[j] < 0):
+            if (i, j) > ((-i) % n, (-j) % n):
                 continue  # the block at -k is the conjugate of that at k (real fields): one of each pair
             block, leak = _jacobian_block(solver, i, j)
             d = th.dispersion(np.array([k1[j], k1[i]]), params, scheme)
@@ -100,7 +100,7 @@ def test_bulk_onset_is_where_the_first_mode_grows():
     for scheme, kmax in (("continuum", 4.0), ("spectral", 2 * np.pi / 3), ("fd", np.pi)):
         onset = th.bulk_onset(p, scheme)
         assert onset["alpha"].iloc[0] < 0 < onset["alpha"].iloc[1]
-        kx, ky = np.meshgrid(np.linspace(-kmax, kmax, 121), np.linspace(-kmax, kmax, 121))
+        kx, ky = np.meshgrid(np.linspace(-kmax, kmax, 91), np.linspace(-kmax, kmax, 91))
         for _, row in onset.iterrows():
             # just inside: nothing grows on a dense scan; just outside: the reported wavevector grows
             m = th.linear_operator(kx, ky, HydroParams(alpha6=0.99 * row["alpha"]), scheme)
