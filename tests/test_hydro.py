@@ -261,7 +261,7 @@ def test_command_line_runs_and_resumes(tmp_path, capsys):
     from hexatissue.cli import main
 
     out = tmp_path / "run.zarr"
-    args = ["hydro", "dipole", "--alpha", "0", "--n", "32", "--distance", "8", "--steps", "20", "--dt", "0.1", "--out", str(out),
+    args = ["hydro", "dipole", "--alpha", "0", "--n", "32", "--distance", "8", "--steps", "40", "--dt", "0.05", "--out", str(out),
             "--orientation-deg", "30", "--defects", str(tmp_path / "d.csv")]
     assert main(args) == 0
     assert "dipole alpha6=+0" in capsys.readouterr().out

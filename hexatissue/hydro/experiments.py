@@ -13,6 +13,7 @@ from .initial import dipole_initial, quadrupole_initial
 from .params import HydroParams
 from .run import integrate
 from .solver import Solver
+from .stability import check_run
 
 __all__ = ["run_dipole", "run_quadrupole", "default_params", "departure_angle"]
 
@@ -43,13 +44,15 @@ def _track(result, box, max_distance):
 
 
 def _run(kind, psi_fn, alpha, n, steps, dt, seed, out, params, max_time, save_every, field_every,
-         resume, progress, stop, meta):
+         resume, progress, stop, meta, spacing):
     if max_time is not None and not (is_real(max_time) and max_time > 0):
         raise InputError(f"max_time must be a positive simulated time (or None: the default); got {max_time!r}")
     params = params if params is not None else default_params(alpha, dt)
     if params.alpha6 != alpha:
         raise InputError(f"params.alpha6 ({params.alpha6}) differs from alpha ({alpha})")
     solver = Solver(n, params)
+    # before any work: refuse an unstable dt, warn (and record) outside the stable, active regime
+    meta = dict(meta, stability=check_run(params, n, spacing))
     from pathlib import Path
 
     if resume and out is not None and (Path(out) / "checkpoint.npz").exists():
@@ -103,6 +106,12 @@ def run_dipole(alpha, n=256, distance=64.0, steps=None, dt=None, seed=0, out=Non
         at infinity); 0: a bond direction along the pair axis.  The sign of
         the activity effect depends on it (docs/hydro.md).
 
+    Before it starts, the run is checked (:func:`~hexatissue.hydro.stability.check_run`, with the
+    half-separation ``distance / 2`` as the defect spacing): a ``dt`` beyond the scheme's stability limit
+    at this alpha6 raises :class:`InputError` naming the limit; alpha6 outside the bulk stability window,
+    or an active length ``sqrt(|alpha6| / L6)`` shorter than the spacing, warns
+    (:class:`HexatissueWarning`).  The check is recorded in ``meta["stability"]``.
+
     Returns
     -------
     HydroResult
@@ -121,7 +130,8 @@ def run_dipole(alpha, n=256, distance=64.0, steps=None, dt=None, seed=0, out=Non
 
     return _run("dipole", psi_fn, alpha, n, steps, dt, seed, out, params, max_time, save_every, field_every,
                 resume, progress, stop,
-                {"distance": distance, "disk": disk, "seed": str(seed), "orientation": float(orientation)})
+                {"distance": distance, "disk": disk, "seed": str(seed), "orientation": float(orientation)},
+                distance / 2)
 
 
 def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None, params=None, disk=28.0,
@@ -133,7 +143,8 @@ def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None,
     ``c = (n/2 - 1/2) dx``.  With ``steps=None`` the run stops when no defect
     is left (annihilation), when a defect gets farther than
     ``split_distance`` (default ``6 ell``) from the center (unbinding), or at
-    ``max_time``.  Other parameters as in :func:`run_dipole`.
+    ``max_time``.  Other parameters as in :func:`run_dipole`; the pre-run check uses ``ell`` as the
+    defect spacing.
 
     Returns
     -------
@@ -155,7 +166,7 @@ def run_quadrupole(alpha, n=256, ell=7.0, steps=None, dt=None, seed=0, out=None,
 
     return _run("quadrupole", psi_fn, alpha, n, steps, dt, seed, out, params, max_time, save_every,
                 field_every, resume, progress, stop,
-                {"ell": ell, "disk": disk, "seed": str(seed), "orientation": float(orientation)})
+                {"ell": ell, "disk": disk, "seed": str(seed), "orientation": float(orientation)}, ell)
 
 
 def departure_angle(defects, center, min_distance):

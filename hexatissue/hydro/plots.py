@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_state", "plot_dipole_trajectories", "plot_quadrupole_tracks"]
+__all__ = ["plot_state", "plot_dipole_trajectories", "plot_quadrupole_tracks", "plot_stability_diagram"]
 
 
 def _plt():
@@ -138,4 +138,33 @@ def plot_quadrupole_tracks(result, center, ax=None, title=None):
     ax.set_ylabel("y - center")
     if title:
         ax.set_title(title, fontsize=9)
+    return fig
+
+
+def plot_stability_diagram(tables, name, marked=None, ax=None):
+    """Bulk stability window of alpha6 against a model constant (:func:`hexatissue.theory.stability_diagram`).
+
+    ``tables``: {label: DataFrame} (one per scheme); the first is shaded (stable between its two onsets),
+    the others drawn as lines.  ``marked``: {label: (value, alpha6)} points, e.g. the paper's parameters.
+    """
+    plt = _plt()
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(5.5, 5.0))
+    else:
+        fig = ax.figure
+    styles = ["-", "--", ":", "-."]
+    for i, (label, t) in enumerate(tables.items()):
+        if i == 0:
+            ax.fill_between(t["value"], t["alpha_extensile"], t["alpha_contractile"], color="0.85",
+                            label=f"stable uniform hexatic ({label})")
+        for col, colour in (("alpha_extensile", "tab:blue"), ("alpha_contractile", "tab:red")):
+            ax.plot(t["value"], t[col], styles[i % 4], color=colour, lw=1.2,
+                    label=f"onset, {label}" if col == "alpha_extensile" else None)
+    for label, (x, y) in (marked or {}).items():
+        ax.plot([x], [y], "k*", ms=9)
+        ax.annotate(label, (x, y), textcoords="offset points", xytext=(6, 4), fontsize=8)
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel(name)
+    ax.set_ylabel("alpha6  (< 0 extensile, > 0 contractile)")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     return fig

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.fft as sfft
 
 from ..errors import InputError
+from ..theory import derivative_symbols
 from ._kernels import implicit_solve, pointwise
 from .params import HydroParams
 
@@ -50,15 +51,12 @@ class Operators:
     def __init__(self, n, params: HydroParams):
         dx = params.dx
         k = 2 * np.pi * np.fft.fftfreq(n, d=dx)
+        ks, lap1 = derivative_symbols(k, dx, params.scheme)
         if params.scheme == "fd":
-            ks = np.sin(k * dx) / dx
-            lap1 = (2 - 2 * np.cos(k * dx)) / dx**2
             mask1 = np.ones(n, bool)
         else:
-            ks = k.copy()
             if n % 2 == 0:
                 ks[n // 2] = 0.0  # odd derivatives: zero Nyquist, else spurious growing modes
-            lap1 = k**2
             mask1 = np.abs(k) < (2.0 / 3.0) * np.abs(k).max()
         ctype = params.complex_dtype
         self.n = n
