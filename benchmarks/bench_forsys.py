@@ -15,8 +15,9 @@ Inputs (the ForSys repository's test data, BSD 3-Clause: ``--data`` is a folder 
    ``exp_1_forsys_stress.csv`` (the ForSys run here reproduces it to its 2 decimals: checked).
 
 Errors: inferred and true tensions each scaled to mean 1 over the same matched junctions, median |error| / truth;
-pressures each shifted to mean 0 and divided by their own mean tension, median |error| / s.d. of the truth;
-Pearson correlations.  Times: wall-clock from the file to the forces (hexatissue: reading, meshing, curvature,
+pressures each shifted to mean 0 and divided by their own mean tension, median |error| / s.d. of the truth
+(``p err``), and the same after scaling each to unit s.d. (``p z``: blind to the pressure unit, which ForSys sets
+differently); Pearson correlations.  Times: wall-clock from the file to the forces (hexatissue: reading, meshing, curvature,
 Bayesian with ABIC, no s.d., median of ``--repeats``; ForSys: one run of its pipeline in its own interpreter,
 numba/JIT warm-up excluded for hexatissue).  ForSys runs in a separate environment (``--forsys-python``, a Python
 with ``pip install forsys``; never a dependency of hexatissue) through ``benchmarks/forsys_side.py``; without it
@@ -78,18 +79,18 @@ def scores(t, t_true, p=None, p_true=None):
     ok = np.isfinite(t) & np.isfinite(t_true)
     out = {"junctions": int(ok.sum())}
     if ok.sum() < 3:
-        return out | {"t_err": np.nan, "t_r": np.nan, "cells": 0, "p_err": np.nan, "p_r": np.nan}
+        return out | {"t_err": np.nan, "t_r": np.nan, "cells": 0, "p_err": np.nan, "p_z": np.nan, "p_r": np.nan}
     unit, unit_true = t[ok].mean(), t_true[ok].mean()
     a, b = t[ok] / unit, t_true[ok] / unit_true
     out |= {"t_err": float(np.median(np.abs(a - b) / b)), "t_r": float(np.corrcoef(a, b)[0, 1])}
     if p is None or not len(p):
-        return out | {"cells": 0, "p_err": np.nan, "p_r": np.nan}
+        return out | {"cells": 0, "p_err": np.nan, "p_z": np.nan, "p_r": np.nan}
     p, p_true = np.asarray(p, float), np.asarray(p_true, float)
     pk = np.isfinite(p) & np.isfinite(p_true)
     a = (p[pk] - p[pk].mean()) / unit
     b = (p_true[pk] - p_true[pk].mean()) / unit_true
     return out | {"cells": int(pk.sum()), "p_err": float(np.median(np.abs(a - b)) / b.std()),
-                  "p_r": float(np.corrcoef(a, b)[0, 1])}
+                  "p_z": float(np.median(np.abs(a / a.std() - b / b.std()))), "p_r": float(np.corrcoef(a, b)[0, 1])}
 
 
 def match_ends(ends, ref_ends, tol):
@@ -145,11 +146,11 @@ def row(name, s, seconds):
     def f(x):
         return "-" if not np.isfinite(x) else f"{x:.3f}"
     print(f"  {name:<58} {s['junctions']:>4} {f(s['t_err']):>7} {f(s['t_r']):>6} {s['cells']:>4} "
-          f"{f(s['p_err']):>7} {f(s['p_r']):>6} {seconds:>8.2f}")
+          f"{f(s['p_err']):>7} {f(s['p_z']):>7} {f(s['p_r']):>6} {seconds:>8.2f}")
 
 
 def header():
-    print(f"  {'method':<58} {'junc':>4} {'t err':>7} {'t r':>6} {'cell':>4} {'p err':>7} {'p r':>6} {'s':>8}")
+    print(f"  {'method':<58} {'junc':>4} {'t err':>7} {'t r':>6} {'cell':>4} {'p err':>7} {'p z':>7} {'p r':>6} {'s':>8}")
 
 
 def dump_direct(path, args):

@@ -409,3 +409,53 @@ def test_surface_evolver_forces_from_its_label_image(real_data):
     want = want / want[ok].mean()
     assert np.median(np.abs(t[ok] - want[ok]) / want[ok]) < 0.2
     assert np.corrcoef(t[ok], want[ok])[0, 1] > 0.97 and np.corrcoef(p[pk], want_p[pk])[0, 1] > 0.97
+
+
+# ----------------------------------------------------------------------------
+# Ishihara & Sugimura's Bayesian force-inference sample (GetVertex table)
+# ----------------------------------------------------------------------------
+
+def test_ishihara_sample_network_matches_its_getvertex_table(real_data):
+    import tifffile
+    from scipy.spatial import cKDTree
+
+    from hexatissue.mechanics.vdat import read_vdat
+    from hexatissue.mesh.labels import mesh_labels, validate_labels
+
+    data = real_subdir(real_data, "ishihara_bfi_sample")
+    table = read_vdat(data / "VDat_sample.txt")
+    # the header's counts: 407 vertices, 556 junctions, 205 cells of which 55 on the edge
+    assert (len(table["vertices"]), len(table["edges"]), len(table["polygons"])) == (407, 556, 205)
+    assert sum(table["cell_ext"].values()) == 55 and table["vertex_ext"].sum() == 55
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        labels, _ = mesh_labels(validate_labels(tifffile.imread(data / "sample.tif")), None,
+                                ht.MeshOptions(kind="skeleton"))
+        image = {k: pd.DataFrame(v) for k, v in ht.mesh_from_labels(labels).tables.items()}
+        poly = {k: pd.DataFrame(v) for k, v in ht.mesh_from_polygons(table["polygons"], tolerance=0.5).tables.items()}
+    dist, near = cKDTree(image["vertices"][["x", "y"]].to_numpy()).query(table["vertices"])
+    vmatch = np.where(dist <= 1.5, image["vertices"]["vertex"].to_numpy()[near], -1)
+    assert (vmatch >= 0).sum() >= 400  # 404 of 407 within 1.5 px (the other 3: merged within merge_distance)
+    cells = poly["cells"].set_index("cell")
+    under = {int(labels[int(round(cells.loc[c, "y"])), int(round(cells.loc[c, "x"]))]) for c in table["polygons"]}
+    assert len(under - {0}) == 205  # every table cell is one cell of the image network
+    e = image["edges"]
+    key = {frozenset(k): i for i, k in enumerate(zip(e["vertex_a"], e["vertex_b"]))}
+    jmatch = np.array([key.get(frozenset((vmatch[a], vmatch[b])), -1) if min(vmatch[a], vmatch[b]) >= 0 else -1
+                       for a, b in table["edges"]])
+    assert (jmatch >= 0).sum() >= 530  # 538 of 556
+    # the tensions inferred on the two networks agree (straight junctions, as the table's polygons are)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        t_image = _infer(image, None, sd=False).edges["tension"].to_numpy()
+        t_table = _infer(poly, None, sd=False).edges["tension"].to_numpy()
+    pv = poly["vertices"].set_index("vertex")[["x", "y"]].round(3)
+    pkey = {frozenset((tuple(pv.loc[a]), tuple(pv.loc[b]))): i
+            for i, (a, b) in enumerate(zip(poly["edges"]["vertex_a"], poly["edges"]["vertex_b"]))}
+    tv = np.round(table["vertices"], 3)
+    prow = np.array([pkey.get(frozenset((tuple(tv[a]), tuple(tv[b]))), -1) for a, b in table["edges"]])
+    both = (jmatch >= 0) & (prow >= 0)
+    a, b = t_table[prow[both]], t_image[jmatch[both]]
+    ok = np.isfinite(a) & np.isfinite(b)
+    assert ok.sum() >= 500
+    assert np.corrcoef(a[ok], b[ok])[0, 1] > 0.85  # measured 0.886 (benchmarks/compare_ishihara.py)
