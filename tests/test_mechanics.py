@@ -386,7 +386,7 @@ def test_surface_evolver_forces_with_curved_junctions(real_data):
         forces = _infer(tables, None, method=method, sd=False, curvature=kappa)
         t_err, p_err, t_r, p_r = _errors(tables, tension, pressure, forces)
         assert np.isfinite(forces.edges["tension"]).sum() == 261  # least squares determines every tension now
-        assert t_err < 0.08 and p_err < 0.08 and t_r > 0.99 and p_r > 0.99
+        assert t_err < 0.04 and p_err < 0.08 and t_r > 0.99 and p_r > 0.99  # 0.031, 0.063 measured
 
 
 def test_surface_evolver_forces_from_its_label_image(real_data):
@@ -407,7 +407,7 @@ def test_surface_evolver_forces_from_its_label_image(real_data):
     ok, pk = np.isfinite(t) & np.isfinite(want), np.isfinite(p) & np.isfinite(want_p)
     assert ok.sum() >= 255 and pk.sum() == 100
     want = want / want[ok].mean()
-    assert np.median(np.abs(t[ok] - want[ok]) / want[ok]) < 0.2
+    assert np.median(np.abs(t[ok] - want[ok]) / want[ok]) < 0.1  # 0.069 measured
     assert np.corrcoef(t[ok], want[ok])[0, 1] > 0.97 and np.corrcoef(p[pk], want_p[pk])[0, 1] > 0.97
 
 
