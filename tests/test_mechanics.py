@@ -459,3 +459,38 @@ def test_ishihara_sample_network_matches_its_getvertex_table(real_data):
     ok = np.isfinite(a) & np.isfinite(b)
     assert ok.sum() >= 500
     assert np.corrcoef(a[ok], b[ok])[0, 1] > 0.85  # measured 0.886 (benchmarks/compare_ishihara.py)
+
+
+# ----------------------------------------------------------------------------
+# Tension histories of the junctions shrinking into T1s
+# ----------------------------------------------------------------------------
+
+def test_t1_tension_histories_follow_the_lost_junction_by_kind():
+    from hexatissue.mechanics import t1_tension_histories
+    from hexatissue.synthetic import t1_movie
+
+    movie = t1_movie(periodic=True)
+    events, edges = movie.events, movie.edges.copy()
+    edges["tension"] = 1.0 + 0.01 * edges["length"] + 0.001 * edges["frame"]  # a known tension per junction
+    got = t1_tension_histories(events, edges, before=6)
+    assert set(got["kind"]) >= {"cycle", "intercalation"}
+    for _, ev in events.iterrows():
+        a, b = sorted((ev["cell_a"], ev["cell_b"]))
+        rows = got[got["event"] == ev["event"]]
+        want = edges[(edges["cell_a"] == a) & (edges["cell_b"] == b) & (edges["frame"] >= ev["frame_start"] - 6)
+                     & (edges["frame"] < ev["frame_start"])]
+        assert rows["frame"].tolist() == sorted(want["frame"].tolist())
+        np.testing.assert_allclose(rows["tension"], want.sort_values("frame")["tension"], rtol=1e-12)
+        assert (rows["lag"] == rows["frame"] - ev["frame_start"]).all() and (rows["lag"] < 0).all()
+        if len(rows) > 1:  # the lost junction shrinks into the T1
+            assert rows["length"].iloc[-1] < rows["length"].iloc[0]
+    # label ids that are not track ids are translated with cells.track
+    cells = movie.cells[["frame", "cell"]].copy()
+    cells["track"] = cells["cell"]
+    cells["cell"] = cells["cell"] + 1000 * (cells["frame"] + 1)
+    relabelled = edges.copy()
+    for side in ("cell_a", "cell_b"):
+        relabelled[side] = relabelled[side] + 1000 * (relabelled["frame"] + 1)
+    pd.testing.assert_frame_equal(t1_tension_histories(events, relabelled, cells, before=6), got)
+    with pytest.raises(InputError, match="before"):
+        t1_tension_histories(events, edges, before=0)

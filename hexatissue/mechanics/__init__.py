@@ -42,10 +42,11 @@ from scipy.sparse.linalg import splu
 from ..errors import InputError, as_generator, is_real
 from ..schema import require_columns
 from .curvature import junction_curvature
+from .history import t1_tension_histories
 from .stress import cell_stress, stress_grid, tissue_stress
 
 __all__ = ["ForceSystem", "Forces", "force_system", "infer_forces", "cell_stress", "tissue_stress", "stress_grid",
-           "junction_curvature", "METHODS"]
+           "junction_curvature", "t1_tension_histories", "METHODS"]
 
 #: Estimators of :func:`infer_forces`.
 METHODS = ("lsq", "bayes")
