@@ -25,10 +25,12 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import hexatissue as ht  # noqa: E402
+from hexatissue.mechanics import cell_stress as cell_stress_of  # noqa: E402
 from hexatissue.simulate.store import read_run  # noqa: E402
 from hexatissue.simulate.stress import cell_stress  # noqa: E402
 
@@ -49,10 +51,14 @@ def compare(path):
                 warnings.simplefilter("ignore")
                 movie = ht.analyze(labels, box=run.box,
                                    mechanics=ht.MechanicsOptions(enabled=True, sd=False, curved=curved))
-            cells = movie.cells.set_index("cell")
+            stress = cell_stress_of(movie.cells, pd.DataFrame(movie.tables["vertices"]),
+                                    pd.DataFrame(movie.tables["edges"]), movie.tables["edges"]["tension"].to_numpy(),
+                                    movie.cells["pressure"].to_numpy(), run.box)
+            cells = pd.concat([movie.cells.reset_index(drop=True),
+                               stress[["stress6_re", "stress6_im"]].reset_index(drop=True)], axis=1).set_index("cell")
             phi = phi_all[cells.index.to_numpy() - 1]  # label c is patch c - 1
             for p in (2, 6):
-                theta = np.angle(cells[f"gamma{p}_re"] + 1j * cells[f"gamma{p}_im"]).to_numpy() / p
+                theta = np.angle((cells[f"gamma{p}_re"] + 1j * cells[f"gamma{p}_im"]).to_numpy()) / p
                 simulated = cell_stress(phi, theta, run.params.k_phi, p)
                 if p == 2:
                     moment = (cells["stress_xx"] - cells["stress_yy"]) / 2 + 1j * cells["stress_xy"]

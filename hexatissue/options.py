@@ -548,9 +548,9 @@ class MechanicsOptions(_Options, stage="mechanics", title="force inference"):
         Curved junctions (Young-Laplace): each junction is the circular arc
         fitted to its own cracks in the label image, balanced by its end
         tangents, and its curvature sets the pressure difference across it
-        (docs/mechanics.md).  False, or input without a label image
-        (polygons, MPF runs): straight junctions with the pressures pushing
-        on them, the vertex model's balance.
+        (docs/mechanics.md).  False, or polygon input (no pixels): straight
+        junctions with the pressures pushing on them, the vertex model's
+        balance.
     """
 
     enabled: bool = cli_field(False, "--mechanics", "force inference: junction tensions, cell pressures and the "
