@@ -24,7 +24,12 @@ give no equation but their junctions and cells are unknowns; four-fold
 vertices), those are found and reported, never given a silent number
 (:func:`infer_forces`); the free modes are extended, so on an open image
 least squares determines nothing and only the Bayesian prior makes an
-estimate (docs/mechanics.md).  :mod:`hexatissue.mechanics.stress` turns
+estimate (docs/mechanics.md).  Curved junctions (Young-Laplace; the
+``curvature`` argument, measured by :mod:`hexatissue.mechanics.curvature`):
+the vertices are balanced by the tensions along the arcs' end tangents, and
+each junction's curvature ties the pressure difference across it to its
+tension (:func:`force_system`); the vertices then set the tensions on their
+own, and open images are determined.  :mod:`hexatissue.mechanics.stress` turns
 the forces into the Batchelor stress of each cell, of the tissue and on the
 Gamma_p grid.
 """
