@@ -494,3 +494,39 @@ def test_t1_tension_histories_follow_the_lost_junction_by_kind():
     pd.testing.assert_frame_equal(t1_tension_histories(events, relabelled, cells, before=6), got)
     with pytest.raises(InputError, match="before"):
         t1_tension_histories(events, edges, before=0)
+
+
+def test_plot_t1_tensions_draws_one_line_per_event_and_a_median_per_kind(tmp_path):
+    from hexatissue.mechanics import t1_tension_histories
+    from hexatissue.plot import plot_t1_tensions
+    from hexatissue.synthetic import t1_movie
+
+    movie = t1_movie(periodic=True)
+    edges = movie.edges.assign(tension=lambda e: 1.0 + 0.01 * e["length"])
+    histories = t1_tension_histories(movie.events, edges, before=6)
+    fig = plot_t1_tensions(histories, path=tmp_path / "t1.png")
+    lines = fig.axes[0].get_lines()
+    kinds = histories["kind"].nunique()
+    assert len(lines) == histories["event"].nunique() + kinds + 1  # events, medians, the mean-tension line
+    assert (tmp_path / "t1.png").stat().st_size > 0
+    with pytest.raises(InputError, match="lag"):
+        plot_t1_tensions(histories.drop(columns="lag"))
+
+
+@pytest.mark.slow
+def test_report_draws_the_tension_before_t1s(tmp_path):
+    from hexatissue.synthetic import t1_movie
+    from hexatissue.workflows.report import report
+
+    truth = t1_movie(periodic=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = ht.analyze(truth.labels, box=truth.box, mechanics=ht.MechanicsOptions(enabled=True, sd=False))
+    movie.write(tmp_path / "res")
+    numbers = report(tmp_path / "res", out=tmp_path / "rep")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "t1_tensions.png" in text and (tmp_path / "rep" / "t1_tensions.csv").is_file()
+    histories = pd.read_csv(tmp_path / "rep" / "t1_tensions.csv")
+    assert set(histories["kind"]) >= {"cycle", "intercalation"}
+    assert set(numbers["mechanics"]["t1_tension_at_lag_minus_1"]) == set(
+        histories.loc[histories["lag"] == -1, "kind"])
