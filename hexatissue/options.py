@@ -544,6 +544,13 @@ class MechanicsOptions(_Options, stage="mechanics", title="force inference"):
         Fixed prior weight for ``bayes`` (default: ABIC).
     sd : bool
         Posterior standard deviations (``bayes``; one solve per unknown).
+    curved : bool
+        Curved junctions (Young-Laplace): each junction is the circular arc
+        fitted to its own cracks in the label image, balanced by its end
+        tangents, and its curvature sets the pressure difference across it
+        (docs/mechanics.md).  False, or polygon input (no pixels): straight
+        junctions with the pressures pushing on them, the vertex model's
+        balance.
     """
 
     enabled: bool = cli_field(False, "--mechanics", "force inference: junction tensions, cell pressures and the "
@@ -554,9 +561,11 @@ class MechanicsOptions(_Options, stage="mechanics", title="force inference"):
                                  "(default: chosen by ABIC)", type=float)
     sd: bool = cli_field(True, "--no-mechanics-sd", "no posterior standard deviations (faster on large frames)",
                          action="store_false")
+    curved: bool = cli_field(True, "--straight-junctions", "straight junctions (vertex-model balance) instead of "
+                             "arcs fitted to each junction's pixels (Young-Laplace)", action="store_false")
 
     def __post_init__(self):
-        self._flags("enabled", "sd")
+        self._flags("enabled", "sd", "curved")
         if self.method not in FORCE_METHODS:
             _fail(type(self), "method", self.method, f"one of {FORCE_METHODS}")
         if self.mu is not None and not (is_real(self.mu) and self.mu > 0):

@@ -37,6 +37,7 @@ __all__ = [
     "plot_stars",
     "plot_order_field",
     "plot_stress",
+    "plot_t1_tensions",
     "plot_order_vs_radius",
     "plot_deformation_budget",
     "plot_deformation_map",
@@ -759,6 +760,41 @@ def plot_flow(flow, polygons=None, ax=None, path=None, box=None, calibration=Non
                      labelpos="E", coordinates="axes", fontproperties={"size": 9})
     _image_axes(ax, _extent_of(None, polygons, np.c_[x, y], as_box(box)), cal)
     ax.set_title(f"velocity and vorticity{_frame_text(flow, cal)}", pad=18)
+    return _finish(fig, path)
+
+
+def plot_t1_tensions(histories, ax=None, path=None, figsize=(6.4, 4.2)):
+    """Tension of the junctions shrinking into T1s against the frames left before the T1, by kind.
+
+    Parameters
+    ----------
+    histories : pandas.DataFrame
+        :func:`hexatissue.mechanics.t1_tension_histories`: ``event``,
+        ``kind``, ``lag`` (frames, < 0), ``tension``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One thin line per event and the median per lag (thick), a colour per
+        kind; the mean interior tension (1) dashed.
+    """
+    for column in ("event", "kind", "lag", "tension"):
+        if column not in histories.columns:
+            raise InputError(f"histories has no column {column!r} (see mechanics.t1_tension_histories)")
+    fig, ax = _new_axes(ax, figsize)
+    colours = {"cycle": "tab:blue", "intercalation": "tab:red", "unresolved": "0.5"}
+    for kind, rows in histories.groupby("kind", sort=True):
+        colour = colours.get(str(kind), "k")
+        for _, one in rows.groupby("event"):
+            ax.plot(one["lag"], one["tension"], color=colour, alpha=0.25, linewidth=0.7)
+        median = rows.groupby("lag")["tension"].median()
+        ax.plot(median.index, median.to_numpy(), color=colour, linewidth=2.2,
+                label=f"{kind} ({rows['event'].nunique()} events), median")
+    ax.axhline(1.0, color="0.4", linestyle="--", linewidth=0.8)
+    ax.set_xlabel("frames before the T1 (lag)")
+    ax.set_ylabel("tension of the lost junction (mean = 1)")
+    if len(histories):
+        ax.legend(fontsize=8)
     return _finish(fig, path)
 
 

@@ -105,6 +105,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "tension": ("f", "tension", "inferred tension, relative: the frame's mean interior tension is 1 "
                     "(with --mechanics)"),
         "tension_sd": ("f", "tension", "posterior s.d. of the tension (Bayesian estimator)"),
+        "curvature": ("f", "1/px", "signed curvature of the arc fitted to the junction's pixels, positive when it "
+                      "turns counter-clockwise from vertex_a to vertex_b; 0 when drawn straight (with --mechanics)"),
     },
     "cell_vertices": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -244,7 +246,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy",
-             "tension", "tension_sd", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
+             "tension", "tension_sd", "curvature", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

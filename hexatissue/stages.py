@@ -33,7 +33,7 @@ from .events import cell_event_stats, default_censor, events_summary, t1_tables
 from .flow import cell_velocities, flow_fields
 from .geometry import distinct_count
 from .intensity import measure_intensity
-from .mechanics import cell_stress, infer_forces, stress_grid
+from .mechanics import cell_stress, infer_forces, junction_curvature, stress_grid
 from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
 from .mesh.polygons import polygon_network
@@ -280,13 +280,18 @@ def _mechanics(frame, options):
     """Tensions, pressures and stress of the frame from force balance, and the stress on its Gamma_p grid."""
     tables = {name: pd.DataFrame(frame.tables[name]) for name in ("cells", "vertices", "edges", "cell_vertices")}
     cells, edges = tables["cells"], tables["edges"]
+    # curved junctions need the junctions' own pixels: a label image (not polygons nor an MPF run)
+    labels = frame.labels
+    curvature = (junction_curvature(labels, tables["vertices"], edges, frame.box) if options.curved
+                 and isinstance(labels, np.ndarray) and labels.ndim == 2 else None)
     forces = infer_forces(cells, tables["vertices"], edges, tables["cell_vertices"], box=frame.box,
-                          method=options.method, mu=options.mu, sd=options.sd)
+                          method=options.method, mu=options.mu, sd=options.sd, curvature=curvature)
     stress = cell_stress(cells, tables["vertices"], edges, forces.edges["tension"].to_numpy(),
                          forces.cells["pressure"].to_numpy(), box=frame.box)
     columns = {"cells": {"pressure": forces.cells["pressure"], "pressure_sd": forces.cells["pressure_sd"],
                          **{c: stress[c] for c in ("stress_xx", "stress_xy", "stress_yy")}},
-               "edges": {"tension": forces.edges["tension"], "tension_sd": forces.edges["tension_sd"]}}
+               "edges": {"tension": forces.edges["tension"], "tension_sd": forces.edges["tension_sd"],
+                         "curvature": pd.Series(np.zeros(len(edges)) if curvature is None else curvature)}}
     for name, new in columns.items():
         table = frame.tables[name]
         for column, values in new.items():
@@ -342,8 +347,9 @@ STAGES = (
           reads=("cells", "vertices", "cell_vertices", "lineage", "events", "neighbour_events", "grid"),
           writes=("deformation", "events.shear_xx", "events.shear_xy"), run=_deformation, enabled=_enabled),
     # a frame stage: it runs after the order fields, whose grid it reads
-    Stage("mechanics", MechanicsOptions, "frame", reads=("cells", "vertices", "edges", "cell_vertices", "grid"),
-          writes=("edges.tension", "edges.tension_sd", "cells.pressure", "cells.pressure_sd", "cells.stress_xx",
+    Stage("mechanics", MechanicsOptions, "frame", reads=("labels", "cells", "vertices", "edges", "cell_vertices",
+                                                         "grid"),
+          writes=("edges.tension", "edges.tension_sd", "edges.curvature", "cells.pressure", "cells.pressure_sd", "cells.stress_xx",
                   "cells.stress_xy", "cells.stress_yy", "stress"), run=_mechanics, enabled=_enabled),
 )
 

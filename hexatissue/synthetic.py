@@ -25,6 +25,8 @@ __all__ = [
     "draw_membranes",
     "periodic_voronoi_network",
     "vertex_model_tissue",
+    "arc_vertex_model_tissue",
+    "arcs_at_balance",
 ]
 
 
@@ -812,6 +814,59 @@ def vertex_model_tissue(nx=10, ny=10, spacing=20.0, jitter=0.1, tension_spread=0
                          f"{force:.1e}, shortest junction {shortest:.2g} px): lower jitter or tension_spread")
     tables = _with_positions(tables, xy, box)
     return tables, lam, -K * (model.areas(xy) - A0), box
+
+
+def arc_vertex_model_tissue(nx=10, ny=10, spacing=20.0, jitter=0.1, tension_spread=0.15, area_spread=0.1, K=0.01,
+                            seed=0):
+    """A periodic tissue of circular-arc junctions at force balance, with its exact tensions and pressures.
+
+    From the straight vertex model :func:`vertex_model_tissue` (tensions
+    ``Lambda_j``, pressures ``P_c``, vertices balanced by ``sum_j Lambda_j u_j
+    + sum_j (P_left - P_right) c_j / 2 n_j = 0``, ``n_j`` the chord's left
+    normal): each junction becomes the arc through the same vertices of half
+    angle ``psi_j = atan((P_left - P_right) c_j / (2 Lambda_j))`` with
+    tension ``T_j = Lambda_j / cos psi_j``.  Then ``T_j`` along the arc's end
+    tangents gives the same vertex forces (force balance), and ``T_j kappa_j =
+    P_left - P_right`` (Young-Laplace): an exact equilibrium of free arcs.
+
+    Parameters
+    ----------
+    nx, ny, spacing, jitter, tension_spread, area_spread, K, seed
+        As :func:`vertex_model_tissue`.
+
+    Returns
+    -------
+    tables : dict
+        As :func:`vertex_model_tissue`, with ``edges.curvature`` (1/px,
+        signed: positive when the arc turns counter-clockwise from
+        ``vertex_a`` to ``vertex_b``).
+    tension : ndarray
+        Per row of ``edges``: ``T_j`` (tension units).
+    pressure : ndarray
+        Per row of ``cells``: ``P_c`` (tension/px).
+    box : Box
+    """
+    return arcs_at_balance(*vertex_model_tissue(nx, ny, spacing, jitter, tension_spread, area_spread, K, seed))
+
+
+def arcs_at_balance(tables, lam, pressure, box):
+    """The straight vertex model at force balance ``tables, lam, pressure, box`` redrawn with circular arcs.
+
+    The construction of :func:`arc_vertex_model_tissue`, which calls it with
+    :func:`vertex_model_tissue`'s output; returns the same four values.
+    """
+    edges, cv = tables["edges"], tables["cell_vertices"].sort_values(["cell", "rank"])
+    nxt = cv.groupby("cell")["vertex"].transform(lambda v: np.roll(v.to_numpy(), -1))
+    step = pd.DataFrame({"v": cv["vertex"].to_numpy(), "w": nxt.to_numpy(), "cell": cv["cell"].to_numpy()})
+    ends = pd.DataFrame({"v": edges["vertex_a"].to_numpy(), "w": edges["vertex_b"].to_numpy()})
+    left = ends.merge(step, on=["v", "w"], how="left")["cell"].to_numpy()
+    right = ends.rename(columns={"v": "w", "w": "v"}).merge(step, on=["v", "w"], how="left")["cell"].to_numpy()
+    p_of = pd.Series(pressure, index=tables["cells"]["cell"].to_numpy())
+    c = edges["length"].to_numpy(float)
+    psi = np.arctan((p_of[left].to_numpy() - p_of[right].to_numpy()) * c / (2 * lam))
+    tables = {k: v.copy() for k, v in tables.items()}
+    tables["edges"]["curvature"] = 2 * np.sin(psi) / c
+    return tables, lam / np.cos(psi), pressure, box
 
 
 def _with_positions(tables, xy, box):

@@ -8,9 +8,11 @@ import pytest
 import hexatissue as ht
 from hexatissue.errors import HexatissueWarning, InputError
 from hexatissue.mechanics import cell_stress, force_system, infer_forces, stress_grid, tissue_stress
-from hexatissue.mechanics.evolver import evolver_network, read_evolver
+from hexatissue.mechanics.curvature import fit_arcs, junction_curvature
+from hexatissue.mechanics.evolver import evolver_labels, evolver_network, read_evolver
 from hexatissue.schema import validate
-from hexatissue.synthetic import periodic_voronoi_network, vertex_model_tissue, voronoi_labels, jittered_seeds
+from hexatissue.synthetic import (arc_vertex_model_tissue, arcs_at_balance, periodic_voronoi_network, vertex_model_tissue,
+                                  voronoi_labels, jittered_seeds)
 
 from .conftest import real_subdir
 
@@ -293,3 +295,238 @@ def test_a_frame_without_balanced_vertices_gets_nan_and_the_reason():
         assert forces.edges["tension"].isna().all() and forces.cells["pressure"].isna().all()
         cells = forces.undetermined[forces.undetermined["kind"] == "cell"]
         assert sorted(cells["id"]) == [1, 2, 3] and set(cells["reason"]) <= {"no balanced vertex", "no polygon"}
+
+
+# ----------------------------------------------------------------------------
+# Curved junctions (Young-Laplace)
+# ----------------------------------------------------------------------------
+
+def test_fit_arcs_recovers_exact_circular_arcs():
+    rng = np.random.default_rng(7)
+    m = 40
+    start = rng.uniform(-50, 50, (m, 2))
+    chord = rng.uniform(5, 40, m)
+    angle = rng.uniform(0, 2 * np.pi, m)
+    end = start + chord[:, None] * np.c_[np.cos(angle), np.sin(angle)]
+    psi = rng.uniform(-1.2, 1.2, m)  # half-angles up to ~70 degrees, both signs
+    psi[:3] = [0.0, 1e-9, -1e-6]  # straight and nearly straight
+    kappa = 2 * np.sin(psi) / chord
+    points, owner = [], []
+    for k in range(m):
+        t = np.linspace(0.05, 0.95, 12)
+        if psi[k] == 0:
+            p = start[k] + t[:, None] * (end[k] - start[k])
+        else:
+            u = (end[k] - start[k]) / chord[k]
+            left = np.array([-u[1], u[0]])
+            R = 1 / abs(kappa[k])
+            # positive curvature: the centre on the left of start -> end (the minor arc bulges right)
+            centre = (start[k] + end[k]) / 2 + np.sign(kappa[k]) * np.sqrt(R ** 2 - chord[k] ** 2 / 4) * left
+            a0, a1 = (np.arctan2(*(q - centre)[::-1]) for q in (start[k], end[k]))
+            sweep = (a1 - a0 + np.pi) % (2 * np.pi) - np.pi
+            p = centre + R * np.c_[np.cos(a0 + t * sweep), np.sin(a0 + t * sweep)]
+        points.append(p)
+        owner += [k] * len(p)
+    got = fit_arcs(np.concatenate(points), np.array(owner), start, end)
+    np.testing.assert_allclose(got[3:], kappa[3:], rtol=1e-9)
+    # nearly straight: the test's own points, from a centre 1e9 px away, carry ~1e-8 px of rounding
+    np.testing.assert_allclose(got[:3], kappa[:3], atol=1e-7)
+    # a junction with no point is drawn straight
+    assert fit_arcs(np.zeros((0, 2)), np.zeros(0, int), start[:2], end[:2]).tolist() == [0.0, 0.0]
+    with pytest.raises(InputError, match="start and end"):
+        fit_arcs(np.zeros((0, 2)), np.zeros(0, int), start[:1], start[:1])
+
+
+def test_junction_curvature_of_an_arc_between_two_cells_of_a_label_image():
+    # cells 1 (above) and 2 (below) split by an arc of radius R whose centre lies below; cells 3, 4: side strips
+    R, h, w = 90.0, 80, 121
+    rows, cols = np.mgrid[0:h, 0:w]
+    labels = np.where(np.hypot(cols - 60.0, rows - (40.0 + R)) > R, 1, 2)
+    labels[:, :12], labels[:, 109:] = 3, 4
+    tables = {k: pd.DataFrame(v) for k, v in ht.mesh_from_labels(labels).tables.items()}
+    edges, v = tables["edges"], tables["vertices"].set_index("vertex")
+    kappa = junction_curvature(labels, tables["vertices"], edges)
+    arc = np.flatnonzero((edges["cell_a"] == 1) & (edges["cell_b"] == 2))
+    assert len(arc) == 1
+    k = arc[0]
+    direction = np.sign(v.loc[edges["vertex_b"][k], "x"] - v.loc[edges["vertex_a"][k], "x"])
+    # followed left to right the arc turns towards its centre (+y, the left of +x in x, y): positive
+    assert direction * kappa[k] == pytest.approx(1 / R, rel=0.05)
+    straight = np.flatnonzero((edges["cell_a"] == 1) & (edges["cell_b"] == 3))
+    assert np.abs(kappa[straight]).max() < 1e-3
+
+
+def test_arc_tissue_at_force_balance_is_recovered_exactly(vertex_model):
+    tables, tension, pressure, box = arcs_at_balance(*vertex_model)
+    kappa = tables["edges"]["curvature"].to_numpy()
+    length = tables["edges"]["length"].to_numpy()
+    assert np.degrees(np.abs(np.arcsin(kappa * length / 2))).max() > 3  # the arcs are visibly curved
+    system = force_system(tables["cells"], tables["vertices"], tables["edges"], tables["cell_vertices"], box, kappa)
+    x = np.r_[tension[system.edge_rows], pressure[system.cell_rows]]
+    assert np.abs(system.matrix @ x).max() < 1e-9
+    for method in ("lsq", "bayes"):
+        forces = _infer(tables, box, method=method, curvature=kappa, sd=False)
+        t, p = forces.edges["tension"].to_numpy(), forces.cells["pressure"].to_numpy()
+        want_t, want_p = _relative_truth(tension, pressure, np.isfinite(t), np.isfinite(p))
+        assert np.abs(t - want_t).max() < 1e-6
+        assert np.abs(p - want_p).max() < 1e-6 * np.abs(want_p).max()
+    # the straight equations on the same geometry are off by the arcs' tangents
+    straight = _infer(tables, box, method="lsq")
+    want_t, _ = _relative_truth(tension, pressure, np.ones(len(tension), bool), np.ones(len(pressure), bool))
+    assert np.abs(straight.edges["tension"].to_numpy() - want_t).max() > 1e-3
+    with pytest.raises(InputError, match="curvature"):
+        _infer(tables, box, curvature=kappa[:5])
+
+
+def test_surface_evolver_forces_with_curved_junctions(real_data):
+    # the triple-junction network with each junction's arc fitted to its chain: Young-Laplace
+    tables, tension, pressure = evolver_network(_evolver(real_data))
+    kappa = tables["edges"]["curvature"].to_numpy()
+    for method in ("lsq", "bayes"):
+        forces = _infer(tables, None, method=method, sd=False, curvature=kappa)
+        t_err, p_err, t_r, p_r = _errors(tables, tension, pressure, forces)
+        assert np.isfinite(forces.edges["tension"]).sum() == 261  # least squares determines every tension now
+        assert t_err < 0.04 and p_err < 0.08 and t_r > 0.99 and p_r > 0.99  # 0.031, 0.063 measured
+
+
+def test_surface_evolver_forces_from_its_label_image(real_data):
+    # drawn at 4 px per unit, meshed, curvature from the label cracks
+    labels, _ = evolver_labels(_evolver(real_data), px_per_unit=4.0)
+    tables = {k: pd.DataFrame(v) for k, v in ht.mesh_from_labels(labels).tables.items()}
+    coarse, tension, pressure = evolver_network(_evolver(real_data))
+    truth = pd.Series(tension, index=pd.MultiIndex.from_arrays([coarse["edges"]["cell_a"], coarse["edges"]["cell_b"]]))
+    truth = truth[~truth.index.duplicated(keep=False)]  # cell pairs with one junction
+    edges, cells = tables["edges"], tables["cells"]
+    want = truth.reindex(pd.MultiIndex.from_arrays([edges["cell_a"], edges["cell_b"]])).to_numpy()
+    want_p = pd.Series(pressure / 4.0, index=coarse["cells"]["cell"]).reindex(cells["cell"]).to_numpy()
+    kappa = junction_curvature(labels, tables["vertices"], edges)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        forces = _infer(tables, None, method="bayes", sd=False, curvature=kappa)
+    t, p = forces.edges["tension"].to_numpy(), forces.cells["pressure"].to_numpy()
+    ok, pk = np.isfinite(t) & np.isfinite(want), np.isfinite(p) & np.isfinite(want_p)
+    assert ok.sum() >= 255 and pk.sum() == 100
+    want = want / want[ok].mean()
+    assert np.median(np.abs(t[ok] - want[ok]) / want[ok]) < 0.1  # 0.069 measured
+    assert np.corrcoef(t[ok], want[ok])[0, 1] > 0.97 and np.corrcoef(p[pk], want_p[pk])[0, 1] > 0.97
+
+
+# ----------------------------------------------------------------------------
+# Ishihara & Sugimura's Bayesian force-inference sample (GetVertex table)
+# ----------------------------------------------------------------------------
+
+def test_ishihara_sample_network_matches_its_getvertex_table(real_data):
+    import tifffile
+    from scipy.spatial import cKDTree
+
+    from hexatissue.mechanics.vdat import read_vdat
+    from hexatissue.mesh.labels import mesh_labels, validate_labels
+
+    data = real_subdir(real_data, "ishihara_bfi_sample")
+    table = read_vdat(data / "VDat_sample.txt")
+    # the header's counts: 407 vertices, 556 junctions, 205 cells of which 55 on the edge
+    assert (len(table["vertices"]), len(table["edges"]), len(table["polygons"])) == (407, 556, 205)
+    assert sum(table["cell_ext"].values()) == 55 and table["vertex_ext"].sum() == 55
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        labels, _ = mesh_labels(validate_labels(tifffile.imread(data / "sample.tif")), None,
+                                ht.MeshOptions(kind="skeleton"))
+        image = {k: pd.DataFrame(v) for k, v in ht.mesh_from_labels(labels).tables.items()}
+        poly = {k: pd.DataFrame(v) for k, v in ht.mesh_from_polygons(table["polygons"], tolerance=0.5).tables.items()}
+    dist, near = cKDTree(image["vertices"][["x", "y"]].to_numpy()).query(table["vertices"])
+    vmatch = np.where(dist <= 1.5, image["vertices"]["vertex"].to_numpy()[near], -1)
+    assert (vmatch >= 0).sum() >= 400  # 404 of 407 within 1.5 px (the other 3: merged within merge_distance)
+    cells = poly["cells"].set_index("cell")
+    under = {int(labels[int(round(cells.loc[c, "y"])), int(round(cells.loc[c, "x"]))]) for c in table["polygons"]}
+    assert len(under - {0}) == 205  # every table cell is one cell of the image network
+    e = image["edges"]
+    key = {frozenset(k): i for i, k in enumerate(zip(e["vertex_a"], e["vertex_b"]))}
+    jmatch = np.array([key.get(frozenset((vmatch[a], vmatch[b])), -1) if min(vmatch[a], vmatch[b]) >= 0 else -1
+                       for a, b in table["edges"]])
+    assert (jmatch >= 0).sum() >= 530  # 538 of 556
+    # the tensions inferred on the two networks agree (straight junctions, as the table's polygons are)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        t_image = _infer(image, None, sd=False).edges["tension"].to_numpy()
+        t_table = _infer(poly, None, sd=False).edges["tension"].to_numpy()
+    pv = poly["vertices"].set_index("vertex")[["x", "y"]].round(3)
+    pkey = {frozenset((tuple(pv.loc[a]), tuple(pv.loc[b]))): i
+            for i, (a, b) in enumerate(zip(poly["edges"]["vertex_a"], poly["edges"]["vertex_b"]))}
+    tv = np.round(table["vertices"], 3)
+    prow = np.array([pkey.get(frozenset((tuple(tv[a]), tuple(tv[b]))), -1) for a, b in table["edges"]])
+    both = (jmatch >= 0) & (prow >= 0)
+    a, b = t_table[prow[both]], t_image[jmatch[both]]
+    ok = np.isfinite(a) & np.isfinite(b)
+    assert ok.sum() >= 500
+    assert np.corrcoef(a[ok], b[ok])[0, 1] > 0.85  # measured 0.886 (benchmarks/compare_ishihara.py)
+
+
+# ----------------------------------------------------------------------------
+# Tension histories of the junctions shrinking into T1s
+# ----------------------------------------------------------------------------
+
+def test_t1_tension_histories_follow_the_lost_junction_by_kind():
+    from hexatissue.mechanics import t1_tension_histories
+    from hexatissue.synthetic import t1_movie
+
+    movie = t1_movie(periodic=True)
+    events, edges = movie.events, movie.edges.copy()
+    edges["tension"] = 1.0 + 0.01 * edges["length"] + 0.001 * edges["frame"]  # a known tension per junction
+    got = t1_tension_histories(events, edges, before=6)
+    assert set(got["kind"]) >= {"cycle", "intercalation"}
+    for _, ev in events.iterrows():
+        a, b = sorted((ev["cell_a"], ev["cell_b"]))
+        rows = got[got["event"] == ev["event"]]
+        want = edges[(edges["cell_a"] == a) & (edges["cell_b"] == b) & (edges["frame"] >= ev["frame_start"] - 6)
+                     & (edges["frame"] < ev["frame_start"])]
+        assert rows["frame"].tolist() == sorted(want["frame"].tolist())
+        np.testing.assert_allclose(rows["tension"], want.sort_values("frame")["tension"], rtol=1e-12)
+        assert (rows["lag"] == rows["frame"] - ev["frame_start"]).all() and (rows["lag"] < 0).all()
+        if len(rows) > 1:  # the lost junction shrinks into the T1
+            assert rows["length"].iloc[-1] < rows["length"].iloc[0]
+    # label ids that are not track ids are translated with cells.track
+    cells = movie.cells[["frame", "cell"]].copy()
+    cells["track"] = cells["cell"]
+    cells["cell"] = cells["cell"] + 1000 * (cells["frame"] + 1)
+    relabelled = edges.copy()
+    for side in ("cell_a", "cell_b"):
+        relabelled[side] = relabelled[side] + 1000 * (relabelled["frame"] + 1)
+    pd.testing.assert_frame_equal(t1_tension_histories(events, relabelled, cells, before=6), got)
+    with pytest.raises(InputError, match="before"):
+        t1_tension_histories(events, edges, before=0)
+
+
+def test_plot_t1_tensions_draws_one_line_per_event_and_a_median_per_kind(tmp_path):
+    from hexatissue.mechanics import t1_tension_histories
+    from hexatissue.plot import plot_t1_tensions
+    from hexatissue.synthetic import t1_movie
+
+    movie = t1_movie(periodic=True)
+    edges = movie.edges.assign(tension=lambda e: 1.0 + 0.01 * e["length"])
+    histories = t1_tension_histories(movie.events, edges, before=6)
+    fig = plot_t1_tensions(histories, path=tmp_path / "t1.png")
+    lines = fig.axes[0].get_lines()
+    kinds = histories["kind"].nunique()
+    assert len(lines) == histories["event"].nunique() + kinds + 1  # events, medians, the mean-tension line
+    assert (tmp_path / "t1.png").stat().st_size > 0
+    with pytest.raises(InputError, match="lag"):
+        plot_t1_tensions(histories.drop(columns="lag"))
+
+
+@pytest.mark.slow
+def test_report_draws_the_tension_before_t1s(tmp_path):
+    from hexatissue.synthetic import t1_movie
+    from hexatissue.workflows.report import report
+
+    truth = t1_movie(periodic=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        movie = ht.analyze(truth.labels, box=truth.box, mechanics=ht.MechanicsOptions(enabled=True, sd=False))
+    movie.write(tmp_path / "res")
+    numbers = report(tmp_path / "res", out=tmp_path / "rep")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "t1_tensions.png" in text and (tmp_path / "rep" / "t1_tensions.csv").is_file()
+    histories = pd.read_csv(tmp_path / "rep" / "t1_tensions.csv")
+    assert set(histories["kind"]) >= {"cycle", "intercalation"}
+    assert set(numbers["mechanics"]["t1_tension_at_lag_minus_1"]) == set(
+        histories.loc[histories["lag"] == -1, "kind"])

@@ -24,7 +24,12 @@ give no equation but their junctions and cells are unknowns; four-fold
 vertices), those are found and reported, never given a silent number
 (:func:`infer_forces`); the free modes are extended, so on an open image
 least squares determines nothing and only the Bayesian prior makes an
-estimate (docs/mechanics.md).  :mod:`hexatissue.mechanics.stress` turns
+estimate (docs/mechanics.md).  Curved junctions (Young-Laplace; the
+``curvature`` argument, measured by :mod:`hexatissue.mechanics.curvature`):
+the vertices are balanced by the tensions along the arcs' end tangents, and
+each junction's curvature ties the pressure difference across it to its
+tension (:func:`force_system`); the vertices then set the tensions on their
+own, and open images are determined.  :mod:`hexatissue.mechanics.stress` turns
 the forces into the Batchelor stress of each cell, of the tissue and on the
 Gamma_p grid.
 """
@@ -41,10 +46,12 @@ from scipy.sparse.linalg import splu
 
 from ..errors import InputError, as_generator, is_real
 from ..schema import require_columns
+from .curvature import junction_curvature
+from .history import t1_tension_histories
 from .stress import cell_stress, stress_grid, tissue_stress
 
 __all__ = ["ForceSystem", "Forces", "force_system", "infer_forces", "cell_stress", "tissue_stress", "stress_grid",
-           "METHODS"]
+           "junction_curvature", "t1_tension_histories", "METHODS"]
 
 #: Estimators of :func:`infer_forces`.
 METHODS = ("lsq", "bayes")
@@ -58,6 +65,12 @@ _EPS = 1e-12
 _PROBE_STEPS = 4
 _FREE = 1e-6
 _SD_BLOCK = 256  # right-hand sides per solve when the posterior variances are computed
+# Weight of the Young-Laplace rows against the vertex rows (both in force units).  A junction's curvature is a
+# second derivative of its shape, measured less well than the tangents at its ends; a small weight lets the
+# vertices set the tensions and the curvatures the pressures (the two-stage estimate is the limit of a vanishing
+# weight, reached by 0.1: on the Surface Evolver tissue 0.1 and 0.01 give the same errors to 3 digits, 1 doubles
+# the tension error; docs/mechanics.md).  Exact equations are met at any weight.
+_LAPLACE_WEIGHT = 0.1
 
 
 @dataclass
@@ -67,8 +80,10 @@ class ForceSystem:
     Attributes
     ----------
     matrix : scipy.sparse.csr_matrix
-        ``(2 n_vertices, n_edges + n_cells)``: rows x then y of each balanced
-        vertex; columns the tensions, then the pressures.
+        ``(2 n_vertices [+ n_laplace], n_edges + n_cells)``: rows x then y of
+        each balanced vertex (then, for curved junctions, one Young-Laplace
+        row per junction between two cells); columns the tensions, then the
+        pressures.
     edge_rows, cell_rows, vertex_rows : ndarray of int
         Rows of the ``edges``, ``cells`` and ``vertices`` tables of the
         unknown tensions, the unknown pressures and the balanced vertices.
@@ -158,8 +173,21 @@ def _cycle_neighbours(cell, rank):
     return prev, nxt
 
 
-def force_system(cells, vertices, edges, cell_vertices, box=None) -> ForceSystem:
+def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None) -> ForceSystem:
     """The force balance of every vertex inside the tissue, as a sparse matrix in the tensions and pressures.
+
+    Straight junctions (``curvature`` None): the equations of the module
+    docstring.  Curved junctions (``curvature`` given): each junction is the
+    circular arc of signed curvature ``kappa`` through its end vertices
+    (:mod:`hexatissue.mechanics.curvature`), of half-angle ``psi = asin(kappa
+    c / 2)`` (``c`` its chord).  A vertex is then balanced by the tensions
+    alone, each along the arc's tangent at the vertex (the chord turned by
+    ``-psi`` at ``vertex_a``, by ``+psi`` at ``vertex_b``): ``sum_j T_j t_j =
+    0``; and every junction between two cells with a balanced end adds the
+    Young-Laplace equation in force units, ``(P_left - P_right) c / 2 - T
+    sin psi = 0`` (``left`` of the direction a -> b), weighted 0.1 against
+    the vertex rows, which is what places the pressures.  Both forms are exact for their model: straight junctions with
+    the pressure pushing on the chords (a vertex model), or free arcs.
 
     A vertex is balanced (gives two equations) when it touches no outside
     (``is_border`` False), joins two or more junctions of non-zero length,
@@ -174,6 +202,10 @@ def force_system(cells, vertices, edges, cell_vertices, box=None) -> ForceSystem
         polygons counter-clockwise in x, y as the mesh makes them).
     box : Box, optional
         Periodic box (displacements by minimum image); None for an open image.
+    curvature : ndarray, optional
+        Per row of ``edges``: the junction's signed curvature, 1/px
+        (:func:`hexatissue.mechanics.curvature.junction_curvature`); None
+        for straight junctions with the pressure terms at the vertices.
 
     Returns
     -------
@@ -218,29 +250,64 @@ def force_system(cells, vertices, edges, cell_vertices, box=None) -> ForceSystem
 
     t_edge = np.flatnonzero(balanced[va] | balanced[vb])
     u = d[t_edge] / length[t_edge, None]
+    if curvature is not None:
+        kappa = np.asarray(curvature, float)
+        if kappa.shape != (len(edges),) or not np.isfinite(kappa[t_edge]).all():
+            raise InputError(f"curvature must hold one finite value per row of edges ({len(edges)}); got shape "
+                             f"{kappa.shape}" + ("" if kappa.shape != (len(edges),) else " with non-finite values"))
+        sin_psi = np.clip(kappa[t_edge] * length[t_edge] / 2, -1.0, 1.0)
+        cos_psi = np.sqrt(1.0 - sin_psi ** 2)
     rows, cols, vals = [], [], []
     for end, sign in ((va[t_edge], 1.0), (vb[t_edge], -1.0)):
         keep = balanced[end]
         col = np.flatnonzero(keep)
         r = vrow[end[keep]]
+        ux, uy = sign * u[keep, 0], sign * u[keep, 1]
+        if curvature is not None:  # the tangent: the chord turned by -psi at vertex_a, +psi at vertex_b
+            sn, cs = -sign * sin_psi[keep], cos_psi[keep]
+            ux, uy = cs * ux - sn * uy, sn * ux + cs * uy
         rows += [2 * r, 2 * r + 1]
         cols += [col, col]
-        vals += [sign * u[keep, 0], sign * u[keep, 1]]
+        vals += [ux, uy]
 
-    at = balanced[cv_v]
-    p_cell = np.unique(cv_row[at])
-    pcol = np.full(len(cid), -1, np.int64)
-    pcol[p_cell] = len(t_edge) + np.arange(len(p_cell))
     prev, nxt = _cycle_neighbours(cv_cell, cell_vertices["rank"].to_numpy(np.int64))
-    k = np.flatnonzero(at)
-    here = xy[cv_v[k]]
-    chord = _min_image(xy[cv_v[nxt[k]]] - here, box) - _min_image(xy[cv_v[prev[k]]] - here, box)
-    r = vrow[cv_v[k]]
-    rows += [2 * r, 2 * r + 1]
-    cols += [pcol[cv_row[k]], pcol[cv_row[k]]]
-    vals += [0.5 * chord[:, 1], -0.5 * chord[:, 0]]
+    n_rows = 2 * len(vertex_rows)
+    if curvature is None:
+        at = balanced[cv_v]
+        p_cell = np.unique(cv_row[at])
+        pcol = np.full(len(cid), -1, np.int64)
+        pcol[p_cell] = len(t_edge) + np.arange(len(p_cell))
+        k = np.flatnonzero(at)
+        here = xy[cv_v[k]]
+        chord = _min_image(xy[cv_v[nxt[k]]] - here, box) - _min_image(xy[cv_v[prev[k]]] - here, box)
+        r = vrow[cv_v[k]]
+        rows += [2 * r, 2 * r + 1]
+        cols += [pcol[cv_row[k]], pcol[cv_row[k]]]
+        vals += [0.5 * chord[:, 1], -0.5 * chord[:, 0]]
+    else:
+        # the cell on the left of a -> b: the one whose counter-clockwise polygon goes from vertex_a to vertex_b
+        step = pd.DataFrame({"v": cv_v, "w": cv_v[nxt], "cell": cv_row})
+        step = step[has_polygon[cv_row]].drop_duplicates(["v", "w"])
+        ends = pd.DataFrame({"v": va[t_edge], "w": vb[t_edge]})
+        left = ends.merge(step, on=["v", "w"], how="left")["cell"].to_numpy(float)
+        right = ends.rename(columns={"v": "w", "w": "v"}).merge(step, on=["v", "w"], how="left")["cell"].to_numpy(
+            float)
+        inner = np.isfinite(left) & np.isfinite(right)
+        ca, cb = edges["cell_a"].to_numpy()[t_edge], edges["cell_b"].to_numpy()[t_edge]
+        inner &= (ca != 0) & (cb != 0)
+        j = np.flatnonzero(inner)
+        lc, rc = left[j].astype(np.int64), right[j].astype(np.int64)
+        p_cell = np.unique(np.r_[lc, rc])
+        pcol = np.full(len(cid), -1, np.int64)
+        pcol[p_cell] = len(t_edge) + np.arange(len(p_cell))
+        r = n_rows + np.arange(len(j))
+        half = 0.5 * length[t_edge[j]]
+        rows += [r, r, r]
+        cols += [j, pcol[lc], pcol[rc]]
+        vals += [_LAPLACE_WEIGHT * -sin_psi[j], _LAPLACE_WEIGHT * half, -_LAPLACE_WEIGHT * half]
+        n_rows += len(j)
     matrix = csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                        shape=(2 * len(vertex_rows), len(t_edge) + len(p_cell)))
+                        shape=(n_rows, len(t_edge) + len(p_cell)))
     return ForceSystem(matrix, t_edge, p_cell, vertex_rows, balanced)
 
 
@@ -259,7 +326,7 @@ def _factor(matrix):
 
 
 def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes", mu=None, sd=True,
-                 seed=0) -> Forces:
+                 seed=0, curvature=None) -> Forces:
     """Tensions of the interior junctions and pressures of the interior cells of one frame, from force balance.
 
     The equations are those of :func:`force_system` (straight junctions).
@@ -288,6 +355,12 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         unknown, the slow part on large frames).
     seed : int or numpy.random.Generator
         Seed of the random probes that find the free unknowns.
+    curvature : ndarray, optional
+        Per row of ``edges``: signed junction curvature, 1/px
+        (:func:`hexatissue.mechanics.curvature.junction_curvature`): the
+        junctions are then circular arcs, balanced by their tangents at the
+        vertices and by Young-Laplace across them (:func:`force_system`).
+        None: straight junctions.
 
     Returns
     -------
@@ -303,7 +376,7 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
     if mu is not None and not (is_real(mu) and mu > 0):
         raise InputError(f"mu must be a positive finite number or None; got {mu!r}")
     frame = _frame_of(cells, "cells")
-    system = force_system(cells, vertices, edges, cell_vertices, box)
+    system = force_system(cells, vertices, edges, cell_vertices, box, curvature)
     A = system.matrix
     n_t, n_p = len(system.edge_rows), len(system.cell_rows)
     n = n_t + n_p

@@ -18,8 +18,9 @@ import pandas as pd
 
 from ..errors import InputError
 from ..geometry import polygon_area_centroid
+from .curvature import fit_arcs
 
-__all__ = ["read_evolver", "evolver_network"]
+__all__ = ["read_evolver", "evolver_network", "evolver_labels"]
 
 _SECTIONS = ("vertices", "edges", "faces", "bodies")
 
@@ -84,7 +85,11 @@ def evolver_network(path, fine=False):
     tables : dict
         ``cells`` (``cell`` = body id; ``is_border``: a junction with the
         outside), ``vertices``, ``edges``, ``cell_vertices`` (counter-clockwise
-        in x, y) as DataFrames of frame 0, in the dump's length unit.
+        in x, y) as DataFrames of frame 0, in the dump's length unit;
+        ``edges.curvature`` (1/px, signed as in
+        :mod:`hexatissue.mechanics.curvature`) is the arc through the
+        junction's ends fitted to its chain's inner vertices (0 with
+        ``fine``).
     tension : ndarray
         Per row of ``edges``: the chain's ``density``.
     pressure : ndarray
@@ -99,13 +104,17 @@ def evolver_network(path, fine=False):
         degree[head] = degree.get(head, 0) + 1
     node = {v for v, k in degree.items() if fine or k != 2}
     face_of = {abs(f): body for body, (f, _) in dump["bodies"].items()}
-    cells, loops = [], {}
+    cells, loops, between = [], {}, {}
     for face, loop in dump["faces"].items():
         chain = [edges[e][0] if e > 0 else edges[-e][1] for e in loop]  # each edge's first vertex along the loop
         signed = [(e, edges[abs(e)][2]) for e in loop]
         body = face_of[face]
         keep = [k for k, v in enumerate(chain) if v in node]
         polygon = [chain[k] for k in keep]
+        for k0, k1 in zip(keep, keep[1:] + [keep[0] + len(chain)]):  # the points between two kept vertices
+            inner = [chain[k % len(chain)] for k in range(k0 + 1, k1)]
+            key = (min(chain[k0], chain[k1 % len(chain)]), max(chain[k0], chain[k1 % len(chain)]))
+            between.setdefault(key, inner)
         # the density of the junction that starts at each kept vertex
         density = [signed[k][1] for k in keep]
         area = polygon_area_centroid(np.array([xy[v] for v in polygon]), np.zeros(1, np.int64))[0][0]
@@ -150,5 +159,51 @@ def evolver_network(path, fine=False):
         "cell_vertices": pd.DataFrame(cv, columns=["cell", "rank", "vertex"]).assign(frame=0)[
             ["frame", "cell", "rank", "vertex"]],
     }
+    points = [(k, xy[v]) for k, key in enumerate(keys) for v in between.get(key, [])]
+    owner = np.array([k for k, _ in points], np.int64)
+    tables["edges"]["curvature"] = fit_arcs(np.array([p for _, p in points]).reshape(-1, 2), owner, pos[va], pos[vb])
     pressure = np.array([dump["bodies"][b][1] for b in sorted(cells)])
     return tables, tension, pressure
+
+
+def evolver_labels(path, px_per_unit=2.0, margin=4):
+    """A Surface Evolver dump drawn as a label image: every body filled with its id, the outside 0.
+
+    Pixel ``(row, col)`` is centred on ``x = x0 + col / px_per_unit``, ``y =
+    y0 + row / px_per_unit`` of the dump (``x0``, ``y0``: its smallest vertex
+    coordinates less ``margin`` pixels); a pixel belongs to the body whose
+    face (the full chain of edges, its curved junctions) contains its centre.
+
+    Parameters
+    ----------
+    path : str or Path
+        The dump.
+    px_per_unit : float
+        Pixels per length unit of the dump.
+    margin : int
+        Pixels of outside around the tissue.
+
+    Returns
+    -------
+    labels : ndarray (H, W) of int32
+        Body ids; 0 outside.
+    origin : ndarray (2,)
+        ``x0``, ``y0``: the dump coordinates of pixel (0, 0).
+    """
+    from skimage.draw import polygon as fill
+
+    if not (np.isfinite(px_per_unit) and px_per_unit > 0):
+        raise InputError(f"px_per_unit must be a positive number; got {px_per_unit!r}")
+    dump = read_evolver(path)
+    xy, edges = dump["vertices"], dump["edges"]
+    pos = np.array(list(xy.values()))
+    origin = pos.min(axis=0) - margin / px_per_unit
+    shape = tuple((np.ceil((pos.max(axis=0) - origin) * px_per_unit) + margin + 1).astype(int)[::-1])
+    labels = np.zeros(shape, np.int32)
+    face_of = {abs(f): body for body, (f, _) in dump["bodies"].items()}
+    for face, loop in dump["faces"].items():
+        chain = np.array([xy[edges[e][0] if e > 0 else edges[-e][1]] for e in loop])
+        cols, rows = ((chain - origin) * px_per_unit).T
+        r, c = fill(rows, cols, shape)
+        labels[r, c] = face_of[face]
+    return labels, origin

@@ -666,4 +666,26 @@ def _mechanics_section(movie, out, written, numbers):
                 title=f"inferred pressure relative to the mean (tension/px), frame {first}", path=path)
     written.append(path)
     lines += _figure_line(path, out, f"pressure, frame {first}")
+    lines += _t1_tension_lines(movie, edges, out, written, numbers)
     return lines
+
+
+def _t1_tension_lines(movie, edges, out, written, numbers, before=10):
+    """The tension of each T1's lost junction over the frames before it, by kind (when there are T1s)."""
+    from ..mechanics import t1_tension_histories
+    from ..plot import plot_t1_tensions
+
+    events = movie.tables.get("events")
+    if events is None or not len(events):
+        return []
+    histories = t1_tension_histories(events, edges, movie.cells, before=before)
+    written.append(write_table(histories, out / "t1_tensions.csv"))
+    last = histories[histories["lag"] == -1].groupby("kind")["tension"].median()
+    numbers["mechanics"]["t1_tension_at_lag_minus_1"] = {str(k): float(v) for k, v in last.items()}
+    path = out / "t1_tensions.png"
+    plot_t1_tensions(histories, path=path)
+    written.append(path)
+    return [f"Tension of the junction each T1 removes, over the {before} frames before it, by kind "
+            f"(`t1_tensions.csv`; median at the last frame before the T1: "
+            + ", ".join(f"{k} {v:.2f}" for k, v in last.items()) + "):", ""] + _figure_line(
+                path, out, "tension before T1s")
