@@ -85,7 +85,7 @@ def main():
     rows = []
     for path in args.runs:
         movie = movie_of(path, args.cache)
-        name = Path(path).parent.name if Path(path).suffix == ".zarr" else Path(path).name
+        name = Path(path).name if Path(path).suffix != ".zarr" else (Path(path).stem if Path(path).stem != "run" else Path(path).parent.name)
         cells = movie.cells
         r_cell = float(np.sqrt(np.nanmean(cells["area"].to_numpy(float)) / np.pi))
         average, samples = t1_flow(cells, movie.events, movie.box, offsets=args.offsets)
