@@ -3,7 +3,7 @@
 Alternates ``analyze`` with the flow stage on (default: velocities and the flow fields on the Gamma_p grid)
 and off (``FlowOptions(enabled=False)``, the CLI's ``--no-flow``), --pairs times, in this one run: wall time
 and CPU time (this process and its workers); then the flow statistics (``flow_summary``, what the report adds)
-on the cells of the last run.  The movie is bench_t1.py's (rendered there into --cache).
+and the stage alone (``cell_velocities`` + ``flow_fields``, CPU time in this process) on the last run's tables.  The movie is bench_t1.py's (rendered there into --cache).
 
     NUMBA_NUM_THREADS=1 python benchmarks/bench_flow_share.py [--cache /tmp/hexatissue_bench] [--pairs 2]
 """
@@ -24,7 +24,7 @@ from bench_t1 import RawStack, render  # noqa: E402
 from hexatissue import analyze  # noqa: E402
 from hexatissue.box import Box  # noqa: E402
 from hexatissue.errors import HexatissueWarning  # noqa: E402
-from hexatissue.flow import flow_summary  # noqa: E402
+from hexatissue.flow import cell_velocities, flow_fields, flow_summary  # noqa: E402
 from hexatissue.options import FlowOptions  # noqa: E402
 
 warnings.simplefilter("ignore", HexatissueWarning)
@@ -62,6 +62,13 @@ def main():
     t0 = time.process_time()
     flow_summary(movie.cells, box)
     stats = time.process_time() - t0
+    # the stage alone, in this process (its kernel already loaded): what the alternated runs should differ by
+    cells = movie.cells.drop(columns=["vx", "vy"])
+    t0 = time.process_time()
+    vx, vy = cell_velocities(cells, box)
+    flow_fields(cells.assign(vx=vx, vy=vy), movie.grid, box)
+    stage = time.process_time() - t0
+    print(f"the flow stage alone: {stage:.2f} s CPU = {stage / np.median(off[:, 1]):.3f} of analyze's CPU without it")
     print(f"median wall on/off {np.median(on[:, 0]):.1f}/{np.median(off[:, 0]):.1f} s = "
           f"{np.median(on[:, 0]) / np.median(off[:, 0]):.3f}; CPU {np.median(on[:, 1]):.1f}/{np.median(off[:, 1]):.1f} s "
           f"= {np.median(on[:, 1]) / np.median(off[:, 1]):.3f}; flow_summary {stats:.2f} s CPU "
