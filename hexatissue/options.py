@@ -515,15 +515,21 @@ class FlowOptions(_Options, stage="flow", title="tissue flow"):
         radius (:func:`hexatissue.flow.flow_fields`; default 2: ~9 cells).
     min_cells : int
         Fewest cells a fit takes (at least 3).
+    piv : bool
+        With a raw channel (``IntensityOptions.image``) and the flow fields:
+        its PIV velocity at every node (:func:`hexatissue.flow.piv.piv_fields`;
+        ``flow.piv_vx``, ``piv_vy``, ``piv_peak``).
     """
 
     enabled: bool = cli_field(True, "--no-flow", "no cell velocities or flow fields", action="store_false")
     radius_factor: float = cli_field(2.0, "--flow-radius-factor", "disk radius of the flow fields' fits, in units "
                                      "of the order field's radius")
     min_cells: int = cli_field(3, "--flow-min-cells", "fewest cells in a flow field's fit (at least 3)")
+    piv: bool = cli_field(True, "--no-piv", "no PIV of the --intensity channel on the flow grid",
+                          action="store_false")
 
     def __post_init__(self):
-        self._flags("enabled")
+        self._flags("enabled", "piv")
         self._number("radius_factor", strict=True)
         self._number("min_cells", low=3, integer=True)
 

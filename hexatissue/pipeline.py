@@ -143,7 +143,7 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     release_freed_memory()  # the frames' freed temporaries, before the movie stages
     orders = options["order"].p
     movie = MovieData(tables={name: rows.pop(name).table(name, orders) for name in tables}, box=box,
-                      n_frames=src.n_frames, source=src, tracker=tracker, options=dict(options))
+                      n_frames=src.n_frames, source=src, tracker=tracker, options=dict(options), images=images)
     del tracker
     for stage in movie_work:
         stage.run(movie, options[stage.options.stage])

@@ -215,6 +215,9 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "strain_xy": ("f", "1/frame", "traceless strain rate (dvx/dy + dvy/dx) / 2"),
         "n_cells": ("i", "", "cells in the disk with a velocity"),
         "valid": ("b", "", "the grid node is valid and the fit exists"),
+        "piv_vx": ("f", "px/frame", "PIV velocity of the raw channel at the node, along x (with --intensity)"),
+        "piv_vy": ("f", "px/frame", "PIV velocity of the raw channel at the node, along y (with --intensity)"),
+        "piv_peak": ("f", "", "PIV normalised correlation peak (1: an exact copy)"),
     },
     "deformation": {
         "frame": ("i", "frame", "the interval from this frame to the next"),
@@ -244,7 +247,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 }
 
 # columns a producer may leave out (every other schema column is required)
-_OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
+_OPTIONAL = {"piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy",
              "tension", "tension_sd", "curvature", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}

@@ -31,6 +31,7 @@ from .deformation import deformation_budget, read_roi
 from .errors import HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
 from .flow import cell_velocities, flow_fields
+from .flow.piv import piv_fields
 from .geometry import distinct_count
 from .intensity import measure_intensity
 from .mechanics import cell_stress, infer_forces, junction_curvature, stress_grid
@@ -132,6 +133,7 @@ class MovieData:
     tracker: object
     options: dict
     summary: dict = field(default_factory=dict)
+    images: dict = field(default_factory=dict)  # the image stages' Sources by stage name (the flow's PIV reads them)
 
 
 # ----------------------------------------------------------------------------
@@ -230,6 +232,24 @@ def _flow(movie, options):
     if "grid" in movie.tables:
         movie.tables["flow"] = flow_fields(cells, movie.tables["grid"], movie.box, options.radius_factor,
                                            options.min_cells)
+        image = movie.images.get("intensity")
+        if options.piv and image is not None and image.n_frames == movie.n_frames > 2:
+            piv = piv_fields(_ImageFrames(image), movie.tables["grid"], movie.box)
+            for column in ("piv_vx", "piv_vy", "piv_peak"):
+                movie.tables["flow"][column] = piv[column].to_numpy()
+
+
+class _ImageFrames:
+    """A Source's images as a lazy sequence of frames (PIV reads two at a time)."""
+
+    def __init__(self, source):
+        self.source = source
+
+    def __len__(self):
+        return self.source.n_frames
+
+    def __getitem__(self, t):
+        return self.source.image(t)
 
 
 def _t1_events(movie, options):
