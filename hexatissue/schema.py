@@ -91,6 +91,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 at a corner of an open "
                    "image or on a boundary with no vertex winding around a periodic box)"),
         "is_border": ("b", "", "touches the background (cell 0)"),
+        "n_merged": ("i", "", "junctions between two cells shorter than merge_distance contracted into this vertex: "
+                     "contacts held as a four-fold vertex (label input only)"),
     },
     "edges": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -244,7 +246,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy",
-             "tension", "tension_sd", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
+             "tension", "tension_sd", "n_merged", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

@@ -238,7 +238,8 @@ def _t1_events(movie, options):
     tables = movie.tables
     tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], tables["cells"], options.min_length,
                                                              censor, movie.box)
-    movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames)
+    movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames,
+                                             tables.get("vertices"))
     movie.options["events"] = options.replace(censor=censor)
 
 
@@ -334,8 +335,8 @@ STAGES = (
           writes=("defects.track", "defect_events"), run=_defect_tracks, enabled=_fields_on),
     Stage("tissue flow", FlowOptions, "movie", reads=("cells", "grid"), writes=("cells.vx", "cells.vy", "flow"),
           run=_flow, enabled=_enabled),
-    Stage("T1 events", EventOptions, "movie", reads=("cells", "edges"), writes=("events", "neighbour_events"),
-          run=_t1_events),
+    Stage("T1 events", EventOptions, "movie", reads=("cells", "edges", "vertices"),
+          writes=("events", "neighbour_events"), run=_t1_events),
     Stage("cell events", EventOptions, "movie", reads=("events", "cells"), writes=("cell_events",),
           run=_cell_events),
     Stage("deformation budget", DeformationOptions, "movie",

@@ -963,20 +963,30 @@ NO_INTERCALATION = ("no T1 event is classified as an intercalation: every T1 tha
                     "movie.summary['events'])")
 
 
-def events_summary(events, censor, given, n_frames):
-    """Censoring window used (``given`` by the user, or the default rule) and the number of events of each kind.
+def events_summary(events, censor, given, n_frames, vertices=None):
+    """Censoring window used (``given`` by the user, or the default rule), the number of events of each kind,
+    and what the network could not resolve: the contacts held as four-fold vertices.
 
-    Warns (:class:`HexatissueWarning`) when no T1 is an intercalation because
-    every one that is not undone is unresolved.
+    ``vertices``: the movie's vertices table; with its ``n_merged`` column
+    (label input), ``n_held_contacts`` counts the contact-frames of junctions
+    shorter than ``merge_distance`` held as four-fold (or higher) vertices,
+    summed over frames, and ``n_held_vertices`` the vertex-frames holding
+    them (a T1 whose new junction never grows past ``merge_distance`` is one
+    of these, not an event); both None without that column.  Warns
+    (:class:`HexatissueWarning`) when no T1 is an intercalation because every
+    one that is not undone is unresolved.
     """
     counts = events["kind"].astype(str).value_counts()
     n = {kind: int(counts.get(kind, 0)) for kind in ("cycle", "intercalation", "unresolved")}
     if n["unresolved"] and not n["intercalation"]:
         warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=user_stacklevel())
     rule = "given" if given else "min(10, max(1, n_frames // 5))"
+    held = None if vertices is None or "n_merged" not in vertices.columns else vertices["n_merged"].to_numpy(np.int64)
     return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
             "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
-            "n_classified": n["cycle"] + n["intercalation"]}
+            "n_classified": n["cycle"] + n["intercalation"],
+            "n_held_contacts": None if held is None else int(held.sum()),
+            "n_held_vertices": None if held is None else int((held > 0).sum())}
 
 
 # the column lists of hexatissue 0.1, now read from the one registry
