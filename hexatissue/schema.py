@@ -190,6 +190,11 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "parent": ("i", "", "track id of the mother cell for daughters of a division, else 0"),
         "begin": ("O", "", "how the track starts: movie_start, division, border (enters the field of view) or appearance (interior)"),
         "end": ("O", "", "how the track ends: movie_end, division, border (leaves the field of view) or extrusion (interior)"),
+        "division_area_ratio": ("f", "", "daughters of a division: their summed area at their first frame over the "
+                                "mother's at its last frame (NaN on other rows)"),
+        "division_suspect": ("b", "", "daughters of a division that fails a plausibility rule (see division_reason)"),
+        "division_reason": ("O", "", "the rules a suspect division fails (hexatissue.track.DIVISION_REASONS), joined "
+                            "by ';'; empty when plausible or not a daughter"),
     },
     "cell_events": {
         "track": ("i", "", "track id"),
@@ -246,7 +251,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy",
-             "tension", "tension_sd", "n_merged", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
+             "tension", "tension_sd", "n_merged", "division_area_ratio",
+             "division_suspect", "division_reason", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

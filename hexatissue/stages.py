@@ -41,7 +41,7 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
                       MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
-from .track import cells_with_tracks, lineage_table, tracking_summary
+from .track import cells_with_tracks, check_divisions, lineage_table, tracking_summary
 
 __all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
            "worker_stages", "run_frame"]
@@ -201,8 +201,10 @@ def _tracks(movie, options):
     # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
-    movie.tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
-    movie.summary["tracking"] = tracking_summary(tracker, cells, parents)
+    lineage = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
+    movie.tables["lineage"] = check_divisions(lineage, cells, options.division_min_frames, options.division_min_cycle,
+                                              options.division_area_tolerance, 1 + options.max_gap)
+    movie.summary["tracking"] = tracking_summary(tracker, cells, parents, movie.tables["lineage"])
     movie.options["track"] = options.replace(mode=movie.summary["tracking"]["resolved"])
     movie.tracker = None  # its per-cell-frame ids are in cells now; the later stages need the memory
 
