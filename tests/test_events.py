@@ -678,3 +678,18 @@ def test_t1s_next_to_t1s_are_each_found_with_their_kind(case):
     rendered = analyze(movie.labels, workers=1, progress=False)
     assert rendered.summary["tracking"]["resolved"] == "never"  # the ids are the tracks: cells 1..5 are the rosette
     pd.testing.assert_frame_equal(rendered.events[columns], want, check_dtype=False)
+
+
+def test_contacts_held_as_four_fold_vertices_are_counted():
+    """A five-fold vertex held for frames 4-5 of the rosette is two junctions shorter than merge_distance
+    contracted into one vertex (five cells around a point: three three-fold vertices and two junctions), no
+    contact held elsewhere; the events summary counts them."""
+    from hexatissue import analyze
+    from hexatissue.synthetic import rosette_movie
+
+    movie = analyze(rosette_movie([0] * 4 + [None] * 2 + [1] * 4).labels, workers=1, progress=False)
+    v = movie.vertices
+    held = v[v["n_merged"] > 0]
+    assert held["frame"].tolist() == [4, 5] and held["n_merged"].tolist() == [2, 2] and (held["degree"] == 5).all()
+    assert movie.summary["events"]["n_held_contacts"] == 4 and movie.summary["events"]["n_held_vertices"] == 2
+    assert len(movie.events) == 2  # the two T1s through the held vertex, not lost to it

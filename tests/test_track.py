@@ -514,6 +514,13 @@ def test_redivision_and_flicker_are_flagged():
     assert mother[b].suspect and "short_daughter" in mother[b].reason
     assert not mother[c].suspect and mother[c].reason == ""
     assert movie.summary["tracking"]["n_divisions_suspect"] == 3
+    # per frame: the four divisions where scripted, three suspect; the flicker's second piece gone at frame 5
+    qc = trk.tracking_qc(movie.lineage, movie.cells).set_index("frame")
+    assert qc["divisions"].to_dict() == {t: int(t in (3, 4, 5, 6)) for t in range(12)}
+    assert qc["divisions_suspect"].to_dict() == {t: int(t in (3, 4, 5)) for t in range(12)}
+    assert qc["disappearances"].to_dict() == {t: int(t == 5) for t in range(12)}
+    assert not qc["appearances"].any()
+    assert (qc["cells"] == pd.Series(movie.cells["frame"]).value_counts().sort_index()).all()
 
 
 def _lineage_rows(rows):

@@ -34,7 +34,7 @@ from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _divis
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
            "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots",
-           "check_divisions", "division_rows", "DIVISION_REASONS"]
+           "check_divisions", "division_rows", "DIVISION_REASONS", "tracking_qc"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -929,6 +929,50 @@ def division_rows(lineage: pd.DataFrame) -> pd.DataFrame:
     out = pd.DataFrame(cols).astype({"mother": np.int64, "frame": np.int64, "daughter_a": np.int64,
                                      "daughter_b": np.int64, "area_ratio": float, "suspect": bool})
     return out.sort_values(["frame", "mother"], ignore_index=True)
+
+
+def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
+    """Per frame: cells, tracks that appear and disappear, divisions plausible and suspect.
+
+    Parameters
+    ----------
+    lineage : pandas.DataFrame
+        :func:`lineage_table`, checked by :func:`check_divisions` (without
+        ``division_suspect`` every division counts as plausible).
+    cells : pandas.DataFrame
+        ``frame`` (one row per cell).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame``, ``cells`` (count), ``appearances`` (tracks starting at
+        the frame inside the tissue or at its border, not by division),
+        ``disappearances`` (tracks present at the frame before and not
+        after it, ended by extrusion or at the border, not by division),
+        ``divisions`` (mothers whose daughters start at the frame),
+        ``divisions_suspect`` (of those, the suspect ones); counts per frame.
+    """
+    frames = np.unique(cells["frame"].to_numpy(np.int64))
+    out = pd.DataFrame({"frame": frames})
+    out["cells"] = np.searchsorted(np.sort(cells["frame"].to_numpy(np.int64)), frames, "right") - \
+        np.searchsorted(np.sort(cells["frame"].to_numpy(np.int64)), frames, "left")
+    begin, end = lineage["begin"].astype(str), lineage["end"].astype(str)
+    # the frame after a track's last one, in the movie's own frame numbers
+    after = np.searchsorted(frames, lineage["frame_end"].to_numpy(np.int64), "right")
+    gone_at = np.where(after < len(frames), frames[np.minimum(after, len(frames) - 1)], -1)
+
+    def per_frame(values):
+        return pd.Series(values).value_counts().reindex(frames, fill_value=0).to_numpy(np.int64)
+
+    out["appearances"] = per_frame(lineage.loc[begin.isin(["appearance", "border"]).to_numpy(), "frame_start"])
+    out["disappearances"] = per_frame(gone_at[end.isin(["extrusion", "border"]).to_numpy()])
+    daughters = lineage[lineage["parent"] > 0]
+    first = daughters.groupby("parent")["frame_start"].min()
+    suspect = (daughters.groupby("parent")["division_suspect"].any() if "division_suspect" in daughters.columns
+               else pd.Series(False, index=first.index))
+    out["divisions"] = per_frame(first.to_numpy())
+    out["divisions_suspect"] = per_frame(first[suspect.reindex(first.index).to_numpy(bool)].to_numpy())
+    return out
 
 
 def lineage_roots(parents: dict, ids) -> dict:
