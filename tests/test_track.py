@@ -514,6 +514,9 @@ def test_redivision_and_flicker_are_flagged():
     assert mother[b].suspect and "short_daughter" in mother[b].reason
     assert not mother[c].suspect and mother[c].reason == ""
     assert movie.summary["tracking"]["n_divisions_suspect"] == 3
+    from hexatissue.cli import summary_line
+
+    assert "4 divisions, 3 suspect" in summary_line(movie)
     # per frame: the four divisions where scripted, three suspect; the flicker's second piece gone at frame 5
     qc = trk.tracking_qc(movie.lineage, movie.cells).set_index("frame")
     assert qc["divisions"].to_dict() == {t: int(t in (3, 4, 5, 6)) for t in range(12)}
