@@ -2,10 +2,12 @@
 
 A **T1** is a neighbour exchange in a quartet of cells: cells ``a`` and
 ``b`` lose their shared junction and cells ``c`` and ``d`` gain one, where
-``c`` and ``d`` were common neighbours of ``a`` and ``b`` before and ``a``
-and ``b`` are common neighbours of ``c`` and ``d`` after.  The intermediate
-four-fold vertex may persist: a-b is lost at frame ``t1`` and c-d gained at
-``t2 >= t1``, with neither contact present in between.
+``c`` and ``d`` were common neighbours of ``a`` and ``b`` before or ``a``
+and ``b`` are common neighbours of ``c`` and ``d`` after (either: two T1s on
+junctions that share a vertex, in one frame, each see their quartet on one
+side only).  The intermediate four-fold vertex may persist: a-b is lost at
+frame ``t1`` and c-d gained at ``t2 >= t1``, with neither contact present in
+between.  Every loss and every gain is one T1 at most.
 
 Classification per quartet, in time order:
 
