@@ -46,6 +46,7 @@ import numpy as np
 from .box import Box
 from .errors import InputError
 from .mesh.labels import check_mask, checked_labels
+from .mesh.segment import segment_membranes
 from .readers.arrays import open_array, open_list, open_npy, open_npz
 from .readers.base import Opened, read_error, refuse
 from .readers.ctc import is_ctc_folder, open_ctc
@@ -179,9 +180,15 @@ class Source:
         """
         return self.checked_frame(t)[0]
 
-    def checked_frame(self, t):
-        """:meth:`frame`, and its smallest and largest id (None for a bool image), found while checking it."""
+    def checked_frame(self, t, kind="auto"):
+        """:meth:`frame`, and its smallest and largest id (None for a bool image), found while checking it.
+
+        With ``kind="membrane-map"`` the frame is a membrane image (or probability map), segmented
+        into touching labels first (:func:`hexatissue.mesh.segment.segment_membranes`).
+        """
         t = self._index(t)
+        if kind == "membrane-map":
+            return checked_labels(segment_membranes(self.image(t), periodic=self.box is not None), f"frame {t}")
         return checked_labels(self.raw_frame(t), f"frame {t}")
 
     def image(self, t) -> np.ndarray:
@@ -389,8 +396,7 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
         refuse("an MPF run", key=key, channel=channel, level=level, axes=axes)
         source = _make(open_run(obj))
     elif is_zarr_group(obj):
-        refuse("a zarr group (its arrays name their axes)", axes=axes)
-        source = _make(open_zarr_group(obj, None, key, channel, level))
+        source = _make(open_zarr_group(obj, None, key, channel, level, axes))
     elif isinstance(obj, (list, tuple)):
         refuse("a list of frames", key=key, level=level, axes=axes)
         source = _make(_from_list(obj, channel))
@@ -447,9 +453,9 @@ def _open_path(path: Path, key, channel, level, axes=None) -> Source:
 def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
     """The reader of an existing path, chosen by what it is (folder, zarr store) and its suffix."""
     if path.is_dir():
-        refuse("a folder or a zarr store", axes=axes)
         if is_zarr_dir(path):
-            return open_zarr_path(path, key, channel, level)
+            return open_zarr_path(path, key, channel, level, axes)
+        refuse("a folder (each file is one frame)", axes=axes)
         if path.suffix.lower() == ".zarr":
             raise InputError(f"path {str(path)!r} is not a zarr store (no zarr.json, .zgroup or .zarray in it)")
         if is_polygon_folder(path):

@@ -1,4 +1,5 @@
 """hexatissue.analyze end to end: rasterised synthetic movies with exact truth, executors, inputs, real data."""
+import json
 import warnings
 from types import SimpleNamespace
 
@@ -195,13 +196,32 @@ def test_checkpoint_resume_gives_the_uninterrupted_result(tmp_path):
     full = analyze_movie(stack, workers=1)
     with pytest.raises(InputError, match="frame 5.*simulated crash"):  # a reader failure names the frame
         analyze_movie(_FailingStack(stack, 5), workers=1, checkpoint=tmp_path, checkpoint_every=2)
-    assert sorted(p.name for p in tmp_path.glob("cells_*.parquet")) == ["cells_00000002.parquet",
-                                                                         "cells_00000004.parquet"]
+    # frames 0-1 and 2-3, saved at 2 and 4, packed into one part (the two spans are equal)
+    assert sorted(p.name for p in tmp_path.glob("cells_*.parquet")) == ["cells_00000000-00000004.parquet"]
     resumed = analyze_movie(_FailingStack(stack, 1), workers=1, checkpoint=tmp_path, checkpoint_every=2)  # frames 0-3 come from the checkpoint and are not read again
     for name, table in full.tables.items():
         pd.testing.assert_frame_equal(resumed.tables[name], table)
     with pytest.raises(InputError, match="other options"):
         analyze_movie(stack, workers=1, checkpoint=tmp_path, max_gap=3)
+
+
+def test_checkpoint_parts_are_packed_for_long_movies(tmp_path):
+    """Saved every frame, a table keeps about log2(frames) files, and a crash anywhere resumes to the same tables."""
+    mov = voronoi_movie(12, (40, 50), 37, periodic=False, amplitude=0.5, seed=3)
+    stack = np.stack([mov[t] for t in range(37)])
+    full = analyze_movie(stack, workers=1)
+    for crash in (6, 23):
+        folder = tmp_path / f"c{crash}"
+        with pytest.raises(InputError, match="simulated crash"):
+            analyze_movie(_FailingStack(stack, crash), workers=1, checkpoint=folder, checkpoint_every=1)
+        parts = sorted(p.name for p in folder.glob("cells_*.parquet"))
+        assert len(parts) <= np.log2(crash) + 1, parts  # 23 parts, one per frame, before packing
+        state = json.loads((folder / "checkpoint.json").read_text())
+        assert sorted(state["files"]["cells"]) == parts  # nothing left behind, nothing missing
+        resumed = analyze_movie(_FailingStack(stack, -1), workers=1, checkpoint=folder, checkpoint_every=1)
+        for name, table in full.tables.items():
+            pd.testing.assert_frame_equal(resumed.tables[name], table)
+    assert len(list((tmp_path / "c23").glob("cells_*.parquet"))) <= np.log2(37) + 1
 
 
 def test_short_mpf_run_end_to_end(tmp_path):

@@ -694,3 +694,25 @@ def test_recorded_mask_is_read_again_from_its_path_or_none(tmp_path):
     assert recorded_mask({"mask": array_info}, (6, 7)) == (None, array_info)  # an array: not held, not read
     with pytest.raises(InputError, match=r"mask must have the shape of the labels \(6, 8\)"):
         recorded_mask({"mask": info}, (6, 8))
+
+
+def test_axes_name_the_dimensions_of_a_plain_zarr_array(tmp_path):
+    """A zarr array of 4 frames 3 px wide looks like one RGB image: --axes TYX says which (it was refused before)."""
+    import zarr
+
+    from hexatissue.cli import main
+
+    stack = np.tile(np.array([[1, 2, 3]], np.int32), (4, 20, 1))
+    z = zarr.create_array(tmp_path / "thin.zarr", shape=stack.shape, dtype=stack.dtype)
+    z[:] = stack
+    with pytest.warns(HexatissueWarning, match="axes='TYX'"):
+        assert open_source(tmp_path / "thin.zarr").n_frames == 1
+    source = open_source(tmp_path / "thin.zarr", axes="TYX")
+    assert source.n_frames == 4 and source.shape == (20, 3)
+    np.testing.assert_array_equal(source.frame(2), stack[2])
+    group = zarr.open_group(tmp_path / "g.zarr", mode="w")
+    group.create_array("labels", shape=stack.shape, dtype=stack.dtype)[:] = stack
+    assert open_source(group, axes="TYX").n_frames == 4
+    assert main(f"analyze {tmp_path}/thin.zarr --axes TYX --out {tmp_path}/o".split()) == 0
+    with pytest.raises(InputError, match="axes='TYX' means nothing for a folder"):
+        open_source(tmp_path, axes="TYX")

@@ -22,7 +22,7 @@ __all__ = ["Opened", "KEY_USE", "LEVEL_USE", "CHANNEL_USE", "refuse", "optional_
 KEY_USE = "key= selects an array in a .npz, a Cellpose _seg.npy or a zarr group"
 LEVEL_USE = "level= selects a resolution level of an OME-Zarr image"
 CHANNEL_USE = "channel= selects one index of a channel (C) axis"
-AXES_USE = "axes= names the dimensions of an array, a .npy / .npz file or a TIFF file"
+AXES_USE = "axes= names the dimensions of an array, a .npy / .npz file, a TIFF file or a plain zarr array"
 
 
 @dataclass(frozen=True, eq=False)

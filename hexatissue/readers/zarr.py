@@ -43,14 +43,17 @@ def is_zarr_array(node) -> bool:
     return hasattr(node, "shape") and not hasattr(node, "array_keys")
 
 
-def open_zarr_path(path: Path, key, channel, level) -> Opened:
-    """A zarr store given as its path: an array, a group, an OME-Zarr image or an MPF run store."""
+def open_zarr_path(path: Path, key, channel, level, axes=None) -> Opened:
+    """A zarr store given as its path: an array, a group, an OME-Zarr image or an MPF run store.
+
+    ``axes`` names the dimensions of a plain zarr array (OME-Zarr images and MPF runs name their own).
+    """
     node = zarr_node(path)
     if is_zarr_array(node):
         refuse("a zarr array", key=key, level=level)
-        reader = ArrayReader(repr(str(path)), opener=partial(zarr_node, path), channel=channel)
+        reader = ArrayReader(repr(str(path)), opener=partial(zarr_node, path), channel=channel, axes=axes)
         return Opened(reader, {"kind": "zarr", "path": str(path), "channel": optional_int(channel)})
-    return open_zarr_group(node, path, key, channel, level)
+    return open_zarr_group(node, path, key, channel, level, axes)
 
 
 def ngff_multiscales(attrs):
@@ -59,12 +62,12 @@ def ngff_multiscales(attrs):
     return ms[0] if ms else None
 
 
-def open_zarr_group(group, path, key, channel, level) -> Opened:
-    """An open zarr group (``path`` None when it was given as an object, not a path)."""
+def open_zarr_group(group, path, key, channel, level, axes=None) -> Opened:
+    """An open zarr group (``path`` None when it was given as an object, not a path); ``axes`` of a plain array."""
     attrs = dict(group.attrs)
     where = repr(str(path)) if path is not None else "the zarr group"
     if attrs.get("format") == MPF_FORMAT:
-        refuse("an MPF run store", key=key, channel=channel, level=level)
+        refuse("an MPF run store", key=key, channel=channel, level=level, axes=axes)
         if path is None:
             raise InputError("a zarr group holding an MPF run must be given as its path (or as "
                              "hexatissue.simulate.read_run(path))")
@@ -80,11 +83,12 @@ def open_zarr_group(group, path, key, channel, level) -> Opened:
             refuse("a zarr array", level=level)
             opener = partial(zarr_node, path, key) if path is not None else None
             reader = ArrayReader(f"{where} key {key!r}", array=None if opener else node, opener=opener,
-                                 channel=channel)
+                                 channel=channel, axes=axes)
             return Opened(reader, {"kind": "zarr", "path": _str(path), "key": key, "channel": optional_int(channel)})
         attrs = dict(node.attrs)
     ms = ngff_multiscales(attrs)
     if ms is not None:
+        refuse("an OME-Zarr image (its metadata names its axes)", axes=axes)
         return _open_ome_zarr(node, ms, path, key, channel, level, where)
     if key is not None:
         raise InputError(f"zarr group {where}: key={key!r} is a group without OME-Zarr multiscales; expected an "
@@ -95,7 +99,7 @@ def open_zarr_group(group, path, key, channel, level) -> Opened:
     if chosen is None:
         raise InputError(f"zarr group {where}: choose an array with key= (--key on the command line); it holds arrays {names} and groups "
                          f"{sorted(group.group_keys())}")
-    return open_zarr_group(group, path, chosen, channel, level)
+    return open_zarr_group(group, path, chosen, channel, level, axes)
 
 
 def _str(path):
