@@ -171,8 +171,9 @@ def summary_line(movie) -> str:
         parts.append("independent frames: not tracked")
     elif len(movie) > 1 and tracking:
         how = "ids kept" if tracking["resolved"] == "never" else "re-tracked by overlap"
+        suspect = (f", {tracking['n_divisions_suspect']} suspect" if "n_divisions_suspect" in tracking else "")
         parts.append(f"tracks: {how} ({tracking['rows_track_not_cell']} rows changed, "
-                     f"{tracking['n_divisions']} divisions)")
+                     f"{tracking['n_divisions']} divisions{suspect})")
     if len(movie) > 1 and movie.events is not None and not independent:
         counts = movie.events["kind"].value_counts()
         censor = movie.summary.get("events", {}).get("censor")

@@ -356,6 +356,18 @@ class TrackOptions(_Options, stage="track", title="tracking"):
         Overlap tracking: frames a cell may be missing and still continue its track.
     child_fraction, mother_fraction : float
         Division detection thresholds (see :func:`hexatissue.track.match_frames`).
+    division_min_frames, division_min_cycle, division_area_tolerance
+        Division plausibility (:func:`hexatissue.track.check_divisions`): a
+        daughter must last ``division_min_frames`` frames (3: a split of one or
+        two frames is a segmentation flicker); a cell may not divide within
+        ``division_min_cycle`` frames of its birth (5: epithelial cell cycles
+        last hours, hundreds of frames at the usual minutes per frame; the
+        EpiTools wing disc's overlap tracks 101 and 103 divided 1-2 frames after
+        their own birth); the daughters' first-frame areas must sum to the
+        mother's last-frame area within ``division_area_tolerance`` of it (0.4:
+        the curated EpiCure division 73 -> 477 + 490 gives 0.95; mitotic
+        rounding enlarges the mother's apical area before it splits).
+        Implausible divisions are kept, flagged in ``lineage.division_suspect``.
     """
 
     mode: str = cli_field("auto", "--track", "never: the label ids are the tracks (divisions still read from "
@@ -366,6 +378,13 @@ class TrackOptions(_Options, stage="track", title="tracking"):
     max_gap: int = cli_field(0, "--max-gap", "overlap tracking: link cells missing for up to this many frames")
     child_fraction: float = 0.6
     mother_fraction: float = 0.2
+    division_min_frames: int = cli_field(3, "--division-min-frames", "a division whose daughter lasts fewer "
+                                         "frames is flagged suspect")
+    division_min_cycle: int = cli_field(5, "--division-min-cycle", "a division within this many frames of the "
+                                        "mother's own birth is flagged suspect")
+    division_area_tolerance: float = cli_field(0.4, "--division-area-tolerance", "a division whose daughters' "
+                                               "areas sum to the mother's off by more than this fraction is "
+                                               "flagged suspect")
 
     def __post_init__(self):
         if not isinstance(self.mode, str) or self.mode not in TRACK_MODES:
@@ -373,6 +392,9 @@ class TrackOptions(_Options, stage="track", title="tracking"):
         for name in ("min_iou", "child_fraction", "mother_fraction"):
             self._number(name, strict=True, high=1.0)
         self._number("max_gap", integer=True)
+        self._number("division_min_frames", integer=True)
+        self._number("division_min_cycle", integer=True)
+        self._number("division_area_tolerance")
 
 
 @dataclass(frozen=True)

@@ -91,6 +91,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 at a corner of an open "
                    "image or on a boundary with no vertex winding around a periodic box)"),
         "is_border": ("b", "", "touches the background (cell 0)"),
+        "n_merged": ("i", "", "junctions between two cells shorter than merge_distance contracted into this vertex: "
+                     "contacts held as a four-fold vertex (label input only)"),
     },
     "edges": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -190,6 +192,11 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "parent": ("i", "", "track id of the mother cell for daughters of a division, else 0"),
         "begin": ("O", "", "how the track starts: movie_start, division, border (enters the field of view) or appearance (interior)"),
         "end": ("O", "", "how the track ends: movie_end, division, border (leaves the field of view) or extrusion (interior)"),
+        "division_area_ratio": ("f", "", "daughters of a division: their summed area at their first frame over the "
+                                "mother's at its last frame (NaN on other rows)"),
+        "division_suspect": ("b", "", "daughters of a division that fails a plausibility rule (see division_reason)"),
+        "division_reason": ("O", "", "the rules a suspect division fails (hexatissue.track.DIVISION_REASONS), joined "
+                            "by ';'; empty when plausible or not a daughter"),
     },
     "cell_events": {
         "track": ("i", "", "track id"),
@@ -249,7 +256,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy",
-             "tension", "tension_sd", "curvature", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
+             "tension", "tension_sd", "curvature", "n_merged", "division_area_ratio",
+             "division_suspect", "division_reason", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

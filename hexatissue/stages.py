@@ -42,7 +42,7 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
                       MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
-from .track import cells_with_tracks, lineage_table, tracking_summary
+from .track import cells_with_tracks, check_divisions, lineage_table, tracking_summary
 
 __all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
            "worker_stages", "run_frame"]
@@ -203,8 +203,10 @@ def _tracks(movie, options):
     # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
-    movie.tables["lineage"] = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
-    movie.summary["tracking"] = tracking_summary(tracker, cells, parents)
+    lineage = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
+    movie.tables["lineage"] = check_divisions(lineage, cells, options.division_min_frames, options.division_min_cycle,
+                                              options.division_area_tolerance, 1 + options.max_gap)
+    movie.summary["tracking"] = tracking_summary(tracker, cells, parents, movie.tables["lineage"])
     movie.options["track"] = options.replace(mode=movie.summary["tracking"]["resolved"])
     movie.tracker = None  # its per-cell-frame ids are in cells now; the later stages need the memory
 
@@ -258,7 +260,8 @@ def _t1_events(movie, options):
     tables = movie.tables
     tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], tables["cells"], options.min_length,
                                                              censor, movie.box)
-    movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames)
+    movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames,
+                                             tables.get("vertices"))
     movie.options["events"] = options.replace(censor=censor)
 
 
@@ -359,8 +362,8 @@ STAGES = (
           writes=("defects.track", "defect_events"), run=_defect_tracks, enabled=_fields_on),
     Stage("tissue flow", FlowOptions, "movie", reads=("cells", "grid"), writes=("cells.vx", "cells.vy", "flow"),
           run=_flow, enabled=_enabled),
-    Stage("T1 events", EventOptions, "movie", reads=("cells", "edges"), writes=("events", "neighbour_events"),
-          run=_t1_events),
+    Stage("T1 events", EventOptions, "movie", reads=("cells", "edges", "vertices"),
+          writes=("events", "neighbour_events"), run=_t1_events),
     Stage("cell events", EventOptions, "movie", reads=("events", "cells"), writes=("cell_events",),
           run=_cell_events),
     Stage("deformation budget", DeformationOptions, "movie",

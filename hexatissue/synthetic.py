@@ -518,6 +518,123 @@ def _check_script(edges, quartets, min_length):
         raise AssertionError(f"unscripted contact changes: {sorted(changing - scripted)}")
 
 
+#: Geometry of :func:`rosette_movie` (px): the five rosette seeds at radius 30 (the fan's cell pulled in by
+#: ``0.45 x`` its radius at full swing), ten seeds at 60 and fifteen at 95 around the centre of a 200 x 200 image.
+#: Chosen by a scan so that every ridge of every state is 0 or >= 9.6 px and the rosette's diagonals 11.1 px.
+_ROSETTE = dict(radii=(30.0, 60.0, 95.0), counts=(5, 10, 15), pull=0.45, shape=(200, 200))
+
+
+def rosette_seeds(fan, amount=1.0):
+    """Seeds (x, y) of the rosette tissue of :func:`rosette_movie` in one state.
+
+    Parameters
+    ----------
+    fan : int or None
+        The rosette cell (0..4, label ``fan + 1``) pulled towards the centre:
+        the rosette's two diagonals are then the contacts ``fan - (fan + 2)``
+        and ``fan - (fan + 3)`` (mod 5).  None: the five rosette seeds on one
+        circle, a five-fold vertex (no diagonal).
+    amount : float
+        Fraction of the full pull (1: diagonals of 11.1 px; smaller values
+        give shorter diagonals, for junctions that grow after a swap).
+
+    Returns
+    -------
+    (30, 2) float array
+        Seeds 0-4 the rosette (label = index + 1), then the two outer rings.
+    """
+    (r1, r2, r3), (n1, n2, n3) = _ROSETTE["radii"], _ROSETTE["counts"]
+    radius = np.full(n1, r1)
+    if fan is not None:
+        radius[int(fan) % n1] *= 1 - _ROSETTE["pull"] * float(amount)
+    parts = []
+    for r, n in ((radius, n1), (r2, n2), (r3, n3)):
+        angle = 2 * np.pi * np.arange(n) / n + np.pi / 2
+        parts.append(np.c_[r * np.cos(angle), r * np.sin(angle)])
+    rows, cols = _ROSETTE["shape"]
+    return np.concatenate(parts) + [cols / 2, rows / 2]
+
+
+@dataclass
+class RosetteMovie:
+    """A rasterised five-cell rosette whose diagonal contacts follow a script (:func:`rosette_movie`).
+
+    Attributes
+    ----------
+    labels : (T, 200, 200) int32 array
+        Label ``k`` is the Voronoi cell of seed ``k - 1``; the rosette's cells are 1..5.
+    seeds : (T, 30, 2) float array
+        Seed positions (x, y) per frame, px.
+    edges : pandas.DataFrame
+        ``frame``, ``cell_a`` < ``cell_b``, ``length``: exact Voronoi ridges, px.
+    cells : pandas.DataFrame
+        ``frame``, ``cell``, ``x``, ``y`` (seed position, px), ``is_border``.
+    diagonals : list of set
+        The rosette's diagonal contacts of each frame, as ``(a, b)`` label pairs, from the script.
+    """
+
+    seeds: np.ndarray
+    shape: tuple
+    edges: pd.DataFrame
+    cells: pd.DataFrame
+    diagonals: list
+
+    @cached_property
+    def labels(self) -> np.ndarray:
+        return np.stack([voronoi_labels(s, self.shape) for s in self.seeds])
+
+
+def rosette_movie(states) -> RosetteMovie:
+    """A Voronoi tissue around a five-cell rosette whose diagonals swap as scripted: T1s on adjacent junctions.
+
+    The rosette's five cells (labels 1..5, in angular order) share a centre;
+    its two diagonal contacts are those of the cell pulled towards it (a fan,
+    :func:`rosette_seeds`).  Going from fan ``k`` to fan ``k + 1`` in one
+    frame swaps both diagonals at once: two T1s on junctions that share a
+    cell and a vertex, which only resolve as a sequence (``k-(k+2)`` ->
+    ``(k+1)-(k+3)``, then ``k-(k+3)`` -> ``(k+1)-(k+4)``).  Fan ``k``, then
+    fan ``k + 3``, then fan ``k + 1`` makes the same two T1s in consecutive
+    frames; a ``None`` state between two fans holds a five-fold vertex.  The
+    other 25 cells never change neighbours (checked), and every ridge of
+    every frame is 0 or at least 4 px long (checked; 9.6 px at full pull),
+    so the rasterised network has exactly the scripted contacts.
+
+    Parameters
+    ----------
+    states : sequence of (fan, amount) or fan
+        One state per frame: ``fan`` (0..4 or None) and the ``amount`` of
+        the pull (default 1), as in :func:`rosette_seeds`.
+
+    Returns
+    -------
+    RosetteMovie
+    """
+    states = [s if isinstance(s, tuple) else (s, 1.0) for s in states]
+    if not states:
+        raise InputError("states must hold at least one frame's state; got none")
+    seeds = np.stack([rosette_seeds(fan, amount) for fan, amount in states])
+    shape = _ROSETTE["shape"]
+    edges = movie_contacts(seeds, shape, periodic=False)
+    diagonals = [set() if fan is None else {tuple(sorted((fan % 5 + 1, (fan + k) % 5 + 1))) for k in (2, 3)}
+                 for fan, _ in states]
+    rosette = (edges["cell_b"] <= 5) & ((edges["cell_b"] - edges["cell_a"]) % 5 > 1) \
+        & ((edges["cell_b"] - edges["cell_a"]) % 5 < 4)
+    for t, want in enumerate(diagonals):
+        here = edges[(edges["frame"] == t) & rosette]
+        if set(zip(here["cell_a"], here["cell_b"])) != want:
+            raise AssertionError(f"frame {t}: rosette diagonals {sorted(zip(here['cell_a'], here['cell_b']))}, "
+                                 f"scripted {sorted(want)}")
+    other = edges[~rosette]
+    if (other.groupby(["cell_a", "cell_b"]).size() != len(states)).any() or (edges["length"] < 4).any():
+        raise AssertionError("unscripted contact changes or ridges shorter than 4 px")
+    n = seeds.shape[1]
+    rim = [np.isin(np.arange(1, n + 1), _rim_cells(s, shape)) for s in seeds]
+    cells = pd.DataFrame({"frame": np.repeat(np.arange(len(states)), n), "cell": np.tile(np.arange(1, n + 1),
+                          len(states)), "x": seeds[..., 0].ravel(), "y": seeds[..., 1].ravel(),
+                          "is_border": np.concatenate(rim)})
+    return RosetteMovie(seeds, shape, edges, cells, diagonals)
+
+
 def relabel_movie(labels, seed=0, max_id=None):
     """Give every frame's cells new random ids (a random permutation per frame).
 

@@ -152,7 +152,12 @@ def test_every_event_is_a_valid_quartet_on_a_random_movie():
 
 
 def assert_valid_quartets(events, edges, cells):
-    """Every event is a neighbour exchange in a quartet, checked directly on the contacts."""
+    """Every event is a neighbour exchange in a quartet, checked directly on the contacts.
+
+    The quartet is seen on one side at least (c, d flank a-b before the loss, or a, b flank c-d after
+    the gain: two T1s on junctions sharing a vertex in one frame see theirs on one side each, see
+    test_t1s_next_to_t1s_are_each_found_with_their_kind), and every loss and gain is one T1 at most.
+    """
     con = track_contacts(edges, cells)
     keys = set(zip(con["frame"], con["a"], con["b"]))
     frames = np.unique(cells["frame"])
@@ -165,13 +170,15 @@ def assert_valid_quartets(events, edges, cells):
         before = frames[np.searchsorted(frames, r.frame_start) - 1]
         after = r.frame_gain
         assert touch(before, r.cell_a, r.cell_b) and not touch(r.frame_start, r.cell_a, r.cell_b)
-        assert {r.cell_c, r.cell_d} <= nbrs[(before, r.cell_a)] & nbrs[(before, r.cell_b)]
         assert touch(after, r.cell_c, r.cell_d)
-        assert {r.cell_a, r.cell_b} <= nbrs[(after, r.cell_c)] & nbrs[(after, r.cell_d)]
+        assert ({r.cell_c, r.cell_d} <= nbrs[(before, r.cell_a)] & nbrs[(before, r.cell_b)]
+                or {r.cell_a, r.cell_b} <= nbrs[(after, r.cell_c)] & nbrs[(after, r.cell_d)])
         between = frames[(frames >= r.frame_start) & (frames < after)]
         assert not any(touch(f, r.cell_a, r.cell_b) or touch(f, r.cell_c, r.cell_d) for f in between)
         if r.kind == "cycle":
             assert touch(r.frame_end, r.cell_a, r.cell_b) and not touch(r.frame_end, r.cell_c, r.cell_d)
+    assert not events.duplicated(["frame_start", "cell_a", "cell_b"]).any()
+    assert not events.duplicated(["frame_gain", "cell_c", "cell_d"]).any()
 
 
 def test_cell_statistics():
@@ -622,3 +629,67 @@ def test_cell_event_stats_equal_a_groupby_reference(quartets):
     pd.testing.assert_frame_equal(got, _cell_event_stats_by_groupby(events, tracks, n_frames.astype(np.int64)),
                                   check_exact=True)
     assert got["n_cycles"].sum() > 0 and got["n_intervals"].sum() > 0 and got["mean_cycle_period"].notna().any()
+
+
+# Two T1s on junctions that share a cell and a vertex (issue 29): the rosette of hexatissue.synthetic.rosette_movie.
+# Fan 0 has the diagonals 1-3, 1-4; fan 1 has 2-4, 2-5; fan 3 has 4-1, 4-2 (labels).  Going fan 0 -> fan 1 is
+# the sequence 1-3 -> 2-4 (quartet 1, 3 | 2, 4), then 1-4 -> 2-5 (quartet 1, 4 | 2, 5); fan 0 -> fan 3 -> fan 1
+# makes them one frame apart.  The expected rows are written from that geometry, not from a detector.
+_ROSETTE_CASES = {
+    # name: (states per frame, [(kind, frame_start, frame_gain, frame_end, a, b, c, d), ...])
+    "same frame, junctions growing 6 -> 11 px": (
+        [0] * 4 + [(1, 0.55)] + [1] * 7,
+        [("intercalation", 4, 4, np.nan, 1, 3, 2, 4), ("intercalation", 4, 4, np.nan, 1, 4, 2, 5)]),
+    "consecutive frames": (
+        [0] * 4 + [3] + [1] * 7,
+        [("intercalation", 4, 4, np.nan, 1, 3, 2, 4), ("intercalation", 5, 5, np.nan, 1, 4, 2, 5)]),
+    "five-fold vertex held two frames": (
+        [0] * 4 + [None] * 2 + [1] * 6,
+        [("intercalation", 4, 6, np.nan, 1, 3, 2, 4), ("intercalation", 4, 6, np.nan, 1, 4, 2, 5)]),
+    "same-frame pair undone in one frame": (
+        [0] * 4 + [1] * 4 + [0] * 4,
+        [("cycle", 4, 4, 8.0, 1, 3, 2, 4), ("cycle", 4, 4, 8.0, 1, 4, 2, 5)]),
+    "consecutive pair undone one frame apart": (
+        [0] * 4 + [3, 1, 1, 3] + [0] * 5,
+        [("cycle", 4, 4, 8.0, 1, 3, 2, 4), ("cycle", 5, 5, 7.0, 1, 4, 2, 5)]),
+    "same-frame pair at the end": (
+        [0] * 9 + [1] * 2,
+        [("unresolved", 9, 9, np.nan, 1, 3, 2, 4), ("unresolved", 9, 9, np.nan, 1, 4, 2, 5)]),
+}
+
+
+@pytest.mark.parametrize("case", list(_ROSETTE_CASES))
+def test_t1s_next_to_t1s_are_each_found_with_their_kind(case):
+    """Every T1 of a pair on adjacent junctions, in one frame or in consecutive ones, is found with its kind:
+    on the exact contacts, on the rendered labels through analyze, and by the whole-movie reference."""
+    from hexatissue import analyze
+    from hexatissue.events import _reference as ref
+    from hexatissue.synthetic import rosette_movie
+
+    states, truth = _ROSETTE_CASES[case]
+    movie = rosette_movie(states)
+    want = pd.DataFrame(truth, columns=["kind", "frame_start", "frame_gain", "frame_end", "cell_a", "cell_b",
+                                        "cell_c", "cell_d"])
+    columns = list(want.columns)
+    exact = detect_t1(movie.edges, movie.cells)
+    pd.testing.assert_frame_equal(exact[columns], want, check_dtype=False)
+    pd.testing.assert_frame_equal(ref.detect_t1(movie.edges, movie.cells), exact)
+    assert_valid_quartets(exact, movie.edges, movie.cells)
+    rendered = analyze(movie.labels, workers=1, progress=False)
+    assert rendered.summary["tracking"]["resolved"] == "never"  # the ids are the tracks: cells 1..5 are the rosette
+    pd.testing.assert_frame_equal(rendered.events[columns], want, check_dtype=False)
+
+
+def test_contacts_held_as_four_fold_vertices_are_counted():
+    """A five-fold vertex held for frames 4-5 of the rosette is two junctions shorter than merge_distance
+    contracted into one vertex (five cells around a point: three three-fold vertices and two junctions), no
+    contact held elsewhere; the events summary counts them."""
+    from hexatissue import analyze
+    from hexatissue.synthetic import rosette_movie
+
+    movie = analyze(rosette_movie([0] * 4 + [None] * 2 + [1] * 4).labels, workers=1, progress=False)
+    v = movie.vertices
+    held = v[v["n_merged"] > 0]
+    assert held["frame"].tolist() == [4, 5] and held["n_merged"].tolist() == [2, 2] and (held["degree"] == 5).all()
+    assert movie.summary["events"]["n_held_contacts"] == 4 and movie.summary["events"]["n_held_vertices"] == 2
+    assert len(movie.events) == 2  # the two T1s through the held vertex, not lost to it

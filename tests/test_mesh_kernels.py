@@ -646,7 +646,7 @@ def test_polygons_equal_reference(periodic):
         for merge_distance in (0.0, 2.0, 3.5):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                centre, kept = N._merge_short(pos, j, lines, merge_distance, box)
+                centre, kept, _ = N._merge_short(pos, j, lines, merge_distance, box)
             polygons_both(centre, kept, int(labels.max()) + 1)
 
 

@@ -41,6 +41,9 @@ def test_round_trip_through_dicts(cls):
     (lambda: TrackOptions(max_gap=-1), "TrackOptions.max_gap"),
     (lambda: TrackOptions(mode="yes"), "TrackOptions.mode"),
     (lambda: TrackOptions(mode=True), "TrackOptions.mode"),
+    (lambda: TrackOptions(division_min_frames=2.5), "TrackOptions.division_min_frames"),
+    (lambda: TrackOptions(division_min_cycle=-1), "TrackOptions.division_min_cycle"),
+    (lambda: TrackOptions(division_area_tolerance=float("inf")), "TrackOptions.division_area_tolerance"),
     (lambda: EventOptions(censor=2.5), "EventOptions.censor"),
     (lambda: EventOptions(min_length=float("nan")), "EventOptions.min_length"),
 ])
@@ -55,3 +58,20 @@ def test_options_are_frozen_and_normalised():
     with pytest.raises(AttributeError):
         opts.p = (6,)
     assert opts.replace(center="area_centroid").center == "area_centroid"
+
+
+def test_division_rules_and_merge_distance_are_flags():
+    """Issue 29: the division plausibility options and merge_distance are set from the command line."""
+    import argparse
+
+    from hexatissue.options import MeshOptions, add_flags, from_flags
+
+    parser = argparse.ArgumentParser()
+    add_flags(parser, TrackOptions)
+    add_flags(parser, MeshOptions, prefix="mesh_")
+    args = parser.parse_args(["--division-min-frames", "4", "--division-min-cycle", "20",
+                              "--division-area-tolerance", "0.25", "--merge-distance", "3"])
+    track = from_flags(args, TrackOptions)
+    assert (track.division_min_frames, track.division_min_cycle, track.division_area_tolerance) == (4, 20, 0.25)
+    assert from_flags(args, MeshOptions, prefix="mesh_").merge_distance == 3.0
+    assert from_flags(parser.parse_args([]), TrackOptions) == TrackOptions()

@@ -162,8 +162,12 @@ def test_epicure_curated_tracks_and_division_kept_by_default(where, request):
     assert lin.loc[477, "parent"] == lin.loc[490, "parent"] == 73 and lin.loc[73, "end"] == "division"
     assert lin.loc[477, "frame_start"] == lin.loc[490, "frame_start"] == 3 and lin.loc[73, "frame_end"] == 2
     assert (lin["parent"] > 0).sum() == 2  # the one annotated division, nothing invented
+    # ... and it is plausible: 627 px of daughters at frame 3 from a 662 px mother at frame 2 (ratio 0.947)
+    assert not lin.loc[[477, 490], "division_suspect"].any() and (lin.loc[[477, 490], "division_reason"] == "").all()
+    assert lin.loc[477, "division_area_ratio"] == pytest.approx(627 / 662, rel=1e-12)
     tracking = mv.summary["tracking"]
     assert tracking["resolved"] == "never" and tracking["n_divisions"] == 1 and tracking["rows_track_not_cell"] == 0
+    assert tracking["n_divisions_plausible"] == 1 and tracking["n_divisions_suspect"] == 0
     assert tracking["id_consistency"] > 0.99
     assert mv.options["events"].censor == 2  # 11 frames
 

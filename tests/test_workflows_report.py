@@ -216,6 +216,37 @@ def test_report_has_the_deformation_budget_in_physical_time(tmp_path):
     assert "deformation.csv" in {Path(w).name for w in numbers["written"]}
 
 
+def test_report_has_tracking_quality_and_the_division_table(tmp_path):
+    """The scripted movie of tests/test_track.py (a re-division, a one-frame flicker, a clean division): the
+    report's tracking-quality section has the per-frame counts of tracking_qc, every division with its reason,
+    and the T1 section says how many contacts were held as four-fold vertices."""
+    from hexatissue.track import division_rows, tracking_qc
+    from tests.test_track import _analysed, _interior_cells, _scripted_divisions
+
+    first = _scripted_divisions([])[0][0]
+    a, b, c = _interior_cells(first, 3)
+    n0 = int(first.max())
+    labels, _ = _scripted_divisions([(3, a, (5.0, 1.0)), (5, n0 + 1, (1.0, 4.0)), (4, b, (-1.0, 5.0)),
+                                     (5, b, None), (6, c, (4.0, -3.0))])
+    movie, _ = _analysed(labels)
+    movie.write(tmp_path / "res")
+    numbers = report(tmp_path / "res", dt=2)
+    text = (tmp_path / "res" / "report" / "report.md").read_text()
+    section = text[text.index("## Tracking quality"):text.index("## T1 events")]
+    assert "divisions: 4, of which 1 plausible and 3 suspect" in section
+    assert numbers["tracking_qc"] == {"appearances": 0, "disappearances": 1, "divisions": 4,
+                                      "divisions_plausible": 1, "divisions_suspect": 3}
+    qc = pd.read_csv(tmp_path / "res" / "report" / "tracking_qc.csv")
+    pd.testing.assert_frame_equal(qc, tracking_qc(movie.lineage, movie.cells), check_dtype=False)
+    divisions = division_rows(movie.lineage)
+    for r in divisions.itertuples():
+        assert f"| {r.mother} | {r.frame} | {r.daughter_a} | {r.daughter_b} |" in section
+    assert "`redivision`:" in section and "`short_daughter`:" in section
+    held = movie.summary["events"]
+    assert (f"{held['n_held_contacts']} contact-frames at {held['n_held_vertices']} vertex-frames"
+            in text[text.index("## T1 events"):])
+
+
 def test_a_movie_without_events_has_no_empty_panels_and_says_so(tmp_path):
     """EpiCure-like: no T1 in a short movie; before, the report showed empty panels and nan statistics."""
     frames = [voronoi_movie(40, (90, 100), 1, seed=1)[0]] * 4  # motionless: no neighbour exchange

@@ -2,10 +2,12 @@
 
 A **T1** is a neighbour exchange in a quartet of cells: cells ``a`` and
 ``b`` lose their shared junction and cells ``c`` and ``d`` gain one, where
-``c`` and ``d`` were common neighbours of ``a`` and ``b`` before and ``a``
-and ``b`` are common neighbours of ``c`` and ``d`` after.  The intermediate
-four-fold vertex may persist: a-b is lost at frame ``t1`` and c-d gained at
-``t2 >= t1``, with neither contact present in between.
+``c`` and ``d`` were common neighbours of ``a`` and ``b`` before or ``a``
+and ``b`` are common neighbours of ``c`` and ``d`` after (either: two T1s on
+junctions that share a vertex, in one frame, each see their quartet on one
+side only).  The intermediate four-fold vertex may persist: a-b is lost at
+frame ``t1`` and c-d gained at ``t2 >= t1``, with neither contact present in
+between.  Every loss and every gain is one T1 at most.
 
 Classification per quartet, in time order:
 
@@ -319,17 +321,9 @@ def _find_t1(frames, ids):
                           right_on=["pair", "stop"]).drop(columns=["pair", "stop"]).rename(columns={"next_start": "next_ab"})
     gains = gains.merge(runs[["pair", "start", "prev_stop"]], left_on=["cd", "frame_gain"],
                         right_on=["pair", "start"]).drop(columns=["pair", "start"]).rename(columns={"prev_stop": "prev_cd"})
-    losses = losses.sort_values(["frame_lost", "ab", "cd"], kind="stable")
-    gains = gains.sort_values(["frame_gain", "ab", "cd"], kind="stable")
     if losses.empty or gains.empty:
         return empty
-    # Each gain pairs with the latest loss of the same quartet at or before it ...
-    m = pd.merge_asof(gains, losses, left_on="frame_gain", right_on="frame_lost", by=["ab", "cd"],
-                      direction="backward").dropna(subset=["frame_lost"])
-    # ... provided neither a-b nor c-d touched in between (a four-fold vertex at most); the first
-    # such gain completes the T1.
-    m = m[(m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
-    m = m.sort_values("frame_gain", kind="stable").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
+    m = _pair_losses_and_gains(losses, gains)
     ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
     values = np.asarray(values, np.int64)
     out = pd.DataFrame({
@@ -338,6 +332,51 @@ def _find_t1(frames, ids):
         "cell_a": ids[ab // K], "cell_b": ids[ab % K], "cell_c": ids[cd // K], "cell_d": ids[cd % K],
     })
     return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
+
+
+def _pair_losses_and_gains(losses, gains):
+    """The T1s of a movie's losses and gains: rows ``ab``, ``cd``, ``frame_lost``, ``frame_gain``.
+
+    ``losses``: each contact a-b lost (``frame_lost``, ``next_ab`` the start
+    of its next run) with each pair c-d of common neighbours just before;
+    ``gains``: each contact c-d gained (``frame_gain``, ``prev_cd`` the stop
+    of its previous run) with each pair a-b of common neighbours just after.
+    A loss of a-b and a later (or simultaneous) gain of c-d are one T1 when
+    neither contact touched in between (a four-fold vertex at most) and the
+    quartet is seen on **either** side: c-d flanked a-b before the loss, or
+    a-b flank c-d after the gain.  Requiring both sides loses T1s next to
+    T1s: when two junctions that share a vertex swap in the same frame (or
+    while the first one's four-fold vertex is held), the first T1's cells
+    a, b are no longer both neighbours of c, d after the second, and the
+    second's c, d did not both flank its a-b before the first.  Every loss
+    and every gain is one T1 at most, matched greedily: quartets seen on both
+    sides first, then the shortest wait from loss to gain, then the earliest
+    gain (:func:`_match_once`).
+    """
+    keys = ["ab", "cd", "frame_lost", "next_ab", "frame_gain", "prev_cd"]
+    lost = losses.drop_duplicates(["ab", "frame_lost"])[["ab", "frame_lost", "next_ab"]]
+    gained = gains.drop_duplicates(["cd", "frame_gain"])[["cd", "frame_gain", "prev_cd"]]
+    # quartets seen before a loss, with every gain of their c-d; quartets seen after a gain, with every loss of a-b
+    m = pd.concat([losses.merge(gained, on="cd")[keys], gains.merge(lost, on="ab")[keys]], ignore_index=True)
+    m = m[(m["frame_gain"] >= m["frame_lost"]) & (m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
+    m = m.groupby(["ab", "cd", "frame_lost", "frame_gain"], as_index=False, sort=False).size()
+    m = m.assign(wait=m["frame_gain"] - m["frame_lost"], one_side=m["size"] == 1)
+    m = m.sort_values(["one_side", "wait", "frame_gain", "ab", "cd"], kind="stable", ignore_index=True)
+    return m[_match_once(m["ab"].to_numpy(np.int64), m["frame_lost"].to_numpy(np.int64),
+                         m["cd"].to_numpy(np.int64), m["frame_gain"].to_numpy(np.int64))]
+
+
+def _match_once(ab, lost, cd, gain):
+    """Greedy matching in the given order: row k is kept unless its loss ``(ab, lost)`` or its gain
+    ``(cd, gain)`` is in a row kept before it."""
+    keep = np.zeros(len(ab), bool)
+    used_loss, used_gain = set(), set()
+    for k, (loss, won) in enumerate(zip(zip(ab.tolist(), lost.tolist()), zip(cd.tolist(), gain.tolist()))):
+        if loss not in used_loss and won not in used_gain:
+            keep[k] = True
+            used_loss.add(loss)
+            used_gain.add(won)
+    return keep
 
 
 def _t1_step(prev, cur):
@@ -926,20 +965,30 @@ NO_INTERCALATION = ("no T1 event is classified as an intercalation: every T1 tha
                     "movie.summary['events'])")
 
 
-def events_summary(events, censor, given, n_frames):
-    """Censoring window used (``given`` by the user, or the default rule) and the number of events of each kind.
+def events_summary(events, censor, given, n_frames, vertices=None):
+    """Censoring window used (``given`` by the user, or the default rule), the number of events of each kind,
+    and what the network could not resolve: the contacts held as four-fold vertices.
 
-    Warns (:class:`HexatissueWarning`) when no T1 is an intercalation because
-    every one that is not undone is unresolved.
+    ``vertices``: the movie's vertices table; with its ``n_merged`` column
+    (label input), ``n_held_contacts`` counts the contact-frames of junctions
+    shorter than ``merge_distance`` held as four-fold (or higher) vertices,
+    summed over frames, and ``n_held_vertices`` the vertex-frames holding
+    them (a T1 whose new junction never grows past ``merge_distance`` is one
+    of these, not an event); both None without that column.  Warns
+    (:class:`HexatissueWarning`) when no T1 is an intercalation because every
+    one that is not undone is unresolved.
     """
     counts = events["kind"].astype(str).value_counts()
     n = {kind: int(counts.get(kind, 0)) for kind in ("cycle", "intercalation", "unresolved")}
     if n["unresolved"] and not n["intercalation"]:
         warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=user_stacklevel())
     rule = "given" if given else "min(10, max(1, n_frames // 5))"
+    held = None if vertices is None or "n_merged" not in vertices.columns else vertices["n_merged"].to_numpy(np.int64)
     return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
             "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
-            "n_classified": n["cycle"] + n["intercalation"]}
+            "n_classified": n["cycle"] + n["intercalation"],
+            "n_held_contacts": None if held is None else int(held.sum()),
+            "n_held_vertices": None if held is None else int((held > 0).sum())}
 
 
 # the column lists of hexatissue 0.1, now read from the one registry

@@ -116,27 +116,45 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     lq, lc, ld = _quartets(q, v)
     q, v = g.common_neighbours(i_start[G], ia[G], ib[G])
     gq, ga, gb = _quartets(q, v)
-    losses = pd.DataFrame({"ab": i_pair[L][lq], "cd": lc * g.K + ld, "frame_lost": i_stop[L][lq],
-                           "next_ab": i_next[L][lq]}).sort_values("frame_lost")
-    gains = pd.DataFrame({"ab": ga * g.K + gb, "cd": i_pair[G][gq], "frame_gain": i_start[G][gq],
-                          "prev_cd": i_prev[G][gq]})
-    gains = gains.sort_values("frame_gain")
-    if losses.empty or gains.empty:
+    # a loss of a-b (run k) and a gain of c-d (run g) are one T1 when the quartet is seen before the loss
+    # (c, d common neighbours of a, b) or after the gain (a, b common neighbours of c, d), the gain is the
+    # first of c-d since the loss and a-b has not come back by then: plain loops over the runs
+    before = {}  # loss run -> the c-d keys around it
+    for k, c, d in zip(L[lq].tolist(), lc.tolist(), ld.tolist()):
+        before.setdefault(k, set()).add(c * g.K + d)
+    after = {}  # gain run -> the a-b keys around it
+    for k, a_, b_ in zip(G[gq].tolist(), ga.tolist(), gb.tolist()):
+        after.setdefault(k, set()).add(a_ * g.K + b_)
+    runs_of = {}
+    for k, p in enumerate(i_pair.tolist()):
+        runs_of.setdefault(p, []).append(k)
+    sides = {}  # (loss run, gain run) -> on how many sides the quartet is seen (1 or 2)
+    for k_loss, cds in before.items():
+        for k_gain in (k for cd in cds for k in runs_of.get(cd, []) if k in after):
+            sides[(k_loss, k_gain)] = sides.get((k_loss, k_gain), 0) + 1
+    for k_gain, abs_ in after.items():
+        for k_loss in (k for ab in abs_ for k in runs_of.get(ab, []) if k in before):
+            sides[(k_loss, k_gain)] = sides.get((k_loss, k_gain), 0) + 1
+    candidates = []
+    for (k_loss, k_gain), n_sides in sides.items():
+        t_lost, t_gain = int(i_stop[k_loss]), int(i_start[k_gain])
+        if t_lost <= t_gain < i_next[k_loss] and i_prev[k_gain] <= t_lost:
+            ab, cd = int(i_pair[k_loss]), int(i_pair[k_gain])
+            candidates.append((n_sides == 1, t_gain - t_lost, t_gain, ab, cd, t_lost))
+    # each loss and each gain is one T1 at most: both-sided quartets first, then the shortest wait
+    chosen, used = [], set()
+    for _, _, t_gain, ab, cd, t_lost in sorted(candidates):
+        if ("loss", ab, t_lost) not in used and ("gain", cd, t_gain) not in used:
+            used |= {("loss", ab, t_lost), ("gain", cd, t_gain)}
+            chosen.append((ab, cd, t_lost, t_gain))
+    if not chosen:
         return empty
-    # Each gain pairs with the latest loss of the same quartet at or before it ...
-    m = pd.merge_asof(gains, losses, left_on="frame_gain", right_on="frame_lost", by=["ab", "cd"],
-                      direction="backward").dropna(subset=["frame_lost"])
-    # ... provided neither a-b nor c-d touched in between (a four-fold vertex at most); the first
-    # such gain completes the T1.
-    m = m[(m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
-    m = m.sort_values("frame_gain").drop_duplicates(["ab", "cd", "frame_lost"], keep="first")
-    ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
+    ab, cd, lost_at, gain_at = map(np.array, zip(*chosen))
     out = pd.DataFrame({
-        "frame_lost": frames[m["frame_lost"].to_numpy(np.int64)],
-        "frame_gain": frames[m["frame_gain"].to_numpy(np.int64)],
+        "frame_lost": frames[lost_at], "frame_gain": frames[gain_at],
         "cell_a": ids[ab // g.K], "cell_b": ids[ab % g.K], "cell_c": ids[cd // g.K], "cell_d": ids[cd % g.K],
     })
-    return out.sort_values(["frame_lost", "cell_a", "cell_b"], ignore_index=True)
+    return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
 
 
 def _positions(events, cells, box):

@@ -83,7 +83,8 @@ def _trace(lab32, periodic, membrane):
 
 
 def _merge_short(pos, j, lines, merge_distance, box):
-    """Contract junctions shorter than ``merge_distance``; returns merged positions and kept junctions.
+    """Contract junctions shorter than ``merge_distance``; returns merged positions, kept junctions and the
+    cell-cell junctions contracted into each vertex (``vertices.n_merged``).
 
     Lengths are measured between sub-pixel vertex positions, which depend on
     what was merged, so contraction is repeated until no kept junction is
@@ -93,6 +94,11 @@ def _merge_short(pos, j, lines, merge_distance, box):
     centre, keep, a, b, vec = K.merge_clusters(pos, j["start"], j["end"], j["start_arm"], j["end_arm"], j["vec"],
                                                lines["count"], lines["mean"], lines["direction"], lengths,
                                                float(merge_distance), MAX_MERGE_ROUNDS, MAX_SHIFT)
+    # each cell-cell junction contracted into a vertex is a contact held as a four-fold vertex: counted on its
+    # vertex (clusters are the components of the contracted junctions, numbered as the kernel numbers them)
+    contracted = ~keep & (j["left"] > 0) & (j["right"] > 0)
+    cluster = K.components(len(pos), j["start"][~keep], j["end"][~keep])[0]
+    held = np.bincount(cluster[j["start"][contracted]], minlength=len(centre))
     collapsed = (a == b) & (j["start"] != j["end"])[keep]
     if collapsed.any():
         # constant text: Python then shows it once per place, not once per frame of a movie
@@ -108,10 +114,10 @@ def _merge_short(pos, j, lines, merge_distance, box):
     used[kept["a"]] = used[kept["b"]] = True
     new = np.cumsum(used) - 1
     kept["a"], kept["b"] = new[kept["a"]], new[kept["b"]]
-    centre = centre[used]
+    centre, held = centre[used], held[used]
     if box is not None:
         centre = box.wrap(centre)
-    return centre, kept
+    return centre, kept, held
 
 
 def mesh_from_labels(
@@ -272,13 +278,14 @@ def network_columns(lab, membrane, box, merge_distance, frame=0, top=None):
     lab32, ids = _label_ids(lab, top)
     n_labels = len(ids)
     pos, junctions, lines = _trace(lab32, periodic, membrane)
-    centre, kept = _merge_short(pos, junctions, lines, merge_distance, box)
+    centre, kept, held = _merge_short(pos, junctions, lines, merge_distance, box)
     poly_start, poly_len, poly_area, poly_perimeter, verts, xy, n_cycles = K.polygons(
         centre, kept["a"], kept["b"], kept["left"], kept["right"], kept["vec"], n_labels)
     cells = _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, poly_perimeter, n_cycles)
-    centre, kept, verts = _drop_closed_loops(centre, kept, verts)
+    centre, kept, verts, held = _drop_closed_loops(centre, kept, verts, held)
     vertices, edges, cell_vertices, polygons = _network_columns(centre, kept, ids, cells, poly_start, poly_len,
                                                                 verts, xy, box)
+    vertices["n_merged"] = held.astype(np.int64)
     columns = {"cells": cells, "vertices": vertices, "edges": edges, "cell_vertices": cell_vertices}
     for name, table in columns.items():
         n = len(next(iter(table.values())))
@@ -305,7 +312,7 @@ def as_tables(columns) -> dict:
     return {name: validate(pd.DataFrame(table, copy=False), name) for name, table in columns.items()}
 
 
-def _drop_closed_loops(centre, kept, verts):
+def _drop_closed_loops(centre, kept, verts, held):
     """Network without the contractible boundaries that have no vertex on them, and without their points.
 
     Such a boundary (a cell enclosed by one other cell or by background) is
@@ -316,14 +323,14 @@ def _drop_closed_loops(centre, kept, verts):
     """
     loop = (kept["a"] == kept["b"]) & (kept["vec"] == 0).all(axis=1)
     if not loop.any():
-        return centre, kept, verts
+        return centre, kept, verts, held
     kept = {k: v[~loop] for k, v in kept.items()}
     used = np.zeros(len(centre), bool)
     used[kept["a"]] = used[kept["b"]] = True
     new = np.cumsum(used) - 1
     kept["a"], kept["b"] = new[kept["a"]], new[kept["b"]]
     # polygons never hold a loop point (a one-point cycle encloses no area), so every polygon vertex is kept
-    return centre[used], kept, new[verts]
+    return centre[used], kept, new[verts], held[used]
 
 
 def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, poly_perimeter, n_cycles):

@@ -24,7 +24,7 @@ import pandas as pd
 from scipy.optimize import linear_sum_assignment
 
 from .._components import components
-from ..errors import InputError
+from ..errors import InputError, is_real
 from ..geometry import distinct_count, in_sorted, row_keys
 from ..mesh.labels import compact_labels, touches_outside, validate_labels
 from ..options import TRACK_MODES
@@ -33,7 +33,8 @@ from ..schema import deprecated_column_lists, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 
 __all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
-           "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots"]
+           "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots",
+           "check_divisions", "division_rows", "DIVISION_REASONS", "tracking_qc"]
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -769,6 +770,196 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
     return validate(out.reset_index(drop=True), "lineage")
 
 
+#: Why a division is suspect (``lineage.division_reason``, several joined by ``;``), in the order they are checked.
+DIVISION_REASONS = {
+    "mother_continues": "the mother's track goes on after its daughters start",
+    "not_two_daughters": "the mother has one daughter or more than two",
+    "late_daughter": "a daughter starts more than max_delay frames after the mother's last frame",
+    "area_mismatch": "the daughters' areas at their first frame do not sum to the mother's at its last, within "
+                     "area_tolerance",
+    "short_daughter": "a daughter ends (border, extrusion or division) before min_frames frames",
+    "unconfirmed": "a daughter reaches the movie's end before min_frames frames: its persistence cannot be checked",
+    "redivision": "the mother was born by a division fewer than min_cycle frames before, or a daughter divides "
+                  "again within min_cycle frames",
+}
+
+
+def check_divisions(lineage: pd.DataFrame, cells: pd.DataFrame, min_frames: int = 3, min_cycle: int = 5,
+                    area_tolerance: float = 0.4, max_delay: int = 1) -> pd.DataFrame:
+    """The lineage with every division checked against what a division must look like.
+
+    A division is kept as found; its two daughter rows are marked suspect
+    when the mother does not end before them, it does not have two
+    daughters, a daughter starts more than ``max_delay`` frames after the
+    mother's last frame, the daughters' first-frame areas do not sum to the
+    mother's last-frame area within ``area_tolerance`` (as a fraction of it),
+    a daughter lasts fewer than ``min_frames`` frames (or reaches the end of
+    the movie before: unconfirmed), or the mother was itself born by a
+    division fewer than ``min_cycle`` frames before or a daughter divides
+    again within ``min_cycle`` frames (:data:`DIVISION_REASONS`).  An
+    over-segmented cell split for a frame or two, or two cells merged then
+    split by the overlap tracker, fails these; a real division passes them.
+
+    Parameters
+    ----------
+    lineage : pandas.DataFrame
+        :func:`lineage_table` (``track``, ``frame_start``, ``frame_end``,
+        ``n_frames``, ``parent``, ``end``).
+    cells : pandas.DataFrame
+        ``frame``, ``track``, ``area`` (px).
+    min_frames : int
+        Frames a daughter must be present.
+    min_cycle : int
+        Shortest cell cycle, frames: from a cell's first frame (it was born
+        by a division) to the first frame of its own daughters.
+    area_tolerance : float
+        Largest ``|daughters' area / mother's area - 1|``.
+    max_delay : int
+        Largest ``daughter frame_start - mother frame_end`` (1: the next frame).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``lineage`` with ``division_area_ratio`` (the daughters' summed area at
+        their first frame over the mother's at its last frame, on daughter rows;
+        NaN elsewhere, dimensionless), ``division_suspect`` (bool, daughter rows)
+        and ``division_reason`` (the :data:`DIVISION_REASONS` keys that apply,
+        joined by ``;``; empty when plausible or not a daughter).
+    """
+    for name, value in (("min_frames", min_frames), ("min_cycle", min_cycle), ("max_delay", max_delay)):
+        if isinstance(value, bool) or int(value) != value or value < 0:
+            raise InputError(f"{name} must be a non-negative integer number of frames; got {value!r}")
+    if not is_real(area_tolerance) or area_tolerance < 0:
+        raise InputError(f"area_tolerance must be a finite fraction >= 0; got {area_tolerance!r}")
+    out = lineage.copy()
+    n = len(out)
+    ratio, reasons = np.full(n, np.nan), [[] for _ in range(n)]
+    track = out["track"].to_numpy(np.int64)
+    parent = out["parent"].to_numpy(np.int64)
+    start, end = out["frame_start"].to_numpy(np.int64), out["frame_end"].to_numpy(np.int64)
+    ending = out["end"].astype(str).to_numpy()
+    row_of = dict(zip(track.tolist(), range(n)))
+    area = _areas_at(cells, track, start, end)
+    daughters = np.flatnonzero(parent > 0)
+    for mother, rows in pd.Series(daughters).groupby(parent[daughters]):
+        rows = rows.to_numpy()
+        m = row_of.get(int(mother))
+        why = []
+        if m is None or end[m] >= start[rows].min():
+            why.append("mother_continues")
+        if len(rows) != 2:
+            why.append("not_two_daughters")
+        if m is not None and (start[rows] - end[m] > max_delay).any():
+            why.append("late_daughter")
+        if m is not None:
+            ratio[rows] = area[1][rows].sum() / area[0][m]
+            if not abs(ratio[rows[0]] - 1) <= area_tolerance:
+                why.append("area_mismatch")
+        young = (end - start + 1)[rows] < min_frames
+        if (young & (ending[rows] != "movie_end")).any():
+            why.append("short_daughter")
+        if (young & (ending[rows] == "movie_end")).any():
+            why.append("unconfirmed")
+        again = (ending[rows] == "division") & (end[rows] + 1 - start[rows] < min_cycle)
+        if (m is not None and parent[m] > 0 and end[m] + 1 - start[m] < min_cycle) or again.any():
+            why.append("redivision")
+        for r in rows.tolist():
+            reasons[r] = why
+    out["division_area_ratio"] = ratio
+    out["division_suspect"] = np.array([bool(r) for r in reasons])
+    out["division_reason"] = pd.array([";".join(r) for r in reasons], dtype="string")
+    return validate(out, "lineage")
+
+
+def _areas_at(cells, track, start, end):
+    """Each track's area (px) at its first frame and at its last, from ``cells`` (``frame``, ``track``, ``area``)."""
+    keys = row_keys(cells["frame"].to_numpy(np.int64), cells["track"].to_numpy(np.int64))
+    area = cells["area"].to_numpy(float)
+    order = np.argsort(keys, kind="stable")
+    keys, area = keys[order], area[order]
+
+    def at(frame):
+        wanted = row_keys(frame, track)
+        pos = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+        found = (keys[pos] == wanted) if len(keys) else np.zeros(len(wanted), bool)
+        return np.where(found, area[pos] if len(keys) else np.nan, np.nan)
+
+    return at(end), at(start)
+
+
+def division_rows(lineage: pd.DataFrame) -> pd.DataFrame:
+    """One row per division of a checked lineage (:func:`check_divisions`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``mother`` (track), ``frame`` (first frame of the daughters),
+        ``daughter_a``, ``daughter_b`` (tracks; -1 when there is no second
+        one), ``area_ratio`` (daughters' area over the mother's,
+        dimensionless), ``suspect`` (bool), ``reason``.
+    """
+    d = lineage[lineage["parent"] > 0].sort_values(["parent", "track"])
+    cols = {"mother": [], "frame": [], "daughter_a": [], "daughter_b": [], "area_ratio": [], "suspect": [],
+            "reason": []}
+    for mother, rows in d.groupby("parent", sort=True):
+        ids = rows["track"].tolist()
+        cols["mother"].append(int(mother))
+        cols["frame"].append(int(rows["frame_start"].min()))
+        cols["daughter_a"].append(ids[0])
+        cols["daughter_b"].append(ids[1] if len(ids) > 1 else -1)
+        first = rows.iloc[0]
+        cols["area_ratio"].append(float(first.get("division_area_ratio", np.nan)))
+        cols["suspect"].append(bool(first.get("division_suspect", False)))
+        cols["reason"].append(str(first.get("division_reason", "")))
+    out = pd.DataFrame(cols).astype({"mother": np.int64, "frame": np.int64, "daughter_a": np.int64,
+                                     "daughter_b": np.int64, "area_ratio": float, "suspect": bool})
+    return out.sort_values(["frame", "mother"], ignore_index=True)
+
+
+def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
+    """Per frame: cells, tracks that appear and disappear, divisions plausible and suspect.
+
+    Parameters
+    ----------
+    lineage : pandas.DataFrame
+        :func:`lineage_table`, checked by :func:`check_divisions` (without
+        ``division_suspect`` every division counts as plausible).
+    cells : pandas.DataFrame
+        ``frame`` (one row per cell).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame``, ``cells`` (count), ``appearances`` (tracks starting at
+        the frame inside the tissue or at its border, not by division),
+        ``disappearances`` (tracks present at the frame before and not
+        after it, ended by extrusion or at the border, not by division),
+        ``divisions`` (mothers whose daughters start at the frame),
+        ``divisions_suspect`` (of those, the suspect ones); counts per frame.
+    """
+    frames = np.unique(cells["frame"].to_numpy(np.int64))
+    out = pd.DataFrame({"frame": frames})
+    out["cells"] = np.searchsorted(np.sort(cells["frame"].to_numpy(np.int64)), frames, "right") - \
+        np.searchsorted(np.sort(cells["frame"].to_numpy(np.int64)), frames, "left")
+    begin, end = lineage["begin"].astype(str), lineage["end"].astype(str)
+    # the frame after a track's last one, in the movie's own frame numbers
+    after = np.searchsorted(frames, lineage["frame_end"].to_numpy(np.int64), "right")
+    gone_at = np.where(after < len(frames), frames[np.minimum(after, len(frames) - 1)], -1)
+
+    def per_frame(values):
+        return pd.Series(values).value_counts().reindex(frames, fill_value=0).to_numpy(np.int64)
+
+    out["appearances"] = per_frame(lineage.loc[begin.isin(["appearance", "border"]).to_numpy(), "frame_start"])
+    out["disappearances"] = per_frame(gone_at[end.isin(["extrusion", "border"]).to_numpy()])
+    daughters = lineage[lineage["parent"] > 0]
+    first = daughters.groupby("parent")["frame_start"].min()
+    suspect = (daughters.groupby("parent")["division_suspect"].any() if "division_suspect" in daughters.columns
+               else pd.Series(False, index=first.index))
+    out["divisions"] = per_frame(first.to_numpy())
+    out["divisions_suspect"] = per_frame(first[suspect.reindex(first.index).to_numpy(bool)].to_numpy())
+    return out
+
+
 def lineage_roots(parents: dict, ids) -> dict:
     """``{id: its first ancestor}`` following ``parents`` (``{child: parent}``) up from each of ``ids``.
 
@@ -853,12 +1044,17 @@ def _tracks_by_key(cells, ids):
     return ids["track"].to_numpy(np.int64)[order[pos]]
 
 
-def tracking_summary(tracker, cells, parents):
-    """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions."""
+def tracking_summary(tracker, cells, parents, lineage=None):
+    """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions
+    (plausible and suspect ones when ``lineage`` was checked by :func:`check_divisions`)."""
     out = tracker.summary()
     ids, tracks = cells["cell"].to_numpy(), cells["track"].to_numpy()
     out.update(rows_track_not_cell=int((tracks != ids).sum()), n_ids=distinct_count(ids),
                n_tracks=distinct_count(tracks), n_divisions=len(set(parents.values())))
+    if lineage is not None and "division_suspect" in lineage.columns:
+        daughters = lineage[lineage["parent"] > 0]
+        suspect = daughters.groupby("parent")["division_suspect"].any()
+        out.update(n_divisions_plausible=int((~suspect).sum()), n_divisions_suspect=int(suspect.sum()))
     return out
 
 

@@ -21,6 +21,7 @@ from ..errors import HexatissueWarning, InputError
 from ..io import atomic_path, write_table
 from ..results import Movie, read_results
 from ..schema import empty_table
+from ..track import DIVISION_REASONS, division_rows, tracking_qc
 from .figures import shown_frames
 
 __all__ = ["report", "default_window"]
@@ -217,6 +218,7 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
         lines += ["The frames are independent images (not a movie; nothing was tracked): no T1, migration or "
                   "timing sections.", ""]
     elif len(movie) > 1:
+        lines += _tracking_qc_section(movie, out, written, numbers)
         lines += _movie_sections(movie, out, written, numbers, p=p, dl=dl, dt=dt, n_control=n_control, seed=seed,
                                  include_border=include_border, control=control)
         lines += _flow_section(movie, out, written, numbers, p)
@@ -263,9 +265,84 @@ def _tracking_lines(movie):
     if not t:
         return []
     how = "label ids kept as tracks" if t["resolved"] == "never" else "cells re-tracked by overlap"
+    split = (f" ({t['n_divisions_plausible']} plausible, {t['n_divisions_suspect']} suspect)"
+             if "n_divisions_suspect" in t else "")
     return [f"- tracking: {how} (track={t['mode']!r}): {t['reason']}",
             f"- tracks: {t['n_tracks']} for {t['n_ids']} label ids; {t['rows_track_not_cell']} rows with track != "
-            f"cell; {t['n_divisions']} division(s)"]
+            f"cell; {t['n_divisions']} division(s){split}"]
+
+
+def _held_lines(movie):
+    """How many contacts the network held as four-fold vertices (junctions shorter than merge_distance)."""
+    e, mesh = movie.summary.get("events") or {}, movie.options.get("mesh")
+    if e.get("n_held_contacts") is None:
+        return []
+    merge = f" = {mesh.merge_distance:g} px" if mesh is not None else ""
+    return [f"- short junctions held as four-fold vertices (shorter than merge_distance{merge}): "
+            f"{e['n_held_contacts']} contact-frames at {e['n_held_vertices']} vertex-frames; a T1 whose new "
+            f"junction never grows past merge_distance is one of these, not an event (`vertices.n_merged`; "
+            f"`--merge-distance` sets it)"]
+
+
+#: Divisions and per-frame rows shown in report.md (all of them are in the CSV files next to it).
+QC_ROWS = 40
+#: Track lengths are counted in these bins (frames; the last bin is open).
+LENGTH_BINS = (1, 2, 3, 5, 10, 20, 50, 100, 200, 500, 1000)
+
+
+def _tracking_qc_section(movie, out, written, numbers):
+    """Tracking quality: per frame appearances, disappearances and divisions, track lengths, the divisions."""
+    lineage, cal = movie.lineage, movie.calibration
+    if lineage is None:
+        return []
+    qc = tracking_qc(lineage, movie.cells)
+    divisions = division_rows(lineage)
+    written += [write_table(qc, out / "tracking_qc.csv"), write_table(divisions, out / "divisions.csv")]
+    n_div, n_suspect = len(divisions), int(divisions["suspect"].sum())
+    numbers["tracking_qc"] = {"appearances": int(qc["appearances"].sum()),
+                              "disappearances": int(qc["disappearances"].sum()),
+                              "divisions": n_div, "divisions_plausible": n_div - n_suspect,
+                              "divisions_suspect": n_suspect}
+    lengths = lineage["n_frames"].to_numpy(np.int64)
+    edges = [b for b in LENGTH_BINS if b <= len(movie)] + [np.inf]
+    bins = pd.cut(lengths, edges, right=False)
+    counts = pd.Series(bins).value_counts(sort=False)
+    length_rows = pd.DataFrame({"frames present": [f"{int(i.left)}" + ("" if i.right == i.left + 1 else
+                                                                       f"-{int(i.right) - 1}" if np.isfinite(i.right)
+                                                                       else "+") for i in counts.index],
+                                "tracks": counts.to_numpy()})
+    track = movie.options.get("track")
+    rules = (f"a daughter lasting >= {track.division_min_frames} frames, no division within "
+             f"{track.division_min_cycle} frames of the mother's birth, daughters' area = mother's +- "
+             f"{track.division_area_tolerance:.0%}" if track is not None and hasattr(track, "division_min_frames")
+             else "see hexatissue.track.check_divisions")
+    lines = ["## Tracking quality", "",
+             f"- tracks: {len(lineage)}; frames present per track: median {np.median(lengths):g}, "
+             f"{int((lengths == len(movie)).sum())} present in all {len(movie)} frames, "
+             f"{int((lengths == 1).sum())} in a single frame",
+             f"- appearances: {numbers['tracking_qc']['appearances']}, disappearances: "
+             f"{numbers['tracking_qc']['disappearances']} (not counting divisions)",
+             f"- divisions: {n_div}, of which {n_div - n_suspect} plausible and {n_suspect} suspect ({rules}; "
+             f"`lineage.division_suspect`, `division_reason`)", "",
+             "Per frame (appearances: tracks starting there, not by division; disappearances: tracks present at "
+             "the frame before and not there; divisions: mothers whose daughters start there):", ""]
+    shown = qc if len(qc) <= QC_ROWS else qc[(qc.drop(columns=["frame", "cells"]) > 0).any(axis=1)].head(QC_ROWS)
+    lines += [_md_table(shown), ""]
+    if len(shown) < len(qc):
+        lines += [f"({len(shown)} of {len(qc)} frames shown, those with an event; all in `tracking_qc.csv`.)", ""]
+    lines += ["Track lengths:", "", _md_table(length_rows), ""]
+    if n_div:
+        table = divisions.assign(time=[cal.time(f) for f in divisions["frame"]] if cal.has_time else None)
+        table = table.drop(columns=[] if cal.has_time else ["time"])
+        if cal.has_time:
+            table = table.rename(columns={"time": f"time ({cal.time_label})"})
+        lines += ["Divisions (frame: the daughters' first frame; area_ratio: daughters' area / mother's, "
+                  "dimensionless):", "", _md_table(table.head(QC_ROWS)), ""]
+        if n_div > QC_ROWS:
+            lines += [f"({QC_ROWS} of {n_div} divisions shown; all in `divisions.csv`.)", ""]
+        reasons = sorted({r for text in divisions["reason"] for r in str(text).split(";") if r})
+        lines += [f"- `{r}`: {DIVISION_REASONS[r]}" for r in reasons] + ([""] if reasons else [])
+    return lines
 
 
 def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed, include_border, control):
@@ -282,7 +359,7 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     cycles = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float)
     numbers["events"] = {k: int(v) for k, v in counts.items()}
     censor = _censor_of(movie)
-    lines += ["## T1 events", "", *_tracking_lines(movie),
+    lines += ["## T1 events", "", *_tracking_lines(movie), *_held_lines(movie),
               "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected")
               + (f" (censor {censor} frames)" if censor is not None else ""),
               (f"- mean T1-cycle duration: {np.mean(cycles):.3g} frames"
