@@ -25,7 +25,7 @@ from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
 from .conftest import real_subdir
 
-SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+SAMPLE = Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 NO_FIELDS = OrderOptions(fields=False)
 
 
