@@ -27,9 +27,9 @@ from ._system import release_freed_memory
 from .box import Box
 from .errors import InputError
 from .frame import MESH_TABLES, Frame, Tables
-from .io import atomic_path, check_output_folder, read_table, write_table
+from .io import atomic_path, check_output_folder, read_table, read_units, write_table
 from .options import OPTION_CLASSES
-from .schema import TABLES as SCHEMAS, coerce, validate
+from .schema import TABLES as SCHEMAS, coerce, column_units, validate
 from .units import Calibration
 
 __all__ = ["Movie", "write_results", "read_results", "FORMATS", "METADATA"]
@@ -213,6 +213,9 @@ class Movie:
 def write_results(movie, directory, formats=("parquet",), release=False) -> list[Path]:
     """Write every table of ``movie`` to ``directory/<table>.<fmt>`` and ``metadata.json`` (last).
 
+    Each Parquet column carries its unit and meaning from
+    :data:`hexatissue.schema.TABLES` in its field metadata (keys ``unit``
+    and ``description``; :func:`hexatissue.io.read_units`).
     Files are written to temporary names and renamed, so a folder is never
     left with half a table; ``metadata.json`` is written last, so a folder
     that has it is complete.  Rewriting an existing results folder first
@@ -252,7 +255,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     for name in names:
         if release:  # the previous table's pages (and what the caller freed last), before this table's buffers
             release_freed_memory()
-        written += [write_table(tables[name], directory / f"{name}.{fmt}") for fmt in formats]
+        written += [write_table(tables[name], directory / f"{name}.{fmt}", schema=name) for fmt in formats]
         if release:
             del tables[name]
             setattr(movie, name, None)
@@ -275,6 +278,17 @@ def _listed_tables(path) -> list:
     return [name for name in listed if isinstance(name, str) and "/" not in name and "\\" not in name]
 
 
+def _check_units(path, name):
+    """InputError when a column's unit in the file (Parquet field metadata) is not the schema's."""
+    found = read_units(path)
+    expected = column_units(name, found)
+    wrong = [c for c, (unit, _) in found.items() if c in expected and unit != expected[c][0]]
+    if wrong:
+        c = wrong[0]
+        raise InputError(f"column {c!r} is in {found[c][0]!r} in the file; expected {expected[c][0]!r} (tables stay "
+                         f"in px and frames; the calibration converts them): written by another tool or version")
+
+
 def read_results(directory) -> Movie:
     """A results folder (:meth:`Movie.write`, ``hexatissue analyze``) read back as a :class:`Movie`.
 
@@ -289,7 +303,8 @@ def read_results(directory) -> Movie:
     Movie
         Every table found that has a schema, with box, shape, number of
         frames, calibration, options, summary, source and version from
-        ``metadata.json``.
+        ``metadata.json``.  The units a Parquet file gives its columns (field
+        metadata, see :func:`write_results`) are checked against the schema.
     """
     folder = Path(directory)
     if not folder.is_dir():
@@ -313,8 +328,9 @@ def read_results(directory) -> Movie:
             if path.exists():
                 table = read_table(path)
                 table = coerce(table, name) if fmt == "csv" else table
-                try:  # a table edited by hand or by another tool: every schema column, of its kind
+                try:  # a table edited by hand or by another tool: every schema column, of its kind and unit
                     tables[name] = validate(table, name)
+                    _check_units(path, name)
                 except InputError as exc:
                     raise InputError(f"results folder {str(folder)!r}: {path.name}: {exc}") from None
                 break
