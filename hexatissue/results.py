@@ -213,6 +213,9 @@ class Movie:
 def write_results(movie, directory, formats=("parquet",), release=False) -> list[Path]:
     """Write every table of ``movie`` to ``directory/<table>.<fmt>`` and ``metadata.json`` (last).
 
+    ``metadata.json`` records each input file (the labels, the mask, the
+    images) by its absolute path (:func:`hexatissue.open_source`) with its
+    path relative to ``directory`` beside it (``relative_path``).
     Each Parquet column carries its unit and meaning from
     :data:`hexatissue.schema.TABLES` in its field metadata (keys ``unit``
     and ``description``; :func:`hexatissue.io.read_units`).
@@ -247,6 +250,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
         raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
     directory = check_output_folder(directory, "directory")
     meta = dict(movie.metadata(), formats=list(formats))  # before any table is released
+    meta["source"] = _with_relative_paths(meta["source"], directory)
     previous = _listed_tables(directory / METADATA)
     (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
     tables = dict(movie.tables)
@@ -267,6 +271,41 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     with atomic_path(directory / METADATA) as tmp:
         tmp.write_text(json.dumps(meta, indent=2))
     return written + [directory / METADATA]
+
+
+def _path_entries(source):
+    """The source description and each of its entries (mask, images of the image stages) that records a file."""
+    entries = [source] + [v for v in source.values() if isinstance(v, dict)] if isinstance(source, dict) else []
+    return [e for e in entries if isinstance(e.get("path"), str) and e["path"]]
+
+
+def _with_relative_paths(source, directory):
+    """``source`` with each recorded file's path relative to the results folder beside its absolute path.
+
+    The absolute path finds the file from any working folder; the relative
+    one finds it when the results folder and the data were moved together.
+    """
+    import copy
+    import os
+
+    source = copy.deepcopy(source)
+    for entry in _path_entries(source):
+        if os.path.isabs(entry["path"]):
+            try:
+                entry["relative_path"] = os.path.relpath(entry["path"], Path(directory).resolve())
+            except ValueError:  # another drive (Windows): no relative path
+                entry.pop("relative_path", None)
+    return source
+
+
+def _found_paths(source, folder):
+    """``source`` with a recorded path that no longer exists replaced by its ``relative_path`` from ``folder``, if
+    that exists (the results folder moved together with its data)."""
+    for entry in _path_entries(source):
+        moved = entry.get("relative_path")
+        if not Path(entry["path"]).exists() and isinstance(moved, str) and (folder / moved).exists():
+            entry["path"] = str((folder / moved).resolve())
+    return source
 
 
 def _listed_tables(path) -> list:
@@ -305,6 +344,9 @@ def read_results(directory) -> Movie:
         frames, calibration, options, summary, source and version from
         ``metadata.json``.  The units a Parquet file gives its columns (field
         metadata, see :func:`write_results`) are checked against the schema.
+        A recorded input file (``source["path"]``, the mask's, the images')
+        that is no longer at its absolute path but at its ``relative_path``
+        from the folder (results and data moved together) gets that path.
     """
     folder = Path(directory)
     if not folder.is_dir():
@@ -353,5 +395,5 @@ def read_results(directory) -> Movie:
     return Movie(**tables, box=None if meta.get("box") is None else Box(*meta["box"]),
                  shape=tuple(meta.get("shape", ())), n_frames=int(meta.get("n_frames", 0)),
                  calibration=Calibration.from_dict(meta.get("calibration", {})), options=options,
-                 source=meta.get("source", {}), version=meta.get("hexatissue_version", ""),
+                 source=_found_paths(meta.get("source", {}), folder), version=meta.get("hexatissue_version", ""),
                  summary=meta.get("summary", {}))

@@ -344,7 +344,7 @@ def test_export_needs_the_labels_when_the_recorded_path_is_gone(epicure, tmp_pat
     results = tmp_path / "results"
     shutil.copytree(epicure["results"], results)
     meta = json.loads((results / "metadata.json").read_text())
-    meta["source"]["path"] = str(tmp_path / "moved.tif")
+    meta["source"].update(path=str(tmp_path / "moved.tif"), relative_path="moved.tif")  # gone from both
     (results / "metadata.json").write_text(json.dumps(meta))
     assert main(["export", str(results), "--to", "ctc", str(tmp_path / "ctc")]) == 2
     assert "--labels FILE" in capsys.readouterr().err
@@ -377,8 +377,9 @@ def test_track_masks_say_why_the_recorded_labels_or_mask_cannot_be_reopened(squa
                   "cannot be re-opened; pass the label image or stack the results were computed from (--labels "
                   "FILE on the command line, labels= in Python)"),
              ({**movie.source, "path": str(tmp_path / "moved.tif")},
-              f"the labels recorded in the results, {str(tmp_path / 'moved.tif')!r}, do not exist (moved, or a "
-              f"relative path from another folder); pass them with --labels FILE (labels= in Python)"),
+              f"the labels recorded in the results, {str(tmp_path / 'moved.tif')!r}, do not exist (moved, and not "
+              f"at their path relative to the results folder either); pass them with --labels FILE (labels= in "
+              f"Python)"),
              ({**movie.source, "mask": {"path": None, "shape": list(movie.shape), "inside": 1}},
               "the results were computed with a mask given as an array; pass the same mask (--mask FILE on the "
               "command line, mask= in Python)")]
@@ -510,3 +511,25 @@ def test_a_ctc_folder_whose_track_file_lost_its_lines_is_refused(epicure, tmp_pa
         ht.open_source(tmp_path / "ctc")
     assert main(["analyze", str(tmp_path / "ctc"), "--out", str(tmp_path / "o")]) == 2
     assert "check_ctc" in capsys.readouterr().err
+
+
+def test_results_record_the_source_by_absolute_path_and_export_works_from_another_folder(tmp_path, monkeypatch):
+    """`analyze data/squares.tif --out results` run in one folder; `export` run from another, then after the data
+    and the results were moved together (found through the path relative to the results folder)."""
+    (tmp_path / "data").mkdir()
+    (tmp_path / "elsewhere").mkdir()
+    tifffile.imwrite(tmp_path / "data" / "squares.tif", square_movie(), photometric="minisblack")
+    monkeypatch.chdir(tmp_path)
+    assert main(["analyze", "data/squares.tif", "--out", "results", "--workers", "1", "--no-fields"]) == 0
+    source = json.loads((tmp_path / "results" / "metadata.json").read_text())["source"]
+    assert source["path"] == str(tmp_path / "data" / "squares.tif")
+    assert source["relative_path"] == str(Path("..") / "data" / "squares.tif")
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    assert main(["export", "../results", "--to", "ctc", "ctc"]) == 0
+    expected = read_ctc(tmp_path / "elsewhere" / "ctc")[0]
+    shutil.move(tmp_path / "data", tmp_path / "elsewhere" / "data")
+    shutil.move(tmp_path / "results", tmp_path / "elsewhere" / "results")
+    moved = ht.read_results("results")
+    assert moved.source["path"] == str(tmp_path / "elsewhere" / "data" / "squares.tif")
+    assert main(["export", "results", "--to", "ctc", "ctc2"]) == 0
+    np.testing.assert_array_equal(read_ctc(tmp_path / "elsewhere" / "ctc2")[0], expected)

@@ -25,8 +25,9 @@ def _labels_source(movie, labels):
     desc = movie.source or {}
     source, why = recorded_labels(desc)
     if why == MISSING:
-        raise InputError(f"the labels recorded in the results, {desc['path']!r}, do not exist (moved, or a relative "
-                         f"path from another folder); pass them with --labels FILE (labels= in Python)")
+        raise InputError(f"the labels recorded in the results, {desc['path']!r}, do not exist (moved, and not at their "
+                         f"path relative to the results folder either); pass them with --labels FILE (labels= in "
+                         f"Python)")
     if source is None:
         raise InputError(f"the results were computed from {desc.get('kind', 'an unknown input')!r} data that were "
                          f"not a file, so their labels cannot be re-opened; pass the label image or stack the "
