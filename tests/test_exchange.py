@@ -17,7 +17,7 @@ from hexatissue.errors import InputError
 from hexatissue.exchange.ctc import check_ctc, read_ctc, write_ctc
 from hexatissue.exchange.geff import geff_tables, read_geff, write_geff
 from hexatissue.exchange.labels import track_masks
-from hexatissue.exchange.omezarr import downsample_labels, write_ome_zarr_labels
+from hexatissue.exchange.omezarr import LABELS_KEY, boundary_image, downsample_labels, write_ome_zarr_labels
 from hexatissue.graph import neighbour_graph
 from hexatissue.options import OrderOptions
 from hexatissue.readers.ctc import gap_links
@@ -397,7 +397,7 @@ def test_export_geff_and_ome_zarr_from_the_command_line(epicure, tmp_path):
     assert (tmp_path / "g" / "neighbours.geff").is_dir() and (tmp_path / "g" / "tracks.geff").is_dir()
     assert main(["export", str(epicure["results"]), "--to", "ome-zarr", str(tmp_path / "l.zarr"),
                  "--levels", "2"]) == 0
-    source = ht.open_source(tmp_path / "l.zarr")
+    source = ht.open_source(tmp_path / "l.zarr", key=LABELS_KEY)
     assert source.description["n_levels"] == 2
     assert source.calibration == ht.Calibration(0.2, "um")
     np.testing.assert_array_equal(np.stack([source.frame(t) for t in range(11)]),
@@ -417,28 +417,94 @@ def test_downsample_labels_is_the_mode_of_each_block():
     np.testing.assert_array_equal(downsample_labels(odd), [[0, 2, 4], [10, 12, 14]])  # edge rows repeated
 
 
+def _ome_attrs(group, version):
+    """A group's NGFF attributes: under "ome" in zarr.json (0.5) or in .zattrs (0.4)."""
+    if version == "0.5":
+        meta = json.loads((group / "zarr.json").read_text())
+        assert meta["zarr_format"] == 3 and meta["attributes"]["ome"]["version"] == "0.5"
+        return meta["attributes"]["ome"]
+    return json.loads((group / ".zattrs").read_text())
+
+
+@pytest.mark.parametrize("version", ["0.5", "0.4"])
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32, np.int64])
-def test_ome_zarr_label_stack_reads_back_identical(tmp_path, dtype):
+def test_ome_zarr_label_stack_reads_back_identical(tmp_path, dtype, version):
     stack = np.random.default_rng(1).integers(0, 100, (4, 33, 47)).astype(dtype)
     cal = ht.Calibration(0.5, "um", 2.0, "min")
-    path = write_ome_zarr_labels(stack, tmp_path / "s.zarr", calibration=cal, levels=3, chunks=(1, 16, 16))
-    source = ht.open_source(path)
+    path = write_ome_zarr_labels(stack, tmp_path / "s.zarr", calibration=cal, levels=3, chunks=(1, 16, 16),
+                                 version=version)
+    source = ht.open_source(path, key=LABELS_KEY)
     back = np.stack([source.raw_frame(t) for t in range(4)])
     assert back.dtype == stack.dtype
     np.testing.assert_array_equal(back, stack)
     assert source.calibration == cal
-    assert ht.open_source(path, level=2).calibration == ht.Calibration(2.0, "um", 2.0, "min")
-    meta = json.loads((tmp_path / "s.zarr" / ".zattrs").read_text())
-    axes = meta["multiscales"][0]["axes"]
+    assert ht.open_source(path, key=LABELS_KEY, level=2).calibration == ht.Calibration(2.0, "um", 2.0, "min")
+    assert ht.open_source(path).description["ngff_labels"] == [LABELS_KEY]  # the root image lists its labels
+    labels = _ome_attrs(tmp_path / "s.zarr" / "labels" / "cells", version)
+    axes = labels["multiscales"][0]["axes"]
     assert [(a["name"], a.get("unit")) for a in axes] == [("t", "minute"), ("y", "micrometer"), ("x", "micrometer")]
-    assert "image-label" in meta
+    assert labels["image-label"]["source"] == {"image": "../../"}
+    assert _ome_attrs(tmp_path / "s.zarr" / "labels", version)["labels"] == ["cells"]
+    # nested chunk keys: level 0's chunk (t=3, row 2, col 2) of the labels and of the image
+    nested = "c/3/2/2" if version == "0.5" else "3/2/2"
+    assert (tmp_path / "s.zarr" / "labels" / "cells" / "0" / nested).is_file()
+    assert (tmp_path / "s.zarr" / "0" / nested).is_file()
+
+
+@pytest.mark.parametrize("version", ["0.5", "0.4"])
+def test_ome_zarr_image_is_the_raw_channel_or_the_cell_outlines(tmp_path, version):
+    labels = np.zeros((2, 6, 8), np.uint16)
+    labels[:, :, 4:] = 1
+    labels[1, 3:, :] = 2
+    outlines = write_ome_zarr_labels(labels, tmp_path / "o.zarr", levels=2, version=version)
+    image = ht.open_source(outlines)
+    expected = np.zeros((6, 8), np.uint8)
+    expected[:, 3:5] = 255  # both sides of the vertical boundary between 0 and 1
+    np.testing.assert_array_equal(image.raw_frame(0), expected)
+    np.testing.assert_array_equal(image.raw_frame(1), boundary_image(labels[1]))
+    raw = np.random.default_rng(3).uniform(0, 1000, (2, 6, 8)).astype(np.float32)
+    path = write_ome_zarr_labels(labels, tmp_path / "r.zarr", image=raw, levels=2, version=version)
+    full, half = ht.open_source(path), ht.open_source(path, level=1)
+    assert full.raw_frame(1).dtype == np.float32
+    np.testing.assert_array_equal(full.raw_frame(1), raw[1])
+    block_mean = raw[1].reshape(3, 2, 4, 2).astype(np.float64).mean(axis=(1, 3)).astype(np.float32)
+    np.testing.assert_allclose(half.raw_frame(1), block_mean, rtol=1e-6)
+    assert _ome_attrs(tmp_path / "r.zarr", version)["multiscales"][0]["metadata"]["image"] == "the raw channel"
+    with pytest.raises(InputError, match=r"image has 2 frame\(s\) of \(6, 7\); expected 2 frame\(s\)"):
+        write_ome_zarr_labels(labels, tmp_path / "bad.zarr", image=raw[:, :, :7])
+    with pytest.raises(InputError, match="version must be one of"):
+        write_ome_zarr_labels(labels, tmp_path / "bad.zarr", version="0.3")
+
+
+@pytest.mark.parametrize("version", ["0.5", "0.4"])
+def test_ome_zarr_export_passes_ome_zarr_py_ngff_zarr_and_ome_zarr_models(tmp_path, version):
+    """The external readers and validators (test environment only) accept image + labels, both levels."""
+    ome_zarr_reader = pytest.importorskip("ome_zarr.reader")
+    ome_zarr_io = pytest.importorskip("ome_zarr.io")
+    ngff_zarr = pytest.importorskip("ngff_zarr")
+    ome_zarr_models = pytest.importorskip("ome_zarr_models")
+    labels = np.stack([voronoi_labels(jittered_seeds((40, 56), 8, seed=s), (40, 56)) for s in (1, 2, 3)])
+    path = write_ome_zarr_labels(labels.astype(np.uint16), tmp_path / "v.zarr", levels=2, version=version,
+                                 calibration=ht.Calibration(0.2, "um", 5.0, "min"))
+    nodes = list(ome_zarr_reader.Reader(ome_zarr_io.parse_url(str(path)))())
+    kinds = {Path(n.zarr.path).relative_to(path).as_posix(): [type(s).__name__ for s in n.specs] for n in nodes}
+    assert kinds["."] == ["Multiscales"] and "Label" in kinds["labels/cells"]
+    cells = next(n for n in nodes if n.zarr.path.endswith("cells"))
+    np.testing.assert_array_equal(np.asarray(cells.data[0]), labels)
+    for where in (path, path / "labels" / "cells"):
+        ms = ngff_zarr.from_ngff_zarr(str(where), validate=True)
+        assert ms.images[0].scale == {"t": 5.0, "y": 0.2, "x": 0.2}
+        assert ms.images[0].axes_units == {"t": "minute", "y": "micrometer", "x": "micrometer"}
+    assert type(ome_zarr_models.open_ome_zarr(str(path))).__name__ == "Image"
+    assert type(ome_zarr_models.open_ome_zarr(str(path / "labels"))).__name__ == "Labels"
+    assert type(ome_zarr_models.open_ome_zarr(str(path / "labels" / "cells"))).__name__ == "ImageLabel"
 
 
 def test_two_level_ome_zarr_analyses_at_the_chosen_level(tmp_path):
     full = np.stack([voronoi_labels(jittered_seeds((160, 200), 20, seed=s), (160, 200)) for s in (1, 2)])
     write_ome_zarr_labels(full, tmp_path / "v.zarr", calibration=ht.Calibration(0.25, "um"), levels=2)
     half = np.stack([downsample_labels(f) for f in full])
-    at_level = ht.analyze(ht.open_source(tmp_path / "v.zarr", level=1), workers=1, progress=False)
+    at_level = ht.analyze(ht.open_source(tmp_path / "v.zarr", key=LABELS_KEY, level=1), workers=1, progress=False)
     direct = ht.analyze(half, workers=1, progress=False)
     assert at_level.shape == (80, 100) and at_level.calibration == ht.Calibration(0.5, "um")
     for name, table in direct.tables.items():
