@@ -599,3 +599,58 @@ def test_results_record_the_source_by_absolute_path_and_export_works_from_anothe
     assert moved.source["path"] == str(tmp_path / "elsewhere" / "data" / "squares.tif")
     assert main(["export", "results", "--to", "ctc", "ctc2"]) == 0
     np.testing.assert_array_equal(read_ctc(tmp_path / "elsewhere" / "ctc2")[0], expected)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# AnnData
+# ---------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("suffix", [".h5ad", ".zarr"])
+def test_anndata_export_of_the_squares_holds_the_hand_made_neighbour_graph(squares, tmp_path, suffix):
+    anndata = pytest.importorskip("anndata")
+    folder, movie = squares
+    out = tmp_path / f"cells{suffix}"
+    assert main(["export", str(folder / "results"), "--to", "anndata", str(out)]) == 0
+    adata = anndata.read_h5ad(out) if suffix == ".h5ad" else anndata.read_zarr(out)  # as squidpy users read it
+    cells = movie.cells
+    assert adata.n_obs == len(cells) == 9 and adata.n_vars == 0
+    assert list(adata.obs_names) == [f"{t}:{c}" for t, c in zip(cells["frame"], cells["cell"])]
+    pd.testing.assert_frame_equal(adata.obs.reset_index(drop=True), cells.reset_index(drop=True),
+                                  check_index_type=False)
+    np.testing.assert_array_equal(adata.obsm["spatial"], cells[["x", "y"]].to_numpy())
+    key = adata.uns["spatial_neighbors"]["connectivities_key"]  # squidpy's way to the graph
+    graph = adata.obsp[key].tocoo()
+    pairs = {(int(adata.obs["frame"].iloc[i]), *sorted((int(adata.obs["cell"].iloc[i]),
+                                                         int(adata.obs["cell"].iloc[j]))))
+             for i, j in zip(graph.row, graph.col)}
+    assert pairs == {(t, a, b) for t, contacts in SQUARE_CONTACTS.items() for a, b in contacts}
+    assert graph.nnz == 2 * sum(len(c) for c in SQUARE_CONTACTS.values()) and set(graph.data) == {1.0}
+    row = {(t, c): k for k, (t, c) in enumerate(zip(cells["frame"], cells["cell"]))}
+    distances, lengths = adata.obsp[adata.uns["spatial_neighbors"]["distances_key"]], adata.obsp["contact_length"]
+    assert distances[row[0, 1], row[0, 2]] == pytest.approx(40.0)  # 40-px squares side by side
+    assert distances[row[1, 5], row[1, 6]] == pytest.approx(20.0)  # the daughters: 20-px halves
+    assert lengths[row[0, 1], row[0, 2]] == pytest.approx(40.0) and lengths[row[1, 3], row[1, 5]] == pytest.approx(20.0)
+    assert adata.uns["units"]["area"] == "px^2" and adata.uns["units"]["spatial"] == "px"
+    assert adata.uns["descriptions"]["area"] == ht.schema.TABLES["cells"]["area"][2]
+    assert adata.uns["hexatissue"]["source"] == str(folder / "squares.tif")
+
+
+def test_anndata_export_says_how_to_install_anndata_and_refuses_a_bad_name(squares, tmp_path, monkeypatch):
+    import builtins
+
+    from hexatissue.exchange.anndata import write_anndata
+
+    _, movie = squares
+    with pytest.raises(InputError, match=r"must end in \.h5ad or \.zarr"):
+        write_anndata(movie, tmp_path / "cells.csv")
+    real_import = builtins.__import__
+
+    def no_anndata(name, *args, **kwargs):
+        if name == "anndata":
+            raise ImportError("No module named 'anndata'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_anndata)
+    with pytest.raises(InputError, match=r"^AnnData export needs the anndata package: pip install "
+                                         r"'hexatissue\[anndata\]'$"):
+        write_anndata(movie, tmp_path / "cells.h5ad")
+    assert not (tmp_path / "cells.h5ad").exists()
