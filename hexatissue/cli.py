@@ -118,10 +118,14 @@ def _run_analyze(args) -> int:
 
 
 def _analyze_into(args, source, options) -> int:
+    from .mesh import kernels_cached
     from .results import write_results
     from .pipeline import analyze
 
     client = connect_scheduler(args.scheduler) if args.scheduler else None
+    if client is None and not kernels_cached():
+        print("hexatissue analyze: first run: compiling the numba kernels, about a minute on 2 cores (once: later "
+              "runs load them from numba's cache)", file=sys.stderr, flush=True)
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,

@@ -24,7 +24,7 @@ __all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "Inten
 
 # The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
 #: Label conventions of :func:`hexatissue.mesh_from_labels`.
-KINDS = ("auto", "touching", "membrane", "skeleton")
+KINDS = ("auto", "touching", "membrane", "skeleton", "membrane-map")
 #: Rules for a skeleton's outside region (see ``MeshOptions.outside``).
 OUTSIDE_RULES = ("auto", "none")
 POCKET_AREA = 16  # px: smaller 0-valued pockets in touching labels are holes (e.g. at triple junctions)
@@ -222,13 +222,17 @@ class MeshOptions(_Options, stage="mesh", title="junction network"):
         0-valued pockets smaller than this many px between cells are filled;
         0 disables (default 16 px: gaps at triple junctions).
     outside : {"auto", "none"}
-        ``"auto"``: a skeleton region touching the image edge and more than
-        20 x the median region area is outside; ``"none"``: it is a cell.
+        ``"auto"``: a region touching the image edge and more than 20 x the
+        median region area is outside (a masked skeleton's outside region, or
+        a hand-labelled tissue's background label that is not 0; for labels
+        other than skeletons with a warning); ``"none"``: it is a cell.
 
     A region-of-interest mask is per image: ``hexatissue.analyze(..., mask=)``.
     """
 
-    kind: str = cli_field("auto", "--kind", "label convention (default: detected)", choices=KINDS)
+    kind: str = cli_field("auto", "--kind", "label convention (default: detected); membrane-map: the "
+                          "input is a membrane image or probability map, segmented first (threshold-free "
+                          "watershed baseline, docs/input.md)", choices=KINDS)
     merge_distance: float = cli_field(2.0, "--merge-distance", "junctions shorter than this (px) become four-fold "
                                       "vertices")
     membrane_width: int = cli_field(3, "--membrane-width", "0-valued junction pixels within this many px of a "
@@ -239,8 +243,9 @@ class MeshOptions(_Options, stage="mesh", title="junction network"):
                                   "their neighbours are border cells", nargs="+", type=int, metavar="LABEL")
     fill_holes: int = cli_field(POCKET_AREA, "--fill-holes", "0-valued pockets smaller than AREA px between cells "
                                 "are filled; 0 disables", metavar="AREA")
-    outside: str = cli_field("auto", "--outside", "auto: a skeleton region touching the image edge and > 20 x the "
-                             "median region area is outside, not a cell; none: keep it", choices=OUTSIDE_RULES)
+    outside: str = cli_field("auto", "--outside", "auto: a region touching the image edge and > 20 x the median "
+                             "region area is outside, not a cell (a masked skeleton's outside, a background label "
+                             "that is not 0); none: keep it", choices=OUTSIDE_RULES)
 
     def __post_init__(self):
         if self.kind not in KINDS:

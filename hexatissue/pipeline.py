@@ -26,14 +26,13 @@ import warnings
 from pathlib import Path
 from collections import deque
 
-from . import mesh, track
 from ._checkpoint import Checkpoint
 from ._executors import batch_size, executor
 from ._rows import Rows
 from ._system import release_freed_memory
 from ._version import __version__
 from .box import as_box
-from .errors import InputError, user_stacklevel
+from .errors import HexatissueWarning, InputError, user_stacklevel
 from .progress import progress as progress_bar
 from .results import Movie
 from .source import open_source, read_mask
@@ -203,10 +202,14 @@ def _check_polygon_run(box, mask, stages, options):
 
 
 class _FrameWarnings:
-    """Warnings of the frame jobs, reported once per distinct text with the frames it occurred in."""
+    """Warnings of the frame jobs, reported once per distinct text with the frames it occurred in.
 
-    def __init__(self):
+    ``files``: the file of each frame (a folder of images or polygon files), named instead of the frame number.
+    """
+
+    def __init__(self, files=None):
         self.frames = {}
+        self.files = files
 
     def add(self, t, found):
         for category, text in found:
@@ -215,9 +218,10 @@ class _FrameWarnings:
     def emit(self):
         for (category, text), frames in self.frames.items():
             frames = sorted(set(frames))
-            shown = ", ".join(str(f) for f in frames[:10]) + (f", ... ({len(frames)} frames)" if len(frames) > 10
-                                                              else "")
-            warnings.warn(f"frame{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
+            word = "file" if self.files else "frame"
+            names = [Path(self.files[f]).name if self.files else str(f) for f in frames[:10]]
+            shown = ", ".join(names) + (f", ... ({len(frames)} {word}s)" if len(frames) > 10 else "")
+            warnings.warn(f"{word}{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
                           stacklevel=user_stacklevel())
 
 
@@ -274,14 +278,20 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
                     rows[name].append(table, frames=table["frame"].nunique() if "frame" in table else 1)
     if start >= n_frames:
         return rows, tracker
-    work, max_inflight = executor(client, workers, n_frames - start, warm_ups=(mesh.warm_up, track.warm_up))
-    size = batch_size(n_frames - start, src.shape, max_inflight)
+    sent = worker_stages(stages, options)
+
+    def warm_up():
+        """The job's first frames, once, here: forked workers inherit exactly the compiled kernels they need."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", HexatissueWarning)  # reported when the frames are analysed
+            _batch_job([frame_data(t) for t in range(start, min(start + 2, n_frames))], sent, pixels)
+
     pending: deque = deque()
     due = store.due(start, n_frames) if store is not None else set()
     saved = {name: r.n for name, r in rows.items()}  # rows already in checkpoint files
-    sent = worker_stages(stages, options)
 
-    frame_warnings = _FrameWarnings()
+    files = src.description.get("files")
+    frame_warnings = _FrameWarnings(files if files is not None and len(files) == n_frames else None)
     polygons = src.kind == "polygons"
     pixels = not polygons and tracker.needs_pixels
 
@@ -303,10 +313,12 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
     def frame_data(t):
         if polygons:
             return FrameData(t=t, cell_polygons=src.polygons(t))
-        labels, lowest, top = src.checked_frame(t)
+        labels, lowest, top = src.checked_frame(t, options["mesh"].kind)
         frame_images = {name: image.image(t if image.n_frames > 1 else 0) for name, image in images.items()}
         return FrameData(t=t, box=box, labels=labels, raw_ids=(lowest, top), mask=mask, images=frame_images)
 
+    work, max_inflight = executor(client, workers, n_frames - start, warm_ups=(warm_up,))
+    size = batch_size(n_frames - start, src.shape, max_inflight)
     try:
         batch = []
         for t in progress_bar(range(start, n_frames), enabled=progress, desc="frames", initial=start,

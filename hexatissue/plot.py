@@ -365,6 +365,15 @@ def _add_stars(ax, xy, value, p, unit_length, color, linewidth):
     ax.add_collection(LineCollection(segments, colors=color, linewidths=linewidth, capstyle="round"))
 
 
+def _frame_text(table, calibration):
+    """``", frame 5"`` (``", frame 5, t = 10 min"`` with a time calibration) of a one-frame table, else ``""``."""
+    if table is None or "frame" not in table.columns or not len(table):
+        return ""
+    t = int(table["frame"].iloc[0])
+    cal = as_calibration(calibration)
+    return f", frame {t}" + (f", t = {cal.time(t):g} {cal.time_label}" if cal.has_time else "")
+
+
 def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=None, path=None, box=None,
                      show_magnitude=True, image=None, calibration=None, figsize=(6.4, 6)):
     """Coarse-grained orientation field of Gamma_p with its +-1/p defects (the paper's Fig. 3c, d).
@@ -415,7 +424,7 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
     if defects is not None and len(defects):
         _draw_defects(ax, defects, p, size=8)
     _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)), calibration)
-    ax.set_title(f"$\\Gamma_{p}$ orientation and $\\pm 1/{p}$ defects")
+    ax.set_title(f"$\\Gamma_{p}$ orientation and $\\pm 1/{p}$ defects{_frame_text(grid, calibration)}")
     return _finish(fig, path)
 
 
@@ -749,8 +758,7 @@ def plot_flow(flow, polygons=None, ax=None, path=None, box=None, calibration=Non
         ax.quiverkey(arrows, 0.16, 1.03, key / float(in_units(1.0, cal)), f"{key:g} {velocity_unit(cal)}",
                      labelpos="E", coordinates="axes", fontproperties={"size": 9})
     _image_axes(ax, _extent_of(None, polygons, np.c_[x, y], as_box(box)), cal)
-    frame = f", frame {int(flow['frame'].iloc[0])}" if "frame" in flow.columns and len(flow) else ""
-    ax.set_title(f"velocity and vorticity{frame}", pad=18)
+    ax.set_title(f"velocity and vorticity{_frame_text(flow, cal)}", pad=18)
     return _finish(fig, path)
 
 

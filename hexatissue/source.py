@@ -46,6 +46,7 @@ import numpy as np
 from .box import Box
 from .errors import InputError
 from .mesh.labels import check_mask, checked_labels
+from .mesh.segment import segment_membranes
 from .readers.arrays import open_array, open_list, open_npy, open_npz
 from .readers.base import Opened, read_error, refuse
 from .readers.ctc import is_ctc_folder, open_ctc
@@ -179,9 +180,15 @@ class Source:
         """
         return self.checked_frame(t)[0]
 
-    def checked_frame(self, t):
-        """:meth:`frame`, and its smallest and largest id (None for a bool image), found while checking it."""
+    def checked_frame(self, t, kind="auto"):
+        """:meth:`frame`, and its smallest and largest id (None for a bool image), found while checking it.
+
+        With ``kind="membrane-map"`` the frame is a membrane image (or probability map), segmented
+        into touching labels first (:func:`hexatissue.mesh.segment.segment_membranes`).
+        """
         t = self._index(t)
+        if kind == "membrane-map":
+            return checked_labels(segment_membranes(self.image(t), periodic=self.box is not None), f"frame {t}")
         return checked_labels(self.raw_frame(t), f"frame {t}")
 
     def image(self, t) -> np.ndarray:

@@ -418,6 +418,10 @@ def run_frame(frame, stages):
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        for run, options in stages:
-            run(frame, options)
+        try:
+            for run, options in stages:
+                run(frame, options)
+        except InputError as exc:  # name the frame, once
+            where = f"frame {frame.t}"
+            raise InputError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from None
     return [(w.category, str(w.message)) for w in caught]

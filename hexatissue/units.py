@@ -7,7 +7,7 @@ analyses can show micrometres and minutes where the user has them.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 
 from .errors import InputError, check_positive
 
@@ -52,6 +52,10 @@ def normalize_time_unit(unit) -> str:
     return _normalize(unit, _TIME_ALIASES, "time unit")
 
 
+#: Where a calibration's pixel size or frame interval came from (:class:`Calibration`).
+ORIGINS = ("file", "given", "none")
+
+
 @dataclass(frozen=True)
 class Calibration:
     """Size of a pixel and time between frames.
@@ -70,12 +74,20 @@ class Calibration:
     time_unit : str
         ``"frame"`` (uncalibrated), ``"s"``, ``"min"``, ``"h"``, ``"ms"`` or
         ``"iteration"`` (simulation steps).
+    length_from, time_from : str
+        Where the pixel size (frame interval) came from: ``"file"`` (the
+        file's metadata), ``"given"`` (an argument or flag) or ``"none"``
+        (uncalibrated); by default ``"given"`` when calibrated.  Carried into
+        ``metadata.json`` and the report; not compared (two calibrations with
+        the same values are equal wherever they came from).
     """
 
     pixel_size: float = 1.0
     length_unit: str = "px"
     frame_interval: float = 1.0
     time_unit: str = "frame"
+    length_from: str = field(default="", compare=False)
+    time_from: str = field(default="", compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "pixel_size", check_positive(self.pixel_size, "pixel_size"))
@@ -88,6 +100,12 @@ class Calibration:
         if self.time_unit == "frame" and self.frame_interval != 1.0:
             raise InputError(f"frame_interval {self.frame_interval!r} needs a time_unit (e.g. 's', 'min'); "
                              f"with time_unit 'frame' it must be 1")
+        for name, calibrated in (("length_from", self.has_length), ("time_from", self.has_time)):
+            origin = getattr(self, name) or ("given" if calibrated else "none")
+            if origin not in ORIGINS or (origin == "none") == calibrated:
+                raise InputError(f"{name} must be one of {ORIGINS} ('none' exactly when uncalibrated); got "
+                                 f"{getattr(self, name)!r}")
+            object.__setattr__(self, name, origin)
 
     @property
     def has_length(self) -> bool:
@@ -122,10 +140,21 @@ class Calibration:
         return frames * self.frame_interval
 
     def replace(self, *, pixel_size=None, length_unit=None, frame_interval=None, time_unit=None) -> "Calibration":
-        """A copy with the given fields changed (None keeps a field)."""
+        """A copy with the given fields changed (None keeps a field); a changed length (time) is ``"given"``."""
         changes = dict(pixel_size=pixel_size, length_unit=length_unit, frame_interval=frame_interval,
                        time_unit=time_unit)
-        return replace(self, **{k: v for k, v in changes.items() if v is not None})
+        changes = {k: v for k, v in changes.items() if v is not None}
+        if {"pixel_size", "length_unit"} & set(changes):
+            changes["length_from"] = ""  # re-derived: "given", or "none" when it is removed
+        if {"frame_interval", "time_unit"} & set(changes):
+            changes["time_from"] = ""
+        return replace(self, **changes)
+
+    @property
+    def origin_text(self) -> str:
+        """Where the calibration came from, for reports: e.g. ``"pixel size from the file, frame interval given"``."""
+        words = {"file": "from the file's metadata", "given": "given", "none": "none"}
+        return f"pixel size {words[self.length_from]}, frame interval {words[self.time_from]}"
 
     def override(self, *, pixel_size=None, length_unit=None, frame_interval=None, time_unit=None,
                  assume_units=False) -> "Calibration":
@@ -173,7 +202,7 @@ class Calibration:
         """Inverse of :meth:`to_dict`; unknown keys raise :class:`InputError`."""
         if not isinstance(data, dict):
             raise InputError(f"calibration must be a dict; got {type(data).__name__}")
-        known = {"pixel_size", "length_unit", "frame_interval", "time_unit"}
+        known = {"pixel_size", "length_unit", "frame_interval", "time_unit", "length_from", "time_from"}
         extra = set(data) - known
         if extra:
             raise InputError(f"calibration has unknown field(s) {sorted(extra)}; expected {sorted(known)}")

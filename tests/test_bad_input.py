@@ -775,3 +775,16 @@ def test_random_crops_of_real_stacks_are_all_analysed(real_data):
     _every_crop_is_analysed(np.load(real_subdir(real_data, "mouse_epidermis_laptrack") / "labels.npy"))
     wing = np.load(real_subdir(real_data, "epitools_wingdisc") / "SegResults_CLabels_RegIm_TYX.npz")["CLabels"]
     _every_crop_is_analysed(wing)
+
+
+def test_warnings_on_a_folder_name_the_file(tmp_path, capsys):
+    """A folder of frames (hexanematic .mat files, image sequences): a warning names the file, not 'frame 35'."""
+    import tifffile
+
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    tifffile.imwrite(folder / "t01.tif", tiles().astype(np.uint16))
+    tifffile.imwrite(folder / "t02.tif", np.kron(island(), np.ones((4, 4), int)).astype(np.uint16))
+    assert main(f"analyze {folder} --out {tmp_path}/o".split()) == 0
+    err = capsys.readouterr().err
+    assert "hexatissue analyze: warning: file t02.tif: some cells have no boundary polygon" in err

@@ -133,3 +133,22 @@ def test_the_command_does_not_import_what_only_other_commands_use(tmp_path):
             "print(rc, *sorted(m for m in ('cv2', 'scipy.stats', 'networkx') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split("\n")[-2] == "0", out
+
+
+def test_first_run_says_that_it_compiles(tmp_path, monkeypatch, capsys):
+    import hexatissue.mesh
+
+    np.save(tmp_path / "labels.npy", np.kron(np.arange(1, 10).reshape(3, 3), np.ones((6, 6), int)))
+    monkeypatch.setattr(hexatissue.mesh, "kernels_cached", lambda: False)
+    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/o".split()) == 0
+    assert "first run: compiling the numba kernels" in capsys.readouterr().err
+    monkeypatch.setattr(hexatissue.mesh, "kernels_cached", lambda: True)
+    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/o2".split()) == 0
+    assert "compiling" not in capsys.readouterr().err
+
+
+def test_kernels_cached_reads_numba_s_index():
+    from hexatissue.mesh import _kernels, kernels_cached
+
+    _kernels.cell_moments(np.ones((2, 2), np.int32), 2, False)  # compiled or loaded: cached now
+    assert kernels_cached()

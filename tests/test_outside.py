@@ -58,9 +58,15 @@ def test_rim_background_label_is_outside(tissue):
     inside = np.zeros(SHAPE, bool)
     inside[20:100, 25:135] = True
     labels[~inside] = rim  # a hand-labelled background label around the tissue
-    as_cell = mesh_from_labels(labels)
+    as_cell = mesh_from_labels(labels, outside="none")
     assert rim in set(as_cell.cells["cell"]) and border_set(as_cell) == image_edge_ids(labels)
+    # by default the rim (touching the image edge, > 20 x the median cell area) is found as the outside, with a
+    # warning naming the flags; the same network as when it is named
+    with pytest.warns(HexatissueWarning, match=f"label {rim} touches the image edge.*--outside none.*--background"):
+        found = mesh_from_labels(labels)
     f = mesh_from_labels(labels, background=(rim,))
+    for name in ("cells", "edges", "vertices"):
+        pd.testing.assert_frame_equal(getattr(found, name), getattr(f, name))
     assert rim not in set(f.cells["cell"])
     # truth: the cells next to the rim; the same network as with the rim drawn as 0
     assert border_set(f) == adjacent_to(~inside, labels) - {rim}

@@ -82,3 +82,53 @@ def test_override_is_the_one_rule_of_source_and_command_line_overrides():
         units = override_units(plain, **kwargs)
         assert plain.override(**kwargs, assume_units=True) == plain.override(
             **{**kwargs, "length_unit": units[0], "time_unit": units[1]})
+
+
+def test_calibration_says_where_it_came_from(tmp_path):
+    import tifffile
+
+    from hexatissue import InputError, open_source
+    from hexatissue.units import Calibration
+
+    assert Calibration().length_from == Calibration().time_from == "none"
+    given = Calibration(pixel_size=0.2, length_unit="um")
+    assert (given.length_from, given.time_from) == ("given", "none")
+    assert Calibration.from_dict(given.to_dict()).length_from == "given"
+    assert Calibration.from_dict({"pixel_size": 0.2, "length_unit": "um"}) == given  # metadata of older versions
+    assert Calibration(pixel_size=0.2, length_unit="um", length_from="file") == given  # values compared, not origin
+    with pytest.raises(InputError, match="length_from"):
+        Calibration(length_from="file")  # uncalibrated cannot come from a file
+    labels = np.kron(np.arange(1, 10).reshape(3, 3), np.ones((6, 6))).astype(np.uint16)
+    tifffile.imwrite(tmp_path / "a.ome.tif", labels, ome=True,
+                     metadata={"axes": "YX", "PhysicalSizeX": 0.25, "PhysicalSizeY": 0.25, "PhysicalSizeXUnit": "µm"})
+    source = open_source(tmp_path / "a.ome.tif")
+    assert source.calibration.length_from == "file" and source.calibration.pixel_size == 0.25
+    overridden = source.with_calibration(pixel_size=0.3)
+    assert overridden.calibration.length_from == "given"
+    assert overridden.calibration.origin_text == "pixel size given, frame interval none"
+
+
+def test_a_placeholder_pixel_size_of_exactly_one_is_flagged(tmp_path):
+    """PartSeg writes PhysicalSizeX=1 by default: cells of 469 µm^2 and a 50 µm scale bar, trusted silently before."""
+    import tifffile
+
+    from hexatissue import HexatissueWarning, analyze, open_source
+    from hexatissue.workflows.report import report
+
+    labels = np.kron(np.arange(1, 26).reshape(5, 5), np.ones((8, 8))).astype(np.uint16)
+    tifffile.imwrite(tmp_path / "p.ome.tif", labels, ome=True,
+                     metadata={"axes": "YX", "PhysicalSizeX": 1, "PhysicalSizeY": 1, "PhysicalSizeXUnit": "µm"})
+    with pytest.warns(HexatissueWarning, match="pixel size of exactly 1 um.*--pixel-size"):
+        source = open_source(tmp_path / "p.ome.tif")
+    assert any("placeholder" in note for note in source.description["notes"])
+    movie = analyze(source)
+    movie.write(tmp_path / "r")
+    report(tmp_path / "r", tmp_path / "rep")
+    text = (tmp_path / "rep" / "report.md").read_text()
+    assert "calibration: pixel size from the file's metadata, frame interval none" in text
+    # 64 µm^2 cells: in the range of epithelial cells, no alarm; at 100 µm/px they would not be
+    assert "check the pixel size" not in text
+    big = analyze(source.with_calibration(pixel_size=100.0))
+    big.write(tmp_path / "r2")
+    report(tmp_path / "r2", tmp_path / "rep2")
+    assert "check the pixel size" in (tmp_path / "rep2" / "report.md").read_text()

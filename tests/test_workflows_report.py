@@ -65,7 +65,11 @@ def test_report_on_a_periodic_movie(movie_results, movie_report):
     # Fig. 3g by both definitions: quartets and the paper's per-cell neighbour lists
     per_cell = pd.read_csv(out / "cell_timing_neighbour_lists.csv")
     movie = read_results(movie_results)
-    assert "per-cell definition" in text and len(per_cell) == movie.cells["track"].nunique()
+    assert "Second definition, the paper's per-cell one" in text and len(per_cell) == movie.cells["track"].nunique()
+    # one-frame cycles (flickers) are counted apart, not averaged into cycle periods
+    ne = movie.neighbour_events
+    flickers = int(((ne["kind"].astype(str) == "cycle") & (ne["duration"] <= 1)).sum())
+    assert numbers["timing_per_cell_definition"]["n_flickers"] == flickers
     assert numbers["timing_per_cell_definition"]["n_intercalation_cells"] == \
         per_cell["mean_intercalation_interval"].notna().sum()
 
@@ -91,7 +95,7 @@ def test_report_on_a_single_frame(movie_results, tmp_path):
     numbers = report(tmp_path / "res")
     out = tmp_path / "res" / "report"
     pngs = sorted(p.name for p in out.glob("*.png"))
-    assert pngs == ["order2.png", "order6.png"]
+    assert pngs == ["cells.png", "order2.png", "order6.png"]
     assert all(_png_ok(out / n) for n in pngs)
     assert numbers["frames"] == 1 and "proximity" not in numbers
     text = (out / "report.md").read_text()
@@ -208,3 +212,18 @@ def test_report_has_the_deformation_budget_in_physical_time(tmp_path):
     assert cumulative["intercalations"]["cumulative xx"] == pytest.approx(tissue["t1_intercalation_xx"].sum())
     assert numbers["deformation"]["max_closure"] < 1e-12
     assert "deformation.csv" in {Path(w).name for w in numbers["written"]}
+
+
+def test_a_movie_without_events_has_no_empty_panels_and_says_so(tmp_path):
+    """EpiCure-like: no T1 in a short movie; before, the report showed empty panels and nan statistics."""
+    frames = [voronoi_movie(40, (90, 100), 1, seed=1)[0]] * 4  # motionless: no neighbour exchange
+    np.save(tmp_path / "still.npy", np.stack(frames))
+    analyze_to(tmp_path / "still.npy", tmp_path / "res")
+    numbers = report(tmp_path / "res")
+    out = tmp_path / "res" / "report"
+    names = {p.name for p in out.glob("*.png")}
+    assert not {"events.png", "t1_defects.png", "timing.png"} & names and "cells.png" in names
+    text = (out / "report.md").read_text()
+    assert "nan" not in text.replace("nan px", "")  # no statistic of nothing
+    assert "Nothing to compare: there are no T1 events" in text and "Too little to compare" in text
+    assert numbers["events"] == {}

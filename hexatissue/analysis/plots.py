@@ -16,7 +16,7 @@ from ..flow import correlation_length, in_units, msd_exponent, reliable_bins, ve
 from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
 from ..units import as_calibration
 
-__all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
+__all__ = ["plot_cell_distributions", "plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
            "plot_event_overview", "plot_flow_statistics", "plot_event_flow"]
 
 EVENT_COLOR = "#2a7f62"
@@ -48,6 +48,57 @@ def _decade(values):
 
 def _empty(ax, text):
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
+
+
+def plot_cell_distributions(cells, path=None, calibration=None, figsize=(10, 3.6)):
+    """Distributions of the interior cells' number of sides and area, over every frame of ``cells``.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        A ``cells`` table (``n_sides``, ``area`` in px^2, ``is_border``); border cells are left out (cut by the
+        image edge), and so are cells without a polygon (``n_sides`` < 3) from the sides panel.
+    path : path-like, optional
+        PNG written atomically.
+    calibration : Calibration, optional
+        Areas in its length unit squared (px^2 when None).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: fraction of cells per number of sides, with the percentages; right: histogram of the areas with
+        the mean marked.
+    """
+    cal = as_calibration(calibration)
+    inner = cells[~cells["is_border"].to_numpy(bool)]
+    fig, (left, right) = _figure(2, figsize)
+    sides = inner["n_sides"].to_numpy(int)
+    sides = sides[sides >= 3]
+    if len(sides):
+        values, counts = np.unique(sides, return_counts=True)
+        share = counts / counts.sum()
+        left.bar(values, share, color=EVENT_COLOR, width=0.8)
+        for v, f in zip(values, share):
+            left.text(v, f, f"{100 * f:.1f}%", ha="center", va="bottom", fontsize=8)
+        left.set_xticks(values)
+        left.set_ylim(0, min(1.0, share.max() * 1.18))
+    else:
+        _empty(left, "no interior cell with a polygon")
+    left.set_xlabel("number of sides (neighbours)")
+    left.set_ylabel("fraction of interior cells")
+    left.set_title(f"{len(sides)} interior cell-frames", fontsize=10)
+    area = cal.area(inner["area"].to_numpy(float))
+    unit = f"{cal.length_label}$^2$" if cal.has_length else "px$^2$"
+    if len(area):
+        right.hist(area, bins=min(40, max(5, len(area) // 10)), color=CONTROL_COLOR)
+        right.axvline(area.mean(), color="k", linewidth=1)
+        right.text(area.mean(), right.get_ylim()[1] * 0.95, f" mean {area.mean():.3g} {unit}", fontsize=8,
+                   va="top")
+    else:
+        _empty(right, "no interior cell")
+    right.set_xlabel(f"cell area ({unit})")
+    right.set_ylabel("cells")
+    return _finish(fig, path, "interior cells: neighbour number and area")
 
 
 def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4), title=None):

@@ -120,7 +120,7 @@ class _Labels:
     def __call__(self, t) -> np.ndarray:
         from ..mesh.labels import mesh_labels
 
-        return mesh_labels(self.source.frame(t), self.box, self.mesh, self.mask)[0]  # as the analysis saw them
+        return mesh_labels(self.source.checked_frame(t, self.mesh.kind)[0], self.box, self.mesh, self.mask)[0]  # as the analysis saw them
 
 
 def _side(obj, labels, name, box):

@@ -92,7 +92,7 @@ def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
     area = cells["area"].to_numpy(float)
     out = []
     for t in progress(range(movie.n_frames), desc="labels", unit="frame"):
-        lab = mesh_labels(source.frame(t), movie.box, mesh, inside)[0]
+        lab = mesh_labels(source.checked_frame(t, mesh.kind)[0], movie.box, mesh, inside)[0]
         lo, hi = bounds[t], bounds[t + 1]
         found, counts = np.unique(lab, return_counts=True)
         pos = np.searchsorted(found, ids[lo:hi])

@@ -34,10 +34,13 @@ cells, ``is_border``), in this order:
    are 0 in the final labels too: membranes are not shared out across the
    mask's edge.
 3. ``min_area``: smaller regions are membrane.
-4. ``outside="auto"`` (skeletons on an open image): an enclosed region that
-   touches the image edge and is larger than ``OUTSIDE_FACTOR`` (20) times
-   the median region area (of the regions of at least ``min_area`` px) is
-   the outside of a masked skeleton.  ``"none"`` keeps it as a cell.
+4. ``outside="auto"`` (open images): a region that touches the image edge
+   and is larger than ``OUTSIDE_FACTOR`` (20) times the median region area
+   (of the regions of at least ``min_area`` px) is the outside: of a masked
+   skeleton, or the outside label of a hand-labelled tissue whose
+   background is not 0 (labels of the other kinds: only a label holding at
+   least a tenth of the image edge, and with a warning).  ``"none"`` keeps
+   it as a cell.
 5. Membranes are shared out (kinds ``"membrane"``, ``"skeleton"``).
 6. ``fill_holes``: 0-valued 4-connected pockets smaller than this many px
    that do not touch the edge of an open image are holes between touching
@@ -46,15 +49,18 @@ cells, ``is_border``), in this order:
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy import ndimage
 
 from .._components import components
-from ..errors import InputError, is_real
+from ..errors import HexatissueWarning, InputError, is_real
 from ..options import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
 
-OUTSIDE_FACTOR = 20  # a skeleton region touching the image edge and > 20 x the median region area is the outside
+OUTSIDE_FACTOR = 20  # a region touching the image edge and > 20 x the median region area is the outside
+OUTSIDE_EDGE_SHARE = 0.1  # a label holding this share of the image edge's pixels may be the outside (any kind)
 SKELETON_MIN_AREA = 4  # px: smaller regions enclosed by skeleton lines are specks, not cells
 
 
@@ -80,7 +86,8 @@ def checked_labels(labels, name="labels"):
         if not np.all(np.isfinite(arr)):
             raise InputError(f"{name} contains NaN or infinite values; expected integer cell ids")
         if not np.array_equal(arr, np.round(arr)):
-            raise InputError(f"{name} has non-integer float values (dtype {arr.dtype}); expected integer cell ids")
+            raise InputError(f"{name} has non-integer float values (dtype {arr.dtype}); expected integer cell ids "
+                             f"(for a membrane probability map: --kind membrane-map segments it)")
         if arr.max() >= 2**31:
             raise InputError(f"{name} has float ids up to {arr.max()}; expected ids below 2**31")
         arr = arr.astype(np.int64)
@@ -119,7 +126,8 @@ def _check_label_like(arr, name, same_h, same_v):
     if same < MIN_SAME_NEIGHBOUR:
         raise InputError(f"{name} does not look like a label image: only {same:.0%} of neighbouring pixels share a "
                          f"value (a label image has most pixels inside cells, >= {MIN_SAME_NEIGHBOUR:.0%}); is it a "
-                         f"raw microscopy image? Segment it first (e.g. Cellpose, EpySeg) and analyse the labels")
+                         f"raw microscopy image? Segment it first (e.g. Cellpose, EpySeg) and analyse the labels, or give a "
+                         f"membrane channel with --kind membrane-map (a baseline watershed)")
 
 
 def _direct_and_separating(lab):
@@ -239,6 +247,8 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
     if kind != "skeleton":
         _refuse_white_membranes(lab, background)
     given = lab
+    if kind == "membrane-map":  # segmented already (Source.checked_frame, mesh_from_labels): touching labels
+        kind = "touching"
     if kind == "auto":
         kind = detect_kind(lab, periodic, lowest)
     if kind == "skeleton":
@@ -256,6 +266,8 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = _drop_small(lab, min_area)
     if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
         lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
+    elif outside == "auto" and not periodic:
+        lab = _drop_outside_label(lab)
     # no 0 pixel (ids are non-negative): a min does not build a mask
     positive = (lab.min() if lowest is None or lab is not given else lowest) > 0
     if not positive and not lab.any():
@@ -382,6 +394,37 @@ def _drop_small(lab, min_area):
 def _drop_outer_regions(lab, counts):
     outer = outer_regions(lab, counts)
     return np.where(np.isin(lab, outer), 0, lab) if len(outer) else lab
+
+
+def _drop_outside_label(lab):
+    """Labels with the outside label of a hand-labelled tissue (a label around it, not 0) set to 0, with a warning.
+
+    The rule of a skeleton's outside (:func:`outer_regions`), for any labels: a label touching the image
+    edge with more than ``OUTSIDE_FACTOR`` x the median cell area.  Only a label holding at least
+    ``OUTSIDE_EDGE_SHARE`` of the image edge is a candidate, so ordinary frames cost one pass over their edge.
+    """
+    edge = np.r_[lab[0], lab[-1], lab[:, 0], lab[:, -1]]
+    edge = edge[edge != 0]
+    if not len(edge):
+        return lab
+    values, counts = np.unique(edge, return_counts=True)
+    if counts.max() < OUTSIDE_EDGE_SHARE * (2 * sum(lab.shape)):
+        return lab
+    ids, areas = np.unique(lab, return_counts=True)
+    areas = areas[ids != 0]
+    ids = ids[ids != 0]
+    if len(ids) < 3:
+        return lab
+    candidates = values[counts >= OUTSIDE_EDGE_SHARE * (2 * sum(lab.shape))]
+    area_of = dict(zip(ids.tolist(), areas.tolist()))
+    outer = [v for v in candidates.tolist() if area_of[v] > OUTSIDE_FACTOR * np.median(areas)]
+    if not outer:
+        return lab
+    warnings.warn(f"label {', '.join(map(str, outer))} touches the image edge and covers more than "
+                  f"{OUTSIDE_FACTOR} x the median cell area: it is taken as the outside of the tissue (like 0; the "
+                  f"cells next to it are border cells). --outside none keeps it as a cell; --background LABEL names "
+                  f"outside labels yourself", HexatissueWarning, stacklevel=2)
+    return np.where(np.isin(lab, outer), 0, lab)
 
 
 def compact_labels(lab, top=None):

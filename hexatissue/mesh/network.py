@@ -13,8 +13,9 @@ from ..schema import validate
 from . import _kernels as K
 from ..options import POCKET_AREA
 from .labels import check_mask, checked_labels, compact_labels, normalize_valid
+from .segment import segment_membranes
 
-__all__ = ["mesh_from_labels", "network_tables", "warm_up"]
+__all__ = ["mesh_from_labels", "network_tables", "kernels_cached"]
 
 ARM_REACH = 8  # cracks per arm (at most; half the junction) in the local line fit of sub-pixel vertex positions
 MAX_SHIFT = 1.5  # px: a fitted vertex further than this from its pixel corner is not trusted
@@ -22,6 +23,10 @@ MAX_MERGE_ROUNDS = 5  # contraction rounds; a second one is rare, a third practi
 #: Labels with ids up to one per this many pixels are used as they are, not compacted: the tables
 #: over ids (~130 B per id) then stay below 2 B/px, and the pass that finds which ids occur is saved.
 PIXELS_PER_ID = 64
+#: An image in which most ids come in pieces (several boundary cycles each, on average at least this many) is
+#: not a label image of cells: a pixel classifier's class map, a binary membrane map or a colour-mapped rendering
+#: whose colours repeat.  Real segmentations have 1.00-1.03 cycles per cell (docs/input.md).
+PIECES_PER_ID = 3
 
 
 def _cat(*arrays):
@@ -224,6 +229,8 @@ def mesh_from_labels(
         ``merge_distance`` collapse to a point, and when cells are left
         without a boundary polygon (``n_sides`` 0).
     """
+    if kind == "membrane-map":
+        labels = segment_membranes(labels, periodic=box is not None)
     lab, lowest, top = checked_labels(labels)
     box = as_box(box, lab.shape)
     if not (is_real(merge_distance) and merge_distance >= 0):
@@ -343,6 +350,7 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, pol
         "n_boundaries": n_cycles[present].astype(np.int64),
         "is_border": border[present],
     }
+    _refuse_ids_in_pieces(n_cycles[present])
     if (n_cycles[present] > 1).any():
         warnings.warn(
             "some cells have several boundary cycles (pieces, holes or pinches); their largest cycle is "
@@ -350,11 +358,13 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, pol
             HexatissueWarning,
             stacklevel=3,
         )
-    # a lone cell on background (no neighbour) has no vertex and no polygon by design; others have lost theirs
-    neighbours = np.zeros(len(ids), bool)
+    # by design without a polygon: a lone cell on background (no vertex), and a border cell with one neighbour
+    # (its boundary has two vertices, where the neighbour and the background meet); others have lost theirs
     between = (junctions["left"] != 0) & (junctions["right"] != 0)
-    neighbours[junctions["left"][between]] = neighbours[junctions["right"][between]] = True
-    if (~has_poly & neighbours[present]).any():
+    pairs = np.unique(np.sort(np.column_stack((junctions["left"], junctions["right"]))[between], axis=1), axis=0)
+    n_neighbours = np.bincount(pairs.ravel(), minlength=len(ids))[present]
+    two_vertex = border[present] & (n_neighbours == 1)
+    if (~has_poly & (n_neighbours > 0) & ~two_vertex).any():
         warnings.warn(
             "some cells have no boundary polygon (too small, or all their vertices merged within "
             "merge_distance): n_sides 0, no polygon_area, perimeter or shape function",
@@ -362,6 +372,18 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, pol
             stacklevel=3,
         )
     return data
+
+
+def _refuse_ids_in_pieces(cycles):
+    """Refuse labels whose ids mostly come in several separate regions: classes or colours, not cells."""
+    in_pieces = int(np.count_nonzero(cycles > 1))
+    if in_pieces and in_pieces >= len(cycles) / 2 and cycles.mean() >= PIECES_PER_ID:
+        raise InputError(
+            f"labels do not look like cell labels: {in_pieces} of {len(cycles)} ids each cover several separate "
+            f"regions ({cycles.mean():.1f} boundaries per id; a cell has one). Is it a pixel classifier's class map "
+            f"(e.g. ilastik Simple Segmentation), a binary membrane map, or a colour rendering of labels whose "
+            f"colours repeat? For a membrane or probability map use --kind membrane-map; otherwise export the "
+            f"segmentation's label image (one id per cell)")
 
 
 def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, box):
@@ -398,23 +420,16 @@ def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, 
     return vertices, edges, cell_vertices, (polygon_xy, first)
 
 
-def warm_up() -> None:
-    """Compile every mesh kernel once (or load it from numba's cache), on a tiny image.
+def kernels_cached() -> bool:
+    """Whether numba's cache holds the compiled mesh kernels (else the first analysis compiles every kernel).
 
-    Also the shape-function kernel of the order stage (:func:`hexatissue.order._kernels.shape_sums`). Call it
-    in a parent process before forking workers, so that they inherit the compiled code instead of
-    each compiling it again.
+    Numba keeps one index file per cached function; the mesh's cell-moment kernel stands for all (every
+    analysis of labels compiles it).  Unknown (a numba without this layout): True, so nothing is announced.
     """
-    from ..order._kernels import shape_sums
+    import os
 
-    labels = np.ones((12, 12), np.int32)
-    labels[:, 6:] = 2
-    labels[4:8, 2:4] = 3  # a cell inside another: a boundary with no vertex
-    labels[0, 7] = 0  # a one-pixel hole: the pocket fill
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", HexatissueWarning)  # cell 1 has a hole, on purpose
-        mesh_from_labels(labels)
-        # uint16 labels without 0 (the usual movie frame) keep their dtype into the id kernels
-        mesh_from_labels(np.where(labels == 0, 1, labels).astype(np.uint16), box=True)
-    # and the shape-function kernel, which every frame job runs on the mesh's polygons next
-    shape_sums(np.zeros((3, 2)), np.zeros(1, np.int64), np.zeros((0, 2)), True, np.ones(1, np.int64), 1.0)
+    try:
+        cache = K.cell_moments._cache._cache_file
+        return os.path.exists(cache._index_path)
+    except AttributeError:
+        return True

@@ -46,7 +46,13 @@ def metadata_calibration(notes, size_x=None, size_y=None, length_unit=None, inte
     fields = {}
     lu = file_unit(length_unit, normalize_length_unit, "length", notes) if length_unit is not None else None
     if lu not in (None, "px") and size_x is not None and np.isfinite(size_x) and size_x > 0:
-        fields.update(pixel_size=clean_number(size_x), length_unit=lu)
+        fields.update(pixel_size=clean_number(size_x), length_unit=lu, length_from="file")
+        if fields["pixel_size"] == 1:
+            warnings.warn(f"the file's metadata gives a pixel size of exactly 1 {lu}, the default that several tools "
+                          f"write when nobody set it (PartSeg, ImageJ with a unit but no scale): if it is not the "
+                          f"microscope's, give the real one (--pixel-size)", HexatissueWarning,
+                          stacklevel=user_stacklevel())
+            notes.append(f"pixel size exactly 1 {lu} in the metadata: possibly a placeholder")
         if size_y is not None and size_y > 0 and not np.isclose(size_x, size_y, rtol=1e-6):
             warnings.warn(NON_SQUARE, HexatissueWarning, stacklevel=user_stacklevel())
             notes.append(f"non-square pixels: x {clean_number(size_x)} and y {clean_number(size_y)} {lu}; "
@@ -55,7 +61,7 @@ def metadata_calibration(notes, size_x=None, size_y=None, length_unit=None, inte
         notes.append(f"the length unit is pixels; the pixel size {clean_number(size_x)} in the metadata is ignored")
     tu = file_unit(time_unit, normalize_time_unit, "time", notes) if time_unit is not None else None
     if tu not in (None, "frame") and interval is not None and np.isfinite(interval) and interval > 0:
-        fields.update(frame_interval=clean_number(interval), time_unit=tu)
+        fields.update(frame_interval=clean_number(interval), time_unit=tu, time_from="file")
     return Calibration(**fields)
 
 

@@ -32,7 +32,8 @@ def open_run(run, path=None) -> Opened:
         raise InputError("the MPF run holds no frames yet; expected at least one")
     reader = ArrayReader("the MPF run's labels", array=labels, axes="TYX", rgb_allowed=False)
     save_every = attrs.get("save_every")
-    calibration = Calibration(frame_interval=float(save_every), time_unit="iteration") if save_every else Calibration()
+    calibration = (Calibration(frame_interval=float(save_every), time_unit="iteration", time_from="file") if save_every
+                   else Calibration())
     run_path = getattr(run, "path", path)
     desc = {"kind": "mpf_run", "path": None if run_path is None else str(run_path),
             "save_every": None if save_every is None else int(save_every)}

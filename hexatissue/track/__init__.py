@@ -96,21 +96,6 @@ def _id_table_fits(top, n_pixels):
     return top < 2**24 and top <= 4 * n_pixels
 
 
-def warm_up() -> None:
-    """Compile the kernels the workers of :func:`hexatissue.analyze` run (or load them from numba's cache).
-
-    Called in the parent before it forks the workers (with
-    :func:`hexatissue.mesh.warm_up`), so that they share the compiled code
-    instead of each loading it into memory of its own: for the usual
-    normalised labels, uint16 (touching) and int32 (membranes filled).
-    """
-    for dtype in (np.uint16, np.int32):
-        a, b = _compact(np.array([[1, 2], [0, 2]], dtype)), _compact(np.array([[1, 1], [2, 0]], dtype))
-        _dense_overlaps(a.index, b.index, len(a.ids), len(b.ids))
-        _sparse_overlaps(a.index, b.index, len(a.ids), len(b.ids))
-        _compact_after(a, np.array([[1, 1], [2, 0]], dtype))
-
-
 def _compact_reference(labels: np.ndarray) -> _Compact:
     """Reference of :func:`_compact` (and its path for sparse ids): compact labels, then a bincount."""
     compact, ids = compact_labels(labels)

@@ -26,6 +26,11 @@ from .figures import shown_frames
 __all__ = ["report", "default_window"]
 
 
+#: Epithelial cell apical areas span about 5-500 µm^2 (Drosophila ~10-50, MDCK ~100-400); a mean outside this
+#: wider range says the pixel size is wrong more likely than the cells.
+CELL_AREA_UM2 = (1.0, 5000.0)
+
+
 def default_window(movie) -> int:
     """Migration window in frames: the paper's 25,000 iterations for MPF runs, else a quarter of the movie.
 
@@ -45,6 +50,14 @@ def _length(cal, px):
     """``"12.3 px"``, or ``"12.3 px (2.46 µm)"`` when the movie is calibrated."""
     text = f"{px:.3g} px"
     return text + f" ({cal.length(px):.3g} {cal.length_label})" if cal.has_length else text
+
+
+def _speed(cal, px_per_frame):
+    """``"0.38 px/frame"``, with µm/min (the calibration's units) when the movie is calibrated."""
+    text = f"{px_per_frame:.3g} px/frame"
+    if cal.has_length or cal.has_time:
+        text += f" ({cal.length(px_per_frame) / cal.frame_interval:.3g} {cal.length_label}/{cal.time_unit})"
+    return text
 
 
 def _order_figures(movie, frames, order_p, out):
@@ -89,7 +102,8 @@ def _tissue_section(movie, order_p):
              f"- periodic box: {movie.box is not None}",
              f"- pixel size: " + (f"{cal.pixel_size:g} {cal.length_label}" if cal.has_length else "not calibrated (px)"),
              f"- frame interval: " + (f"{cal.frame_interval:g} {cal.time_label}" if cal.has_time
-                                     else "not calibrated (frames)")]
+                                     else "not calibrated (frames)"),
+             f"- calibration: {cal.origin_text}"]
     if len(inner):
         polygons = inner["n_sides"].to_numpy() >= 3
         left_out = int((~polygons).sum())
@@ -99,10 +113,18 @@ def _tissue_section(movie, order_p):
                          + (f"; {left_out} interior fragment(s) with fewer than 3 vertices left out" if left_out
                             else ""))
         numbers["mean_sides"] = float(inner["n_sides"][polygons].mean()) if polygons.any() else float("nan")
+        if polygons.any():
+            share = {n: float((inner["n_sides"][polygons] == n).mean()) for n in (5, 6, 7)}
+            numbers["side_shares"] = share
+            lines.append(f"- hexagons {100 * share[6]:.1f} %, pentagons {100 * share[5]:.1f} %, heptagons "
+                         f"{100 * share[7]:.1f} % of them")
         numbers["fragments_left_out"] = left_out
         area = inner["area"].mean()
         lines.append(f"- mean cell area (interior): {area:.4g} px^2"
                      + (f" ({cal.area(area):.4g} {cal.length_label}^2)" if cal.has_length else ""))
+        if cal.has_length and cal.length_unit == "um" and not CELL_AREA_UM2[0] <= cal.area(area) <= CELL_AREA_UM2[1]:
+            lines.append(f"- **check the pixel size**: a mean cell area of {cal.area(area):.4g} µm^2 is outside "
+                         f"{CELL_AREA_UM2[0]:g}-{CELL_AREA_UM2[1]:g} µm^2, the range of epithelial cells")
     for q in order_p:
         col = f"gamma{q}_re"
         if col in inner.columns and len(inner):
@@ -182,6 +204,13 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     lines = [f"# hexatissue report: {name}", "", f"Input: `{source}`", ""]
     section, numbers = _tissue_section(movie, order_p)
     lines += section + [""]
+    if movie.cells is not None and len(movie.cells):
+        from ..analysis.plots import plot_cell_distributions
+
+        path = out / "cells.png"
+        plot_cell_distributions(movie.cells, path=path, calibration=movie.calibration)
+        lines += _figure_line(path, out, "neighbour number and area of the interior cells")
+        written.append(path)
     for path in written:
         lines += _figure_line(path, out, path.stem)
     if len(movie) > 1 and _independent(movie):
@@ -252,9 +281,6 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     counts = events["kind"].astype(str).value_counts().to_dict()
     cycles = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float)
     numbers["events"] = {k: int(v) for k, v in counts.items()}
-    path = out / "events.png"
-    plot_event_overview(events, n_frames=len(movie), path=path, calibration=cal)
-    written.append(path)
     censor = _censor_of(movie)
     lines += ["## T1 events", "", *_tracking_lines(movie),
               "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected")
@@ -263,25 +289,31 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
                + (f" ({cal.time(np.mean(cycles)):.3g} {time_unit})" if cal.has_time else "")
                if len(cycles) else "- no T1 cycles"), ""]
     lines += [note, ""] if note else []
-    lines += _figure_line(path, out, "T1 events")
+    if len(events):  # no empty panels
+        path = out / "events.png"
+        plot_event_overview(events, n_frames=len(movie), path=path, calibration=cal)
+        written.append(path)
+        lines += _figure_line(path, out, "T1 events")
 
     # Fig. 3e
     prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed,
                                include_border=include_border, control=control, vertices=movie.vertices)
     s = prox.summary()
     numbers["proximity"] = s
-    path = out / "t1_defects.png"
-    plot_t1_defect_distances(prox, path=path, calibration=cal)
-    written += [path, write_table(prox.events, out / "t1_defect_distances.csv"),
-                write_table(prox.control, out / "control_distances.csv")]
-    lines += [f"## T1 events and ±1/{p} defects (Fig. 3e)", "",
-              f"- events with a defect in their frame: {s['n_events']}; random {control}: {s['n_control']} "
-              f"({n_control} per event, seed {seed})",
-              f"- median distance to the nearest defect: T1s {_length(cal, s['median_dr_events'])}, "
-              f"random {control} {_length(cal, s['median_dr_control'])}",
-              f"- KS statistic {s['ks_statistic']:.3g}, p = {s['ks_pvalue']:.3g} (two-sided), "
-              f"p = {s['ks_pvalue_closer']:.3g} (one-sided: T1s closer)", ""]
-    if s["n_events"] == 0:
+    lines += [f"## T1 events and ±1/{p} defects (Fig. 3e)", ""]
+    if s["n_events"]:
+        path = out / "t1_defects.png"
+        plot_t1_defect_distances(prox, path=path, calibration=cal)
+        written += [path, write_table(prox.events, out / "t1_defect_distances.csv"),
+                    write_table(prox.control, out / "control_distances.csv")]
+        lines += [f"- events with a defect in their frame: {s['n_events']}; random {control}: {s['n_control']} "
+                  f"({n_control} per event, seed {seed})",
+                  f"- median distance to the nearest defect: T1s {_length(cal, s['median_dr_events'])}, "
+                  f"random {control} {_length(cal, s['median_dr_control'])}",
+                  f"- KS statistic {s['ks_statistic']:.3g}, p = {s['ks_pvalue']:.3g} (two-sided), "
+                  f"p = {s['ks_pvalue_closer']:.3g} (one-sided: T1s closer)", ""]
+        lines += _figure_line(path, out, "T1-defect distances")
+    else:
         if len(events) == 0:
             why = "there are no T1 events"
         elif not (defects["p"].to_numpy() == p).any():
@@ -290,7 +322,6 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
             why = (f"no T1 event{'' if include_border else ' away from the border'} has a ±1/{p} defect in its "
                    f"frame")
         lines += [f"Nothing to compare: {why}.", ""]
-    lines += _figure_line(path, out, "T1-defect distances")
 
     # Fig. 3f
     if dt is None:
@@ -305,59 +336,90 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
                             "threshold": pops.threshold if split else float("nan"), "verdict": pops.verdict,
                             "delta_bic": pops.delta_bic, "spearman_rho": pops.spearman_rho,
                             "spearman_pvalue": pops.spearman_pvalue}
-    path = out / "migration.png"
-    plot_migration(pops, path=path, calibration=cal)
-    written += [path, write_table(pops.table, out / "migration.csv")]
+    written.append(write_table(pops.table, out / "migration.csv"))
+    moved = pops.table["displacement"].to_numpy(float) > 0
     lines += ["## Migration and defect density (Fig. 3f)", "",
-              f"- subregions of {_length(cal, dl)}, windows of {dt} frames: {len(table)} subregion-windows",
-              f"- Spearman rank correlation of displacement and defect density: rho = {pops.spearman_rho:.3g} "
-              f"(p = {pops.spearman_pvalue:.3g})"]
-    fit = (f"delta BIC (1 vs 2 components) = {pops.delta_bic:.3g} ({pops.verdict}; "
-           f"> 10 is strong evidence for two populations)")
-    if split:
-        lines += [f"- two-component mixture in log10(displacement): split at {pops.threshold:.3g}, {fit}", "",
-                  _md_table(pops.summary), ""]
-    else:
-        moved = pops.table["displacement"].to_numpy(float) > 0
-        median = float(np.median(pops.table["displacement"].to_numpy(float)[moved])) if moved.any() else np.nan
-        lines += [f"- mixture in log10(displacement): {fit}; no slow/fast split",
-                  f"- {int(moved.sum())} subregion-windows moved, median displacement {median:.3g}", ""]
+              f"- subregions of {_length(cal, dl)}, windows of {dt} frames: {len(table)} subregion-windows, "
+              f"{int(moved.sum())} of them moved", ""]
     if len(table) == 0:
         why = (f"the movie has {len(movie)} frames, fewer than one window of {dt} frames plus one"
                if len(movie) <= dt else f"no interior cell is present through a whole window of {dt} frames")
         lines += [f"No subregion-window to show: {why} (default window: a quarter of the movie, "
                   f"or 25,000 iterations for MPF runs; set it with --dt).", ""]
-    elif note:
-        lines += [f"Intercalations per cell are all 0 here: {note}", ""]
-    lines += _figure_line(path, out, "migration")
+    elif not moved.any():
+        lines += ["No cell moved in any window: nothing to correlate.", ""]
+    else:
+        median = float(np.median(pops.table["displacement"].to_numpy(float)[moved]))
+        lines[-1:] = [f"- Spearman rank correlation of displacement and defect density: rho = "
+                      f"{pops.spearman_rho:.3g} (p = {pops.spearman_pvalue:.3g})",
+                      f"- median displacement {median:.3g} (dimensionless: the sum of a cell's squared steps over "
+                      f"the window / dl^2, the paper's measure); as an rms step, "
+                      f"{_speed(cal, np.sqrt(median * dl**2 / dt))}"]
+        fit = (f"delta BIC (1 vs 2 components) = {pops.delta_bic:.3g} ({pops.verdict}; "
+               f"> 10 is strong evidence for two populations)")
+        if split:
+            lines += [f"- two-component mixture in log10(displacement): split at {pops.threshold:.3g}, {fit}", "",
+                      _md_table(pops.summary), ""]
+        else:
+            lines += [f"- mixture in log10(displacement): {fit}; no slow/fast split", ""]
+        if note:
+            lines += [f"Intercalations per cell are all 0 here: {note}", ""]
+        path = out / "migration.png"
+        plot_migration(pops, path=path, calibration=cal)
+        written.append(path)
+        lines += _figure_line(path, out, "migration")
 
     # Fig. 3g
     timing_frames = cell_timing(events, cells)  # the figures convert frames themselves
     timing = in_time_units(timing_frames, frame_interval)
     summ, test = timing_summary(timing), timing_test(timing)
     numbers["timing"] = {"summary": summ.to_dict("records"), **test}
-    path = out / "timing.png"
-    plot_timing(timing_frames, path=path, calibration=cal)
-    written += [path, write_table(timing, out / "cell_timing.csv")]
-    lines += ["## Event timing (Fig. 3g)", "", f"Per-cell means, in {time_unit}:", "", _md_table(summ), "",
-              f"- Welch two-sided t-test: t = {test['t_statistic']:.3g}, p = {test['pvalue']:.3g}", ""]
-    if test["n_intercalation_cells"] == 0 or test["n_cycle_cells"] == 0:
+    written.append(write_table(timing, out / "cell_timing.csv"))
+    n_cells = test["n_cycle_cells"] + test["n_intercalation_cells"]
+    lines += ["## Event timing (Fig. 3g)", ""]
+    if n_cells:
+        lines += [f"Per-cell means from the T1 events above, in {time_unit}:", "", _md_table(summ), ""]
+    if test["n_intercalation_cells"] and test["n_cycle_cells"]:
+        lines += [f"- Welch two-sided t-test: t = {test['t_statistic']:.3g}, p = {test['pvalue']:.3g}", ""]
+    else:
         n_cyc, n_int = counts.get("cycle", 0), counts.get("intercalation", 0)
         why = note or (f"a cycle period needs a T1 cycle and an intercalation interval two intercalations of the "
                        f"same cell; the movie has {n_cyc} cycle(s) and {n_int} intercalation(s)")
         lines += [f"Too little to compare: {test['n_cycle_cells']} cell(s) with a cycle period, "
                   f"{test['n_intercalation_cells']} with an intercalation interval. {why}", ""]
-    if movie.neighbour_events is not None:  # the paper's own definition, per cell
-        per_cell = cell_timing(movie.neighbour_events, cells, frame_interval=frame_interval)
-        test_pc = timing_test(per_cell)
-        numbers["timing_per_cell_definition"] = {"summary": timing_summary(per_cell).to_dict("records"), **test_pc}
-        written.append(write_table(per_cell, out / "cell_timing_neighbour_lists.csv"))
-        lines += [f"By the paper's per-cell definition (changes of each cell's neighbour list; "
-                  f"{len(movie.neighbour_events)} events), per-cell means in {time_unit}:", "",
-                  _md_table(timing_summary(per_cell)), "",
-                  f"- Welch two-sided t-test: t = {test_pc['t_statistic']:.3g}, p = {test_pc['pvalue']:.3g}", ""]
-    lines += _figure_line(path, out, "timing")
+    if n_cells:
+        path = out / "timing.png"
+        plot_timing(timing_frames, path=path, calibration=cal)
+        written.append(path)
+        lines += _figure_line(path, out, "timing")
+    if movie.neighbour_events is not None and len(movie.neighbour_events):
+        lines += _per_cell_definition(movie, out, written, numbers)
     lines += _deformation_section(movie, out, written, numbers)
+    return lines
+
+
+def _per_cell_definition(movie, out, written, numbers):
+    """The paper's second, per-cell definition of the events, labelled as such, its one-frame flickers apart."""
+    cal = movie.calibration
+    events = movie.neighbour_events
+    kinds = events["kind"].astype(str).to_numpy()
+    flicker = (kinds == "cycle") & (events["duration"].to_numpy(float) <= 1)
+    counts = pd.Series(kinds).value_counts().to_dict()
+    lines = [f"Second definition, the paper's per-cell one (changes of each cell's own neighbour list; it also "
+             f"counts contacts lost or gained outside a T1 quartet): {len(events)} events ("
+             + ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) + ")"
+             + (f"; {int(flicker.sum())} of the cycles last one frame (flickers: a contact lost and regained at "
+                f"once, often segmentation noise) and are left out below" if flicker.any() else "") + ".", ""]
+    per_cell = cell_timing(events[~flicker], movie.cells, frame_interval=cal.frame_interval)
+    test = timing_test(per_cell)
+    numbers["timing_per_cell_definition"] = {"summary": timing_summary(per_cell).to_dict("records"),
+                                             "n_flickers": int(flicker.sum()), **test}
+    written.append(write_table(per_cell, out / "cell_timing_neighbour_lists.csv"))
+    if test["n_cycle_cells"] + test["n_intercalation_cells"]:
+        lines += [f"Per-cell means by this definition, in {cal.time_label}:", "", _md_table(timing_summary(per_cell)),
+                  ""]
+    if test["n_cycle_cells"] and test["n_intercalation_cells"]:
+        lines += [f"- Welch two-sided t-test: t = {test['t_statistic']:.3g}, p = {test['pvalue']:.3g}", ""]
     return lines
 
 
@@ -431,6 +493,8 @@ def _flow_section(movie, out, written, numbers, p):
              f"on the first and last frame of a track, at divisions or beside gaps; border cells left out)"]
     if summary["n_velocities"] == 0:
         return lines + ["", "No interior cell has a velocity (every track is shorter than three frames).", ""]
+    if summary["mean_speed"] == 0:
+        return lines + ["", "No cell moved: every velocity is 0 (no polar order, correlation or MSD to measure).", ""]
     xi = summary["correlation_length"]
     lines += [f"- mean speed {_rate(cal, summary['mean_speed'])}; rms velocity {_rate(cal, summary['rms_velocity'])}",
               f"- polar order of the velocities (mean over frames): {summary['polar_order']:.3g}",

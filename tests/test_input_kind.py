@@ -1,0 +1,124 @@
+"""Is this a segmentation?  Class maps, membrane maps and colour renderings are refused or routed, not analysed
+as cells; a background label that is not 0 is found as the outside (docs/input.md)."""
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import hexatissue as ht
+from hexatissue import HexatissueWarning, InputError
+from hexatissue.cli import main
+from hexatissue.synthetic import draw_membranes, jittered_seeds, voronoi_labels
+
+from .conftest import real_subdir
+
+SHAPE = (160, 200)
+
+
+@pytest.fixture(scope="module")
+def tissue():
+    return voronoi_labels(jittered_seeds(SHAPE, 16, seed=3), SHAPE).astype(np.int32)
+
+
+def membrane_map(tissue, width=3):
+    """Bright membranes (255) of ``width`` (2 or 3) px on dark cells (0), as a thresholded membrane channel."""
+    lines = draw_membranes(tissue, 2) == 0
+    if width == 3:
+        lines = ndimage.binary_dilation(lines, np.array([[0, 0, 0], [0, 1, 1], [0, 0, 0]], bool))
+    return np.where(lines, 255, 0).astype(np.uint8)
+
+
+def class_map(tissue):
+    """A pixel classifier's two-class output ("Simple Segmentation"): 1 = cell interior, 2 = membrane."""
+    return np.where(membrane_map(tissue) > 0, 2, 1).astype(np.uint8)
+
+
+def colour_rendering(tissue, colours=7):
+    """Labels drawn with a repeating colour map, then read back as colours: ids repeat over many cells."""
+    return (tissue % colours + 1).astype(np.int32)
+
+
+def interior_recovered(pred, truth):
+    """Share of the truth cells away from the image edge that one predicted cell covers at IoU >= 0.8."""
+    inner = np.setdiff1d(np.unique(truth), np.unique(np.r_[truth[0], truth[-1], truth[:, 0], truth[:, -1]]))
+    hits = 0
+    for cell in inner:
+        mask = truth == cell
+        ids, counts = np.unique(pred[mask], return_counts=True)
+        best = ids[np.argmax(counts)]
+        hits += np.count_nonzero(mask & (pred == best)) / np.count_nonzero(mask | (pred == best)) >= 0.8
+    return hits / len(inner)
+
+
+@pytest.mark.parametrize("make", [class_map, membrane_map, colour_rendering])
+def test_class_membrane_and_colour_maps_are_refused(tissue, make):
+    with pytest.raises(InputError, match="do not look like cell labels.*class map.*--kind membrane-map"):
+        ht.mesh_from_labels(make(tissue))
+
+
+def test_refusal_names_the_frame_on_the_command_line(tissue, tmp_path, capsys):
+    np.save(tmp_path / "classes.npy", np.stack([tissue, class_map(tissue)]))
+    assert main(f"analyze {tmp_path}/classes.npy --out {tmp_path}/o".split()) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error: frame 1: labels do not look like cell labels" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_real_segmentations_are_not_refused(tissue):
+    # ids in pieces only here and there (a fragment, a cell with a hole) are real labels
+    labels = tissue.copy()
+    labels[5:9, 5:9] = labels[100, 100]  # one cell with a far-away piece
+    labels[labels == labels[60, 60]] = np.where(ndimage.binary_erosion(labels == labels[60, 60], iterations=3),
+                                                0, labels[60, 60])[labels == labels[60, 60]]  # a hole
+    with pytest.warns(HexatissueWarning, match="several boundary cycles"):
+        frame = ht.mesh_from_labels(labels)
+    assert len(frame.cells) == len(np.unique(tissue))
+
+
+@pytest.mark.parametrize("form", ["binary", "probability"])
+def test_membrane_maps_are_segmented_with_kind_membrane_map(tissue, form):
+    image = membrane_map(tissue, width=2)
+    if form == "probability":  # a smooth float map in [0, 1], as a classifier's membrane probability
+        image = ndimage.gaussian_filter(image / 255.0, 1.0).astype(np.float32)
+    frame = ht.mesh_from_labels(image, kind="membrane-map")
+    source = ht.open_source(image[None])
+    labels, _, _ = source.checked_frame(0, "membrane-map")
+    assert interior_recovered(labels, tissue) >= 0.95
+    assert abs(len(frame.cells) - len(np.unique(tissue))) <= 0.05 * len(np.unique(tissue))
+
+
+def test_membrane_map_from_the_command_line(tissue, tmp_path):
+    np.save(tmp_path / "map.npy", np.stack([membrane_map(tissue, 2)] * 3))
+    assert main(f"analyze {tmp_path}/map.npy --kind membrane-map --out {tmp_path}/o".split()) == 0
+    movie = ht.read_results(tmp_path / "o")
+    assert movie.options["mesh"].kind == "membrane-map"
+    assert abs(movie.cells.groupby("frame").size() - len(np.unique(tissue))).max() <= 0.05 * len(np.unique(tissue))
+
+
+def test_background_label_that_is_not_zero_is_found_on_the_command_line(tissue, tmp_path, capsys):
+    labels = np.pad(tissue + 1, 30, constant_values=1)  # hand-labelled: the outside is label 1
+    np.save(tmp_path / "rim.npy", labels)
+    assert main(f"analyze {tmp_path}/rim.npy --out {tmp_path}/o".split()) == 0
+    assert "label 1 touches the image edge" in capsys.readouterr().err
+    cells = ht.read_results(tmp_path / "o").cells
+    assert 1 not in set(cells["cell"])
+    # the cells on the tissue's edge are border cells, as if the outside were 0
+    assert cells["is_border"].sum() == ht.mesh_from_labels(np.pad(tissue + 1, 30)).cells["is_border"].sum()
+    assert main(f"analyze {tmp_path}/rim.npy --outside none --out {tmp_path}/o2".split()) == 0
+    assert 1 in set(ht.read_results(tmp_path / "o2").cells["cell"])
+
+
+# real data (skipped without ../shared): maps made from the EpiCure notum movie and its curated labels
+def test_maps_made_from_real_data_are_refused_or_routed(real_data):
+    import tifffile
+
+    folder = real_subdir(real_data, "epicure_notum")
+    raw = tifffile.imread(folder / "013_crop.tif")[0].astype(float)
+    labels = tifffile.imread(folder / "013_crop_labels.tif")[0].astype(np.int64)
+    smooth = ndimage.gaussian_filter(raw, 1)
+    classes = (1 + (smooth > np.percentile(smooth, 70))).astype(np.uint8)  # ilastik-like two-class output
+    for image in (classes, (labels % 20 + 1) * (labels > 0), (classes - 1) * 255):
+        with pytest.raises(InputError, match="do not look like cell labels"):
+            ht.mesh_from_labels(image)
+    frame = ht.mesh_from_labels(raw, kind="membrane-map")  # the raw membrane channel, routed
+    inner = frame.cells[~frame.cells["is_border"] & (frame.cells["n_sides"] >= 3)]
+    assert len(inner) > 50 and 5.5 < inner["n_sides"].mean() < 6.5
