@@ -667,3 +667,14 @@ def test_reanalysing_the_ome_zarr_export_keeps_the_cells_but_not_every_side_coun
     np.testing.assert_array_equal(first["area"], second["area"])
     changed = first["n_sides"].to_numpy() != second["n_sides"].to_numpy()
     assert (len(first), int(changed.sum()), int((changed & ~first["is_border"].to_numpy(bool)).sum())) == (902, 25, 12)
+    # --keep-membranes: the input's membranes stay 0, and the re-analysis is the analysis, side counts included
+    assert main(["export", str(epicure["results"]), "--to", "ome-zarr", str(tmp_path / "m.zarr"),
+                 "--keep-membranes"]) == 0
+    kept = ht.open_source(tmp_path / "m.zarr", key=LABELS_KEY)
+    raw = ht.open_source(SAMPLE)
+    for t in (0, 3, 10):
+        assert np.array_equal(kept.frame(t) == 0, raw.frame(t) == 0)  # the same membranes (and background)
+    third = ht.analyze(kept, workers=1, progress=False).cells.set_index(["frame", "cell"]).sort_index()
+    assert third.index.tolist() == first.index.tolist()
+    for column in ("n_sides", "area", "polygon_area", "perimeter", "is_border"):
+        np.testing.assert_array_equal(third[column], first[column], err_msg=column)

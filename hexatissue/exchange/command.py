@@ -27,6 +27,10 @@ def add_parser(subparsers):
                         "path recorded in metadata.json)")
     p.add_argument("--mask", metavar="FILE", help="ctc, ome-zarr: the --mask of the analysis (default: the recorded one)")
     p.add_argument("--truth", action="store_true", help="ctc: the ground-truth layout OUT/TRA/man_trackTTT.tif")
+    p.add_argument("--keep-membranes", action="store_true",
+                   help="ctc, ome-zarr: keep the input's membranes (or skeleton lines) at 0 instead of sharing them "
+                        "out between the cells, so that analysing the export again gives the same network "
+                        "(docs/exchange.md)")
     p.add_argument("--levels", type=int, default=1, help="ome-zarr: resolution levels (default 1)")
     p.add_argument("--image", metavar="FILE",
                    help="ome-zarr: the raw channel to write under the labels (default: the intensity image of the "
@@ -37,7 +41,8 @@ def add_parser(subparsers):
     return p
 
 
-def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, image=None, ngff_version="0.5"):
+def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, image=None, ngff_version="0.5",
+           keep_membranes=False):
     """Write a results folder (or Movie) as ``to`` (one of :data:`FORMATS`); returns what was written.
 
     See :func:`~hexatissue.exchange.geff.write_geff`,
@@ -46,7 +51,8 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     :func:`~hexatissue.exchange.omezarr.write_ome_zarr_labels` (``image``:
     the raw channel, a path or array; default: the analysis's intensity
     image when it had one, else the cell outlines) and
-    :func:`~hexatissue.exchange.anndata.write_anndata`.
+    :func:`~hexatissue.exchange.anndata.write_anndata`; ``keep_membranes``:
+    ``membranes`` of :func:`~hexatissue.exchange.labels.track_masks`.
     """
     from ..errors import InputError
     from ..results import Movie, read_results
@@ -64,7 +70,7 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
         return [write_anndata(movie, out)]
     from .labels import track_masks
 
-    masks = track_masks(movie, labels, mask)
+    masks = track_masks(movie, labels, mask, membranes=keep_membranes)
     if to == "ctc":
         from .ctc import write_ctc
 
@@ -93,6 +99,7 @@ def _raw_image(movie, image):
 
 def _run(args) -> int:
     written = export(args.results, args.out, args.to, labels=args.labels, mask=args.mask, truth=args.truth,
-                     levels=args.levels, image=args.image, ngff_version=args.ngff_version)
+                     levels=args.levels, image=args.image, ngff_version=args.ngff_version,
+                     keep_membranes=args.keep_membranes)
     print(f"{args.results} -> {args.to}: " + ", ".join(str(w) for w in written))
     return 0
