@@ -16,7 +16,7 @@ import pandas as pd
 from .errors import InputError
 from .units import Calibration
 
-__all__ = ["write_table", "write_tables", "read_table", "atomic_path", "atomic_dir",
+__all__ = ["write_table", "write_tables", "read_table", "read_units", "atomic_path", "atomic_dir",
            "check_output_folder", "check_zarr_chunks", "read_zarr", "write_tiff"]
 
 
@@ -177,18 +177,65 @@ def lock_folder(folder, filename, what):
 PARQUET_ROW_GROUP = 65536
 
 
-def write_table(df: pd.DataFrame, path) -> Path:
-    """Write ``df`` to ``path`` (``.parquet`` or ``.csv``) atomically; returns the path."""
+#: The keys of a Parquet column's field metadata that hold its unit and meaning (from :mod:`hexatissue.schema`).
+UNIT_KEY, DESCRIPTION_KEY = b"unit", b"description"
+
+
+def write_table(df: pd.DataFrame, path, schema=None) -> Path:
+    """Write ``df`` to ``path`` (``.parquet`` or ``.csv``) atomically; returns the path.
+
+    ``schema``: the name of the table in :data:`hexatissue.schema.TABLES`;
+    in a Parquet file, each of its columns then carries its ``unit`` and
+    ``description`` in the field's metadata (read them with
+    ``pyarrow.parquet.read_schema(path).field(column).metadata``, or
+    :func:`read_units`), so other tools see them.  A unit of ``""`` is a
+    count, an id, a flag or a dimensionless number.
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".parquet", ".csv"):
         raise InputError(f"table path {str(path)!r} must end in .parquet or .csv")
     with atomic_path(path) as tmp:
-        if suffix == ".parquet":  # row groups bound the writer's buffers (one whole-table group: +7% of the table)
-            df.to_parquet(tmp, index=False, row_group_size=PARQUET_ROW_GROUP)
+        if suffix == ".parquet":
+            _write_parquet(df, tmp, schema)
         else:
             df.to_csv(tmp, index=False)
     return path
+
+
+def _write_parquet(df, path, schema):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from .schema import column_units
+
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    if schema is not None:
+        units = column_units(schema, table.column_names)
+        fields = [f.with_metadata({UNIT_KEY: units[f.name][0].encode(), DESCRIPTION_KEY: units[f.name][1].encode()})
+                  if f.name in units else f for f in table.schema]
+        table = pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=table.schema.metadata))
+    # row groups bound the writer's buffers (one whole-table group: +7% of the table)
+    pq.write_table(table, path, row_group_size=PARQUET_ROW_GROUP)
+
+
+def read_units(path) -> dict[str, tuple[str, str]]:
+    """``{column: (unit, description)}`` from a Parquet file's field metadata (:func:`write_table`).
+
+    Columns without them (files of other tools, columns outside the
+    schema) are left out; a CSV file has none: ``{}``.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".parquet":
+        return {}
+    import pyarrow.parquet as pq
+
+    try:
+        fields = pq.read_schema(path)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"table {str(path)!r} cannot be read ({exc}); it is damaged or not a parquet file") from exc
+    return {f.name: (f.metadata[UNIT_KEY].decode(), f.metadata.get(DESCRIPTION_KEY, b"").decode())
+            for f in fields if f.metadata and UNIT_KEY in f.metadata}
 
 
 def write_tables(tables: dict, directory, formats=("parquet",)) -> list[Path]:

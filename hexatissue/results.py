@@ -27,9 +27,9 @@ from ._system import release_freed_memory
 from .box import Box
 from .errors import InputError
 from .frame import MESH_TABLES, Frame, Tables
-from .io import atomic_path, check_output_folder, read_table, write_table
+from .io import atomic_path, check_output_folder, read_table, read_units, write_table
 from .options import OPTION_CLASSES
-from .schema import TABLES as SCHEMAS, coerce, validate
+from .schema import TABLES as SCHEMAS, coerce, column_units, validate
 from .units import Calibration
 
 __all__ = ["Movie", "write_results", "read_results", "FORMATS", "METADATA"]
@@ -213,6 +213,12 @@ class Movie:
 def write_results(movie, directory, formats=("parquet",), release=False) -> list[Path]:
     """Write every table of ``movie`` to ``directory/<table>.<fmt>`` and ``metadata.json`` (last).
 
+    ``metadata.json`` records each input file (the labels, the mask, the
+    images) by its absolute path (:func:`hexatissue.open_source`) with its
+    path relative to ``directory`` beside it (``relative_path``).
+    Each Parquet column carries its unit and meaning from
+    :data:`hexatissue.schema.TABLES` in its field metadata (keys ``unit``
+    and ``description``; :func:`hexatissue.io.read_units`).
     Files are written to temporary names and renamed, so a folder is never
     left with half a table; ``metadata.json`` is written last, so a folder
     that has it is complete.  Rewriting an existing results folder first
@@ -244,6 +250,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
         raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
     directory = check_output_folder(directory, "directory")
     meta = dict(movie.metadata(), formats=list(formats))  # before any table is released
+    meta["source"] = _with_relative_paths(meta["source"], directory)
     previous = _listed_tables(directory / METADATA)
     (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
     tables = dict(movie.tables)
@@ -252,7 +259,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     for name in names:
         if release:  # the previous table's pages (and what the caller freed last), before this table's buffers
             release_freed_memory()
-        written += [write_table(tables[name], directory / f"{name}.{fmt}") for fmt in formats]
+        written += [write_table(tables[name], directory / f"{name}.{fmt}", schema=name) for fmt in formats]
         if release:
             del tables[name]
             setattr(movie, name, None)
@@ -266,6 +273,41 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     return written + [directory / METADATA]
 
 
+def _path_entries(source):
+    """The source description and each of its entries (mask, images of the image stages) that records a file."""
+    entries = [source] + [v for v in source.values() if isinstance(v, dict)] if isinstance(source, dict) else []
+    return [e for e in entries if isinstance(e.get("path"), str) and e["path"]]
+
+
+def _with_relative_paths(source, directory):
+    """``source`` with each recorded file's path relative to the results folder beside its absolute path.
+
+    The absolute path finds the file from any working folder; the relative
+    one finds it when the results folder and the data were moved together.
+    """
+    import copy
+    import os
+
+    source = copy.deepcopy(source)
+    for entry in _path_entries(source):
+        if os.path.isabs(entry["path"]):
+            try:
+                entry["relative_path"] = os.path.relpath(entry["path"], Path(directory).resolve())
+            except ValueError:  # another drive (Windows): no relative path
+                entry.pop("relative_path", None)
+    return source
+
+
+def _found_paths(source, folder):
+    """``source`` with a recorded path that no longer exists replaced by its ``relative_path`` from ``folder``, if
+    that exists (the results folder moved together with its data)."""
+    for entry in _path_entries(source):
+        moved = entry.get("relative_path")
+        if not Path(entry["path"]).exists() and isinstance(moved, str) and (folder / moved).exists():
+            entry["path"] = str((folder / moved).resolve())
+    return source
+
+
 def _listed_tables(path) -> list:
     """The table names a results folder's ``metadata.json`` lists ([] when it is missing or unreadable)."""
     try:
@@ -273,6 +315,17 @@ def _listed_tables(path) -> list:
     except (OSError, ValueError, AttributeError):
         return []
     return [name for name in listed if isinstance(name, str) and "/" not in name and "\\" not in name]
+
+
+def _check_units(path, name):
+    """InputError when a column's unit in the file (Parquet field metadata) is not the schema's."""
+    found = read_units(path)
+    expected = column_units(name, found)
+    wrong = [c for c, (unit, _) in found.items() if c in expected and unit != expected[c][0]]
+    if wrong:
+        c = wrong[0]
+        raise InputError(f"column {c!r} is in {found[c][0]!r} in the file; expected {expected[c][0]!r} (tables stay "
+                         f"in px and frames; the calibration converts them): written by another tool or version")
 
 
 def read_results(directory) -> Movie:
@@ -289,7 +342,11 @@ def read_results(directory) -> Movie:
     Movie
         Every table found that has a schema, with box, shape, number of
         frames, calibration, options, summary, source and version from
-        ``metadata.json``.
+        ``metadata.json``.  The units a Parquet file gives its columns (field
+        metadata, see :func:`write_results`) are checked against the schema.
+        A recorded input file (``source["path"]``, the mask's, the images')
+        that is no longer at its absolute path but at its ``relative_path``
+        from the folder (results and data moved together) gets that path.
     """
     folder = Path(directory)
     if not folder.is_dir():
@@ -313,8 +370,9 @@ def read_results(directory) -> Movie:
             if path.exists():
                 table = read_table(path)
                 table = coerce(table, name) if fmt == "csv" else table
-                try:  # a table edited by hand or by another tool: every schema column, of its kind
+                try:  # a table edited by hand or by another tool: every schema column, of its kind and unit
                     tables[name] = validate(table, name)
+                    _check_units(path, name)
                 except InputError as exc:
                     raise InputError(f"results folder {str(folder)!r}: {path.name}: {exc}") from None
                 break
@@ -337,5 +395,5 @@ def read_results(directory) -> Movie:
     return Movie(**tables, box=None if meta.get("box") is None else Box(*meta["box"]),
                  shape=tuple(meta.get("shape", ())), n_frames=int(meta.get("n_frames", 0)),
                  calibration=Calibration.from_dict(meta.get("calibration", {})), options=options,
-                 source=meta.get("source", {}), version=meta.get("hexatissue_version", ""),
+                 source=_found_paths(meta.get("source", {}), folder), version=meta.get("hexatissue_version", ""),
                  summary=meta.get("summary", {}))

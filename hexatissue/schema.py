@@ -17,7 +17,7 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["TABLES", "DEFORMATION_TERMS", "ISOTROPIC_TERMS", "validate", "describe", "require_columns", "empty_table", "track_ids", "interior_mask",
+__all__ = ["TABLES", "DEFORMATION_TERMS", "ISOTROPIC_TERMS", "validate", "describe", "column_units", "require_columns", "empty_table", "track_ids", "interior_mask",
            "FrameRows", "rows_by_frame"]
 
 #: The terms of the deformation budget (``deformation`` table), each a shear rate with ``_xx`` and ``_xy`` columns.
@@ -290,6 +290,32 @@ def describe(table: str) -> pd.DataFrame:
         raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
     rows = [(c, k, u, m) for c, (k, u, m) in TABLES[table].items()]
     return pd.DataFrame(rows, columns=["column", "kind", "unit", "meaning"])
+
+
+def column_units(table: str, columns) -> dict[str, tuple[str, str]]:
+    """Unit and meaning of each of ``columns`` that ``table``'s schema has (``{p}`` patterns matched).
+
+    Returns
+    -------
+    dict
+        ``{column: (unit, meaning)}`` for the columns of the schema, in the
+        order of ``columns``; a unit of ``""`` is a count, an id, a flag or
+        a dimensionless number.  Columns not in the schema are left out.
+    """
+    if table not in TABLES:
+        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
+    spec = TABLES[table]
+    patterns = [(c, _pattern(c)) for c in spec if "{p}" in c]
+    out = {}
+    for column in columns:
+        name = str(column)
+        if name in spec:
+            out[name] = spec[name][1:]
+        else:
+            found = next((c for c, pattern in patterns if pattern.match(name)), None)
+            if found is not None:
+                out[name] = spec[found][1:]
+    return out
 
 
 def validate(df: pd.DataFrame, table: str) -> pd.DataFrame:

@@ -412,10 +412,18 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
     return source
 
 
+def _absolute(path):
+    """A local file's path made absolute, so that a results folder finds it from any folder (URLs stay as they are)."""
+    if path and os.path.exists(path):
+        return os.path.abspath(path)
+    return path
+
+
 def _make(opened: Opened) -> Source:
     """The Source of an opened input (the one place a Source is made)."""
     reader = opened.reader
     desc = {"key": None, "channel": None, "level": None, **opened.description, **reader.describe()}
+    desc["path"] = _absolute(desc.get("path"))
     if opened.notes:
         desc["notes"].extend(opened.notes)
     if int(reader.n_frames) == 0:
@@ -554,7 +562,7 @@ def read_mask(mask, shape):
         return None, None
     path = None
     if isinstance(mask, (str, os.PathLike)):
-        path = str(mask)
+        path = _absolute(str(mask))
         try:
             src = open_source(mask)
             if src.n_frames != 1:

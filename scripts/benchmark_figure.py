@@ -2,7 +2,7 @@
 
     PYTHONPATH=$PWD python scripts/benchmark_figure.py [--out docs/figures/benchmark_render.png]
 
-Top row: frame 0 of the bundled MPF run (sample_data/mpf_small, 60 cells, periodic 140 x 151 px):
+Top row: frame 0 of the bundled MPF run (hexatissue/sample_data/mpf_small, 60 cells, periodic 140 x 151 px):
 the truth labels with the truth polygons, rendered at SNR 20 with 2-px membranes (Gaussian PSF,
 sigma 1 px), and at SNR 4 with 1-px membranes, an Airy PSF and slightly bent junctions.
 Bottom row: an open field of view (160 x 200 px) cropped from a periodic Voronoi tissue: the truth
@@ -28,7 +28,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     from matplotlib.figure import Figure
 
-    run = truth_from_run(ROOT / "sample_data" / "mpf_small" / "run.zarr", frames=[0], progress=False)
+    run = truth_from_run(ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr", frames=[0], progress=False)
     crop = truth_from_voronoi(300, (320, 360), 1, seed=3, crop=(60, 80, 160, 200), progress=False)
     panels = [
         (run, None, "MPF run: truth labels"),

@@ -3,7 +3,7 @@
     PYTHONPATH=$PWD python scripts/benchmark_snr.py --out /tmp/bench_snr [--frames 150]
         [--snr 2 4 8 16 32] [--width 1 2 3]
 
-The truth is the bundled MPF run (sample_data/mpf_small: 60 cells in a periodic 140 x 151 px box,
+The truth is the bundled MPF run (hexatissue/sample_data/mpf_small: 60 cells in a periodic 140 x 151 px box,
 one frame every 200 iterations), its first FRAMES frames.  For every (SNR, membrane width) the movie
 is rendered (`benchmark make`, Gaussian PSF sigma 1 px, default noise model), segmented with the
 baseline (`benchmark baseline --periodic`), analysed (`analyze`, periodic box, overlap tracking) and
@@ -30,7 +30,7 @@ from hexatissue.benchmark import (RenderOptions, make_benchmark, score, score_to
 from hexatissue.io import write_tiff  # noqa: E402
 from hexatissue.plot import plot_labels, save_figure  # noqa: E402
 
-RUN = ROOT / "sample_data" / "mpf_small" / "run.zarr"
+RUN = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
 SHOWN = ("seg_jaccard", "neighbour_pairs_recall", "vertex_recall", "link_recall", "t1_recall",
          "t1_right_kind")
 

@@ -17,7 +17,7 @@ from hexatissue.errors import HexatissueWarning
 from hexatissue.napari.screenshot import canvas_image
 
 ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+SAMPLE = ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 
 
 def main(frame=0, out=ROOT / "docs" / "figures" / "napari_epicure.png"):

@@ -644,7 +644,7 @@ def test_a_small_field_of_view_is_analysed_with_a_warning_per_frame_not_refused(
     """Issue 32: a crop with 1-2 interior cells gave 'grid must have at least 2 x 2 nodes' and no table."""
     import tifffile
 
-    sample = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+    sample = Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
     crop = tifffile.imread(sample)[:, 68:127, 0:59]
     with pytest.warns(HexatissueWarning, match=r"grid is only 1 x 1 node\(s\).*no defects"):
         movie = ht.analyze(crop, progress=False, workers=1)
@@ -765,7 +765,7 @@ def test_random_crops_of_the_bundled_sample_are_all_analysed():
     """Issue 32: 17 of 80 random crops of the EpiCure stack ended the analysis (too small a Gamma_p grid)."""
     import tifffile
 
-    _every_crop_is_analysed(tifffile.imread(Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum"
+    _every_crop_is_analysed(tifffile.imread(Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum"
                                             / "013_crop_labels.tif"))
 
 

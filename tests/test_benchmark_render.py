@@ -19,7 +19,7 @@ from hexatissue.synthetic import t1_movie
 # warns that it writes no ctc/ folder
 
 ROOT = Path(__file__).resolve().parents[1]
-RUN = ROOT / "sample_data" / "mpf_small" / "run.zarr"
+RUN = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
 QUIET = dict(progress=False)
 
 

@@ -10,7 +10,7 @@ import hexatissue as ht
 from hexatissue.cli import main
 from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
-SAMPLE = str(Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif")
+SAMPLE = str(Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif")
 
 
 def assert_same_results(cli_dir, api_dir):

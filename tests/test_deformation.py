@@ -386,7 +386,7 @@ def test_real_movies_give_finite_budgets_that_close(real_data, tmp_path):
 
     from .conftest import real_subdir
 
-    sample = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+    sample = Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
     for name, source in (("epicure", sample), ("skeletor", real_subdir(real_data, "skeletor_pupal_abdomen")
                                                / "Final_Skeleton")):
         with pytest.warns(ht.HexatissueWarning):

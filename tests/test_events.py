@@ -442,15 +442,15 @@ def test_streaming_events_equal_the_whole_movie_reference_on_a_random_voronoi_mo
 
 
 def test_streaming_events_equal_the_whole_movie_reference_on_the_bundled_sample():
-    edges, cells, box = _analysed(ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif")
+    edges, cells, box = _analysed(ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif")
     n = _assert_as_reference(edges, cells, box, censor=2)
     assert n["neighbour"] > 0
 
 
 def test_streaming_events_equal_the_whole_movie_reference_on_the_mpf_sample():
-    run = ROOT / "sample_data" / "mpf_small" / "run.zarr"
+    run = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
     if not run.exists():
-        pytest.skip("sample_data/mpf_small/run.zarr is absent")
+        pytest.skip("hexatissue/sample_data/mpf_small/run.zarr is absent")
     edges, cells, box = _analysed(run, n_frames=80)
     n = _assert_as_reference(edges, cells, box, censor=10)
     assert n["t1"] > 0 and n["neighbour"] > 0
@@ -458,9 +458,9 @@ def test_streaming_events_equal_the_whole_movie_reference_on_the_mpf_sample():
 
 @pytest.mark.slow
 def test_streaming_events_equal_the_whole_movie_reference_on_the_whole_mpf_sample():
-    run = ROOT / "sample_data" / "mpf_small" / "run.zarr"
+    run = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
     if not run.exists():
-        pytest.skip("sample_data/mpf_small/run.zarr is absent")
+        pytest.skip("hexatissue/sample_data/mpf_small/run.zarr is absent")
     edges, cells, box = _analysed(run)
     n = _assert_as_reference(edges, cells, box, censor=10, min_lengths=(0.0,))
     assert n["t1"] > 300

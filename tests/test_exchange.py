@@ -17,7 +17,7 @@ from hexatissue.errors import InputError
 from hexatissue.exchange.ctc import check_ctc, read_ctc, write_ctc
 from hexatissue.exchange.geff import geff_tables, read_geff, write_geff
 from hexatissue.exchange.labels import track_masks
-from hexatissue.exchange.omezarr import downsample_labels, write_ome_zarr_labels
+from hexatissue.exchange.omezarr import LABELS_KEY, boundary_image, downsample_labels, write_ome_zarr_labels
 from hexatissue.graph import neighbour_graph
 from hexatissue.options import OrderOptions
 from hexatissue.readers.ctc import gap_links
@@ -25,7 +25,7 @@ from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
 from .conftest import real_subdir
 
-SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+SAMPLE = Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 NO_FIELDS = OrderOptions(fields=False)
 
 
@@ -344,7 +344,7 @@ def test_export_needs_the_labels_when_the_recorded_path_is_gone(epicure, tmp_pat
     results = tmp_path / "results"
     shutil.copytree(epicure["results"], results)
     meta = json.loads((results / "metadata.json").read_text())
-    meta["source"]["path"] = str(tmp_path / "moved.tif")
+    meta["source"].update(path=str(tmp_path / "moved.tif"), relative_path="moved.tif")  # gone from both
     (results / "metadata.json").write_text(json.dumps(meta))
     assert main(["export", str(results), "--to", "ctc", str(tmp_path / "ctc")]) == 2
     assert "--labels FILE" in capsys.readouterr().err
@@ -377,8 +377,9 @@ def test_track_masks_say_why_the_recorded_labels_or_mask_cannot_be_reopened(squa
                   "cannot be re-opened; pass the label image or stack the results were computed from (--labels "
                   "FILE on the command line, labels= in Python)"),
              ({**movie.source, "path": str(tmp_path / "moved.tif")},
-              f"the labels recorded in the results, {str(tmp_path / 'moved.tif')!r}, do not exist (moved, or a "
-              f"relative path from another folder); pass them with --labels FILE (labels= in Python)"),
+              f"the labels recorded in the results, {str(tmp_path / 'moved.tif')!r}, do not exist (moved, and not "
+              f"at their path relative to the results folder either); pass them with --labels FILE (labels= in "
+              f"Python)"),
              ({**movie.source, "mask": {"path": None, "shape": list(movie.shape), "inside": 1}},
               "the results were computed with a mask given as an array; pass the same mask (--mask FILE on the "
               "command line, mask= in Python)")]
@@ -396,7 +397,7 @@ def test_export_geff_and_ome_zarr_from_the_command_line(epicure, tmp_path):
     assert (tmp_path / "g" / "neighbours.geff").is_dir() and (tmp_path / "g" / "tracks.geff").is_dir()
     assert main(["export", str(epicure["results"]), "--to", "ome-zarr", str(tmp_path / "l.zarr"),
                  "--levels", "2"]) == 0
-    source = ht.open_source(tmp_path / "l.zarr")
+    source = ht.open_source(tmp_path / "l.zarr", key=LABELS_KEY)
     assert source.description["n_levels"] == 2
     assert source.calibration == ht.Calibration(0.2, "um")
     np.testing.assert_array_equal(np.stack([source.frame(t) for t in range(11)]),
@@ -416,28 +417,94 @@ def test_downsample_labels_is_the_mode_of_each_block():
     np.testing.assert_array_equal(downsample_labels(odd), [[0, 2, 4], [10, 12, 14]])  # edge rows repeated
 
 
+def _ome_attrs(group, version):
+    """A group's NGFF attributes: under "ome" in zarr.json (0.5) or in .zattrs (0.4)."""
+    if version == "0.5":
+        meta = json.loads((group / "zarr.json").read_text())
+        assert meta["zarr_format"] == 3 and meta["attributes"]["ome"]["version"] == "0.5"
+        return meta["attributes"]["ome"]
+    return json.loads((group / ".zattrs").read_text())
+
+
+@pytest.mark.parametrize("version", ["0.5", "0.4"])
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32, np.int64])
-def test_ome_zarr_label_stack_reads_back_identical(tmp_path, dtype):
+def test_ome_zarr_label_stack_reads_back_identical(tmp_path, dtype, version):
     stack = np.random.default_rng(1).integers(0, 100, (4, 33, 47)).astype(dtype)
     cal = ht.Calibration(0.5, "um", 2.0, "min")
-    path = write_ome_zarr_labels(stack, tmp_path / "s.zarr", calibration=cal, levels=3, chunks=(1, 16, 16))
-    source = ht.open_source(path)
+    path = write_ome_zarr_labels(stack, tmp_path / "s.zarr", calibration=cal, levels=3, chunks=(1, 16, 16),
+                                 version=version)
+    source = ht.open_source(path, key=LABELS_KEY)
     back = np.stack([source.raw_frame(t) for t in range(4)])
     assert back.dtype == stack.dtype
     np.testing.assert_array_equal(back, stack)
     assert source.calibration == cal
-    assert ht.open_source(path, level=2).calibration == ht.Calibration(2.0, "um", 2.0, "min")
-    meta = json.loads((tmp_path / "s.zarr" / ".zattrs").read_text())
-    axes = meta["multiscales"][0]["axes"]
+    assert ht.open_source(path, key=LABELS_KEY, level=2).calibration == ht.Calibration(2.0, "um", 2.0, "min")
+    assert ht.open_source(path).description["ngff_labels"] == [LABELS_KEY]  # the root image lists its labels
+    labels = _ome_attrs(tmp_path / "s.zarr" / "labels" / "cells", version)
+    axes = labels["multiscales"][0]["axes"]
     assert [(a["name"], a.get("unit")) for a in axes] == [("t", "minute"), ("y", "micrometer"), ("x", "micrometer")]
-    assert "image-label" in meta
+    assert labels["image-label"]["source"] == {"image": "../../"}
+    assert _ome_attrs(tmp_path / "s.zarr" / "labels", version)["labels"] == ["cells"]
+    # nested chunk keys: level 0's chunk (t=3, row 2, col 2) of the labels and of the image
+    nested = "c/3/2/2" if version == "0.5" else "3/2/2"
+    assert (tmp_path / "s.zarr" / "labels" / "cells" / "0" / nested).is_file()
+    assert (tmp_path / "s.zarr" / "0" / nested).is_file()
+
+
+@pytest.mark.parametrize("version", ["0.5", "0.4"])
+def test_ome_zarr_image_is_the_raw_channel_or_the_cell_outlines(tmp_path, version):
+    labels = np.zeros((2, 6, 8), np.uint16)
+    labels[:, :, 4:] = 1
+    labels[1, 3:, :] = 2
+    outlines = write_ome_zarr_labels(labels, tmp_path / "o.zarr", levels=2, version=version)
+    image = ht.open_source(outlines)
+    expected = np.zeros((6, 8), np.uint8)
+    expected[:, 3:5] = 255  # both sides of the vertical boundary between 0 and 1
+    np.testing.assert_array_equal(image.raw_frame(0), expected)
+    np.testing.assert_array_equal(image.raw_frame(1), boundary_image(labels[1]))
+    raw = np.random.default_rng(3).uniform(0, 1000, (2, 6, 8)).astype(np.float32)
+    path = write_ome_zarr_labels(labels, tmp_path / "r.zarr", image=raw, levels=2, version=version)
+    full, half = ht.open_source(path), ht.open_source(path, level=1)
+    assert full.raw_frame(1).dtype == np.float32
+    np.testing.assert_array_equal(full.raw_frame(1), raw[1])
+    block_mean = raw[1].reshape(3, 2, 4, 2).astype(np.float64).mean(axis=(1, 3)).astype(np.float32)
+    np.testing.assert_allclose(half.raw_frame(1), block_mean, rtol=1e-6)
+    assert _ome_attrs(tmp_path / "r.zarr", version)["multiscales"][0]["metadata"]["image"] == "the raw channel"
+    with pytest.raises(InputError, match=r"image has 2 frame\(s\) of \(6, 7\); expected 2 frame\(s\)"):
+        write_ome_zarr_labels(labels, tmp_path / "bad.zarr", image=raw[:, :, :7])
+    with pytest.raises(InputError, match="version must be one of"):
+        write_ome_zarr_labels(labels, tmp_path / "bad.zarr", version="0.3")
+
+
+@pytest.mark.parametrize("version", ["0.5", "0.4"])
+def test_ome_zarr_export_passes_ome_zarr_py_ngff_zarr_and_ome_zarr_models(tmp_path, version):
+    """The external readers and validators (test environment only) accept image + labels, both levels."""
+    ome_zarr_reader = pytest.importorskip("ome_zarr.reader")
+    ome_zarr_io = pytest.importorskip("ome_zarr.io")
+    ngff_zarr = pytest.importorskip("ngff_zarr")
+    ome_zarr_models = pytest.importorskip("ome_zarr_models")
+    labels = np.stack([voronoi_labels(jittered_seeds((40, 56), 8, seed=s), (40, 56)) for s in (1, 2, 3)])
+    path = write_ome_zarr_labels(labels.astype(np.uint16), tmp_path / "v.zarr", levels=2, version=version,
+                                 calibration=ht.Calibration(0.2, "um", 5.0, "min"))
+    nodes = list(ome_zarr_reader.Reader(ome_zarr_io.parse_url(str(path)))())
+    kinds = {Path(n.zarr.path).relative_to(path).as_posix(): [type(s).__name__ for s in n.specs] for n in nodes}
+    assert kinds["."] == ["Multiscales"] and "Label" in kinds["labels/cells"]
+    cells = next(n for n in nodes if n.zarr.path.endswith("cells"))
+    np.testing.assert_array_equal(np.asarray(cells.data[0]), labels)
+    for where in (path, path / "labels" / "cells"):
+        ms = ngff_zarr.from_ngff_zarr(str(where), validate=True)
+        assert ms.images[0].scale == {"t": 5.0, "y": 0.2, "x": 0.2}
+        assert ms.images[0].axes_units == {"t": "minute", "y": "micrometer", "x": "micrometer"}
+    assert type(ome_zarr_models.open_ome_zarr(str(path))).__name__ == "Image"
+    assert type(ome_zarr_models.open_ome_zarr(str(path / "labels"))).__name__ == "Labels"
+    assert type(ome_zarr_models.open_ome_zarr(str(path / "labels" / "cells"))).__name__ == "ImageLabel"
 
 
 def test_two_level_ome_zarr_analyses_at_the_chosen_level(tmp_path):
     full = np.stack([voronoi_labels(jittered_seeds((160, 200), 20, seed=s), (160, 200)) for s in (1, 2)])
     write_ome_zarr_labels(full, tmp_path / "v.zarr", calibration=ht.Calibration(0.25, "um"), levels=2)
     half = np.stack([downsample_labels(f) for f in full])
-    at_level = ht.analyze(ht.open_source(tmp_path / "v.zarr", level=1), workers=1, progress=False)
+    at_level = ht.analyze(ht.open_source(tmp_path / "v.zarr", key=LABELS_KEY, level=1), workers=1, progress=False)
     direct = ht.analyze(half, workers=1, progress=False)
     assert at_level.shape == (80, 100) and at_level.calibration == ht.Calibration(0.5, "um")
     for name, table in direct.tables.items():
@@ -510,3 +577,104 @@ def test_a_ctc_folder_whose_track_file_lost_its_lines_is_refused(epicure, tmp_pa
         ht.open_source(tmp_path / "ctc")
     assert main(["analyze", str(tmp_path / "ctc"), "--out", str(tmp_path / "o")]) == 2
     assert "check_ctc" in capsys.readouterr().err
+
+
+def test_results_record_the_source_by_absolute_path_and_export_works_from_another_folder(tmp_path, monkeypatch):
+    """`analyze data/squares.tif --out results` run in one folder; `export` run from another, then after the data
+    and the results were moved together (found through the path relative to the results folder)."""
+    (tmp_path / "data").mkdir()
+    (tmp_path / "elsewhere").mkdir()
+    tifffile.imwrite(tmp_path / "data" / "squares.tif", square_movie(), photometric="minisblack")
+    monkeypatch.chdir(tmp_path)
+    assert main(["analyze", "data/squares.tif", "--out", "results", "--workers", "1", "--no-fields"]) == 0
+    source = json.loads((tmp_path / "results" / "metadata.json").read_text())["source"]
+    assert source["path"] == str(tmp_path / "data" / "squares.tif")
+    assert source["relative_path"] == str(Path("..") / "data" / "squares.tif")
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    assert main(["export", "../results", "--to", "ctc", "ctc"]) == 0
+    expected = read_ctc(tmp_path / "elsewhere" / "ctc")[0]
+    shutil.move(tmp_path / "data", tmp_path / "elsewhere" / "data")
+    shutil.move(tmp_path / "results", tmp_path / "elsewhere" / "results")
+    moved = ht.read_results("results")
+    assert moved.source["path"] == str(tmp_path / "elsewhere" / "data" / "squares.tif")
+    assert main(["export", "results", "--to", "ctc", "ctc2"]) == 0
+    np.testing.assert_array_equal(read_ctc(tmp_path / "elsewhere" / "ctc2")[0], expected)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# AnnData
+# ---------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("suffix", [".h5ad", ".zarr"])
+def test_anndata_export_of_the_squares_holds_the_hand_made_neighbour_graph(squares, tmp_path, suffix):
+    anndata = pytest.importorskip("anndata")
+    folder, movie = squares
+    out = tmp_path / f"cells{suffix}"
+    assert main(["export", str(folder / "results"), "--to", "anndata", str(out)]) == 0
+    adata = anndata.read_h5ad(out) if suffix == ".h5ad" else anndata.read_zarr(out)  # as squidpy users read it
+    cells = movie.cells
+    assert adata.n_obs == len(cells) == 9 and adata.n_vars == 0
+    assert list(adata.obs_names) == [f"{t}:{c}" for t, c in zip(cells["frame"], cells["cell"])]
+    pd.testing.assert_frame_equal(adata.obs.reset_index(drop=True), cells.reset_index(drop=True),
+                                  check_index_type=False)
+    np.testing.assert_array_equal(adata.obsm["spatial"], cells[["x", "y"]].to_numpy())
+    key = adata.uns["spatial_neighbors"]["connectivities_key"]  # squidpy's way to the graph
+    graph = adata.obsp[key].tocoo()
+    pairs = {(int(adata.obs["frame"].iloc[i]), *sorted((int(adata.obs["cell"].iloc[i]),
+                                                         int(adata.obs["cell"].iloc[j]))))
+             for i, j in zip(graph.row, graph.col)}
+    assert pairs == {(t, a, b) for t, contacts in SQUARE_CONTACTS.items() for a, b in contacts}
+    assert graph.nnz == 2 * sum(len(c) for c in SQUARE_CONTACTS.values()) and set(graph.data) == {1.0}
+    row = {(t, c): k for k, (t, c) in enumerate(zip(cells["frame"], cells["cell"]))}
+    distances, lengths = adata.obsp[adata.uns["spatial_neighbors"]["distances_key"]], adata.obsp["contact_length"]
+    assert distances[row[0, 1], row[0, 2]] == pytest.approx(40.0)  # 40-px squares side by side
+    assert distances[row[1, 5], row[1, 6]] == pytest.approx(20.0)  # the daughters: 20-px halves
+    assert lengths[row[0, 1], row[0, 2]] == pytest.approx(40.0) and lengths[row[1, 3], row[1, 5]] == pytest.approx(20.0)
+    assert adata.uns["units"]["area"] == "px^2" and adata.uns["units"]["spatial"] == "px"
+    assert adata.uns["descriptions"]["area"] == ht.schema.TABLES["cells"]["area"][2]
+    assert adata.uns["hexatissue"]["source"] == str(folder / "squares.tif")
+
+
+def test_anndata_export_says_how_to_install_anndata_and_refuses_a_bad_name(squares, tmp_path, monkeypatch):
+    import builtins
+
+    from hexatissue.exchange.anndata import write_anndata
+
+    _, movie = squares
+    with pytest.raises(InputError, match=r"must end in \.h5ad or \.zarr"):
+        write_anndata(movie, tmp_path / "cells.csv")
+    real_import = builtins.__import__
+
+    def no_anndata(name, *args, **kwargs):
+        if name == "anndata":
+            raise ImportError("No module named 'anndata'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_anndata)
+    with pytest.raises(InputError, match=r"^AnnData export needs the anndata package: pip install "
+                                         r"'hexatissue\[anndata\]'$"):
+        write_anndata(movie, tmp_path / "cells.h5ad")
+    assert not (tmp_path / "cells.h5ad").exists()
+
+
+def test_reanalysing_the_ome_zarr_export_keeps_the_cells_but_not_every_side_count(epicure, tmp_path):
+    """The exported labels are the mesh's (membranes shared out): the same cells with the same pixel areas, but
+    their junctions are refitted on touching labels, so a few side counts change. docs/exchange.md quotes the count."""
+    assert main(["export", str(epicure["results"]), "--to", "ome-zarr", str(tmp_path / "e.zarr")]) == 0
+    again = ht.analyze(ht.open_source(tmp_path / "e.zarr", key=LABELS_KEY), workers=1, progress=False)
+    first = epicure["movie"].cells.set_index(["frame", "track"]).sort_index()
+    second = again.cells.set_index(["frame", "cell"]).sort_index()
+    assert first.index.tolist() == second.index.tolist()  # every cell-frame, by its track id
+    np.testing.assert_array_equal(first["area"], second["area"])
+    changed = first["n_sides"].to_numpy() != second["n_sides"].to_numpy()
+    assert (len(first), int(changed.sum()), int((changed & ~first["is_border"].to_numpy(bool)).sum())) == (902, 25, 12)
+    # --keep-membranes: the input's membranes stay 0, and the re-analysis is the analysis, side counts included
+    assert main(["export", str(epicure["results"]), "--to", "ome-zarr", str(tmp_path / "m.zarr"),
+                 "--keep-membranes"]) == 0
+    kept = ht.open_source(tmp_path / "m.zarr", key=LABELS_KEY)
+    raw = ht.open_source(SAMPLE)
+    for t in (0, 3, 10):
+        assert np.array_equal(kept.frame(t) == 0, raw.frame(t) == 0)  # the same membranes (and background)
+    third = ht.analyze(kept, workers=1, progress=False).cells.set_index(["frame", "cell"]).sort_index()
+    assert third.index.tolist() == first.index.tolist()
+    for column in ("n_sides", "area", "polygon_area", "perimeter", "is_border"):
+        np.testing.assert_array_equal(third[column], first[column], err_msg=column)

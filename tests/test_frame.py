@@ -7,7 +7,8 @@ import pytest
 
 from hexatissue import (Box, Calibration, DeformationOptions, EventOptions, InputError, MechanicsOptions, Movie,
                         OrderOptions, analyze, mesh_from_labels, read_results)
-from hexatissue.schema import TABLES
+from hexatissue.io import read_units
+from hexatissue.schema import TABLES, column_units
 from hexatissue.synthetic import draw_membranes, jittered_seeds, voronoi_labels, voronoi_movie
 
 
@@ -149,3 +150,31 @@ def test_a_table_computed_outside_analyze_is_saved_once_it_has_a_schema(movie, t
     monkeypatch.delitem(TABLES, "speeds")
     movie.write(tmp_path)  # rewritten without it, and without its schema: the previous result's table goes
     assert not (tmp_path / "speeds.parquet").exists()
+
+
+def test_parquet_columns_carry_their_unit_and_meaning_and_read_results_checks_them(movie, tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    movie.write(tmp_path)
+    area = pq.read_schema(tmp_path / "cells.parquet").field("area").metadata
+    assert area == {b"unit": b"px^2", b"description": TABLES["cells"]["area"][2].encode()}
+    gamma = pq.read_schema(tmp_path / "cells.parquet").field("gamma6_re").metadata  # a {p} column
+    assert gamma[b"description"] == TABLES["cells"]["gamma{p}_re"][2].encode()
+    for name, table in movie.tables.items():  # every schema column of every table, nothing else
+        fields = pq.read_schema(tmp_path / f"{name}.parquet")
+        for column in table.columns:
+            meta = fields.field(column).metadata
+            spec = column_units(name, [column]).get(column)
+            assert (meta is not None and b"unit" in meta) == (spec is not None), (name, column)
+            if spec is not None:
+                assert (meta[b"unit"].decode(), meta[b"description"].decode()) == spec
+    assert read_units(tmp_path / "edges.parquet")["length"][0] == "px"
+    # another tool rewrote cells.parquet in micrometres: read_results refuses it, naming the column and units
+    table = pq.read_table(tmp_path / "cells.parquet")
+    fields = [f.with_metadata({b"unit": b"um^2", b"description": b"area"}) if f.name == "area" else f
+              for f in table.schema]
+    pq.write_table(pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=table.schema.metadata)),
+                   tmp_path / "cells.parquet")
+    with pytest.raises(InputError, match=r"cells.parquet: column 'area' is in 'um\^2' in the file; expected 'px\^2'"):
+        read_results(tmp_path)

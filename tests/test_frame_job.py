@@ -27,7 +27,7 @@ from hexatissue.options import MeshOptions
 from hexatissue.stages import FrameData, frame_stages, run_frame, stage_options, worker_stages
 from hexatissue.synthetic import voronoi_movie
 
-SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+SAMPLE = Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 TABLES = ("cells", "vertices", "edges", "cell_vertices")
 
 

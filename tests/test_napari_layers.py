@@ -13,14 +13,14 @@ from hexatissue.napari import layers as L
 from hexatissue.plot import MINUS_COLOR, PLUS_COLOR
 from hexatissue.synthetic import t1_movie
 
-SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+SAMPLE = Path(__file__).resolve().parents[1] / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 
 
 @pytest.fixture(scope="module")
 def epicure(tmp_path_factory):
     """The EpiCure sample analysed and written to a results folder (300 s between frames, from its README)."""
     if not SAMPLE.exists():
-        pytest.skip("sample_data/epicure_notum/013_crop_labels.tif is absent")
+        pytest.skip("hexatissue/sample_data/epicure_notum/013_crop_labels.tif is absent")
     folder = tmp_path_factory.mktemp("epicure")
     source = open_source(SAMPLE, frame_interval=300, time_unit="s")
     with warnings.catch_warnings():

@@ -14,8 +14,8 @@ from hexatissue.units import Calibration
 
 from .conftest import ROOT, png_write, real_subdir
 
-SAMPLE_RUN = ROOT / "sample_data" / "mpf_small" / "run.zarr"
-SAMPLE_EPICURE = ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+SAMPLE_RUN = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
+SAMPLE_EPICURE = ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 
 
 def movie(n=4, rows=6, cols=8, seed=0, dtype=np.uint16):
@@ -228,7 +228,7 @@ def test_folder_errors(tmp_path):
     empty.mkdir()
     with pytest.raises(InputError, match="holds no .tif/.tiff/.png files"):
         open_source(empty)
-    beside = tmp_path / "run_folder"  # a folder holding an MPF run, as sample_data/mpf_small does
+    beside = tmp_path / "run_folder"  # a folder holding an MPF run, as hexatissue/sample_data/mpf_small does
     (beside / "run.zarr").mkdir(parents=True)
     with pytest.raises(InputError, match=r"pass its path \(.*run\.zarr\)"):
         open_source(beside)
@@ -467,7 +467,7 @@ def test_ome_zarr_0_5_with_channels_and_a_label_subgroup(tmp_path):
 @pytest.fixture
 def sample_run():
     if not SAMPLE_RUN.is_dir():
-        pytest.skip("sample_data/mpf_small/run.zarr is absent")
+        pytest.skip("hexatissue/sample_data/mpf_small/run.zarr is absent")
     return SAMPLE_RUN
 
 
@@ -617,7 +617,7 @@ def check_epicure_labels(path):
 
 def test_epicure_sample_is_calibrated_from_its_imagej_tags():
     if not SAMPLE_EPICURE.is_file():
-        pytest.skip("sample_data/epicure_notum/013_crop_labels.tif is absent")
+        pytest.skip("hexatissue/sample_data/epicure_notum/013_crop_labels.tif is absent")
     check_epicure_labels(SAMPLE_EPICURE)
 
 

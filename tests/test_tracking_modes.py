@@ -150,7 +150,7 @@ def test_warning_when_the_censor_leaves_nothing_classified():
 def test_epicure_curated_tracks_and_division_kept_by_default(where, request):
     pytest.importorskip("imagecodecs")
     if where == "sample":
-        path = ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+        path = ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
         if not path.exists():
             pytest.skip("the bundled EpiCure sample is absent")
     else:

@@ -14,7 +14,7 @@ from hexatissue.workflows import command, report
 from .conftest import real_subdir
 
 ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+SAMPLE = ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 
 
 def analyze_to(source, out, periodic=False, censor=10, p=(6, 2)):

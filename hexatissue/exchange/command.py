@@ -1,21 +1,24 @@
-"""``hexatissue export RESULTS --to {geff,ctc,ome-zarr} OUT``: a results folder in another tool's format."""
+"""``hexatissue export RESULTS --to {geff,ctc,ome-zarr,anndata} OUT``: a results folder in another tool's format."""
 from __future__ import annotations
 
 __all__ = ["add_parser", "export"]
 
-FORMATS = ("geff", "ctc", "ome-zarr")
+FORMATS = ("geff", "ctc", "ome-zarr", "anndata")
 
 
 def add_parser(subparsers):
     """Register the ``export`` subcommand on an argparse ``subparsers`` object."""
     p = subparsers.add_parser(
-        "export", help="write a 'hexatissue analyze' folder as GEFF graphs, a Cell Tracking Challenge folder or "
-                       "an OME-Zarr label stack",
+        "export", help="write a 'hexatissue analyze' folder as GEFF graphs, a Cell Tracking Challenge folder, "
+                       "an OME-Zarr image with its labels or an AnnData file",
         description="geff: OUT/neighbours.geff (cells and their contacts, every frame) and OUT/tracks.geff (cells "
                     "linked along their tracks and divisions), node and edge properties from the tables. ctc: "
                     "OUT/maskTTT.tif with track ids + OUT/res_track.txt (--truth: OUT/TRA/man_track*). ome-zarr: "
-                    "the labels with track ids as an OME-Zarr multiscale image OUT. ctc and ome-zarr re-open the "
-                    "labels the results were computed from (the path in metadata.json, or --labels).")
+                    "OUT, an OME-Zarr image (the raw channel: --image, or the analysis's intensity image; else the "
+                    "cell outlines) with the labels with track ids in OUT/labels/cells. ctc and ome-zarr re-open "
+                    "the labels the results were computed from (the path in metadata.json, or --labels). anndata: "
+                    "OUT.h5ad or OUT.zarr, the cells as observations with their centroids and neighbour graph "
+                    "(extra anndata).")
     p.add_argument("results", metavar="RESULTS", help="output folder of 'hexatissue analyze'")
     p.add_argument("out", metavar="OUT", help="output folder (ome-zarr: the .zarr folder)")
     p.add_argument("--to", required=True, choices=FORMATS, help="format to write")
@@ -24,18 +27,32 @@ def add_parser(subparsers):
                         "path recorded in metadata.json)")
     p.add_argument("--mask", metavar="FILE", help="ctc, ome-zarr: the --mask of the analysis (default: the recorded one)")
     p.add_argument("--truth", action="store_true", help="ctc: the ground-truth layout OUT/TRA/man_trackTTT.tif")
+    p.add_argument("--keep-membranes", action="store_true",
+                   help="ctc, ome-zarr: keep the input's membranes (or skeleton lines) at 0 instead of sharing them "
+                        "out between the cells, so that analysing the export again gives the same network "
+                        "(docs/exchange.md)")
     p.add_argument("--levels", type=int, default=1, help="ome-zarr: resolution levels (default 1)")
+    p.add_argument("--image", metavar="FILE",
+                   help="ome-zarr: the raw channel to write under the labels (default: the intensity image of the "
+                        "analysis, if it had one, else the cell outlines)")
+    p.add_argument("--ngff-version", choices=("0.5", "0.4"), default="0.5",
+                   help="ome-zarr: OME-NGFF version (default 0.5, zarr v3; 0.4: zarr v2 for older readers)")
     p.set_defaults(func=_run)
     return p
 
 
-def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1):
-    """Write a results folder (or Movie) as ``to`` (``"geff"``, ``"ctc"`` or ``"ome-zarr"``); returns what was written.
+def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, image=None, ngff_version="0.5",
+           keep_membranes=False):
+    """Write a results folder (or Movie) as ``to`` (one of :data:`FORMATS`); returns what was written.
 
     See :func:`~hexatissue.exchange.geff.write_geff`,
     :func:`~hexatissue.exchange.ctc.write_ctc` (masks from
-    :func:`~hexatissue.exchange.labels.track_masks`, lines from the lineage)
-    and :func:`~hexatissue.exchange.omezarr.write_ome_zarr_labels`.
+    :func:`~hexatissue.exchange.labels.track_masks`, lines from the lineage),
+    :func:`~hexatissue.exchange.omezarr.write_ome_zarr_labels` (``image``:
+    the raw channel, a path or array; default: the analysis's intensity
+    image when it had one, else the cell outlines) and
+    :func:`~hexatissue.exchange.anndata.write_anndata`; ``keep_membranes``:
+    ``membranes`` of :func:`~hexatissue.exchange.labels.track_masks`.
     """
     from ..errors import InputError
     from ..results import Movie, read_results
@@ -47,9 +64,13 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1):
         from .geff import write_geff
 
         return write_geff(movie, out)
+    if to == "anndata":
+        from .anndata import write_anndata
+
+        return [write_anndata(movie, out)]
     from .labels import track_masks
 
-    masks = track_masks(movie, labels, mask)
+    masks = track_masks(movie, labels, mask, membranes=keep_membranes)
     if to == "ctc":
         from .ctc import write_ctc
 
@@ -62,12 +83,23 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1):
 
     biggest = max(int(m.max()) for m in masks)
     dtype = np.uint16 if biggest < 2**16 else np.uint32 if biggest < 2**32 else np.uint64
-    return [write_ome_zarr_labels([m.astype(dtype) for m in masks], out, calibration=movie.calibration,
-                                  levels=levels)]
+    return [write_ome_zarr_labels([m.astype(dtype) for m in masks], out, image=_raw_image(movie, image),
+                                  calibration=movie.calibration, levels=levels, version=ngff_version)]
+
+
+def _raw_image(movie, image):
+    """The raw channel to write under the labels: ``image`` opened, or the analysis's intensity image, or None."""
+    from ..source import open_source, recorded_labels
+
+    if image is not None:
+        return image if hasattr(image, "shape") and not isinstance(image, (str, bytes)) else open_source(image)
+    recorded = (movie.source or {}).get("intensity")
+    return recorded_labels(recorded)[0] if recorded else None
 
 
 def _run(args) -> int:
     written = export(args.results, args.out, args.to, labels=args.labels, mask=args.mask, truth=args.truth,
-                     levels=args.levels)
+                     levels=args.levels, image=args.image, ngff_version=args.ngff_version,
+                     keep_membranes=args.keep_membranes)
     print(f"{args.results} -> {args.to}: " + ", ".join(str(w) for w in written))
     return 0

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..mesh.labels import mesh_labels, relabel
+from ..mesh.labels import detect_kind, mesh_labels, relabel
 
 __all__ = ["track_masks"]
 
@@ -25,8 +25,9 @@ def _labels_source(movie, labels):
     desc = movie.source or {}
     source, why = recorded_labels(desc)
     if why == MISSING:
-        raise InputError(f"the labels recorded in the results, {desc['path']!r}, do not exist (moved, or a relative "
-                         f"path from another folder); pass them with --labels FILE (labels= in Python)")
+        raise InputError(f"the labels recorded in the results, {desc['path']!r}, do not exist (moved, and not at their "
+                         f"path relative to the results folder either); pass them with --labels FILE (labels= in "
+                         f"Python)")
     if source is None:
         raise InputError(f"the results were computed from {desc.get('kind', 'an unknown input')!r} data that were "
                          f"not a file, so their labels cannot be re-opened; pass the label image or stack the "
@@ -46,7 +47,7 @@ def _mask(movie, mask):
     return inside
 
 
-def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
+def track_masks(movie, labels=None, mask=None, membranes=False) -> list[np.ndarray]:
     """The frames of a Movie's labels with track ids: the masks of a CTC export or a tracked label stack.
 
     Parameters
@@ -59,13 +60,21 @@ def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
     mask : path or array, optional
         The region-of-interest mask of the analysis (default: the path in
         ``movie.source["mask"]``, when there was one).
+    membranes : bool
+        Keep the input's membranes (or skeleton lines) at 0 instead of
+        sharing them out: the labels as given, with track ids.  Analysing
+        these again gives the same network as the results (the EpiCure
+        sample: every side count and area), which the touching labels do not
+        quite (docs/exchange.md); the cells' pixel counts are then those of
+        the input, without their share of the membranes.
 
     Returns
     -------
     list of (rows, cols) int64 arrays
         One per frame, indexed ``[row, col]``: the labels as the mesh used
-        them (membranes shared out, background and outside 0), each cell's
-        pixels set to its ``track``; 0 elsewhere.
+        them (membranes shared out, background and outside 0; with
+        ``membranes``, the membrane pixels 0 too), each cell's pixels set to
+        its ``track``; 0 elsewhere.
 
     Raises
     ------
@@ -91,7 +100,8 @@ def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
     area = cells["area"].to_numpy(float)
     out = []
     for t in progress(range(movie.n_frames), desc="labels", unit="frame"):
-        lab = mesh_labels(source.checked_frame(t, mesh.kind)[0], movie.box, mesh, inside)[0]
+        raw = source.checked_frame(t, mesh.kind)[0]
+        lab, membrane = mesh_labels(raw, movie.box, mesh, inside)
         lo, hi = bounds[t], bounds[t + 1]
         found, counts = np.unique(lab, return_counts=True)
         pos = np.searchsorted(found, ids[lo:hi])
@@ -99,5 +109,9 @@ def track_masks(movie, labels=None, mask=None) -> list[np.ndarray]:
         if not ok.all() or not np.array_equal(counts[pos[ok]].astype(float), area[lo:hi]):
             raise InputError(f"{what}, frame {t}: the cells differ from the results' cells table (other ids or "
                              f"pixel areas); pass the labels the results were computed from (--labels FILE)")
-        out.append(relabel(lab, ids[lo:hi], tracks[lo:hi], others=0))
+        tracked = relabel(lab, ids[lo:hi], tracks[lo:hi], others=0)
+        if membranes:  # the input's 0 pixels (membranes, and holes the mesh filled); a skeleton's lines
+            kind = mesh.kind if mesh.kind != "auto" else detect_kind(raw, movie.box is not None)
+            tracked = np.where(membrane if kind == "skeleton" else membrane | (raw == 0), 0, tracked)
+        out.append(tracked)
     return out

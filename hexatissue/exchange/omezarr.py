@@ -1,14 +1,19 @@
-"""Label stacks as OME-Zarr (OME-NGFF 0.4) multiscale images.
+"""Label stacks as OME-Zarr (OME-NGFF 0.5, or 0.4 on request): an image with its labels in ``labels/``.
 
-:func:`write_ome_zarr_labels` writes a zarr (v2) group with ``multiscales``
-metadata: axes ``t`` (time), ``y``, ``x`` (space) with their units when the
-calibration has them, one array per level (``0`` the full resolution, then
-``1``, ``2``, ... each half the size of the one before), a ``scale``
-coordinate transformation per level (frame interval, pixel size x 2**level)
-and ``image-label`` metadata marking it as labels.  Levels are made with
+:func:`write_ome_zarr_labels` writes the standard layout that OME-Zarr
+viewers (napari-ome-zarr, ome-zarr-py, ngff-zarr) open as labels over an
+image: the root group is a multiscale image (the raw channel when one is
+given, else :func:`boundary_image`, the cells' outlines, so that the labels
+have something to sit on), and ``labels/cells`` is the multiscale label
+image, with ``image-label`` metadata pointing back to it.  Axes ``t``
+(time), ``y``, ``x`` (space) with their units when the calibration has
+them; arrays ``0``, ``1``, ... each half the size of the one before, with a
+``scale`` coordinate transformation per level (frame interval, pixel size x
+2**level); chunk keys nested with "/".  Label levels are made with
 :func:`downsample_labels`, the mode of each 2 x 2 block, never a mean (a
-mean of two ids is a third id).  :func:`hexatissue.open_source` reads the
-file with ``level=``.
+mean of two ids is a third id); image levels with the mean.
+:func:`hexatissue.open_source` reads the labels with ``key="labels/cells"``
+and ``level=``.
 """
 from __future__ import annotations
 
@@ -19,9 +24,13 @@ import numpy as np
 from ..errors import InputError, check_positive
 from ..units import as_calibration
 
-__all__ = ["write_ome_zarr_labels", "downsample_labels", "NGFF_LENGTH", "NGFF_TIME"]
+__all__ = ["write_ome_zarr_labels", "downsample_labels", "boundary_image", "NGFF_LENGTH", "NGFF_TIME",
+           "NGFF_VERSIONS", "LABELS_KEY"]
 
-NGFF_VERSION = "0.4"
+#: The OME-NGFF versions written: 0.5 (zarr v3, the default) and 0.4 (zarr v2).
+NGFF_VERSIONS = ("0.5", "0.4")
+#: Where the label image lies in the store (``open_source(path, key=LABELS_KEY)``).
+LABELS_KEY = "labels/cells"
 #: hexatissue unit names -> OME-NGFF unit names (also GEFF's)
 NGFF_LENGTH = {"um": "micrometer", "nm": "nanometer", "mm": "millimeter", "cm": "centimeter", "m": "meter"}
 NGFF_TIME = {"ms": "millisecond", "s": "second", "min": "minute", "h": "hour"}
@@ -59,14 +68,52 @@ def downsample_labels(frame) -> np.ndarray:
     return np.where(nc > np.maximum(na, nb), c, out)
 
 
-def _frames(stack):
+def _downsample_mean(frame) -> np.ndarray:
+    """One image at half the resolution: the mean of each 2 x 2 block (an odd last row or column repeated),
+    in the image's dtype (rounded for integers)."""
+    f = np.pad(frame, ((0, frame.shape[0] % 2), (0, frame.shape[1] % 2)), mode="edge").astype(np.float64)
+    mean = (f[0::2, 0::2] + f[0::2, 1::2] + f[1::2, 0::2] + f[1::2, 1::2]) / 4
+    return np.rint(mean).astype(frame.dtype) if frame.dtype.kind in "iub" else mean.astype(frame.dtype)
+
+
+def boundary_image(frame) -> np.ndarray:
+    """The outlines of the cells of a label image, to show the labels on when no raw image is given.
+
+    Parameters
+    ----------
+    frame : (rows, cols) integer array
+        Label image indexed ``[row, col]``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rows, cols)`` uint8: 255 on every pixel that has a 4-neighbour
+        with another label (so a boundary is 2 px wide, one on each side),
+        0 elsewhere.  An image for the eye, not for analysis: analyse the
+        labels (``key="labels/cells"``).
+    """
+    f = np.asarray(frame)
+    edge = np.zeros(f.shape, bool)
+    across = f[:, 1:] != f[:, :-1]
+    edge[:, 1:] |= across
+    edge[:, :-1] |= across
+    down = f[1:, :] != f[:-1, :]
+    edge[1:, :] |= down
+    edge[:-1, :] |= down
+    return edge.astype(np.uint8) * np.uint8(255)
+
+
+def _frames(stack, name="stack"):
+    """(number of frames, read(t), frame shape) of an array, a sequence of 2-D frames or a Source."""
+    if hasattr(stack, "frame") and hasattr(stack, "n_frames"):  # a Source (hexatissue.open_source)
+        return int(stack.n_frames), stack.frame, tuple(stack.shape)
     if isinstance(stack, (list, tuple)):
         if not stack:
-            raise InputError("stack must hold at least one frame; got an empty sequence")
+            raise InputError(f"{name} must hold at least one frame; got an empty sequence")
         return len(stack), lambda t: np.asarray(stack[t]), np.asarray(stack[0]).shape
     if not hasattr(stack, "shape") or len(stack.shape) not in (2, 3):
-        raise InputError(f"stack must be a (rows, cols) or (T, rows, cols) label array or a sequence of 2-D "
-                         f"frames; got {type(stack).__name__} of shape {getattr(stack, 'shape', '?')}")
+        raise InputError(f"{name} must be a (rows, cols) or (T, rows, cols) array, a sequence of 2-D frames or a "
+                         f"Source; got {type(stack).__name__} of shape {getattr(stack, 'shape', '?')}")
     if len(stack.shape) == 2:
         return 1, lambda t: np.asarray(stack), tuple(stack.shape)
     return int(stack.shape[0]), lambda t: np.asarray(stack[t]), tuple(stack.shape[1:])
@@ -82,8 +129,35 @@ def _axes(cal):
     return axes
 
 
-def write_ome_zarr_labels(stack, path, *, calibration=None, levels=1, chunks=None) -> Path:
-    """Write a label stack as an OME-Zarr (NGFF 0.4) multiscale image, atomically.
+def _ome(attrs, version):
+    """Group attributes in the version's place: under ``ome`` (0.5) or at the top with a version (0.4)."""
+    if version == "0.5":
+        return {"ome": {"version": version, **attrs}}
+    if "multiscales" in attrs:
+        attrs = dict(attrs, multiscales=[dict(ms, version=version) for ms in attrs["multiscales"]])
+    if "image-label" in attrs:
+        attrs = dict(attrs, **{"image-label": dict(attrs["image-label"], version=version)})
+    return attrs
+
+
+def _levels(group, n, shape, dtype, levels, chunks, version, fill):
+    """The arrays ``0``, ``1``, ... of one multiscale image, each half the size of the one before."""
+    arrays, size = [], shape
+    v3 = version == "0.5"
+    for k in range(levels):
+        arrays.append(group.create_array(
+            str(k), shape=(n, *size), dtype=dtype, fill_value=fill,
+            chunks=(1, min(chunks[1], size[0]), min(chunks[2], size[1])),
+            # nested chunk keys ("t/y/x" under c/ in v3, t/y/x in v2), as the NGFF specification asks
+            chunk_key_encoding={"name": "default" if v3 else "v2", "separator": "/"},
+            **({"dimension_names": ["t", "y", "x"]} if v3 else {})))
+        size = ((size[0] + 1) // 2, (size[1] + 1) // 2)
+    return arrays
+
+
+def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1, chunks=None,
+                          version="0.5") -> Path:
+    """Write a label stack as an OME-Zarr image with its labels (``labels/cells``), atomically.
 
     Parameters
     ----------
@@ -92,6 +166,10 @@ def write_ome_zarr_labels(stack, path, *, calibration=None, levels=1, chunks=Non
         at a time (zarr, dask and memory maps are fine).
     path : str or Path
         The ``.zarr`` folder to write (replaced if it exists).
+    image : array-like, sequence of 2-D frames or Source, optional
+        The raw channel the labels were drawn on: one frame per label frame
+        (or one for all), of their shape, any numeric dtype (kept).  Default:
+        :func:`boundary_image` of each label frame (uint8 cell outlines).
     calibration : Calibration, dict or None
         Pixel size and frame interval: the ``scale`` of every level is
         ``[frame_interval, pixel_size * 2**level, pixel_size * 2**level]`` and
@@ -99,27 +177,34 @@ def write_ome_zarr_labels(stack, path, *, calibration=None, levels=1, chunks=Non
         uncalibrated axes have scale 1 per frame and per level-0 pixel and no
         unit.
     levels : int
-        Resolution levels (1: only the full one).
+        Resolution levels (1: only the full one), the same for image and labels.
     chunks : tuple of int, optional
         Chunk shape ``(1, rows, cols)`` of level 0 (default: one frame,
         at most 1024 x 1024 px); coarser levels use the same, clipped to
         their size.
+    version : {"0.5", "0.4"}
+        OME-NGFF version: 0.5 (zarr v3, attributes under ``ome``) or 0.4
+        (zarr v2, for older readers).
 
     Returns
     -------
     Path
-        ``path``.
+        ``path``: the image at the root (arrays ``0``, ``1``, ...), the
+        labels in ``labels/cells`` (arrays ``0``, ``1``, ...).
 
     Raises
     ------
     InputError
-        A stack that is not integer labels of one shape, ``levels`` < 1 or
-        more levels than halvings of the frame, or bad ``chunks``.
+        A stack that is not integer labels of one shape, an image of
+        another shape or number of frames, ``levels`` < 1 or more levels than
+        halvings of the frame, bad ``chunks`` or an unknown ``version``.
     """
     import zarr
 
     from ..io import atomic_dir
 
+    if version not in NGFF_VERSIONS:
+        raise InputError(f"version must be one of {NGFF_VERSIONS}; got {version!r}")
     cal = as_calibration(calibration)
     levels = check_positive(levels, "levels", integer=True)
     n, read, shape = _frames(stack)
@@ -135,19 +220,27 @@ def write_ome_zarr_labels(stack, path, *, calibration=None, levels=1, chunks=Non
     first = read(0)
     if first.dtype.kind not in "iu" and first.dtype != bool:
         raise InputError(f"stack must hold integer labels; got dtype {first.dtype}")
-    dtype = first.dtype
+    if image is None:
+        n_image, read_image, image_dtype = n, lambda t: boundary_image(read(t)), np.dtype(np.uint8)
+    else:
+        n_image, read_image, image_shape = _frames(image, "image")
+        if image_shape != shape or n_image not in (1, n):
+            raise InputError(f"image has {n_image} frame(s) of {image_shape}; expected {n} frame(s) (or one) of "
+                             f"the labels' shape {shape}")
+        image_dtype = np.asarray(read_image(0)).dtype
+        if image_dtype.kind not in "iufb":
+            raise InputError(f"image must be numeric; got dtype {image_dtype}")
     spacing = cal.pixel_size if cal.has_length else 1.0
     interval = cal.frame_interval if cal.has_time else 1.0
     datasets = [{"path": str(k), "coordinateTransformations": [
         {"type": "scale", "scale": [float(interval), float(spacing * 2**k), float(spacing * 2**k)]}]}
         for k in range(levels)]
+    name = Path(path).stem
     with atomic_dir(path) as tmp:
-        group = zarr.open_group(str(tmp), mode="w", zarr_format=2)
-        arrays, size = [], shape
-        for k in range(levels):
-            arrays.append(group.create_array(str(k), shape=(n, *size), dtype=dtype, fill_value=0,
-                                             chunks=(1, min(chunks[1], size[0]), min(chunks[2], size[1]))))
-            size = ((size[0] + 1) // 2, (size[1] + 1) // 2)
+        root = zarr.open_group(str(tmp), mode="w", zarr_format=3 if version == "0.5" else 2)
+        pictures = _levels(root, n, shape, image_dtype, levels, chunks, version, 0)
+        cells = root.create_group("labels").create_group("cells")
+        arrays = _levels(cells, n, shape, first.dtype, levels, chunks, version, 0)
         for t in range(n):
             frame = first if t == 0 else read(t)
             if frame.shape != shape or frame.dtype.kind not in "iub":
@@ -155,13 +248,20 @@ def write_ome_zarr_labels(stack, path, *, calibration=None, levels=1, chunks=Non
                                  f"{shape} like frame 0")
             if frame.size and frame.min() < 0:
                 raise InputError(f"stack frame {t} has negative ids; expected 0 = background and positive ids")
-            for k, arr in enumerate(arrays):
+            picture = np.asarray(read_image(t if n_image == n else 0)).astype(image_dtype, copy=False)
+            for k, (arr, pic) in enumerate(zip(arrays, pictures)):
                 if k:
-                    frame = downsample_labels(frame)
-                arr[t] = frame.astype(dtype, copy=False)
-        group.attrs.update({
-            "multiscales": [{"version": NGFF_VERSION, "name": Path(path).stem, "axes": _axes(cal),
-                             "datasets": datasets, "type": "mode",
+                    frame, picture = downsample_labels(frame), _downsample_mean(picture)
+                arr[t] = frame.astype(first.dtype, copy=False)
+                pic[t] = picture
+        axes = _axes(cal)
+        root.attrs.update(_ome({"multiscales": [{"name": name, "axes": axes, "datasets": datasets, "type": "mean",
+                                                 "metadata": {"image": "the raw channel" if image is not None else
+                                                              "cell outlines (hexatissue.exchange.omezarr."
+                                                              "boundary_image)"}}]}, version))
+        root["labels"].attrs.update(_ome({"labels": ["cells"]}, version))
+        cells.attrs.update(_ome({
+            "multiscales": [{"name": "cells", "axes": axes, "datasets": datasets, "type": "mode",
                              "metadata": {"method": "mode of each 2 x 2 block (hexatissue.exchange.omezarr)"}}],
-            "image-label": {"version": NGFF_VERSION}})
+            "image-label": {"source": {"image": "../../"}}}, version))
     return Path(path)

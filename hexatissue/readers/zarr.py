@@ -148,8 +148,10 @@ def _open_ome_zarr(group, ms, path, key, channel, level, where) -> Opened:
     desc = {"kind": "ome-zarr", "path": _str(path), "key": key, "channel": optional_int(channel), "level": level,
             "dataset_path": str(dataset["path"]), "n_levels": len(datasets), "scale": [float(s) for s in scale],
             "axis_names": names}
-    if labels is not None and "labels" in dict(getattr(labels, "attrs", {})):
-        desc["ngff_labels"] = [f"labels/{n}" for n in dict(labels.attrs)["labels"]]
+    label_attrs = dict(getattr(labels, "attrs", {})) if labels is not None else {}
+    label_names = label_attrs.get("labels") or (label_attrs.get("ome") or {}).get("labels")  # NGFF 0.4 or 0.5
+    if label_names:
+        desc["ngff_labels"] = [f"labels/{n}" for n in label_names]
     return Opened(reader, desc, calibration, notes=tuple(notes))
 
 
