@@ -1,7 +1,7 @@
 """The bundled MPF run: stress inferred from its junction network beside the simulator's own cell stress.
 
-The simulator's stress needs the phase fields, which the bundled store (``sample_data/mpf_small/run.zarr``) does
-not keep; its command (sample_data/mpf_small/README.md: 60 cells, periodic 140 x 151 box, seed 1) is rerun with
+The simulator's stress needs the phase fields, which the bundled store (``hexatissue/sample_data/mpf_small/run.zarr``) does
+not keep; its command (hexatissue/sample_data/mpf_small/README.md: 60 cells, periodic 140 x 151 box, seed 1) is rerun with
 ``patches_every`` set, which reproduces it to 1.5e-3 px (README there), e.g.::
 
     hexatissue simulate --out /tmp/mpf.zarr --cells 60 --size 140 151 --steps 60000 --save-every 200 \

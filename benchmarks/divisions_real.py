@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def stacks(data):
-    yield "EpiCure 013 (curated)", ROOT / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
+    yield "EpiCure 013 (curated)", ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
     yield "EpiTools wing disc", np.load(data / "epitools_wingdisc" / "SegResults_CLabels_RegIm_TYX.npz")["CLabels"]
     yield "mouse epidermis", data / "mouse_epidermis_laptrack" / "labels.npy"
     yield "Skeletor pupal abdomen", data / "skeletor_pupal_abdomen" / "Final_Skeleton"

@@ -8,7 +8,7 @@ random angle (the events' alignment destroyed, 200 times): a harmonic is resolve
 the 95th percentile of that floor.  The theory is ``hexatissue.theory.quadrupole_flow`` sampled at 2-4 ell.
 Writes ``<out>/<name>_t1_flow.png`` (maps), ``<out>/t1_harmonics.png`` and ``<out>/t1_harmonics.csv``.
 
-    NUMBA_NUM_THREADS=1 python scripts/flow_t1_average.py sample_data/mpf_small/run.zarr RUN2.zarr --out docs/figures
+    NUMBA_NUM_THREADS=1 python scripts/flow_t1_average.py hexatissue/sample_data/mpf_small/run.zarr RUN2.zarr --out docs/figures
 """
 import argparse
 from pathlib import Path
