@@ -6,6 +6,14 @@ canvas into its own frame buffer gives the same picture there and on a
 screen.  Either way OpenGL needs a display: on a server run under
 ``xvfb-run`` (Qt's offscreen platform makes its GL contexts through the X
 server's GLX).
+
+Without one, the canvas has no OpenGL context and every GL call fails
+(``glGetString`` returns NULL, framebuffer binds raise); raised inside a Qt
+paint callback such an error ends the process (PyQt aborts on exceptions in
+virtual methods, rc 134).  :func:`canvas_image` therefore checks the context
+from Python first and refuses with an :class:`~hexatissue.errors.InputError`
+saying what to do.  An X server without GLX aborts already in
+``napari.Viewer()`` (in vispy's Qt backend), before any helper can run.
 """
 from __future__ import annotations
 
@@ -30,11 +38,16 @@ def canvas_image(viewer, path=None) -> np.ndarray:
 
     from ..io import atomic_path
 
+    if getattr(viewer.window, "_qt_window", None) is None:
+        raise InputError("viewer is closed: take the canvas image before viewer.close()")
     canvas = getattr(getattr(viewer.window, "_qt_viewer", None), "canvas", None)
     scene = getattr(canvas, "_scene_canvas", None)
     if scene is None:
         raise InputError("viewer has no vispy scene canvas to render (this napari version keeps it elsewhere); "
                          "use viewer.screenshot(canvas_only=True) on a screen")
+    if not _has_gl_context(scene):
+        raise InputError("viewer has no OpenGL context to render with (no display): run under an X server with "
+                         "GLX, e.g. QT_QPA_PLATFORM=offscreen xvfb-run -a python ...")
     image = np.asarray(scene.render(), dtype=np.uint8)
     if path is not None:
         png = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))[1]
@@ -42,3 +55,14 @@ def canvas_image(viewer, path=None) -> np.ndarray:
             tmp.write_bytes(png.tobytes())
     return image
 
+
+
+def _has_gl_context(scene) -> bool:
+    """True when the vispy canvas can make its OpenGL context current and the driver answers (GL_VERSION)."""
+    from vispy.gloo import gl
+
+    try:
+        scene.set_current()
+        return bool(gl.glGetParameter(gl.GL_VERSION))
+    except (AttributeError, RuntimeError):  # vispy decodes a NULL string / finds no context
+        return False
