@@ -61,8 +61,10 @@ def write_ome_zarr_layer(path, data, meta) -> list[str]:
     """Write one Labels layer as an OME-Zarr label image ``path`` (``.zarr``), calibrated by the layer's scale and
     units; returns it."""
     from ..exchange.omezarr import write_ome_zarr_labels
+    from ..units import Calibration
     from .widget import layer_calibration
 
     stack = data[0] if meta.get("multiscale") else data
-    calibration = layer_calibration(meta["scale"], meta["units"]) if "units" in meta else None
+    cal = layer_calibration(meta["scale"], meta["units"]) if "units" in meta else None
+    calibration = None if cal is None else Calibration.from_dict(cal)
     return [str(write_ome_zarr_labels(stack, path, calibration=calibration))]
