@@ -277,7 +277,7 @@ def polygon_layer(movie) -> tuple:
     sides = rows["n_sides"].to_numpy()
     kwargs = {"name": "polygons", "shape_type": "polygon",
               "edge_color": POLYGON_EDGE_COLOR, "face_color": _sides_colors(sides, POLYGON_FACE_ALPHA),
-              "edge_width": 0.6, "features": rows, "ndim": 3 if movie_axis else 2,
+              "edge_width": 0.6, "opacity": 1.0, "features": rows, "ndim": 3 if movie_axis else 2,
               **_common(movie, colors="n_sides", sides_colors=SIDES_COLORS)}
     return data, kwargs, "shapes"
 
@@ -529,7 +529,7 @@ def legend_layer(movie, p=6) -> tuple:
     kwargs = {"name": "legend", "size": 0.8 * step, "symbol": entries["symbol"].to_numpy(),
               "face_color": _rgba(entries["color"]), "border_color": "#808080", "border_width": 0.05,
               "features": entries,
-              "text": {"string": "{label}", "anchor": "upper_left", "translation": [-0.45 * step, 0.7 * step],
+              "text": {"string": "{label}", "anchor": "upper_left", "translation": [0.4 * step, 0.7 * step],
                        "color": "white", "size": 10},
               **_common(movie, time=False)}
     return data, kwargs, "points"

@@ -10,9 +10,9 @@ server's GLX).
 Without one, the canvas has no OpenGL context and every GL call fails
 (``glGetString`` returns NULL, framebuffer binds raise); raised inside a Qt
 paint callback such an error ends the process (PyQt aborts on exceptions in
-virtual methods, rc 134).  :func:`canvas_image` therefore checks the context
-from Python first and refuses with an :class:`~hexatissue.errors.InputError`
-saying what to do.  An X server without GLX aborts already in
+virtual methods, rc 134).  :func:`canvas_image` renders from Python, never
+from a paint callback, and turns that failure into an
+:class:`~hexatissue.errors.InputError` saying what to do.  An X server without GLX aborts already in
 ``napari.Viewer()`` (in vispy's Qt backend), before any helper can run.
 """
 from __future__ import annotations
@@ -45,10 +45,11 @@ def canvas_image(viewer, path=None) -> np.ndarray:
     if scene is None:
         raise InputError("viewer has no vispy scene canvas to render (this napari version keeps it elsewhere); "
                          "use viewer.screenshot(canvas_only=True) on a screen")
-    if not _has_gl_context(scene):
-        raise InputError("viewer has no OpenGL context to render with (no display): run under an X server with "
-                         "GLX, e.g. QT_QPA_PLATFORM=offscreen xvfb-run -a python ...")
-    image = np.asarray(scene.render(), dtype=np.uint8)
+    try:
+        image = np.asarray(scene.render(), dtype=np.uint8)
+    except (AttributeError, RuntimeError) as exc:  # vispy: a NULL GL string, or a GL call with no context
+        raise InputError(f"viewer has no OpenGL context to render with (no display; {exc}): run under an X server "
+                         f"with GLX, e.g. QT_QPA_PLATFORM=offscreen xvfb-run -a python ...") from exc
     if path is not None:
         png = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))[1]
         with atomic_path(path) as tmp:
@@ -56,13 +57,3 @@ def canvas_image(viewer, path=None) -> np.ndarray:
     return image
 
 
-
-def _has_gl_context(scene) -> bool:
-    """True when the vispy canvas can make its OpenGL context current and the driver answers (GL_VERSION)."""
-    from vispy.gloo import gl
-
-    try:
-        scene.set_current()
-        return bool(gl.glGetParameter(gl.GL_VERSION))
-    except (AttributeError, RuntimeError):  # vispy decodes a NULL string / finds no context
-        return False
