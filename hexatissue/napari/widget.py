@@ -98,6 +98,9 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
     Returns
     -------
     list of (data, kwargs, layer_type)
+        :func:`~hexatissue.napari.layers.movie_layers` on the Movie's
+        calibration, each with the Movie in ``metadata["movie"]`` (for the
+        writers); the widget then puts them on its input layer's grid.
     """
     from ..pipeline import analyze
     from ..source import open_source
