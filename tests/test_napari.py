@@ -113,6 +113,15 @@ def test_the_manifest_validates_and_its_commands_import():
     assert {w.command for w in manifest.contributions.writers} == {"hexatissue.write_ome_zarr", "hexatissue.write_ctc",
                                                                     "hexatissue.write_geff"}
     assert [s.key for s in manifest.contributions.sample_data] == ["epicure"]
+    # and npe2's own command line, importing every python_name (this worktree's package first on the path)
+    import subprocess
+    import sys
+
+    root = Path(hexatissue.__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "-m", "npe2", "validate", "--imports",
+                          str(root / "hexatissue" / "napari" / "napari.yaml")], capture_output=True, text=True,
+                         env=os.environ | {"PYTHONPATH": str(root)}, timeout=300)
+    assert run.returncode == 0 and "valid!" in run.stdout, run.stdout + run.stderr
 
 
 def test_the_sample_is_the_calibrated_epicure_label_movie(viewer):
