@@ -55,6 +55,7 @@ def test_the_reader_opens_a_results_folder_as_the_layers(viewer, epicure):
         assert [str(u) for u in layer.units] == ["second", "micrometer", "micrometer"][-n:], layer.name
         assert tuple(layer.axis_labels) == ("t", "y", "x")[-n:], layer.name
     assert viewer.layers["legend"].ndim == 2
+    assert viewer.layers.extent.units is not None  # one set of units over every layer, the legend's too
     assert np.array_equal(np.asarray(_layer(viewer, "labels").data), tifffile.imread(SAMPLE).astype(np.int64))
 
 
@@ -306,6 +307,7 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
         assert tuple(layer.translate) == (0.0, 4.0, 6.0)[-n:], layer.name
         assert [str(u) for u in layer.units] == ["pixel", "micrometer", "micrometer"][-n:], layer.name
         assert tuple(layer.axis_labels) == ("t", "y", "x")[-n:], layer.name
+    assert viewer.layers.extent.units is not None  # napari's "Inconsistent units across layers" when None
     # the calibration came from the layer: the results are in um
     cal = viewer.layers["polygons"].metadata["calibration"]
     assert (cal["pixel_size"], cal["length_unit"], cal["time_unit"]) == (0.2, "um", "frame")
