@@ -317,6 +317,48 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
                        viewer.layers["epicure"].data_to_world([0, row, col])[1:])
 
 
+def test_the_widget_runs_in_a_shown_viewer_without_aborting(tmp_path):
+    """A shown viewer (as users have it): the progress bar must be made in the main thread; made in the worker
+    it aborted Python (rc 134). In a subprocess, since an abort would end pytest."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    if not os.environ.get("DISPLAY"):
+        pytest.skip("OpenGL needs an X server: run the napari tests under xvfb-run")
+    script = f"""
+import time, warnings, numpy as np, tifffile, napari
+from qtpy.QtWidgets import QApplication
+from hexatissue.napari.widget import AnalyzeWidget
+warnings.simplefilter("ignore")
+v = napari.Viewer(show=True)
+v.window.resize(1300, 900)
+v.add_labels(tifffile.imread({str(SAMPLE)!r})[:2].astype(np.int32), name="input", scale=(1, 0.2, 0.2),
+             units=("pixel", "um", "um"))
+w = AnalyzeWidget(v)
+v.window.add_dock_widget(w)
+w.reset_choices()
+w.layer.value = v.layers["input"]
+w.track_mode.value = "never"
+w.start()
+deadline = time.monotonic() + 300
+while not w.run.enabled and time.monotonic() < deadline:
+    QApplication.processEvents()
+    time.sleep(0.02)
+QApplication.processEvents()
+print(w.status.value)
+print(",".join(layer.name for layer in v.layers))
+"""
+    env = os.environ | {"QT_QPA_PLATFORM": "offscreen", "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    run = subprocess.run([sys.executable, "-c", script], env=env, cwd=tmp_path, capture_output=True, text=True,
+                         timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    status, names = run.stdout.strip().splitlines()[-2:]
+    names = names.split(",")
+    assert names[0] == "input" and {"polygons", "gamma6 stars", "Gamma6 defects", "legend"} <= set(names)
+    assert status == f"added {len(names) - 1} layers"
+
+
 def test_the_widget_reports_bad_input_in_its_status_line(viewer):
     from hexatissue.napari.widget import AnalyzeWidget
 

@@ -2,7 +2,12 @@
 
 The analysis runs in a napari thread worker (the viewer stays responsive),
 in one process (forking a process pool from a Qt application is not safe),
-with a per-frame progress bar in napari's activity dock.  The result layers
+with a per-frame progress bar in napari's activity dock.  That bar is a Qt
+widget, so it lives in the main thread: the worker's tqdm bar only relays
+its count through a queued Qt signal (:func:`_relay_bar`); a napari
+``progress`` made in the worker creates widgets from that thread, which
+aborts a shown viewer (rc 134, "Cannot make QOpenGLContext current in a
+different thread").  The result layers
 take the input layer's scale, translate and units (so they lie exactly over
 it), and its calibration when its units are physical.
 """
@@ -145,12 +150,12 @@ class AnalyzeWidget(Container):
         self.viewer = napari_viewer
         self.worker = None
         self._input = None  # the layer being analysed: its grid for the result layers
+        self._bar = self._relay = None  # the main thread's progress bar and the worker's relay to it
         self.run.changed.connect(self.start)
 
     def start(self, *_):
         """Start the analysis of the chosen layer in a thread worker; returns the worker (None if no layer)."""
         from napari.qt.threading import thread_worker
-        from napari.utils import progress
 
         layer = self.layer.value
         if layer is None:
@@ -165,11 +170,32 @@ class AnalyzeWidget(Container):
         data = layer.data[0] if layer.multiscale else layer.data  # read lazily, frame by frame, by open_source
         self.status.value = f"analysing {layer.name}..."
         self.run.enabled = False
-        self.worker = thread_worker(_checked_analysis)(data, progress=progress, **options)
+        relay = _relay_class()()  # made here, in the main thread: its signal's slot runs here
+        relay.step.connect(self._show_progress)
+        self.worker = thread_worker(_checked_analysis)(data, progress=_relay_bar(relay), **options)
         self.worker.returned.connect(self._finish)
-        self.worker.finished.connect(lambda: setattr(self.run, "enabled", True))
+        self.worker.finished.connect(self._done)
+        self._relay = relay  # kept alive while the worker runs
         self.worker.start()
         return self.worker
+
+    def _show_progress(self, n, total, desc):
+        """The worker's bar, drawn by napari in the main thread (one bar per stage: a new ``desc`` or total)."""
+        from napari.utils import progress
+
+        bar = self._bar
+        if bar is None or bar.desc != desc or bar.total != total:
+            if bar is not None:
+                bar.close()
+            bar = self._bar = progress(total=total or None, desc=desc)
+        bar.update(n - bar.n)
+
+    def _done(self):
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        self._relay = None
+        self.run.enabled = True
 
     def _finish(self, result):
         from napari.layers import Layer
@@ -192,3 +218,32 @@ def _checked_analysis(labels, **options):
         return run_analysis(labels, **options), None
     except InputError as exc:
         return None, str(exc)
+
+
+def _relay_class():
+    from qtpy.QtCore import QObject, Signal
+
+    class Relay(QObject):
+        """Carries a worker bar's (n, total, desc) to the main thread (queued: the object lives there)."""
+        step = Signal(int, int, str)
+
+    return Relay
+
+
+def _relay_bar(relay):
+    """A tqdm class for :func:`hexatissue.analyze` in a worker thread: it draws nothing itself and emits each
+    refresh as ``relay.step(n, total, desc)``."""
+    import io
+
+    from tqdm import tqdm
+
+    class RelayBar(tqdm):
+        def __init__(self, *args, **kwargs):
+            kwargs.update(file=io.StringIO(), mininterval=0, disable=False)
+            super().__init__(*args, **kwargs)
+
+        def display(self, msg=None, pos=None):
+            relay.step.emit(int(self.n), int(self.total or 0), str(self.desc))
+            return True
+
+    return RelayBar
