@@ -27,10 +27,12 @@ def main(frame=0, out=ROOT / "docs" / "figures" / "napari_epicure.png"):
         viewer = napari.Viewer(show=True)  # laid out (on Qt's offscreen platform nothing is displayed)
         viewer.window.resize(1300, 900)
         viewer.open(folder, plugin="hexatissue")
-        viewer.layers["labels"].visible = False  # the polygons' n_sides colours read better alone
         viewer.dims.set_point(0, frame * 300.0)
         QApplication.processEvents()
         viewer.reset_view()
+        # room for the legend's labels, which reset_view does not count (it fits the layers' points)
+        viewer.camera.zoom *= 0.85
+        viewer.camera.center = (viewer.camera.center[0], viewer.camera.center[1], viewer.camera.center[2] + 8.0)
         viewer.scale_bar.visible = True
         canvas_image(viewer, out)
         viewer.close()

@@ -39,11 +39,15 @@ def layers(epicure):
 def test_every_layer_of_the_epicure_results_has_the_table_counts_and_the_scale(layers):
     movie, by_name = layers
     assert list(by_name) == ["labels", "polygons", "vertices", "gamma6 stars", "Gamma2 defects", "Gamma6 defects",
-                             "T1 events", "tracks", "flow"]
+                             "T1 events", "tracks", "flow", "legend"]
     for data, kw, kind in by_name.values():
+        if kw["name"] == "legend":  # 2-D: drawn in every frame
+            assert kw["scale"] == (0.2, 0.2) and kw["units"] == ("um", "um") and kw["axis_labels"] == ("y", "x")
+            continue
         assert kw["scale"] == (300.0, 0.2, 0.2), kw["name"]
         assert kw["metadata"]["units"] == {"t": "s", "y": "um", "x": "um"}, kw["name"]
         assert kw["units"] == ("s", "um", "um"), kw["name"]  # napari's (pint) names
+        assert kw["axis_labels"] == ("t", "y", "x"), kw["name"]
     cells = movie.cells
     polygons = by_name["polygons"][0]
     assert len(polygons) == int((cells["n_sides"] >= 3).sum()) == 894  # 8 cells have no polygon (n_sides 0)
@@ -92,9 +96,10 @@ def test_polygons_are_the_cell_vertices_in_row_col_order_coloured_by_sides(layer
     assert np.allclose(polygons[i], np.column_stack([np.full(len(v), 5.0), v["y"], v["x"]]))
     hexagon = np.flatnonzero(features["n_sides"].to_numpy() == 6)[0]
     pentagon = np.flatnonzero(features["n_sides"].to_numpy() == 5)[0]
-    assert np.allclose(kw["edge_color"][hexagon], L._rgba([L.SIDES_COLORS[6]])[0])
-    assert np.allclose(kw["edge_color"][pentagon], L._rgba([L.SIDES_COLORS[5]])[0])
-    assert np.allclose(kw["face_color"][:, 3], L.POLYGON_FACE_ALPHA)
+    assert np.allclose(kw["face_color"][hexagon], L._rgba([L.SIDES_COLORS[6]])[0])
+    assert np.allclose(kw["face_color"][pentagon], L._rgba([L.SIDES_COLORS[5]])[0])
+    # opaque faces: the labels layer's random colours cannot show through and change the side colours
+    assert np.allclose(kw["face_color"][:, 3], 1.0) and kw["edge_color"] == L.POLYGON_EDGE_COLOR
 
 
 def test_stars_have_p_legs_along_arg_gamma_over_p_scaled_by_its_modulus(layers):
@@ -206,6 +211,7 @@ def test_a_single_image_gives_2d_layers_without_tracks(scripted):
     assert layers["gamma6 stars"][0].shape[1:] == (2, 2)
     assert layers["polygons"][1]["metadata"]["units"] == {"y": "px", "x": "px"}
     assert layers["polygons"][1]["units"] == ("pixel", "pixel")
+    assert layers["polygons"][1]["axis_labels"] == ("y", "x")
 
 
 def test_deformation_bars_sit_on_their_grid_node_along_the_stretching_axis():
@@ -253,3 +259,35 @@ def test_tension_layer_draws_each_junction_with_its_tension():
     np.testing.assert_allclose(np.hypot(*data[:, 1].T), edges.set_index("edge").loc[kw["features"]["edge"],
                                                                                      "length"], rtol=1e-9)
     assert kw["edge_color"] == "tension" and any(layer[1]["name"] == "tension" for layer in L.movie_layers(movie))
+
+
+def test_the_legend_lists_every_side_colour_and_defect_symbol_beside_the_image(layers):
+    movie, by_name = layers
+    data, kw, kind = by_name["legend"]
+    entries = kw["features"]
+    assert kind == "points" and len(data) == len(entries) == 13
+    sides = entries.iloc[:7]
+    assert list(sides["label"]) == ["≤3 sides", "4 sides", "5 sides", "6 sides", "7 sides", "8 sides", "≥9 sides"]
+    assert list(sides["color"]) == list(L.SIDES_COLORS.values())
+    plus, minus = entries.iloc[7], entries.iloc[8]
+    assert (plus["symbol"], plus["color"]) == ("disc", PLUS_COLOR) and "charge > 0" in plus["label"]
+    assert (minus["symbol"], minus["color"]) == ("triangle_up", MINUS_COLOR) and "charge < 0" in minus["label"]
+    assert np.allclose(kw["face_color"], L._rgba(entries["color"]))
+    assert list(kw["symbol"]) == list(entries["symbol"]) and kw["text"]["string"] == "{label}"
+    assert (data[:, 1] > movie.shape[1]).all()  # right of the image (x > cols), not over the cells
+    assert np.all(np.diff(data[:, 0]) > 0)
+
+
+def test_aligned_layers_take_the_reference_grid_on_their_last_axes(layers):
+    _, by_name = layers
+    moved = L.aligned([by_name["polygons"], by_name["legend"]], (2.0, 0.5, 0.25), (10.0, 3.0, 4.0),
+                      ("minute", "nm", "nm"), ("T", "Y", "X"))
+    (_, poly, _), (_, legend, _) = moved
+    assert poly["scale"] == (2.0, 0.5, 0.25) and poly["translate"] == (10.0, 3.0, 4.0)
+    assert poly["units"] == ("minute", "nm", "nm") and poly["axis_labels"] == ("T", "Y", "X")
+    assert legend["scale"] == (0.5, 0.25) and legend["translate"] == (3.0, 4.0) and legend["units"] == ("nm", "nm")
+    assert by_name["polygons"][1]["scale"] == (300.0, 0.2, 0.2)  # the input tuples are left as they were
+    with pytest.raises(InputError, match="translate must have one value per axis"):
+        L.aligned([by_name["polygons"]], (1.0, 1.0, 1.0), (0.0, 0.0))
+    with pytest.raises(InputError, match="fewer axes"):
+        L.aligned([by_name["polygons"]], (1.0, 1.0))

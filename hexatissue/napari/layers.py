@@ -10,7 +10,9 @@ tables' ``x`` is the column and ``y`` the row, in px.  Every layer carries
 the viewer's axes (and its scale bar) are in the calibrated units, which
 are also the layers' ``units`` (napari's pint names: ``"pixel"`` for px,
 frames and simulation iterations) and in ``kwargs["metadata"]["units"]``
-(hexatissue's names).
+(hexatissue's names); the axes are labelled ``("t", "y", "x")`` (``("y", "x")``).
+:func:`aligned` puts the layers on another layer's scale, translate, units and
+axis labels instead (the analyze widget: results over their input layer).
 
 Periodic boxes (MPF runs): every polygon is drawn once, contiguous (as
 :func:`hexatissue.geometry.table_polygons` unwraps it), at the periodic image
@@ -32,15 +34,20 @@ from ..geometry import table_polygons
 from ..plot import MINUS_COLOR, PLUS_COLOR, _star_segments, _typical_spacing
 
 __all__ = ["movie_layers", "labels_layer", "polygon_layer", "vertex_layer", "star_layer", "defect_layers",
-           "event_layer", "track_layer", "open_labels", "layer_scale", "SIDES_COLORS", "EVENT_COLORS"]
+           "event_layer", "track_layer", "legend_layer", "open_labels", "layer_scale", "aligned", "with_movie", "SIDES_COLORS",
+           "EVENT_COLORS"]
 
 #: Polygon colour by number of sides (Okabe-Ito colours, kept apart from the red / blue of the defects);
 #: 3 or fewer sides use the ``3`` colour, 9 or more the ``9`` colour.
 SIDES_COLORS = {3: "#56b4e9", 4: "#f0e442", 5: "#009e73", 6: "#d9d9d9", 7: "#e69f00", 8: "#cc79a7", 9: "#000000"}
 #: T1 event colour by kind.
 EVENT_COLORS = {"cycle": "#ffffff", "intercalation": "#ffd700", "unresolved": "#888888"}
-VERTEX_COLORS = {3: "#303030", 4: "#ff7f0e"}  # degree 2 (image corners) as 3, degree >= 4 as 4
-POLYGON_FACE_ALPHA = 0.45
+VERTEX_COLORS = {3: "#303030", 4: "#ff7f0e"}
+MOVIE_KEY = "movie"  # the layer metadata key of the Movie a layer shows (for the writers)  # degree 2 (image corners) as 3, degree >= 4 as 4
+# opaque faces: the labels layer's random colours must not mix with the n_sides colours (the junctions are the
+# polygons' dark edges; hide the polygons to see the labels)
+POLYGON_FACE_ALPHA = 1.0
+POLYGON_EDGE_COLOR = "#303030"
 DEFECT_SIZE = 0.8  # defect marker diameter, in typical cell spacings
 STAR_COLOR = "#ff3cd2"  # bright magenta: visible on every polygon colour and on black
 STAR_SCALE = 0.45  # star leg for |gamma_p| = 1, in typical cell spacings (as hexatissue.plot.plot_stars)
@@ -75,10 +82,58 @@ def _napari_units(movie, time=None) -> tuple:
     return ((t,) if time else ()) + (length, length)
 
 
+def _axis_labels(movie, time=None) -> tuple:
+    time = _is_movie(movie) if time is None else time
+    return ("t", "y", "x") if time else ("y", "x")
+
+
 def _common(movie, time=None, **extra) -> dict:
-    """``scale``, ``units`` and ``metadata`` of a layer (``time``: with a frame axis; default: movies)."""
+    """``scale``, ``units``, ``axis_labels`` and ``metadata`` of a layer (``time``: with a frame axis; default:
+    movies)."""
     return {"scale": layer_scale(movie, time), "units": _napari_units(movie, time),
-            "metadata": _metadata(movie, time, **extra)}
+            "axis_labels": _axis_labels(movie, time), "metadata": _metadata(movie, time, **extra)}
+
+
+def aligned(layers, scale, translate=None, units=None, axis_labels=None) -> list:
+    """The layer data tuples placed on another layer's grid: its ``scale``, ``translate``, ``units`` and
+    ``axis_labels`` (each given for that layer's axes, e.g. ``(t, y, x)``), taken for each layer's last axes.
+
+    A result layer of the analyze widget must lie exactly over its input
+    layer whatever that layer's calibration: the tables are in px and
+    frames, so the input's scale maps them to the same world coordinates.
+    A layer with fewer axes (the 2-D legend over a movie) takes the last
+    ones.
+
+    Parameters
+    ----------
+    layers : list of (data, kwargs, layer_type)
+        From :func:`movie_layers`; not modified.
+    scale, translate : sequence of float
+        World units per data unit and world offset of the reference layer's axes (translate default: 0).
+    units, axis_labels : sequence of str, optional
+        The reference layer's (default: those of each layer).
+
+    Returns
+    -------
+    list of (data, kwargs, layer_type)
+        New kwargs; data shared.
+    """
+    scale = tuple(float(s) for s in scale)
+    translate = (0.0,) * len(scale) if translate is None else tuple(float(t) for t in translate)
+    if len(translate) != len(scale):
+        raise InputError(f"translate must have one value per axis of scale {scale}; got {translate}")
+    out = []
+    for data, kwargs, kind in layers:
+        n = len(kwargs["scale"])
+        if n > len(scale):
+            raise InputError(f"scale {scale} has fewer axes than the {kwargs['name']!r} layer ({n})")
+        new = dict(kwargs, scale=scale[-n:], translate=translate[-n:])
+        if units is not None:
+            new["units"] = tuple(str(u) for u in units)[-n:]
+        if axis_labels is not None:
+            new["axis_labels"] = tuple(str(a) for a in axis_labels)[-n:]
+        out.append((data, new, kind))
+    return out
 
 
 def _metadata(movie, time=None, **extra) -> dict:
@@ -209,7 +264,7 @@ def _cell_polygons(movie):
 
 
 def polygon_layer(movie) -> tuple:
-    """Shapes layer of every cell polygon, edges and (faint) faces coloured by ``n_sides``.
+    """Shapes layer of every cell polygon, faces coloured by ``n_sides`` (opaque), dark grey edges.
 
     Cells without a polygon (``n_sides`` 0) are left out, so there is one
     shape per cells row with ``n_sides >= 3``; ``features`` are those rows
@@ -221,8 +276,8 @@ def polygon_layer(movie) -> tuple:
             for f, poly in zip(rows["frame"].to_numpy(), polys)]
     sides = rows["n_sides"].to_numpy()
     kwargs = {"name": "polygons", "shape_type": "polygon",
-              "edge_color": _sides_colors(sides, 1.0), "face_color": _sides_colors(sides, POLYGON_FACE_ALPHA),
-              "edge_width": 0.8, "features": rows, "ndim": 3 if movie_axis else 2,
+              "edge_color": POLYGON_EDGE_COLOR, "face_color": _sides_colors(sides, POLYGON_FACE_ALPHA),
+              "edge_width": 0.6, "opacity": 1.0, "features": rows, "ndim": 3 if movie_axis else 2,
               **_common(movie, colors="n_sides", sides_colors=SIDES_COLORS)}
     return data, kwargs, "shapes"
 
@@ -439,13 +494,55 @@ def tension_layer(movie) -> tuple | None:
     return np.stack([start, step], axis=1), kwargs, "vectors"
 
 
+def with_movie(layers, movie) -> list:
+    """The layer tuples with ``metadata["movie"]`` = the Movie, so that this plugin's writers
+    (:mod:`hexatissue.napari.writers`) can export the results a layer shows."""
+    return [(data, dict(kwargs, metadata={**kwargs.get("metadata", {}), MOVIE_KEY: movie}), kind)
+            for data, kwargs, kind in layers]
+
+
+# ---------------------------------------------------------------------------------------------------------
+# legend
+# ---------------------------------------------------------------------------------------------------------
+def legend_entries(p=6, events=True) -> pd.DataFrame:
+    """The legend's rows: ``label``, ``symbol`` and ``color`` (hex) of the polygon side classes, the
+    Gamma_p defects, the gamma_p stars and (``events``) the T1 kinds, as the layers draw them."""
+    rows = [(("≤3" if k == 3 else "≥9" if k == 9 else str(k)) + " sides", "square", c)
+            for k, c in SIDES_COLORS.items()]
+    rows += [(f"Γ{p} defect, charge > 0", "disc", PLUS_COLOR), (f"Γ{p} defect, charge < 0", "triangle_up", MINUS_COLOR),
+             (f"γ{p} star", "cross", STAR_COLOR)]
+    if events:
+        rows += [(f"T1 {kind}", "star", c) for kind, c in EVENT_COLORS.items()]
+    return pd.DataFrame(rows, columns=["label", "symbol", "color"])
+
+
+def legend_layer(movie, p=6) -> tuple:
+    """Points layer of the legend: one symbol per entry of :func:`legend_entries` with its label, in a column
+    to the right of the image (2-D, so shown in every frame), a cell spacing apart.
+
+    ``features``: the entries (``label``, ``symbol``, ``color``)."""
+    entries = legend_entries(p, events=movie.events is not None)
+    step = _spacing(movie)
+    rows, cols = (float(s) for s in movie.shape)
+    y = step * (0.6 + 1.2 * np.arange(len(entries)))
+    data = np.column_stack([y, np.full(len(entries), cols + 1.5 * step)])
+    kwargs = {"name": "legend", "size": 0.8 * step, "symbol": entries["symbol"].to_numpy(),
+              "face_color": _rgba(entries["color"]), "border_color": "#808080", "border_width": 0.05,
+              "features": entries,
+              "text": {"string": "{label}", "anchor": "upper_left", "translation": [0.4 * step, 0.7 * step],
+                       "color": "white", "size": 10},
+              **_common(movie, time=False)}
+    return data, kwargs, "points"
+
+
 # ---------------------------------------------------------------------------------------------------------
 # everything
 # ---------------------------------------------------------------------------------------------------------
 def movie_layers(movie, labels=None, p=6) -> list:
     """Every layer of a Movie, bottom to top: labels (when given), polygons, vertices, gamma_p stars,
     Gamma_p defects (one layer per p), T1 events, tracks, the tissue flow, the deformation budget's
-    shear rates and the inferred junction tensions (when the results have them); vertices, tracks,
+    shear rates and the inferred junction tensions (when the results have them), then the legend;
+    vertices, tracks,
     the T1s' shear, the tensions and the defects of other orders than ``p`` start hidden.
 
     Parameters
@@ -472,4 +569,4 @@ def movie_layers(movie, labels=None, p=6) -> list:
     layers += deformation_layers(movie)
     tensions = tension_layer(movie)
     layers += [tensions] if tensions is not None else []
-    return layers
+    return layers + [legend_layer(movie, p)]

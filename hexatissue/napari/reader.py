@@ -1,5 +1,11 @@
 """npe2 reader: a results folder, a label image or stack, an MPF run or cell polygons, opened as napari layers.
 
+The manifest claims only what this reader reads better than napari's own:
+folders (napari asks which reader when it is not told; a results folder's
+``metadata.json`` opens it with no question), ``metadata.json``, files named
+``*labels*.tif(f)``, Tissue Analyzer ``.db`` and hexanematic ``.mat`` files.
+A raw TIFF is therefore napari's alone and opens with no reader choice.
+
 A results folder (with ``metadata.json``) is read with
 :func:`hexatissue.read_results`; anything else that
 :func:`hexatissue.open_source` opens as label images or cell polygons is analysed first with
@@ -13,7 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import InputError
-from .layers import lazy_stack, movie_layers, open_labels
+from .layers import lazy_stack, movie_layers, open_labels, with_movie
 
 __all__ = ["get_reader", "read_folder", "read_labels_source"]
 
@@ -26,13 +32,14 @@ def get_reader(path):
     Returns None (napari then tries other readers) for lists of paths,
     folders without ``metadata.json`` that are not label images, and files
     whose first frame is not a label image (e.g. raw intensity images).
+    A results folder's ``metadata.json`` stands for its folder.
     """
     if isinstance(path, (list, tuple)):
         if len(path) != 1:
             return None
         path = path[0]
     path = Path(path)
-    if path.is_dir() and (path / METADATA).exists():
+    if (path.is_dir() and (path / METADATA).exists()) or (path.name == METADATA and path.is_file()):
         return read_folder
     try:
         _open_labels(path)
@@ -52,7 +59,8 @@ def _open_labels(path):
 
 
 def _one(path) -> Path:
-    return Path(path[0] if isinstance(path, (list, tuple)) else path)
+    path = Path(path[0] if isinstance(path, (list, tuple)) else path)
+    return path.parent if path.name == METADATA and path.is_file() else path
 
 
 def read_folder(path) -> list:
@@ -62,7 +70,7 @@ def read_folder(path) -> list:
 
     folder = _one(path)
     movie = read_results(folder)
-    return movie_layers(movie, labels=open_labels(movie, folder))
+    return with_movie(movie_layers(movie, labels=open_labels(movie, folder)), movie)
 
 
 def read_labels_source(path) -> list:
@@ -72,4 +80,5 @@ def read_labels_source(path) -> list:
 
     source = _open_labels(_one(path))
     movie = analyze(source, workers=1)
-    return movie_layers(movie, labels=lazy_stack(source) if source.kind == "labels" else None)
+    return with_movie(movie_layers(movie, labels=lazy_stack(source) if source.kind == "labels" else None), movie)
+

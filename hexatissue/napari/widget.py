@@ -2,7 +2,14 @@
 
 The analysis runs in a napari thread worker (the viewer stays responsive),
 in one process (forking a process pool from a Qt application is not safe),
-with a per-frame progress bar in napari's activity dock.
+with a per-frame progress bar in napari's activity dock.  That bar is a Qt
+widget, so it lives in the main thread: the worker's tqdm bar only relays
+its count through a queued Qt signal (:func:`_relay_bar`); a napari
+``progress`` made in the worker creates widgets from that thread, which
+aborts a shown viewer (rc 134, "Cannot make QOpenGLContext current in a
+different thread").  The result layers
+take the input layer's scale, translate and units (so they lie exactly over
+it), and its calibration when its units are physical.
 """
 from __future__ import annotations
 
@@ -13,9 +20,33 @@ from magicgui.widgets import (CheckBox, ComboBox, Container, FloatSpinBox, Label
 
 from ..errors import InputError
 from ..options import DeformationOptions, MeshOptions, OrderOptions, TrackOptions
-from .layers import movie_layers
+from .layers import aligned, movie_layers, with_movie
 
-__all__ = ["AnalyzeWidget", "run_analysis", "option_widget"]
+__all__ = ["AnalyzeWidget", "run_analysis", "option_widget", "layer_calibration"]
+
+
+def layer_calibration(scale, units) -> dict | None:
+    """The :meth:`hexatissue.Calibration.to_dict` of a napari layer's ``scale`` and ``units`` (last axis: the
+    pixel side; first of three: the frame interval), or None when neither axis has a physical unit.
+
+    An axis whose unit is napari's ``"pixel"`` (its default: no physical
+    unit) stays uncalibrated (px, frames), whatever its scale.
+    """
+    from ..units import Calibration
+
+    units = [str(u) for u in units]
+    cal = {}
+    if units[-1] != "pixel":
+        cal |= {"pixel_size": float(scale[-1]), "length_unit": units[-1]}
+    if len(units) >= 3 and units[0] != "pixel":
+        cal |= {"frame_interval": float(scale[0]), "time_unit": units[0]}
+    return Calibration(**cal).to_dict() if cal else None
+
+
+def _is_default_axis_labels(labels) -> bool:
+    """napari's default labels are the negative axis indices ('-3', '-2', '-1')."""
+    n = len(labels)
+    return tuple(str(a) for a in labels) == tuple(str(i - n) for i in range(n))
 
 
 def option_widget(options_class, field_name, *, name=None, label=None, **limits):
@@ -72,6 +103,9 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
     Returns
     -------
     list of (data, kwargs, layer_type)
+        :func:`~hexatissue.napari.layers.movie_layers` on the Movie's
+        calibration, each with the Movie in ``metadata["movie"]`` (for the
+        writers); the widget then puts them on its input layer's grid.
     """
     from ..pipeline import analyze
     from ..source import open_source
@@ -87,12 +121,13 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
     movie = analyze(source, mesh=MeshOptions(merge_distance=merge_distance),
                     order=OrderOptions(p=(int(p),), radius=radius), track=TrackOptions(mode=track_mode),
                     deformation=DeformationOptions(enabled=bool(deformation)), workers=1, progress=progress)
-    return movie_layers(movie, p=int(p))
+    return with_movie(movie_layers(movie, p=int(p)), movie)
 
 
 class AnalyzeWidget(Container):
     """Labels layer, p, radius (0 = default), track mode, merge distance, pixel size (0 = keep), deformation budget
-    and Analyze."""
+    and Analyze.  The result layers are drawn on the input layer's grid (scale, translate, units; see
+    :func:`hexatissue.napari.layers.aligned`)."""
 
     def __init__(self, napari_viewer):
         import napari
@@ -114,29 +149,53 @@ class AnalyzeWidget(Container):
             Label(value="", name="status")])
         self.viewer = napari_viewer
         self.worker = None
+        self._input = None  # the layer being analysed: its grid for the result layers
+        self._bar = self._relay = None  # the main thread's progress bar and the worker's relay to it
         self.run.changed.connect(self.start)
 
     def start(self, *_):
         """Start the analysis of the chosen layer in a thread worker; returns the worker (None if no layer)."""
         from napari.qt.threading import thread_worker
-        from napari.utils import progress
 
         layer = self.layer.value
         if layer is None:
             self.status.value = "choose a Labels layer"
             return None
+        calibration = layer.metadata.get("calibration") or layer_calibration(layer.scale, layer.units)
         options = {"p": self.p.value, "radius": self.radius.value or None, "track_mode": self.track_mode.value,
                    "merge_distance": self.merge_distance.value, "pixel_size": self.pixel_size.value or None,
-                   "length_unit": self.length_unit.value, "calibration": layer.metadata.get("calibration"),
+                   "length_unit": self.length_unit.value, "calibration": calibration,
                    "deformation": self.deformation.value}
+        self._input = layer
         data = layer.data[0] if layer.multiscale else layer.data  # read lazily, frame by frame, by open_source
         self.status.value = f"analysing {layer.name}..."
         self.run.enabled = False
-        self.worker = thread_worker(_checked_analysis)(data, progress=progress, **options)
+        relay = _relay_class()()  # made here, in the main thread: its signal's slot runs here
+        relay.step.connect(self._show_progress)
+        self.worker = thread_worker(_checked_analysis)(data, progress=_relay_bar(relay), **options)
         self.worker.returned.connect(self._finish)
-        self.worker.finished.connect(lambda: setattr(self.run, "enabled", True))
+        self.worker.finished.connect(self._done)
+        self._relay = relay  # kept alive while the worker runs
         self.worker.start()
         return self.worker
+
+    def _show_progress(self, n, total, desc):
+        """The worker's bar, drawn by napari in the main thread (one bar per stage: a new ``desc`` or total)."""
+        from napari.utils import progress
+
+        bar = self._bar
+        if bar is None or bar.desc != desc or bar.total != total:
+            if bar is not None:
+                bar.close()
+            bar = self._bar = progress(total=total or None, desc=desc)
+        bar.update(n - bar.n)
+
+    def _done(self):
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        self._relay = None
+        self.run.enabled = True
 
     def _finish(self, result):
         from napari.layers import Layer
@@ -145,7 +204,9 @@ class AnalyzeWidget(Container):
         if error is not None:
             self.status.value = f"error: {error}"
             return
-        for data, kwargs, kind in layers:
+        src = self._input
+        labels = None if _is_default_axis_labels(src.axis_labels) else src.axis_labels
+        for data, kwargs, kind in aligned(layers, src.scale, src.translate, src.units, labels):
             self.viewer.add_layer(Layer.create(data, kwargs, kind))
         self.status.value = f"added {len(layers)} layers"
 
@@ -157,3 +218,32 @@ def _checked_analysis(labels, **options):
         return run_analysis(labels, **options), None
     except InputError as exc:
         return None, str(exc)
+
+
+def _relay_class():
+    from qtpy.QtCore import QObject, Signal
+
+    class Relay(QObject):
+        """Carries a worker bar's (n, total, desc) to the main thread (queued: the object lives there)."""
+        step = Signal(int, int, str)
+
+    return Relay
+
+
+def _relay_bar(relay):
+    """A tqdm class for :func:`hexatissue.analyze` in a worker thread: it draws nothing itself and emits each
+    refresh as ``relay.step(n, total, desc)``."""
+    import io
+
+    from tqdm import tqdm
+
+    class RelayBar(tqdm):
+        def __init__(self, *args, **kwargs):
+            kwargs.update(file=io.StringIO(), mininterval=0, disable=False)
+            super().__init__(*args, **kwargs)
+
+        def display(self, msg=None, pos=None):
+            relay.step.emit(int(self.n), int(self.total or 0), str(self.desc))
+            return True
+
+    return RelayBar
