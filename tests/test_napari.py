@@ -155,8 +155,8 @@ def test_the_writers_save_ome_zarr_ctc_and_geff_from_the_layers(viewer, epicure,
     out = tmp_path / "labels.zarr"
     viewer.layers.save(str(out), selected=True, plugin="hexatissue")
     root = zarr.open_group(str(out), mode="r")
-    assert np.array_equal(np.asarray(root["0"]), stack)
-    datasets = root.attrs.asdict()
+    assert np.array_equal(np.asarray(root["labels/cells/0"]), stack)  # the image at the root, the labels beside it
+    datasets = root["labels/cells"].attrs.asdict()
     assert "300" in str(datasets) and "0.2" in str(datasets)  # the layer's scale in the multiscales metadata
 
     viewer.layers.selection.add(polygons)

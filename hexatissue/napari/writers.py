@@ -11,7 +11,8 @@ widget, :func:`hexatissue.napari.layers.with_movie`):
 - **CTC** (a Labels layer + the plugin's ``polygons``): the labels with track
   ids (:func:`hexatissue.exchange.labels.track_masks`) and the lineage,
   :func:`hexatissue.exchange.ctc.write_ctc`;
-- **OME-Zarr** (one Labels layer, ``.zarr``): the labels as they are,
+- **OME-Zarr** (one Labels layer, ``.zarr``): the labels as they are in
+  ``labels/cells``, their cell outlines as the image at the root,
   :func:`hexatissue.exchange.omezarr.write_ome_zarr_labels`, calibrated from
   the layer's scale and units (:func:`hexatissue.napari.widget.layer_calibration`).
 """
