@@ -5,7 +5,8 @@ For each run (an MPF store, or a results folder already analysed): ``hexatissue.
 R_cell and 4 R_cell.  Error bars: bootstrap over events (resampled with replacement, 200 times): the standard
 deviation of each harmonic's amplitude.  Noise floor: the same harmonics with every event's axes turned by a
 random angle (the events' alignment destroyed, 200 times): a harmonic is resolved where its amplitude exceeds
-the 95th percentile of that floor.  The theory is ``hexatissue.theory.quadrupole_flow`` sampled at 2-4 ell.
+the 95th percentile of that floor.  The theory is the quadrupole's Stokes flow, ``hexatissue.theory.quadrupole_flow_exact``,
+sampled at 2-4 ell.  ``--replot`` redraws ``t1_harmonics.png`` from the saved ``t1_harmonics.csv`` (no run needed).
 Writes ``<out>/<name>_t1_flow.png`` (maps), ``<out>/t1_harmonics.png`` and ``<out>/t1_harmonics.csv``.
 
     NUMBA_NUM_THREADS=1 python scripts/flow_t1_average.py hexatissue/sample_data/mpf_small/run.zarr RUN2.zarr --out docs/figures
@@ -20,7 +21,7 @@ import hexatissue
 from hexatissue.analysis.plots import plot_event_flow
 from hexatissue.flow import angular_harmonics, t1_flow
 from hexatissue.results import read_results
-from hexatissue.theory import quadrupole_flow
+from hexatissue.theory import quadrupole_flow_exact
 
 N_MAX = 8
 
@@ -65,7 +66,7 @@ def resampled(samples, rng):
 def theory_shares():
     r, phi = np.meshgrid(np.linspace(2.0, 4.0, 9), np.linspace(-np.pi, np.pi, 97)[:-1])
     x, y = (r * np.cos(phi)).ravel(), (r * np.sin(phi)).ravel()
-    vx, vy = quadrupole_flow(x, y, 1.0, 1.0)
+    vx, vy = quadrupole_flow_exact(x, y, 1.0, 1.0)
     h = angular_harmonics(pd.DataFrame({"kind": "theory", "offset": 0, "x": x, "y": y, "vx": vx, "vy": vy}),
                           max_harmonic=N_MAX)
     amp = h["radial_amplitude"].to_numpy()
@@ -74,13 +75,19 @@ def theory_shares():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("runs", nargs="+")
+    ap.add_argument("runs", nargs="*")
+    ap.add_argument("--replot", action="store_true", help="redraw t1_harmonics.png from <out>/t1_harmonics.csv")
     ap.add_argument("--out", default="docs/figures")
     ap.add_argument("--cache", default="/tmp/flow_t1_average")
     ap.add_argument("--offsets", type=int, nargs="+", default=[-4, 0, 4])
     ap.add_argument("--repeats", type=int, default=200)
     args = ap.parse_args()
     out = Path(args.out)
+    if args.replot:
+        plot(pd.read_csv(out / "t1_harmonics.csv"), theory_shares()[0], out / "t1_harmonics.png")
+        return
+    if not args.runs:
+        ap.error("give the runs to analyse, or --replot")
     rng = np.random.default_rng(0)
     rows = []
     for path in args.runs:
@@ -126,7 +133,7 @@ def plot(table, share, path):
     for ax, run in zip(axes, runs):
         for k, (kind, colour) in enumerate((("cycle", "C0"), ("intercalation", "C1"))):
             g = at0[(at0["run"] == run) & (at0["kind"] == kind)].sort_values("n")
-            if not len(g):
+            if not len(g) or g["events"].iloc[0] < 5:  # too few events to resolve any harmonic
                 continue
             n = g["n"].to_numpy() + (k - 0.5) * 0.25
             ax.errorbar(n, g["amplitude"], g["sd"], fmt="o", color=colour, ms=4,
@@ -135,12 +142,13 @@ def plot(table, share, path):
             if kind == "intercalation":
                 top = g.loc[g["n"] > 0, "amplitude"].sum()
                 ax.bar(np.arange(N_MAX + 1) + 0.35, share * top, width=0.2, color="0.6",
-                       label="quadrupole_flow, same sum n>=1")
+                       label="quadrupole Stokes flow, same sum n>=1")
         ax.set_xticks(range(N_MAX + 1))
         ax.set_xlabel("angular harmonic n of v_r")
         ax.set_ylabel("amplitude (px/frame)")
         ax.set_title(f"{run}, offset 0 (bars: s.d. over events; -: 95 % noise floor)", fontsize=8)
-        ax.legend(fontsize=7)
+        ax.set_ylim(top=1.4 * ax.get_ylim()[1])  # room for the legend above the points
+        ax.legend(fontsize=7, loc="upper left")
     fig.savefig(path, dpi=110)
 
 

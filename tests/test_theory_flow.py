@@ -67,3 +67,19 @@ def test_posed_problem_flow_is_wrong_by_the_monopole(reference):
         assert harmonic[-5] == pytest.approx(c, rel=0.03) and posed_h[-5] > 2.2 * harmonic[-5]
         assert harmonic[5] == pytest.approx(12, rel=0.02) and abs(posed_h[5]) < 1e-9
         assert np.abs(posed - ref).max() > 0.5 * np.abs(ref).max()
+
+
+def test_quadrupole_flow_exact_is_the_reference_at_any_point(reference):
+    """At the reference's nodes it returns the node values (to the interpolating spline's 1e-4); between them it matches the finer grid; it scales
+    with ell as the flow does (alpha ell^-3 at fixed r/ell); points beyond 16 ell are refused."""
+    x, vx, vy = reference[(512, 8)]
+    j, i = np.array([256, 300, 270]), np.array([280, 256, 301])
+    ux, uy = th.quadrupole_flow_exact(x[i], x[j], 1.0, 1.0)
+    assert np.allclose(ux + 1j * uy, vx[j, i] + 1j * vy[j, i], rtol=1e-4, atol=0)
+    phi, fine = _ring(*reference[(1024, 16)], 3.0)
+    ux, uy = th.quadrupole_flow_exact(3 * np.cos(phi), 3 * np.sin(phi), 1.0, 1.0)
+    assert np.abs(ux + 1j * uy - fine).max() < 2e-3 * np.abs(fine).max()
+    wx, wy = th.quadrupole_flow_exact(6 * np.cos(phi), 6 * np.sin(phi), 2.0, 1.0, eta=2.0)
+    assert np.allclose(wx + 1j * wy, (ux + 1j * uy) / 16, rtol=1e-9, atol=1e-12)
+    with pytest.raises(th.InputError, match="within 16 ell"):
+        th.quadrupole_flow_exact([17.0], [0.0], 1.0, 1.0)

@@ -650,13 +650,13 @@ T1_OFFSETS = (-4, 0, 4)
 
 
 def _quadrupole_harmonics():
-    """Radial harmonics of the paper's quadrupole flow (:func:`hexatissue.theory.quadrupole_flow`), 2-4 ell."""
+    """Radial harmonics of the quadrupole's Stokes flow (:func:`hexatissue.theory.quadrupole_flow_exact`), 2-4 ell."""
     from ..flow import angular_harmonics
-    from ..theory import quadrupole_flow
+    from ..theory import quadrupole_flow_exact
 
     r, phi = np.meshgrid(np.linspace(2.0, 4.0, 9), np.linspace(-np.pi, np.pi, 97)[:-1])
     x, y = (r * np.cos(phi)).ravel(), (r * np.sin(phi)).ravel()
-    vx, vy = quadrupole_flow(x, y, 1.0, 1.0)
+    vx, vy = quadrupole_flow_exact(x, y, 1.0, 1.0)
     samples = pd.DataFrame({"kind": "theory", "offset": 0, "x": x, "y": y, "vx": vx, "vy": vy})
     return angular_harmonics(samples)
 
@@ -695,7 +695,7 @@ def _t1_flow_lines(movie, out, written, numbers):
     table, by_kind = _harmonics_table(at0, cal)
     numbers["t1_flow"].update(by_kind)
     lines += table
-    lines += ["", f"The paper's unbinding-quadrupole flow (`hexatissue.theory.quadrupole_flow`, 2-4 ell) puts "
+    lines += ["", f"The unbinding quadrupole's Stokes flow (`hexatissue.theory.quadrupole_flow_exact`, 2-4 ell) puts "
               f"{theory:.2f} of its radial harmonics 1-8 in n = 6.", ""]
     return lines + _figure_line(path, out, "flow around T1s")
 def _mechanics_section(movie, out, written, numbers):
