@@ -489,5 +489,8 @@ def coerce(df: pd.DataFrame, table: str) -> pd.DataFrame:
                 continue
             if kind == "i" and out[name].isna().any():
                 continue  # an integer column with gaps stays float rather than fail
+            if kind == "O":  # CSV writes "" as an empty field, read back as NaN (no text column holds NA)
+                out[name] = out[name].astype(_DTYPES[kind]).fillna("")
+                continue
             out[name] = out[name].astype(_DTYPES[kind])
     return out

@@ -710,7 +710,7 @@ def test_hydro_flags_out_of_range_are_named(tmp_path, capsys):
     assert "--max-time must be a positive simulated time" in _cli_error(base + ["--max-time", "-1"], capsys)
     assert "--orientation-deg must be a finite angle in degrees" in _cli_error(base + ["--orientation-deg", "nan"],
                                                                               capsys)
-    assert _cli_error(base + ["--ell", "-3"], capsys).startswith("hexatissue hydro: error: --distance (dipole) or 2 x --ell")
+    assert _cli_error(base + ["--ell", "-3"], capsys).startswith("hexatissue hydro: error: --ell must be a positive")
 
 
 def test_a_results_table_that_lost_a_column_is_refused(tmp_path, capsys):

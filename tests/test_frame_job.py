@@ -147,7 +147,7 @@ def test_frame_job_with_an_intensity_image_equals_the_plain_path():
 def reference_kernels():
     """network's kernel module with every kernel replaced by its plain-Python reference."""
     names = ("corner_types", "trace_junctions", "mark_junctions", "trace_loops", "cell_moments", "merge_clusters",
-             "polygons", "cell_vertex_rows")  # the references of the kernels these call (chaining, ...) in turn
+             "polygons", "cell_vertex_rows", "components")  # the references of the kernels these call (chaining, ...) in turn
     return SimpleNamespace(**{name: getattr(R, name) for name in names})
 
 

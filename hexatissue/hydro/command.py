@@ -37,6 +37,8 @@ def add_parser(subparsers):
 
 def cli_text(text: str) -> str:
     """An error text of the library with the names of its arguments replaced by the ``hydro`` options that set them."""
+    if text.startswith(("ell must", "distance must")):  # the run's geometry, checked before the grid's
+        text = "--" + text
     for name, flag in (("HydroParams.dt", "--dt"), ("HydroParams.alpha6", "--alpha"), ("max_time", "--max-time"),
                        ("defect separation and disk radius", "--distance (dipole) or 2 x --ell (quadrupole), and "
                                                              "the disk radius,"),

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..box import Box
 from ..defects import track_defects
-from ..errors import InputError, is_real
+from ..errors import InputError, check_positive, is_real
 from .initial import dipole_initial, quadrupole_initial
 from .params import HydroParams
 from .run import integrate
@@ -119,6 +119,7 @@ def run_dipole(alpha, n=256, distance=64.0, steps=None, dt=None, seed=0, out=Non
         (x = column * dx, y = row * dx), charge, p; ``.annihilation_time``
         is the first diagnostic time with no defect (None if never).
     """
+    check_positive(distance, "distance")  # before the stability check, which sees only distance / 2
     if max_time is None:
         max_time = 4.0 * distance**2
 
