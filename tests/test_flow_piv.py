@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from hexatissue import Box, InputError
-from hexatissue.flow.piv import piv_displacements, piv_fields
+from hexatissue.flow.piv import piv_agreement, piv_displacements, piv_fields
 
 SHAPE = (160, 192)
 
@@ -123,3 +123,18 @@ def test_analyze_with_a_raw_channel_puts_its_piv_beside_the_track_field():
     off = analyze(labels, workers=1, progress=False, intensity=IntensityOptions(image=membrane),
                   flow=FlowOptions(piv=False))
     assert "piv_vx" not in off.flow.columns
+
+
+def test_piv_agreement_counts_only_nodes_with_both_fields():
+    """Identical fields: no difference, r = 1; a field of twice the velocity: difference = the tracks' rms;
+    invalid nodes and NaN PIV are left out; nothing to compare gives NaN, not a number."""
+    rng = np.random.default_rng(0)
+    vx, vy = rng.normal(size=50), rng.normal(size=50)
+    flow = pd.DataFrame({"valid": True, "vx": vx, "vy": vy, "piv_vx": vx, "piv_vy": vy})
+    flow.loc[0, "valid"], flow.loc[1, "piv_vx"] = False, np.nan
+    same = piv_agreement(flow)
+    assert same["nodes"] == 48 and same["rms_difference"] == 0 and same["r_vx"] == pytest.approx(1)
+    double = piv_agreement(flow.assign(piv_vx=2 * flow["vx"], piv_vy=2 * flow["vy"]))
+    assert double["relative_difference"] == pytest.approx(1) and double["rms_piv"] == pytest.approx(2 * double["rms_tracks"])
+    none = piv_agreement(flow.assign(valid=False))
+    assert none["nodes"] == 0 and np.isnan(none["r_vy"]) and np.isnan(none["relative_difference"])

@@ -18,7 +18,7 @@ from ..box import as_box
 from ..errors import InputError, check_positive
 from ..schema import require_columns
 
-__all__ = ["piv_displacements", "piv_fields"]
+__all__ = ["piv_displacements", "piv_fields", "piv_agreement"]
 
 #: Refinement passes stop when no window moves by more than this, px.
 TOLERANCE = 0.005
@@ -205,3 +205,39 @@ def piv_fields(images, grid, box=None, window=None):
         vx[rows], vy[rows], peak[rows] = dx / 2, dy / 2, pk
     return pd.DataFrame({"frame": frames, "node": grid["node"].to_numpy(np.int64), "x": x, "y": y,
                          "piv_vx": vx, "piv_vy": vy, "piv_peak": peak, "window": float(window)})
+
+
+def piv_agreement(flow):
+    """How the PIV field agrees with the track-based one, at the nodes where both exist.
+
+    Parameters
+    ----------
+    flow : pandas.DataFrame
+        The ``flow`` table with its PIV columns: ``valid``, ``vx``, ``vy``,
+        ``piv_vx``, ``piv_vy`` (px/frame).
+
+    Returns
+    -------
+    dict
+        ``nodes`` (node-frames with both fields), ``rms_tracks`` and
+        ``rms_piv`` (rms velocity of each field there, px/frame),
+        ``rms_difference`` (rms of the vector difference, px/frame),
+        ``relative_difference`` (``rms_difference / rms_tracks``,
+        dimensionless), ``r_vx`` and ``r_vy`` (Pearson correlation of each
+        component, dimensionless; NaN with fewer than 3 nodes).
+    """
+    require_columns(flow, ["valid", "vx", "vy", "piv_vx", "piv_vy"], "flow")
+    both = flow["valid"].to_numpy(bool) & np.isfinite(flow[["vx", "vy", "piv_vx", "piv_vy"]].to_numpy(float)).all(1)
+    v = flow.loc[both, ["vx", "vy"]].to_numpy(float)
+    w = flow.loc[both, ["piv_vx", "piv_vy"]].to_numpy(float)
+    out = {"nodes": int(both.sum())}
+    if not both.any():
+        return out | dict.fromkeys(["rms_tracks", "rms_piv", "rms_difference", "relative_difference", "r_vx", "r_vy"],
+                                   float("nan"))
+    rms = [float(np.sqrt(np.mean(np.sum(a**2, axis=1)))) for a in (v, w, v - w)]
+    out |= {"rms_tracks": rms[0], "rms_piv": rms[1], "rms_difference": rms[2],
+            "relative_difference": rms[2] / rms[0] if rms[0] > 0 else float("nan")}
+    for k, name in enumerate(("r_vx", "r_vy")):
+        constant = len(v) < 3 or v[:, k].std() == 0 or w[:, k].std() == 0
+        out[name] = float("nan") if constant else float(np.corrcoef(v[:, k], w[:, k])[0, 1])
+    return out

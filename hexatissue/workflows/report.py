@@ -556,6 +556,7 @@ def _flow_section(movie, out, written, numbers, p):
     from .. import plot
     from ..analysis.plots import plot_flow_statistics
     from ..flow import flow_summary, mean_squared_displacement, velocity_correlation, velocity_statistics
+    from ..flow.piv import piv_agreement
 
     cells, cal, box = movie.cells, movie.calibration, movie.box
     if "vx" not in cells.columns:
@@ -591,6 +592,15 @@ def _flow_section(movie, out, written, numbers, p):
                   f"{_rate(cal, float(valid['divergence'].abs().mean()), 0)}"]
         frames = np.unique(valid["frame"].to_numpy())
         shown = int(frames[len(frames) // 2])
+        if "piv_vx" in flow.columns:
+            agree = piv_agreement(flow)
+            numbers["flow"]["piv"] = agree
+            lines.append(f"- PIV of the raw channel on the same nodes ({agree['nodes']} node-frames with both fields): "
+                         + (f"rms velocity {_rate(cal, agree['rms_piv'])} (tracks: {_rate(cal, agree['rms_tracks'])}), "
+                            f"rms difference {_rate(cal, agree['rms_difference'])} "
+                            f"({agree['relative_difference']:.2f} of the tracks' rms); correlation of the components "
+                            f"r_x = {agree['r_vx']:.2f}, r_y = {agree['r_vy']:.2f}" if agree["nodes"] else
+                            "none to compare"))
     lines.append("")
     path = out / "flow_statistics.png"
     plot_flow_statistics(per_frame, correlation, msd, path=path, calibration=cal)
