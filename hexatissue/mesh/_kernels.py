@@ -960,19 +960,59 @@ def _length_below(x, y, limit, or_equal):
 
 
 @njit(cache=True)
-def _min_image(d, period):
-    """``d - period * round(d / period)`` (:meth:`hexatissue.Box.min_image`); period 0 (open image): ``d``."""
-    if period == 0.0:
-        return d
-    return d - period * np.rint(d / period)
+def chain_offsets(nv, start, end, vec, short, first):
+    """Each vertex's displacement from its cluster's first vertex, summed along the ``short`` junctions.
+
+    Breadth-first from each ``first`` vertex, neighbours in junction order.
+    Along the junctions, not by minimum image: a cluster may be wider than
+    half a periodic box (no cycle of short junctions goes around it:
+    :func:`unwrap_short`), and the junctions' own vectors place it right.
+    """
+    ptr = np.zeros(nv + 1, np.int64)
+    for k in range(len(start)):
+        if short[k]:
+            ptr[start[k] + 1] += 1
+            ptr[end[k] + 1] += 1
+    for v in range(nv):
+        ptr[v + 1] += ptr[v]
+    fill = ptr[:-1].copy()
+    other = np.empty(ptr[nv], np.int64)
+    step = np.empty((ptr[nv], 2))
+    for k in range(len(start)):
+        if short[k]:
+            for u, w, sign in ((start[k], end[k], 1.0), (end[k], start[k], -1.0)):
+                other[fill[u]] = w
+                step[fill[u], 0] = sign * vec[k, 0]
+                step[fill[u], 1] = sign * vec[k, 1]
+                fill[u] += 1
+    off = np.zeros((nv, 2))
+    seen = np.zeros(nv, np.bool_)
+    queue = np.empty(nv, np.int64)
+    for r in first:
+        seen[r] = True
+        queue[0] = r
+        head, tail = 0, 1
+        while head < tail:
+            u = queue[head]
+            head += 1
+            for i in range(ptr[u], ptr[u + 1]):
+                w = other[i]
+                if not seen[w]:
+                    seen[w] = True
+                    off[w, 0] = off[u, 0] + step[i, 0]
+                    off[w, 1] = off[u, 1] + step[i, 1]
+                    queue[tail] = w
+                    tail += 1
+    return off
 
 
 @njit(cache=True, error_model="numpy")
-def _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean, direction, lengths, max_shift):
+def _cluster_positions(pos, start, end, start_arm, end_arm, vec, short, count, mean, direction, max_shift):
     """Vertices joined by ``short`` junctions: cluster of each vertex, cluster positions, vertex offsets.
 
-    A vertex's position is its cluster's position plus its offset (minimum
-    image from the cluster's first vertex, then centred on the mean); the
+    A vertex's position is its cluster's position plus its offset (from the
+    cluster's first vertex along the junctions, :func:`chain_offsets`, then
+    centred on the mean); the
     cluster positions are moved to the intersection of the arm lines of the
     junctions that stay (:func:`arm_intersections`, start ends then end
     ends, in junction order).  Sums run in vertex order, as ``np.bincount``.
@@ -980,13 +1020,12 @@ def _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean, 
     nv = len(pos)
     cluster, first = components(nv, start[short], end[short])
     nc = len(first)
-    off = np.empty((nv, 2))
+    off = chain_offsets(nv, start, end, vec, short, first)
     counts = np.zeros(nc, np.int64)
     sums = np.zeros((nc, 2))
     for v in range(nv):
         c = cluster[v]
         for a in range(2):
-            off[v, a] = _min_image(pos[v, a] - pos[first[c], a], lengths[a])
             sums[c, a] += off[v, a]
         counts[c] += 1
     centre = np.empty((nc, 2))
@@ -1019,6 +1058,56 @@ def _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean, 
     return cluster, centre, off
 
 
+@njit(cache=True)
+def _root_offset(parent, ox, oy, v):
+    """Root of ``v`` in the offset union-find, and the displacement from the root to ``v``; compresses the path.
+
+    ``ox[u], oy[u]``: the displacement from ``parent[u]`` to ``u``.
+    """
+    r = v
+    sx = 0.0
+    sy = 0.0
+    while parent[r] != r:
+        sx += ox[r]
+        sy += oy[r]
+        r = parent[r]
+    u, cx, cy = v, sx, sy
+    while parent[u] != u:
+        nxt, nx, ny = parent[u], cx - ox[u], cy - oy[u]
+        parent[u], ox[u], oy[u] = r, cx, cy
+        u, cx, cy = nxt, nx, ny
+    return r, sx, sy
+
+
+@njit(cache=True)
+def unwrap_short(n, start, end, vec, short, lengths):
+    """Keep (clear ``short`` for) each junction that would close a cycle of short junctions around a periodic box.
+
+    Contracting such a cycle would fold a loop around the torus into a point
+    and change the network's topology (V - E + F no longer 0).  Junctions
+    are taken in order; one whose ends are already joined by short junctions
+    along a path whose displacement, with its own, sums to a box vector (not
+    to 0) stays a junction.  Nothing to do for an open image (``lengths`` 0).
+    """
+    half = 0.5 * min(lengths[0], lengths[1])
+    if half <= 0:
+        return
+    parent = np.arange(n)
+    ox = np.zeros(n)
+    oy = np.zeros(n)
+    for k in range(len(start)):
+        if not short[k]:
+            continue
+        rs, sx, sy = _root_offset(parent, ox, oy, start[k])
+        re, ex, ey = _root_offset(parent, ox, oy, end[k])
+        dx, dy = sx + vec[k, 0] - ex, sy + vec[k, 1] - ey  # end[k]'s root as seen from rs through k
+        if rs == re:
+            if dx * dx + dy * dy > half * half:
+                short[k] = False
+        else:
+            parent[re], ox[re], oy[re] = rs, dx, dy
+
+
 @njit(cache=True, error_model="numpy")
 def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direction, lengths, merge_distance,
                    max_rounds, max_shift):
@@ -1038,11 +1127,12 @@ def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direct
     short = np.empty(nj, np.bool_)
     for k in range(nj):
         short[k] = start[k] != end[k] and _length_below(vec[k, 0], vec[k, 1], merge_distance, False)
+    unwrap_short(len(pos), start, end, vec, short, lengths)
     again = np.zeros(nj, np.bool_)
     keep = ~short
     for _ in range(max_rounds):
-        cluster, centre, off = _cluster_positions(pos, start, end, start_arm, end_arm, short, count, mean,
-                                                  direction, lengths, max_shift)
+        cluster, centre, off = _cluster_positions(pos, start, end, start_arm, end_arm, vec, short, count, mean,
+                                                  direction, max_shift)
         keep = ~short
         n_keep = 0
         any_again = False
@@ -1057,6 +1147,7 @@ def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direct
             break
         for k in range(nj):
             short[k] |= again[k]
+        unwrap_short(len(pos), start, end, vec, short, lengths)
     a = np.empty(n_keep, np.int64)
     b = np.empty(n_keep, np.int64)
     kvec = np.empty((n_keep, 2))

@@ -398,15 +398,55 @@ def half_edge_order(cell, frm, n_cells):
     return np.lexsort((frm, cell))
 
 
+def chain_offsets(nv, start, end, vec, short, first):
+    """Reference of :func:`._kernels.chain_offsets` (lists of neighbours, a deque)."""
+    from collections import deque
+
+    neighbours = [[] for _ in range(nv)]
+    for k in np.flatnonzero(short):
+        neighbours[start[k]].append((end[k], vec[k]))
+        neighbours[end[k]].append((start[k], -vec[k]))
+    off = np.zeros((nv, 2))
+    seen = np.zeros(nv, bool)
+    for r in first:
+        seen[r] = True
+        queue = deque([r])
+        while queue:
+            u = queue.popleft()
+            for w, d in neighbours[u]:
+                if not seen[w]:
+                    seen[w] = True
+                    off[w] = off[u] + d
+                    queue.append(w)
+    return off
+
+
+def unwrap_short(n, start, end, vec, short, lengths):
+    """Reference of :func:`._kernels.unwrap_short`: each cluster a dict of its vertices' displacements from its
+    first one, clusters joined by relabelling (no union-find)."""
+    half = 0.5 * min(lengths)
+    if half <= 0:
+        return
+    cluster = {v: {v: np.zeros(2)} for v in range(n)}  # root -> {member: displacement from the root}
+    root = list(range(n))
+    for k in np.flatnonzero(short):
+        rs, re = root[start[k]], root[end[k]]
+        d = cluster[rs][start[k]] + vec[k] - cluster[re][end[k]]
+        if rs == re:
+            if np.hypot(*d) > half:
+                short[k] = False
+            continue
+        for v, off in cluster.pop(re).items():
+            cluster[rs][v] = off + d
+            root[v] = rs
+
+
 def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direction, lengths, merge_distance,
                    max_rounds, max_shift):
     """Reference of :func:`._kernels.merge_clusters` (whole-array rounds, weighted bincounts)."""
-    def min_image(d):
-        return d - lengths * np.round(d / lengths) if lengths.any() else d
-
     def positions(short):
         cluster, first = components(len(pos), start[short], end[short])
-        off_first = min_image(pos - pos[first[cluster]])
+        off_first = chain_offsets(len(pos), start, end, vec, short, first)
         counts = np.bincount(cluster)
         mean_off = np.column_stack([np.bincount(cluster, off_first[:, a]) for a in range(2)]) / counts[:, None]
         off = off_first - mean_off[cluster]
@@ -418,6 +458,7 @@ def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direct
         return cluster, pos[first] + mean_off + shift, off - shift[cluster]
 
     short = (start != end) & (np.hypot(*vec.T) < merge_distance)
+    unwrap_short(len(pos), start, end, vec, short, lengths)
     for _ in range(max_rounds):
         cluster, centre, off = positions(short)
         keep = ~short
@@ -427,6 +468,7 @@ def merge_clusters(pos, start, end, start_arm, end_arm, vec, count, mean, direct
         if not again.any():
             break
         short[np.flatnonzero(keep)[again]] = True
+        unwrap_short(len(pos), start, end, vec, short, lengths)
     return centre, keep, a, b, kvec
 
 

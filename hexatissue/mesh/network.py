@@ -99,7 +99,9 @@ def _merge_short(pos, j, lines, merge_distance, box):
     contracted = ~keep & (j["left"] > 0) & (j["right"] > 0)
     cluster = K.components(len(pos), j["start"][~keep], j["end"][~keep])[0]
     held = np.bincount(cluster[j["start"][contracted]], minlength=len(centre))
-    collapsed = (a == b) & (j["start"] != j["end"])[keep]
+    # a junction whose ends merged into one vertex encloses a cell smaller than merge_distance, unless it goes
+    # around a periodic box (its vector a box length): then it is a loop edge of the torus's network, and stays
+    collapsed = (a == b) & (j["start"] != j["end"])[keep] & (np.hypot(vec[:, 0], vec[:, 1]) < merge_distance)
     if collapsed.any():
         # constant text: Python then shows it once per place, not once per frame of a movie
         warnings.warn(
