@@ -206,6 +206,10 @@ class Source:
             raise InputError(f"frame {t} must be a finite 2-D intensity image; got shape {arr.shape}")
         return arr
 
+    def images(self) -> "_Images":
+        """The frames as intensity images (:meth:`image`), a lazy sequence: ``len`` and ``[t]``, one read per item."""
+        return _Images(self)
+
     @property
     def kind(self) -> str:
         """``"labels"`` (label images: :meth:`frame`) or ``"polygons"`` (cell polygons: :meth:`polygons`)."""
@@ -650,3 +654,16 @@ def recorded_mask(description, shape):
     if not info.get("path"):
         return None, info
     return read_mask(info["path"], shape)[0], info
+
+
+class _Images:
+    """A Source's frames read as intensity images, one at a time (:meth:`Source.images`)."""
+
+    def __init__(self, source):
+        self.source = source
+
+    def __len__(self):
+        return self.source.n_frames
+
+    def __getitem__(self, t):
+        return self.source.image(t)

@@ -236,22 +236,9 @@ def _flow(movie, options):
                                            options.min_cells)
         image = movie.images.get("intensity")
         if options.piv and image is not None and image.n_frames == movie.n_frames > 2:
-            piv = piv_fields(_ImageFrames(image), movie.tables["grid"], movie.box)
+            piv = piv_fields(image.images(), movie.tables["grid"], movie.box)
             for column in ("piv_vx", "piv_vy", "piv_peak"):
                 movie.tables["flow"][column] = piv[column].to_numpy()
-
-
-class _ImageFrames:
-    """A Source's images as a lazy sequence of frames (PIV reads two at a time)."""
-
-    def __init__(self, source):
-        self.source = source
-
-    def __len__(self):
-        return self.source.n_frames
-
-    def __getitem__(self, t):
-        return self.source.image(t)
 
 
 def _t1_events(movie, options):

@@ -58,7 +58,7 @@ def _run_baseline(args) -> int:
     from .baseline import segment_movie
 
     source = open_source(args.raw, channel=args.channel)
-    labels = segment_movie(_Images(source), sigma=args.sigma, h=args.h, min_area=args.min_area,
+    labels = segment_movie(source.images(), sigma=args.sigma, h=args.h, min_area=args.min_area,
                            periodic=args.periodic)
     if source.description.get("frame_axis") is None:
         labels = labels[0]
@@ -68,19 +68,6 @@ def _run_baseline(args) -> int:
     n = labels.max(axis=(-2, -1)) if labels.ndim == 3 else labels.max()
     print(f"{args.raw}: {source.n_frames} frame(s), {float(n.mean()):.0f} cells/frame; labels written to {args.out}")
     return 0
-
-
-class _Images:
-    """The frames of a Source read as intensity images, one at a time (``len`` and ``[t]``)."""
-
-    def __init__(self, source):
-        self.source = source
-
-    def __len__(self):
-        return self.source.n_frames
-
-    def __getitem__(self, t):
-        return self.source.image(t)
 
 
 def _run_score(args) -> int:
