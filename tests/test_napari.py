@@ -126,8 +126,6 @@ def test_the_manifest_validates_and_its_commands_import():
 
 
 def test_the_sample_is_the_calibrated_epicure_label_movie(viewer):
-    if not SAMPLE.exists():
-        pytest.skip("sample_data/epicure_notum/013_crop_labels.tif is absent")
     viewer.open_sample("hexatissue", "epicure")
     layer = viewer.layers[-1]
     assert layer._type_string == "labels" and layer.data.shape == (11, 160, 257)
