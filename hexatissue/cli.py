@@ -123,9 +123,13 @@ def _analyze_into(args, source, options) -> int:
     from .pipeline import analyze
 
     client = connect_scheduler(args.scheduler) if args.scheduler else None
+    helper = None
     if client is None and not kernels_cached():
-        print("hexatissue analyze: first run: compiling the numba kernels, about a minute on 2 cores (once: later "
-              "runs load them from numba's cache)", file=sys.stderr, flush=True)
+        from ._precompile import start as start_helper
+
+        print("hexatissue analyze: first run: compiling the numba kernels, about half a minute on 2 cores (once: "
+              "later runs load them from numba's cache)", file=sys.stderr, flush=True)
+        helper = start_helper()  # compiles the later stages' kernels while this process compiles the mesh's
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
@@ -133,6 +137,9 @@ def _analyze_into(args, source, options) -> int:
     finally:
         if client is not None:
             client.close()
+        if helper is not None:  # done or not, it is not needed any more (numba writes each cache entry whole)
+            helper.kill()
+            helper.wait()
     line = summary_line(movie)
     if args.figures:
         from .workflows.figures import save_movie_figures

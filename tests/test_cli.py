@@ -152,3 +152,18 @@ def test_kernels_cached_reads_numba_s_index():
 
     _kernels.cell_moments(np.ones((2, 2), np.int32), 2, False)  # compiled or loaded: cached now
     assert kernels_cached()
+
+
+@pytest.mark.slow
+def test_the_first_run_helper_fills_the_cache_with_the_later_stages_kernels(tmp_path):
+    """``python -m hexatissue._precompile`` on an empty numba cache compiles the order, defect, tracking, event and
+    flow kernels (their cache indexes appear) and none of the mesh kernels that have a reference."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    subprocess.run([sys.executable, "-m", "hexatissue._precompile"], env=env, check=True, timeout=600)
+    indexes = {p.name.split(".")[1].split("-")[0] for p in tmp_path.rglob("*.nbi")}
+    assert {"shape_sums", "plaquette_defects", "_t1_kernel", "affine_fits", "_compact_overlaps"} <= indexes, indexes
+    assert not {"trace_junctions", "merge_clusters", "polygons"} & indexes, indexes
