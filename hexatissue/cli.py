@@ -127,7 +127,7 @@ def _analyze_into(args, source, options) -> int:
     if client is None and not kernels_cached():
         from ._precompile import start as start_helper
 
-        print("hexatissue analyze: first run: compiling the numba kernels, about half a minute on 2 cores (once: "
+        print("hexatissue analyze: first run: compiling the numba kernels, about 40 s on 2 cores (once: "
               "later runs load them from numba's cache)", file=sys.stderr, flush=True)
         helper = start_helper()  # compiles the later stages' kernels while this process compiles the mesh's
     start = time.perf_counter()
