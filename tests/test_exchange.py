@@ -308,6 +308,18 @@ def epicure(tmp_path_factory):
     return {"folder": folder, "results": folder / "results", "movie": movie}
 
 
+def test_exports_of_the_epicure_sample_pass_the_external_validators(epicure, tmp_path):
+    """py-ctcmetrics' ``ctc_validate`` (the Cell Tracking Challenge's own rules: masks, res_track.txt, parents)
+    accepts the CTC export; ``geff.validate_structure`` accepts both GEFF stores (it raises otherwise)."""
+    import geff
+
+    validate = pytest.importorskip("ctc_metrics.scripts.validate")
+    assert main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")]) == 0
+    assert validate.validate_sequence(str(tmp_path / "ctc"), threads=1) == {"Valid": 1}
+    for store in write_geff(epicure["movie"], tmp_path / "geff"):
+        geff.validate_structure(str(store))
+
+
 def test_ctc_export_of_the_epicure_sample_lists_its_division(epicure, tmp_path):
     assert main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")]) == 0
     check_ctc(tmp_path / "ctc")
