@@ -100,8 +100,11 @@ def _merge_short(pos, j, lines, merge_distance, box):
     cluster = K.components(len(pos), j["start"][~keep], j["end"][~keep])[0]
     held = np.bincount(cluster[j["start"][contracted]], minlength=len(centre))
     # a junction whose ends merged into one vertex encloses a cell smaller than merge_distance, unless it goes
-    # around a periodic box (its vector a box length): then it is a loop edge of the torus's network, and stays
-    collapsed = (a == b) & (j["start"] != j["end"])[keep] & (np.hypot(vec[:, 0], vec[:, 1]) < merge_distance)
+    # around a periodic box: its vector is then a box period, not ~0 (the rule of _kernels.unwrap_short), and it
+    # stays, a loop edge of the torus's network
+    collapsed = (a == b) & (j["start"] != j["end"])[keep]
+    if box is not None:
+        collapsed &= np.hypot(vec[:, 0], vec[:, 1]) <= 0.5 * lengths.min()
     if collapsed.any():
         # constant text: Python then shows it once per place, not once per frame of a movie
         warnings.warn(
