@@ -182,7 +182,7 @@ def test_velocity_statistics_of_a_drift_and_of_opposite_motions():
     np.testing.assert_allclose(stats[["mean_vx", "mean_vy"]].to_numpy(), [[3.0, 4.0], [0.0, 0.0]], atol=1e-15)
 
 
-def test_velocity_correlation_is_the_normalised_pair_mean_of_the_fluctuations():
+def test_velocity_correlation_is_each_bins_normalised_pair_sum_of_the_fluctuations():
     from hexatissue.flow import velocity_correlation
 
     rng = np.random.default_rng(2)
@@ -190,35 +190,116 @@ def test_velocity_correlation_is_the_normalised_pair_mean_of_the_fluctuations():
     cells = pd.DataFrame({"frame": np.repeat([0, 1], 12), "x": rng.uniform(0, 40, 24), "y": rng.uniform(0, 30, 24),
                           "vx": rng.normal(size=24), "vy": rng.normal(size=24)})
     got = velocity_correlation(cells, box, r_max=15.0, bins=3)
-    # brute force: every pair of the same frame, minimum image
-    total, count, var = np.zeros(3), np.zeros(3), []
+    # brute force: every pair i < j of the same frame (no self-pairs), minimum image
+    dot, norm, count = np.zeros(3), np.zeros(3), np.zeros(3)
     for _, f in cells.groupby("frame"):
         xy, dv = f[["x", "y"]].to_numpy(), f[["vx", "vy"]].to_numpy()
         dv = dv - dv.mean(axis=0)
-        var.append((dv ** 2).sum(axis=1))
         for i in range(len(f)):
             for j in range(i + 1, len(f)):
                 r = np.hypot(*box.min_image(xy[j] - xy[i]))
                 if r <= 15.0:
                     k = min(int(r // 5.0), 2)
-                    total[k] += dv[i] @ dv[j]
+                    dot[k] += dv[i] @ dv[j]
+                    norm[k] += 0.5 * (dv[i] @ dv[i] + dv[j] @ dv[j])
                     count[k] += 1
     np.testing.assert_array_equal(got["n_pairs"], count)
-    np.testing.assert_allclose(got["correlation"], total / count / np.concatenate(var).mean(), rtol=1e-12)
+    np.testing.assert_allclose(got["correlation"], dot / norm, rtol=1e-12)
     np.testing.assert_allclose(got["r"], [2.5, 7.5, 12.5])
+    assert (got["correlation"].abs() <= 1).all() and (got["correlation_sd"] > 0).all()
 
 
-def test_correlation_length_interpolates_the_one_over_e_crossing():
-    from hexatissue.flow import correlation_length
+def test_velocity_correlation_of_a_few_close_fast_cells_stays_within_one():
+    # two cells close together moving fast the same way, among slow ones: the old normalisation by the mean
+    # fluctuation of every cell gave C > 1 in the first bin (1.3 on a real movie)
+    from hexatissue.flow import velocity_correlation
 
-    r = np.arange(1.0, 11.0)
-    table = pd.DataFrame({"r": r, "correlation": 1.0 - r / 8.0, "n_pairs": 1000})  # crosses 1/e at 8 (1 - 1/e)
-    assert correlation_length(table) == pytest.approx(8.0 * (1 - np.exp(-1.0)), rel=1e-12)
-    assert np.isnan(correlation_length(table.assign(correlation=0.9)))
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(20, 180, 60), rng.uniform(20, 180, 60)
+    vx, vy = 0.1 * rng.normal(size=60), 0.1 * rng.normal(size=60)
+    x[1], y[1], vx[:2], vy[:2] = x[0] + 1.0, y[0], 3.0, 0.0
+    got = velocity_correlation(pd.DataFrame({"frame": 0, "x": x, "y": y, "vx": vx, "vy": vy}), r_max=20.0, bins=10)
+    assert got["correlation"].iloc[0] == pytest.approx(1.0, abs=0.02)
+    assert (got["correlation"].dropna().abs() <= 1 + 1e-12).all()
+
+
+def _exponential_field(n, xi, rng):
+    """A Gaussian random field on an n x n torus with covariance exp(-r / xi), unit variance
+    (2-D spectrum (1 + k^2 xi^2)^(-3/2))."""
+    k = 2 * np.pi * np.fft.fftfreq(n)
+    amplitude = (1 + (k[:, None] ** 2 + k[None, :] ** 2) * xi ** 2) ** -0.75
+    field = np.real(np.fft.ifft2(np.fft.fft2(rng.normal(size=(n, n))) * amplitude))
+    return field / field.std()
+
+
+def _correlated_cells(xi, noise=0.0, frames=8, n=500, spacing=10, seed=0):
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:n:spacing, 0:n:spacing]
+    rows = []
+    for t in range(frames):
+        vx, vy = _exponential_field(n, xi, rng)[y, x].ravel(), _exponential_field(n, xi, rng)[y, x].ravel()
+        rows.append(pd.DataFrame({"frame": t, "track": np.arange(x.size), "x": x.ravel().astype(float),
+                                  "y": y.ravel().astype(float),
+                                  "vx": vx + noise * rng.normal(size=vx.size),
+                                  "vy": vy + noise * rng.normal(size=vx.size), "area": float(spacing ** 2)}))
+    return pd.concat(rows, ignore_index=True), Box(float(n), float(n))
+
+
+def test_correlation_length_of_a_field_with_exponential_correlation():
+    from hexatissue.flow import correlation_length, flow_summary, velocity_correlation
+
+    cells, box = _correlated_cells(30.0)
+    fit = correlation_length(velocity_correlation(cells, box, r_max=150.0), spacing=10.0)
+    assert fit.reason == "" and fit.n_bins >= 3
+    assert fit.length == pytest.approx(30.0, rel=0.08) and 0 < fit.sd < 0.1 * fit.length
+    assert fit.amplitude == pytest.approx(1.0, abs=0.1)
+    # velocity noise uncorrelated between cells lowers the amplitude, not the length
+    noisy, _ = _correlated_cells(30.0, noise=1.0)
+    fit_noisy = correlation_length(velocity_correlation(noisy, box, r_max=150.0), spacing=10.0)
+    assert fit_noisy.length == pytest.approx(30.0, rel=0.1) and fit_noisy.amplitude == pytest.approx(0.5, abs=0.08)
+    summary = flow_summary(cells, box, velocity_correlation(cells, box, r_max=150.0),
+                           pd.DataFrame({"lag": [1], "msd": [1.0]}))
+    assert summary["cell_spacing"] == 10.0 and summary["correlation_length"] == pytest.approx(fit.length)
+    assert summary["correlation_reason"] == ""
+
+
+def test_correlation_length_is_refused_with_its_reason():
+    from hexatissue.flow import correlation_length, velocity_correlation
+
+    cells, box = _correlated_cells(30.0, frames=3)
+    rng = np.random.default_rng(4)
+    white = cells.assign(vx=rng.normal(size=len(cells)), vy=rng.normal(size=len(cells)))
+    fit = correlation_length(velocity_correlation(white, box, r_max=150.0), spacing=10.0)
+    assert np.isnan(fit.length) and "hardly correlate" in fit.reason
+    # a decay shorter than a cell spacing: refused, naming the spacing
+    r = np.arange(10.0, 60.0, 5.0)
+    short = pd.DataFrame({"r": r, "correlation": 0.5 * np.exp(-r / 4.0) + 1e-4, "n_pairs": 1000})
+    fit = correlation_length(short, spacing=10.0)
+    assert np.isnan(fit.length) and "below one cell spacing (10 px)" in fit.reason
+    assert correlation_length(short).length == pytest.approx(4.0, rel=0.05)
+    # C(r) that hardly decays over the field: longer than the field measures
+    flat = pd.DataFrame({"r": r, "correlation": 0.9 * np.exp(-r / 500.0), "n_pairs": 1000})
+    fit = correlation_length(flat, spacing=10.0)
+    assert np.isnan(fit.length) and "longer than the field" in fit.reason
     # a bin of a few pairs (two tiny cells) does not decide it
-    sparse = table.assign(correlation=np.where(r == 1.0, -0.5, table["correlation"]),
-                          n_pairs=np.where(r == 1.0, 3, 1000))
-    assert correlation_length(sparse) == pytest.approx(8.0 * (1 - np.exp(-1.0)), rel=1e-12)
+    sparse = short.assign(correlation=np.where(r == 10.0, -0.5, short["correlation"]),
+                          n_pairs=np.where(r == 10.0, 3, 1000))
+    assert correlation_length(sparse).length == pytest.approx(4.0, rel=0.05)
+
+
+def test_rms_step_exceeds_the_centred_velocity_by_the_centroid_jitter():
+    from hexatissue.flow import cell_velocities, rms_step
+
+    rng = np.random.default_rng(5)
+    t = np.arange(200)
+    jitter = 0.3
+    x = 10.0 + 0.5 * t + jitter * rng.normal(size=t.size)  # steady 0.5 px/frame plus white centroid noise
+    cells = pd.DataFrame({"frame": t, "track": 1, "x": x, "y": 20.0 + jitter * rng.normal(size=t.size)})
+    vx, vy = cell_velocities(cells)
+    rms_v = np.sqrt(np.nanmean(vx ** 2 + vy ** 2))
+    # steps: 0.5^2 + 2 * 2 jitter^2; centred differences: 0.5^2 + 2 * jitter^2 / 2
+    assert rms_step(cells) == pytest.approx(np.sqrt(0.25 + 4 * jitter ** 2), rel=0.1)
+    assert rms_v == pytest.approx(np.sqrt(0.25 + jitter ** 2), rel=0.1)
 
 
 def test_msd_of_ballistic_tracks_is_quadratic_across_the_periodic_edge():

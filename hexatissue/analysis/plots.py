@@ -9,6 +9,8 @@ and frames when there is none).
 """
 from __future__ import annotations
 
+from textwrap import fill
+
 import numpy as np
 
 from ..errors import as_generator
@@ -434,7 +436,7 @@ def _duration_bins(durations, max_bins=30):
     return lo + step * np.arange(n + 1)
 
 
-def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=None, figsize=(12, 3.8)):
+def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=None, spacing=None, figsize=(12, 3.8)):
     """Mean speed and polar order over time, the velocity correlation C(r), and the MSD.
 
     Parameters
@@ -445,12 +447,17 @@ def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=Non
         :func:`hexatissue.flow.mean_squared_displacement` (px and frames).
     calibration : Calibration, optional
         Units of the axes (px and frames when None).
+    spacing : float, optional
+        The cell spacing, px (:func:`hexatissue.flow.cell_spacing`): a
+        correlation length below it is refused.
 
     Returns
     -------
     matplotlib.figure.Figure
-        Three panels; the correlation length (C = 1/e) and the MSD exponent
-        are marked; C(r) shows its :func:`hexatissue.flow.reliable_bins`.
+        Three panels; C(r) shows its :func:`hexatissue.flow.reliable_bins`
+        with their standard errors, the fitted ``A exp(-r / xi) + B`` and its
+        length xi (:func:`hexatissue.flow.correlation_length`, or why it is
+        refused); the MSD exponent is marked.
     """
     cal = as_calibration(calibration)
     fig, (a, b, c) = _figure(3, figsize)
@@ -463,17 +470,26 @@ def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=Non
     twin.set_ylabel("polar order", color=FAST_COLOR)
     twin.set_ylim(0, 1)
     shown = reliable_bins(correlation)  # bins of a few pairs (tiny cells) are noise
-    r = cal.length(correlation["r"].to_numpy(float)[shown])
-    b.plot(r, correlation["correlation"].to_numpy(float)[shown], "o-", ms=3, color=SLOW_COLOR)
-    b.axhline(np.exp(-1.0), color="0.5", lw=0.8, ls="--")
+    r_px = correlation["r"].to_numpy(float)[shown]
+    value = correlation["correlation"].to_numpy(float)[shown]
+    sd = (correlation["correlation_sd"].to_numpy(float)[shown] if "correlation_sd" in correlation.columns
+          else np.full(len(value), np.nan))
+    b.errorbar(cal.length(r_px), value, yerr=np.where(np.isfinite(sd), sd, 0.0), fmt="o", ms=3, color=SLOW_COLOR,
+               lw=0.8, capsize=0)
+    b.plot([0.0], [1.0], "o", ms=3, mfc="none", color=SLOW_COLOR)  # C(0) = 1: a cell with itself
     b.axhline(0.0, color="0.7", lw=0.6)
-    xi = correlation_length(correlation)
-    if np.isfinite(xi):
-        b.axvline(cal.length(xi), color="0.3", lw=0.8, ls=":")
+    fit = correlation_length(correlation, spacing)
+    if np.isfinite(fit.length):
+        x = np.linspace(0.0, fit.r_fit, 100)
+        b.plot(cal.length(x), fit.amplitude * np.exp(-x / fit.length) + fit.offset, color="0.3", lw=0.9)
+        b.axvline(cal.length(fit.length), color="0.3", lw=0.8, ls=":")
+        b.set_title(f"correlation length {cal.length(fit.length):.3g} ± {cal.length(fit.sd):.2g} "
+                    f"{cal.length_label} (A = {fit.amplitude:.2f})", fontsize=9)
+    else:
+        b.set_title("no correlation length", fontsize=9)
+        b.text(0.98, 0.95, fill(fit.reason, 40), transform=b.transAxes, ha="right", va="top", fontsize=7)
     b.set_xlabel(f"r ({cal.length_label})")
     b.set_ylabel("velocity correlation C(r)")
-    b.set_title(f"correlation length {cal.length(xi):.3g} {cal.length_label}" if np.isfinite(xi)
-                else "C(r) stays above 1/e", fontsize=9)
     ok = np.isfinite(msd["msd"].to_numpy(float)) & (msd["msd"].to_numpy(float) > 0)
     if ok.any():
         c.loglog(cal.time(msd["lag"].to_numpy(float)[ok]), in_units(msd["msd"].to_numpy(float)[ok], cal, 2, 0),

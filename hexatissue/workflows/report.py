@@ -430,8 +430,9 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
         lines[-1:] = [f"- Spearman rank correlation of displacement and defect density: rho = "
                       f"{pops.spearman_rho:.3g} (p = {pops.spearman_pvalue:.3g})",
                       f"- median displacement {median:.3g} (dimensionless: the sum of a cell's squared steps over "
-                      f"the window / dl^2, the paper's measure); as an rms step, "
-                      f"{_speed(cal, np.sqrt(median * dl**2 / dt))}"]
+                      f"the window / dl^2, the paper's measure); as the rms frame-to-frame step of that median "
+                      f"subregion-window, {_speed(cal, np.sqrt(median * dl**2 / dt))} (the tissue-wide rms step "
+                      f"and velocity are under 'Tissue flow')"]
         fit = (f"delta BIC (1 vs 2 components) = {pops.delta_bic:.3g} ({pops.verdict}; "
                f"> 10 is strong evidence for two populations)")
         if split:
@@ -574,11 +575,17 @@ def _flow_section(movie, out, written, numbers, p):
     if summary["mean_speed"] == 0:
         return lines + ["", "No cell moved: every velocity is 0 (no polar order, correlation or MSD to measure).", ""]
     xi = summary["correlation_length"]
-    lines += [f"- mean speed {_rate(cal, summary['mean_speed'])}; rms velocity {_rate(cal, summary['rms_velocity'])}",
+    lines += [f"- mean speed {_rate(cal, summary['mean_speed'])}; rms velocity {_rate(cal, summary['rms_velocity'])} "
+              f"(centred differences over two frames); rms frame-to-frame step {_rate(cal, summary['rms_step'])} "
+              f"(larger by the motion that reverses within a frame: centroid jitter of the segmentation and "
+              f"fluctuations, which the two-frame difference averages out)",
               f"- polar order of the velocities (mean over frames): {summary['polar_order']:.3g}",
-              "- velocity correlation length (C(r) of the velocity fluctuations falls to 1/e; bins with under 1 % "
-              "of the fullest bin's pairs left out): "
-              + (_length(cal, xi) if np.isfinite(xi) else "C(r) stays above 1/e"),
+              "- velocity correlation length (a fit of A exp(-r/xi) + B to C(r) of the velocity fluctuations up to its "
+              "first zero; bins with under 10 pairs or 1 % of the fullest bin's left out): "
+              + (f"{_length(cal, xi)} ± {_length(cal, summary['correlation_length_sd'])} over "
+                 f"{summary['correlation_bins']} bins, A = {summary['correlation_amplitude']:.2f} (the share of the "
+                 f"velocity fluctuations that correlates between cells)" if np.isfinite(xi)
+                 else f"not measured: {summary['correlation_reason']}"),
               f"- MSD exponent (MSD ~ lag^alpha, lags {int(msd['lag'].min())}-{int(msd['lag'].max())} frames): "
               f"{summary['msd_exponent']:.3g}"]
     flow = movie.tables.get("flow")
@@ -603,7 +610,8 @@ def _flow_section(movie, out, written, numbers, p):
                             "none to compare"))
     lines.append("")
     path = out / "flow_statistics.png"
-    plot_flow_statistics(per_frame, correlation, msd, path=path, calibration=cal)
+    plot_flow_statistics(per_frame, correlation, msd, path=path, calibration=cal,
+                         spacing=summary["cell_spacing"])
     written += [path, write_table(per_frame, out / "flow_per_frame.csv"),
                 write_table(correlation, out / "velocity_correlation.csv"), write_table(msd, out / "msd.csv")]
     lines += _figure_line(path, out, "flow statistics")
