@@ -34,7 +34,7 @@ from .flow import cell_velocities, flow_fields
 from .flow.piv import piv_fields
 from .geometry import distinct_count
 from .intensity import measure_intensity
-from .mechanics import cell_stress, frame_forces, stress_grid
+from .mechanics import MU_RANGE, cell_stress, frame_forces, stress_grid
 from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
 from .mesh.polygons import polygon_network
@@ -310,6 +310,12 @@ def _mechanics(frame, options):
         frame.tables["stress"] = stress_grid(cells, stress, pd.DataFrame(grid), box=frame.box)
     else:
         frame.tables["stress"] = empty_table("stress")
+    if options.method == "bayes" and options.mu is None and forces.mu >= MU_RANGE[1] * (1 - 1e-9):
+        # measured on mouse_epidermis_laptrack frame 1: every tension 1.00 with a median s.d. of 0.012
+        warnings.warn(f"force inference: ABIC chose the largest prior weight it searches ({MU_RANGE[1]:g}): the "
+                      f"junctions' geometry does not resolve tension differences here, so every tension is the "
+                      f"prior's 1 and its s.d. the prior's, not a measurement", HexatissueWarning,
+                      stacklevel=user_stacklevel())
     missing = forces.undetermined
     if len(missing):
         counts = missing.groupby(["kind", "reason"]).size()

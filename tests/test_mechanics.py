@@ -720,3 +720,12 @@ def test_epicure_default_forces_have_no_negative_tension_outside_its_interval(re
     # the former default (arcs everywhere) gave 16 negative tensions, the largest 16.8, median s.d. 165
     assert model == "straight" and ok.sum() > 150
     assert not (t[ok] + 1.6448536 * sd[ok] < 0).any() and t[ok].max() < 2 and np.median(sd[ok]) < 0.5
+
+
+def test_a_prior_that_sets_every_tension_is_said(real_data):
+    # mouse_epidermis_laptrack frame 1: ABIC takes the largest weight, every tension 1.00, median s.d. 0.012
+    labels = np.load(real_subdir(real_data, "mouse_epidermis_laptrack") / "labels.npy")[1]
+    with pytest.warns(HexatissueWarning, match="largest prior weight"):
+        movie = ht.analyze(labels, mechanics=ht.MechanicsOptions(enabled=True, sd=False))
+    t = movie.tables["edges"]["tension"].to_numpy()
+    assert np.nanmax(np.abs(t - 1)) < 0.05

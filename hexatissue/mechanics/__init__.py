@@ -50,7 +50,7 @@ from .curvature import junction_curvature, junction_shapes
 from .history import t1_tension_histories
 from .stress import cell_stress, stress_grid, tissue_stress
 
-__all__ = ["ForceSystem", "Forces", "force_system", "infer_forces", "frame_forces", "JUNCTION_MODELS", "cell_stress", "tissue_stress", "stress_grid",
+__all__ = ["ForceSystem", "Forces", "force_system", "infer_forces", "frame_forces", "JUNCTION_MODELS", "MU_RANGE", "cell_stress", "tissue_stress", "stress_grid",
            "junction_curvature", "t1_tension_histories", "METHODS"]
 
 #: Estimators of :func:`infer_forces`.
@@ -78,6 +78,9 @@ _LAPLACE_WEIGHT = 0.1
 # follow exact data (vertex model, 256 cells, exact vertices: largest tension error 1e-3 - 1e-4 at 1e-9 - 1e-10,
 # 7e-3 - 2e-2 at 1e-8).
 _LOG_MU = (-10.0, 3.0)
+#: The range of prior weights ABIC searches (:func:`infer_forces`); at its upper end the prior alone sets the
+#: tensions (all near 1), and their posterior s.d. is the prior's, not a measurement.
+MU_RANGE = (10.0 ** _LOG_MU[0], 10.0 ** _LOG_MU[1])
 # frame_forces, junctions="auto": arcs when more than this share of the tested junctions show a curvature.  Measured
 # shares: Surface Evolver foam drawn at 4 px per unit 0.78; vertex-model sheets (straight junctions) 0.00-0.01
 # clean, 0.13 (20 px per cell) and 0.24 (40 px) with boundary noise of 0.5 px.
