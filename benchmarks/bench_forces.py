@@ -13,7 +13,11 @@ forces inferred by :func:`hexatissue.mechanics.frame_forces` with each
 junction model (``auto``, the default; ``straight``; ``curved``) and two
 variants measured and not taken: ``per-junction`` (arcs only on the
 junctions whose pixels show a curvature) and ``fitted lines`` (every junction
-straight along the line fitted to its pixels instead of its chord).  Junctions are matched to the truth by their two cells.
+straight along the line fitted to its pixels instead of its chord).  The
+same images are also given as 1-px skeletons (every pixel whose right or
+lower neighbour is another cell; meshed with ``kind="skeleton"``, each
+region matched to the cell under most of its pixels), with the models of
+``--skeleton-models`` (auto and curved).  Junctions are matched to the truth by their two cells.
 
 Scores per image and model: Pearson r of the tensions and of the pressures
 against the truth, median relative tension error and median pressure error
@@ -23,7 +27,8 @@ the share of the truth inside the 90 % posterior intervals (estimate +- 1.645
 s.d.).  Also the exact vertices (no image).  Writes
 ``benchmarks/results_forces.md`` (machine, date, load).  Usage::
 
-    python benchmarks/bench_forces.py [--seeds 0 1 2] [--noise 0.5] [--out benchmarks/results_forces.md]
+    python benchmarks/bench_forces.py [--seeds 0 1 2] [--noise 0.5] [--skeleton-models auto curved]
+        [--out benchmarks/results_forces.md]
 """
 from __future__ import annotations
 
@@ -44,6 +49,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import hexatissue as ht  # noqa: E402
 from hexatissue.mechanics import frame_forces, infer_forces  # noqa: E402
 from hexatissue.mechanics.curvature import junction_shapes  # noqa: E402
+from hexatissue.mesh.labels import mesh_labels, validate_labels  # noqa: E402
 from hexatissue.synthetic import network_labels, vertex_model_tissue  # noqa: E402
 
 PITCH = 20.0  # the generator's lattice pitch, px; images are drawn at d / PITCH px per unit
@@ -95,11 +101,34 @@ def compare(est_t, sd_t, true_t, est_p, sd_p, true_p):
     return out
 
 
-def run_image(labels, box, truth_edges, truth_t, truth_p, model, method="bayes"):
+def skeleton_of(labels):
+    """A 1-px skeleton of a periodic label image: every pixel whose right or lower neighbour is another cell
+    (no two 4-adjacent unmarked pixels then belong to different cells)."""
+    return ((labels != np.roll(labels, -1, axis=1)) | (labels != np.roll(labels, -1, axis=0))).astype(np.uint8)
+
+
+def mesh(labels, box, skeleton):
+    """The labels the mesh uses, its tables, and per cell id of the tables the truth's cell id."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        frame = ht.mesh_from_labels(labels, box=box)
-        tables = {k: pd.DataFrame(v) for k, v in frame.tables.items()}
+        if not skeleton:
+            frame = ht.mesh_from_labels(labels, box=box)
+            return labels, {k: pd.DataFrame(v) for k, v in frame.tables.items()}, None
+        regions, _ = mesh_labels(validate_labels(skeleton_of(labels)), box, ht.MeshOptions(kind="skeleton"))
+        frame = ht.mesh_from_labels(regions, box=box)
+    # each region's truth cell: the most frequent label under it
+    pairs = pd.DataFrame({"region": regions.ravel(), "label": labels.ravel()})
+    pairs = pairs[pairs["region"] > 0].value_counts().reset_index()
+    first = pairs.drop_duplicates("region")
+    id_map = np.zeros(int(regions.max()) + 1, np.int64)
+    id_map[first["region"].to_numpy()] = first["label"].to_numpy()
+    return regions, {k: pd.DataFrame(v) for k, v in frame.tables.items()}, id_map
+
+
+def run_image(labels, box, truth_edges, truth_t, truth_p, model, method="bayes", skeleton=False):
+    labels, tables, id_map = mesh(labels, box, skeleton)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
         args = (tables["cells"], tables["vertices"], tables["edges"], tables["cell_vertices"], box)
         start = time.perf_counter()
         if model in ("auto", "straight", "curved"):
@@ -120,11 +149,15 @@ def run_image(labels, box, truth_edges, truth_t, truth_p, model, method="bayes")
     truth = pd.Series(truth_t, index=pd.MultiIndex.from_arrays([truth_edges["cell_a"], truth_edges["cell_b"]]))
     truth = truth[~truth.index.duplicated(keep=False)]
     e = tables["edges"]
-    pair = pd.MultiIndex.from_arrays([e["cell_a"], e["cell_b"]])
+    ca, cb, cid = e["cell_a"].to_numpy(), e["cell_b"].to_numpy(), tables["cells"]["cell"].to_numpy()
+    if id_map is not None:
+        ca, cb, cid = id_map[ca], id_map[cb], id_map[cid]
+        ca, cb = np.minimum(ca, cb), np.maximum(ca, cb)
+    pair = pd.MultiIndex.from_arrays([ca, cb])
     dup = pair.duplicated(keep=False)
     true_t = truth.reindex(pair).to_numpy(float).copy()
     true_t[dup] = np.nan
-    true_p = pd.Series(truth_p[1], index=truth_p[0]).reindex(tables["cells"]["cell"]).to_numpy(float)
+    true_p = pd.Series(truth_p[1], index=truth_p[0]).reindex(cid).to_numpy(float)
     out = compare(forces.edges["tension"].to_numpy(), forces.edges["tension_sd"].to_numpy(), true_t,
                   forces.cells["pressure"].to_numpy(), forces.cells["pressure_sd"].to_numpy(), true_p)
     out["seconds"] = seconds
@@ -145,6 +178,8 @@ def main():
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--noise", type=float, default=0.5)
     parser.add_argument("--models", nargs="+", default=list(MODELS))
+    parser.add_argument("--skeleton-models", nargs="*", default=["auto", "curved"],
+                        help="junction models also run on the images' 1-px skeletons")
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results_forces.md")
     args = parser.parse_args()
     load = os.getloadavg()
@@ -158,14 +193,15 @@ def main():
             clean, image_box = network_labels(tables, box, scale)
             for noise in (0.0, args.noise):
                 labels = boundary_noise(clean, noise, seed) if noise else clean
-                for model in args.models:
+                runs = [(m, False) for m in args.models] + [(m, True) for m in args.skeleton_models]
+                for model, skeleton in runs:
                     out = run_image(labels, image_box, tables["edges"], tension, (truth_p[0], pressure / scale),
-                                    model)
-                    out.update(seed=seed, px=d, noise=noise, model=model)
+                                    model, skeleton=skeleton)
+                    out.update(seed=seed, px=d, noise=noise, model=model, form="skeleton" if skeleton else "labels")
                     rows.append(out)
                     print({k: (round(v, 3) if isinstance(v, float) else v) for k, v in out.items()}, flush=True)
     table = pd.DataFrame(rows)
-    mean = table.groupby(["px", "noise", "model"], sort=True).mean(numeric_only=True).reset_index()
+    mean = table.groupby(["form", "px", "noise", "model"], sort=True).mean(numeric_only=True).reset_index()
     lines = ["# Force inference on rendered vertex-model tissues (`benchmarks/bench_forces.py`)", "",
              f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, {platform.node()}, "
              f"{os.cpu_count()} cores, load {load[0]:.2f} at the start; seeds {args.seeds}, boundary noise "
@@ -173,11 +209,11 @@ def main():
              "Means over the seeds. r: Pearson correlation with the truth; tension error: median |error| / truth "
              "(mean tension 1); pressure error: median |error| / s.d. of the true pressures; cover: share of the "
              "truth inside the 90 % posterior interval; curved: share of junctions drawn as arcs.", "",
-             "| px per cell | noise | junctions | tensions | tension r | tension error | tension cover | pressure r | "
+             "| input | px per cell | noise | junctions | tensions | tension r | tension error | tension cover | pressure r | "
              "pressure error | pressure cover | curved | seconds |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in mean.iterrows():
-        lines.append(f"| {r.px:.0f} | {r.noise:g} | {r.model} | {r.n_t:.0f} | {r.r_t:.3f} | {r.err_t:.3f} | "
+        lines.append(f"| {r.form} | {r.px:.0f} | {r.noise:g} | {r.model} | {r.n_t:.0f} | {r.r_t:.3f} | {r.err_t:.3f} | "
                      f"{r.cover_t:.2f} | {r.r_p:.3f} | {r.err_p:.2f} | {r.cover_p:.2f} | {r.curved:.2f} | "
                      f"{r.seconds:.2f} |")
     lines += ["", "Exact vertices (no image), Bayesian estimate with ABIC: largest tension error (mean tension 1) "
