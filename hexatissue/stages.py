@@ -310,6 +310,10 @@ def _mechanics(frame, options):
         frame.tables["stress"] = stress_grid(cells, stress, pd.DataFrame(grid), box=frame.box)
     else:
         frame.tables["stress"] = empty_table("stress")
+    frame.tables["force_fit"] = pd.DataFrame({
+        "frame": [frame.t], "arcs": [model == "curved"], "curved_share": [share], "mu": [forces.mu],
+        "residual": [forces.residual], "n_equations": [forces.n_equations], "n_unknowns": [forces.n_unknowns],
+        "n_free": [int((forces.undetermined["reason"] == "free").sum())]})
     if options.method == "bayes" and options.mu is None and forces.mu >= MU_RANGE[1] * (1 - 1e-9):
         # measured on mouse_epidermis_laptrack frame 1: every tension 1.00 with a median s.d. of 0.012
         warnings.warn(f"force inference: ABIC chose the largest prior weight it searches ({MU_RANGE[1]:g}): the "
@@ -365,7 +369,7 @@ STAGES = (
     Stage("mechanics", MechanicsOptions, "frame", reads=("labels", "cells", "vertices", "edges", "cell_vertices",
                                                          "grid"),
           writes=("edges.tension", "edges.tension_sd", "edges.curvature", "cells.pressure", "cells.pressure_sd", "cells.stress_xx",
-                  "cells.stress_xy", "cells.stress_yy", "stress"), run=_mechanics, enabled=_enabled),
+                  "cells.stress_xy", "cells.stress_yy", "stress", "force_fit"), run=_mechanics, enabled=_enabled),
 )
 
 

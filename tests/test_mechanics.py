@@ -202,6 +202,10 @@ def test_stage_writes_columns_and_the_stress_table(tmp_path):
         assert column in cells.columns
     assert np.nanmean(edges["tension"]) == pytest.approx(1.0, abs=1e-12)
     assert np.isfinite(edges["tension"]).all() and edges["tension_sd"].isna().all()
+    # what each frame's estimate used: the junction model and ABIC's prior weight
+    fit = movie.tables["force_fit"]
+    assert len(fit) == 1 and not fit["arcs"].iloc[0] and 0 < fit["mu"].iloc[0] < 1e3
+    assert fit["n_equations"].iloc[0] > 0 and fit["curved_share"].iloc[0] < 0.1
     grid = movie.tables["grid"]
     assert stress["node"].tolist() == grid["node"].tolist()
     np.testing.assert_allclose(stress[["x", "y"]], grid[["x", "y"]])
@@ -278,9 +282,12 @@ def test_report_has_a_force_inference_section_with_its_figures(tmp_path):
     numbers = report(tmp_path / "res", out=tmp_path / "rep")
     text = (tmp_path / "rep" / "report.md").read_text()
     assert "## Force inference" in text and "tensions.png" in text and "pressure.png" in text
+    assert "tension_histogram.png" in text and "| mu |" in text and "| n_free |" in text
     assert (tmp_path / "rep" / "tensions.png").stat().st_size > 0
     row = numbers["mechanics"]["frames"][0]
     assert row["tensions"] == int(np.isfinite(movie.tables["edges"]["tension"]).sum())
+    assert row["junction_model"] == "straight" and row["mu"] == movie.tables["force_fit"]["mu"].iloc[0]
+    assert row["negative"] == int((movie.tables["edges"]["tension"] < 0).sum())
     stress = movie.cells[["stress_xx", "stress_xy", "stress_yy"]]
     whole = tissue_stress(movie.cells, stress)
     assert row["stress_xx"] == pytest.approx(whole[0, 0], rel=1e-12)

@@ -710,7 +710,7 @@ def _t1_flow_lines(movie, out, written, numbers):
     return lines + _figure_line(path, out, "flow around T1s")
 def _mechanics_section(movie, out, written, numbers):
     """Force inference: tensions and pressures of the first frame, the tissue stress per frame."""
-    from ..mechanics import tissue_stress
+    from ..mechanics import MU_RANGE, tissue_stress
     from ..plot import plot_stress, plot_tension_histogram, plot_tensions
 
     edges = movie.tables.get("edges")
@@ -735,6 +735,14 @@ def _mechanics_section(movie, out, written, numbers):
                           "pressures": int(np.isfinite(rows["pressure"]).sum()), "cells": int(len(rows)),
                           "stress_xx": s[0, 0], "stress_xy": s[0, 1], "stress_yy": s[1, 1]})
     table = pd.DataFrame(per_frame)
+    fit = movie.tables.get("force_fit")
+    if fit is not None and len(fit):
+        # the model and the prior weight each frame's estimate actually used
+        fit = fit.set_index("frame")
+        table["junction_model"] = np.where(fit["arcs"].reindex(table["frame"]).fillna(False).to_numpy(bool),
+                                           "arcs", "straight")
+        for column in ("mu", "n_free"):
+            table.insert(2, column, fit[column].reindex(table["frame"]).to_numpy())
     options = movie.options.get("mechanics")
     method = {"bayes": "Bayesian, prior weight by ABIC" if getattr(options, "mu", None) is None else
               f"Bayesian, prior weight {options.mu:g}", "lsq": "least squares"}.get(getattr(options, "method", ""),
@@ -748,7 +756,11 @@ def _mechanics_section(movie, out, written, numbers):
              f"(estimator: {method}; junction model `{junctions}`, the one used per frame in `junction_model`: "
              f"arcs balanced by their tangents and Young-Laplace, or straight junctions with the pressures at the "
              f"vertices; tensions relative, mean interior tension 1 per frame; pressures relative to the frame's mean, in "
-             f"tension/px; docs/mechanics.md). Per frame: the junctions and cells with an estimate, the negative "
+             f"tension/px; docs/mechanics.md). Per frame: the prior weight `mu` the estimate used (at "
+             f"{MU_RANGE[0]:g}, the lower end, the balance is met almost exactly and the estimate is least squares' "
+             f"wherever the balance determines it; at {MU_RANGE[1]:g}, the upper end, the prior alone sets the "
+             f"tensions), `n_free` the junctions and cells the balance leaves free (their values are the prior's), "
+             f"the junctions and cells with an estimate, the negative "
              f"tensions (`negative_90`: below 0 by more than their 90 % posterior interval), the median posterior "
              f"s.d. of the tensions, and the tissue's Batchelor stress (area-weighted mean of the cells with a "
              f"stress, tension/px):", "", _md_table(table.head(20)), ""]
