@@ -29,7 +29,10 @@ estimate (docs/mechanics.md).  Curved junctions (Young-Laplace; the
 the vertices are balanced by the tensions along the arcs' end tangents, and
 each junction's curvature ties the pressure difference across it to its
 tension (:func:`force_system`); the vertices then set the tensions on their
-own, and open images are determined.  :mod:`hexatissue.mechanics.stress` turns
+own, and open images are determined.  :func:`frame_forces`, what the stage
+runs, chooses between the two from the junctions' own pixels
+(:func:`hexatissue.mechanics.curvature.junction_shapes`).
+:mod:`hexatissue.mechanics.stress` turns
 the forces into the Batchelor stress of each cell, of the tissue and on the
 Gamma_p grid.
 """
@@ -50,7 +53,8 @@ from .curvature import junction_curvature, junction_shapes
 from .history import t1_tension_histories
 from .stress import cell_stress, stress_grid, tissue_stress
 
-__all__ = ["ForceSystem", "Forces", "force_system", "infer_forces", "frame_forces", "JUNCTION_MODELS", "MU_RANGE", "cell_stress", "tissue_stress", "stress_grid",
+__all__ = ["ForceSystem", "Forces", "force_system", "infer_forces", "frame_forces", "JUNCTION_MODELS", "MU_RANGE",
+           "cell_stress", "tissue_stress", "stress_grid",
            "junction_curvature", "t1_tension_histories", "METHODS"]
 
 #: Estimators of :func:`infer_forces`.
@@ -75,8 +79,8 @@ _SD_BLOCK = 256  # right-hand sides per solve when the posterior variances are c
 _LAPLACE_WEIGHT = 0.1
 # ABIC's search range, log10 mu.  Exact equations make ABIC fall toward mu = 0 until the residual |A x|^2 reaches
 # round-off (near 1e-10 at the 1e-12 regularisation), where it turns up steeply: the lower end lets the estimate
-# follow exact data (vertex model, 256 cells, exact vertices: largest tension error 1e-3 - 1e-4 at 1e-9 - 1e-10,
-# 7e-3 - 2e-2 at 1e-8).
+# follow exact data (vertex model, 256 cells, exact vertices, three seeds: largest tension error 1e-5 - 1e-3 at
+# mu = 1e-10, 1e-3 - 2e-2 at 1e-8).
 _LOG_MU = (-10.0, 3.0)
 #: The range of prior weights ABIC searches (:func:`infer_forces`); at its upper end the prior alone sets the
 #: tensions (all near 1), and their posterior s.d. is the prior's, not a measurement.
