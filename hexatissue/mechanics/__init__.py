@@ -89,6 +89,11 @@ MU_RANGE = (10.0 ** _LOG_MU[0], 10.0 ** _LOG_MU[1])
 # shares: Surface Evolver foam drawn at 4 px per unit 0.78; vertex-model sheets (straight junctions) 0.00-0.01
 # clean, 0.13 (20 px per cell) and 0.24 (40 px) with boundary noise of 0.5 px.
 _CURVED_SHARE = 0.5
+# frame_forces: s.d. of a vertex coordinate found in a label image, px (the mesh's sub-pixel vertices: median distance
+# to the truth 0.21-0.33 px on rendered vertex models, 0.25 px on Voronoi labels, i.e. about 0.2 px per axis).  It
+# floors the posterior s.d. where the balance is met exactly (infer_forces, vertex_sd); on the benchmark's sheets
+# the fitted noise is 1.4-2.4 x above the floor, which then changes nothing.
+_VERTEX_SD = 0.2
 
 
 @dataclass
@@ -390,7 +395,7 @@ def _factor(matrix):
 
 
 def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes", mu=None, sd=True,
-                 seed=0, curvature=None, arcs=None, directions=None) -> Forces:
+                 seed=0, curvature=None, arcs=None, directions=None, vertex_sd=None) -> Forces:
     """Tensions of the interior junctions and pressures of the interior cells of one frame, from force balance.
 
     The equations are those of :func:`force_system` (straight junctions).
@@ -429,6 +434,16 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         Which junctions are arcs (with ``curvature``; None: all) and the
         directions of the straight ones (None: their chords); see
         :func:`force_system`.
+    vertex_sd : float, optional
+        S.d. of each vertex coordinate, px (e.g. from rounding to pixels).
+        It bounds the force error below: a junction of length ``l`` whose
+        ends move by it turns by ``sqrt(2) vertex_sd / l``, so each balance
+        equation has an error variance of at least ``vertex_sd^2 sum_j 1 /
+        l_j^2`` (junctions at the vertex, tensions near 1), averaged over the
+        balanced vertices; the posterior s.d. use the larger of that and the
+        fitted ``s^2``.  None: the fitted ``s^2`` alone.  A square periodic
+        network meets its equations whatever its vertices' errors, so its
+        fitted ``s^2`` says nothing about them.
 
     Returns
     -------
@@ -443,6 +458,8 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         raise InputError(f"method must be one of {METHODS}; got {method!r}")
     if mu is not None and not (is_real(mu) and mu > 0):
         raise InputError(f"mu must be a positive finite number or None; got {mu!r}")
+    if vertex_sd is not None and not (is_real(vertex_sd) and vertex_sd >= 0):
+        raise InputError(f"vertex_sd must be a non-negative finite number or None; got {vertex_sd!r}")
     frame = _frame_of(cells, "cells")
     system = force_system(cells, vertices, edges, cell_vertices, box, curvature, arcs, directions)
     A = system.matrix
@@ -543,7 +560,16 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
             f, x, s2, abic = solve(mu)
             mu_used = float(mu)
             if sd:
-                var = _posterior_variance(f, scale, n_t, n_p) * s2 / max(n_dof, 1)
+                noise = s2 / max(n_dof, 1)
+                if vertex_sd is not None:
+                    ends = (system.balanced[va[system.edge_rows]].astype(float)
+                                            + system.balanced[vb[system.edge_rows]])
+                    lengths = np.hypot(*(_min_image(vertices[["x", "y"]].to_numpy(float)[vb[system.edge_rows]]
+                                                    - vertices[["x", "y"]].to_numpy(float)[va[system.edge_rows]],
+                                                    box)).T)
+                    floor = vertex_sd ** 2 * np.sum(ends / np.maximum(lengths, 1e-12) ** 2) / len(system.vertex_rows)
+                    noise = max(noise, floor)
+                var = _posterior_variance(f, scale, n_t, n_p) * noise
         t = x[:n_t]
         determined_t = ~free[:n_t] if method == "lsq" else np.ones(n_t, bool)
         unit = float(np.mean(t[determined_t])) if determined_t.any() else np.nan
@@ -578,7 +604,9 @@ def frame_forces(labels, cells, vertices, edges, cell_vertices, box=None, juncti
     more than half of them show a curvature (``_CURVED_SHARE``), the tissue is
     a foam of arcs: every junction is an arc through its end vertices
     (tangent forces and Young-Laplace); else every junction is straight,
-    with the pressures pushing on the vertices (the vertex model).  The
+    with the pressures pushing on the vertices (the vertex model).  With
+    pixels, the posterior s.d. are floored by vertices known to 0.2 px per
+    axis (:func:`infer_forces`, ``vertex_sd``).  The
     choice is made per frame, not per junction: a network mixing the two
     forms is exact for exact shapes (:func:`force_system`, ``arcs``) but, with
     the curvatures of a few junctions only, ill-conditioned: measured on the
@@ -623,7 +651,7 @@ def frame_forces(labels, cells, vertices, edges, cell_vertices, box=None, juncti
             model = "curved" if share > _CURVED_SHARE else "straight"
     curvature = junction_curvature(labels, vertices, edges, box) if model == "curved" else None
     forces = infer_forces(cells, vertices, edges, cell_vertices, box=box, method=method, mu=mu, sd=sd,
-                          curvature=curvature)
+                          curvature=curvature, vertex_sd=_VERTEX_SD if pixels else None)
     return forces, (np.zeros(len(edges)) if curvature is None else curvature), model, share
 
 
