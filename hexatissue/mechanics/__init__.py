@@ -91,8 +91,8 @@ MU_RANGE = (10.0 ** _LOG_MU[0], 10.0 ** _LOG_MU[1])
 _CURVED_SHARE = 0.5
 # frame_forces: s.d. of a vertex coordinate found in a label image, px (the mesh's sub-pixel vertices: median distance
 # to the truth 0.21-0.33 px on rendered vertex models, 0.25 px on Voronoi labels, i.e. about 0.2 px per axis).  It
-# floors the posterior s.d. where the balance is met exactly (infer_forces, vertex_sd); on the benchmark's sheets
-# the fitted noise is 1.4-2.4 x above the floor, which then changes nothing.
+# floors the posterior s.d. where the balance is met exactly (infer_forces, vertex_sd); on the benchmark's clean
+# sheets (seed 0) the fitted noise is 1.4-2.4 x the floor, and benchmarks/results_forces.md is the same without it.
 _VERTEX_SD = 0.2
 
 
