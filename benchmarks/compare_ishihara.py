@@ -6,7 +6,7 @@ made from it; IshiharaLab/BayesianForceInference, MIT).  The skeleton is meshed 
 polygons.  Matching: each table vertex to the nearest network vertex within ``--tol`` px (1.5); each table cell to
 the network cell whose label holds its polygon's centroid; each table junction to the network junction joining
 its two matched vertices.  Then the Bayesian estimate (ABIC) on both networks (straight junctions, as the table's
-polygons are; and curved, from the skeleton's pixels, on the image network) and the Pearson correlation of the
+polygons are; and curved, from the skeleton's pixels, and the default junction model, on the image network) and the Pearson correlation of the
 tensions over the matched interior junctions.  Usage::
 
     python benchmarks/compare_ishihara.py --data DIR [--tol 1.5]
@@ -25,7 +25,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import hexatissue as ht  # noqa: E402
-from hexatissue.mechanics import infer_forces, junction_curvature  # noqa: E402
+from hexatissue.mechanics import frame_forces, infer_forces, junction_curvature  # noqa: E402
 from hexatissue.mechanics.vdat import read_vdat  # noqa: E402
 from hexatissue.mesh.labels import mesh_labels, validate_labels  # noqa: E402
 
@@ -78,9 +78,15 @@ def compare(data, tol=1.5):
     t_table = forces(poly)
     t_image = forces(image)
     t_curved = forces(image, junction_curvature(labels, image["vertices"], image["edges"]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        auto, _, model, share = frame_forces(labels, image["cells"], image["vertices"], image["edges"],
+                                             image["cell_vertices"], sd=False)
+    out["auto_model"] = (model, share)
+    t_auto = auto.edges["tension"].to_numpy()
     both = (jmatch >= 0) & (prow >= 0)
     a = t_table[prow[both]]
-    for name, t in (("straight", t_image), ("curved", t_curved)):
+    for name, t in (("straight", t_image), ("curved", t_curved), ("auto", t_auto)):
         b = t[jmatch[both]]
         ok = np.isfinite(a) & np.isfinite(b)
         out[f"r_{name}"] = (float(np.corrcoef(a[ok], b[ok])[0, 1]), int(ok.sum()))
@@ -101,7 +107,9 @@ def main():
     for what in ("vertices", "cells", "junctions"):
         hit, miss, total = out[what]
         print(f"  {what}: {hit} matched, {miss} of the table's unmatched (hexatissue's network: {total})")
-    for name in ("straight", "curved"):
+    print(f"  default (junctions auto): {out['auto_model'][0]} ({out['auto_model'][1]:.2f} of the tested junctions "
+          f"curved)")
+    for name in ("straight", "curved", "auto"):
         r, n = out[f"r_{name}"]
         print(f"  tensions, table network vs image network ({name}): r = {r:.3f} over {n} junctions, median "
               f"relative difference {out[f'median_rel_{name}']:.3f}")

@@ -38,6 +38,8 @@ TRACK_MODES = ("auto", "always", "never", "off")
 T1_SOURCES = ("quartets", "neighbours")
 #: Estimators of force inference (see :class:`MechanicsOptions`).
 FORCE_METHODS = ("bayes", "lsq")
+#: Junction models of force inference (see :class:`MechanicsOptions`).
+JUNCTION_MODELS = ("auto", "straight", "curved")
 
 
 def check_background(background, name="background"):
@@ -572,13 +574,19 @@ class MechanicsOptions(_Options, stage="mechanics", title="force inference"):
         Fixed prior weight for ``bayes`` (default: ABIC).
     sd : bool
         Posterior standard deviations (``bayes``; one solve per unknown).
-    curved : bool
-        Curved junctions (Young-Laplace): each junction is the circular arc
-        fitted to its own cracks in the label image, balanced by its end
-        tangents, and its curvature sets the pressure difference across it
-        (docs/mechanics.md).  False, or polygon input (no pixels): straight
-        junctions with the pressures pushing on them, the vertex model's
-        balance.
+    junctions : {"auto", "straight", "curved"}
+        The junction model.  ``"auto"``: per junction, an arc (Young-Laplace:
+        balanced by its end tangents, its curvature setting the pressure
+        difference across it) where its own pixels show a curvature beyond
+        pixel noise, else straight, its direction the line fitted to its
+        pixels (:func:`hexatissue.mechanics.frame_forces`).  ``"straight"``:
+        every junction straight along its chord, the pressures pushing on
+        the vertices (the vertex model's balance).  ``"curved"``: every
+        junction an arc.  Polygon input (no pixels) is always straight.
+    curved : bool, optional
+        The former switch (``--straight-junctions`` sets it False):
+        False means ``junctions="straight"``, True ``"curved"``; None leaves
+        ``junctions`` as given.
     """
 
     enabled: bool = cli_field(False, "--mechanics", "force inference: junction tensions, cell pressures and the "
@@ -589,11 +597,21 @@ class MechanicsOptions(_Options, stage="mechanics", title="force inference"):
                                  "(default: chosen by ABIC)", type=float)
     sd: bool = cli_field(True, "--no-mechanics-sd", "no posterior standard deviations (faster on large frames)",
                          action="store_false")
-    curved: bool = cli_field(True, "--straight-junctions", "straight junctions (vertex-model balance) instead of "
-                             "arcs fitted to each junction's pixels (Young-Laplace)", action="store_false")
+    junctions: str = cli_field("auto", "--junctions", "junction model: an arc where the junction's pixels show a "
+                               "curvature beyond pixel noise, else its fitted line (auto); all straight; all arcs",
+                               choices=JUNCTION_MODELS)
+    curved: bool | None = cli_field(None, "--straight-junctions", "the same as --junctions straight",
+                                    action="store_const", const=False)
 
     def __post_init__(self):
-        self._flags("enabled", "sd", "curved")
+        self._flags("enabled", "sd")
+        if self.curved is not None:
+            if not isinstance(self.curved, bool):
+                _fail(type(self), "curved", self.curved, "True, False or None")
+            object.__setattr__(self, "junctions", "curved" if self.curved else "straight")
+            object.__setattr__(self, "curved", None)
+        if self.junctions not in JUNCTION_MODELS:
+            _fail(type(self), "junctions", self.junctions, f"one of {JUNCTION_MODELS}")
         if self.method not in FORCE_METHODS:
             _fail(type(self), "method", self.method, f"one of {FORCE_METHODS}")
         if self.mu is not None and not (is_real(self.mu) and self.mu > 0):

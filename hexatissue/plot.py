@@ -43,6 +43,7 @@ __all__ = [
     "plot_deformation_map",
     "plot_flow",
     "plot_tensions",
+    "plot_tension_histogram",
     "save_figure",
     "save_analysis_figures",
 ]
@@ -798,6 +799,51 @@ def plot_t1_tensions(histories, ax=None, path=None, figsize=(6.4, 4.2)):
     return _finish(fig, path)
 
 
+def _tension_limits(tension):
+    """Colour limits of a tension map: the 2nd and 98th percentiles of the finite values ((0, 1) if none;
+    widened by 0.5 each way when they coincide)."""
+    tension = np.asarray(tension, float)
+    known = np.isfinite(tension)
+    low, high = np.percentile(tension[known], [2, 98]) if known.any() else (0.0, 1.0)
+    return (float(low), float(high)) if high > low else (float(low) - 0.5, float(high) + 0.5)
+
+
+def plot_tension_histogram(edges, ax=None, path=None, figsize=(5, 3.4)):
+    """Histogram of the inferred tensions of one frame, with the colour range of :func:`plot_tensions`.
+
+    Parameters
+    ----------
+    edges : pandas.DataFrame
+        One frame's ``edges`` with ``tension`` (relative: mean interior
+        tension 1) and optionally ``tension_sd``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Counts of junctions per tension bin (all finite tensions, outliers
+        included: the bins span the data), the colour range shaded, 0 and 1
+        marked, the median posterior s.d. in the title when there is one.
+    """
+    if "tension" not in edges.columns:
+        raise InputError("edges has no column 'tension' (run force inference: --mechanics)")
+    tension = edges["tension"].to_numpy(float)
+    known = np.isfinite(tension)
+    fig, ax = _new_axes(ax, figsize)
+    if known.any():
+        ax.hist(tension[known], bins=min(60, max(10, int(np.sqrt(known.sum())) * 2)), color="0.35")
+    low, high = _tension_limits(tension)
+    ax.axvspan(low, high, color="tab:green", alpha=0.12, label="colour range of the map (2nd-98th percentile)")
+    ax.axvline(0.0, color="red", lw=1)
+    ax.axvline(1.0, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("tension (relative: mean interior tension = 1)")
+    ax.set_ylabel("junctions")
+    sd = edges["tension_sd"].to_numpy(float) if "tension_sd" in edges.columns else np.full(len(edges), np.nan)
+    note = f"; median posterior s.d. {np.nanmedian(sd[known]):.3f}" if np.isfinite(sd[known]).any() else ""
+    ax.set_title(f"{int(known.sum())} tensions, {int((tension[known] < 0).sum())} negative{note}", fontsize=9)
+    ax.legend(fontsize=7, loc="upper right")
+    return _finish(fig, path)
+
+
 def plot_tensions(edges, vertices, calibration=None, ax=None, path=None, box=None, cmap="viridis",
                   figsize=(6.4, 6)):
     """The junction network, each junction coloured by its inferred tension (force inference, ``--mechanics``).
@@ -818,8 +864,11 @@ def plot_tensions(edges, vertices, calibration=None, ax=None, path=None, box=Non
     -------
     matplotlib.figure.Figure
         Junctions without a tension (NaN) thin and grey, the others coloured
-        on a scale from the 2nd to the 98th percentile, with a colour bar
-        and a scale bar.
+        on a scale from the frame's own 2nd to 98th percentile (the colour
+        bar's pointed ends: values beyond it); tensions outside that range
+        drawn thicker, negative ones in red, so outliers show; a colour bar
+        and a scale bar.  The title counts the junctions with a tension, the
+        negative ones and their median.
     """
     from matplotlib.collections import LineCollection
     from matplotlib.colors import Normalize
@@ -837,12 +886,20 @@ def plot_tensions(edges, vertices, calibration=None, ax=None, path=None, box=Non
     known = np.isfinite(tension)
     fig, ax = _new_axes(ax, figsize)
     ax.add_collection(LineCollection(segments[~known], colors="0.75", linewidths=0.5))
-    low, high = (np.percentile(tension[known], [2, 98]) if known.any() else (0.0, 1.0))
-    lines = LineCollection(segments[known], cmap=cmap, norm=Normalize(low, high if high > low else low + 1),
-                           linewidths=1.6)
+    low, high = _tension_limits(tension)
+    outside = known & ((tension < low) | (tension > high))
+    widths = np.where(outside[known], 3.0, 1.6)
+    lines = LineCollection(segments[known], cmap=cmap, norm=Normalize(low, high), linewidths=widths)
     lines.set_array(tension[known])
     ax.add_collection(lines)
-    fig.colorbar(lines, ax=ax, shrink=0.7, label="tension (mean interior tension = 1)")
+    negative = known & (tension < 0)
+    if negative.any():
+        ax.add_collection(LineCollection(segments[negative], colors="red", linewidths=3.0))
+    fig.colorbar(lines, ax=ax, shrink=0.7, extend="both",
+                 label="tension (relative: the frame's mean interior tension = 1)")
     _image_axes(ax, _extent_of(xy=vertices[["x", "y"]].to_numpy(float), box=box), calibration)
-    ax.set_title(f"inferred junction tensions ({int(known.sum())} of {len(tension)} junctions)", fontsize=10)
+    median = float(np.median(tension[known])) if known.any() else np.nan
+    ax.set_title(f"inferred junction tensions: {int(known.sum())} of {len(tension)} junctions, median "
+                 f"{median:.2f};\n{int(outside.sum())} beyond the colour range (thick), {int(negative.sum())} "
+                 f"negative (red)", fontsize=9)
     return _finish(fig, path)

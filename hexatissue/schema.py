@@ -251,6 +251,19 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "stress6_im": ("f", "tension/px", "hexatic (p = 6) moment of the junction tensions, imaginary part"),
         "n_cells": ("i", "", "cells with a stress in the disk"),
     },
+    "force_fit": {
+        "frame": ("i", "frame", "time point (0 for a single image)"),
+        "arcs": ("b", "", "the junctions were drawn as arcs (Young-Laplace); False: straight (--junctions)"),
+        "curved_share": ("f", "", "share of the tested interior junctions whose pixels show a curvature (NaN: "
+                         "not tested)"),
+        "mu": ("f", "", "prior weight of the Bayesian estimate (ABIC's choice or --mechanics-mu); NaN for least "
+               "squares"),
+        "residual": ("f", "tension", "RMS force imbalance at the balanced vertices (mean tension 1)"),
+        "n_equations": ("i", "", "force-balance equations"),
+        "n_unknowns": ("i", "", "unknown tensions and pressures"),
+        "n_free": ("i", "", "interior junctions and cells the balance leaves free (NaN under least squares, the "
+                   "prior's value under the Bayesian estimate)"),
+    },
 }
 
 # columns a producer may leave out (every other schema column is required)

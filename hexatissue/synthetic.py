@@ -27,6 +27,7 @@ __all__ = [
     "vertex_model_tissue",
     "arc_vertex_model_tissue",
     "arcs_at_balance",
+    "network_labels",
 ]
 
 
@@ -854,7 +855,7 @@ class _VertexModel:
 
 
 def vertex_model_tissue(nx=10, ny=10, spacing=20.0, jitter=0.1, tension_spread=0.15, area_spread=0.1, K=0.01,
-                        seed=0):
+                        seed=0, row_spacing=None):
     """A periodic vertex-model tissue at force balance, with its exact tensions and pressures.
 
     The Voronoi tissue of a jittered hexagonal lattice in a periodic box,
@@ -881,6 +882,10 @@ def vertex_model_tissue(nx=10, ny=10, spacing=20.0, jitter=0.1, tension_spread=0
     K : float
         Area stiffness, tension/px^3.
     seed : int or numpy.random.Generator
+    row_spacing : float, optional
+        Distance between lattice rows, px (default ``spacing sqrt(3) / 2``,
+        regular hexagons); another value gives a box of another height, e.g.
+        a whole number of pixels for :func:`network_labels`.
 
     Returns
     -------
@@ -902,7 +907,9 @@ def vertex_model_tissue(nx=10, ny=10, spacing=20.0, jitter=0.1, tension_spread=0
     if ny % 2:
         raise InputError(f"ny must be even (a periodic hexagonal lattice); got {ny!r}")
     rng = as_generator(seed)
-    row = spacing * np.sqrt(3) / 2
+    row = spacing * np.sqrt(3) / 2 if row_spacing is None else float(row_spacing)
+    if not row > 0:
+        raise InputError(f"row_spacing must be a positive number or None; got {row_spacing!r}")
     box = Box(nx * spacing, ny * row)
     X, Y = np.meshgrid(np.arange(nx) * spacing, np.arange(ny) * row)
     X = X + (np.arange(ny)[:, None] % 2) * spacing / 2
@@ -1004,3 +1011,50 @@ def _with_positions(tables, xy, box):
         cells.loc[k, ["area", "polygon_area"]] = a
         cells.loc[k, "perimeter"] = np.hypot(*np.diff(np.vstack([poly, poly[:1]]), axis=0).T).sum()
     return out
+
+
+def network_labels(tables, box, scale=1.0):
+    """The label image of a periodic network of straight junctions, its polygons drawn at ``scale`` px per unit.
+
+    Pixel ``(row, col)`` (centre ``x = col``, ``y = row`` in px) gets the id
+    of the cell whose polygon, scaled by ``scale``, holds its centre; the
+    image covers the scaled box, which must be a whole number of pixels in
+    both directions (so the image is periodic).
+
+    Parameters
+    ----------
+    tables : dict
+        ``cells``, ``vertices``, ``cell_vertices`` of a network in ``box``
+        (e.g. :func:`vertex_model_tissue`); cell ids >= 1.
+    box : Box
+    scale : float
+        Pixels per unit of the network's coordinates.
+
+    Returns
+    -------
+    labels : ndarray (H, W) of int32
+        Cell ids; every pixel belongs to a cell.
+    box : Box
+        The scaled box, ``(W, H)``.
+    """
+    from skimage.draw import polygon as draw_polygon
+
+    if not (np.isfinite(scale) and scale > 0):
+        raise InputError(f"scale must be a positive finite number; got {scale!r}")
+    width, height = box.Lx * scale, box.Ly * scale
+    W, H = int(round(width)), int(round(height))
+    if abs(width - W) > 1e-6 or abs(height - H) > 1e-6:
+        raise InputError(f"scale must make the box a whole number of pixels; {scale!r} gives {width:g} x {height:g}")
+    xy = tables["vertices"][["x", "y"]].to_numpy(float)
+    vpos = {v: k for k, v in enumerate(tables["vertices"]["vertex"].to_numpy())}
+    labels = np.zeros((H, W), np.int32)
+    cv = tables["cell_vertices"].sort_values(["cell", "rank"])
+    for cell, group in cv.groupby("cell", sort=True):
+        poly = box.unwrap_polygon(xy[[vpos[v] for v in group["vertex"].to_numpy()]]) * scale
+        # pixel centres inside the polygon, shifted so the polygon lies at non-negative coordinates, then wrapped
+        shift = np.floor(poly.min(axis=0))
+        rr, cc = draw_polygon(poly[:, 1] - shift[1], poly[:, 0] - shift[0])
+        labels[(rr + int(shift[1])) % H, (cc + int(shift[0])) % W] = cell
+    if (labels == 0).any():
+        raise InputError("the polygons of tables do not cover the box (is it a periodic tiling?)")
+    return labels, Box(W, H)

@@ -718,8 +718,8 @@ def _t1_flow_lines(movie, out, written, numbers):
     return lines + _figure_line(path, out, "flow around T1s")
 def _mechanics_section(movie, out, written, numbers):
     """Force inference: tensions and pressures of the first frame, the tissue stress per frame."""
-    from ..mechanics import tissue_stress
-    from ..plot import plot_stress, plot_tensions
+    from ..mechanics import MU_RANGE, tissue_stress
+    from ..plot import plot_stress, plot_tension_histogram, plot_tensions
 
     edges = movie.tables.get("edges")
     if edges is None or "tension" not in edges.columns:
@@ -729,22 +729,49 @@ def _mechanics_section(movie, out, written, numbers):
     for t, rows in cells.groupby("frame", sort=True):
         s = tissue_stress(rows, rows)
         frame_edges = edges[edges["frame"] == t]
-        per_frame.append({"frame": int(t), "tensions": int(np.isfinite(frame_edges["tension"]).sum()),
+        tension = frame_edges["tension"].to_numpy(float)
+        sd = (frame_edges["tension_sd"].to_numpy(float) if "tension_sd" in frame_edges.columns
+              else np.full(len(tension), np.nan))
+        curved = (frame_edges["curvature"].to_numpy(float) != 0) if "curvature" in frame_edges.columns else None
+        per_frame.append({"frame": int(t), "junction_model": "arcs" if curved is not None and curved.any()
+                          else "straight", "tensions": int(np.isfinite(tension).sum()),
                           "junctions": int(len(frame_edges)),
+                          "negative": int((tension < 0).sum()),
+                          # negative beyond its 90 % posterior interval (NaN s.d.: least squares, no interval)
+                          "negative_90": int((tension + 1.6448536 * sd < 0).sum()),
+                          "median_tension_sd": float(np.nanmedian(sd)) if np.isfinite(sd).any() else np.nan,
                           "pressures": int(np.isfinite(rows["pressure"]).sum()), "cells": int(len(rows)),
                           "stress_xx": s[0, 0], "stress_xy": s[0, 1], "stress_yy": s[1, 1]})
     table = pd.DataFrame(per_frame)
+    fit = movie.tables.get("force_fit")
+    if fit is not None and len(fit):
+        # the model and the prior weight each frame's estimate actually used
+        fit = fit.set_index("frame")
+        table["junction_model"] = np.where(fit["arcs"].reindex(table["frame"]).fillna(False).to_numpy(bool),
+                                           "arcs", "straight")
+        for column in ("mu", "n_free"):
+            table.insert(2, column, fit[column].reindex(table["frame"]).to_numpy())
     options = movie.options.get("mechanics")
-    method = getattr(options, "method", "?")
-    numbers["mechanics"] = {"method": method, "frames": table.to_dict("records")}
+    method = {"bayes": "Bayesian, prior weight by ABIC" if getattr(options, "mu", None) is None else
+              f"Bayesian, prior weight {options.mu:g}", "lsq": "least squares"}.get(getattr(options, "method", ""),
+                                                                                  "?")
+    junctions = getattr(options, "junctions", "?")
+    numbers["mechanics"] = {"method": method, "junctions": junctions, "frames": table.to_dict("records")}
     written.append(write_table(table, out / "mechanics.csv"))
     first = int(table["frame"].iloc[0])
     lines = ["## Force inference", "",
              f"Junction tensions and cell pressures from the force balance of the vertices inside the tissue "
-             f"(estimator: {method}; tensions relative, mean interior tension 1 per frame; pressures relative to "
-             f"the frame's mean, in tension/px; docs/mechanics.md). Per frame: the junctions and cells with an "
-             f"estimate, and the tissue's Batchelor stress (area-weighted mean of the cells with a stress, "
-             f"tension/px):", "", _md_table(table.head(20)), ""]
+             f"(estimator: {method}; junction model `{junctions}`, the one used per frame in `junction_model`: "
+             f"arcs balanced by their tangents and Young-Laplace, or straight junctions with the pressures at the "
+             f"vertices; tensions relative, mean interior tension 1 per frame; pressures relative to the frame's mean, in "
+             f"tension/px; docs/mechanics.md). Per frame: the prior weight `mu` the estimate used (at "
+             f"{MU_RANGE[0]:g}, the lower end, the balance is met almost exactly and the estimate is least squares' "
+             f"wherever the balance determines it; at {MU_RANGE[1]:g}, the upper end, the prior alone sets the "
+             f"tensions), `n_free` the junctions and cells the balance leaves free (their values are the prior's), "
+             f"the junctions and cells with an estimate, the negative "
+             f"tensions (`negative_90`: below 0 by more than their 90 % posterior interval), the median posterior "
+             f"s.d. of the tensions, and the tissue's Batchelor stress (area-weighted mean of the cells with a "
+             f"stress, tension/px):", "", _md_table(table.head(20)), ""]
     if len(table) > 20:
         lines += [f"(first 20 of {len(table)} frames; all in mechanics.csv)", ""]
     if not np.isfinite(edges["tension"]).any():
@@ -756,6 +783,10 @@ def _mechanics_section(movie, out, written, numbers):
                   calibration=cal, box=movie.box, path=path)
     written.append(path)
     lines += _figure_line(path, out, f"tensions, frame {first}")
+    path = out / "tension_histogram.png"
+    plot_tension_histogram(edges[edges["frame"] == first], path=path)
+    written.append(path)
+    lines += _figure_line(path, out, f"tension histogram, frame {first}")
     path = out / "pressure.png"
     plot_stress(cells[cells["frame"] == first], "pressure", movie.polygons(first), box=movie.box, calibration=cal,
                 title=f"inferred pressure relative to the mean (tension/px), frame {first}", path=path)
