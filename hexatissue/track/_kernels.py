@@ -209,3 +209,58 @@ def _division_kernel(i, j, n, area_a, area_b, child_fraction, mother_fraction, m
             mothers[m], first[m], second[m] = a, j[top[a, 0]], j[top[a, 1]]
             m += 1
     return mothers, first, second
+
+
+@njit(cache=True)
+def _cell_moments(index, cols, n):
+    """Pixel count and summed x (column) and y (row) of each of the ``n`` cells of a compact index (-1 skipped)."""
+    count = np.zeros(n, np.int64)
+    sx = np.zeros(n)
+    sy = np.zeros(n)
+    for k in range(index.size):
+        c = index[k]
+        if c >= 0:
+            count[c] += 1
+            sx[c] += k % cols
+            sy[c] += k // cols
+    return count, sx, sy
+
+
+@njit(cache=True)
+def _warp_index(index, rows, cols, x0, y0, step, ux, uy, periodic):
+    """``index`` (a frame's compact cells, flat) carried forward by a displacement field on a regular grid.
+
+    Each output pixel ``(r, c)`` takes the cell of the input pixel at
+    ``(r - u_y, c - u_x)`` (rounded), the displacement interpolated
+    bilinearly from the grid nodes ``(x0 + j * step, y0 + i * step)``
+    (clamped at the grid's edge).  Off the image: -1, or wrapped when
+    ``periodic``.
+    """
+    ny, nx = ux.shape
+    out = np.empty(rows * cols, np.int32)
+    for r in range(rows):
+        fy = (r - y0) / step
+        fy = min(max(fy, 0.0), ny - 1.0)
+        i0 = min(int(fy), ny - 2) if ny > 1 else 0
+        wy = fy - i0 if ny > 1 else 0.0
+        i1 = i0 + 1 if ny > 1 else 0
+        for c in range(cols):
+            fx = (c - x0) / step
+            fx = min(max(fx, 0.0), nx - 1.0)
+            j0 = min(int(fx), nx - 2) if nx > 1 else 0
+            wx = fx - j0 if nx > 1 else 0.0
+            j1 = j0 + 1 if nx > 1 else 0
+            dx = ((1 - wy) * ((1 - wx) * ux[i0, j0] + wx * ux[i0, j1]) +
+                  wy * ((1 - wx) * ux[i1, j0] + wx * ux[i1, j1]))
+            dy = ((1 - wy) * ((1 - wx) * uy[i0, j0] + wx * uy[i0, j1]) +
+                  wy * ((1 - wx) * uy[i1, j0] + wx * uy[i1, j1]))
+            sr = int(np.floor(r - dy + 0.5))
+            sc = int(np.floor(c - dx + 0.5))
+            if periodic:
+                sr %= rows
+                sc %= cols
+            elif sr < 0 or sr >= rows or sc < 0 or sc >= cols:
+                out[r * cols + c] = -1
+                continue
+            out[r * cols + c] = index[sr * cols + sc]
+    return out
