@@ -28,18 +28,16 @@ from .._components import components
 from ..errors import InputError, is_real
 from ..geometry import distinct_count, in_sorted, row_keys
 from ..mesh.labels import compact_labels, touches_outside, validate_labels
-from ..options import TRACK_MODES
+from ..options import FOLLOW_MODES, TRACK_MODES
 from ..progress import progress as progress_bar
 from ..schema import deprecated_column_lists, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 from ._motion import Field, centroids, fit_field, outline_piv, warp
 
-__all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
+__all__ = ["Tracker", "FOLLOW_MODES", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
            "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots",
            "check_divisions", "division_rows", "DIVISION_REASONS", "tracking_qc"]
 
-#: ``Tracker(follow=...)``: follow the tissue's motion, or overlap the frames as they are.
-FOLLOW_MODES = ("flow", "none")
 #: A link is confident at this IoU after warping (it then feeds the fit of the motion field).
 CONFIDENT_IOU = 0.5
 #: Below this share of confident links, the motion is measured from the outlines (PIV).
@@ -180,10 +178,14 @@ def compact_frames(labels, pixels=False) -> list:
     for k, lab in enumerate(labels):
         if not out:
             out.append((_compact(lab), None))
+            if pixels:
+                out[0][0].centroids()
             continue
         previous = out[-1][0]
         cur, overlaps = _compact_after(previous, lab)
         cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
+        if pixels:  # the tracker follows the flow from the cells' centroids: counted here, beside the mesh
+            cur.centroids()
         if not pixels and k > 1:
             out[-1] = previous.without_pixels(), out[-1][1]
         out.append((cur, overlaps))
@@ -542,7 +544,7 @@ class Tracker(_Feed):
 
     def _links_along(self, a, b, fld):
         """Links of ``a`` to ``b`` after carrying ``a`` along ``fld`` (as they are when None)."""
-        if fld is None:
+        if fld is None or fld.still():
             i, j, n = _contingency(a, b)
             area_a = a.area
         else:
@@ -572,8 +574,11 @@ class Tracker(_Feed):
             if sure.sum() < 3:
                 break
             xy = a.centroids()[r[sure]]
-            fitted = fit_field(xy, b.centroids()[c[sure]] - xy, a.shape, 2 * spacing)
+            d = b.centroids()[c[sure]] - xy
             used = best[2]
+            if used is None and np.quantile(np.hypot(*d.T), 0.9) <= REFIT_PX:
+                break  # cells stay put to within a pixel: nothing to warp (the common, slow case costs no fit)
+            fitted = fit_field(xy, d, a.shape, 2 * spacing)
             moved = fitted.at(xy) - (0 if used is None else used.at(xy))
             change = float(np.hypot(*moved.T).max())
             if used is None and change <= REFIT_PX:
@@ -799,6 +804,8 @@ class MovieTracker:
         See :func:`match_frames`.
     max_gap : int
         Gap closing of the overlap tracker (see :class:`Tracker`).
+    follow : {"flow", "none"}, periodic : bool
+        How the overlap tracker links frames (see :class:`Tracker`).
     ids_consistent : bool
         The source guarantees consistent ids (MPF runs, polygon tables with frames).
     independent : bool
@@ -806,14 +813,14 @@ class MovieTracker:
     """
 
     def __init__(self, mode="auto", min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0,
-                 ids_consistent=False, independent=False):
+                 ids_consistent=False, independent=False, follow="flow", periodic=False):
         if mode not in TRACK_MODES:
             raise InputError(f"mode must be one of {TRACK_MODES}; got {mode!r}")
         self.mode, self.ids_consistent, self.independent = mode, bool(ids_consistent), bool(independent)
         self.ids = IdTracker(min_iou, child_fraction, mother_fraction)
         self.separate = SeparateTracker() if mode == "off" or (mode == "auto" and self.independent) else None
         overlap = mode == "always" or (mode == "auto" and not self.ids_consistent and not self.independent)
-        self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap) if overlap else None
+        self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap, follow, periodic) if overlap else None
 
     def add_valid(self, labels, frame=None, overlaps=None):
         """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`).
@@ -833,8 +840,9 @@ class MovieTracker:
 
     @property
     def needs_pixels(self) -> bool:
-        """Whether every frame's pixels are needed (gap closing keeps the masks of ended tracks)."""
-        return self.overlap is not None and self.overlap.max_gap > 0
+        """Whether every frame's pixels are needed (gap closing keeps the masks of ended tracks; following the
+        flow warps them)."""
+        return self.overlap is not None and (self.overlap.max_gap > 0 or self.overlap.follow == "flow")
 
     def add_ids(self, ids, frame):
         """Add the next frame by its cell ids only (polygon input: nothing to overlap)."""

@@ -217,12 +217,14 @@ def _cell_moments(index, cols, n):
     count = np.zeros(n, np.int64)
     sx = np.zeros(n)
     sy = np.zeros(n)
-    for k in range(index.size):
-        c = index[k]
-        if c >= 0:
-            count[c] += 1
-            sx[c] += k % cols
-            sy[c] += k // cols
+    rows = index.size // cols
+    for r in range(rows):
+        for c in range(cols):
+            k = index[r * cols + c]
+            if k >= 0:
+                count[k] += 1
+                sx[k] += c
+                sy[k] += r
     return count, sx, sy
 
 
@@ -234,28 +236,34 @@ def _warp_index(index, rows, cols, x0, y0, step, ux, uy, periodic):
     ``(r - u_y, c - u_x)`` (rounded), the displacement interpolated
     bilinearly from the grid nodes ``(x0 + j * step, y0 + i * step)``
     (clamped at the grid's edge).  Off the image: -1, or wrapped when
-    ``periodic``.
+    ``periodic``.  The field is interpolated along y once per row, then
+    along x per pixel from per-column weights.
     """
     ny, nx = ux.shape
     out = np.empty(rows * cols, np.int32)
+    j0 = np.zeros(cols, np.int64)
+    wx = np.zeros(cols)
+    for c in range(cols):
+        fx = min(max((c - x0) / step, 0.0), nx - 1.0)
+        if nx > 1:
+            j0[c] = min(int(fx), nx - 2)
+            wx[c] = fx - j0[c]
+    rx = np.empty(nx)
+    ry = np.empty(nx)
     for r in range(rows):
-        fy = (r - y0) / step
-        fy = min(max(fy, 0.0), ny - 1.0)
+        fy = min(max((r - y0) / step, 0.0), ny - 1.0)
         i0 = min(int(fy), ny - 2) if ny > 1 else 0
         wy = fy - i0 if ny > 1 else 0.0
         i1 = i0 + 1 if ny > 1 else 0
+        for j in range(nx):
+            rx[j] = (1 - wy) * ux[i0, j] + wy * ux[i1, j]
+            ry[j] = (1 - wy) * uy[i0, j] + wy * uy[i1, j]
         for c in range(cols):
-            fx = (c - x0) / step
-            fx = min(max(fx, 0.0), nx - 1.0)
-            j0 = min(int(fx), nx - 2) if nx > 1 else 0
-            wx = fx - j0 if nx > 1 else 0.0
-            j1 = j0 + 1 if nx > 1 else 0
-            dx = ((1 - wy) * ((1 - wx) * ux[i0, j0] + wx * ux[i0, j1]) +
-                  wy * ((1 - wx) * ux[i1, j0] + wx * ux[i1, j1]))
-            dy = ((1 - wy) * ((1 - wx) * uy[i0, j0] + wx * uy[i0, j1]) +
-                  wy * ((1 - wx) * uy[i1, j0] + wx * uy[i1, j1]))
-            sr = int(np.floor(r - dy + 0.5))
-            sc = int(np.floor(c - dx + 0.5))
+            a = j0[c]
+            b = a + 1 if nx > 1 else a
+            w = wx[c]
+            sr = int(np.floor(r - ((1 - w) * ry[a] + w * ry[b]) + 0.5))
+            sc = int(np.floor(c - ((1 - w) * rx[a] + w * rx[b]) + 0.5))
             if periodic:
                 sr %= rows
                 sc %= cols

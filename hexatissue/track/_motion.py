@@ -14,6 +14,7 @@ earlier frame to the later one.
 """
 from __future__ import annotations
 
+import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -45,6 +46,10 @@ class Field(NamedTuple):
                          wy * ((1 - wx) * u[i1, j0] + wx * u[i1, j1]))
         return out
 
+    def still(self) -> bool:
+        """Whether the field moves no pixel (every node under half a pixel: warping is the identity)."""
+        return bool((np.abs(self.ux) < 0.5).all() and (np.abs(self.uy) < 0.5).all())
+
     def largest(self) -> float:
         """The largest displacement at a node, px."""
         return float(np.hypot(self.ux, self.uy).max()) if self.ux.size else 0.0
@@ -74,11 +79,11 @@ def _median_filter(u: np.ndarray) -> np.ndarray:
     """3 x 3 median of a grid ignoring NaN (a node with no value around stays NaN)."""
     padded = np.pad(u, 1, constant_values=np.nan)
     ny, nx = u.shape
-    stack = np.stack([padded[a:a + ny, b:b + nx] for a in range(3) for b in range(3)])
-    out = np.full(u.shape, np.nan)
-    some = np.isfinite(stack).any(axis=0)
-    out[some] = np.nanmedian(stack[:, some], axis=0)
-    return out
+    stack = np.sort(np.stack([padded[a:a + ny, b:b + nx] for a in range(3) for b in range(3)]), axis=0)  # NaN last
+    k = np.isfinite(stack).sum(axis=0)
+    lo = np.take_along_axis(stack, np.maximum((k - 1) // 2, 0)[None], 0)[0]
+    hi = np.take_along_axis(stack, np.maximum(k // 2, 0)[None], 0)[0]
+    return np.where(k > 0, (lo + hi) / 2, np.nan)
 
 
 def _fill(u: np.ndarray) -> np.ndarray:
@@ -171,7 +176,8 @@ def outline_piv(a_index: np.ndarray, b_index: np.ndarray, shape, spacing: float,
     best = flat.argmax(axis=-1)
     peak = np.take_along_axis(flat, best[..., None], -1)[..., 0]
     positive = np.where(flat > 0, flat, np.nan)
-    with np.errstate(all="ignore"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a blank window has no positive correlation: NaN, dropped
         typical = np.nanmedian(positive, axis=-1)
     bi, bj = np.divmod(best, n)
 
