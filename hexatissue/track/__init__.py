@@ -36,7 +36,8 @@ from ._motion import Field, centroids, fit_field, outline_piv, warp
 
 __all__ = ["Tracker", "FOLLOW_MODES", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
            "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots",
-           "check_divisions", "division_rows", "DIVISION_REASONS", "tracking_qc"]
+           "check_divisions", "division_rows", "DIVISION_REASONS", "tracking_qc", "tracking_warning", "EXTRUSION_SHARE",
+           "MIN_EXTRUSIONS", "FAR_APART", "CONFIDENT_IOU"]
 
 #: A link is confident at this IoU after warping (it then feeds the fit of the motion field).
 CONFIDENT_IOU = 0.5
@@ -882,6 +883,11 @@ class MovieTracker:
         """``{daughter track: mother track}`` of the chosen tracking."""
         return self._chosen().parents
 
+    def link_qc(self) -> pd.DataFrame:
+        """:meth:`Tracker.link_qc` of the overlap tracks when they are the ones chosen (else no rows)."""
+        chosen = self._chosen()
+        return chosen.link_qc() if isinstance(chosen, Tracker) else Tracker(follow="none").link_qc()
+
     def summary(self) -> dict:
         """What was decided: ``mode`` requested, ``resolved``, ``reason``, ``id_consistency``, ``threshold``."""
         resolved, reason = self.decision()
@@ -1084,8 +1090,18 @@ def division_rows(lineage: pd.DataFrame) -> pd.DataFrame:
     return out.sort_values(["frame", "mother"], ignore_index=True)
 
 
-def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
-    """Per frame: cells, tracks that appear and disappear, divisions plausible and suspect.
+#: A frame's tracking is doubtful when more than this share of its cells end inside the tissue (extrusions) ...
+EXTRUSION_SHARE = 0.01
+#: ... (and at least this many: one extrusion in a small field of view is biology, not a tracking failure) ...
+MIN_EXTRUSIONS = 2
+#: ... or when fewer than this share of its links to the frame before overlap with IoU >= CONFIDENT_IOU after
+#: warping: the frames look far apart in time (or are different fields of view).
+FAR_APART = 0.5
+
+
+def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame, links: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Per frame: cells, tracks that appear and disappear, divisions plausible and suspect, and whether the
+    tracking there is doubtful.
 
     Parameters
     ----------
@@ -1094,6 +1110,9 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
         ``division_suspect`` every division counts as plausible).
     cells : pandas.DataFrame
         ``frame`` (one row per cell).
+    links : pandas.DataFrame, optional
+        :meth:`Tracker.link_qc` (``frame``, ``link_iou``, ``confident``,
+        ``motion``), e.g. from ``summary["tracking"]["links"]`` of an analysis.
 
     Returns
     -------
@@ -1102,8 +1121,16 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
         the frame inside the tissue or at its border, not by division),
         ``disappearances`` (tracks present at the frame before and not
         after it, ended by extrusion or at the border, not by division),
-        ``divisions`` (mothers whose daughters start at the frame),
-        ``divisions_suspect`` (of those, the suspect ones); counts per frame.
+        ``interior_appearances`` and ``extrusions`` (of those, the ones
+        inside the tissue), ``divisions`` (mothers whose daughters start at
+        the frame), ``divisions_suspect`` (of those, the suspect ones);
+        counts per frame.  With ``links``: ``link_iou`` (median IoU of the
+        links from the frame before, after warping), ``confident`` (share of
+        them with IoU >= :data:`CONFIDENT_IOU`), ``motion`` (median
+        displacement from the frame before, cell diameters); NaN at the first
+        frame.  ``doubtful`` (bool): more than :data:`EXTRUSION_SHARE` of the
+        frame's cells (and at least :data:`MIN_EXTRUSIONS`) ended inside the
+        tissue there, or ``confident`` < :data:`FAR_APART`.
     """
     frames = np.unique(cells["frame"].to_numpy(np.int64))
     out = pd.DataFrame({"frame": frames})
@@ -1119,13 +1146,45 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
 
     out["appearances"] = per_frame(lineage.loc[begin.isin(["appearance", "border"]).to_numpy(), "frame_start"])
     out["disappearances"] = per_frame(gone_at[end.isin(["extrusion", "border"]).to_numpy()])
+    out["interior_appearances"] = per_frame(lineage.loc[(begin == "appearance").to_numpy(), "frame_start"])
+    out["extrusions"] = per_frame(gone_at[(end == "extrusion").to_numpy()])
     daughters = lineage[lineage["parent"] > 0]
     first = daughters.groupby("parent")["frame_start"].min()
     suspect = (daughters.groupby("parent")["division_suspect"].any() if "division_suspect" in daughters.columns
                else pd.Series(False, index=first.index))
     out["divisions"] = per_frame(first.to_numpy())
     out["divisions_suspect"] = per_frame(first[suspect.reindex(first.index).to_numpy(bool)].to_numpy())
+    doubtful = (out["extrusions"] > EXTRUSION_SHARE * out["cells"]) & (out["extrusions"] >= MIN_EXTRUSIONS)
+    if links is not None:
+        links = pd.DataFrame(links)
+        for name in ("link_iou", "confident", "motion"):
+            values = links.set_index("frame")[name] if len(links) else pd.Series(dtype=float)
+            out[name] = values.reindex(frames).to_numpy(float)
+        doubtful |= out["confident"] < FAR_APART
+    out["doubtful"] = doubtful.to_numpy(bool)
     return out
+
+
+def tracking_warning(summary: dict) -> str | None:
+    """What to tell the user when the tracking of some frames is doubtful (None when none is), from
+    :func:`tracking_summary`."""
+    frames = summary.get("doubtful_frames") or []
+    if not frames:
+        return None
+    links = summary.get("links") or {}
+    confident = dict(zip(links.get("frame", []), links.get("confident", [])))
+    far = [t for t in frames if confident.get(t, 1.0) < FAR_APART]
+    shown = ", ".join(str(t) for t in frames[:10]) + (", ..." if len(frames) > 10 else "")
+    text = (f"tracking is doubtful at {len(frames)} frame(s) ({shown}): more than {EXTRUSION_SHARE:.0%} of the cells "
+            f"end inside the tissue there ({summary.get('interior_extrusions', 0)} interior extrusions and "
+            f"{summary.get('interior_appearances', 0)} interior appearances in the movie)")
+    if far:
+        text += (f", or fewer than {FAR_APART:.0%} of the links overlap well after following the motion "
+                 f"(frames {', '.join(str(t) for t in far[:10])}{', ...' if len(far) > 10 else ''}: the frames look "
+                 f"far apart in time or are different fields of view)")
+    return text + ("; extrusions, appearances and divisions there are likely tracking errors (marked "
+                   "`tracking_doubtful` in the deformation budget); if the ids are the same cell across frames, "
+                   "use --track never; if the frames are unrelated images, --track off")
 
 
 def lineage_roots(parents: dict, ids) -> dict:
@@ -1223,6 +1282,15 @@ def tracking_summary(tracker, cells, parents, lineage=None):
         daughters = lineage[lineage["parent"] > 0]
         suspect = daughters.groupby("parent")["division_suspect"].any()
         out.update(n_divisions_plausible=int((~suspect).sum()), n_divisions_suspect=int(suspect.sum()))
+    links = tracker.link_qc() if hasattr(tracker, "link_qc") else None
+    if links is not None and len(links):  # per frame pair, as JSON lists (metadata.json)
+        out["links"] = {name: [v.item() if hasattr(v, "item") else v for v in links[name].tolist()]
+                        for name in ("frame", "link_iou", "confident", "motion", "measured", "rescued")}
+    if lineage is not None:
+        qc = tracking_qc(lineage, cells, out.get("links"))
+        out["doubtful_frames"] = qc.loc[qc["doubtful"], "frame"].astype(int).tolist()
+        out["interior_extrusions"] = int(qc["extrusions"].sum())
+        out["interior_appearances"] = int(qc["interior_appearances"].sum())
     return out
 
 
