@@ -76,7 +76,7 @@ def _warp_index_reference(index, rows, cols, x0, y0, step, ux, uy, periodic):
     sr, sc = np.floor(r - dy + 0.5).astype(np.int64), np.floor(c - dx + 0.5).astype(np.int64)
     if periodic:
         sr, sc = sr % rows, sc % cols
-        return index[sr * cols + sc].astype(np.int32)
+        return index[(sr * cols + sc).ravel()].astype(np.int32)
     inside = (sr >= 0) & (sr < rows) & (sc >= 0) & (sc < cols)
     out = np.full(rows * cols, -1, np.int32)
     out[inside.ravel()] = index[(sr * cols + sc)[inside]]
