@@ -213,18 +213,30 @@ def _division_kernel(i, j, n, area_a, area_b, child_fraction, mother_fraction, m
 
 @njit(cache=True)
 def _cell_moments(index, cols, n):
-    """Pixel count and summed x (column) and y (row) of each of the ``n`` cells of a compact index (-1 skipped)."""
+    """Pixel count and summed x (column) and y (row) of each of the ``n`` cells of a compact index (-1 skipped).
+
+    Summed along runs of one cell in a row (a run of length L from column
+    c0 adds L, L (2 c0 + L - 1) / 2 and L r): one scattered write per run,
+    not per pixel.
+    """
     count = np.zeros(n, np.int64)
     sx = np.zeros(n)
     sy = np.zeros(n)
     rows = index.size // cols
     for r in range(rows):
-        for c in range(cols):
-            k = index[r * cols + c]
+        base = r * cols
+        c0 = 0
+        while c0 < cols:
+            k = index[base + c0]
+            c1 = c0 + 1
+            while c1 < cols and index[base + c1] == k:
+                c1 += 1
             if k >= 0:
-                count[k] += 1
-                sx[k] += c
-                sy[k] += r
+                length = c1 - c0
+                count[k] += length
+                sx[k] += length * (c0 + c1 - 1) / 2.0
+                sy[k] += length * r
+            c0 = c1
     return count, sx, sy
 
 
