@@ -740,11 +740,11 @@ class FlowingMovie:
 
 
 def flowing_movie(shape=(240, 320), n_frames=6, spacing=16.0, speed=0.5, shear=0.01, rotation=0.02,
-                  divisions=0, extrusions=0, noise=0.0, shuffle=True, seed=0) -> FlowingMovie:
+                  divisions=0, extrusions=0, noise=0.0, shuffle=True, growth=0.0, seed=0) -> FlowingMovie:
     """A Voronoi tissue translating, shearing and turning, seen through a fixed open image.
 
     Every frame the seeds move by the affine map about the image centre
-    ``x -> R(rotation) (x + shear * y e_x) + v``, with ``|v| = speed * spacing``
+    ``x -> (1 + growth) R(rotation) (x + shear * y e_x) + v``, with ``|v| = speed * spacing``
     (direction drawn once), so cells enter and leave through the image edge.
     Divisions replace a seed by two seeds ``0.3 spacing`` apart (new
     identities); extrusions remove a seed (its neighbours fill its place).
@@ -761,6 +761,9 @@ def flowing_movie(shape=(240, 320), n_frames=6, spacing=16.0, speed=0.5, shear=0
         Translation per frame in cell spacings.
     shear, rotation : float
         Simple shear per frame (dimensionless) and rotation per frame (rad).
+    growth : float
+        Isotropic expansion per frame (lengths grow by ``1 + growth``, areas
+        by its square).
     divisions, extrusions : int
         Number of each event in the movie.
     noise : float
@@ -781,15 +784,16 @@ def flowing_movie(shape=(240, 320), n_frames=6, spacing=16.0, speed=0.5, shear=0
     angle = rng.uniform(0, 2 * np.pi)
     v = speed * spacing * np.array([np.cos(angle), np.sin(angle)])
     # a lattice wide enough to cover the image at every frame
-    reach = 0.75 * np.hypot(rows, cols) + n_frames * (abs(speed) * spacing + (abs(shear) + abs(rotation)) *
-                                                       np.hypot(rows, cols)) + 3 * spacing
+    reach = 0.75 * np.hypot(rows, cols) + n_frames * (abs(speed) * spacing + (abs(shear) + abs(rotation) +
+                                                                              abs(growth)) * np.hypot(rows, cols)) \
+        + 3 * spacing
     side = int(np.ceil(2 * reach))
     pts = jittered_seeds((side, side), spacing, seed=rng) - side / 2 + centre
     ids = np.arange(len(pts))
     cos, sin = np.cos(rotation), np.sin(rotation)
     rot = np.array([[cos, -sin], [sin, cos]])
     lower = np.array([[1.0, shear], [0.0, 1.0]])
-    step = rot @ lower
+    step = (1 + growth) * rot @ lower
     div_at = np.sort(rng.integers(1, n_frames, divisions)) if n_frames > 1 else np.empty(0, int)
     ext_at = np.sort(rng.integers(1, n_frames, extrusions)) if n_frames > 1 else np.empty(0, int)
     parents, extruded, truth, frames, all_seeds = {}, {}, {}, [], []

@@ -8,7 +8,7 @@ from ..errors import InputError
 from ..mesh.labels import touches_outside
 from ..track import lineage_table
 
-__all__ = ["score_tracking"]
+__all__ = ["score_tracking", "clone_growth"]
 
 
 def score_tracking(tracks: pd.DataFrame, parents: dict, truth: dict, labels, true_parents=None,
@@ -80,3 +80,40 @@ def score_tracking(tracks: pd.DataFrame, parents: dict, truth: dict, labels, tru
             "false_links": len(made) - len(right), "interior_extrusions": n_ext - true_ext,
             "interior_appearances": n_app, "divisions": len(set(true_parents.values())),
             "divisions_found": good, "divisions_false": len(found) - good}
+
+
+def clone_growth(cells: pd.DataFrame, lineage: pd.DataFrame, start: int, end: int) -> tuple[float, int]:
+    """The growth of the cells of frame ``start`` and their daughters up to frame ``end``: log area ratio.
+
+    Only clones that stay inside the tissue are counted: their first cell is
+    not a border cell and none of their cells touches the border or is
+    extruded from ``start`` to ``end``.  This is what the deformation
+    budget's cumulative ``total_iso`` over the same intervals must equal on a
+    uniformly growing tissue.
+
+    Returns
+    -------
+    growth : float
+        ``log(sum of the clones' areas at end / their areas at start)``, dimensionless.
+    clones : int
+        Clones counted.
+    """
+    parent = dict(zip(lineage["track"].tolist(), lineage["parent"].tolist()))
+
+    def root(k):
+        seen = set()
+        while parent.get(k, 0) > 0 and k not in seen:
+            seen.add(k)
+            k = parent[k]
+        return k
+
+    part = cells[(cells["frame"] >= start) & (cells["frame"] <= end)]
+    roots = np.array([root(k) for k in part["track"].tolist()])
+    first = (part["frame"] == start).to_numpy()
+    border = part["is_border"].to_numpy(bool)
+    extruded = {root(k) for k in lineage.loc[lineage["end"] == "extrusion", "track"].tolist()}
+    keep = np.setdiff1d(roots[first & ~border], np.r_[roots[border], np.fromiter(extruded, np.int64, len(extruded))])
+    area = part["area"].to_numpy(float)
+    a0 = area[first & np.isin(roots, keep)].sum()
+    a1 = area[(part["frame"] == end).to_numpy() & np.isin(roots, keep)].sum()
+    return float(np.log(a1 / a0)) if a0 > 0 else float("nan"), int(len(keep))
