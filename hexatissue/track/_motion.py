@@ -157,16 +157,16 @@ def outline_piv(a_index: np.ndarray, b_index: np.ndarray, shape, spacing: float,
     rows, cols = ea.shape
     ys = np.arange(half, max(rows - half, half) + 1, half)
     xs = np.arange(half, max(cols - half, half) + 1, half)
-    pad = ((win, win), (win, win))
+    edge = 2 * win  # padding: a window centred up to half a window past a small image still lies inside
     mode = "wrap" if periodic else "constant"
-    pa, pb = np.pad(ea, pad, mode=mode), np.pad(eb, pad, mode=mode)
+    pa, pb = np.pad(ea, edge, mode=mode), np.pad(eb, edge, mode=mode)
     A = np.zeros((len(ys), len(xs), 2 * win, 2 * win), np.float32)
     B = np.empty((len(ys), len(xs), 2 * win, 2 * win), np.float32)
-    for p, y in enumerate(ys):
-        for q, x in enumerate(xs):
-            wa = pa[y + half:y + win + half, x + half:x + win + half]
+    for p, y in enumerate(ys + edge):
+        for q, x in enumerate(xs + edge):
+            wa = pa[y - half:y + half, x - half:x + half]
             A[p, q, half:half + win, half:half + win] = wa - wa.mean()
-            wb = pb[y:y + 2 * win, x:x + 2 * win]
+            wb = pb[y - win:y + win, x - win:x + win]
             B[p, q] = wb - wb.mean()
     corr = np.fft.irfft2(np.conj(np.fft.rfft2(A)) * np.fft.rfft2(B), s=(2 * win, 2 * win))
     corr = np.fft.fftshift(corr, axes=(2, 3))  # zero displacement at the centre (win, win)
