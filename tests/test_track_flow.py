@@ -203,3 +203,25 @@ def test_budget_of_a_growing_flowing_tissue_equals_its_clones_growth():
     budget, clones, _ = totals["flow"]
     assert abs(budget - clones) <= 0.1 * clones and abs(budget - truth) <= 0.02 * truth
     assert abs(totals["none"][0] - truth) > 0.5 * truth and totals["none"][2] == 5
+
+
+def test_real_epitools_wing_disc_extrusions_are_flagged(real_data):
+    """The untracked EpiTools wing disc (8 frames, 90 -> 69 cells): 18 cells end inside the tissue, above 1 % of
+    the cells at 5 frames, which are flagged; the links themselves are confident (>= 95 %), so not far apart."""
+    path = real_subdir(real_data, "epitools_wingdisc") / "SegResults_CLabels_RegIm_TYX.npz"
+    with pytest.warns(HexatissueWarning, match=r"tracking is doubtful at 5 frame\(s\)"):
+        movie = analyze(np.load(path)["CLabels"], workers=1, progress=False)
+    t = movie.summary["tracking"]
+    assert t["interior_extrusions"] == 18 and t["doubtful_frames"] == [2, 3, 4, 5, 7]
+    assert min(t["links"]["confident"]) >= 0.95
+
+
+@pytest.mark.slow
+def test_real_skeletor_frames_are_flagged_far_apart(real_data):
+    """The Skeletor skeletons (4 frames, 529 -> 2399 cells; their SOURCE says the frames may be far apart in time):
+    under 25 % of the links are confident after following the motion, every frame is flagged far apart."""
+    path = real_subdir(real_data, "skeletor_pupal_abdomen") / "Final_Skeleton"
+    with pytest.warns(HexatissueWarning, match=r"(?s)tracking is doubtful at 3 frame\(s\).*far apart"):
+        movie = analyze(path, workers=1, progress=False)
+    t = movie.summary["tracking"]
+    assert t["doubtful_frames"] == [1, 2, 3] and max(t["links"]["confident"]) < 0.25
