@@ -160,19 +160,19 @@ def outline_piv(a_index: np.ndarray, b_index: np.ndarray, shape, spacing: float,
     edge = 2 * win  # padding: a window centred up to half a window past a small image still lies inside
     mode = "wrap" if periodic else "constant"
     pa, pb = np.pad(ea, edge, mode=mode), np.pad(eb, edge, mode=mode)
-    A = np.zeros((len(ys), len(xs), 2 * win, 2 * win), np.float32)
-    B = np.empty((len(ys), len(xs), 2 * win, 2 * win), np.float32)
-    for p, y in enumerate(ys + edge):
+    n = win - 1  # displacements -(half - 1) .. half - 1 blocks on each axis
+    flat = np.empty((len(ys), len(xs), n * n), np.float32)
+    A = np.zeros((len(xs), 2 * win, 2 * win), np.float32)
+    B = np.empty((len(xs), 2 * win, 2 * win), np.float32)
+    for p, y in enumerate(ys + edge):  # one row of windows at a time: memory of one row, whatever the image
         for q, x in enumerate(xs + edge):
             wa = pa[y - half:y + half, x - half:x + half]
-            A[p, q, half:half + win, half:half + win] = wa - wa.mean()
+            A[q, half:half + win, half:half + win] = wa - wa.mean()
             wb = pb[y - win:y + win, x - win:x + win]
-            B[p, q] = wb - wb.mean()
-    corr = np.fft.irfft2(np.conj(np.fft.rfft2(A)) * np.fft.rfft2(B), s=(2 * win, 2 * win))
-    corr = np.fft.fftshift(corr, axes=(2, 3))  # zero displacement at the centre (win, win)
-    search = corr[:, :, win - half + 1:win + half, win - half + 1:win + half]
-    n = search.shape[-1]
-    flat = search.reshape(len(ys), len(xs), -1)
+            B[q] = wb - wb.mean()
+        corr = np.fft.irfft2(np.conj(np.fft.rfft2(A)) * np.fft.rfft2(B), s=(2 * win, 2 * win))
+        corr = np.fft.fftshift(corr, axes=(1, 2))  # zero displacement at the centre (win, win)
+        flat[p] = corr[:, win - half + 1:win + half, win - half + 1:win + half].reshape(len(xs), -1)
     best = flat.argmax(axis=-1)
     peak = np.take_along_axis(flat, best[..., None], -1)[..., 0]
     positive = np.where(flat > 0, flat, np.nan)
