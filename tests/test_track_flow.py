@@ -225,3 +225,22 @@ def test_real_skeletor_frames_are_flagged_far_apart(real_data):
         movie = analyze(path, workers=1, progress=False)
     t = movie.summary["tracking"]
     assert t["doubtful_frames"] == [1, 2, 3] and max(t["links"]["confident"]) < 0.25
+
+
+def test_extrusions_are_confirmed_by_the_cell_shrinking():
+    """A cell that constricts to under half its median area before it leaves is a confirmed extrusion; one that
+    vanishes at its usual size, or seen in one frame, is unconfirmed; other endings are not extrusions."""
+    from hexatissue.track import check_extrusions, lineage_table
+
+    rows = [(0, 1, 100.0), (1, 1, 90.0), (2, 1, 30.0),  # shrinks, then gone: confirmed
+            (0, 2, 100.0), (1, 2, 105.0), (2, 2, 98.0),  # gone at its usual size: unconfirmed
+            (1, 3, 80.0),  # one frame
+            (0, 4, 100.0), (1, 4, 100.0), (2, 4, 100.0), (3, 4, 100.0)]  # to the movie's end
+    cells = pd.DataFrame(rows, columns=["frame", "track", "area"])
+    lineage = check_extrusions(lineage_table(cells), cells)
+    got = lineage.set_index("track")
+    assert got["end"].tolist() == ["extrusion", "extrusion", "extrusion", "movie_end"]
+    np.testing.assert_allclose(got["extrusion_area_ratio"].to_numpy(), [30 / 90, 98 / 100, np.nan, np.nan])
+    assert got["extrusion_unconfirmed"].tolist() == [False, True, True, False]
+    with pytest.raises(InputError, match="shrink"):
+        check_extrusions(lineage, cells, shrink=1.5)

@@ -36,7 +36,7 @@ from ._motion import Field, centroids, fit_field, outline_piv, warp
 
 __all__ = ["Tracker", "FOLLOW_MODES", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
            "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots",
-           "check_divisions", "division_rows", "DIVISION_REASONS", "tracking_qc", "tracking_warning", "EXTRUSION_SHARE",
+           "check_divisions", "check_extrusions", "EXTRUSION_SHRINK", "division_rows", "DIVISION_REASONS", "tracking_qc", "tracking_warning", "EXTRUSION_SHARE",
            "MIN_EXTRUSIONS", "FAR_APART", "CONFIDENT_IOU"]
 
 #: A link is confident at this IoU after warping (it then feeds the fit of the motion field).
@@ -1045,6 +1045,53 @@ def check_divisions(lineage: pd.DataFrame, cells: pd.DataFrame, min_frames: int 
     return validate(out, "lineage")
 
 
+#: An extrusion is confirmed when the cell's area at its last frame is at most this fraction of its median area
+#: over its track: an extruding cell constricts apically before it leaves the surface.
+EXTRUSION_SHRINK = 0.5
+
+
+def check_extrusions(lineage: pd.DataFrame, cells: pd.DataFrame, shrink: float = EXTRUSION_SHRINK) -> pd.DataFrame:
+    """The lineage with every interior extrusion checked: did the cell shrink before it left?
+
+    A cell that ends inside the tissue (``end == "extrusion"``) with its
+    last-frame area at most ``shrink`` times its median area over its track
+    is a confirmed extrusion; one that vanishes at its usual size (or is seen
+    in a single frame) is unconfirmed: as likely a cell the tracking lost, or
+    a segmentation error, as a cell that left the tissue.
+
+    Parameters
+    ----------
+    lineage : pandas.DataFrame
+        :func:`lineage_table` (``track``, ``frame_start``, ``frame_end``, ``end``).
+    cells : pandas.DataFrame
+        ``frame``, ``track``, ``area`` (px).
+    shrink : float
+        Largest last-frame area of a confirmed extrusion, as a fraction of the track's median area.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``lineage`` with ``extrusion_area_ratio`` (last-frame area over the
+        median area of the track, on extrusion rows; NaN elsewhere,
+        dimensionless) and ``extrusion_unconfirmed`` (bool: an extrusion whose
+        ratio is above ``shrink``, or NaN: a single frame).
+    """
+    if not is_real(shrink) or not 0 < shrink < 1:
+        raise InputError(f"shrink must be a fraction in (0, 1); got {shrink!r}")
+    out = lineage.copy()
+    track = out["track"].to_numpy(np.int64)
+    ext = (out["end"].astype(str) == "extrusion").to_numpy()
+    median = cells.groupby("track")["area"].median()
+    last = _areas_at(cells, track, out["frame_start"].to_numpy(np.int64), out["frame_end"].to_numpy(np.int64))[0]
+    ratio = np.full(len(out), np.nan)
+    one = out["n_frames"].to_numpy(np.int64) == 1
+    keep = ext & ~one
+    ratio[keep] = last[keep] / median.reindex(track[keep]).to_numpy(float)
+    out["extrusion_area_ratio"] = ratio
+    out["extrusion_unconfirmed"] = ext & ~(ratio <= shrink)
+    return validate(out, "lineage")
+
+
 def _areas_at(cells, track, start, end):
     """Each track's area (px) at its first frame and at its last, from ``cells`` (``frame``, ``track``, ``area``)."""
     keys = row_keys(cells["frame"].to_numpy(np.int64), cells["track"].to_numpy(np.int64))
@@ -1286,6 +1333,8 @@ def tracking_summary(tracker, cells, parents, lineage=None):
     if links is not None and len(links):  # per frame pair, as JSON lists (metadata.json)
         out["links"] = {name: [v.item() if hasattr(v, "item") else v for v in links[name].tolist()]
                         for name in ("frame", "link_iou", "confident", "motion", "measured", "rescued")}
+    if lineage is not None and "extrusion_unconfirmed" in lineage.columns:
+        out["n_extrusions_unconfirmed"] = int(lineage["extrusion_unconfirmed"].sum())
     if lineage is not None:
         qc = tracking_qc(lineage, cells, out.get("links"))
         out["doubtful_frames"] = qc.loc[qc["doubtful"], "frame"].astype(int).tolist()

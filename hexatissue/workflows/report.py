@@ -306,6 +306,8 @@ def _tracking_qc_section(movie, out, written, numbers):
                               "divisions_suspect": n_suspect,
                               "interior_appearances": int(qc["interior_appearances"].sum()),
                               "extrusions": int(qc["extrusions"].sum()),
+                              "extrusions_unconfirmed": (int(lineage["extrusion_unconfirmed"].sum())
+                                                         if "extrusion_unconfirmed" in lineage else None),
                               "doubtful_frames": qc.loc[qc["doubtful"], "frame"].astype(int).tolist()}
     lengths = lineage["n_frames"].to_numpy(np.int64)
     edges = [b for b in LENGTH_BINS if b <= len(movie)] + [np.inf]
@@ -327,7 +329,10 @@ def _tracking_qc_section(movie, out, written, numbers):
              f"- appearances: {numbers['tracking_qc']['appearances']}, disappearances: "
              f"{numbers['tracking_qc']['disappearances']} (not counting divisions); inside the tissue (not at its "
              f"border): {numbers['tracking_qc']['interior_appearances']} appearances, "
-             f"{numbers['tracking_qc']['extrusions']} extrusions",
+             f"{numbers['tracking_qc']['extrusions']} extrusions"
+             + (f" ({numbers['tracking_qc']['extrusions_unconfirmed']} unconfirmed: the cell did not shrink to half "
+                f"its median area before it left; `lineage.extrusion_unconfirmed`)"
+                if numbers["tracking_qc"]["extrusions_unconfirmed"] is not None else ""),
              f"- divisions: {n_div}, of which {n_div - n_suspect} plausible and {n_suspect} suspect ({rules}; "
              f"`lineage.division_suspect`, `division_reason`)", "",
              "Per frame (appearances: tracks starting there, not by division; disappearances: tracks present at "
@@ -566,7 +571,8 @@ def _deformation_section(movie, out, written, numbers):
         shown = ", ".join(f"{t}-{t + 1}" for t in left[:10]) + (", ..." if len(left) > 10 else "")
         total = cumulative(everything).iloc[0]
         lines += [f"- left out of the table: {len(left)} interval(s) ({shown}) whose tracking is doubtful (interior "
-                  f"extrusions above 1 % of the cells, frames far apart, or a suspect division: see Tracking "
+                  f"extrusions above 1 % of the cells, frames far apart, a suspect division or an unconfirmed "
+                  f"extrusion: see Tracking "
                   f"quality; `deformation.tracking_doubtful`); with them the cumulative total would be "
                   f"xx {total['cumulative xx']:.3g}, xy {total['cumulative xy']:.3g}, iso "
                   f"{total['cumulative iso']:.3g}", ""]
