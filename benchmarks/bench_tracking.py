@@ -40,7 +40,6 @@ import numpy as np
 import pandas as pd
 
 from hexatissue.benchmark.tracking import clone_growth, score_tracking
-from hexatissue.mesh.labels import touches_outside
 from hexatissue.synthetic import flowing_movie, relabel_movie
 from hexatissue.track import Tracker
 
@@ -266,7 +265,8 @@ def main(argv=None):
         for case, stack in real_cases():
             labels, maps = relabel_movie(stack, seed=3)
             truth = {(t, new): old for t, mp in enumerate(maps) for new, old in mp.items()}
-            spacing = float(np.sqrt(np.median(np.bincount(stack[0].ravel())[1:][np.bincount(stack[0].ravel())[1:] > 0])))
+            areas = np.bincount(stack[0].ravel())[1:]
+            spacing = float(np.sqrt(np.median(areas[areas > 0])))
             # the curated ids' own tracks: their interior ends and starts are the truth's events
             cells = pd.DataFrame([(t, c) for (t, c) in truth], columns=["frame", "cell"]).sort_values(["frame", "cell"])
             true_tracks = cells.assign(track=[truth[k] for k in zip(cells["frame"], cells["cell"])])
@@ -300,7 +300,8 @@ def main(argv=None):
     if growing is not None:
         lines += ["Growing tissue (320 x 400 px, 6 frames, lengths +3 %/frame, 0.5 d/frame, shear 1 %/frame, 0.02 "
                   "rad/frame, 12 divisions): the deformation budget's cumulative total against the growth of the cells "
-                  "of frame 0 and their daughters that stay inside (`clone_growth`) and the seeds' own 10 log 1.03:", "",
+                  "of frame 0 and their daughters that stay inside (`clone_growth`) and the seeds' own 10 log 1.03:",
+                  "",
                   markdown(growing), ""]
     Path(args.out).write_text("\n".join(lines))
     print(f"wrote {args.out}")

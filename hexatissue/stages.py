@@ -42,7 +42,8 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
                       MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
-from .track import cells_with_tracks, check_divisions, check_extrusions, lineage_table, tracking_summary, tracking_warning
+from .track import (cells_with_tracks, check_divisions, check_extrusions, lineage_table, tracking_summary,
+                    tracking_warning)
 
 __all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
            "worker_stages", "run_frame"]

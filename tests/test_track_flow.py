@@ -11,7 +11,7 @@ from hexatissue.options import DeformationOptions, TrackOptions
 from hexatissue.synthetic import flowing_movie, jittered_seeds, relabel_movie, voronoi_labels
 from hexatissue.track import Tracker, _compact, tracking_qc, tracking_warning
 from hexatissue.track._kernels import _cell_moments, _warp_index
-from hexatissue.track._motion import Field, centroids, fit_field, outline_piv, warp
+from hexatissue.track._motion import centroids, fit_field, outline_piv
 from hexatissue.track._reference import _cell_moments_reference, _warp_index_reference
 
 from .conftest import real_subdir
@@ -116,7 +116,8 @@ def test_frames_far_apart_are_flagged_and_the_user_is_told():
 
 
 def test_tracking_qc_counts_interior_events_and_flags_frames():
-    lineage = pd.DataFrame({"track": [1, 2, 3, 4, 5, 6], "frame_start": [0, 0, 0, 1, 1, 0], "frame_end": [0, 0, 2, 2, 2, 2],
+    lineage = pd.DataFrame({"track": [1, 2, 3, 4, 5, 6], "frame_start": [0, 0, 0, 1, 1, 0],
+                            "frame_end": [0, 0, 2, 2, 2, 2],
                             "n_frames": [1, 1, 3, 2, 2, 3], "parent": [0] * 6,
                             "begin": ["movie_start"] * 3 + ["appearance", "border", "movie_start"],
                             "end": ["extrusion", "extrusion", "movie_end", "movie_end", "movie_end", "movie_end"]})

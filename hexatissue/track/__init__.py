@@ -34,10 +34,11 @@ from ..schema import deprecated_column_lists, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
 from ._motion import Field, centroids, fit_field, outline_piv, warp
 
-__all__ = ["Tracker", "FOLLOW_MODES", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
-           "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots",
-           "check_divisions", "check_extrusions", "EXTRUSION_SHRINK", "division_rows", "DIVISION_REASONS", "tracking_qc", "tracking_warning", "EXTRUSION_SHARE",
-           "MIN_EXTRUSIONS", "FAR_APART", "CONFIDENT_IOU"]
+__all__ = ["Tracker", "FOLLOW_MODES", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY",
+           "track_labels", "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames",
+           "lineage_roots", "check_divisions", "check_extrusions", "EXTRUSION_SHRINK", "division_rows",
+           "DIVISION_REASONS", "tracking_qc", "tracking_warning", "EXTRUSION_SHARE", "MIN_EXTRUSIONS", "FAR_APART",
+           "CONFIDENT_IOU"]
 
 #: A link is confident at this IoU after warping (it then feeds the fit of the motion field).
 CONFIDENT_IOU = 0.5

@@ -50,9 +50,6 @@ class Field(NamedTuple):
         """Whether the field moves no pixel (every node under half a pixel: warping is the identity)."""
         return bool((np.abs(self.ux) < 0.5).all() and (np.abs(self.uy) < 0.5).all())
 
-    def largest(self) -> float:
-        """The largest displacement at a node, px."""
-        return float(np.hypot(self.ux, self.uy).max()) if self.ux.size else 0.0
 
 
 def centroids(index: np.ndarray, shape, n: int) -> np.ndarray:
