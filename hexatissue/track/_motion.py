@@ -51,7 +51,6 @@ class Field(NamedTuple):
         return bool((np.abs(self.ux) < 0.5).all() and (np.abs(self.uy) < 0.5).all())
 
 
-
 def centroids(index: np.ndarray, shape, n: int) -> np.ndarray:
     """Pixel centroid (x, y), px, of each of the ``n`` cells of a flat compact index (-1 = background)."""
     count, sx, sy = _cell_moments(index, int(shape[1]), int(n))
