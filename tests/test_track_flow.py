@@ -245,3 +245,19 @@ def test_extrusions_are_confirmed_by_the_cell_shrinking():
     assert got["extrusion_unconfirmed"].tolist() == [False, True, True, False]
     with pytest.raises(InputError, match="shrink"):
         check_extrusions(lineage, cells, shrink=1.5)
+
+
+def test_untracked_frames_are_not_called_doubtful(tmp_path):
+    """--track off (unrelated images): every cell starts and ends its own track; that is no tracking failure (it
+    was called one at every frame before the summary skipped untracked frames)."""
+    from hexatissue.workflows.report import report
+
+    m = flowing_movie(n_frames=3, speed=0.2, seed=2)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        movie = analyze(m.labels, workers=1, progress=False, track=TrackOptions(mode="off"))
+    assert not any("tracking is doubtful" in str(w.message) for w in caught)
+    assert "doubtful_frames" not in movie.summary["tracking"]
+    movie.write(tmp_path / "res")
+    report(tmp_path / "res")
+    assert "Tracking breaks" not in (tmp_path / "res" / "report" / "report.md").read_text()

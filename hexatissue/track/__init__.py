@@ -1336,7 +1336,7 @@ def tracking_summary(tracker, cells, parents, lineage=None):
                         for name in ("frame", "link_iou", "confident", "motion", "measured", "rescued")}
     if lineage is not None and "extrusion_unconfirmed" in lineage.columns:
         out["n_extrusions_unconfirmed"] = int(lineage["extrusion_unconfirmed"].sum())
-    if lineage is not None:
+    if lineage is not None and out.get("resolved") != "off":  # untracked frames: every cell ends, nothing to doubt
         qc = tracking_qc(lineage, cells, out.get("links"))
         out["doubtful_frames"] = qc.loc[qc["doubtful"], "frame"].astype(int).tolist()
         out["interior_extrusions"] = int(qc["extrusions"].sum())
