@@ -288,7 +288,8 @@ def main(argv=None):
              "Synthetic: Voronoi, spacing 16 px (one cell diameter = d), 240 x 320 px, 8 frames, shear 1 %/frame, "
              "rotation 0.02 rad/frame, 6 divisions and 4 extrusions unless said, ids shuffled per frame. Real: curated "
              "ids shuffled per frame, every n-th frame kept; interior extrusions / appearances are counted beyond "
-             "those of the curated tracks themselves (negative: fewer). `divisions found` needs mother and both "
+             "those of the curated tracks themselves (negative: fewer); their truth holds ids only, so a real division "
+             "(EpiCure 013's 73 -> 477 + 490) counts as a false division. `divisions found` needs mother and both "
              "daughters right. TRA: traccuracy's CTC TRA on the same segmentation (NaN when traccuracy is absent). "
              "CPU ms/frame: the tracker alone (ours includes checking and compacting the labels; laptrack's "
              "LapTrack excludes the centroids).", "",
