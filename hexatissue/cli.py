@@ -179,8 +179,12 @@ def summary_line(movie) -> str:
     elif len(movie) > 1 and tracking:
         how = "ids kept" if tracking["resolved"] == "never" else "re-tracked by overlap"
         suspect = (f", {tracking['n_divisions_suspect']} suspect" if "n_divisions_suspect" in tracking else "")
+        extruded = (f", {tracking['interior_extrusions']} interior extrusions" if "interior_extrusions" in tracking
+                    else "")
+        doubtful = tracking.get("doubtful_frames") or []
+        doubtful = f"; DOUBTFUL at {len(doubtful)} frame(s)" if doubtful else ""
         parts.append(f"tracks: {how} ({tracking['rows_track_not_cell']} rows changed, "
-                     f"{tracking['n_divisions']} divisions{suspect})")
+                     f"{tracking['n_divisions']} divisions{suspect}{extruded}{doubtful})")
     if len(movie) > 1 and movie.events is not None and not independent:
         counts = movie.events["kind"].value_counts()
         censor = movie.summary.get("events", {}).get("censor")

@@ -34,6 +34,8 @@ CENTERS = ("vertex_mean", "area_centroid")
 VALIDITY = ("tissue", "occupied", "all")
 #: Tracking modes (see :class:`TrackOptions`).
 TRACK_MODES = ("auto", "always", "never", "off")
+#: How overlap tracking links frames (``TrackOptions.follow``, :class:`hexatissue.track.Tracker`).
+FOLLOW_MODES = ("flow", "none")
 #: Tables that name the kind of a T1 in the deformation budget (see :class:`DeformationOptions`).
 T1_SOURCES = ("quartets", "neighbours")
 #: Estimators of force inference (see :class:`MechanicsOptions`).
@@ -356,6 +358,9 @@ class TrackOptions(_Options, stage="track", title="tracking"):
         Smallest intersection over union of a link, in (0, 1].
     max_gap : int
         Overlap tracking: frames a cell may be missing and still continue its track.
+    follow : {"flow", "none"}
+        Overlap tracking: follow the tissue's motion (default; see
+        :class:`hexatissue.track.Tracker`) or overlap the frames as they are.
     child_fraction, mother_fraction : float
         Division detection thresholds (see :func:`hexatissue.track.match_frames`).
     division_min_frames, division_min_cycle, division_area_tolerance
@@ -378,6 +383,10 @@ class TrackOptions(_Options, stage="track", title="tracking"):
                           choices=TRACK_MODES)
     min_iou: float = 0.2
     max_gap: int = cli_field(0, "--max-gap", "overlap tracking: link cells missing for up to this many frames")
+    follow: str = cli_field("flow", "--track-follow", "overlap tracking: flow: carry each frame's cells along the "
+                            "tissue's measured motion before overlapping them with the next frame's; none: overlap "
+                            "the frames as they are (cells moving half a diameter or more per frame are lost)",
+                            choices=FOLLOW_MODES)
     child_fraction: float = 0.6
     mother_fraction: float = 0.2
     division_min_frames: int = cli_field(3, "--division-min-frames", "a division whose daughter lasts fewer "
@@ -391,6 +400,8 @@ class TrackOptions(_Options, stage="track", title="tracking"):
     def __post_init__(self):
         if not isinstance(self.mode, str) or self.mode not in TRACK_MODES:
             _fail(type(self), "mode", self.mode, f"one of {TRACK_MODES}")
+        if not isinstance(self.follow, str) or self.follow not in FOLLOW_MODES:
+            _fail(type(self), "follow", self.follow, f"one of {FOLLOW_MODES}")
         for name in ("min_iou", "child_fraction", "mother_fraction"):
             self._number(name, strict=True, high=1.0)
         self._number("max_gap", integer=True)

@@ -130,7 +130,8 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     track_options = options["track"]
     tracker = MovieTracker(track_options.mode, track_options.min_iou, track_options.child_fraction,
                            track_options.mother_fraction, track_options.max_gap,
-                           ids_consistent=src.ids_consistent, independent=src.independent)
+                           ids_consistent=src.ids_consistent, independent=src.independent,
+                           follow=track_options.follow, periodic=box is not None)
     tables = frame_tables(frame_work)
     store = None
     if checkpoint is not None:

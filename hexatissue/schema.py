@@ -197,6 +197,10 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "division_suspect": ("b", "", "daughters of a division that fails a plausibility rule (see division_reason)"),
         "division_reason": ("O", "", "the rules a suspect division fails (hexatissue.track.DIVISION_REASONS), joined "
                             "by ';'; empty when plausible or not a daughter"),
+        "extrusion_area_ratio": ("f", "", "extrusions: the cell's area at its last frame over its median area (NaN on "
+                                 "other rows and on tracks of one frame)"),
+        "extrusion_unconfirmed": ("b", "", "an extrusion whose cell did not shrink to half its median area before it "
+                                  "left (hexatissue.track.check_extrusions): as likely lost by the tracking"),
     },
     "cell_events": {
         "track": ("i", "", "track id"),
@@ -235,6 +239,9 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "rotation": ("f", "rad/frame", "the mean vorticity of the cells' motion"),
         "n_triangles": ("i", "", "triangles of the tissue at the start of the interval (-1 on region rows)"),
         "n_flipped": ("i", "", "triangles that would flip over on the way, retriangulated instead (-1 on region rows)"),
+        "tracking_doubtful": ("b", "", "the interval's events rest on doubtful tracking: its later frame is flagged "
+                              "by the tracking QC (interior extrusions above 1 % of the cells, or frames far apart), "
+                              "or a suspect division or an unconfirmed extrusion happens in it"),
     },
     "stress": {
         "frame": ("i", "frame", "time point (0 for a single image)"),
@@ -268,9 +275,9 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
-             "frame_gain", "frame_undo", "is_border", "p", "shear_xx", "shear_xy", "vx", "vy",
+             "frame_gain", "frame_undo", "is_border", "tracking_doubtful", "p", "shear_xx", "shear_xy", "vx", "vy",
              "tension", "tension_sd", "curvature", "n_merged", "division_area_ratio",
-             "division_suspect", "division_reason", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
+             "division_suspect", "division_reason", "extrusion_area_ratio", "extrusion_unconfirmed", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}
 _DTYPES = {"i": "int64", "f": "float64", "b": "bool", "O": "string"}
 _KIND_OK = {"i": "iu", "f": "fiu", "b": "b", "O": "OSUT"}
 

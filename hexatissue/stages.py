@@ -42,7 +42,8 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
                       MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
-from .track import cells_with_tracks, check_divisions, lineage_table, tracking_summary
+from .track import (cells_with_tracks, check_divisions, check_extrusions, lineage_table, tracking_summary,
+                    tracking_warning)
 
 __all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
            "worker_stages", "run_frame"]
@@ -204,9 +205,13 @@ def _tracks(movie, options):
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
     lineage = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
-    movie.tables["lineage"] = check_divisions(lineage, cells, options.division_min_frames, options.division_min_cycle,
-                                              options.division_area_tolerance, 1 + options.max_gap)
+    lineage = check_divisions(lineage, cells, options.division_min_frames, options.division_min_cycle,
+                              options.division_area_tolerance, 1 + options.max_gap)
+    movie.tables["lineage"] = check_extrusions(lineage, cells)
     movie.summary["tracking"] = tracking_summary(tracker, cells, parents, movie.tables["lineage"])
+    broken = tracking_warning(movie.summary["tracking"])
+    if broken:
+        warnings.warn(broken, HexatissueWarning, stacklevel=user_stacklevel())
     movie.options["track"] = options.replace(mode=movie.summary["tracking"]["resolved"])
     movie.tracker = None  # its per-cell-frame ids are in cells now; the later stages need the memory
 
@@ -274,6 +279,8 @@ def _deformation(movie, options):
     budget, shear = deformation_budget(tables["cells"], tables["vertices"], tables["cell_vertices"],
                                        tables["lineage"], t1, box=movie.box, grid=grid, roi=roi,
                                        roi_frame=options.roi_frame, t1_events=options.t1_events)
+    doubtful = _doubtful_intervals(movie)
+    budget["tracking_doubtful"] = budget["frame"].isin(doubtful).to_numpy(bool)
     tables["deformation"] = budget
     if options.t1_events == "quartets":
         events = tables["events"].drop(columns=["shear_xx", "shear_xy"], errors="ignore")
@@ -283,7 +290,21 @@ def _deformation(movie, options):
         "pairs": int(len(tissue)),
         "max_closure": float(tissue[["closure_xx", "closure_xy"]].abs().to_numpy().max(initial=0.0)),
         "n_flipped": int(tissue["n_flipped"].sum()),
+        "doubtful_pairs": sorted(int(t) for t in set(tissue["frame"].tolist()) & doubtful),
     }
+
+
+def _doubtful_intervals(movie) -> set:
+    """Intervals (their first frame) whose later frame's tracking is doubtful, or in which a suspect division or
+    an unconfirmed extrusion happens: their events are more likely tracking errors than biology."""
+    bad = {int(t) - 1 for t in movie.summary.get("tracking", {}).get("doubtful_frames", [])}
+    lineage = movie.tables["lineage"]
+    if "division_suspect" in lineage.columns:
+        suspect = lineage[(lineage["parent"] > 0) & lineage["division_suspect"].to_numpy(bool)]
+        bad |= {int(t) - 1 for t in suspect["frame_start"].tolist()}
+    if "extrusion_unconfirmed" in lineage.columns:  # the cell is gone from the frame after its last one
+        bad |= {int(t) for t in lineage.loc[lineage["extrusion_unconfirmed"].to_numpy(bool), "frame_end"].tolist()}
+    return bad
 
 
 def _mechanics(frame, options):

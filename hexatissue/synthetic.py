@@ -17,6 +17,8 @@ from .geometry import polygon_area_centroid
 
 __all__ = [
     "jittered_seeds",
+    "flowing_movie",
+    "FlowingMovie",
     "voronoi_labels",
     "voronoi_truth",
     "voronoi_polygons",
@@ -714,6 +716,131 @@ class VoronoiMovie:
 def voronoi_movie(n_cells, shape, n_frames, periodic=True, amplitude=0.3, seed=0) -> VoronoiMovie:
     """A lazily rendered, smoothly moving Voronoi movie (see :class:`VoronoiMovie`)."""
     return VoronoiMovie(n_cells, shape, n_frames, periodic=periodic, amplitude=amplitude, seed=seed)
+
+
+class FlowingMovie:
+    """A Voronoi tissue carried by a uniform flow, with its exact tracking truth (:func:`flowing_movie`).
+
+    Attributes
+    ----------
+    labels : (frames, rows, cols) int64 array
+        The label images (ids shuffled per frame when asked).
+    truth : dict
+        ``{(frame, label): seed}``: the seed (track identity) of every cell of every frame.
+    parents : dict
+        ``{daughter seed: mother seed}`` of the divisions.
+    extruded : dict
+        ``{seed: last frame}`` of the cells removed inside the tissue.
+    spacing : float
+        Cell spacing (px); a cell's diameter is about this.
+    """
+
+    def __init__(self, labels, truth, parents, extruded, spacing):
+        self.labels, self.truth, self.parents, self.extruded = labels, truth, parents, extruded
+        self.spacing = spacing
+
+
+def flowing_movie(shape=(240, 320), n_frames=6, spacing=16.0, speed=0.5, shear=0.01, rotation=0.02,
+                  divisions=0, extrusions=0, noise=0.0, shuffle=True, growth=0.0, seed=0) -> FlowingMovie:
+    """A Voronoi tissue translating, shearing and turning, seen through a fixed open image.
+
+    Every frame the seeds move by the affine map about the image centre
+    ``x -> (1 + growth) R(rotation) (x + shear * y e_x) + v``, with ``|v| = speed * spacing``
+    (direction drawn once), so cells enter and leave through the image edge.
+    Divisions replace a seed by two seeds ``0.3 spacing`` apart (new
+    identities); extrusions remove a seed (its neighbours fill its place).
+    Both happen to cells at least two spacings inside the image, spread over
+    the frames after the first.
+
+    Parameters
+    ----------
+    shape : (rows, cols)
+    n_frames : int
+    spacing : float
+        Seed spacing, px (a jittered square lattice, jitter 0.35).
+    speed : float
+        Translation per frame in cell spacings.
+    shear, rotation : float
+        Simple shear per frame (dimensionless) and rotation per frame (rad).
+    growth : float
+        Isotropic expansion per frame (lengths grow by ``1 + growth``, areas
+        by its square).
+    divisions, extrusions : int
+        Number of each event in the movie.
+    noise : float
+        Seed jitter added per frame, px (each seed's own small random motion).
+    shuffle : bool
+        Give the cells new random ids every frame.
+    seed : int or numpy Generator
+
+    Returns
+    -------
+    FlowingMovie
+    """
+    rng = as_generator(seed)
+    rows, cols = int(shape[0]), int(shape[1])
+    if n_frames < 1 or spacing <= 0:
+        raise InputError(f"n_frames must be >= 1 and spacing > 0; got {n_frames}, {spacing}")
+    centre = np.array([(cols - 1) / 2, (rows - 1) / 2])
+    angle = rng.uniform(0, 2 * np.pi)
+    v = speed * spacing * np.array([np.cos(angle), np.sin(angle)])
+    # a lattice wide enough to cover the image at every frame
+    reach = 0.75 * np.hypot(rows, cols) + n_frames * (abs(speed) * spacing + (abs(shear) + abs(rotation) +
+                                                                              abs(growth)) * np.hypot(rows, cols)) \
+        + 3 * spacing
+    side = int(np.ceil(2 * reach))
+    pts = jittered_seeds((side, side), spacing, seed=rng) - side / 2 + centre
+    ids = np.arange(len(pts))
+    cos, sin = np.cos(rotation), np.sin(rotation)
+    rot = np.array([[cos, -sin], [sin, cos]])
+    lower = np.array([[1.0, shear], [0.0, 1.0]])
+    step = (1 + growth) * rot @ lower
+    div_at = np.sort(rng.integers(1, n_frames, divisions)) if n_frames > 1 else np.empty(0, int)
+    ext_at = np.sort(rng.integers(1, n_frames, extrusions)) if n_frames > 1 else np.empty(0, int)
+    parents, extruded, truth, frames, all_seeds = {}, {}, {}, [], []
+    next_id = len(pts)
+    for t in range(n_frames):
+        if t:
+            pts = (pts - centre) @ step.T + centre + v
+            if noise:
+                pts = pts + rng.normal(0, noise, pts.shape)
+            inner = np.flatnonzero((pts[:, 0] > 2 * spacing) & (pts[:, 0] < cols - 1 - 2 * spacing) &
+                                   (pts[:, 1] > 2 * spacing) & (pts[:, 1] < rows - 1 - 2 * spacing))
+            busy = set(parents.values()) | set(parents) | set(extruded)
+            inner = np.array([k for k in inner.tolist() if int(ids[k]) not in busy], int)
+            n_div, n_ext = int((div_at == t).sum()), int((ext_at == t).sum())
+            chosen = rng.choice(inner, size=min(len(inner), n_div + n_ext), replace=False)
+            remove = []
+            for k in chosen[:n_div].tolist():
+                a = rng.uniform(0, np.pi)
+                off = 0.15 * spacing * np.array([np.cos(a), np.sin(a)])
+                pts = np.vstack([pts, pts[k] + off, pts[k] - off])
+                ids = np.append(ids, [next_id, next_id + 1])
+                parents[next_id] = parents[next_id + 1] = int(ids[k])
+                next_id += 2
+                remove.append(k)
+            for k in chosen[n_div:].tolist():
+                extruded[int(ids[k])] = t - 1
+                remove.append(k)
+            keep = np.setdiff1d(np.arange(len(pts)), remove)
+            pts, ids = pts[keep], ids[keep]
+        visible = np.flatnonzero((pts[:, 0] > -2 * spacing) & (pts[:, 0] < cols + 2 * spacing) &
+                                 (pts[:, 1] > -2 * spacing) & (pts[:, 1] < rows + 2 * spacing))
+        lab = voronoi_labels(pts[visible], (rows, cols)).astype(np.int64)
+        present = np.unique(lab)
+        frames.append(lab)
+        all_seeds.append(dict(zip(present.tolist(), ids[visible][present - 1].tolist())))
+    labels = np.stack(frames)
+    if shuffle:
+        labels, maps = relabel_movie(labels, seed=rng)
+        for t, m in enumerate(maps):
+            for new, old in m.items():
+                truth[(t, new)] = int(all_seeds[t][old])
+    else:
+        for t, m in enumerate(all_seeds):
+            for lab, s in m.items():
+                truth[(t, lab)] = int(s)
+    return FlowingMovie(labels, truth, parents, extruded, float(spacing))
 
 
 # ----------------------------------------------------------------------------

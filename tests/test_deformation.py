@@ -311,7 +311,8 @@ def test_columns_match_the_schema(scripted):
     expected = ["frame", "region", "region_id", "area"]
     for term in DEFORMATION_TERMS:
         expected += [f"{term}_xx", f"{term}_xy"] + ([f"{term}_iso"] if term in ISOTROPIC_TERMS else [])
-    assert list(d.columns) == expected + ["rotation", "n_triangles", "n_flipped"]
+    assert list(d.columns) == expected + ["rotation", "n_triangles", "n_flipped", "tracking_doubtful"]  # the stage's
+    assert not d["tracking_doubtful"].any()  # the scripted T1 movie's ids are its tracks: nothing doubtful
     with pytest.raises(InputError, match="t1_events"):
         deformation_budget(None, None, None, None, t1_events="pairs")
 

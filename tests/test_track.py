@@ -316,13 +316,15 @@ def test_compact_frames_gives_the_trackers_the_same_tracks():
     """Frames compacted and overlapped ahead (as analyze's workers do), in batches: the tracks of add_valid."""
     movie = np.stack([np.asarray(f) for f in voronoi_movie(30, (64, 72), 9, periodic=True, amplitude=0.3, seed=3)])
     frames = list(relabel_movie(movie, seed=1)[0])
-    for max_gap in (0, 1):
-        plain, ahead = trk.MovieTracker("always", max_gap=max_gap), trk.MovieTracker("always", max_gap=max_gap)
+    for max_gap, follow in ((0, "none"), (1, "none"), (0, "flow")):
+        plain = trk.MovieTracker("always", max_gap=max_gap, follow=follow)
+        ahead = trk.MovieTracker("always", max_gap=max_gap, follow=follow)
+        assert ahead.needs_pixels == (max_gap > 0 or follow == "flow")
         for t, lab in enumerate(frames):
             plain.add_valid(lab, t)
         for first in range(0, len(frames), 4):
             for k, (lab, overlaps) in enumerate(trk.compact_frames(frames[first:first + 4], ahead.needs_pixels)):
-                assert (overlaps is None) == (k == 0) and (lab.index is None) == (0 < k < 3 and not max_gap)
+                assert (overlaps is None) == (k == 0) and (lab.index is None) == (0 < k < 3 and not ahead.needs_pixels)
                 ahead.add_valid(lab, first + k, overlaps)
         assert plain.tracks().equals(ahead.tracks()) and plain.parents == ahead.parents
         assert plain.ids.consistency == ahead.ids.consistency
@@ -603,8 +605,9 @@ def _recheck(movie, min_frames=3, min_cycle=5, tolerance=0.4):
 def test_untracked_real_stacks_report_only_divisions_that_pass_the_rules(real_data, name):
     """Overlap tracking of the untracked EpiTools wing disc (14 divisions in 8 frames while the cells go from 90
     to 69), laptrack's mouse epidermis (17 in 5 frames) and the Skeletor skeletons (113 in 4 frames): a division
-    is plausible exactly when it passes the rules re-checked here, and the suspects are most of them (measured:
-    6 / 14, 7 / 17, 1 / 113 plausible; benchmarks/README.md)."""
+    is plausible exactly when it passes the rules re-checked here.  Measured, tracking along the flow: 6 of the
+    EpiTools 14 plausible, 10 of the mouse epidermis' 19 (17 divisions, 7 plausible, by overlap of the frames as
+    they are), most of the Skeletor ones suspect."""
     import warnings
 
     from hexatissue import HexatissueWarning, analyze
@@ -624,7 +627,10 @@ def test_untracked_real_stacks_report_only_divisions_that_pass_the_rules(real_da
     assert dict(zip(rows["mother"].tolist(), (~rows["suspect"]).tolist())) == want
     t = movie.summary["tracking"]
     assert t["n_divisions_plausible"] + t["n_divisions_suspect"] == t["n_divisions"] == len(want)
-    assert 2 * t["n_divisions_suspect"] > t["n_divisions"]
+    if name == "skeletor":
+        assert 2 * t["n_divisions_suspect"] > t["n_divisions"]
+    else:
+        assert (t["n_divisions"], t["n_divisions_suspect"]) == {"epitools": (14, 8), "mouse": (19, 9)}[name]
     if name == "epitools":  # the issue's tracks 101 and 103, born by division, divide again 1-2 frames later
         born_again = rows[rows["mother"].isin([101, 103])]
         assert len(born_again) == 2 and born_again["reason"].str.contains("redivision").all()

@@ -235,9 +235,11 @@ def test_report_has_tracking_quality_and_the_division_table(tmp_path):
     section = text[text.index("## Tracking quality"):text.index("## T1 events")]
     assert "divisions: 4, of which 1 plausible and 3 suspect" in section
     assert numbers["tracking_qc"] == {"appearances": 0, "disappearances": 1, "divisions": 4,
-                                      "divisions_plausible": 1, "divisions_suspect": 3}
+                                      "divisions_plausible": 1, "divisions_suspect": 3, "interior_appearances": 0,
+                                      "extrusions": 1, "extrusions_unconfirmed": 1, "doubtful_frames": []}
     qc = pd.read_csv(tmp_path / "res" / "report" / "tracking_qc.csv")
-    pd.testing.assert_frame_equal(qc, tracking_qc(movie.lineage, movie.cells), check_dtype=False)
+    pd.testing.assert_frame_equal(qc, tracking_qc(movie.lineage, movie.cells, movie.summary["tracking"].get("links")),
+                                  check_dtype=False)
     divisions = division_rows(movie.lineage)
     for r in divisions.itertuples():
         assert f"| {r.mother} | {r.frame} | {r.daughter_a} | {r.daughter_b} |" in section

@@ -22,19 +22,30 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 from scipy.optimize import linear_sum_assignment
+from scipy.spatial import cKDTree
 
 from .._components import components
 from ..errors import InputError, is_real
 from ..geometry import distinct_count, in_sorted, row_keys
 from ..mesh.labels import compact_labels, touches_outside, validate_labels
-from ..options import TRACK_MODES
+from ..options import FOLLOW_MODES, TRACK_MODES
 from ..progress import progress as progress_bar
 from ..schema import deprecated_column_lists, validate
 from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _division_kernel, _sparse_overlaps
+from ._motion import Field, centroids, fit_field, outline_piv, warp
 
-__all__ = ["Tracker", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY", "track_labels",
-           "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames", "lineage_roots",
-           "check_divisions", "division_rows", "DIVISION_REASONS", "tracking_qc"]
+__all__ = ["Tracker", "FOLLOW_MODES", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY",
+           "track_labels", "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames",
+           "lineage_roots", "check_divisions", "check_extrusions", "EXTRUSION_SHRINK", "division_rows",
+           "DIVISION_REASONS", "tracking_qc", "tracking_warning", "EXTRUSION_SHARE", "MIN_EXTRUSIONS", "FAR_APART",
+           "CONFIDENT_IOU"]
+
+#: A link is confident at this IoU after warping (it then feeds the fit of the motion field).
+CONFIDENT_IOU = 0.5
+#: Below this share of confident links, the motion is measured from the outlines (PIV).
+CONFIDENT_SHARE = 0.9
+#: A refitted field that moves no node by more than this (px) is not used for another linking pass.
+REFIT_PX = 1.0
 
 # Largest dense IoU matrix handed to linear_sum_assignment in one piece
 # (larger problems are split into connected components of the overlap graph).
@@ -51,13 +62,20 @@ class _Compact:
     # the overlaps with the previous frame, (previous, (i, j, n)), kept for the other tracker of a movie
     overlaps: tuple = field(default=(), repr=False)
     _stored: np.ndarray | None = field(default=None, repr=False)
+    _centroid: np.ndarray | None = field(default=None, repr=False)
 
     def __getstate__(self):  # a pickled tracker (checkpoint) does not carry the previous frame
         return {**self.__dict__, "overlaps": ()}
 
     def without_pixels(self) -> "_Compact":
         """This frame without its pixel index (ids and areas only): enough once its overlaps are counted."""
-        return _Compact(None, self.ids, self.area, self.shape, _stored=self._stored)
+        return _Compact(None, self.ids, self.area, self.shape, _stored=self._stored, _centroid=self._centroid)
+
+    def centroids(self) -> np.ndarray:
+        """Pixel centroid (x, y) of each cell, px (counted once, from the pixel index)."""
+        if self._centroid is None:
+            self._centroid = centroids(self.index, self.shape, len(self.ids))
+        return self._centroid
 
     def stored_ids(self) -> np.ndarray:
         """``ids`` as the trackers keep them for every frame: one array (int32 when the ids fit) for both trackers."""
@@ -105,16 +123,19 @@ def _compact_reference(labels: np.ndarray) -> _Compact:
                     labels.shape)
 
 
+def _index_overlaps(ia, ib, na, nb):
+    """Sparse overlap counts ``(i, j, n)`` of two flat compact indices (dense count table when it is small)."""
+    if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
+        return _dense_overlaps(ia, ib, na, nb)
+    return _sparse_overlaps(ia, ib, na, nb)
+
+
 def _contingency(a: _Compact, b: _Compact):
     """Sparse overlap counts ``(i, j, n)`` between the cells of two compact frames (computed once per pair)."""
     if b.overlaps and b.overlaps[0] is a:
         a.overlaps = ()
         return b.overlaps[1]
-    na, nb = len(a.ids), len(b.ids)
-    if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
-        out = _dense_overlaps(a.index, b.index, na, nb)
-    else:
-        out = _sparse_overlaps(a.index, b.index, na, nb)
+    out = _index_overlaps(a.index, b.index, len(a.ids), len(b.ids))
     a.overlaps = ()  # a's own link to its predecessor is no longer needed: the chain of frames is not kept
     b.overlaps = (a, out)
     return out
@@ -159,10 +180,14 @@ def compact_frames(labels, pixels=False) -> list:
     for k, lab in enumerate(labels):
         if not out:
             out.append((_compact(lab), None))
+            if pixels:
+                out[0][0].centroids()
             continue
         previous = out[-1][0]
         cur, overlaps = _compact_after(previous, lab)
         cur.overlaps = ()  # sent apart from the frame: a pickled _Compact drops them
+        if pixels:  # the tracker follows the flow from the cells' centroids: counted here, beside the mesh
+            cur.centroids()
         if not pixels and k > 1:
             out[-1] = previous.without_pixels(), out[-1][1]
         out.append((cur, overlaps))
@@ -301,15 +326,24 @@ def _assign(i, j, iou):
     return tuple(np.concatenate(parts) for parts in zip(*out))
 
 
-def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
-    i, j, n = _contingency(a, b)
-    mothers, daughters = _divisions(i, j, n, a.area, b.area, child_fraction, mother_fraction, min_iou)
+def _link(i, j, n, area_a, area_b, min_iou, child_fraction, mother_fraction):
+    """Divisions, then one-to-one links maximising the summed IoU, from overlaps ``(i, j, n)``.
+
+    Returns ``(r, c, iou of each link, mothers, daughters)``.
+    """
+    mothers, daughters = _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou)
     if len(mothers):  # mothers and daughters leave the one-to-one assignment
         free = ~(np.isin(i, mothers) | np.isin(j, daughters.ravel()))
         i, j, n = i[free], j[free], n[free]
-    iou = n / (a.area[i] + b.area[j] - n)
+    iou = n / (area_a[i] + area_b[j] - n)
     cand = iou >= min_iou
-    r, c, _ = _assign(i[cand], j[cand], iou[cand])
+    r, c, value = _assign(i[cand], j[cand], iou[cand])
+    return r, c, value, mothers, daughters
+
+
+def _match(a: _Compact, b: _Compact, min_iou, child_fraction, mother_fraction):
+    i, j, n = _contingency(a, b)
+    r, c, _, mothers, daughters = _link(i, j, n, a.area, b.area, min_iou, child_fraction, mother_fraction)
     return r, c, mothers, daughters
 
 
@@ -390,14 +424,36 @@ class Tracker(_Feed):
         frames (a segmentation gap) is continued by a new cell overlapping its
         last mask with IoU >= ``min_iou``.  0 disables gap closing.  The masks
         of ended tracks are kept for ``max_gap`` frames only.
+    follow : {"flow", "none"}
+        ``"flow"`` (default): follow the tissue's motion.  The previous
+        frame's cells are carried along a displacement field before their
+        overlaps are counted: the field of the frame pair before, refitted
+        from the cells linked with IoU >= :data:`CONFIDENT_IOU` (gridded
+        median of their centroid displacements) while it moves a node by
+        more than :data:`REFIT_PX`; when fewer than :data:`CONFIDENT_SHARE`
+        of the links are confident, the field is measured by
+        cross-correlating the two frames' cell outlines (PIV) instead.  Cells
+        left unlinked on both sides are then paired by the distance between
+        the earlier cell's carried centroid and the later one's, up to half
+        the earlier cell's diameter (``sqrt(area)``).  ``"none"``: overlaps
+        of the frames as they are (cells moving half a diameter or more per
+        frame are lost).
+    periodic : bool
+        The frames are a periodic box: the warp wraps around the image.
     """
 
-    def __init__(self, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0):
+    def __init__(self, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0, follow="flow",
+                 periodic=False):
         _check_fractions(min_iou, child_fraction, mother_fraction)
         if int(max_gap) != max_gap or max_gap < 0:
             raise InputError(f"max_gap must be a non-negative integer number of frames; got {max_gap!r}")
+        if follow not in FOLLOW_MODES:
+            raise InputError(f"follow must be one of {FOLLOW_MODES}; got {follow!r}")
         self.min_iou, self.child_fraction, self.mother_fraction = min_iou, child_fraction, mother_fraction
         self.max_gap = int(max_gap)
+        self.follow, self.periodic = follow, bool(periodic)
+        self._field: Field | None = None
+        self._links: list[tuple] = []  # per frame pair: see link_qc
         self._prev: _Compact | None = None
         self._prev_tracks = None
         self._prev_frame = None
@@ -460,8 +516,11 @@ class Tracker(_Feed):
         tracks = np.zeros(len(cur.ids), np.int64)
         new = np.ones(len(cur.ids), bool)
         if self._prev is not None:
-            r, c, mothers, daughters = _match(self._prev, cur, self.min_iou, self.child_fraction,
-                                              self.mother_fraction)
+            if self.follow == "flow":
+                r, c, mothers, daughters = self._follow(self._prev, cur, frame)
+            else:
+                r, c, mothers, daughters = _match(self._prev, cur, self.min_iou, self.child_fraction,
+                                                  self.mother_fraction)
             tracks[c] = self._prev_tracks[r]
             new[c] = False
             linked = np.zeros(len(self._prev.ids), bool)  # a mask, not setdiff1d (two hash uniques per frame)
@@ -484,6 +543,114 @@ class Tracker(_Feed):
         self._prev, self._prev_tracks, self._prev_frame = cur, tracks, frame
         self._n += 1
         return tracks
+
+    def _links_along(self, a, b, fld):
+        """Links of ``a`` to ``b`` after carrying ``a`` along ``fld`` (as they are when None)."""
+        if fld is None or fld.still():
+            i, j, n = _contingency(a, b)
+            area_a = a.area
+        else:
+            moved = warp(a.index, a.shape, fld, self.periodic)
+            i, j, n = _index_overlaps(moved, b.index, len(a.ids), len(b.ids))
+            area_a = np.bincount(moved[moved >= 0], minlength=len(a.ids)).astype(np.int64)
+        r, c, iou, mothers, daughters = _link(i, j, n, area_a, b.area, self.min_iou, self.child_fraction,
+                                              self.mother_fraction)
+        share = float((iou >= CONFIDENT_IOU).mean()) if len(iou) else 0.0
+        return share, (r, c, iou, mothers, daughters), fld, (i, j, n, area_a)
+
+    def _follow(self, a: _Compact, b: _Compact, frame):
+        """:func:`_match` of two frames along the tissue's motion (see ``follow``); records :meth:`link_qc`."""
+        if a.index is None or b.index is None:
+            raise InputError("follow='flow' needs every frame's pixels (MovieTracker.needs_pixels)")
+        spacing = float(np.sqrt(np.median(a.area))) if len(a.area) else 1.0
+        best = self._links_along(a, b, self._field)
+        measured = False
+        if best[0] < CONFIDENT_SHARE and len(a.ids) and len(b.ids):
+            trial = self._links_along(a, b, outline_piv(a.index, b.index, a.shape, spacing, self.periodic))
+            measured = True
+            if trial[0] >= best[0]:
+                best = trial
+        for _ in range(3):  # refit from the confident links while the field still moves
+            r, c, iou = best[1][:3]
+            sure = iou >= CONFIDENT_IOU
+            if sure.sum() < 3:
+                break
+            xy = a.centroids()[r[sure]]
+            d = b.centroids()[c[sure]] - xy
+            used = best[2]
+            if used is None and np.quantile(np.hypot(*d.T), 0.9) <= REFIT_PX:
+                break  # cells stay put to within a pixel: nothing to warp (the common, slow case costs no fit)
+            fitted = fit_field(xy, d, a.shape, 2 * spacing)
+            moved = fitted.at(xy) - (0 if used is None else used.at(xy))
+            change = float(np.hypot(*moved.T).max())
+            if used is None and change <= REFIT_PX:
+                break
+            if change <= REFIT_PX:
+                best = (best[0], best[1], fitted, best[3])
+                break
+            trial = self._links_along(a, b, fitted)
+            if trial[0] < best[0]:
+                break
+            best = trial
+        share, (r, c, iou, mothers, daughters), fld, overlaps = best
+        r, c, rescued = self._rescue(a, b, fld, overlaps, r, c, mothers, daughters)
+        self._field = fld
+        motion = 0.0 if fld is None else float(np.median(np.hypot(*fld.at(a.centroids()).T)))
+        self._links.append((frame, len(a.ids), len(b.ids), len(r), float(np.median(iou)) if len(iou) else np.nan,
+                            share, motion / spacing, measured, rescued))
+        return r, c, mothers, daughters
+
+    def _rescue(self, a, b, fld, overlaps, r, c, mothers, daughters):
+        """Pair cells left unlinked on both sides: a carried earlier cell lying mostly inside a later one (a cell
+        entering through the image edge grows from a sliver), or the later cell's centroid within half a diameter
+        (``sqrt(area)``) of the earlier one's carried centroid.  Returns the links with them and their number."""
+        free_a = np.ones(len(a.ids), bool)
+        free_a[r] = free_a[mothers] = False
+        free_b = np.ones(len(b.ids), bool)
+        free_b[c] = free_b[daughters.ravel()] = False
+        ia, ib = np.flatnonzero(free_a), np.flatnonzero(free_b)
+        if not len(ia) or not len(ib):
+            return r, c, 0
+        i, j, n, area_a = overlaps
+        inside = free_a[i] & free_b[j] & (n >= 0.5 * np.maximum(area_a[i], 1))
+        xy = a.centroids()[ia]
+        if fld is not None:
+            xy = xy + fld.at(xy)
+        gate = 0.5 * np.sqrt(a.area[ia])
+        near = cKDTree(b.centroids()[ib]).query_ball_point(xy, gate)
+        pi = ia[np.repeat(np.arange(len(ia)), [len(x) for x in near])]
+        pj = ib[np.concatenate([np.asarray(x, np.int64) for x in near] + [np.empty(0, np.int64)])]
+        pred = a.centroids()[pi]
+        if fld is not None:
+            pred = pred + fld.at(pred)
+        closeness = 1 - np.hypot(*(b.centroids()[pj] - pred).T) / (0.5 * np.sqrt(a.area[pi])) + 1e-9
+        # containment first (weight above 1), then closeness in (0, 1]; a pair met both ways keeps its best
+        ci, cj = np.r_[i[inside], pi], np.r_[j[inside], pj]
+        weight = np.r_[1 + n[inside] / np.maximum(area_a[i[inside]], 1), closeness]
+        order = np.lexsort((-weight, cj, ci))
+        ci, cj, weight = ci[order], cj[order], weight[order]
+        first = np.r_[True, (ci[1:] != ci[:-1]) | (cj[1:] != cj[:-1])] if len(ci) else np.empty(0, bool)
+        k, m, _ = _assign(ci[first], cj[first], weight[first])
+        return np.r_[r, k], np.r_[c, m], len(k)
+
+    def link_qc(self) -> pd.DataFrame:
+        """How each frame was linked to the one before (``follow="flow"``; empty otherwise).
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``frame`` (the later frame of the pair), ``cells_prev``,
+            ``cells`` (counts), ``links`` (one-to-one links, divisions apart),
+            ``link_iou`` (median IoU of the links after warping,
+            dimensionless), ``confident`` (share of the links with IoU >=
+            :data:`CONFIDENT_IOU`), ``motion`` (median displacement of the
+            earlier frame's cells along the field used, in cell diameters
+            ``sqrt(median area)``), ``measured`` (the field came from the
+            outlines' cross-correlation, not from the frame before), ``rescued``
+            (links made by centroid distance).
+        """
+        cols = ["frame", "cells_prev", "cells", "links", "link_iou", "confident", "motion", "measured", "rescued"]
+        return pd.DataFrame(self._links, columns=cols)
 
     def tracks(self) -> pd.DataFrame:
         """``frame``, ``cell`` (label id), ``track`` of every cell added so far."""
@@ -639,6 +806,8 @@ class MovieTracker:
         See :func:`match_frames`.
     max_gap : int
         Gap closing of the overlap tracker (see :class:`Tracker`).
+    follow : {"flow", "none"}, periodic : bool
+        How the overlap tracker links frames (see :class:`Tracker`).
     ids_consistent : bool
         The source guarantees consistent ids (MPF runs, polygon tables with frames).
     independent : bool
@@ -646,14 +815,14 @@ class MovieTracker:
     """
 
     def __init__(self, mode="auto", min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, max_gap=0,
-                 ids_consistent=False, independent=False):
+                 ids_consistent=False, independent=False, follow="flow", periodic=False):
         if mode not in TRACK_MODES:
             raise InputError(f"mode must be one of {TRACK_MODES}; got {mode!r}")
         self.mode, self.ids_consistent, self.independent = mode, bool(ids_consistent), bool(independent)
         self.ids = IdTracker(min_iou, child_fraction, mother_fraction)
         self.separate = SeparateTracker() if mode == "off" or (mode == "auto" and self.independent) else None
         overlap = mode == "always" or (mode == "auto" and not self.ids_consistent and not self.independent)
-        self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap) if overlap else None
+        self.overlap = Tracker(min_iou, child_fraction, mother_fraction, max_gap, follow, periodic) if overlap else None
 
     def add_valid(self, labels, frame=None, overlaps=None):
         """Add the next frame (labels checked by :func:`~hexatissue.mesh.labels.validate_labels`).
@@ -673,8 +842,9 @@ class MovieTracker:
 
     @property
     def needs_pixels(self) -> bool:
-        """Whether every frame's pixels are needed (gap closing keeps the masks of ended tracks)."""
-        return self.overlap is not None and self.overlap.max_gap > 0
+        """Whether every frame's pixels are needed (gap closing keeps the masks of ended tracks; following the
+        flow warps them)."""
+        return self.overlap is not None and (self.overlap.max_gap > 0 or self.overlap.follow == "flow")
 
     def add_ids(self, ids, frame):
         """Add the next frame by its cell ids only (polygon input: nothing to overlap)."""
@@ -713,6 +883,11 @@ class MovieTracker:
     def parents(self) -> dict:
         """``{daughter track: mother track}`` of the chosen tracking."""
         return self._chosen().parents
+
+    def link_qc(self) -> pd.DataFrame:
+        """:meth:`Tracker.link_qc` of the overlap tracks when they are the ones chosen (else no rows)."""
+        chosen = self._chosen()
+        return chosen.link_qc() if isinstance(chosen, Tracker) else Tracker(follow="none").link_qc()
 
     def summary(self) -> dict:
         """What was decided: ``mode`` requested, ``resolved``, ``reason``, ``id_consistency``, ``threshold``."""
@@ -871,6 +1046,53 @@ def check_divisions(lineage: pd.DataFrame, cells: pd.DataFrame, min_frames: int 
     return validate(out, "lineage")
 
 
+#: An extrusion is confirmed when the cell's area at its last frame is at most this fraction of its median area
+#: over its track: an extruding cell constricts apically before it leaves the surface.
+EXTRUSION_SHRINK = 0.5
+
+
+def check_extrusions(lineage: pd.DataFrame, cells: pd.DataFrame, shrink: float = EXTRUSION_SHRINK) -> pd.DataFrame:
+    """The lineage with every interior extrusion checked: did the cell shrink before it left?
+
+    A cell that ends inside the tissue (``end == "extrusion"``) with its
+    last-frame area at most ``shrink`` times its median area over its track
+    is a confirmed extrusion; one that vanishes at its usual size (or is seen
+    in a single frame) is unconfirmed: as likely a cell the tracking lost, or
+    a segmentation error, as a cell that left the tissue.
+
+    Parameters
+    ----------
+    lineage : pandas.DataFrame
+        :func:`lineage_table` (``track``, ``frame_start``, ``frame_end``, ``end``).
+    cells : pandas.DataFrame
+        ``frame``, ``track``, ``area`` (px).
+    shrink : float
+        Largest last-frame area of a confirmed extrusion, as a fraction of the track's median area.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``lineage`` with ``extrusion_area_ratio`` (last-frame area over the
+        median area of the track, on extrusion rows; NaN elsewhere,
+        dimensionless) and ``extrusion_unconfirmed`` (bool: an extrusion whose
+        ratio is above ``shrink``, or NaN: a single frame).
+    """
+    if not is_real(shrink) or not 0 < shrink < 1:
+        raise InputError(f"shrink must be a fraction in (0, 1); got {shrink!r}")
+    out = lineage.copy()
+    track = out["track"].to_numpy(np.int64)
+    ext = (out["end"].astype(str) == "extrusion").to_numpy()
+    median = cells.groupby("track")["area"].median()
+    last = _areas_at(cells, track, out["frame_start"].to_numpy(np.int64), out["frame_end"].to_numpy(np.int64))[0]
+    ratio = np.full(len(out), np.nan)
+    one = out["n_frames"].to_numpy(np.int64) == 1
+    keep = ext & ~one
+    ratio[keep] = last[keep] / median.reindex(track[keep]).to_numpy(float)
+    out["extrusion_area_ratio"] = ratio
+    out["extrusion_unconfirmed"] = ext & ~(ratio <= shrink)
+    return validate(out, "lineage")
+
+
 def _areas_at(cells, track, start, end):
     """Each track's area (px) at its first frame and at its last, from ``cells`` (``frame``, ``track``, ``area``)."""
     keys = row_keys(cells["frame"].to_numpy(np.int64), cells["track"].to_numpy(np.int64))
@@ -916,8 +1138,18 @@ def division_rows(lineage: pd.DataFrame) -> pd.DataFrame:
     return out.sort_values(["frame", "mother"], ignore_index=True)
 
 
-def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
-    """Per frame: cells, tracks that appear and disappear, divisions plausible and suspect.
+#: A frame's tracking is doubtful when more than this share of its cells end inside the tissue (extrusions) ...
+EXTRUSION_SHARE = 0.01
+#: ... (and at least this many: one extrusion in a small field of view is biology, not a tracking failure) ...
+MIN_EXTRUSIONS = 2
+#: ... or when fewer than this share of its links to the frame before overlap with IoU >= CONFIDENT_IOU after
+#: warping: the frames look far apart in time (or are different fields of view).
+FAR_APART = 0.5
+
+
+def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame, links: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Per frame: cells, tracks that appear and disappear, divisions plausible and suspect, and whether the
+    tracking there is doubtful.
 
     Parameters
     ----------
@@ -926,6 +1158,9 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
         ``division_suspect`` every division counts as plausible).
     cells : pandas.DataFrame
         ``frame`` (one row per cell).
+    links : pandas.DataFrame, optional
+        :meth:`Tracker.link_qc` (``frame``, ``link_iou``, ``confident``,
+        ``motion``), e.g. from ``summary["tracking"]["links"]`` of an analysis.
 
     Returns
     -------
@@ -934,8 +1169,16 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
         the frame inside the tissue or at its border, not by division),
         ``disappearances`` (tracks present at the frame before and not
         after it, ended by extrusion or at the border, not by division),
-        ``divisions`` (mothers whose daughters start at the frame),
-        ``divisions_suspect`` (of those, the suspect ones); counts per frame.
+        ``interior_appearances`` and ``extrusions`` (of those, the ones
+        inside the tissue), ``divisions`` (mothers whose daughters start at
+        the frame), ``divisions_suspect`` (of those, the suspect ones);
+        counts per frame.  With ``links``: ``link_iou`` (median IoU of the
+        links from the frame before, after warping), ``confident`` (share of
+        them with IoU >= :data:`CONFIDENT_IOU`), ``motion`` (median
+        displacement from the frame before, cell diameters); NaN at the first
+        frame.  ``doubtful`` (bool): more than :data:`EXTRUSION_SHARE` of the
+        frame's cells (and at least :data:`MIN_EXTRUSIONS`) ended inside the
+        tissue there, or ``confident`` < :data:`FAR_APART`.
     """
     frames = np.unique(cells["frame"].to_numpy(np.int64))
     out = pd.DataFrame({"frame": frames})
@@ -951,13 +1194,45 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame) -> pd.DataFrame:
 
     out["appearances"] = per_frame(lineage.loc[begin.isin(["appearance", "border"]).to_numpy(), "frame_start"])
     out["disappearances"] = per_frame(gone_at[end.isin(["extrusion", "border"]).to_numpy()])
+    out["interior_appearances"] = per_frame(lineage.loc[(begin == "appearance").to_numpy(), "frame_start"])
+    out["extrusions"] = per_frame(gone_at[(end == "extrusion").to_numpy()])
     daughters = lineage[lineage["parent"] > 0]
     first = daughters.groupby("parent")["frame_start"].min()
     suspect = (daughters.groupby("parent")["division_suspect"].any() if "division_suspect" in daughters.columns
                else pd.Series(False, index=first.index))
     out["divisions"] = per_frame(first.to_numpy())
     out["divisions_suspect"] = per_frame(first[suspect.reindex(first.index).to_numpy(bool)].to_numpy())
+    doubtful = (out["extrusions"] > EXTRUSION_SHARE * out["cells"]) & (out["extrusions"] >= MIN_EXTRUSIONS)
+    if links is not None:
+        links = pd.DataFrame(links)
+        for name in ("link_iou", "confident", "motion"):
+            values = links.set_index("frame")[name] if len(links) else pd.Series(dtype=float)
+            out[name] = values.reindex(frames).to_numpy(float)
+        doubtful |= out["confident"] < FAR_APART
+    out["doubtful"] = doubtful.to_numpy(bool)
     return out
+
+
+def tracking_warning(summary: dict) -> str | None:
+    """What to tell the user when the tracking of some frames is doubtful (None when none is), from
+    :func:`tracking_summary`."""
+    frames = summary.get("doubtful_frames") or []
+    if not frames:
+        return None
+    links = summary.get("links") or {}
+    confident = dict(zip(links.get("frame", []), links.get("confident", [])))
+    far = [t for t in frames if confident.get(t, 1.0) < FAR_APART]
+    shown = ", ".join(str(t) for t in frames[:10]) + (", ..." if len(frames) > 10 else "")
+    text = (f"tracking is doubtful at {len(frames)} frame(s) ({shown}): more than {EXTRUSION_SHARE:.0%} of the cells "
+            f"end inside the tissue there ({summary.get('interior_extrusions', 0)} interior extrusions and "
+            f"{summary.get('interior_appearances', 0)} interior appearances in the movie)")
+    if far:
+        text += (f", or fewer than {FAR_APART:.0%} of the links overlap well after following the motion "
+                 f"(frames {', '.join(str(t) for t in far[:10])}{', ...' if len(far) > 10 else ''}: the frames look "
+                 f"far apart in time or are different fields of view)")
+    return text + ("; extrusions, appearances and divisions there are likely tracking errors (marked "
+                   "`tracking_doubtful` in the deformation budget); if the ids are the same cell across frames, "
+                   "use --track never; if the frames are unrelated images, --track off")
 
 
 def lineage_roots(parents: dict, ids) -> dict:
@@ -1055,6 +1330,17 @@ def tracking_summary(tracker, cells, parents, lineage=None):
         daughters = lineage[lineage["parent"] > 0]
         suspect = daughters.groupby("parent")["division_suspect"].any()
         out.update(n_divisions_plausible=int((~suspect).sum()), n_divisions_suspect=int(suspect.sum()))
+    links = tracker.link_qc() if hasattr(tracker, "link_qc") else None
+    if links is not None and len(links):  # per frame pair, as JSON lists (metadata.json)
+        out["links"] = {name: [v.item() if hasattr(v, "item") else v for v in links[name].tolist()]
+                        for name in ("frame", "link_iou", "confident", "motion", "measured", "rescued")}
+    if lineage is not None and "extrusion_unconfirmed" in lineage.columns:
+        out["n_extrusions_unconfirmed"] = int(lineage["extrusion_unconfirmed"].sum())
+    if lineage is not None and out.get("resolved") != "off":  # untracked frames: every cell ends, nothing to doubt
+        qc = tracking_qc(lineage, cells, out.get("links"))
+        out["doubtful_frames"] = qc.loc[qc["doubtful"], "frame"].astype(int).tolist()
+        out["interior_extrusions"] = int(qc["extrusions"].sum())
+        out["interior_appearances"] = int(qc["interior_appearances"].sum())
     return out
 
 

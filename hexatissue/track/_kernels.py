@@ -209,3 +209,78 @@ def _division_kernel(i, j, n, area_a, area_b, child_fraction, mother_fraction, m
             mothers[m], first[m], second[m] = a, j[top[a, 0]], j[top[a, 1]]
             m += 1
     return mothers, first, second
+
+
+@njit(cache=True)
+def _cell_moments(index, cols, n):
+    """Pixel count and summed x (column) and y (row) of each of the ``n`` cells of a compact index (-1 skipped).
+
+    Summed along runs of one cell in a row (a run of length L from column
+    c0 adds L, L (2 c0 + L - 1) / 2 and L r): one scattered write per run,
+    not per pixel.
+    """
+    count = np.zeros(n, np.int64)
+    sx = np.zeros(n)
+    sy = np.zeros(n)
+    rows = index.size // cols
+    for r in range(rows):
+        base = r * cols
+        c0 = 0
+        while c0 < cols:
+            k = index[base + c0]
+            c1 = c0 + 1
+            while c1 < cols and index[base + c1] == k:
+                c1 += 1
+            if k >= 0:
+                length = c1 - c0
+                count[k] += length
+                sx[k] += length * (c0 + c1 - 1) / 2.0
+                sy[k] += length * r
+            c0 = c1
+    return count, sx, sy
+
+
+@njit(cache=True)
+def _warp_index(index, rows, cols, x0, y0, step, ux, uy, periodic):
+    """``index`` (a frame's compact cells, flat) carried forward by a displacement field on a regular grid.
+
+    Each output pixel ``(r, c)`` takes the cell of the input pixel at
+    ``(r - u_y, c - u_x)`` (rounded), the displacement interpolated
+    bilinearly from the grid nodes ``(x0 + j * step, y0 + i * step)``
+    (clamped at the grid's edge).  Off the image: -1, or wrapped when
+    ``periodic``.  The field is interpolated along y once per row, then
+    along x per pixel from per-column weights.
+    """
+    ny, nx = ux.shape
+    out = np.empty(rows * cols, np.int32)
+    j0 = np.zeros(cols, np.int64)
+    wx = np.zeros(cols)
+    for c in range(cols):
+        fx = min(max((c - x0) / step, 0.0), nx - 1.0)
+        if nx > 1:
+            j0[c] = min(int(fx), nx - 2)
+            wx[c] = fx - j0[c]
+    rx = np.empty(nx)
+    ry = np.empty(nx)
+    for r in range(rows):
+        fy = min(max((r - y0) / step, 0.0), ny - 1.0)
+        i0 = min(int(fy), ny - 2) if ny > 1 else 0
+        wy = fy - i0 if ny > 1 else 0.0
+        i1 = i0 + 1 if ny > 1 else 0
+        for j in range(nx):
+            rx[j] = (1 - wy) * ux[i0, j] + wy * ux[i1, j]
+            ry[j] = (1 - wy) * uy[i0, j] + wy * uy[i1, j]
+        for c in range(cols):
+            a = j0[c]
+            b = a + 1 if nx > 1 else a
+            w = wx[c]
+            sr = int(np.floor(r - ((1 - w) * ry[a] + w * ry[b]) + 0.5))
+            sc = int(np.floor(c - ((1 - w) * rx[a] + w * rx[b]) + 0.5))
+            if periodic:
+                sr %= rows
+                sc %= cols
+            elif sr < 0 or sr >= rows or sc < 0 or sc >= cols:
+                out[r * cols + c] = -1
+                continue
+            out[r * cols + c] = index[sr * cols + sc]
+    return out

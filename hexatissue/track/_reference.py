@@ -54,3 +54,30 @@ def _divisions_reference(i, j, n, area_a, area_b, child_fraction, mother_fractio
     counts = np.diff(np.r_[starts, len(ci)])
     mothers = starts[counts >= 2]
     return ci[mothers], np.c_[cj[mothers], cj[mothers + 1]]
+
+
+def _cell_moments_reference(index, cols, n):
+    """Reference of :func:`_cell_moments` (bincounts)."""
+    k = np.flatnonzero(index >= 0)
+    c = index[k]
+    return (np.bincount(c, minlength=n).astype(np.int64), np.bincount(c, k % cols, minlength=n).astype(float),
+            np.bincount(c, k // cols, minlength=n).astype(float))
+
+
+def _warp_index_reference(index, rows, cols, x0, y0, step, ux, uy, periodic):
+    """Reference of :func:`_warp_index` (scipy's bilinear map_coordinates on the clamped grid)."""
+    from scipy.ndimage import map_coordinates
+
+    r, c = np.mgrid[0:rows, 0:cols].astype(float)
+    fy = np.clip((r - y0) / step, 0, ux.shape[0] - 1)
+    fx = np.clip((c - x0) / step, 0, ux.shape[1] - 1)
+    dx = map_coordinates(ux, [fy, fx], order=1, mode="nearest")
+    dy = map_coordinates(uy, [fy, fx], order=1, mode="nearest")
+    sr, sc = np.floor(r - dy + 0.5).astype(np.int64), np.floor(c - dx + 0.5).astype(np.int64)
+    if periodic:
+        sr, sc = sr % rows, sc % cols
+        return index[(sr * cols + sc).ravel()].astype(np.int32)
+    inside = (sr >= 0) & (sr < rows) & (sc >= 0) & (sc < cols)
+    out = np.full(rows * cols, -1, np.int32)
+    out[inside.ravel()] = index[(sr * cols + sc)[inside]]
+    return out

@@ -21,7 +21,7 @@ from ..errors import HexatissueWarning, InputError
 from ..io import atomic_path, write_table
 from ..results import Movie, read_results
 from ..schema import empty_table
-from ..track import DIVISION_REASONS, division_rows, tracking_qc
+from ..track import DIVISION_REASONS, division_rows, tracking_qc, tracking_warning
 from .figures import shown_frames
 
 __all__ = ["report", "default_window"]
@@ -295,14 +295,20 @@ def _tracking_qc_section(movie, out, written, numbers):
     lineage, cal = movie.lineage, movie.calibration
     if lineage is None:
         return []
-    qc = tracking_qc(lineage, movie.cells)
+    summary = movie.summary.get("tracking", {}) or {}
+    qc = tracking_qc(lineage, movie.cells, summary.get("links"))
     divisions = division_rows(lineage)
     written += [write_table(qc, out / "tracking_qc.csv"), write_table(divisions, out / "divisions.csv")]
     n_div, n_suspect = len(divisions), int(divisions["suspect"].sum())
     numbers["tracking_qc"] = {"appearances": int(qc["appearances"].sum()),
                               "disappearances": int(qc["disappearances"].sum()),
                               "divisions": n_div, "divisions_plausible": n_div - n_suspect,
-                              "divisions_suspect": n_suspect}
+                              "divisions_suspect": n_suspect,
+                              "interior_appearances": int(qc["interior_appearances"].sum()),
+                              "extrusions": int(qc["extrusions"].sum()),
+                              "extrusions_unconfirmed": (int(lineage["extrusion_unconfirmed"].sum())
+                                                         if "extrusion_unconfirmed" in lineage else None),
+                              "doubtful_frames": qc.loc[qc["doubtful"], "frame"].astype(int).tolist()}
     lengths = lineage["n_frames"].to_numpy(np.int64)
     edges = [b for b in LENGTH_BINS if b <= len(movie)] + [np.inf]
     bins = pd.cut(lengths, edges, right=False)
@@ -321,12 +327,29 @@ def _tracking_qc_section(movie, out, written, numbers):
              f"{int((lengths == len(movie)).sum())} present in all {len(movie)} frames, "
              f"{int((lengths == 1).sum())} in a single frame",
              f"- appearances: {numbers['tracking_qc']['appearances']}, disappearances: "
-             f"{numbers['tracking_qc']['disappearances']} (not counting divisions)",
+             f"{numbers['tracking_qc']['disappearances']} (not counting divisions); inside the tissue (not at its "
+             f"border): {numbers['tracking_qc']['interior_appearances']} appearances, "
+             f"{numbers['tracking_qc']['extrusions']} extrusions"
+             + (f" ({numbers['tracking_qc']['extrusions_unconfirmed']} unconfirmed: the cell did not shrink to half "
+                f"its median area before it left; `lineage.extrusion_unconfirmed`)"
+                if numbers["tracking_qc"]["extrusions_unconfirmed"] is not None else ""),
              f"- divisions: {n_div}, of which {n_div - n_suspect} plausible and {n_suspect} suspect ({rules}; "
              f"`lineage.division_suspect`, `division_reason`)", "",
              "Per frame (appearances: tracks starting there, not by division; disappearances: tracks present at "
-             "the frame before and not there; divisions: mothers whose daughters start there):", ""]
-    shown = qc if len(qc) <= QC_ROWS else qc[(qc.drop(columns=["frame", "cells"]) > 0).any(axis=1)].head(QC_ROWS)
+             "the frame before and not there; interior_appearances, extrusions: those of them inside the tissue; "
+             "divisions: mothers whose daughters start there"
+             + ("; link_iou: median overlap (IoU) of the links from the frame before after following the tissue's "
+                "motion; confident: share of links with IoU >= 0.5; motion: median displacement, cell diameters"
+                if "link_iou" in qc else "")
+             + "; doubtful: see below):", ""]
+    broken = tracking_warning({**summary, "doubtful_frames": numbers["tracking_qc"]["doubtful_frames"],
+                               "interior_extrusions": numbers["tracking_qc"]["extrusions"],
+                               "interior_appearances": numbers["tracking_qc"]["interior_appearances"]})
+    if broken:
+        lines[lines.index("## Tracking quality") + 2:lines.index("## Tracking quality") + 2] = [
+            f"**Tracking breaks.** {broken[0].upper()}{broken[1:]}.", ""]
+    events = qc.drop(columns=["frame", "cells", "link_iou", "confident", "motion"], errors="ignore")
+    shown = qc if len(qc) <= QC_ROWS else qc[(events > 0).any(axis=1)].head(QC_ROWS)
     lines += [_md_table(shown), ""]
     if len(shown) < len(qc):
         lines += [f"({len(shown)} of {len(qc)} frames shown, those with an event; all in `tracking_qc.csv`.)", ""]
@@ -509,29 +532,54 @@ def _deformation_section(movie, out, written, numbers):
     if budget is None or len(budget) == 0:
         return []
     cal = movie.calibration
-    tissue = budget[budget["region"] == "tissue"]
-    rows = []
-    for label, terms, _ in (("total", ("total",), None),) + BUDGET_GROUPS:
-        rows.append({"contribution": label, **{f"cumulative {c}": sum(tissue[f"{t}_{c}"].sum() for t in terms
-                                                                      if f"{t}_{c}" in tissue)
-                                               for c in ("xx", "xy", "iso")}})
-    table = pd.DataFrame(rows)
-    closure = float(tissue[["closure_xx", "closure_xy", "closure_iso"]].abs().to_numpy().max(initial=0.0))
+    everything = budget[budget["region"] == "tissue"]
+    # the headline leaves out the intervals whose events rest on doubtful tracking (their totals stay in the CSV)
+    doubtful = (everything["tracking_doubtful"].to_numpy(bool) if "tracking_doubtful" in everything
+                else np.zeros(len(everything), bool))
+    every_one = bool(len(everything)) and doubtful.all()  # nothing to leave them out for: shown, and said so
+    tissue = everything if every_one else everything[~doubtful]
+
+    def cumulative(part):
+        rows = []
+        for label, terms, _ in (("total", ("total",), None),) + BUDGET_GROUPS:
+            rows.append({"contribution": label, **{f"cumulative {c}": sum(part[f"{t}_{c}"].sum() for t in terms
+                                                                          if f"{t}_{c}" in part)
+                                                   for c in ("xx", "xy", "iso")}})
+        return pd.DataFrame(rows)
+
+    table = cumulative(tissue)
+    closure = float(everything[["closure_xx", "closure_xy", "closure_iso"]].abs().to_numpy().max(initial=0.0))
     numbers["deformation"] = {"cumulative": table.to_dict("records"), "max_closure": closure,
-                              "n_pairs": int(len(tissue))}
+                              "n_pairs": int(len(tissue)), "n_pairs_doubtful": int(doubtful.sum())}
+    if doubtful.any() and not every_one:
+        numbers["deformation"]["cumulative_all"] = cumulative(everything).to_dict("records")
     written.append(write_table(budget, out / "deformation.csv"))
     path = out / "deformation.png"
     plot_deformation_budget(budget, calibration=cal, path=path)
     written.append(path)
     duration = cal.time(float(len(tissue)))
+    span = (f"{len(tissue)} frame intervals, **every one of them with doubtful tracking** (see Tracking quality: "
+            f"the events' terms are likely tracking errors)" if every_one else
+            f"the {len(tissue)} frame intervals of {len(everything)} whose tracking is not doubtful" if doubtful.any()
+            else f"{len(tissue)} frame intervals")
     lines = ["## Deformation budget", "",
-             f"The tissue's shear and growth over {len(tissue)} frame intervals ({duration:.3g} {cal.time_label}), "
+             f"The tissue's shear and growth over {span} ({duration:.3g} {cal.time_label}), "
              f"split into the contributions of cell shape change and of each kind of cellular event (the triangle "
              f"method; cumulative, dimensionless; 'cell shape change' includes its corotational terms):", "",
-             _md_table(table), "",
-             f"- closure (total minus the sum of the parts): at most {closure:.2g} per interval",
-             f"- triangles that would flip over within an interval (retriangulated instead): "
-             f"{int(tissue['n_flipped'].sum())}", ""]
+             _md_table(table), ""]
+    if doubtful.any() and not every_one:
+        left = everything.loc[doubtful, "frame"].astype(int).tolist()
+        shown = ", ".join(f"{t}-{t + 1}" for t in left[:10]) + (", ..." if len(left) > 10 else "")
+        total = cumulative(everything).iloc[0]
+        lines += [f"- left out of the table: {len(left)} interval(s) ({shown}) whose tracking is doubtful (interior "
+                  f"extrusions above 1 % of the cells, frames far apart, a suspect division or an unconfirmed "
+                  f"extrusion: see Tracking "
+                  f"quality; `deformation.tracking_doubtful`); with them the cumulative total would be "
+                  f"xx {total['cumulative xx']:.3g}, xy {total['cumulative xy']:.3g}, iso "
+                  f"{total['cumulative iso']:.3g}", ""]
+    lines += [f"- closure (total minus the sum of the parts): at most {closure:.2g} per interval",
+              f"- triangles that would flip over within an interval (retriangulated instead): "
+              f"{int(tissue['n_flipped'].sum())}", ""]
     lines += _figure_line(path, out, "deformation budget")
     if (budget["region"] == "grid").any() and movie.grid is not None:
         path = out / "deformation_map.png"
