@@ -325,6 +325,31 @@ def test_labels_recorded_in_the_metadata_are_found_or_the_side_has_none(truth, t
         assert "seg_jaccard" not in scores.summary and "vertex_precision" in scores.summary
 
 
+def test_t1_dated_by_its_held_interval(truth):
+    """A T1 reported as a four-fold vertex held from 4 frames early up to the truth's frame is on time for
+    t1_timing='held', late for 'start'; one whose interval ends 3 frames early needs a tolerance of 3."""
+    folder, result, labels = truth
+    ev = result.events
+    k = int(np.flatnonzero((ev["frame_start"] >= 5).to_numpy())[0])
+    held = ev.copy()
+    t = int(ev.loc[k, "frame_start"])
+    held.loc[k, ["frame_start", "frame_gain"]] = [t - 4, t]  # a-b lost at t - 4, c-d gained at t
+    pred = result.replace(events=held)
+    n = len(ev)
+    start = score(pred, folder, pred_labels=labels, frame_tolerance=2, show_progress=False)
+    _check(start.summary, {"t1_recall": (n - 1) / n, "t1_precision": (n - 1) / n})
+    on_time = score(pred, folder, pred_labels=labels, frame_tolerance=0, t1_timing="held", show_progress=False)
+    _check(on_time.summary, {"t1_recall": 1.0, "t1_precision": 1.0})
+    early = ev.copy()
+    early.loc[k, ["frame_start", "frame_gain"]] = [t - 5, t - 3]
+    pred = result.replace(events=early)
+    for tolerance, recall in ((2, (n - 1) / n), (3, 1.0)):
+        s = score(pred, folder, pred_labels=labels, frame_tolerance=tolerance, t1_timing="held", show_progress=False)
+        _check(s.summary, {"t1_recall": recall, "t1_precision": recall})
+    with pytest.raises(InputError, match="t1_timing"):
+        score(pred, folder, pred_labels=labels, t1_timing="gain")
+
+
 def test_bad_input(truth):
     folder, result, labels = truth
     with pytest.raises(InputError, match="frame_tolerance"):

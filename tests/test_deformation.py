@@ -306,6 +306,40 @@ def test_four_fold_vertex_keeps_the_previous_diagonal():
         assert diagonal in edges and len(ids) == 2
 
 
+def test_a_ring_the_past_says_nothing_about_takes_the_contacts_it_resolves_into():
+    """A four-fold vertex without a previous diagonal takes the following one; a five-fold rosette keeps the
+    previous fan, else takes the following one, else fans from its smallest id."""
+    track = np.array([1, 2, 3, 4])
+    xy = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    vertices = pd.DataFrame({"vertex": [7], "x": [5.0], "y": [5.0], "is_border": [False]})
+    cv = pd.DataFrame({"cell": track, "vertex": [7] * 4})
+
+    def edges(ids):
+        return {tuple(sorted(p)) for tri in ids.tolist() for p in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[0], tri[2]))}
+
+    for diagonal in ((1, 3), (2, 4)):
+        later = pair_keys(np.array([diagonal[0]]), np.array([diagonal[1]]), 5)
+        ids, _ = frame_triangles(track, xy, track, vertices, cv, K=5, following=later)
+        assert diagonal in edges(ids) and len(ids) == 2
+        # the past wins over the future
+        other = (2, 4) if diagonal == (1, 3) else (1, 3)
+        before = pair_keys(np.array([other[0]]), np.array([other[1]]), 5)
+        ids, _ = frame_triangles(track, xy, track, vertices, cv, previous=before, K=5, following=later)
+        assert other in edges(ids) and diagonal not in edges(ids)
+    # a regular pentagon of cells around one vertex
+    angle = 2 * np.pi * np.arange(5) / 5
+    track5 = np.array([5, 3, 9, 1, 7])  # counter-clockwise; smallest id 1 at position 3
+    xy5 = 10 * np.c_[np.cos(angle), np.sin(angle)]
+    v5 = pd.DataFrame({"vertex": [0], "x": [0.0], "y": [0.0], "is_border": [False]})
+    cv5 = pd.DataFrame({"cell": track5, "vertex": [0] * 5})
+    ids, _ = frame_triangles(track5, xy5, track5, v5, cv5, K=10)
+    assert len(ids) == 3 and all(1 in tri for tri in ids.tolist())  # the fan from the smallest id
+    fan_from_9 = pair_keys(np.array([9, 9]), np.array([5, 7]), 10)
+    for previous, following in ((fan_from_9, None), (None, fan_from_9)):
+        ids, _ = frame_triangles(track5, xy5, track5, v5, cv5, previous=previous, K=10, following=following)
+        assert len(ids) == 3 and all(9 in tri for tri in ids.tolist())
+
+
 def test_columns_match_the_schema(scripted):
     d = scripted[2]
     expected = ["frame", "region", "region_id", "area"]

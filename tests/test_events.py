@@ -114,6 +114,22 @@ def test_failed_t1_and_repeated_gain_are_not_events():
     assert ev["kind"].tolist() == ["intercalation"] and ev["frame_start"].tolist() == [3]
 
 
+def test_a_loss_whose_flanks_change_in_the_same_frame_is_paired_with_the_gain_that_sees_it():
+    # a-b touch with only c flanking them before the loss (a-d forms in the frame a-b is lost: a T1 next to a
+    # T1), so the loss has no quartet of its own; after the gain c-d is flanked by a and b: one T1, and the
+    # plain reference agrees
+    edges, cells = _quartet_tables(["ab"] * 3 + ["4"] * 2 + ["cd"] * 6)
+    edges = edges[~((edges["frame"] < 3) & (edges["cell_a"] == 1) & (edges["cell_b"] == 4))]
+    ev = detect_t1(edges, cells, censor=2)
+    assert ev[["kind", "frame_start", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d"]].values.tolist() == [
+        ["intercalation", 3, 5, 1, 2, 3, 4]]
+    from hexatissue.events import _reference as reference
+
+    contacts = track_contacts(edges, cells)
+    presence = cells.rename(columns={"cell": "track"})[["frame", "track"]]
+    pd.testing.assert_frame_equal(find_t1(contacts, presence), reference.find_t1(contacts, presence))
+
+
 def test_gain_after_an_intermediate_c_d_contact_is_not_paired_with_the_loss():
     # a-b lost at 3; c-d touch at 4 while a no longer touches c (no valid quartet), lose it at 5,
     # touch again with a valid quartet at 7: the intermediate state was not a four-fold vertex

@@ -435,7 +435,13 @@ def _quartet_key(a, b, c, d):
     return min(a, b), max(a, b), min(c, d), max(c, d)
 
 
-def _t1_scores(truth, pred, lookup, tolerance, summary, counts):
+def _held(event):
+    """The frames from the loss of a-b to the gain of c-d of an event: ``(frame_start, frame_gain)``."""
+    start = int(event.frame_start)
+    return start, max(start, int(getattr(event, "frame_gain", start)))
+
+
+def _t1_scores(truth, pred, lookup, tolerance, summary, counts, timing="start"):
     te, pe = truth.events, pred.events
     if te is None or pe is None:
         return None
@@ -444,12 +450,16 @@ def _t1_scores(truth, pred, lookup, tolerance, summary, counts):
     by_quartet = {}
     for m, t in enumerate(te.itertuples()):
         key = _quartet_key(int(t.cell_a), int(t.cell_b), int(t.cell_c), int(t.cell_d))
-        by_quartet.setdefault(key, []).append((m, int(t.frame_start)))
+        by_quartet.setdefault(key, []).append((m, _held(t)))
     cand = []
     mapped = [_mapped_quartet(e, lookup) for e in pe.itertuples()]
     for k, (p, quartet) in enumerate(zip(pe.itertuples(), mapped)):
-        for m, frame in by_quartet.get(_quartet_key(*quartet), ()):
-            gap = abs(int(p.frame_start) - frame)
+        p_start, p_gain = _held(p)
+        for m, (t_start, t_gain) in by_quartet.get(_quartet_key(*quartet), ()):
+            if timing == "start":
+                gap = abs(p_start - t_start)
+            else:  # the frames between the two held intervals (0 when they overlap)
+                gap = max(0, p_start - t_gain, t_start - p_gain)
             if gap <= tolerance:
                 cand.append((gap, k, m))
     chosen = _greedy(cand)
@@ -482,7 +492,7 @@ def _box_lengths(box):
 
 
 def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radius=3.0, frame_tolerance=2,
-          show_progress=True) -> Scores:
+          t1_timing="start", show_progress=True) -> Scores:
     """Score a prediction against exact truth (segmentation, network, tracking, T1 events, gamma_p).
 
     Parameters
@@ -501,6 +511,13 @@ def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radi
         Vertices closer than this are matched, px (default 3).
     frame_tolerance : int
         T1 events and divisions may be found this many frames early or late (default 2).
+    t1_timing : {"start", "held"}
+        When a T1 is on time.  ``"start"`` (default): its ``frame_start``
+        (the first frame without the a-b contact) is within
+        ``frame_tolerance`` of the truth's.  ``"held"``: the frames it holds
+        a four-fold vertex, ``frame_start`` to ``frame_gain`` (the first frame
+        with c-d), come within ``frame_tolerance`` of the truth's; a T1 is
+        only known to lie somewhere in that interval.
     show_progress : bool
         Progress bar over the frames.
 
@@ -526,6 +543,8 @@ def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radi
     vertex_radius = check_positive(vertex_radius, "vertex_radius", unit="px")
     if isinstance(frame_tolerance, bool) or not isinstance(frame_tolerance, (int, np.integer)) or frame_tolerance < 0:
         raise InputError(f"frame_tolerance must be a non-negative integer number of frames; got {frame_tolerance!r}")
+    if t1_timing not in ("start", "held"):
+        raise InputError(f"t1_timing must be 'start' or 'held'; got {t1_timing!r}")
     t_movie, t_labels, t_where = _side(truth, truth_labels, "truth", None)
     p_movie, p_labels, p_where = _side(prediction, pred_labels, "prediction", t_movie.box)
     if len(p_movie) != len(t_movie) or tuple(p_movie.shape) != tuple(t_movie.shape):
@@ -563,10 +582,9 @@ def score(prediction, truth, *, pred_labels=None, truth_labels=None, vertex_radi
         if len(t_movie) > 1:
             tables["links"] = _tracking(t_movie, p_movie, to_truth, summary, counts)
             lookup = _track_lookup(p_movie, to_truth, t_movie)
-            for name, fn in (("divisions", _division_scores), ("t1", _t1_scores)):
-                table = fn(t_movie, p_movie, lookup, frame_tolerance, summary, counts)
-                if table is not None:
-                    tables[name] = table
+            tables["divisions"] = _division_scores(t_movie, p_movie, lookup, frame_tolerance, summary, counts)
+            tables["t1"] = _t1_scores(t_movie, p_movie, lookup, frame_tolerance, summary, counts, t1_timing)
+            tables = {name: table for name, table in tables.items() if table is not None}
         else:
             notes.append("single frame: tracking and T1 scores left out")
     order = {name: k for k, name in enumerate(SCORE_NAMES)}

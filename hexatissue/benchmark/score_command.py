@@ -47,6 +47,9 @@ def add_score(actions):
     s.add_argument("--vertex-radius", type=float, default=3.0, help="vertex matching radius, px (default 3)")
     s.add_argument("--frame-tolerance", type=int, default=2,
                    help="T1 events and divisions may be this many frames off (default 2)")
+    s.add_argument("--t1-timing", choices=["start", "held"], default="start",
+                   help="a T1 is on time when its frame_start is within the tolerance of the truth's (start, default) "
+                        "or when its held four-fold interval frame_start..frame_gain is (held)")
     s.add_argument("--format", nargs="+", default=["parquet"], choices=["parquet", "csv"],
                    help="table formats (default: parquet)")
     s.set_defaults(func=_run_score)
@@ -76,7 +79,8 @@ def _run_score(args) -> int:
 
     check_output_folder(args.out, "--out")
     scores = score(args.pred, args.truth, pred_labels=args.pred_labels, truth_labels=args.truth_labels,
-                   vertex_radius=args.vertex_radius, frame_tolerance=args.frame_tolerance)
+                   vertex_radius=args.vertex_radius, frame_tolerance=args.frame_tolerance,
+                   t1_timing=args.t1_timing)
     written = score_to_folder(scores, args.out, formats=tuple(args.format))
     print(scores.text())
     print(f"{len(written)} files in {args.out}")

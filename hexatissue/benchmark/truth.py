@@ -21,7 +21,8 @@ from ..errors import InputError
 from ..results import Movie
 from ..units import Calibration
 
-__all__ = ["Truth", "truth_from_labels", "truth_from_run", "truth_from_voronoi", "truth_from_t1", "crop_labels"]
+__all__ = ["Truth", "truth_from_labels", "truth_from_run", "truth_from_voronoi", "truth_from_t1", "truth_from_vertex_model",
+           "crop_labels"]
 
 #: Columns of the events table that define a T1 (quartet, timing, kind); x, y are quartet centres.
 T1_KEY = ["kind", "frame_start", "frame_end", "duration", "cell_a", "cell_b", "cell_c", "cell_d", "frame_gain"]
@@ -207,3 +208,26 @@ def truth_from_t1(*, periodic=True, n_frames=36, seed=0, workers=1, progress=Tru
     except AssertionError as exc:
         raise AssertionError(f"the analysed T1 events differ from the scripted ones: {exc}") from None
     return truth
+
+
+def truth_from_vertex_model(*, n_cells=196, n_frames=60, v0=1.0, steps_per_frame=150, seed=0, workers=1, progress=True,
+                            **model) -> Truth:
+    """The truth of an active vertex-model movie whose T1 events are the model's own log.
+
+    The cells, tracks and network are the analysis of the rasterised polygons
+    (:func:`truth_from_labels`); the ``events`` table is not detected: it is
+    :func:`~hexatissue.benchmark.vertex_model.vertex_model_events` of the
+    model's T1 log (:func:`~hexatissue.benchmark.vertex_model.vertex_model_movie`,
+    whose other parameters ``model`` passes on); ``truth.source`` holds the
+    model's parameters and ``n_t1_flips``, the number of flips it made.
+    Returns a :class:`Truth`.
+    """
+    from .vertex_model import vertex_model_events, vertex_model_movie
+
+    m = vertex_model_movie(n_cells=n_cells, n_frames=n_frames, v0=v0, steps_per_frame=steps_per_frame, seed=seed,
+                           **model)
+    source = {"kind": "vertex_model", **m.params, "n_t1_flips": int(len(m.t1_log))}
+    truth = truth_from_labels(m.labels, box=m.box, source=source, workers=workers, progress=progress)
+    events = vertex_model_events(m.t1_log, n_frames)
+    events["is_border"] = False
+    return Truth(truth.labels, truth.movie.replace(events=events), source)

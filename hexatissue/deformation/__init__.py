@@ -100,30 +100,47 @@ def _rings(rows, centre, track, xy, box):
     return ids, pos
 
 
-def _fans(ids, pos, previous, K):
+def _fans(ids, pos, previous, K, following=None):
     """Triangles (index triples into each ring) of rings of four or more cells, all of one size.
 
-    A four-fold vertex takes the diagonal the previous frame's triangulation
-    had (``previous``: its sorted pair keys), else the shorter one, so its T1
-    counts once, when the new contact forms (or never, when it reverts); a
-    rosette of five or more is a fan from its smallest id.
+    A ring's triangulation is the fan (from one of its cells) with the most
+    diagonals the previous frame's triangulation had (``previous``: its
+    sorted pair keys), so a held four-fold vertex or rosette changes nothing
+    and its T1 counts once, when the new contact forms (or never, when it
+    reverts).  A ring the previous frame says nothing about (it is one from
+    the first frame, or it has just formed from other contacts) takes the
+    fan with the most diagonals of ``following`` (the triangulation it
+    resolves into later, when given), else, for four cells, the shorter
+    diagonal, and for more, the fan from the smallest id.
     """
     n, k = ids.shape
-    if k == 4:
-        had02 = in_sorted(pair_keys(ids[:, 0], ids[:, 2], K), previous)
-        had13 = in_sorted(pair_keys(ids[:, 1], ids[:, 3], K), previous)
+    # the fan from start s: triangles (s, s + j, s + j + 1), j = 1 .. k - 2; its diagonals (s, s + j), j = 2 .. k - 2
+    diag = (np.arange(k)[:, None] + np.arange(2, k - 1)[None, :]) % k  # (k, k - 3)
+
+    def votes(keys):
+        if keys is None or len(keys) == 0:
+            return np.zeros((n, k))
+        a = np.broadcast_to(ids[:, :, None], (n, k, k - 3))
+        b = ids[:, diag]
+        return in_sorted(pair_keys(a.ravel(), b.ravel(), K), keys).reshape(n, k, k - 3).sum(axis=2)
+
+    score = votes(previous)
+    informed = score.max(axis=1) > score.min(axis=1)
+    score = score + np.where(informed[:, None], 0, votes(following))
+    if k == 4:  # both diagonals equally supported: the shorter one (starts 1 and 3 have the 1-3 diagonal)
         shorter13 = np.hypot(*(pos[:, 1] - pos[:, 3]).T) < np.hypot(*(pos[:, 0] - pos[:, 2]).T)
-        first = np.where(had02 != had13, had13, shorter13).astype(np.int64)
-        fan = np.stack([first, first + 1, first + 2, first, first + 2, (first + 3) % 4], axis=1).reshape(n, 2, 3)
-    else:
-        s = np.argmin(ids, axis=1)[:, None, None]
-        j = np.arange(1, k - 1)[None, :, None]
-        fan = np.concatenate([np.broadcast_to(s, (n, k - 2, 1)), (s + j) % k, (s + j + 1) % k], axis=2)
+        tie = np.where(shorter13[:, None], [0.0, 1.0, 0.0, 1.0], [1.0, 0.0, 1.0, 0.0])
+    else:  # the fan from the smallest id
+        tie = (np.arange(k)[None, :] == np.argmin(ids, axis=1)[:, None]).astype(float)
+    first = np.argmax(score * 2 + tie, axis=1)[:, None]
+    step = np.arange(1, k - 1)[None, :]
+    fan = np.stack([np.broadcast_to(first, (n, k - 2)), (first + step) % k, (first + step + 1) % k], axis=2)
     rows = np.arange(n)[:, None, None]
     return ids[rows, fan].reshape(-1, 3), pos[rows, fan].reshape(-1, 3, 2)
 
 
-def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous=None, interior=None, K=None):
+def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous=None, interior=None, K=None,
+                    following=None):
     """The triangles of cell centres dual to one frame's interior vertices.
 
     Only vertices whose cells are all interior cells count: a border cell's
@@ -150,6 +167,10 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
     K : int, optional
         Above every track id (the pair keys' base; default: this frame's
         largest id + 1).
+    following : int64 array, optional
+        The sorted pair keys of a later triangulation: a four-fold vertex or
+        rosette that ``previous`` says nothing about takes its diagonals
+        from there (the contacts it resolves into).
 
     Returns
     -------
@@ -193,7 +214,7 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
         at_k = starts[counts == k]
         ring_rows = row[at_k[:, None] + np.arange(k)[None, :]]
         ring_ids, ring_xy = _rings(ring_rows, vxy[vrow[at_k]], track, xy, box)
-        fan_ids, fan_xy = _fans(ring_ids, ring_xy, previous, K)
+        fan_ids, fan_xy = _fans(ring_ids, ring_xy, previous, K, following)
         ids_parts.append(fan_ids)
         xy_parts.append(fan_xy)
     ids, tri_xy = np.concatenate(ids_parts), np.concatenate(xy_parts)
@@ -790,10 +811,23 @@ def deformation_budget(cells, vertices, cell_vertices, lineage, t1=None, *, box=
     candidates = _Candidates(t1, t1_events)
     previous, tri_prev = None, None
     K = int(frames.track.max(initial=0)) + 1
-    for i, t in enumerate(times):
+
+    def triangles(t, before, after=None):
         sl = frames.rows(t)
-        tri = frame_triangles(frames.track[sl], frames.xy[sl], frames.cell[sl], _part(vertices, v_rows, t),
-                              _part(cell_vertices, cv_rows, t), box, previous, frames.interior[sl], K)
+        return frame_triangles(frames.track[sl], frames.xy[sl], frames.cell[sl], _part(vertices, v_rows, t),
+                               _part(cell_vertices, cv_rows, t), box, before, frames.interior[sl], K, after)
+
+    # backwards first: the contacts each four-fold vertex or rosette resolves into, for those whose past says
+    # nothing (held since the first frame, or formed from other contacts); otherwise resolving into them later
+    # would be a retriangulation no event explains
+    later, following = {}, None
+    for i in range(len(times) - 1, -1, -1):
+        if i + 1 < len(times) and times[i + 1] != times[i] + 1:
+            following = None
+        later[times[i]] = following
+        following = triangle_edges(triangles(times[i], following)[0], K)
+    for i, t in enumerate(times):
+        tri = triangles(t, previous, later[t])
         previous = triangle_edges(tri[0], K)
         if tri_prev is not None and t == times[i - 1] + 1:
             blocks, ev, info = _pair(frames, lin, layers, t - 1, tri_prev, tri, candidates, tolerance, K)

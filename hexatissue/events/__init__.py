@@ -294,7 +294,7 @@ def _find_t1(frames, ids):
     of frames of every contact say which loss and gain were not interrupted.
     """
     K = np.int64(len(ids) + 1)
-    starts, stops, losses, gains, values = [], [], [], [], []
+    starts, stops, losses, gains, values, every_loss = [], [], [], [], [], []
     prev = None
     index = _index_of(ids)
     for i, (frame, tracks, a, b) in enumerate(frames):
@@ -308,6 +308,10 @@ def _find_t1(frames, ids):
             stops.append((gone, i))
             losses.append((loss_ab, loss_cd, np.full(len(loss_ab), i)))
             gains.append((gain_ab, gain_cd, np.full(len(gain_ab), i)))
+            # every loss, also one with no pair of common neighbours just before (its flanks changed in the
+            # same frame): the quartet may be seen after the gain only
+            lost = gone[cur.is_present(gone // K) & cur.is_present(gone % K)]
+            every_loss.append((lost, np.full(len(lost), i)))
         prev = cur
     empty = pd.DataFrame({c: np.empty(0, np.int64) for c in
                           ("frame_lost", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d")})
@@ -321,9 +325,12 @@ def _find_t1(frames, ids):
                           right_on=["pair", "stop"]).drop(columns=["pair", "stop"]).rename(columns={"next_start": "next_ab"})
     gains = gains.merge(runs[["pair", "start", "prev_stop"]], left_on=["cd", "frame_gain"],
                         right_on=["pair", "start"]).drop(columns=["pair", "start"]).rename(columns={"prev_stop": "prev_cd"})
-    if losses.empty or gains.empty:
+    lost = pd.DataFrame(dict(zip(("ab", "frame_lost"), (np.concatenate(c) for c in zip(*every_loss)))))
+    lost = lost.merge(runs[["pair", "stop", "next_start"]], left_on=["ab", "frame_lost"], right_on=["pair", "stop"])
+    lost = lost[["ab", "frame_lost", "next_start"]].rename(columns={"next_start": "next_ab"})
+    if gains.empty or lost.empty:
         return empty
-    m = _pair_losses_and_gains(losses, gains)
+    m = _pair_losses_and_gains(losses, gains, lost)
     ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
     values = np.asarray(values, np.int64)
     out = pd.DataFrame({
@@ -334,13 +341,18 @@ def _find_t1(frames, ids):
     return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
 
 
-def _pair_losses_and_gains(losses, gains):
+def _pair_losses_and_gains(losses, gains, lost):
     """The T1s of a movie's losses and gains: rows ``ab``, ``cd``, ``frame_lost``, ``frame_gain``.
 
     ``losses``: each contact a-b lost (``frame_lost``, ``next_ab`` the start
     of its next run) with each pair c-d of common neighbours just before;
     ``gains``: each contact c-d gained (``frame_gain``, ``prev_cd`` the stop
-    of its previous run) with each pair a-b of common neighbours just after.
+    of its previous run) with each pair a-b of common neighbours just after;
+    ``lost``: every loss (``ab``, ``frame_lost``, ``next_ab``), also one with
+    fewer than two common neighbours just before (its flanks changed in the
+    same frame, a T1 next to a T1), whose quartet only the gain sees.  A gain
+    with no quartet after it is never paired: c-d not flanked by a and b is
+    not the junction that replaced a-b.
     A loss of a-b and a later (or simultaneous) gain of c-d are one T1 when
     neither contact touched in between (a four-fold vertex at most) and the
     quartet is seen on **either** side: c-d flanked a-b before the loss, or
@@ -354,7 +366,6 @@ def _pair_losses_and_gains(losses, gains):
     gain (:func:`_match_once`).
     """
     keys = ["ab", "cd", "frame_lost", "next_ab", "frame_gain", "prev_cd"]
-    lost = losses.drop_duplicates(["ab", "frame_lost"])[["ab", "frame_lost", "next_ab"]]
     gained = gains.drop_duplicates(["cd", "frame_gain"])[["cd", "frame_gain", "prev_cd"]]
     # quartets seen before a loss, with every gain of their c-d; quartets seen after a gain, with every loss of a-b
     m = pd.concat([losses.merge(gained, on="cd")[keys], gains.merge(lost, on="ab")[keys]], ignore_index=True)

@@ -128,12 +128,15 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     runs_of = {}
     for k, p in enumerate(i_pair.tolist()):
         runs_of.setdefault(p, []).append(k)
+    # every loss may take part, also one with fewer than two common neighbours just before (the gain sees
+    # its quartet); a gain only with a quartet after it
+    loss_runs = set(L.tolist())
     sides = {}  # (loss run, gain run) -> on how many sides the quartet is seen (1 or 2)
     for k_loss, cds in before.items():
         for k_gain in (k for cd in cds for k in runs_of.get(cd, []) if k in after):
             sides[(k_loss, k_gain)] = sides.get((k_loss, k_gain), 0) + 1
     for k_gain, abs_ in after.items():
-        for k_loss in (k for ab in abs_ for k in runs_of.get(ab, []) if k in before):
+        for k_loss in (k for ab in abs_ for k in runs_of.get(ab, []) if k in loss_runs):
             sides[(k_loss, k_gain)] = sides.get((k_loss, k_gain), 0) + 1
     candidates = []
     for (k_loss, k_gain), n_sides in sides.items():
