@@ -205,6 +205,7 @@ class _FrameWarnings:
     """Warnings of the frame jobs, reported once per distinct text with the frames it occurred in.
 
     ``files``: the file of each frame (a folder of images or polygon files), named instead of the frame number.
+    The per-frame details of a :class:`~hexatissue.errors.FrameWarning` follow, frame by frame.
     """
 
     def __init__(self, files=None):
@@ -212,17 +213,20 @@ class _FrameWarnings:
         self.files = files
 
     def add(self, t, found):
-        for category, text in found:
-            self.frames.setdefault((category, text), []).append(int(t))
+        for category, text, detail in found:
+            self.frames.setdefault((category, text), {}).setdefault(int(t), detail)
 
     def emit(self):
-        for (category, text), frames in self.frames.items():
-            frames = sorted(set(frames))
-            word = "file" if self.files else "frame"
-            names = [Path(self.files[f]).name if self.files else str(f) for f in frames[:10]]
-            shown = ", ".join(names) + (f", ... ({len(frames)} {word}s)" if len(frames) > 10 else "")
-            warnings.warn(f"{word}{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
-                          stacklevel=user_stacklevel())
+        word = "file" if self.files else "frame"
+        for (category, text), details in self.frames.items():
+            frames = sorted(details)
+            names = [Path(self.files[f]).name if self.files else str(f) for f in frames]
+            shown = ", ".join(names[:10]) + (f", ... ({len(frames)} {word}s)" if len(frames) > 10 else "")
+            each = "; ".join(f"{word} {n}: {details[f]}" for n, f in zip(names[:3], frames[:3]) if details[f])
+            if each and len(frames) > 3:
+                each += "; ..."
+            warnings.warn(f"{word}{'s' if len(frames) > 1 else ''} {shown}: {text}" + (f" ({each})" if each else ""),
+                          category, stacklevel=user_stacklevel())
 
 
 def _batch_job(batch, stages, pixels):

@@ -51,6 +51,7 @@ from .readers.arrays import open_array, open_list, open_npy, open_npz
 from .readers.base import Opened, read_error, refuse
 from .readers.ctc import is_ctc_folder, open_ctc
 from .readers.folder import open_files, open_folder
+from .readers.gzipped import gunzip, is_gzipped
 from .readers.mpf import is_run, open_run
 from .readers.png import open_png
 from .readers.polygons import POLYGON_SUFFIXES, is_polygon_folder, open_polygons
@@ -477,6 +478,15 @@ def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
             return open_ctc(path, key, channel, level)
         refuse("a folder of images", key=key, level=level)
         return open_folder(path, channel)
+    if is_gzipped(path):
+        inner = Path(path.stem).suffix.lower()
+        if inner not in FILE_SUFFIXES:
+            raise InputError(f"path {str(path)!r} is gzip-compressed {inner or 'data without a suffix'}; expected "
+                             f"one of {FILE_SUFFIXES} compressed (e.g. .tif.gz)")
+        plain = gunzip(path)
+        opened = _path_reader(plain, key, channel, level, axes)
+        return replace(opened, description={**opened.description, "path": str(path)},
+                       notes=(*opened.notes, f"decompressed from {path.name} (gzip) into a temporary file"))
     suffix = path.suffix.lower()
     if suffix in POLYGON_SUFFIXES:
         refuse("a polygon file", key=key, channel=channel, level=level, axes=axes)
@@ -493,8 +503,8 @@ def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
     if suffix == ".npz":
         refuse("a .npz file", level=level)
         return open_npz(path, key, channel, axes)
-    raise InputError(f"path {str(path)!r} has unknown suffix {path.suffix!r}; expected one of {FILE_SUFFIXES}, "
-                     f"a folder of images or a zarr store")
+    raise InputError(f"path {str(path)!r} has unknown suffix {path.suffix!r}; expected one of {FILE_SUFFIXES} "
+                     f"(each also gzip-compressed, ending in .gz), a folder of images or a zarr store")
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -716,3 +716,30 @@ def test_axes_name_the_dimensions_of_a_plain_zarr_array(tmp_path):
     assert main(f"analyze {tmp_path}/thin.zarr --axes TYX --out {tmp_path}/o".split()) == 0
     with pytest.raises(InputError, match="axes='TYX' means nothing for a folder"):
         open_source(tmp_path, axes="TYX")
+
+
+def test_gzipped_files_are_read_through_and_named_by_their_own_path(tmp_path):
+    import gzip
+
+    import tifffile
+
+    stack = (np.arange(3 * 8 * 9, dtype=np.uint16) % 7 + 1).reshape(3, 8, 9)
+    tifffile.imwrite(tmp_path / "s.tif", stack, photometric="minisblack")
+    np.save(tmp_path / "a.npy", stack[0])
+    for name in ("s.tif", "a.npy"):
+        (tmp_path / f"{name}.gz").write_bytes(gzip.compress((tmp_path / name).read_bytes()))
+    src = open_source(tmp_path / "s.tif.gz")
+    assert src.n_frames == 3 and src.description["path"] == str(tmp_path / "s.tif.gz")
+    assert any("gzip" in note for note in src.description["notes"])
+    np.testing.assert_array_equal(np.stack([src.frame(t) for t in range(3)]), stack)
+    np.testing.assert_array_equal(open_source(tmp_path / "a.npy.gz").frame(0),
+                                  stack[0])
+    (tmp_path / "cut.tif.gz").write_bytes((tmp_path / "s.tif.gz").read_bytes()[:60])
+    with pytest.raises(InputError, match=r"cut\.tif\.gz' could not be decompressed"):
+        open_source(tmp_path / "cut.tif.gz")
+    (tmp_path / "plain.tif.gz").write_bytes((tmp_path / "s.tif").read_bytes())
+    with pytest.raises(InputError, match=r"ends in \.gz but is not gzip data"):
+        open_source(tmp_path / "plain.tif.gz")
+    (tmp_path / "x.txt.gz").write_bytes(gzip.compress(b"hello"))
+    with pytest.raises(InputError, match=r"x\.txt\.gz' is gzip-compressed \.txt; expected"):
+        open_source(tmp_path / "x.txt.gz")

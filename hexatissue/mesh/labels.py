@@ -39,8 +39,12 @@ cells, ``is_border``), in this order:
    (of the regions of at least ``min_area`` px) is the outside: of a masked
    skeleton, or the outside label of a hand-labelled tissue whose
    background is not 0 (labels of the other kinds: only a label holding at
-   least a tenth of the image edge, and with a warning).  ``"none"`` keeps
-   it as a cell.
+   least a tenth of the image edge, and with a warning).  Wherever it is,
+   edge or not, a region that encloses the tissue (its holes hold at least
+   ``ENCLOSED_SHARE`` of the other regions' pixels: a rim label around a
+   hand-labelled tissue, the outside of a skeleton drawn along the image
+   edge) is the outside too (with a warning, except for skeletons).
+   ``"none"`` keeps them as cells.
 5. Membranes are shared out (kinds ``"membrane"``, ``"skeleton"``).
 6. ``fill_holes``: 0-valued 4-connected pockets smaller than this many px
    that do not touch the edge of an open image are holes between touching
@@ -55,12 +59,13 @@ import numpy as np
 from scipy import ndimage
 
 from .._components import components
-from ..errors import HexatissueWarning, InputError, is_real
+from ..errors import FrameWarning, HexatissueWarning, InputError, is_real
 from ..options import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
 
 OUTSIDE_FACTOR = 20  # a region touching the image edge and > 20 x the median region area is the outside
 OUTSIDE_EDGE_SHARE = 0.1  # a label holding this share of the image edge's pixels may be the outside (any kind)
+ENCLOSED_SHARE = 0.9  # a region whose holes hold this share of the other regions' pixels encloses the tissue
 SKELETON_MIN_AREA = 4  # px: smaller regions enclosed by skeleton lines are specks, not cells
 
 
@@ -266,8 +271,9 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = _drop_small(lab, min_area)
     if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
         lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
+        lab = _drop_enclosing(lab, warn=False)
     elif outside == "auto" and not periodic:
-        lab = _drop_outside_label(lab)
+        lab = _drop_enclosing(_drop_outside_label(lab), warn=True)
     # no 0 pixel (ids are non-negative): a min does not build a mask
     positive = (lab.min() if lowest is None or lab is not given else lowest) > 0
     if not positive and not lab.any():
@@ -285,9 +291,11 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         if mask is not None:
             lab[~mask] = 0
         membrane = zero & (lab != 0)
-    lab = fill_pockets(lab, fill_holes, periodic)
+    lab, left = _fill_pockets(lab, fill_holes, periodic, mask)
     if mask is not None:
         lab[~mask] = 0
+    if len(left):
+        _hole_hint(lab, left, fill_holes)
     return lab, membrane
 
 
@@ -427,6 +435,56 @@ def _drop_outside_label(lab):
     return np.where(np.isin(lab, outer), 0, lab)
 
 
+def enclosing_label(lab) -> tuple[int, float]:
+    """``(id, share)`` of the region that encloses the others (0, 0.0 if none): the outside wherever it is.
+
+    Its candidate is the first nonzero label met walking in from the middle
+    of each of the four image edges (one pass over a row and a column, so an
+    ordinary frame costs nothing more); it encloses the tissue when the
+    holes of its region (the pixels it cuts off from the image edge) hold at
+    least ``ENCLOSED_SHARE`` of the other regions' pixels, and there are at
+    least two other regions.  ``share`` is that fraction.
+    """
+    rows, cols = lab.shape
+    if rows < 3 or cols < 3:
+        return 0, 0.0
+    rays = (lab[rows // 2, :], lab[rows // 2, ::-1], lab[:, cols // 2], lab[::-1, cols // 2])
+    first = set()
+    for ray in rays:
+        hit = np.flatnonzero(ray)
+        if not len(hit):
+            return 0, 0.0
+        first.add(int(ray[hit[0]]))
+    if len(first) != 1:
+        return 0, 0.0
+    candidate = first.pop()
+    region = lab == candidate
+    others = (lab != 0) & ~region
+    n_others = int(others.sum())
+    if not n_others:
+        return 0, 0.0
+    cut_off, _ = ndimage.label(~region)
+    edge = np.unique(np.r_[cut_off[0], cut_off[-1], cut_off[:, 0], cut_off[:, -1]])
+    inside = ~np.isin(cut_off, edge) & others
+    share = float(inside.sum()) / n_others
+    if share < ENCLOSED_SHARE or len(np.unique(lab[inside])) < 2:
+        return 0, 0.0
+    return candidate, share
+
+
+def _drop_enclosing(lab, warn):
+    """Labels with the region that encloses the tissue (:func:`enclosing_label`) set to 0; a warning if ``warn``."""
+    outer, share = enclosing_label(lab)
+    if not outer:
+        return lab
+    if warn:
+        warnings.warn(f"label {outer} encloses the tissue (its holes hold {100 * share:.0f}% of the other cells' "
+                      f"pixels): it is taken as the outside of the tissue (like 0; the cells next to it are border "
+                      f"cells). --outside none keeps it as a cell; --background LABEL names outside labels yourself",
+                      HexatissueWarning, stacklevel=2)
+    return np.where(lab == outer, 0, lab)
+
+
 def compact_labels(lab, top=None):
     """Labels renumbered 0..n in the order of their ids (0 stays 0 = background), as int32.
 
@@ -483,19 +541,57 @@ def fill_pockets(lab, fill_holes=POCKET_AREA, periodic=False):
     not touch the edge of an open image; larger 0-regions are background and
     stay 0.  ``fill_holes=0`` fills nothing.
     """
+    return _fill_pockets(lab, fill_holes, periodic)[0]
+
+
+def _fill_pockets(lab, fill_holes, periodic, mask=None):
+    """:func:`fill_pockets`, and the sizes (px) of the 0-regions left inside the tissue.
+
+    Those are the pockets of ``fill_holes`` px or more that touch neither
+    the edge of an open image nor the outside of ``mask``: holes in the
+    tissue that stay background (empty with ``fill_holes=0``: nothing was
+    asked).
+    """
     zero = lab == 0
     if fill_holes <= 0 or not zero.any():
-        return lab
+        return lab, np.zeros(0, np.int64)
     pockets = _regions(zero, periodic)
-    small = np.bincount(pockets.ravel()) < fill_holes
+    sizes = np.bincount(pockets.ravel())
+    small = sizes < fill_holes
     small[0] = False
+    inner = np.ones(len(sizes), bool)
+    inner[0] = False
     if not periodic:
-        small[np.r_[pockets[0], pockets[-1], pockets[:, 0], pockets[:, -1]]] = False
+        inner[np.r_[pockets[0], pockets[-1], pockets[:, 0], pockets[:, -1]]] = False
+    if mask is not None:
+        inner[pockets[~mask]] = False
+    small &= inner
+    left = sizes[inner & ~small]
     if not small.any():
-        return lab
+        return lab, left
     holes = small[pockets]
     # one pass fills one layer: as many passes as the deepest hole pixel is far from a cell (4-connected)
     passes = int(ndimage.distance_transform_cdt(holes, metric="taxicab").max())
     filled = fill_gaps(np.ascontiguousarray(lab), passes, bool(periodic))
     filled[zero & ~holes] = 0
-    return filled
+    return filled, left
+
+
+def _hole_hint(lab, sizes, fill_holes):
+    """A :class:`FrameWarning` naming ``--fill-holes`` for the holes the size of a cell or smaller left in the tissue.
+
+    Larger 0-regions inside the tissue (more than ``OUTSIDE_FACTOR`` x the
+    median cell area: a wound, a lumen, the inside of a ring of cells) are
+    taken as meant and not reported.
+    """
+    areas = np.bincount(compact_labels(lab)[0].ravel())[1:]
+    median = float(np.median(areas)) if len(areas) else 0.0
+    sizes = np.sort(sizes[sizes <= OUTSIDE_FACTOR * median])[::-1]
+    if not len(sizes):
+        return
+    shown = ", ".join(str(int(v)) for v in sizes[:4]) + (", ..." if len(sizes) > 4 else "")
+    warnings.warn(FrameWarning(
+        f"holes of background 0 inside the tissue (not touching the image edge) larger than fill_holes = "
+        f"{fill_holes} px stay background: the cells around them count as border cells, not interior. If they are "
+        f"gaps in the segmentation, --fill-holes AREA (fill_holes=AREA) fills those smaller than AREA px",
+        f"{len(sizes)} hole(s): {shown} px; median cell {median:.0f} px"), stacklevel=3)
