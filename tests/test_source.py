@@ -743,3 +743,34 @@ def test_gzipped_files_are_read_through_and_named_by_their_own_path(tmp_path):
     (tmp_path / "x.txt.gz").write_bytes(gzip.compress(b"hello"))
     with pytest.raises(InputError, match=r"x\.txt\.gz' is gzip-compressed \.txt; expected"):
         open_source(tmp_path / "x.txt.gz")
+
+
+def test_a_tiff_written_page_by_page_is_read_frame_by_frame(tmp_path):
+    # tifffile.TiffWriter.write once per frame: 240 one-page series (was read as its first frame)
+    stack = np.random.default_rng(0).integers(1, 50, size=(240, 12, 10)).astype(np.uint16)
+    with tifffile.TiffWriter(tmp_path / "pages.tif") as tw:
+        for frame in stack:
+            tw.write(frame)
+    src = open_source(tmp_path / "pages.tif")
+    assert src.n_frames == 240 and src.shape == (12, 10)
+    np.testing.assert_array_equal(np.stack([src.frame(t) for t in range(240)]), stack)
+    assert any("240 image series of one page each" in note for note in src.description["notes"])
+    # series of different shapes: series 0 is read, and a warning says what was left
+    with tifffile.TiffWriter(tmp_path / "mixed.tif") as tw:
+        tw.write(stack[0])
+        tw.write(stack[1, :5, :5])
+    with pytest.warns(HexatissueWarning, match=r"holds 2 image series \(YX \(12, 10\); YX \(5, 5\)\); only series 0"):
+        mixed = open_source(tmp_path / "mixed.tif")
+    assert mixed.n_frames == 1
+
+
+def test_an_imagej_header_that_undercounts_the_pages_is_warned_and_every_page_read(tmp_path):
+    stack = (np.arange(4 * 6 * 7, dtype=np.uint16) % 11 + 1).reshape(4, 6, 7)
+    with tifffile.TiffWriter(tmp_path / "ij.tif") as tw:  # a header for 2 frames on a file of 4 pages
+        for t, frame in enumerate(stack):
+            tw.write(frame, description="ImageJ=1.11a\nimages=2\nframes=2\n" if t == 0 else None, metadata=None)
+    assert tifffile.TiffFile(tmp_path / "ij.tif").series[0].shape == (2, 6, 7)  # what tifffile alone gives
+    with pytest.warns(HexatissueWarning, match=r"ImageJ header says 2 image\(s\) \(axes 'TYX'\) but the file holds "
+                                               r"4 pages"):
+        src = open_source(tmp_path / "ij.tif")
+    np.testing.assert_array_equal(np.stack([src.frame(t) for t in range(src.n_frames)]), stack)
