@@ -190,7 +190,7 @@ class Source:
         t = self._index(t)
         if kind == "membrane-map":
             return checked_labels(segment_membranes(self.image(t), periodic=self.box is not None), f"frame {t}")
-        return checked_labels(self.raw_frame(t), f"frame {t}")
+        return checked_labels(self.raw_frame(t), f"frame {t}", kind)
 
     def image(self, t) -> np.ndarray:
         """Frame ``t`` as an intensity image (float64, not checked as labels): for a raw channel.

@@ -122,3 +122,86 @@ def test_maps_made_from_real_data_are_refused_or_routed(real_data):
     frame = ht.mesh_from_labels(raw, kind="membrane-map")  # the raw membrane channel, routed
     inner = frame.cells[~frame.cells["is_border"] & (frame.cells["n_sides"] >= 3)]
     assert len(inner) > 50 and 5.5 < inner["n_sides"].mean() < 6.5
+
+
+# --- drawings of junction lines and dim raw planes: refused, saying what they look like ----------------------
+
+def junction_drawing(tissue):
+    """Coloured junction lines on black, one colour per cell pair (as vertex-extraction tools draw them), RGB."""
+    lines = draw_membranes(tissue, 2) == 0
+    right = np.roll(tissue, -2, axis=1)
+    below = np.roll(tissue, -2, axis=0)
+    pair = np.minimum(tissue, np.where(right != tissue, right, below)) * 1000 + np.maximum(tissue, right)
+    code = np.where(lines, pair % 16_000_000 + 1, 0)
+    return np.stack([(code >> 16) & 255, (code >> 8) & 255, code & 255], -1).astype(np.uint8)
+
+
+def dim_plane(tissue, seed=0):
+    """A dim 8-bit raw membrane plane: blurred junctions 2.5 grey values bright on 6, smooth noise: 4-10."""
+    signal = ndimage.gaussian_filter((draw_membranes(tissue, 2) == 0).astype(float), 2)
+    noise = ndimage.gaussian_filter(np.random.default_rng(seed).normal(0, 1, signal.shape), 3)
+    return np.clip(np.round(6 + 2.5 * signal / signal.max() + 0.5 * noise / noise.std()), 3, 35).astype(np.uint8)
+
+
+def test_a_drawing_of_junction_lines_is_refused_and_reads_as_a_skeleton_when_told(tissue, tmp_path, capsys):
+    drawing = junction_drawing(tissue)
+    with pytest.raises(InputError, match=r"values are lines on a black ground.*drawing of the junctions in colour"
+                                         r".*--kind skeleton"):
+        ht.open_source(drawing).frame(0)
+    np.save(tmp_path / "drawing.npy", drawing)
+    assert main(f"analyze {tmp_path}/drawing.npy --out {tmp_path}/o".split()) == 2
+    assert "lines on a black ground" in capsys.readouterr().err
+    # told, the lines are a skeleton: the cells of the binary skeleton, exactly
+    lines = (drawing.any(-1) * 255).astype(np.uint8)
+    told = ht.mesh_from_labels(ht.open_source(drawing).raw_frame(0), kind="skeleton")
+    pd_cells = ht.mesh_from_labels(lines).cells
+    assert len(told.cells) == len(pd_cells) and np.array_equal(np.sort(told.cells["area"]), np.sort(pd_cells["area"]))
+    assert main(f"analyze {tmp_path}/drawing.npy --kind skeleton --out {tmp_path}/o2".split()) == 0
+
+
+def test_a_dim_raw_plane_is_refused_as_one(tissue):
+    plane = dim_plane(tissue)
+    same = ((plane[:, 1:] == plane[:, :-1]).mean() + (plane[1:] == plane[:-1]).mean()) / 2
+    assert same > 0.7  # few grey values: the test of equal neighbours alone lets it through
+    with pytest.raises(InputError, match=r"each scattered over \d+ separate specks.*dim raw image"):
+        ht.mesh_from_labels(plane)
+
+
+@pytest.mark.parametrize("side", [6, 9, 14])
+def test_labels_of_small_cells_are_accepted(side):
+    # cells of 36-196 px: their boundary pixels are a large share, but each id is one region
+    shape = (20 * side, 24 * side)
+    labels = voronoi_labels(jittered_seeds(shape, side, seed=2), shape)
+    frame = ht.mesh_from_labels(labels)
+    assert len(frame.cells) == len(np.unique(labels))
+
+
+def test_real_overlay_and_dim_plane_are_refused(real_data):
+    import tifffile
+
+    vertex = real_subdir(real_data, "ishihara_bfi_sample") / "Vertex.png"
+    with pytest.raises(InputError, match="lines on a black ground"):
+        ht.open_source(vertex).frame(0)
+    # told it is a skeleton, the overlay gives the network of the skeleton it was drawn on (281 regions)
+    told = ht.mesh_from_labels(ht.open_source(vertex).raw_frame(0), kind="skeleton")
+    skeleton = ht.mesh_from_labels(tifffile.imread(vertex.parent / "sample.tif"))
+    assert abs(len(told.cells) - len(skeleton.cells)) <= 2  # measured 282 and 281
+    plane = tifffile.imread(real_subdir(real_data, "epitools_wingdisc") / "test_image.tif")[1]
+    with pytest.raises(InputError, match=r"33 values \(3-35\), each scattered.*dim raw image"):
+        ht.mesh_from_labels(plane)
+
+
+@pytest.mark.slow
+def test_the_label_ness_corpus_has_no_wrong_outcome(real_data, tmp_path):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "input_corpus.py"
+    spec = importlib.util.spec_from_file_location("input_corpus", path)
+    corpus = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(corpus)
+    rows = [(name, truth, klass, *corpus.outcome(image)) for name, truth, klass, image in corpus.cases()]
+    table, wrong = corpus.confusion(rows)
+    assert len(rows) >= 300 and set(table) >= {"segmentation", "raw plane", "dim raw plane", "classifier map",
+                                                "render", "overlay"}
+    assert wrong == []

@@ -18,13 +18,16 @@ SAMPLE_RUN = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
 SAMPLE_EPICURE = ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 
 
-def movie(n=4, rows=6, cols=8, seed=0, dtype=np.uint16):
+def movie(n=4, rows=6, cols=8, seed=0, dtype=np.uint16, block=4):
     """A T x rows x cols stack of positive labels, different in every frame.
 
-    Random ids on 4 x 4 px blocks: label-like (neighbouring pixels mostly share an id) at any size.
+    One id per ``block`` x ``block`` px square, shuffled in each frame: a label image (each id one region) at
+    any size; blocks of 16 px or more are cells of a realistic size (most of their pixels inside).
     """
-    ids = np.random.default_rng(seed).integers(1, 50, (n, -(-rows // 4), -(-cols // 4)))
-    return np.repeat(np.repeat(ids, 4, axis=1), 4, axis=2)[:, :rows, :cols].astype(dtype)
+    rng = np.random.default_rng(seed)
+    blocks = (-(-rows // block), -(-cols // block))
+    ids = np.stack([rng.permutation(blocks[0] * blocks[1]).reshape(blocks) + 1 for _ in range(n)])
+    return np.repeat(np.repeat(ids, block, axis=1), block, axis=2)[:, :rows, :cols].astype(dtype)
 
 
 def assert_frames(source, stack):
@@ -151,7 +154,7 @@ def test_png_grey_16_bit_and_colour(tmp_path):
 
 
 def test_npy_is_memory_mapped(tmp_path):
-    stack = movie(30, 128, 128)  # 32 KB per frame, ~1 MB in all
+    stack = movie(30, 128, 128, block=16)  # 32 KB per frame, ~1 MB in all
     np.save(tmp_path / "m.npy", stack)
     s = open_source(tmp_path / "m.npy")
     assert s.description["kind"] == "npy"
@@ -283,7 +286,7 @@ def test_compressed_tiff_reads_one_page_per_frame(tmp_path, monkeypatch):
 
 
 def test_uncompressed_tiff_is_memory_mapped(tmp_path):
-    stack = movie(40, 128, 128)  # 32 KB per frame
+    stack = movie(40, 128, 128, block=16)  # 32 KB per frame
     tifffile.imwrite(tmp_path / "u.tif", stack, photometric="minisblack")
     s = open_source(tmp_path / "u.tif")
     assert s.description["tiff_reading"] == "contiguous"

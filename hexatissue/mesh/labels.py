@@ -74,10 +74,12 @@ def validate_labels(labels, name="labels") -> np.ndarray:
     return checked_labels(labels, name)[0]
 
 
-def checked_labels(labels, name="labels"):
+def checked_labels(labels, name="labels", kind="auto"):
     """:func:`validate_labels`, and the smallest and largest id of the image it returns (found on the way).
 
-    The ids are None for a bool image (not summarised).
+    The ids are None for a bool image (not summarised).  ``kind``: the
+    label convention the analysis was told (``"skeleton"``: regions that are
+    lines are expected, so the test for drawings of lines is skipped).
     """
     arr = np.asarray(labels)
     if arr.ndim != 2:
@@ -109,6 +111,8 @@ def checked_labels(labels, name="labels"):
     if not nonzero:
         raise InputError(f"{name} is all zeros: there are no cells")
     _check_label_like(arr, name, same_h, same_v)
+    if kind != "skeleton":
+        _check_regions_are_areas(arr, name, int(lo), int(hi))
     return arr, int(lo), int(hi)
 
 
@@ -133,6 +137,75 @@ def _check_label_like(arr, name, same_h, same_v):
                          f"value (a label image has most pixels inside cells, >= {MIN_SAME_NEIGHBOUR:.0%}); is it a "
                          f"raw microscopy image? Segment it first (e.g. Cellpose, EpySeg) and analyse the labels, or give a "
                          f"membrane channel with --kind membrane-map (a baseline watershed)")
+
+
+#: In a segmentation most pixels of a cell lie inside it: at most 0.33 of the non-zero pixels of every
+#: real label image we hold touch another value (4-neighbours), against 0.44-0.70 in dim raw planes
+#: (few grey values) and 0.99-1.0 in drawings of coloured junction lines (benchmarks/input_corpus.py).
+MAX_EDGE_SHARE = 0.4
+#: A region image whose values each come in this many separate pieces on average or more is intensities.
+SPECKS_PER_VALUE = 3
+#: Side (px) of the central window whose regions are counted for :data:`SPECKS_PER_VALUE`.
+PIECES_WINDOW = 512
+#: Above this edge share, with most pixels 0, the regions are lines drawn on a black ground.
+LINE_EDGE_SHARE = 0.9
+
+
+def _check_regions_are_areas(arr, name, lo, hi):
+    """Refuse images whose regions are lines or specks: coloured junction drawings and dim raw planes.
+
+    Binary images (skeletons, masks) are not tested: their lines are meant.
+    """
+    if arr.size < LABEL_CHECK_PIXELS or min(arr.shape) < 3:
+        return
+    c = arr[1:-1, 1:-1]
+    n_nonzero = int(np.count_nonzero(c))
+    if not n_nonzero:
+        return
+    inner = c != 0  # in place from here: at most two bool images at a time (frames are read with little memory)
+    for other in (arr[:-2, 1:-1], arr[2:, 1:-1], arr[1:-1, :-2], arr[1:-1, 2:]):
+        inner &= c == other
+    share = 1 - np.count_nonzero(inner) / n_nonzero
+    del inner
+    if share < MAX_EDGE_SHARE:
+        return
+    if np.count_nonzero((arr == lo) | (arr == hi)) == arr.size:  # two values: a skeleton or a mask
+        return
+    values = np.unique(arr)
+    values = values[values != 0]
+    zero = 1 - np.count_nonzero(arr) / arr.size
+    if share >= LINE_EDGE_SHARE and zero >= 0.5:  # lines on a black ground (4-connected pieces: any number)
+        raise InputError(
+            f"{name} does not look like a segmentation: its {len(values)} values are lines on a black ground, not "
+            f"cell areas ({share:.0%} of its non-zero pixels touch another value, a cell is mostly inside; "
+            f"{zero:.0%} of the pixels are 0). Is it a drawing of the junctions in colour (one colour per junction, as "
+            f"vertex-extraction tools draw them)? Give the label image it was drawn from, or analyse the lines as "
+            f"a skeleton with --kind skeleton (kind='skeleton')")
+    # counted on a central window of at most PIECES_WINDOW px a side: bounded time and memory on any frame
+    r0, c0 = max(0, (arr.shape[0] - PIECES_WINDOW) // 2), max(0, (arr.shape[1] - PIECES_WINDOW) // 2)
+    window = arr[r0:r0 + PIECES_WINDOW, c0:c0 + PIECES_WINDOW]
+    in_window = np.unique(window)
+    pieces = _pieces(window) / max(1, np.count_nonzero(in_window))
+    if pieces >= SPECKS_PER_VALUE:
+        raise InputError(
+            f"{name} does not look like a segmentation: it holds {len(values)} values ({lo}-{hi}), each scattered "
+            f"over {pieces:.0f} separate specks on average ({share:.0%} of its non-zero pixels touch another "
+            f"value; a cell is one region, mostly inside). Is it a dim raw image (a plane of a stack with few grey "
+            f"values)? Segment it first (e.g. Cellpose, EpySeg) and analyse the labels, or give a membrane channel "
+            f"with --kind membrane-map (a baseline watershed)")
+
+
+def _pieces(arr):
+    """Number of 4-connected regions of equal non-zero value (each region counted once)."""
+
+    index = np.arange(arr.size).reshape(arr.shape)
+    a, b = [], []
+    for same, first, second in ((arr[:, 1:] == arr[:, :-1], index[:, 1:], index[:, :-1]),
+                                (arr[1:] == arr[:-1], index[1:], index[:-1])):
+        a.append(first[same])
+        b.append(second[same])
+    comp = components(arr.size, np.concatenate(a), np.concatenate(b))
+    return len(np.unique(comp[(arr != 0).ravel()]))
 
 
 def _direct_and_separating(lab):

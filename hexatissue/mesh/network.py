@@ -27,6 +27,9 @@ PIXELS_PER_ID = 64
 #: not a label image of cells: a pixel classifier's class map, a binary membrane map or a colour-mapped rendering
 #: whose colours repeat.  Real segmentations have 1.000-1.016 cycles per cell (10 datasets, docs/input.md).
 PIECES_PER_ID = 3
+#: With this many ids or more, 2 cycles per id on average suffice: 57 cells drawn with 20 colours have 2.6-2.9
+#: (benchmarks/input_corpus.py), while a few bands around a torus have 2 cycles each and are cells.
+MANY_IDS = 10
 
 
 def _cat(*arrays):
@@ -242,7 +245,7 @@ def mesh_from_labels(
     """
     if kind == "membrane-map":
         labels = segment_membranes(labels, periodic=box is not None)
-    lab, lowest, top = checked_labels(labels)
+    lab, lowest, top = checked_labels(labels, kind=kind)
     box = as_box(box, lab.shape)
     if not (is_real(merge_distance) and merge_distance >= 0):
         raise InputError(f"merge_distance must be a non-negative length in px; got {merge_distance!r}")
@@ -395,12 +398,13 @@ def _lost_polygons(junctions, ids, present, border, has_poly):
 def _refuse_ids_in_pieces(cycles):
     """Refuse labels whose ids mostly come in several separate regions: classes or colours, not cells."""
     in_pieces = int(np.count_nonzero(cycles > 1))
-    if in_pieces and in_pieces >= len(cycles) / 2 and cycles.mean() >= PIECES_PER_ID:
+    least = 2 if len(cycles) >= MANY_IDS else PIECES_PER_ID
+    if in_pieces and in_pieces >= len(cycles) / 2 and cycles.mean() >= least:
         raise InputError(
             f"labels do not look like cell labels: {in_pieces} of {len(cycles)} ids each cover several separate "
             f"regions ({cycles.mean():.1f} boundaries per id; a cell has one). Is it a pixel classifier's class map "
-            f"(e.g. ilastik Simple Segmentation), a binary membrane map, or a colour rendering of labels whose "
-            f"colours repeat? For a membrane or probability map use --kind membrane-map; otherwise export the "
+            f"(e.g. ilastik Simple Segmentation), a binary membrane map, a colour rendering of labels whose "
+            f"colours repeat, or a dim raw image with few grey values? For a membrane or probability map use --kind membrane-map; otherwise export the "
             f"segmentation's label image (one id per cell)")
 
 
