@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import signal
 import sys
 import time
 import warnings
@@ -144,8 +145,11 @@ def _analyze_into(args, source, options) -> int:
     if args.figures:
         from .workflows.figures import save_movie_figures
 
-        written = movie.write(args.out, formats=tuple(args.format))
-        written += save_movie_figures(movie, Path(args.out) / "figures", source)
+        # the figures first, then the tables and metadata.json last: a folder whose figures failed (a full
+        # disk) or were interrupted has no metadata.json, so it never reads as complete
+        (Path(args.out) / "metadata.json").unlink(missing_ok=True)
+        figures = save_movie_figures(movie, Path(args.out) / "figures", source)
+        written = movie.write(args.out, formats=tuple(args.format)) + figures
     else:  # the tables are not used again: each is freed once written (less memory under the writer)
         written = write_results(movie, args.out, formats=tuple(args.format), release=True)
     print(f"{args.input}: {line}; {len(written)} files in {args.out} "
@@ -235,8 +239,25 @@ def _show_warning(command, translate):
     return show
 
 
+def _interrupted(exc) -> bool:
+    """Whether ``exc`` is Ctrl-C: a KeyboardInterrupt, or raised inside compiled (numba) code, where it surfaces
+    as SystemErrors chained around the KeyboardInterrupt."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def main(argv=None) -> int:
     """Entry point of the ``hexatissue`` command; returns the exit code."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        # a shell without job control starts background commands with SIGINT ignored; kill -INT (or
+        # Ctrl-C) must still stop a run, with its workers and helpers (the interrupt handler below)
+        with contextlib.suppress(ValueError):  # not the main thread: signals are the host's business
+            signal.signal(signal.SIGINT, signal.default_int_handler)
     parser = build_parser()
     args = parser.parse_args(argv)
     translate = getattr(args, "cli_text", None) or (lambda text: text)
@@ -251,7 +272,9 @@ def main(argv=None) -> int:
             raise
         print(f"hexatissue {args.command}: error: {translate(str(exc))}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, SystemError) as exc:
+        if not _interrupted(exc):
+            raise
         print(f"hexatissue {args.command}: interrupted; files already written are complete", file=sys.stderr)
         return 130
     finally:

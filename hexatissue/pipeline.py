@@ -336,7 +336,11 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
                 collect(*pending.popleft())
         while pending:
             collect(*pending.popleft())
-    finally:
+    except BaseException:  # an error or an interrupt (Ctrl-C): the workers' tasks are of no use, stop them now
+        work.shutdown(abort=True)
+        raise
+    else:
         work.shutdown()
+    finally:
         frame_warnings.emit()
     return rows, tracker
