@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import re
 import signal
 import sys
 import time
@@ -200,8 +201,20 @@ def summary_line(movie) -> str:
     return "; ".join(parts)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse taking every negative number as a value, also in exponent notation (``--alpha -1e-3``).
+
+    argparse's own test (``-1``, ``-.5``, ``-0.5``) leaves ``-1e-3`` to be
+    read as an unknown flag; the subcommands' parsers are of this class too.
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="hexatissue",
         description="Junction networks, T1 events, hexatic order and defects of epithelial tissues.",
     )

@@ -26,6 +26,8 @@ import warnings
 from pathlib import Path
 from collections import deque
 
+import numpy as np
+
 from ._checkpoint import Checkpoint
 from ._executors import batch_size, executor
 from ._rows import Rows
@@ -120,6 +122,7 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     """
     src = open_source(source)
     options = stage_options(options)
+    _check_limits(options, src.shape)
     frame_work, movie_work = frame_stages(options), movie_stages(options)
     if src.kind == "polygons":
         _check_polygon_run(box, mask, frame_work, options)
@@ -199,6 +202,28 @@ def _check_polygon_run(box, mask, stages, options):
     if options["track"].mode == "always":
         raise InputError("track mode 'always' (overlap tracking) needs label images; cells given as polygons are "
                          "tracked by their ids: use 'never' (ids are tracks), 'off' or 'auto'")
+
+
+def _check_limits(options, shape):
+    """Refuse, before any work, option values that only cost memory and time on frames of ``shape``, naming the limit.
+
+    The coarse-graining disk's cost grows as its radius squared (a raster of
+    the disk per node): on the bundled 160 x 257 px sample, radius 1e4 px
+    took 21 s and 830 MB, 1e6 px ran out of memory, while any radius beyond
+    the frames' diagonal averages every node over the whole image.  A
+    merge distance beyond the diagonal merges every vertex into one.
+    """
+    diagonal = float(np.hypot(*shape))
+    order, mesh = options["order"], options["mesh"]
+    radii = np.atleast_1d(np.asarray(order.radius if order.radius is not None else [], float))
+    if order.fields and radii.size and radii.max() > diagonal:
+        raise InputError(f"OrderOptions.radius {radii.max():g} px is larger than the frames' diagonal "
+                         f"({diagonal:.0f} px): every node's disk would hold the whole image, at a cost growing as "
+                         f"the radius squared (memory and time); give at most {diagonal:.0f} px (default 1.5 R_cell)")
+    if mesh.merge_distance > diagonal:
+        raise InputError(f"MeshOptions.merge_distance {mesh.merge_distance:g} px is larger than the frames' "
+                         f"diagonal ({diagonal:.0f} px): every vertex would merge into one and the network would have "
+                         f"no junction; give at most {diagonal:.0f} px (default 2 px)")
 
 
 class _FrameWarnings:

@@ -532,6 +532,13 @@ CLI_CASES = {
     "--pixel-size nan": ("analyze {d}/labels.npy --out {d}/o8 --pixel-size nan", "pixel_size"),
     "--spacing 0.001": ("analyze {d}/labels.npy --out {d}/o9 --spacing 0.001", "spacing"),
     "--units furlong": ("analyze {d}/labels.npy --out {d}/o10 --pixel-size 1 --units furlong", "unit"),
+    "--radius 1e6": ("analyze {d}/labels.npy --out {d}/o11 --radius 1e6",
+                     "--radius 1e+06 px is larger than the frames' diagonal"),
+    "--radius 1e4": ("analyze {d}/labels.npy --out {d}/o12 --radius 1e4", "give at most"),
+    "--merge-distance 1e6": ("analyze {d}/labels.npy --out {d}/o13 --merge-distance 1e6",
+                             "--merge-distance 1e+06 px is larger than the frames' diagonal"),
+    "hydro --alpha -1e-3 read as a number": ("hydro dipole --alpha -1e-3 --n 32 --distance 8 --dt 50 --out "
+                                              "{d}/h4.zarr", "--dt = 50"),
     "report on garbled parquet": ("report {d}/garbled --out {d}/rep", "cannot be read"),
     "report on a missing folder": ("report {d}/nowhere", "does not exist"),
     "simulate 60 cells in 96 x 96": ("simulate --out {d}/s1.zarr --cells 60 --size 96 96", "--cells"),
