@@ -370,7 +370,7 @@ def test_damaged_checkpoint(tmp_path, damage):
 
 def test_worker_warnings_name_their_frames():
     frames = [LAB, np.kron(island(), np.ones((4, 4), int)), LAB]
-    with pytest.warns(HexatissueWarning, match=r"^frame 1: some cells have no boundary polygon") as record:
+    with pytest.warns(HexatissueWarning, match=r"^frame 1: some interior cells have no boundary polygon") as record:
         ht.analyze(frames, workers=2, progress=False)
     texts = [str(w.message) for w in record if "no boundary polygon" in str(w.message)]
     assert len(texts) == 1
@@ -604,7 +604,7 @@ def test_cli_warnings_are_one_line(tmp_path, capsys):
     np.save(tmp_path / "island.npy", np.kron(island(), np.ones((4, 4), int)))
     assert main(f"analyze {tmp_path}/island.npy --out {tmp_path}/o".split()) == 0
     err = capsys.readouterr().err
-    assert "hexatissue analyze: warning: frame 0: some cells have no boundary polygon" in err
+    assert "hexatissue analyze: warning: frame 0: some interior cells have no boundary polygon" in err
     assert "warnings.warn" not in err and ".py:" not in err
 
 
@@ -794,4 +794,20 @@ def test_warnings_on_a_folder_name_the_file(tmp_path, capsys):
     tifffile.imwrite(folder / "t02.tif", np.kron(island(), np.ones((4, 4), int)).astype(np.uint16))
     assert main(f"analyze {folder} --out {tmp_path}/o".split()) == 0
     err = capsys.readouterr().err
-    assert "hexatissue analyze: warning: file t02.tif: some cells have no boundary polygon" in err
+    assert "hexatissue analyze: warning: file t02.tif: some interior cells have no boundary polygon" in err
+
+
+def test_the_bundled_sample_warns_only_about_the_border_cell_its_merge_left_with_two_vertices():
+    from hexatissue.samples import sample_path
+
+    with pytest.warns(HexatissueWarning) as record:
+        movie = ht.analyze(sample_path("epicure_notum"), workers=1, progress=False)
+    texts = [str(w.message) for w in record if "no boundary polygon" in str(w.message)]
+    # frame 0: cell 115 touches 104 and, by a junction shorter than merge_distance, 109; merged, it keeps two
+    # vertices. Frames 1-2 and 4-7: border cells with one neighbour (two vertices by design): no warning
+    assert texts == ["frame 0: some border cells have no boundary polygon: once their junctions shorter than "
+                     "merge_distance were merged they kept two vertices (where they meet the outside): n_sides 0, "
+                     "no polygon_area, perimeter or shape function (border cells are left out of interior "
+                     "statistics)"]
+    lost = movie.cells[movie.cells["n_sides"] == 0]
+    assert lost["is_border"].all() and set(lost["frame"]) == {0, 1, 2, 4, 5, 6, 7}

@@ -375,24 +375,34 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, pol
         )
     # by design without a polygon: a lone cell on background (no vertex), and a border cell with one neighbour
     # (its boundary has two vertices, where the neighbour and the background meet); others have lost theirs
-    if (~has_poly).any() and _lost_polygons(junctions, ids, present, border, has_poly):
-        warnings.warn(
-            "some cells have no boundary polygon (too small, or all their vertices merged within "
-            "merge_distance): n_sides 0, no polygon_area, perimeter or shape function",
-            HexatissueWarning,
-            stacklevel=3,
-        )
+    if (~has_poly).any():
+        lost = _lost_polygons(junctions, ids, present, border, has_poly)
+        if (lost & ~border[present]).any():
+            warnings.warn(
+                "some interior cells have no boundary polygon (too small, or all their vertices merged within "
+                "merge_distance): n_sides 0, no polygon_area, perimeter or shape function",
+                HexatissueWarning,
+                stacklevel=3,
+            )
+        if (lost & border[present]).any():
+            warnings.warn(
+                "some border cells have no boundary polygon: once their junctions shorter than merge_distance "
+                "were merged they kept two vertices (where they meet the outside): n_sides 0, no polygon_area, "
+                "perimeter or shape function (border cells are left out of interior statistics)",
+                HexatissueWarning,
+                stacklevel=3,
+            )
     return data
 
 
 def _lost_polygons(junctions, ids, present, border, has_poly):
-    """Whether a cell lacks a polygon that should have one: it has neighbours and is not a border cell with one
-    neighbour (whose boundary has two vertices); counted only for frames with a cell without a polygon."""
+    """Which present cells lack a polygon that should have one: they have neighbours and are not a border cell
+    with one neighbour (whose boundary has two vertices); computed only for frames with a cell without one."""
     between = (junctions["left"] != 0) & (junctions["right"] != 0)
     pairs = np.unique(np.sort(np.column_stack((junctions["left"], junctions["right"]))[between], axis=1), axis=0)
     n_neighbours = np.bincount(pairs.ravel(), minlength=len(ids))[present]
     two_vertex = border[present] & (n_neighbours == 1)
-    return bool((~has_poly & (n_neighbours > 0) & ~two_vertex).any())
+    return ~has_poly & (n_neighbours > 0) & ~two_vertex
 
 
 def _refuse_ids_in_pieces(cycles):
