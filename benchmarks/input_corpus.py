@@ -70,7 +70,8 @@ def _segmentations():
         ("mouse_epidermis_laptrack/labels.npy", np.load),
         ("tissue_analyzer_single/1/handCorrection.tif", _tif),
     ]
-    sources += [(f"itasc_micropattern/pos0{k}/{what}_labels.tif", _tif) for k in range(3) for what in ("cell", "nucleus")]
+    sources += [(f"itasc_micropattern/pos0{k}/{what}_labels.tif", _tif)
+                for k in range(3) for what in ("cell", "nucleus")]
     sources += [(f"skeletor_pupal_abdomen/Final_Skeleton/Final_Skeleton_Frame_{k}.tif", _tif) for k in range(1, 5)]
     sources += [(f"forsys_skeletons/{n}.tif.gz", lambda p: _tif(gzip.open(p)))
                 for n in ["exp_1"] + [f"in_vivo_t_{k}" for k in range(5)]]

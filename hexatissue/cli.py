@@ -98,19 +98,21 @@ def open_cli_source(args):
 
 def _run_analyze(args) -> int:
     from .io import check_output_folder, lock_folder
+    from .results import RUN_LOCK, check_replaceable_tables
 
     source = open_cli_source(args)
     options = stage_options(args)
     out = check_output_folder(args.out, "--out")  # now, not after the whole computation
     if args.checkpoint is not None:
         check_output_folder(args.checkpoint, "--checkpoint")
+    check_replaceable_tables(out, "--out")  # before the lock, which marks the folder as a run's
     made = not out.exists()
-    lock = lock_folder(out, ".hexatissue.lock", "--out folder")  # two runs into one folder: the second is refused
+    lock = lock_folder(out, RUN_LOCK, "--out folder")  # two runs into one folder: the second is refused
     try:
         return _analyze_into(args, source, options)
     except BaseException:
         if made:  # a folder this run made, holding nothing but its lock: not left behind
-            (out / ".hexatissue.lock").unlink(missing_ok=True)
+            (out / RUN_LOCK).unlink(missing_ok=True)
             with contextlib.suppress(OSError):
                 out.rmdir()
         raise

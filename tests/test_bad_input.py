@@ -811,3 +811,22 @@ def test_the_bundled_sample_warns_only_about_the_border_cell_its_merge_left_with
                      "statistics)"]
     lost = movie.cells[movie.cells["n_sides"] == 0]
     assert lost["is_border"].all() and set(lost["frame"]) == {0, 1, 2, 4, 5, 6, 7}
+
+
+def test_results_are_never_written_over_someone_elses_tables(tmp_path, capsys):
+    folder = tmp_path / "theirs"
+    folder.mkdir()
+    (folder / "cells.csv").write_text("their,own\n1,2\n")
+    (folder / "notes.txt").write_text("kept")
+    np.save(tmp_path / "labels.npy", LAB)
+    assert main(f"analyze {tmp_path}/labels.npy --out {folder}".split()) == 2
+    assert "holds cells.csv but is not a results folder" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == ["cells.csv", "notes.txt"]
+    assert (folder / "cells.csv").read_text() == "their,own\n1,2\n"
+    with pytest.raises(InputError, match="not a results folder"):
+        movie(1).write(folder)
+    # a results folder, or one an interrupted run left (its lock, no metadata.json), is rewritten as before
+    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/ours".split()) == 0
+    (tmp_path / "ours" / "metadata.json").unlink()
+    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/ours".split()) == 0
+    assert len(ht.read_results(tmp_path / "ours").cells) == 16

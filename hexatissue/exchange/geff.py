@@ -37,7 +37,8 @@ from ..schema import TABLES as SCHEMAS
 from ..track import lineage_roots
 from .omezarr import NGFF_LENGTH, NGFF_TIME  # GEFF uses the OME-NGFF unit names
 
-__all__ = ["write_geff", "is_geff_export", "read_geff", "geff_tables", "neighbour_edges", "track_edges", "NEIGHBOURS", "TRACKS"]
+__all__ = ["write_geff", "is_geff_export", "read_geff", "geff_tables", "neighbour_edges", "track_edges", "NEIGHBOURS",
+           "TRACKS"]
 
 NEIGHBOURS = "neighbours.geff"
 TRACKS = "tracks.geff"

@@ -24,8 +24,8 @@ import numpy as np
 from ..errors import InputError, check_positive
 from ..units import as_calibration
 
-__all__ = ["write_ome_zarr_labels", "is_ome_zarr_export", "downsample_labels", "boundary_image", "NGFF_LENGTH", "NGFF_TIME",
-           "NGFF_VERSIONS", "LABELS_KEY"]
+__all__ = ["write_ome_zarr_labels", "is_ome_zarr_export", "downsample_labels", "boundary_image", "NGFF_LENGTH",
+           "NGFF_TIME", "NGFF_VERSIONS", "LABELS_KEY"]
 
 #: The OME-NGFF versions written: 0.5 (zarr v3, the default) and 0.4 (zarr v2).
 NGFF_VERSIONS = ("0.5", "0.4")
