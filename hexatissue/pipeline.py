@@ -342,7 +342,11 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
     def frame_data(t):
         if polygons:
             return FrameData(t=t, cell_polygons=src.polygons(t))
-        labels, lowest, top = src.checked_frame(t, options["mesh"].kind)
+        with warnings.catch_warnings(record=True) as caught:  # reported with the frames' other warnings
+            warnings.simplefilter("always")
+            labels, lowest, top = src.checked_frame(t, options["mesh"].kind)
+        frame_warnings.add(t, [(w.category, getattr(w.message, "text", str(w.message)),
+                                getattr(w.message, "detail", "")) for w in caught])
         frame_images = {name: image.image(t if image.n_frames > 1 else 0) for name, image in images.items()}
         return FrameData(t=t, box=box, labels=labels, raw_ids=(lowest, top), mask=mask, images=frame_images)
 

@@ -46,7 +46,7 @@ import numpy as np
 from .box import Box
 from .errors import InputError
 from .mesh.labels import check_mask, checked_labels
-from .mesh.segment import segment_membranes
+from .mesh.segment import segment_membrane_map
 from .readers.arrays import open_array, open_list, open_npy, open_npz
 from .readers.base import Opened, read_error, refuse
 from .readers.ctc import is_ctc_folder, open_ctc
@@ -185,11 +185,12 @@ class Source:
         """:meth:`frame`, and its smallest and largest id (None for a bool image), found while checking it.
 
         With ``kind="membrane-map"`` the frame is a membrane image (or probability map), segmented
-        into touching labels first (:func:`hexatissue.mesh.segment.segment_membranes`).
+        into touching labels first (:func:`hexatissue.mesh.segment.segment_membrane_map`, which warns when the
+        number of cells is implausible).
         """
         t = self._index(t)
         if kind == "membrane-map":
-            return checked_labels(segment_membranes(self.image(t), periodic=self.box is not None), f"frame {t}")
+            return checked_labels(segment_membrane_map(self.image(t), periodic=self.box is not None), f"frame {t}")
         return checked_labels(self.raw_frame(t), f"frame {t}", kind)
 
     def image(self, t) -> np.ndarray:

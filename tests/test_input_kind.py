@@ -1,5 +1,7 @@
 """Is this a segmentation?  Class maps, membrane maps and colour renderings are refused or routed, not analysed
 as cells; a background label that is not 0 is found as the outside (docs/input.md)."""
+import warnings
+
 import numpy as np
 import pytest
 from scipy import ndimage
@@ -205,3 +207,61 @@ def test_the_label_ness_corpus_has_no_wrong_outcome(real_data, tmp_path):
     assert len(rows) >= 300 and set(table) >= {"segmentation", "raw plane", "dim raw plane", "classifier map",
                                                 "render", "overlay"}
     assert wrong == []
+
+
+# --- the membrane-map route checks its own count against the image's dark basins --------------------------
+
+def broken_membranes(tissue, share, seed=0):
+    """``membrane_map(tissue, 2)`` with a 7 x 7 px gap in the middle of ``share`` of the junctions."""
+    lines = draw_membranes(tissue, 2) == 0
+    image = np.where(lines, 255, 0).astype(np.uint8)
+    rng = np.random.default_rng(seed)
+    middles = {}
+    for y, x in zip(*np.nonzero(lines)):
+        a, b = tissue[y, max(x - 2, 0)], tissue[y, min(x + 2, tissue.shape[1] - 1)]
+        if a != b:
+            middles.setdefault((min(a, b), max(a, b)), []).append((y, x))
+    for pixels in middles.values():
+        if rng.random() < share:
+            y, x = pixels[len(pixels) // 2]
+            image[max(y - 3, 0):y + 4, max(x - 3, 0):x + 4] = 0
+    return image
+
+
+def test_membrane_map_segmentation_warns_when_its_count_is_implausible():
+    from hexatissue.errors import FrameWarning
+    from hexatissue.mesh.segment import basin_count, segment_membrane_map
+
+    shape = (240, 300)
+    truth = voronoi_labels(jittered_seeds(shape, 16, seed=3), shape)
+    n_truth = len(np.unique(truth))  # 270
+    # every junction broken: about half the cells found, as on a two-class map with 143 cells of 343
+    intact, broken = broken_membranes(truth, 0.0), broken_membranes(truth, 1.0)
+    assert abs(basin_count(broken) / n_truth - 1) < 0.1  # the basins see through the gaps (measured 258)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HexatissueWarning)
+        assert abs(len(np.unique(segment_membrane_map(intact))) / n_truth - 1) < 0.05
+    with pytest.warns(FrameWarning, match=r"fewer cells than the image's dark basins.*under-segmented") as caught:
+        cells = segment_membrane_map(broken)
+    n_cells = len(np.unique(cells))
+    assert n_cells < 0.6 * n_truth  # measured 133: merged through the gaps
+    details = [w.message.detail for w in caught if isinstance(w.message, FrameWarning)]
+    assert details == [f"{n_cells} cells, {basin_count(broken)} basins"]
+
+
+def test_membrane_map_over_segmentation_of_a_real_image_is_warned(real_data):
+    import tifffile
+
+    image = tifffile.imread(real_subdir(real_data, "epicure_notum") / "static_image.tif")
+    with pytest.warns(HexatissueWarning, match=r"more cells than the image's dark basins.*over-segmented.*"
+                                               r"\(435 cells, 190 basins\)"):
+        ht.mesh_from_labels(image, kind="membrane-map")  # Cellpose finds 217 cells in this image
+
+
+def test_membrane_map_warnings_of_a_movie_name_their_frames(tissue):
+    broken = broken_membranes(tissue, 1.0)
+    with pytest.warns(HexatissueWarning) as caught:
+        ht.analyze(np.stack([broken, broken]), mesh=ht.MeshOptions(kind="membrane-map"), workers=1, progress=False)
+    texts = [str(w.message) for w in caught if "membrane-map segmentation" in str(w.message)]
+    assert len(texts) == 1 and texts[0].startswith("frames 0, 1: the membrane-map segmentation has fewer cells")
+    assert "(frame 0: " in texts[0] and "; frame 1: " in texts[0]

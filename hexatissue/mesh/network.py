@@ -13,7 +13,7 @@ from ..schema import validate
 from . import _kernels as K
 from ..options import POCKET_AREA
 from .labels import check_mask, checked_labels, compact_labels, normalize_valid
-from .segment import segment_membranes
+from .segment import segment_membrane_map
 
 __all__ = ["mesh_from_labels", "network_tables", "kernels_cached"]
 
@@ -244,7 +244,7 @@ def mesh_from_labels(
         without a boundary polygon (``n_sides`` 0).
     """
     if kind == "membrane-map":
-        labels = segment_membranes(labels, periodic=box is not None)
+        labels = segment_membrane_map(labels, periodic=box is not None)
     lab, lowest, top = checked_labels(labels, kind=kind)
     box = as_box(box, lab.shape)
     if not (is_real(merge_distance) and merge_distance >= 0):
