@@ -45,7 +45,7 @@ def test_ctrl_c_inside_compiled_code_is_an_interrupt():
 def test_sigint_stops_a_run_and_its_workers_within_two_seconds(tmp_path):
     frames = [voronoi_labels(jittered_seeds((1024, 1024), 14, seed=s), (1024, 1024)).astype(np.uint16)
               for s in range(4)]
-    tifffile.imwrite(tmp_path / "big.tif", np.stack([frames[k % 4] for k in range(48)]), imagej=True,
+    tifffile.imwrite(tmp_path / "big.tif", np.stack([frames[k % 4] for k in range(96)]), imagej=True,
                      metadata={"axes": "TYX"})
     for delay in (6.0, 9.0):  # in the frames' pool, then (on this machine) in the movie stages
         out = tmp_path / f"o{delay:g}"
