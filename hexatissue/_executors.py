@@ -28,7 +28,7 @@ class _Serial:
     def submit(self, fn, *args):
         return self._Done(fn(*args))
 
-    def shutdown(self):
+    def shutdown(self, abort=False):
         pass
 
 
@@ -41,7 +41,7 @@ class _Dask:
     def submit(self, fn, *args):
         return self.client.submit(fn, *args, pure=False)
 
-    def shutdown(self):
+    def shutdown(self, abort=False):
         pass
 
 
@@ -91,7 +91,37 @@ class _Pool:
     def submit(self, fn, *args):
         return self.pool.submit(fn, *args)
 
-    def shutdown(self):
+    def shutdown(self, abort=False):
+        """Stop the pool: wait for the running tasks, or (``abort``: an interrupted run) kill the workers now.
+
+        A task can run for seconds (a batch of large frames); an interrupted
+        run must not wait for it.  Python 3.14 has ``kill_workers``; before
+        it, the executor's private state (CPython 3.8-3.13) is used: the
+        pipe feeding the workers (``_call_queue``) may be blocked on a batch
+        no worker will read, so the exit must not wait for its thread; the
+        workers (``_processes``) are killed; and this process's own end of
+        the results pipe (``_result_queue._writer``) is closed, so that the
+        pool's thread, reading a result a killed worker left half-written,
+        sees the pipe end instead of waiting forever (and the process exit
+        with it).
+        """
+        if abort:
+            kill = getattr(self.pool, "kill_workers", None)
+            if kill is not None:
+                kill()
+                return
+            queue = getattr(self.pool, "_call_queue", None)
+            if queue is not None:
+                queue.cancel_join_thread()
+            processes = list((getattr(self.pool, "_processes", None) or {}).values())
+            results = getattr(self.pool, "_result_queue", None)
+            self.pool.shutdown(wait=False, cancel_futures=True)
+            for process in processes:
+                process.kill()
+            writer = getattr(results, "_writer", None)
+            if writer is not None:
+                writer.close()
+            return
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 

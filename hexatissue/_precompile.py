@@ -23,11 +23,29 @@ __all__ = ["start"]
 
 
 def start():
-    """Start the second process when it can help (2 or more cores); return it (``Popen``) or None."""
+    """Start the second process when it can help (2 or more cores); return it (``Popen``) or None.
+
+    It is given this process's id and dies with it (:func:`_die_with`): a
+    run killed outright (SIGKILL, the OOM killer) leaves no compiler behind.
+    """
     if (os.cpu_count() or 1) < 2:
         return None
-    return subprocess.Popen([sys.executable, "-m", __name__], stdin=subprocess.DEVNULL,
+    return subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid())], stdin=subprocess.DEVNULL,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def _die_with(parent):
+    """Ask the kernel (Linux) to SIGKILL this process when ``parent`` dies; exit now if it already has."""
+    import signal
+
+    from ._executors import PR_SET_PDEATHSIG
+    from ._system import libc
+
+    prctl = getattr(libc(), "prctl", None)
+    if prctl is not None:
+        prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # the run ended (or was killed) before the request took effect
+        os._exit(0)
 
 
 class _References:
@@ -55,4 +73,6 @@ def _main():
 
 
 if __name__ == "__main__":
+    if len(sys.argv) > 1:
+        _die_with(int(sys.argv[1]))
     _main()

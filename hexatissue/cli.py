@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import re
+import signal
 import sys
 import time
 import warnings
@@ -96,19 +98,21 @@ def open_cli_source(args):
 
 def _run_analyze(args) -> int:
     from .io import check_output_folder, lock_folder
+    from .results import RUN_LOCK, check_replaceable_tables
 
     source = open_cli_source(args)
     options = stage_options(args)
     out = check_output_folder(args.out, "--out")  # now, not after the whole computation
     if args.checkpoint is not None:
         check_output_folder(args.checkpoint, "--checkpoint")
+    check_replaceable_tables(out, "--out")  # before the lock, which marks the folder as a run's
     made = not out.exists()
-    lock = lock_folder(out, ".hexatissue.lock", "--out folder")  # two runs into one folder: the second is refused
+    lock = lock_folder(out, RUN_LOCK, "--out folder")  # two runs into one folder: the second is refused
     try:
         return _analyze_into(args, source, options)
     except BaseException:
         if made:  # a folder this run made, holding nothing but its lock: not left behind
-            (out / ".hexatissue.lock").unlink(missing_ok=True)
+            (out / RUN_LOCK).unlink(missing_ok=True)
             with contextlib.suppress(OSError):
                 out.rmdir()
         raise
@@ -144,8 +148,11 @@ def _analyze_into(args, source, options) -> int:
     if args.figures:
         from .workflows.figures import save_movie_figures
 
-        written = movie.write(args.out, formats=tuple(args.format))
-        written += save_movie_figures(movie, Path(args.out) / "figures", source)
+        # the figures first, then the tables and metadata.json last: a folder whose figures failed (a full
+        # disk) or were interrupted has no metadata.json, so it never reads as complete
+        (Path(args.out) / "metadata.json").unlink(missing_ok=True)
+        figures = save_movie_figures(movie, Path(args.out) / "figures", source)
+        written = movie.write(args.out, formats=tuple(args.format)) + figures
     else:  # the tables are not used again: each is freed once written (less memory under the writer)
         written = write_results(movie, args.out, formats=tuple(args.format), release=True)
     print(f"{args.input}: {line}; {len(written)} files in {args.out} "
@@ -200,8 +207,20 @@ def summary_line(movie) -> str:
     return "; ".join(parts)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse taking every negative number as a value, also in exponent notation (``--alpha -1e-3``).
+
+    argparse's own test (``-1``, ``-.5``, ``-0.5``) leaves ``-1e-3`` to be
+    read as an unknown flag; the subcommands' parsers are of this class too.
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="hexatissue",
         description="Junction networks, T1 events, hexatic order and defects of epithelial tissues.",
     )
@@ -239,8 +258,25 @@ def _show_warning(command, translate):
     return show
 
 
+def _interrupted(exc) -> bool:
+    """Whether ``exc`` is Ctrl-C: a KeyboardInterrupt, or raised inside compiled (numba) code, where it surfaces
+    as SystemErrors chained around the KeyboardInterrupt."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def main(argv=None) -> int:
     """Entry point of the ``hexatissue`` command; returns the exit code."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        # a shell without job control starts background commands with SIGINT ignored; kill -INT (or
+        # Ctrl-C) must still stop a run, with its workers and helpers (the interrupt handler below)
+        with contextlib.suppress(ValueError):  # not the main thread: signals are the host's business
+            signal.signal(signal.SIGINT, signal.default_int_handler)
     parser = build_parser()
     args = parser.parse_args(argv)
     translate = getattr(args, "cli_text", None) or (lambda text: text)
@@ -255,7 +291,9 @@ def main(argv=None) -> int:
             raise
         print(f"hexatissue {args.command}: error: {translate(str(exc))}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, SystemError) as exc:
+        if not _interrupted(exc):
+            raise
         print(f"hexatissue {args.command}: interrupted; files already written are complete", file=sys.stderr)
         return 130
     finally:

@@ -18,6 +18,18 @@ class HexatissueWarning(UserWarning):
     """Something valid but unusual was found in the input (documented per function)."""
 
 
+class FrameWarning(HexatissueWarning):
+    """A warning about one frame whose ``text`` is the same in every frame it concerns and ``detail`` is the frame's.
+
+    ``str()`` is the whole message (``text`` then ``detail``); an analysis
+    reports one warning per ``text`` with each frame's ``detail``.
+    """
+
+    def __init__(self, text, detail=""):
+        super().__init__(f"{text} ({detail})" if detail else text)
+        self.text, self.detail = text, detail
+
+
 def is_real(value) -> bool:
     """True for a finite real number (int, float or numpy number; not bool, str, None or an array)."""
     return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))

@@ -16,7 +16,7 @@ import pandas as pd
 from .errors import InputError
 from .units import Calibration
 
-__all__ = ["write_table", "write_tables", "read_table", "read_units", "atomic_path", "atomic_dir",
+__all__ = ["write_table", "write_tables", "read_table", "read_units", "atomic_path", "atomic_dir", "check_replaceable",
            "check_output_folder", "check_zarr_chunks", "read_zarr", "write_tiff"]
 
 
@@ -54,27 +54,79 @@ def atomic_path(path):
     return _ctx()
 
 
-def atomic_dir(path):
+def check_replaceable(path, owned=None, *, name="path", overwrite=False) -> Path:
+    """``path`` as a Path if a writer may put its output there; else InputError, before any work.
+
+    Allowed: a path that does not exist, an empty folder, or an earlier
+    output of the same writer (``owned(path)`` is true: the writer
+    recognises its own format and mark).  Anything else (a file, a folder
+    of other files, another tool's store) is replaced only with
+    ``overwrite``.  A results folder of ``hexatissue analyze`` (it holds
+    ``metadata.json``) is never replaced, ``overwrite`` or not.
+    """
+    path = Path(path)
+    if not path.exists() and not path.is_symlink():
+        return path
+    if path.is_dir() and (path / "metadata.json").is_file():
+        raise InputError(f"{name} {str(path)!r} is a results folder of 'hexatissue analyze' (it holds metadata.json); "
+                         f"it is never replaced: write the export to another path")
+    if path.is_dir() and not any(path.iterdir()):
+        return path
+    if owned is not None and owned(path):
+        return path
+    if overwrite:
+        return path
+    what = "a file" if not path.is_dir() else f"a folder, {sum(1 for _ in path.iterdir())} entries"
+    raise InputError(f"{name} {str(path)!r} already exists ({what}) and is not an earlier output of this writer; "
+                     f"writing there would replace what it holds: choose another path, or pass --overwrite "
+                     f"(overwrite=True) to replace it")
+
+
+def zarr_attributes(folder) -> dict:
+    """The attributes of the zarr group ``folder`` (v3 ``zarr.json`` or v2 ``.zattrs``); {} if it has none.
+
+    Read as plain JSON (no zarr import), for writers recognising their own
+    earlier output before they replace it.
+    """
+    import json
+
+    folder = Path(folder)
+    for name, key in (("zarr.json", "attributes"), (".zattrs", None)):
+        try:
+            data = json.loads((folder / name).read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(data, dict):
+            attrs = data.get(key, {}) if key else data
+            return attrs if isinstance(attrs, dict) else {}
+    return {}
+
+
+def atomic_dir(path, *, owned=None, overwrite=False, name="path"):
     """A context manager yielding a temporary folder next to ``path``; it replaces ``path`` on success.
 
     For stores that are folders (zarr, GEFF): readers never see one half
-    written.  An existing ``path`` is moved aside, the new folder renamed
-    onto it, then the old one deleted; on error the temporary folder is
-    removed and ``path`` is left as it was.
+    written.  ``path`` is first checked by :func:`check_replaceable`
+    (``owned``, ``overwrite``, ``name``): only an absent path, an empty
+    folder or an earlier output of the writer (or, with ``overwrite``,
+    anything but a results folder) is replaced, so nothing the writer did
+    not make is deleted.  An existing ``path`` is moved aside, the new
+    folder renamed onto it, then the old one deleted; on error the
+    temporary folder is removed and ``path`` is left as it was.
     """
     import shutil
     from contextlib import contextmanager
 
     @contextmanager
     def _ctx():
-        target = Path(path)
+        target = check_replaceable(path, owned, name=name, overwrite=overwrite)
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
         os.chmod(tmp, 0o777 & ~_UMASK)
         try:
             yield tmp
             old = None
-            if target.exists():
+            if target.exists() or target.is_symlink():
                 old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
                 os.replace(target, old / target.name)
             os.replace(tmp, target)

@@ -26,6 +26,8 @@ import warnings
 from pathlib import Path
 from collections import deque
 
+import numpy as np
+
 from ._checkpoint import Checkpoint
 from ._executors import batch_size, executor
 from ._rows import Rows
@@ -120,6 +122,7 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     """
     src = open_source(source)
     options = stage_options(options)
+    _check_limits(options, src.shape)
     frame_work, movie_work = frame_stages(options), movie_stages(options)
     if src.kind == "polygons":
         _check_polygon_run(box, mask, frame_work, options)
@@ -202,10 +205,33 @@ def _check_polygon_run(box, mask, stages, options):
                          "tracked by their ids: use 'never' (ids are tracks), 'off' or 'auto'")
 
 
+def _check_limits(options, shape):
+    """Refuse, before any work, option values that only cost memory and time on frames of ``shape``, naming the limit.
+
+    The coarse-graining disk's cost grows as its radius squared (a raster of
+    the disk per node): on the bundled 160 x 257 px sample, radius 1e4 px
+    took 21 s and 830 MB, 1e6 px ran out of memory, while any radius beyond
+    the frames' diagonal averages every node over the whole image.  A
+    merge distance beyond the diagonal merges every vertex into one.
+    """
+    diagonal = float(np.hypot(*shape))
+    order, mesh = options["order"], options["mesh"]
+    radii = np.atleast_1d(np.asarray(order.radius if order.radius is not None else [], float))
+    if order.fields and radii.size and radii.max() > diagonal:
+        raise InputError(f"OrderOptions.radius {radii.max():g} px is larger than the frames' diagonal "
+                         f"({diagonal:.0f} px): every node's disk would hold the whole image, at a cost growing as "
+                         f"the radius squared (memory and time); give at most {diagonal:.0f} px (default 1.5 R_cell)")
+    if mesh.merge_distance > diagonal:
+        raise InputError(f"MeshOptions.merge_distance {mesh.merge_distance:g} px is larger than the frames' "
+                         f"diagonal ({diagonal:.0f} px): every vertex would merge into one and the network would have "
+                         f"no junction; give at most {diagonal:.0f} px (default 2 px)")
+
+
 class _FrameWarnings:
     """Warnings of the frame jobs, reported once per distinct text with the frames it occurred in.
 
     ``files``: the file of each frame (a folder of images or polygon files), named instead of the frame number.
+    The per-frame details of a :class:`~hexatissue.errors.FrameWarning` follow, frame by frame.
     """
 
     def __init__(self, files=None):
@@ -213,17 +239,20 @@ class _FrameWarnings:
         self.files = files
 
     def add(self, t, found):
-        for category, text in found:
-            self.frames.setdefault((category, text), []).append(int(t))
+        for category, text, detail in found:
+            self.frames.setdefault((category, text), {}).setdefault(int(t), detail)
 
     def emit(self):
-        for (category, text), frames in self.frames.items():
-            frames = sorted(set(frames))
-            word = "file" if self.files else "frame"
-            names = [Path(self.files[f]).name if self.files else str(f) for f in frames[:10]]
-            shown = ", ".join(names) + (f", ... ({len(frames)} {word}s)" if len(frames) > 10 else "")
-            warnings.warn(f"{word}{'s' if len(frames) > 1 else ''} {shown}: {text}", category,
-                          stacklevel=user_stacklevel())
+        word = "file" if self.files else "frame"
+        for (category, text), details in self.frames.items():
+            frames = sorted(details)
+            names = [Path(self.files[f]).name if self.files else str(f) for f in frames]
+            shown = ", ".join(names[:10]) + (f", ... ({len(frames)} {word}s)" if len(frames) > 10 else "")
+            each = "; ".join(f"{word} {n}: {details[f]}" for n, f in zip(names[:3], frames[:3]) if details[f])
+            if each and len(frames) > 3:
+                each += "; ..."
+            warnings.warn(f"{word}{'s' if len(frames) > 1 else ''} {shown}: {text}" + (f" ({each})" if each else ""),
+                          category, stacklevel=user_stacklevel())
 
 
 def _batch_job(batch, stages, pixels):
@@ -314,7 +343,11 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
     def frame_data(t):
         if polygons:
             return FrameData(t=t, cell_polygons=src.polygons(t))
-        labels, lowest, top = src.checked_frame(t, options["mesh"].kind)
+        with warnings.catch_warnings(record=True) as caught:  # reported with the frames' other warnings
+            warnings.simplefilter("always")
+            labels, lowest, top = src.checked_frame(t, options["mesh"].kind)
+        frame_warnings.add(t, [(w.category, getattr(w.message, "text", str(w.message)),
+                                getattr(w.message, "detail", "")) for w in caught])
         frame_images = {name: image.image(t if image.n_frames > 1 else 0) for name, image in images.items()}
         return FrameData(t=t, box=box, labels=labels, raw_ids=(lowest, top), mask=mask, images=frame_images)
 
@@ -333,7 +366,11 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
                 collect(*pending.popleft())
         while pending:
             collect(*pending.popleft())
-    finally:
+    except BaseException:  # an error or an interrupt (Ctrl-C): the workers' tasks are of no use, stop them now
+        work.shutdown(abort=True)
+        raise
+    else:
         work.shutdown()
+    finally:
         frame_warnings.emit()
     return rows, tracker

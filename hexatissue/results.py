@@ -32,7 +32,7 @@ from .options import OPTION_CLASSES
 from .schema import TABLES as SCHEMAS, coerce, column_units, validate
 from .units import Calibration
 
-__all__ = ["Movie", "write_results", "read_results", "FORMATS", "METADATA"]
+__all__ = ["Movie", "write_results", "read_results", "check_replaceable_tables", "FORMATS", "METADATA", "RUN_LOCK"]
 
 FORMATS = ("parquet", "csv")
 METADATA = "metadata.json"
@@ -225,7 +225,10 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     removes its ``metadata.json`` (a write interrupted half-way leaves a
     folder that :func:`read_results` refuses, never old and new tables
     passing for one result), then the tables of this Movie are written
-    and the old tables it does not have are removed.
+    and the old tables it does not have are removed.  A folder that holds
+    files named like tables but is not a results folder is refused before
+    anything is written (:func:`check_replaceable_tables`): they are not
+    this package's to replace.
 
     Parameters
     ----------
@@ -249,6 +252,7 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     if bad or not formats:
         raise InputError(f"formats must be one or more of {FORMATS}; got {list(formats)}")
     directory = check_output_folder(directory, "directory")
+    check_replaceable_tables(directory)
     meta = dict(movie.metadata(), formats=list(formats))  # before any table is released
     meta["source"] = _with_relative_paths(meta["source"], directory)
     previous = _listed_tables(directory / METADATA)
@@ -306,6 +310,29 @@ def _found_paths(source, folder):
         if not Path(entry["path"]).exists() and isinstance(moved, str) and (folder / moved).exists():
             entry["path"] = str((folder / moved).resolve())
     return source
+
+
+#: The file ``hexatissue analyze`` locks in its ``--out`` folder: a folder holding it was written by a run.
+RUN_LOCK = ".hexatissue.lock"
+
+
+def check_replaceable_tables(directory, name="directory"):
+    """InputError when ``directory`` holds files named like tables but is not a results folder.
+
+    Writing results replaces ``<table>.parquet`` / ``<table>.csv`` and
+    removes the ones the new result does not have; in a folder that is not
+    an earlier result (no ``metadata.json``, and no :data:`RUN_LOCK` of an
+    interrupted run) such files are someone else's, and nothing is written.
+    """
+    directory = Path(directory)
+    if not directory.is_dir() or (directory / METADATA).exists() or (directory / RUN_LOCK).exists():
+        return
+    theirs = sorted(f"{table}.{fmt}" for table in SCHEMAS for fmt in FORMATS
+                    if (directory / f"{table}.{fmt}").exists())
+    if theirs:
+        raise InputError(f"{name} {str(directory)!r} holds {', '.join(theirs[:5])}{' ...' if len(theirs) > 5 else ''} "
+                         f"but is not a results folder (no {METADATA}): writing the results would replace or remove "
+                         f"them; write to another folder, or move those files")
 
 
 def _listed_tables(path) -> list:

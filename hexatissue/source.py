@@ -46,11 +46,12 @@ import numpy as np
 from .box import Box
 from .errors import InputError
 from .mesh.labels import check_mask, checked_labels
-from .mesh.segment import segment_membranes
+from .mesh.segment import segment_membrane_map
 from .readers.arrays import open_array, open_list, open_npy, open_npz
 from .readers.base import Opened, read_error, refuse
 from .readers.ctc import is_ctc_folder, open_ctc
 from .readers.folder import open_files, open_folder
+from .readers.gzipped import gunzip, is_gzipped
 from .readers.mpf import is_run, open_run
 from .readers.png import open_png
 from .readers.polygons import POLYGON_SUFFIXES, is_polygon_folder, open_polygons
@@ -184,12 +185,13 @@ class Source:
         """:meth:`frame`, and its smallest and largest id (None for a bool image), found while checking it.
 
         With ``kind="membrane-map"`` the frame is a membrane image (or probability map), segmented
-        into touching labels first (:func:`hexatissue.mesh.segment.segment_membranes`).
+        into touching labels first (:func:`hexatissue.mesh.segment.segment_membrane_map`, which warns when the
+        number of cells is implausible).
         """
         t = self._index(t)
         if kind == "membrane-map":
-            return checked_labels(segment_membranes(self.image(t), periodic=self.box is not None), f"frame {t}")
-        return checked_labels(self.raw_frame(t), f"frame {t}")
+            return checked_labels(segment_membrane_map(self.image(t), periodic=self.box is not None), f"frame {t}")
+        return checked_labels(self.raw_frame(t), f"frame {t}", kind)
 
     def image(self, t) -> np.ndarray:
         """Frame ``t`` as an intensity image (float64, not checked as labels): for a raw channel.
@@ -477,6 +479,15 @@ def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
             return open_ctc(path, key, channel, level)
         refuse("a folder of images", key=key, level=level)
         return open_folder(path, channel)
+    if is_gzipped(path):
+        inner = Path(path.stem).suffix.lower()
+        if inner not in FILE_SUFFIXES:
+            raise InputError(f"path {str(path)!r} is gzip-compressed {inner or 'data without a suffix'}; expected "
+                             f"one of {FILE_SUFFIXES} compressed (e.g. .tif.gz)")
+        plain = gunzip(path)
+        opened = _path_reader(plain, key, channel, level, axes)
+        return replace(opened, description={**opened.description, "path": str(path)},
+                       notes=(*opened.notes, f"decompressed from {path.name} (gzip) into a temporary file"))
     suffix = path.suffix.lower()
     if suffix in POLYGON_SUFFIXES:
         refuse("a polygon file", key=key, channel=channel, level=level, axes=axes)
@@ -493,8 +504,8 @@ def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
     if suffix == ".npz":
         refuse("a .npz file", level=level)
         return open_npz(path, key, channel, axes)
-    raise InputError(f"path {str(path)!r} has unknown suffix {path.suffix!r}; expected one of {FILE_SUFFIXES}, "
-                     f"a folder of images or a zarr store")
+    raise InputError(f"path {str(path)!r} has unknown suffix {path.suffix!r}; expected one of {FILE_SUFFIXES} "
+                     f"(each also gzip-compressed, ending in .gz), a folder of images or a zarr store")
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -459,8 +459,9 @@ def run_frame(frame, stages):
     """Run the frame ``stages`` (``(run, options)`` pairs, :func:`worker_stages`) on ``frame``.
 
     Returns the warnings they raised: caught here, in the worker, as
-    ``(category, text)`` pairs, so the main process reports them with their
-    frames.
+    ``(category, text, detail)`` triples (``detail``: the frame's part of a
+    :class:`~hexatissue.errors.FrameWarning`, else ""), so the main process
+    reports them with their frames.
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -470,4 +471,5 @@ def run_frame(frame, stages):
         except InputError as exc:  # name the frame, once
             where = f"frame {frame.t}"
             raise InputError(str(exc) if str(exc).startswith(where) else f"{where}: {exc}") from None
-    return [(w.category, str(w.message)) for w in caught]
+    return [(w.category, getattr(w.message, "text", str(w.message)), getattr(w.message, "detail", ""))
+            for w in caught]

@@ -9,6 +9,21 @@ ROOT = Path(__file__).resolve().parents[1]
 REAL_DATA = Path(os.environ.get("HEXATISSUE_REAL_DATA", ROOT.parent / "shared" / "data" / "real"))
 
 
+def pytest_collection_finish(session):
+    """Say at the top of the run how many of the collected tests read the real data, and whether they will run."""
+    real = [item for item in session.items if "real_data" in getattr(item, "fixturenames", ())]
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if not real or reporter is None:
+        return
+    if REAL_DATA.is_dir():
+        reporter.write_line(f"real data: {REAL_DATA}; {len(real)} of the collected tests read it (a data set "
+                            f"missing from it skips its tests)")
+    else:
+        reporter.write_line(f"real data: {REAL_DATA} is absent, so {len(real)} of the collected tests will be "
+                            f"skipped (they read third-party data); set HEXATISSUE_REAL_DATA to the folder that "
+                            f"holds it", yellow=True, bold=True)
+
+
 @pytest.fixture(scope="session")
 def real_data():
     """Path to ``../shared/data/real``; skips the test when the folder is not there."""

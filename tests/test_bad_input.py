@@ -370,7 +370,7 @@ def test_damaged_checkpoint(tmp_path, damage):
 
 def test_worker_warnings_name_their_frames():
     frames = [LAB, np.kron(island(), np.ones((4, 4), int)), LAB]
-    with pytest.warns(HexatissueWarning, match=r"^frame 1: some cells have no boundary polygon") as record:
+    with pytest.warns(HexatissueWarning, match=r"^frame 1: some interior cells have no boundary polygon") as record:
         ht.analyze(frames, workers=2, progress=False)
     texts = [str(w.message) for w in record if "no boundary polygon" in str(w.message)]
     assert len(texts) == 1
@@ -532,6 +532,13 @@ CLI_CASES = {
     "--pixel-size nan": ("analyze {d}/labels.npy --out {d}/o8 --pixel-size nan", "pixel_size"),
     "--spacing 0.001": ("analyze {d}/labels.npy --out {d}/o9 --spacing 0.001", "spacing"),
     "--units furlong": ("analyze {d}/labels.npy --out {d}/o10 --pixel-size 1 --units furlong", "unit"),
+    "--radius 1e6": ("analyze {d}/labels.npy --out {d}/o11 --radius 1e6",
+                     "--radius 1e+06 px is larger than the frames' diagonal"),
+    "--radius 1e4": ("analyze {d}/labels.npy --out {d}/o12 --radius 1e4", "give at most"),
+    "--merge-distance 1e6": ("analyze {d}/labels.npy --out {d}/o13 --merge-distance 1e6",
+                             "--merge-distance 1e+06 px is larger than the frames' diagonal"),
+    "hydro --alpha -1e-3 read as a number": ("hydro dipole --alpha -1e-3 --n 32 --distance 8 --dt 50 --out "
+                                              "{d}/h4.zarr", "--dt = 50"),
     "report on garbled parquet": ("report {d}/garbled --out {d}/rep", "cannot be read"),
     "report on a missing folder": ("report {d}/nowhere", "does not exist"),
     "simulate 60 cells in 96 x 96": ("simulate --out {d}/s1.zarr --cells 60 --size 96 96", "--cells"),
@@ -597,7 +604,7 @@ def test_cli_warnings_are_one_line(tmp_path, capsys):
     np.save(tmp_path / "island.npy", np.kron(island(), np.ones((4, 4), int)))
     assert main(f"analyze {tmp_path}/island.npy --out {tmp_path}/o".split()) == 0
     err = capsys.readouterr().err
-    assert "hexatissue analyze: warning: frame 0: some cells have no boundary polygon" in err
+    assert "hexatissue analyze: warning: frame 0: some interior cells have no boundary polygon" in err
     assert "warnings.warn" not in err and ".py:" not in err
 
 
@@ -787,4 +794,39 @@ def test_warnings_on_a_folder_name_the_file(tmp_path, capsys):
     tifffile.imwrite(folder / "t02.tif", np.kron(island(), np.ones((4, 4), int)).astype(np.uint16))
     assert main(f"analyze {folder} --out {tmp_path}/o".split()) == 0
     err = capsys.readouterr().err
-    assert "hexatissue analyze: warning: file t02.tif: some cells have no boundary polygon" in err
+    assert "hexatissue analyze: warning: file t02.tif: some interior cells have no boundary polygon" in err
+
+
+def test_the_bundled_sample_warns_only_about_the_border_cell_its_merge_left_with_two_vertices():
+    from hexatissue.samples import sample_path
+
+    with pytest.warns(HexatissueWarning) as record:
+        movie = ht.analyze(sample_path("epicure_notum"), workers=1, progress=False)
+    texts = [str(w.message) for w in record if "no boundary polygon" in str(w.message)]
+    # frame 0: cell 115 touches 104 and, by a junction shorter than merge_distance, 109; merged, it keeps two
+    # vertices. Frames 1-2 and 4-7: border cells with one neighbour (two vertices by design): no warning
+    assert texts == ["frame 0: some border cells have no boundary polygon: once their junctions shorter than "
+                     "merge_distance were merged they kept two vertices (where they meet the outside): n_sides 0, "
+                     "no polygon_area, perimeter or shape function (border cells are left out of interior "
+                     "statistics)"]
+    lost = movie.cells[movie.cells["n_sides"] == 0]
+    assert lost["is_border"].all() and set(lost["frame"]) == {0, 1, 2, 4, 5, 6, 7}
+
+
+def test_results_are_never_written_over_someone_elses_tables(tmp_path, capsys):
+    folder = tmp_path / "theirs"
+    folder.mkdir()
+    (folder / "cells.csv").write_text("their,own\n1,2\n")
+    (folder / "notes.txt").write_text("kept")
+    np.save(tmp_path / "labels.npy", LAB)
+    assert main(f"analyze {tmp_path}/labels.npy --out {folder}".split()) == 2
+    assert "holds cells.csv but is not a results folder" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == ["cells.csv", "notes.txt"]
+    assert (folder / "cells.csv").read_text() == "their,own\n1,2\n"
+    with pytest.raises(InputError, match="not a results folder"):
+        movie(1).write(folder)
+    # a results folder, or one an interrupted run left (its lock, no metadata.json), is rewritten as before
+    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/ours".split()) == 0
+    (tmp_path / "ours" / "metadata.json").unlink()
+    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/ours".split()) == 0
+    assert len(ht.read_results(tmp_path / "ours").cells) == 16

@@ -690,3 +690,75 @@ def test_reanalysing_the_ome_zarr_export_keeps_the_cells_but_not_every_side_coun
     assert third.index.tolist() == first.index.tolist()
     for column in ("n_sides", "area", "polygon_area", "perimeter", "is_border"):
         np.testing.assert_array_equal(third[column], first[column], err_msg=column)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# no export deletes what it did not write
+# ---------------------------------------------------------------------------------------------------------
+def _tree(folder):
+    """Every file under ``folder`` with its content: what must survive a refused export untouched."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(Path(folder).rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("to, name", [("ome-zarr", "out.zarr"), ("anndata", "out.zarr"), ("anndata", "out.h5ad"),
+                                      ("ctc", "out"), ("geff", "out/neighbours.geff")])
+def test_export_refuses_a_foreign_out_and_deletes_nothing(squares, tmp_path, capsys, to, name):
+    folder, _ = squares
+    target = tmp_path / name
+    if name.endswith(".h5ad"):
+        target.write_text("someone's notes")
+    else:
+        target.mkdir(parents=True)
+        (target / "notes.txt").write_text("someone's notes")
+    out = tmp_path / ("out" if to == "geff" else name)
+    before = _tree(tmp_path)
+    assert main(["export", str(folder / "results"), "--to", to, str(out)]) == 2
+    message = capsys.readouterr().err
+    assert "not an earlier output" in message and "--overwrite" in message and str(target) in message
+    assert _tree(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == ["out" if "/" in name else
+                                                                                           name]
+
+
+def test_export_never_replaces_the_results_folder_or_a_folder_holding_it(squares, tmp_path, capsys):
+    folder, _ = squares
+    results = tmp_path / "r"
+    shutil.copytree(folder / "results", results)
+    before = _tree(tmp_path)
+    for to in ("ome-zarr", "anndata", "ctc", "geff"):
+        for out, what in ((results, "is the results folder"), (tmp_path, "holding the results folder")):
+            for extra in ([], ["--overwrite"]):
+                assert main(["export", str(results), "--to", to, str(out), *extra]) == 2, (to, out, extra)
+                assert what in capsys.readouterr().err
+    assert _tree(tmp_path) == before
+    with pytest.raises(InputError, match="results folder of 'hexatissue analyze'.*never replaced"):
+        write_ome_zarr_labels(square_movie(), results, overwrite=True)  # any results folder, from any call
+    assert _tree(tmp_path) == before
+
+
+def test_export_replaces_its_own_earlier_output_and_a_foreign_one_only_with_overwrite(squares, tmp_path, capsys):
+    folder, _ = squares
+    zarr, ctc, geff = tmp_path / "l.zarr", tmp_path / "ctc", tmp_path / "g"
+    for to, out in (("ome-zarr", zarr), ("ctc", ctc), ("geff", geff)):
+        assert main(["export", str(folder / "results"), "--to", to, str(out)]) == 0
+        first = _tree(out)
+        assert main(["export", str(folder / "results"), "--to", to, str(out)]) == 0  # its own output: replaced
+        assert _tree(out) == first
+    (geff / "readme.txt").write_text("kept")  # geff writes two stores into OUT and touches nothing else
+    assert main(["export", str(folder / "results"), "--to", "geff", str(geff)]) == 0
+    assert (geff / "readme.txt").read_text() == "kept"
+    foreign = tmp_path / "foreign.zarr"
+    foreign.mkdir()
+    (foreign / "zarr.json").write_text('{"zarr_format": 3, "node_type": "group", "attributes": {}}')
+    assert main(["export", str(folder / "results"), "--to", "ome-zarr", str(foreign)]) == 2
+    assert "not an earlier output" in capsys.readouterr().err and (foreign / "zarr.json").is_file()
+    assert main(["export", str(folder / "results"), "--to", "ome-zarr", str(foreign), "--overwrite"]) == 0
+    np.testing.assert_array_equal(ht.open_source(foreign, key=LABELS_KEY).frame(1),
+                                  ht.open_source(zarr, key=LABELS_KEY).frame(1))
+    masks = tmp_path / "their_masks"  # another tool's CTC result: its masks are neither replaced nor removed
+    masks.mkdir()
+    tifffile.imwrite(masks / "mask000.tif", np.ones((4, 4), np.uint16))
+    tifffile.imwrite(masks / "mask007.tif", np.ones((4, 4), np.uint16))
+    before = _tree(masks)
+    with pytest.raises(InputError, match="not an earlier output"):
+        write_ctc(*scripted_masks(), masks)
+    assert _tree(masks) == before

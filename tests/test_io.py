@@ -75,14 +75,46 @@ def test_atomic_dir_replaces_a_folder_whole_or_not_at_all(tmp_path):
         (tmp / "a").write_text("1")
     assert [p.name for p in target.iterdir()] == ["a"]
     with pytest.raises(RuntimeError):
-        with atomic_dir(target) as tmp:
+        with atomic_dir(target, overwrite=True) as tmp:
             (tmp / "b").write_text("2")
             raise RuntimeError("interrupted")
     assert [p.name for p in target.iterdir()] == ["a"]  # the old folder is untouched
-    with atomic_dir(target) as tmp:
+    with pytest.raises(InputError, match="not an earlier output.*--overwrite"):  # not known as its own output
+        with atomic_dir(target) as tmp:
+            (tmp / "c").write_text("3")
+    assert [p.name for p in target.iterdir()] == ["a"]
+    with atomic_dir(target, owned=lambda p: (p / "a").is_file()) as tmp:  # an earlier output: replaced
         (tmp / "c").write_text("3")
     assert [p.name for p in target.iterdir()] == ["c"]
+    with atomic_dir(target, overwrite=True) as tmp:
+        (tmp / "d").write_text("4")
+    assert [p.name for p in target.iterdir()] == ["d"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["store.zarr"]  # no temporary folders left
+
+
+def test_atomic_dir_never_replaces_a_results_folder_or_a_file(tmp_path):
+    from hexatissue.io import atomic_dir
+
+    results = tmp_path / "results"
+    results.mkdir()
+    (results / "metadata.json").write_text("{}")
+    (results / "cells.parquet").write_text("x")
+    for overwrite in (False, True):
+        with pytest.raises(InputError, match="results folder.*never replaced"):
+            with atomic_dir(results, owned=lambda p: True, overwrite=overwrite):
+                pass
+    assert sorted(p.name for p in results.iterdir()) == ["cells.parquet", "metadata.json"]
+    afile = tmp_path / "notes.txt"
+    afile.write_text("mine")
+    with pytest.raises(InputError, match="a file"):
+        with atomic_dir(afile):
+            pass
+    assert afile.read_text() == "mine"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with atomic_dir(empty) as tmp:  # an empty folder holds nothing to lose
+        (tmp / "a").write_text("1")
+    assert [p.name for p in empty.iterdir()] == ["a"]
 
 
 def test_write_tiff_round_trips_dtype_and_calibration(tmp_path):

@@ -403,3 +403,113 @@ def test_epicure_has_no_zero_length_self_loops(real_data):
         assert (f.vertices.set_index("vertex").loc[np.r_[e["vertex_a"], e["vertex_b"]], "degree"] >= 2).all()
         c = f.cells
         assert (np.isfinite(c["polygon_area"]) == (c["n_sides"] >= 3)).all()
+
+
+# --- the outside wherever it is: a region enclosing the tissue, edge or not ------------------
+
+def _ringed(tissue, rim, width):
+    """The tissue cut to a disc, a rim label ``width`` px wide around it, 0 beyond: nothing of the rim on the edge."""
+    rr, cc = np.mgrid[: SHAPE[0], : SHAPE[1]]
+    r = np.hypot(rr - SHAPE[0] / 2, cc - SHAPE[1] / 2)
+    labels = np.where(r < 50, tissue, 0)
+    labels[(r >= 50) & (r < 50 + width)] = rim
+    return labels, r < 50
+
+
+@pytest.mark.parametrize("width", [6, 8])
+def test_a_rim_label_that_misses_the_image_edge_is_the_outside(tissue, width):
+    rim = int(tissue.max()) + 1
+    labels, disc = _ringed(tissue, rim, width)
+    ids, areas = np.unique(labels[labels > 0], return_counts=True)
+    ratio = areas[ids == rim][0] / np.median(areas[ids != rim])
+    assert 10 < ratio < OUTSIDE_FACTOR and rim not in image_edge_ids(labels)  # the old rule missed it
+    with pytest.warns(HexatissueWarning, match=f"label {rim} encloses the tissue .*--outside none.*--background"):
+        found = mesh_from_labels(labels)
+    named = mesh_from_labels(labels, background=(rim,))
+    for name in ("cells", "edges", "vertices"):
+        pd.testing.assert_frame_equal(getattr(found, name), getattr(named, name))
+    # truth: the cells of the disc next to the rim are the border cells, every other cell is interior
+    assert rim not in set(found.cells["cell"]) and border_set(found) == adjacent_to(labels == rim, labels)
+    kept = mesh_from_labels(labels, outside="none")
+    assert rim in set(kept.cells["cell"]) and border_set(kept) == {rim}
+
+
+def test_a_skeleton_drawn_along_the_image_edge_loses_its_outside(tissue):
+    seeds = jittered_seeds(SHAPE, 14, seed=3)
+    centre = np.array([tissue[int(round(y)), int(round(x))] for x, y in seeds if 25 < y < 95 and 30 < x < 130])
+    skeleton, lab, region = masked_skeleton(tissue, centre)
+    skeleton[[0, -1], :] = skeleton[:, [0, -1]] = 255  # a frame line: the outside no longer touches the edge
+    f = mesh_from_labels(skeleton)
+    assert len(f.cells) == len(set(centre))
+    regions, _ = normalize_labels(skeleton)
+    to_tissue = majority(regions, lab)
+    assert sorted(to_tissue.values()) == sorted(set(centre))
+    assert {to_tissue[c] for c in border_set(f)} == adjacent_to(~region, lab)
+
+
+def test_no_ordinary_cell_is_taken_for_the_outside(tissue):
+    # a cell holding another inside it (one region in its hole) and a big merged cell in a full tissue stay cells
+    labels = tissue.copy()
+    inner = int(labels[60, 80])
+    nested = labels.copy()
+    nested[55:66, 74:87] = int(tissue.max()) + 1
+    merged = np.where(np.isin(labels, np.unique(labels[40:80, 50:110])), inner, labels)
+    for case in (nested, merged, tissue):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", HexatissueWarning)
+            lab, _ = normalize_labels(case)
+        np.testing.assert_array_equal(lab, case)
+
+
+def test_holes_left_in_the_tissue_are_reported_with_their_sizes_and_the_flag(tissue, tmp_path):
+    from hexatissue.errors import FrameWarning
+
+    holed = tissue.copy()
+    holed[40:46, 60:66] = 0  # 36 px
+    holed[80:85, 100:110] = 0  # 50 px
+    with pytest.warns(FrameWarning, match=r"holes of background 0 inside the tissue.*--fill-holes AREA") as caught:
+        f = mesh_from_labels(holed)
+    assert [w.message.detail for w in caught if isinstance(w.message, FrameWarning)] == \
+        [f"2 hole(s): 50, 36 px; median cell {np.median(np.unique(tissue, return_counts=True)[1]):.0f} px"]
+    assert border_set(f) > image_edge_ids(tissue)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HexatissueWarning)
+        filled = mesh_from_labels(holed, fill_holes=51)  # asked: no hint
+        mesh_from_labels(holed, fill_holes=0)  # filling switched off: nothing was asked
+        mesh_from_labels(np.where(np.arange(SHAPE[1]) < 40, 0, tissue))  # background open to the image edge
+    assert border_set(filled) == image_edge_ids(tissue)
+    # through analyze: one warning, the frames named, each frame's holes
+    stack = np.stack([holed, holed, tissue]).astype(np.int32)
+    with pytest.warns(HexatissueWarning, match=r"^frames 0, 1: holes of background 0.*\(frame 0: 2 hole\(s\): 50, "
+                                               r"36 px; .*; frame 1: 2 hole\(s\): 50, 36 px;") as caught:
+        analyze(stack, workers=1, progress=False)
+    assert sum("holes of background 0" in str(w.message) for w in caught) == 1
+
+
+def test_forsys_skeletons_lose_the_outside_that_misses_the_image_edge(real_data):
+    from hexatissue import open_source
+
+    folder = real_subdir(real_data, "forsys_skeletons")
+    for t in range(5):
+        source = open_source(folder / f"in_vivo_t_{t}.tif.gz")  # read through gzip
+        assert source.description["path"].endswith(f"in_vivo_t_{t}.tif.gz")
+        skeleton = source.frame(0)
+        f = mesh_from_labels(skeleton)
+        # SOURCE.md: 49 enclosed regions in every frame; one of them is the outside (about 407,000 px)
+        regions, n = ndimage.label(skeleton == 0)
+        assert n == 49 and len(f.cells) == 48 and f.cells["area"].max() < 20_000
+        kept = mesh_from_labels(skeleton, outside="none")
+        assert kept.cells["area"].max() > 400_000 and (~kept.cells["is_border"]).sum() == 48
+        assert 10 < f.cells["is_border"].sum() < 40  # the cells along the outline (24 in frame 0)
+
+
+def test_itasc_holes_are_reported_and_fill_holes_clears_them(real_data):
+    import tifffile
+
+    folder = real_subdir(real_data, "itasc_micropattern")
+    labels = tifffile.imread(folder / "pos02" / "cell_labels.tif")[0].astype(np.int64)
+    with pytest.warns(HexatissueWarning, match=r"--fill-holes AREA.*9 hole\(s\): 336, 219, 182, 59, \.\.\. px"):
+        mesh_from_labels(labels)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", HexatissueWarning)
+        lab, _ = normalize_labels(labels, fill_holes=337)

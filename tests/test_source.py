@@ -18,13 +18,16 @@ SAMPLE_RUN = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
 SAMPLE_EPICURE = ROOT / "hexatissue" / "sample_data" / "epicure_notum" / "013_crop_labels.tif"
 
 
-def movie(n=4, rows=6, cols=8, seed=0, dtype=np.uint16):
+def movie(n=4, rows=6, cols=8, seed=0, dtype=np.uint16, block=4):
     """A T x rows x cols stack of positive labels, different in every frame.
 
-    Random ids on 4 x 4 px blocks: label-like (neighbouring pixels mostly share an id) at any size.
+    One id per ``block`` x ``block`` px square, shuffled in each frame: a label image (each id one region) at
+    any size; blocks of 16 px or more are cells of a realistic size (most of their pixels inside).
     """
-    ids = np.random.default_rng(seed).integers(1, 50, (n, -(-rows // 4), -(-cols // 4)))
-    return np.repeat(np.repeat(ids, 4, axis=1), 4, axis=2)[:, :rows, :cols].astype(dtype)
+    rng = np.random.default_rng(seed)
+    blocks = (-(-rows // block), -(-cols // block))
+    ids = np.stack([rng.permutation(blocks[0] * blocks[1]).reshape(blocks) + 1 for _ in range(n)])
+    return np.repeat(np.repeat(ids, block, axis=1), block, axis=2)[:, :rows, :cols].astype(dtype)
 
 
 def assert_frames(source, stack):
@@ -151,7 +154,7 @@ def test_png_grey_16_bit_and_colour(tmp_path):
 
 
 def test_npy_is_memory_mapped(tmp_path):
-    stack = movie(30, 128, 128)  # 32 KB per frame, ~1 MB in all
+    stack = movie(30, 128, 128, block=16)  # 32 KB per frame, ~1 MB in all
     np.save(tmp_path / "m.npy", stack)
     s = open_source(tmp_path / "m.npy")
     assert s.description["kind"] == "npy"
@@ -283,7 +286,7 @@ def test_compressed_tiff_reads_one_page_per_frame(tmp_path, monkeypatch):
 
 
 def test_uncompressed_tiff_is_memory_mapped(tmp_path):
-    stack = movie(40, 128, 128)  # 32 KB per frame
+    stack = movie(40, 128, 128, block=16)  # 32 KB per frame
     tifffile.imwrite(tmp_path / "u.tif", stack, photometric="minisblack")
     s = open_source(tmp_path / "u.tif")
     assert s.description["tiff_reading"] == "contiguous"
@@ -716,3 +719,61 @@ def test_axes_name_the_dimensions_of_a_plain_zarr_array(tmp_path):
     assert main(f"analyze {tmp_path}/thin.zarr --axes TYX --out {tmp_path}/o".split()) == 0
     with pytest.raises(InputError, match="axes='TYX' means nothing for a folder"):
         open_source(tmp_path, axes="TYX")
+
+
+def test_gzipped_files_are_read_through_and_named_by_their_own_path(tmp_path):
+    import gzip
+
+    import tifffile
+
+    stack = (np.arange(3 * 8 * 9, dtype=np.uint16) % 7 + 1).reshape(3, 8, 9)
+    tifffile.imwrite(tmp_path / "s.tif", stack, photometric="minisblack")
+    np.save(tmp_path / "a.npy", stack[0])
+    for name in ("s.tif", "a.npy"):
+        (tmp_path / f"{name}.gz").write_bytes(gzip.compress((tmp_path / name).read_bytes()))
+    src = open_source(tmp_path / "s.tif.gz")
+    assert src.n_frames == 3 and src.description["path"] == str(tmp_path / "s.tif.gz")
+    assert any("gzip" in note for note in src.description["notes"])
+    np.testing.assert_array_equal(np.stack([src.frame(t) for t in range(3)]), stack)
+    np.testing.assert_array_equal(open_source(tmp_path / "a.npy.gz").frame(0),
+                                  stack[0])
+    (tmp_path / "cut.tif.gz").write_bytes((tmp_path / "s.tif.gz").read_bytes()[:60])
+    with pytest.raises(InputError, match=r"cut\.tif\.gz' could not be decompressed"):
+        open_source(tmp_path / "cut.tif.gz")
+    (tmp_path / "plain.tif.gz").write_bytes((tmp_path / "s.tif").read_bytes())
+    with pytest.raises(InputError, match=r"ends in \.gz but is not gzip data"):
+        open_source(tmp_path / "plain.tif.gz")
+    (tmp_path / "x.txt.gz").write_bytes(gzip.compress(b"hello"))
+    with pytest.raises(InputError, match=r"x\.txt\.gz' is gzip-compressed \.txt; expected"):
+        open_source(tmp_path / "x.txt.gz")
+
+
+def test_a_tiff_written_page_by_page_is_read_frame_by_frame(tmp_path):
+    # tifffile.TiffWriter.write once per frame: 240 one-page series (was read as its first frame)
+    stack = np.random.default_rng(0).integers(1, 50, size=(240, 12, 10)).astype(np.uint16)
+    with tifffile.TiffWriter(tmp_path / "pages.tif") as tw:
+        for frame in stack:
+            tw.write(frame)
+    src = open_source(tmp_path / "pages.tif")
+    assert src.n_frames == 240 and src.shape == (12, 10)
+    np.testing.assert_array_equal(np.stack([src.frame(t) for t in range(240)]), stack)
+    assert any("240 image series of one page each" in note for note in src.description["notes"])
+    # series of different shapes: series 0 is read, and a warning says what was left
+    with tifffile.TiffWriter(tmp_path / "mixed.tif") as tw:
+        tw.write(stack[0])
+        tw.write(stack[1, :5, :5])
+    with pytest.warns(HexatissueWarning, match=r"holds 2 image series \(YX \(12, 10\); YX \(5, 5\)\); only series 0"):
+        mixed = open_source(tmp_path / "mixed.tif")
+    assert mixed.n_frames == 1
+
+
+def test_an_imagej_header_that_undercounts_the_pages_is_warned_and_every_page_read(tmp_path):
+    stack = (np.arange(4 * 6 * 7, dtype=np.uint16) % 11 + 1).reshape(4, 6, 7)
+    with tifffile.TiffWriter(tmp_path / "ij.tif") as tw:  # a header for 2 frames on a file of 4 pages
+        for t, frame in enumerate(stack):
+            tw.write(frame, description="ImageJ=1.11a\nimages=2\nframes=2\n" if t == 0 else None, metadata=None)
+    assert tifffile.TiffFile(tmp_path / "ij.tif").series[0].shape == (2, 6, 7)  # what tifffile alone gives
+    with pytest.warns(HexatissueWarning, match=r"ImageJ header says 2 image\(s\) \(axes 'TYX'\) but the file holds "
+                                               r"4 pages"):
+        src = open_source(tmp_path / "ij.tif")
+    np.testing.assert_array_equal(np.stack([src.frame(t) for t in range(src.n_frames)]), stack)

@@ -26,7 +26,7 @@ from ..errors import InputError
 from ..graph import contact_table
 from ..schema import column_units
 
-__all__ = ["movie_to_anndata", "write_anndata"]
+__all__ = ["movie_to_anndata", "write_anndata", "is_anndata_export"]
 
 SUFFIXES = (".h5ad", ".zarr")
 
@@ -115,18 +115,40 @@ def movie_to_anndata(movie):
     return adata
 
 
-def write_anndata(movie, path) -> Path:
-    """Write :func:`movie_to_anndata` of ``movie`` to ``path`` (``.h5ad`` or ``.zarr``); returns the path."""
-    from ..io import atomic_dir, atomic_path
+def is_anndata_export(path) -> bool:
+    """Whether ``path`` is an AnnData file or store written by :func:`write_anndata` (it holds ``uns/hexatissue``)."""
+    path = Path(path)
+    if path.is_dir():
+        return (path / "uns" / "hexatissue").is_dir()
+    try:
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            return "uns/hexatissue" in f
+    except (ImportError, OSError):
+        return False
+
+
+def write_anndata(movie, path, *, overwrite=False) -> Path:
+    """Write :func:`movie_to_anndata` of ``movie`` to ``path`` (``.h5ad`` or ``.zarr``); returns the path.
+
+    An existing ``path`` is replaced (atomically) only if it is an earlier
+    output of this function; anything else is refused unless ``overwrite``
+    (a results folder always is).
+    """
+    from ..io import atomic_dir, atomic_path, check_replaceable
 
     path = Path(path)
     if path.suffix.lower() not in SUFFIXES:
         raise InputError(f"path {str(path)!r} must end in .h5ad or .zarr (the AnnData file to write)")
+    check_replaceable(path, is_anndata_export, name="out", overwrite=overwrite)
+    if path.suffix.lower() == ".h5ad" and path.is_dir():
+        raise InputError(f"out {str(path)!r} is a folder; an .h5ad AnnData file is a single file")
     adata = movie_to_anndata(movie)
     if path.suffix.lower() == ".h5ad":
         with atomic_path(path) as tmp:
             adata.write_h5ad(tmp)
     else:
-        with atomic_dir(path) as tmp:
+        with atomic_dir(path, owned=is_anndata_export, overwrite=overwrite, name="out") as tmp:
             adata.write_zarr(tmp)
     return path

@@ -37,12 +37,16 @@ def add_parser(subparsers):
                         "analysis, if it had one, else the cell outlines)")
     p.add_argument("--ngff-version", choices=("0.5", "0.4"), default="0.5",
                    help="ome-zarr: OME-NGFF version (default 0.5, zarr v3; 0.4: zarr v2 for older readers)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace OUT (ome-zarr, anndata; geff: its two stores; ctc: the mask folder) even when it "
+                        "holds something that is not an earlier export of the same format; without it such an OUT "
+                        "is refused. The results folder is never replaced")
     p.set_defaults(func=_run)
     return p
 
 
 def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, image=None, ngff_version="0.5",
-           keep_membranes=False):
+           keep_membranes=False, overwrite=False):
     """Write a results folder (or Movie) as ``to`` (one of :data:`FORMATS`); returns what was written.
 
     See :func:`~hexatissue.exchange.geff.write_geff`,
@@ -53,21 +57,28 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     image when it had one, else the cell outlines) and
     :func:`~hexatissue.exchange.anndata.write_anndata`; ``keep_membranes``:
     ``membranes`` of :func:`~hexatissue.exchange.labels.track_masks`.
+
+    Nothing is deleted that an export did not write: ``out`` (for geff its
+    two stores, for ctc its mask folder) must not exist, be empty or be an
+    earlier export of the same format, else it is refused before any work
+    unless ``overwrite``; ``out`` that is, or holds, the results folder is
+    always refused.
     """
     from ..errors import InputError
     from ..results import Movie, read_results
 
-    movie = results if isinstance(results, Movie) else read_results(results)
     if to not in FORMATS:
         raise InputError(f"to must be one of {FORMATS}; got {to!r}")
+    _check_out(results, out, to, truth, overwrite)
+    movie = results if isinstance(results, Movie) else read_results(results)
     if to == "geff":
         from .geff import write_geff
 
-        return write_geff(movie, out)
+        return write_geff(movie, out, overwrite=overwrite)
     if to == "anndata":
         from .anndata import write_anndata
 
-        return [write_anndata(movie, out)]
+        return [write_anndata(movie, out, overwrite=overwrite)]
     from .labels import track_masks
 
     masks = track_masks(movie, labels, mask, membranes=keep_membranes)
@@ -76,7 +87,7 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
 
         if movie.lineage is None:
             raise InputError("the results have no lineage table; expected the output of hexatissue analyze")
-        return [write_ctc(masks, movie.lineage, out, truth=truth)]
+        return [write_ctc(masks, movie.lineage, out, truth=truth, overwrite=overwrite)]
     import numpy as np
 
     from .omezarr import write_ome_zarr_labels
@@ -84,7 +95,43 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     biggest = max(int(m.max()) for m in masks)
     dtype = np.uint16 if biggest < 2**16 else np.uint32 if biggest < 2**32 else np.uint64
     return [write_ome_zarr_labels([m.astype(dtype) for m in masks], out, image=_raw_image(movie, image),
-                                  calibration=movie.calibration, levels=levels, version=ngff_version)]
+                                  calibration=movie.calibration, levels=levels, version=ngff_version,
+                                  overwrite=overwrite)]
+
+
+def _check_out(results, out, to, truth, overwrite):
+    """Refuse, before any work, an ``out`` that is or holds the results folder, or that the export would replace."""
+    from pathlib import Path
+
+    from ..errors import InputError
+    from ..io import check_replaceable
+
+    if not isinstance(out, (str, Path)) or not str(out):
+        raise InputError(f"out must be a path (str or Path); got {out!r}")
+    out = Path(out)
+    if isinstance(results, (str, Path)):
+        folder, target = Path(results).resolve(), out.resolve()
+        if target == folder or target in folder.parents:
+            what = "the results folder" if target == folder else "a folder holding the results folder"
+            raise InputError(f"out {str(out)!r} is {what} {str(results)!r}; the export would replace it: write "
+                             f"to another path")
+    if to == "ome-zarr":
+        from .omezarr import is_ome_zarr_export
+
+        check_replaceable(out, is_ome_zarr_export, name="out", overwrite=overwrite)
+    elif to == "anndata":
+        from .anndata import is_anndata_export
+
+        check_replaceable(out, is_anndata_export, name="out", overwrite=overwrite)
+    elif to == "geff":
+        from .geff import NEIGHBOURS, TRACKS, is_geff_export
+
+        for name in (NEIGHBOURS, TRACKS):
+            check_replaceable(out / name, is_geff_export, name="out", overwrite=overwrite)
+    else:
+        from .ctc import is_ctc_export
+
+        check_replaceable(out / "TRA" if truth else out, is_ctc_export, name="out", overwrite=overwrite)
 
 
 def _raw_image(movie, image):
@@ -100,6 +147,6 @@ def _raw_image(movie, image):
 def _run(args) -> int:
     written = export(args.results, args.out, args.to, labels=args.labels, mask=args.mask, truth=args.truth,
                      levels=args.levels, image=args.image, ngff_version=args.ngff_version,
-                     keep_membranes=args.keep_membranes)
+                     keep_membranes=args.keep_membranes, overwrite=args.overwrite)
     print(f"{args.results} -> {args.to}: " + ", ".join(str(w) for w in written))
     return 0

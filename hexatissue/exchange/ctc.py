@@ -31,13 +31,13 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..io import atomic_path, check_output_folder
+from ..io import atomic_path, check_output_folder, check_replaceable
 from ..mesh.labels import relabel
 from ..readers.ctc import RESULT, TRUTH, ctc_layout, mask_digits, mask_files, numbered_masks, read_track_file
 from ..schema import require_columns
 from ..source import open_source
 
-__all__ = ["write_ctc", "check_ctc", "read_ctc", "MAX_ID"]
+__all__ = ["write_ctc", "is_ctc_export", "MARK", "check_ctc", "read_ctc", "MAX_ID"]
 
 MAX_ID = 2**16 - 1  # CTC masks are 16-bit
 MAX_LISTED = 50  # violations spelled out by check_ctc before it only counts the rest
@@ -116,7 +116,16 @@ def _ctc_tracks(presence, parents, first_new):
     return sorted(rows), renamed
 
 
-def write_ctc(masks, lineage, out, *, truth=False) -> Path:
+#: The file that marks a CTC folder as written by :func:`write_ctc` (CTC tools read only the masks and track file).
+MARK = ".hexatissue-ctc"
+
+
+def is_ctc_export(folder) -> bool:
+    """Whether ``folder`` (the one holding the masks) was written by :func:`write_ctc` (it holds :data:`MARK`)."""
+    return (Path(folder) / MARK).is_file()
+
+
+def write_ctc(masks, lineage, out, *, truth=False, overwrite=False) -> Path:
     """Write tracked masks and their lineage as a Cell Tracking Challenge folder.
 
     Parameters
@@ -135,6 +144,11 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
         False: the result layout, ``out/maskTTT.tif`` and
         ``out/res_track.txt``; True: the ground-truth layout,
         ``out/TRA/man_trackTTT.tif`` and ``out/TRA/man_track.txt``.
+    overwrite : bool
+        Write into a mask folder (``out``, or ``out/TRA``) that holds files
+        and is not an earlier export; without it such a folder is refused
+        before anything is written, so no one else's masks are replaced or
+        removed.
 
     Returns
     -------
@@ -150,14 +164,16 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
     masks, or has no part ending before its daughter begins, is written as
     0.  Files are written under temporary names and
     renamed; mask files of an earlier export that this one does not write
-    are removed.
+    are removed.  The mask folder gets a hidden mark file (:data:`MARK`) by
+    which a later export knows it may replace it.
 
     Raises
     ------
     InputError
         Masks that are not integer label images of one shape, ids outside
         0..65535, a lineage without ``track``/``parent`` or missing a
-        track of the masks, or ``out`` not writable.
+        track of the masks, ``out`` not writable, or a mask folder of
+        other files (without ``overwrite``) or a results folder.
     """
     import tifffile
 
@@ -179,6 +195,11 @@ def write_ctc(masks, lineage, out, *, truth=False) -> Path:
     prefix, track_name = TRUTH if truth else RESULT
     folder = check_output_folder(out, "out")
     folder = folder / "TRA" if truth else folder
+    check_replaceable(folder, is_ctc_export, name="out", overwrite=overwrite)
+    folder.mkdir(parents=True, exist_ok=True)
+    # marked first, so that an export interrupted halfway can be written again
+    (folder / MARK).write_text(f"Cell Tracking Challenge {'ground truth' if truth else 'result'} written by "
+                               f"hexatissue.exchange.ctc.write_ctc\n")
     digits = mask_digits(len(frames))
     written = set()
     for t, f in enumerate(frames):

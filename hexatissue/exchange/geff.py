@@ -32,12 +32,13 @@ import pandas as pd
 from .._version import __version__
 from ..errors import InputError
 from ..graph import contact_table
-from ..io import atomic_dir, check_output_folder
+from ..io import atomic_dir, check_output_folder, check_replaceable, zarr_attributes
 from ..schema import TABLES as SCHEMAS
 from ..track import lineage_roots
 from .omezarr import NGFF_LENGTH, NGFF_TIME  # GEFF uses the OME-NGFF unit names
 
-__all__ = ["write_geff", "read_geff", "geff_tables", "neighbour_edges", "track_edges", "NEIGHBOURS", "TRACKS"]
+__all__ = ["write_geff", "is_geff_export", "read_geff", "geff_tables", "neighbour_edges", "track_edges", "NEIGHBOURS",
+           "TRACKS"]
 
 NEIGHBOURS = "neighbours.geff"
 TRACKS = "tracks.geff"
@@ -173,7 +174,7 @@ def _meanings(nodes):
     return out
 
 
-def _write_store(path, nodes, edges, directed, calibration, extra, tracklet):
+def _write_store(path, nodes, edges, directed, calibration, extra, tracklet, overwrite):
     from geff.core_io import write_arrays
     from geff_spec import GeffMetadata, PropMetadata
 
@@ -193,12 +194,18 @@ def _write_store(path, nodes, edges, directed, calibration, extra, tracklet):
                             extra={"hexatissue": extra})
     ids = nodes["node"].to_numpy(np.int64)
     pairs = edges[["source", "target"]].to_numpy(np.int64).reshape(-1, 2)
-    with atomic_dir(path) as tmp:
+    with atomic_dir(path, owned=is_geff_export, overwrite=overwrite, name="out") as tmp:
         write_arrays(str(tmp), ids, node_props, pairs, edge_props, metadata, zarr_format=2, overwrite=True)
     return Path(path)
 
 
-def write_geff(movie, out) -> list[Path]:
+def is_geff_export(path) -> bool:
+    """Whether ``path`` is a GEFF store written by :func:`write_geff` (its metadata's ``extra`` names hexatissue)."""
+    extra = (zarr_attributes(path).get("geff") or {}).get("extra") or {}
+    return isinstance(extra, dict) and "hexatissue" in extra
+
+
+def write_geff(movie, out, *, overwrite=False) -> list[Path]:
     """Write the neighbour graph and the track graph of a Movie as two GEFF stores.
 
     Parameters
@@ -207,7 +214,12 @@ def write_geff(movie, out) -> list[Path]:
         An analysis (:func:`hexatissue.analyze` or :func:`hexatissue.read_results`).
     out : str or Path
         Output folder; ``out/neighbours.geff`` and ``out/tracks.geff`` are
-        (re)written, each atomically.
+        (re)written, each atomically.  Nothing else in ``out`` is touched;
+        an existing ``neighbours.geff`` or ``tracks.geff`` that is not an
+        earlier output of this function is refused (before anything is
+        written) unless ``overwrite``.
+    overwrite : bool
+        Replace those two paths whatever they hold (never a results folder).
 
     Returns
     -------
@@ -220,14 +232,17 @@ def write_geff(movie, out) -> list[Path]:
 
     _need_geff()
     folder = check_output_folder(out, "out")
+    for name in (NEIGHBOURS, TRACKS):
+        check_replaceable(folder / name, is_geff_export, name="out", overwrite=overwrite)
     nodes = _nodes(movie.cells)
     extra = {"version": movie.version or __version__, "calibration": movie.calibration.to_dict(),
              "box": None if movie.box is None else movie.box.to_list(), "shape": [int(s) for s in movie.shape]}
     neighbours = _write_store(folder / NEIGHBOURS, nodes, _neighbour_edges(nodes, movie.edges), False,
-                              movie.calibration, {**extra, "graph": "neighbours"}, tracklet=False)
+                              movie.calibration, {**extra, "graph": "neighbours"}, tracklet=False,
+                              overwrite=overwrite)
     tracked = nodes.assign(lineage=_lineage_roots(nodes, movie.lineage))
     tracks = _write_store(folder / TRACKS, tracked, _track_edges(nodes, movie.lineage), True,
-                          movie.calibration, {**extra, "graph": "tracks"}, tracklet=True)
+                          movie.calibration, {**extra, "graph": "tracks"}, tracklet=True, overwrite=overwrite)
     return [neighbours, tracks]
 
 

@@ -24,8 +24,8 @@ import numpy as np
 from ..errors import InputError, check_positive
 from ..units import as_calibration
 
-__all__ = ["write_ome_zarr_labels", "downsample_labels", "boundary_image", "NGFF_LENGTH", "NGFF_TIME",
-           "NGFF_VERSIONS", "LABELS_KEY"]
+__all__ = ["write_ome_zarr_labels", "is_ome_zarr_export", "downsample_labels", "boundary_image", "NGFF_LENGTH",
+           "NGFF_TIME", "NGFF_VERSIONS", "LABELS_KEY"]
 
 #: The OME-NGFF versions written: 0.5 (zarr v3, the default) and 0.4 (zarr v2).
 NGFF_VERSIONS = ("0.5", "0.4")
@@ -156,7 +156,7 @@ def _levels(group, n, shape, dtype, levels, chunks, version, fill):
 
 
 def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1, chunks=None,
-                          version="0.5") -> Path:
+                          version="0.5", overwrite=False) -> Path:
     """Write a label stack as an OME-Zarr image with its labels (``labels/cells``), atomically.
 
     Parameters
@@ -165,7 +165,9 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
         Label images indexed ``[t, row, col]``, 0 = background; read one frame
         at a time (zarr, dask and memory maps are fine).
     path : str or Path
-        The ``.zarr`` folder to write (replaced if it exists).
+        The ``.zarr`` folder to write.  An existing one is replaced only if
+        it is an earlier output of this function (or empty); anything else
+        is refused unless ``overwrite`` (a results folder always is).
     image : array-like, sequence of 2-D frames or Source, optional
         The raw channel the labels were drawn on: one frame per label frame
         (or one for all), of their shape, any numeric dtype (kept).  Default:
@@ -185,6 +187,9 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
     version : {"0.5", "0.4"}
         OME-NGFF version: 0.5 (zarr v3, attributes under ``ome``) or 0.4
         (zarr v2, for older readers).
+    overwrite : bool
+        Replace ``path`` even when it is not an earlier export (a file, a
+        folder of other files, another tool's store).
 
     Returns
     -------
@@ -195,7 +200,9 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
     Raises
     ------
     InputError
-        A stack that is not integer labels of one shape, an image of
+        ``path`` that exists and is not an earlier export (without
+        ``overwrite``) or is a results folder; a stack that is not integer
+        labels of one shape, an image of
         another shape or number of frames, ``levels`` < 1 or more levels than
         halvings of the frame, bad ``chunks`` or an unknown ``version``.
     """
@@ -236,7 +243,7 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
         {"type": "scale", "scale": [float(interval), float(spacing * 2**k), float(spacing * 2**k)]}]}
         for k in range(levels)]
     name = Path(path).stem
-    with atomic_dir(path) as tmp:
+    with atomic_dir(path, owned=is_ome_zarr_export, overwrite=overwrite) as tmp:
         root = zarr.open_group(str(tmp), mode="w", zarr_format=3 if version == "0.5" else 2)
         pictures = _levels(root, n, shape, image_dtype, levels, chunks, version, 0)
         cells = root.create_group("labels").create_group("cells")
@@ -265,3 +272,13 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
                              "metadata": {"method": "mode of each 2 x 2 block (hexatissue.exchange.omezarr)"}}],
             "image-label": {"source": {"image": "../../"}}}, version))
     return Path(path)
+
+
+def is_ome_zarr_export(path) -> bool:
+    """Whether ``path`` is an OME-Zarr written by :func:`write_ome_zarr_labels` (its labels name this module)."""
+    from ..io import zarr_attributes
+
+    attrs = zarr_attributes(Path(path) / "labels" / "cells")
+    scales = attrs.get("ome", attrs).get("multiscales") or [{}]
+    method = str(((scales[0] if isinstance(scales, list) else {}).get("metadata") or {}).get("method", ""))
+    return "hexatissue.exchange.omezarr" in method

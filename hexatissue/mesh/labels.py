@@ -39,8 +39,12 @@ cells, ``is_border``), in this order:
    (of the regions of at least ``min_area`` px) is the outside: of a masked
    skeleton, or the outside label of a hand-labelled tissue whose
    background is not 0 (labels of the other kinds: only a label holding at
-   least a tenth of the image edge, and with a warning).  ``"none"`` keeps
-   it as a cell.
+   least a tenth of the image edge, and with a warning).  Wherever it is,
+   edge or not, a region that encloses the tissue (its holes hold at least
+   ``ENCLOSED_SHARE`` of the other regions' pixels: a rim label around a
+   hand-labelled tissue, the outside of a skeleton drawn along the image
+   edge) is the outside too (with a warning, except for skeletons).
+   ``"none"`` keeps them as cells.
 5. Membranes are shared out (kinds ``"membrane"``, ``"skeleton"``).
 6. ``fill_holes``: 0-valued 4-connected pockets smaller than this many px
    that do not touch the edge of an open image are holes between touching
@@ -55,12 +59,13 @@ import numpy as np
 from scipy import ndimage
 
 from .._components import components
-from ..errors import HexatissueWarning, InputError, is_real
+from ..errors import FrameWarning, HexatissueWarning, InputError, is_real
 from ..options import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
 from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
 
 OUTSIDE_FACTOR = 20  # a region touching the image edge and > 20 x the median region area is the outside
 OUTSIDE_EDGE_SHARE = 0.1  # a label holding this share of the image edge's pixels may be the outside (any kind)
+ENCLOSED_SHARE = 0.9  # a region whose holes hold this share of the other regions' pixels encloses the tissue
 SKELETON_MIN_AREA = 4  # px: smaller regions enclosed by skeleton lines are specks, not cells
 
 
@@ -69,10 +74,12 @@ def validate_labels(labels, name="labels") -> np.ndarray:
     return checked_labels(labels, name)[0]
 
 
-def checked_labels(labels, name="labels"):
+def checked_labels(labels, name="labels", kind="auto"):
     """:func:`validate_labels`, and the smallest and largest id of the image it returns (found on the way).
 
-    The ids are None for a bool image (not summarised).
+    The ids are None for a bool image (not summarised).  ``kind``: the
+    label convention the analysis was told (``"skeleton"``: regions that are
+    lines are expected, so the test for drawings of lines is skipped).
     """
     arr = np.asarray(labels)
     if arr.ndim != 2:
@@ -104,6 +111,8 @@ def checked_labels(labels, name="labels"):
     if not nonzero:
         raise InputError(f"{name} is all zeros: there are no cells")
     _check_label_like(arr, name, same_h, same_v)
+    if kind != "skeleton":
+        _check_regions_are_areas(arr, name, int(lo), int(hi))
     return arr, int(lo), int(hi)
 
 
@@ -128,6 +137,75 @@ def _check_label_like(arr, name, same_h, same_v):
                          f"value (a label image has most pixels inside cells, >= {MIN_SAME_NEIGHBOUR:.0%}); is it a "
                          f"raw microscopy image? Segment it first (e.g. Cellpose, EpySeg) and analyse the labels, or give a "
                          f"membrane channel with --kind membrane-map (a baseline watershed)")
+
+
+#: In a segmentation most pixels of a cell lie inside it: at most 0.33 of the non-zero pixels of every
+#: real label image we hold touch another value (4-neighbours), against 0.44-0.70 in dim raw planes
+#: (few grey values) and 0.99-1.0 in drawings of coloured junction lines (benchmarks/input_corpus.py).
+MAX_EDGE_SHARE = 0.4
+#: A region image whose values each come in this many separate pieces on average or more is intensities.
+SPECKS_PER_VALUE = 3
+#: Side (px) of the central window whose regions are counted for :data:`SPECKS_PER_VALUE`.
+PIECES_WINDOW = 512
+#: Above this edge share, with most pixels 0, the regions are lines drawn on a black ground.
+LINE_EDGE_SHARE = 0.9
+
+
+def _check_regions_are_areas(arr, name, lo, hi):
+    """Refuse images whose regions are lines or specks: coloured junction drawings and dim raw planes.
+
+    Binary images (skeletons, masks) are not tested: their lines are meant.
+    """
+    if arr.size < LABEL_CHECK_PIXELS or min(arr.shape) < 3:
+        return
+    c = arr[1:-1, 1:-1]
+    n_nonzero = int(np.count_nonzero(c))
+    if not n_nonzero:
+        return
+    inner = c != 0  # in place from here: at most two bool images at a time (frames are read with little memory)
+    for other in (arr[:-2, 1:-1], arr[2:, 1:-1], arr[1:-1, :-2], arr[1:-1, 2:]):
+        inner &= c == other
+    share = 1 - np.count_nonzero(inner) / n_nonzero
+    del inner
+    if share < MAX_EDGE_SHARE:
+        return
+    if np.count_nonzero((arr == lo) | (arr == hi)) == arr.size:  # two values: a skeleton or a mask
+        return
+    values = np.unique(arr)
+    values = values[values != 0]
+    zero = 1 - np.count_nonzero(arr) / arr.size
+    if share >= LINE_EDGE_SHARE and zero >= 0.5:  # lines on a black ground (4-connected pieces: any number)
+        raise InputError(
+            f"{name} does not look like a segmentation: its {len(values)} values are lines on a black ground, not "
+            f"cell areas ({share:.0%} of its non-zero pixels touch another value, a cell is mostly inside; "
+            f"{zero:.0%} of the pixels are 0). Is it a drawing of the junctions in colour (one colour per junction, as "
+            f"vertex-extraction tools draw them)? Give the label image it was drawn from, or analyse the lines as "
+            f"a skeleton with --kind skeleton (kind='skeleton')")
+    # counted on a central window of at most PIECES_WINDOW px a side: bounded time and memory on any frame
+    r0, c0 = max(0, (arr.shape[0] - PIECES_WINDOW) // 2), max(0, (arr.shape[1] - PIECES_WINDOW) // 2)
+    window = arr[r0:r0 + PIECES_WINDOW, c0:c0 + PIECES_WINDOW]
+    in_window = np.unique(window)
+    pieces = _pieces(window) / max(1, np.count_nonzero(in_window))
+    if pieces >= SPECKS_PER_VALUE:
+        raise InputError(
+            f"{name} does not look like a segmentation: it holds {len(values)} values ({lo}-{hi}), each scattered "
+            f"over {pieces:.0f} separate specks on average ({share:.0%} of its non-zero pixels touch another "
+            f"value; a cell is one region, mostly inside). Is it a dim raw image (a plane of a stack with few grey "
+            f"values)? Segment it first (e.g. Cellpose, EpySeg) and analyse the labels, or give a membrane channel "
+            f"with --kind membrane-map (a baseline watershed)")
+
+
+def _pieces(arr):
+    """Number of 4-connected regions of equal non-zero value (each region counted once)."""
+
+    index = np.arange(arr.size).reshape(arr.shape)
+    a, b = [], []
+    for same, first, second in ((arr[:, 1:] == arr[:, :-1], index[:, 1:], index[:, :-1]),
+                                (arr[1:] == arr[:-1], index[1:], index[:-1])):
+        a.append(first[same])
+        b.append(second[same])
+    comp = components(arr.size, np.concatenate(a), np.concatenate(b))
+    return len(np.unique(comp[(arr != 0).ravel()]))
 
 
 def _direct_and_separating(lab):
@@ -266,8 +344,9 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         lab = _drop_small(lab, min_area)
     if kind == "skeleton" and outside == "auto" and not periodic:  # region ids 1..n: a bincount is small
         lab = _drop_outer_regions(lab, np.bincount(lab.ravel()))
+        lab = _drop_enclosing(lab, warn=False)
     elif outside == "auto" and not periodic:
-        lab = _drop_outside_label(lab)
+        lab = _drop_enclosing(_drop_outside_label(lab), warn=True)
     # no 0 pixel (ids are non-negative): a min does not build a mask
     positive = (lab.min() if lowest is None or lab is not given else lowest) > 0
     if not positive and not lab.any():
@@ -285,9 +364,11 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
         if mask is not None:
             lab[~mask] = 0
         membrane = zero & (lab != 0)
-    lab = fill_pockets(lab, fill_holes, periodic)
+    lab, left = _fill_pockets(lab, fill_holes, periodic, mask)
     if mask is not None:
         lab[~mask] = 0
+    if len(left):
+        _hole_hint(lab, left, fill_holes)
     return lab, membrane
 
 
@@ -427,6 +508,56 @@ def _drop_outside_label(lab):
     return np.where(np.isin(lab, outer), 0, lab)
 
 
+def enclosing_label(lab) -> tuple[int, float]:
+    """``(id, share)`` of the region that encloses the others (0, 0.0 if none): the outside wherever it is.
+
+    Its candidate is the first nonzero label met walking in from the middle
+    of each of the four image edges (one pass over a row and a column, so an
+    ordinary frame costs nothing more); it encloses the tissue when the
+    holes of its region (the pixels it cuts off from the image edge) hold at
+    least ``ENCLOSED_SHARE`` of the other regions' pixels, and there are at
+    least two other regions.  ``share`` is that fraction.
+    """
+    rows, cols = lab.shape
+    if rows < 3 or cols < 3:
+        return 0, 0.0
+    rays = (lab[rows // 2, :], lab[rows // 2, ::-1], lab[:, cols // 2], lab[::-1, cols // 2])
+    first = set()
+    for ray in rays:
+        hit = np.flatnonzero(ray)
+        if not len(hit):
+            return 0, 0.0
+        first.add(int(ray[hit[0]]))
+    if len(first) != 1:
+        return 0, 0.0
+    candidate = first.pop()
+    region = lab == candidate
+    others = (lab != 0) & ~region
+    n_others = int(others.sum())
+    if not n_others:
+        return 0, 0.0
+    cut_off, _ = ndimage.label(~region)
+    edge = np.unique(np.r_[cut_off[0], cut_off[-1], cut_off[:, 0], cut_off[:, -1]])
+    inside = ~np.isin(cut_off, edge) & others
+    share = float(inside.sum()) / n_others
+    if share < ENCLOSED_SHARE or len(np.unique(lab[inside])) < 2:
+        return 0, 0.0
+    return candidate, share
+
+
+def _drop_enclosing(lab, warn):
+    """Labels with the region that encloses the tissue (:func:`enclosing_label`) set to 0; a warning if ``warn``."""
+    outer, share = enclosing_label(lab)
+    if not outer:
+        return lab
+    if warn:
+        warnings.warn(f"label {outer} encloses the tissue (its holes hold {100 * share:.0f}% of the other cells' "
+                      f"pixels): it is taken as the outside of the tissue (like 0; the cells next to it are border "
+                      f"cells). --outside none keeps it as a cell; --background LABEL names outside labels yourself",
+                      HexatissueWarning, stacklevel=2)
+    return np.where(lab == outer, 0, lab)
+
+
 def compact_labels(lab, top=None):
     """Labels renumbered 0..n in the order of their ids (0 stays 0 = background), as int32.
 
@@ -483,19 +614,57 @@ def fill_pockets(lab, fill_holes=POCKET_AREA, periodic=False):
     not touch the edge of an open image; larger 0-regions are background and
     stay 0.  ``fill_holes=0`` fills nothing.
     """
+    return _fill_pockets(lab, fill_holes, periodic)[0]
+
+
+def _fill_pockets(lab, fill_holes, periodic, mask=None):
+    """:func:`fill_pockets`, and the sizes (px) of the 0-regions left inside the tissue.
+
+    Those are the pockets of ``fill_holes`` px or more that touch neither
+    the edge of an open image nor the outside of ``mask``: holes in the
+    tissue that stay background (empty with ``fill_holes=0``: nothing was
+    asked).
+    """
     zero = lab == 0
     if fill_holes <= 0 or not zero.any():
-        return lab
+        return lab, np.zeros(0, np.int64)
     pockets = _regions(zero, periodic)
-    small = np.bincount(pockets.ravel()) < fill_holes
+    sizes = np.bincount(pockets.ravel())
+    small = sizes < fill_holes
     small[0] = False
+    inner = np.ones(len(sizes), bool)
+    inner[0] = False
     if not periodic:
-        small[np.r_[pockets[0], pockets[-1], pockets[:, 0], pockets[:, -1]]] = False
+        inner[np.r_[pockets[0], pockets[-1], pockets[:, 0], pockets[:, -1]]] = False
+    if mask is not None:
+        inner[pockets[~mask]] = False
+    small &= inner
+    left = sizes[inner & ~small]
     if not small.any():
-        return lab
+        return lab, left
     holes = small[pockets]
     # one pass fills one layer: as many passes as the deepest hole pixel is far from a cell (4-connected)
     passes = int(ndimage.distance_transform_cdt(holes, metric="taxicab").max())
     filled = fill_gaps(np.ascontiguousarray(lab), passes, bool(periodic))
     filled[zero & ~holes] = 0
-    return filled
+    return filled, left
+
+
+def _hole_hint(lab, sizes, fill_holes):
+    """A :class:`FrameWarning` naming ``--fill-holes`` for the holes the size of a cell or smaller left in the tissue.
+
+    Larger 0-regions inside the tissue (more than ``OUTSIDE_FACTOR`` x the
+    median cell area: a wound, a lumen, the inside of a ring of cells) are
+    taken as meant and not reported.
+    """
+    areas = np.bincount(compact_labels(lab)[0].ravel())[1:]
+    median = float(np.median(areas)) if len(areas) else 0.0
+    sizes = np.sort(sizes[sizes <= OUTSIDE_FACTOR * median])[::-1]
+    if not len(sizes):
+        return
+    shown = ", ".join(str(int(v)) for v in sizes[:4]) + (", ..." if len(sizes) > 4 else "")
+    warnings.warn(FrameWarning(
+        f"holes of background 0 inside the tissue (not touching the image edge) larger than fill_holes = "
+        f"{fill_holes} px stay background: the cells around them count as border cells, not interior. If they are "
+        f"gaps in the segmentation, --fill-holes AREA (fill_holes=AREA) fills those smaller than AREA px",
+        f"{len(sizes)} hole(s): {shown} px; median cell {median:.0f} px"), stacklevel=3)

@@ -13,7 +13,7 @@ from ..schema import validate
 from . import _kernels as K
 from ..options import POCKET_AREA
 from .labels import check_mask, checked_labels, compact_labels, normalize_valid
-from .segment import segment_membranes
+from .segment import segment_membrane_map
 
 __all__ = ["mesh_from_labels", "network_tables", "kernels_cached"]
 
@@ -27,6 +27,9 @@ PIXELS_PER_ID = 64
 #: not a label image of cells: a pixel classifier's class map, a binary membrane map or a colour-mapped rendering
 #: whose colours repeat.  Real segmentations have 1.000-1.016 cycles per cell (10 datasets, docs/input.md).
 PIECES_PER_ID = 3
+#: With this many ids or more, 2 cycles per id on average suffice: 57 cells drawn with 20 colours have 2.6-2.9
+#: (benchmarks/input_corpus.py), while a few bands around a torus have 2 cycles each and are cells.
+MANY_IDS = 10
 
 
 def _cat(*arrays):
@@ -241,8 +244,8 @@ def mesh_from_labels(
         without a boundary polygon (``n_sides`` 0).
     """
     if kind == "membrane-map":
-        labels = segment_membranes(labels, periodic=box is not None)
-    lab, lowest, top = checked_labels(labels)
+        labels = segment_membrane_map(labels, periodic=box is not None)
+    lab, lowest, top = checked_labels(labels, kind=kind)
     box = as_box(box, lab.shape)
     if not (is_real(merge_distance) and merge_distance >= 0):
         raise InputError(f"merge_distance must be a non-negative length in px; got {merge_distance!r}")
@@ -372,35 +375,46 @@ def _cell_columns(lab32, ids, periodic, box, junctions, poly_len, poly_area, pol
         )
     # by design without a polygon: a lone cell on background (no vertex), and a border cell with one neighbour
     # (its boundary has two vertices, where the neighbour and the background meet); others have lost theirs
-    if (~has_poly).any() and _lost_polygons(junctions, ids, present, border, has_poly):
-        warnings.warn(
-            "some cells have no boundary polygon (too small, or all their vertices merged within "
-            "merge_distance): n_sides 0, no polygon_area, perimeter or shape function",
-            HexatissueWarning,
-            stacklevel=3,
-        )
+    if (~has_poly).any():
+        lost = _lost_polygons(junctions, ids, present, border, has_poly)
+        if (lost & ~border[present]).any():
+            warnings.warn(
+                "some interior cells have no boundary polygon (too small, or all their vertices merged within "
+                "merge_distance): n_sides 0, no polygon_area, perimeter or shape function",
+                HexatissueWarning,
+                stacklevel=3,
+            )
+        if (lost & border[present]).any():
+            warnings.warn(
+                "some border cells have no boundary polygon: once their junctions shorter than merge_distance "
+                "were merged they kept two vertices (where they meet the outside): n_sides 0, no polygon_area, "
+                "perimeter or shape function (border cells are left out of interior statistics)",
+                HexatissueWarning,
+                stacklevel=3,
+            )
     return data
 
 
 def _lost_polygons(junctions, ids, present, border, has_poly):
-    """Whether a cell lacks a polygon that should have one: it has neighbours and is not a border cell with one
-    neighbour (whose boundary has two vertices); counted only for frames with a cell without a polygon."""
+    """Which present cells lack a polygon that should have one: they have neighbours and are not a border cell
+    with one neighbour (whose boundary has two vertices); computed only for frames with a cell without one."""
     between = (junctions["left"] != 0) & (junctions["right"] != 0)
     pairs = np.unique(np.sort(np.column_stack((junctions["left"], junctions["right"]))[between], axis=1), axis=0)
     n_neighbours = np.bincount(pairs.ravel(), minlength=len(ids))[present]
     two_vertex = border[present] & (n_neighbours == 1)
-    return bool((~has_poly & (n_neighbours > 0) & ~two_vertex).any())
+    return ~has_poly & (n_neighbours > 0) & ~two_vertex
 
 
 def _refuse_ids_in_pieces(cycles):
     """Refuse labels whose ids mostly come in several separate regions: classes or colours, not cells."""
     in_pieces = int(np.count_nonzero(cycles > 1))
-    if in_pieces and in_pieces >= len(cycles) / 2 and cycles.mean() >= PIECES_PER_ID:
+    least = 2 if len(cycles) >= MANY_IDS else PIECES_PER_ID
+    if in_pieces and in_pieces >= len(cycles) / 2 and cycles.mean() >= least:
         raise InputError(
             f"labels do not look like cell labels: {in_pieces} of {len(cycles)} ids each cover several separate "
             f"regions ({cycles.mean():.1f} boundaries per id; a cell has one). Is it a pixel classifier's class map "
-            f"(e.g. ilastik Simple Segmentation), a binary membrane map, or a colour rendering of labels whose "
-            f"colours repeat? For a membrane or probability map use --kind membrane-map; otherwise export the "
+            f"(e.g. ilastik Simple Segmentation), a binary membrane map, a colour rendering of labels whose "
+            f"colours repeat, or a dim raw image with few grey values? For a membrane or probability map use --kind membrane-map; otherwise export the "
             f"segmentation's label image (one id per cell)")
 
 

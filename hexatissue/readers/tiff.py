@@ -43,8 +43,23 @@ class TiffReader:
 
     def _inspect(self, tf, channel, axes):
         series = tf.series[0]
+        pages_as_frames = False
         if len(tf.series) > 1:
-            self.notes.append(f"the file holds {len(tf.series)} image series; series 0 is read")
+            # tifffile.TiffWriter.write called once per frame: one series per page, all alike
+            pages_as_frames = (not tf.is_ome and len(tf.pages) == len(tf.series)
+                               and all(s.shape == series.shape and s.dtype == series.dtype and s.axes == series.axes
+                                       and s.axes == s.keyframe.axes for s in tf.series))
+            if pages_as_frames:
+                self.notes.append(f"the file holds {len(tf.series)} image series of one page each, all "
+                                  f"{series.axes} {tuple(series.shape)} {series.dtype}: each is read as a frame")
+            else:
+                shapes = sorted({f"{s.axes} {tuple(int(n) for n in s.shape)}" for s in tf.series})
+                text = (f"TIFF {self.what} holds {len(tf.series)} image series ({'; '.join(shapes[:4])}"
+                        f"{'; ...' if len(shapes) > 4 else ''}); only series 0 ({series.axes} "
+                        f"{tuple(int(n) for n in series.shape)}) is read: save the frames as one stack to read "
+                        f"them all")
+                warnings.warn(text, HexatissueWarning, stacklevel=user_stacklevel())
+                self.notes.append(f"the file holds {len(tf.series)} image series; series 0 is read")
         page_axes = series.keyframe.axes
         self.axes, self.stored_shape = series.axes, tuple(int(n) for n in series.shape)
         self.dtype = str(series.dtype)
@@ -77,7 +92,25 @@ class TiffReader:
         lead_sizes = self.stored_shape[: len(lead_axes)]
         self.calibration = tiff_calibration(tf, self.notes)
         n_pages = int(np.prod(lead_sizes, dtype=np.int64)) // self._inner
-        if series.dataoffset is not None:
+        if pages_as_frames:
+            self.mode = "ifds"
+            lead_axes, lead_sizes = "I", (len(tf.pages),)
+            self.axes = lead_axes + page_axes
+            self.stored_shape = tuple(lead_sizes) + tuple(series.keyframe.shape)
+        elif tf.is_imagej and axes is None and len(tf.pages) > max(n_pages, 1) and _pages_alike(tf, series):
+            # an ImageJ header describing fewer images than the file's pages: the others would be dropped
+            n_ifd = len(tf.pages)
+            warnings.warn(f"TIFF {self.what}: its ImageJ header says {n_pages} image(s) (axes {self.axes!r}) but the "
+                          f"file holds {n_ifd} pages of the same shape; each page is read as a frame",
+                          HexatissueWarning, stacklevel=user_stacklevel())
+            self.notes.append(f"ImageJ header says {n_pages} image(s) (axes {self.axes!r}) but the file holds "
+                              f"{n_ifd} pages; each page is read as a frame")
+            self.mode = "ifds"
+            lead_axes, lead_sizes = "I", (n_ifd,)
+            self.axes = lead_axes + page_axes
+            self.stored_shape = tuple(lead_sizes) + tuple(series.keyframe.shape)
+            self._inner = 1
+        elif series.dataoffset is not None:
             self.mode = "contiguous"
             self._offset = int(series.dataoffset)
             self._file_dtype = np.dtype(tf.byteorder + series.dtype.char).str
@@ -159,6 +192,12 @@ class TiffReader:
         if arr.size != count:
             raise OSError(f"the file ends inside image {k} ({arr.size} of {count} values)")
         return arr.reshape(page_shape)
+
+
+def _pages_alike(tf, series) -> bool:
+    """Whether every page of the file has the shape and dtype of the series' first page (walks the IFDs once)."""
+    key = series.keyframe
+    return all(page.shape == key.shape and page.dtype == key.dtype for page in tf.pages)
 
 
 def _has_page(series, k) -> bool:
