@@ -28,7 +28,7 @@ import pandas as pd
 
 from .defects import find_defects, link_movie_defects
 from .deformation import deformation_budget, read_roi
-from .errors import HexatissueWarning, InputError, user_stacklevel
+from .errors import FrameWarning, HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
 from .flow import cell_velocities, flow_fields
 from .flow.piv import piv_fields
@@ -343,15 +343,32 @@ def _mechanics(frame, options):
                       stacklevel=user_stacklevel())
     missing = forces.undetermined
     if len(missing):
-        counts = missing.groupby(["kind", "reason"]).size()
-        text = "; ".join(f"{n} {kind}(s): {reason}" for (kind, reason), n in counts.items())
-        free = missing[(missing["kind"] == "cell") & (missing["reason"] == "free")]["id"].to_numpy()
-        where = (f" (free cells {free[:10].tolist()}{'...' if len(free) > 10 else ''}: the force balance of the "
-                 f"vertices inside the tissue leaves them free)") if len(free) else ""
-        value = ("NaN" if options.method == "lsq" else
-                 "NaN, except that the free ones have the Bayesian estimate, which the prior sets (see their s.d.)")
-        warnings.warn(f"force inference left {text}{where}; their values are {value}",
-                      HexatissueWarning, stacklevel=user_stacklevel())
+        warnings.warn(_undetermined_warning(missing, options.method, n_edges=len(forces.edges), n_cells=len(forces.cells),
+                                            n_equations=int(forces.n_equations)),
+                      stacklevel=user_stacklevel())
+
+
+def _undetermined_warning(missing, method, n_edges, n_cells, n_equations):
+    """A :class:`FrameWarning` for the tensions and pressures the force balance does not fix: those it leaves free
+    (an open tissue's border leaves fewer balanced vertices than unknowns: Bayes's prior completes them, least
+    squares leaves them NaN) and those with no equation at all (NaN either way), counted in the frame's detail."""
+    free = missing["reason"] == "free"
+    counts = missing[~free].groupby(["kind", "reason"]).size()
+    no_estimate = "; ".join(f"{n} {kind}(s): {reason}" for (kind, reason), n in counts.items())
+    edges_free = int((free & (missing["kind"] == "edge")).sum())
+    cells_free = int((free & (missing["kind"] == "cell")).sum())
+    detail = (f"{edges_free} of {n_edges} tensions and {cells_free} of {n_cells} pressures not fixed by the balance "
+              f"alone, {n_equations} equations" + (f"; no estimate: {no_estimate}" if no_estimate else ""))
+    if method == "lsq":
+        text = ("force inference (least squares): the force balance does not fix every tension and pressure (an open "
+                "tissue's border leaves fewer balanced vertices than unknowns); those it leaves free are NaN, as are "
+                "those without an equation; the Bayesian estimate (--mechanics-method bayes) completes the free ones")
+    else:
+        text = ("force inference: the force balance alone does not fix every tension and pressure (an open tissue's "
+                "border leaves fewer balanced vertices than unknowns); the Bayesian estimate completes the free ones "
+                "with its prior of equal tensions, and their tension_sd / pressure_sd say how well the data pin them; "
+                "tensions and pressures without any equation are NaN")
+    return FrameWarning(text, detail)
 
 
 def _fields_on(options):

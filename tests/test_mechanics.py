@@ -215,6 +215,23 @@ def test_stage_writes_columns_and_the_stress_table(tmp_path):
     assert back.options["mechanics"].enabled
 
 
+def test_an_open_tissue_warns_once_what_the_balance_leaves_free_with_each_frames_counts():
+    # an open patch: the border leaves fewer balanced vertices than unknowns, so the balance alone fixes few
+    # tensions; one warning for the movie (not one per frame) says so, with each frame's counts
+    seeds = jittered_seeds((160, 160), 20, seed=2)
+    labels = np.stack([voronoi_labels(seeds, (160, 160))] * 3)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        movie = ht.analyze(labels, workers=1, progress=False, mechanics=ht.MechanicsOptions(enabled=True))
+    texts = [str(w.message) for w in caught if "does not fix every tension" in str(w.message)]
+    assert len(texts) == 1 and texts[0].startswith("frames 0, 1, 2")
+    assert "prior of equal tensions" in texts[0] and "pressures not fixed by the balance alone" in texts[0]
+    edges = movie.tables["edges"]
+    n_edges = int((edges["frame"] == 0).sum())
+    assert f"of {n_edges} tensions" in texts[0]
+    assert np.isfinite(edges["tension"]).sum() > 0.5 * len(edges)  # the Bayesian estimate completes them
+
+
 def test_stage_is_off_by_default_and_a_flag_of_analyze():
     from hexatissue.cli import build_parser, stage_options
 
