@@ -837,6 +837,7 @@ def plot_tension_histogram(edges, ax=None, path=None, figsize=(5, 3.4)):
     ax.axvline(1.0, color="k", lw=0.8, ls="--")
     ax.set_xlabel("tension (relative: mean interior tension = 1)")
     ax.set_ylabel("junctions")
+    ax.yaxis.get_major_locator().set_params(integer=True)  # counts
     sd = edges["tension_sd"].to_numpy(float) if "tension_sd" in edges.columns else np.full(len(edges), np.nan)
     note = f"; median posterior s.d. {np.nanmedian(sd[known]):.3f}" if np.isfinite(sd[known]).any() else ""
     ax.set_title(f"{int(known.sum())} tensions, {int((tension[known] < 0).sum())} negative{note}", fontsize=9)
