@@ -184,7 +184,8 @@ def summary_line(movie) -> str:
     if len(movie) > 1 and independent:
         parts.append("independent frames: not tracked")
     elif len(movie) > 1 and tracking:
-        how = "ids kept" if tracking["resolved"] == "never" else "re-tracked by overlap"
+        how = ("ids kept" if tracking["resolved"] == "never" else
+               "re-tracked following the motion" if tracking.get("follow") == "flow" else "re-tracked by overlap")
         suspect = (f", {tracking['n_divisions_suspect']} suspect" if "n_divisions_suspect" in tracking else "")
         extruded = (f", {tracking['interior_extrusions']} interior extrusions" if "interior_extrusions" in tracking
                     else "")

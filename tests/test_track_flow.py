@@ -111,6 +111,7 @@ def test_frames_far_apart_are_flagged_and_the_user_is_told():
         movie = analyze(stack, workers=1, progress=False)
     t = movie.summary["tracking"]
     assert t["doubtful_frames"] == [1] and t["links"]["confident"][0] < 0.5
+    assert t["follow"] == "flow"  # how the frames were linked, for the CLI line and the report
     qc = tracking_qc(movie.lineage, movie.cells, t["links"])
     assert qc["doubtful"].tolist() == [False, True, False]
 

@@ -870,7 +870,7 @@ class MovieTracker:
             return "never", f"{measured}: ids kept"
         if c >= ID_CONSISTENCY:
             return "never", f"{measured} (>= {ID_CONSISTENCY:.0%}): ids kept"
-        return "always", f"{measured} (< {ID_CONSISTENCY:.0%}): cells re-tracked by overlap"
+        return "always", f"{measured} (< {ID_CONSISTENCY:.0%}): cells re-tracked"
 
     def _chosen(self):
         return {"never": self.ids, "always": self.overlap, "off": self.separate}[self.decision()[0]]
@@ -890,11 +890,13 @@ class MovieTracker:
         return chosen.link_qc() if isinstance(chosen, Tracker) else Tracker(follow="none").link_qc()
 
     def summary(self) -> dict:
-        """What was decided: ``mode`` requested, ``resolved``, ``reason``, ``id_consistency``, ``threshold``."""
+        """What was decided: ``mode`` requested, ``resolved``, ``reason``, ``id_consistency``, ``threshold``, and
+        ``follow`` (how the overlap tracker linked the frames: ``"flow"``, ``"none"``; None without one)."""
         resolved, reason = self.decision()
         c = self.ids.consistency
         return {"mode": self.mode, "resolved": resolved, "reason": reason,
-                "id_consistency": float(c) if np.isfinite(c) else None, "threshold": ID_CONSISTENCY}
+                "id_consistency": float(c) if np.isfinite(c) else None, "threshold": ID_CONSISTENCY,
+                "follow": self.overlap.follow if self.overlap is not None else None}
 
 
 def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.DataFrame:

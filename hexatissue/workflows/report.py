@@ -264,7 +264,9 @@ def _tracking_lines(movie):
     t = movie.summary.get("tracking")
     if not t:
         return []
-    how = "label ids kept as tracks" if t["resolved"] == "never" else "cells re-tracked by overlap"
+    how = ("label ids kept as tracks" if t["resolved"] == "never" else
+           "cells re-tracked by overlap after following the tissue's motion" if t.get("follow") == "flow" else
+           "cells re-tracked by overlap")
     split = (f" ({t['n_divisions_plausible']} plausible, {t['n_divisions_suspect']} suspect)"
              if "n_divisions_suspect" in t else "")
     return [f"- tracking: {how} (track={t['mode']!r}): {t['reason']}",
