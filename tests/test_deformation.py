@@ -291,6 +291,15 @@ def test_no_tracks_is_refused_clearly(scripted):
     with pytest.raises(InputError, match="roi"):
         roi_tracks(pd.DataFrame({"frame": [0], "track": [1], "x": [0.0], "y": [0.0]}),
                    pd.DataFrame({"track": [1], "parent": [0], "frame_start": [0]}), np.zeros((4, 4), float))
+    # regions drawn as -1 (some tools' convention), or none under any cell: refused, not an empty budget
+    one_cell = pd.DataFrame({"frame": [0], "track": [1], "x": [1.0], "y": [1.0]})
+    no_lineage = pd.DataFrame({"track": [1], "parent": [0], "frame_start": [0]})
+    with pytest.raises(InputError, match=r"roi has negative labels \(-1\)"):
+        roi_tracks(one_cell, no_lineage, np.full((4, 4), -1))
+    away = np.zeros((4, 4), int)
+    away[3, 3] = 2
+    with pytest.raises(InputError, match="no cell of frame 0 has its centre in a region"):
+        roi_tracks(one_cell, no_lineage, away)
 
 
 def test_four_fold_vertex_keeps_the_previous_diagonal():

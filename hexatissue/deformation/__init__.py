@@ -447,10 +447,16 @@ def roi_tracks(cells, lineage, roi, frame=0):
     if len(at) == 0:
         raise InputError(f"roi_frame {frame} has no cells; the movie's frames are "
                          f"{int(cells['frame'].min())}..{int(cells['frame'].max())}")
+    if roi.dtype != bool and roi.size and roi.min() < 0:
+        raise InputError(f"roi has negative labels ({int(roi.min())}); regions are the labels > 0 and 0 is outside "
+                         f"every region")
     col = np.clip(np.rint(at["x"].to_numpy(float)).astype(int), 0, roi.shape[1] - 1)
     row = np.clip(np.rint(at["y"].to_numpy(float)).astype(int), 0, roi.shape[0] - 1)
     label = roi[row, col].astype(np.int64)
     members = {int(t): int(k) for t, k in zip(at["track"].to_numpy(np.int64), label) if k > 0}
+    if not members:
+        raise InputError(f"no cell of frame {frame} has its centre in a region of the roi (labels > 0 at "
+                         f"{int(np.count_nonzero(roi))} of its {roi.size} pixels): is it drawn on frame {frame}?")
     # daughters inherit, in birth order (a daughter's mother is born before it)
     if len(lineage):
         parent = lineage.sort_values("frame_start")[["track", "parent"]].to_numpy(np.int64)
