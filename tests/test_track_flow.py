@@ -128,6 +128,13 @@ def test_tracking_qc_counts_interior_events_and_flags_frames():
     assert qc["appearances"].tolist() == [0, 2, 0] and qc["doubtful"].tolist() == [False, True, False]
     assert tracking_warning({"doubtful_frames": []}) is None
     assert "1 frame(s) (1)" in tracking_warning({"doubtful_frames": [1], "interior_extrusions": 2})
+    # why, by how well the frame's links overlap: cells lost by the segmentation, tracking errors, frames far apart
+    def why(confident):
+        return tracking_warning({"doubtful_frames": [1], "interior_extrusions": 2,
+                                 "links": {"frame": [1], "confident": [confident]}})
+    assert "no partner in the next frame's labels" in why(0.97) and "--track never" not in why(0.97)
+    assert "likely tracking errors" in why(0.7)
+    assert "far apart in time" in why(0.2) and "--track never" in why(0.2)
 
 
 def test_budget_marks_and_the_report_leaves_out_doubtful_intervals(tmp_path):

@@ -1224,17 +1224,32 @@ def tracking_warning(summary: dict) -> str | None:
     links = summary.get("links") or {}
     confident = dict(zip(links.get("frame", []), links.get("confident", [])))
     far = [t for t in frames if confident.get(t, 1.0) < FAR_APART]
-    shown = ", ".join(str(t) for t in frames[:10]) + (", ..." if len(frames) > 10 else "")
-    text = (f"tracking is doubtful at {len(frames)} frame(s) ({shown}): more than {EXTRUSION_SHARE:.0%} of the cells "
-            f"end inside the tissue there ({summary.get('interior_extrusions', 0)} interior extrusions and "
-            f"{summary.get('interior_appearances', 0)} interior appearances in the movie)")
+    # frames whose existing links overlap well: the cells that end have no partner in the next frame's labels
+    linked = [t for t in frames if t not in far and confident.get(t, np.nan) >= CONFIDENT_SHARE]
+    other = [t for t in frames if t not in far and t not in linked]
+
+    def listed(values):
+        return ", ".join(str(t) for t in values[:10]) + (", ..." if len(values) > 10 else "")
+
+    parts = []
+    if other:
+        parts.append(f"at frame(s) {listed(other)} more than {EXTRUSION_SHARE:.0%} of the cells end inside the tissue "
+                     f"and fewer links overlap well: extrusions, appearances and divisions there are likely tracking "
+                     f"errors")
+    if linked:
+        parts.append(f"at frame(s) {listed(linked)} more than {EXTRUSION_SHARE:.0%} of the cells end inside the "
+                     f"tissue although at least {CONFIDENT_SHARE:.0%} of the links overlap well: the cells that end have "
+                     f"no partner in the next frame's labels (cells missing or merged in the segmentation there, or "
+                     f"real extrusions); check those frames' labels")
     if far:
-        text += (f", or fewer than {FAR_APART:.0%} of the links overlap well after following the motion "
-                 f"(frames {', '.join(str(t) for t in far[:10])}{', ...' if len(far) > 10 else ''}: the frames look "
-                 f"far apart in time or are different fields of view)")
-    return text + ("; extrusions, appearances and divisions there are likely tracking errors (marked "
-                   "`tracking_doubtful` in the deformation budget); if the ids are the same cell across frames, "
-                   "use --track never; if the frames are unrelated images, --track off")
+        parts.append(f"at frame(s) {listed(far)} fewer than {FAR_APART:.0%} of the links overlap well after following "
+                     f"the motion: the frames look far apart in time or are different fields of view; if the ids are "
+                     f"the same cell across frames, use --track never; if the frames are unrelated images, --track off")
+    return (f"tracking is doubtful at {len(frames)} frame(s) ({listed(frames)}) of a movie with "
+            f"{summary.get('interior_extrusions', 0)} interior extrusions and "
+            f"{summary.get('interior_appearances', 0)} interior appearances: " + "; ".join(parts)
+            + " (those intervals are marked `tracking_doubtful` in the deformation budget and left out of the "
+              "report's cumulative budget)")
 
 
 def lineage_roots(parents: dict, ids) -> dict:
