@@ -450,6 +450,14 @@ def _from_list(frames, channel) -> Opened:
 
 
 def _open_path(path: Path, key, channel, level, axes=None) -> Source:
+    try:
+        path.stat()
+    except FileNotFoundError:
+        pass  # refused just below, with what is expected
+    except (OSError, ValueError) as exc:  # a name too long, a symlink loop, a NUL byte in the name
+        detail = getattr(exc, "strerror", None) or exc
+        raise InputError(f"path {str(path)!r} cannot be opened: {detail}; expected a label image or polygon file, a "
+                         f"folder of images or a zarr store") from None
     if not path.exists():
         raise InputError(f"path {str(path)!r} does not exist; expected a label image or polygon file "
                          f"({', '.join(FILE_SUFFIXES)}), a folder of images, a zarr store or an MPF run (.zarr)")
@@ -485,7 +493,12 @@ def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
             raise InputError(f"path {str(path)!r} is gzip-compressed {inner or 'data without a suffix'}; expected "
                              f"one of {FILE_SUFFIXES} compressed (e.g. .tif.gz)")
         plain = gunzip(path)
-        opened = _path_reader(plain, key, channel, level, axes)
+        try:
+            opened = _path_reader(plain, key, channel, level, axes)
+        except InputError as exc:  # the message names the user's file, not the temporary copy
+            raise InputError(str(exc).replace(str(plain), str(path))) from None
+        if isinstance(getattr(opened.reader, "what", None), str):  # the same for errors of later frame reads
+            opened.reader.what = opened.reader.what.replace(str(plain), str(path))
         return replace(opened, description={**opened.description, "path": str(path)},
                        notes=(*opened.notes, f"decompressed from {path.name} (gzip) into a temporary file"))
     suffix = path.suffix.lower()
