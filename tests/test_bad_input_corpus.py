@@ -519,6 +519,23 @@ for stage, cls, f in numeric_fields():
             cli("analyze", "{d}/in.npy", "--out", "{d}/out", "--workers", 1, *NEEDS_FLAGS.get(stage, ()), flag, text),
             outcome, *texts, setup=lambda d: (_write("in.npy", _npy_bytes(STACK))(d), _raw(d)))
 
+# the other fields by their annotation: every value below is refused naming the field, except those in OTHER_OK
+OTHER_VALUES = {"str": {"'nonsense'": "nonsense", "3": 3, "None": None},
+                "bool": {"1": 1, "'yes'": "yes", "None": None},
+                "tuple": {"'x'": "x", "[-1]": [-1], "[1.5]": [1.5], "[NaN]": [math.nan], "[]": []}}
+OTHER_OK = {("mesh.background", "[]"), ("mechanics.curved", "None")}
+for stage, cls in OPTION_CLASSES.items():
+    for f in fields(cls):
+        kind = str(f.type).split(" |")[0]
+        for label, value in OTHER_VALUES.get(kind, {}).items():
+            key = f"{stage}.{f.name}"
+            ok = (key, label) in OTHER_OK
+            # force inference on the open tiling always says what the balance leaves free
+            outcome, texts = (("warn", ("force balance alone",)) if stage == "mechanics" else ("ok", ())) if ok else \
+                ("error", (f"{cls.__name__}.{f.name}",))
+            add("options (API)", f"{key} = {label}", _options_run(stage, cls, f.name, value), outcome, *texts,
+                check=cells_per_frame(16) if ok else None)
+
 CHOICES = [(f.metadata["flag"], stage) for stage, cls in OPTION_CLASSES.items() for f in fields(cls)
            if "flag" in f.metadata and f.metadata["argparse"].get("choices")]
 for flag, stage in CHOICES:
