@@ -382,6 +382,51 @@ add("files", "unreadable (mode 000; root reads it)", _analyze_path("locked.npy")
     check=cells_per_frame(16) if os.geteuid() == 0 else None)
 
 
+def _npy_header(shape, dtype="<i8"):
+    """A .npy file whose header declares ``shape`` but that holds 1 kB of data."""
+    from numpy.lib import format as npformat
+    buf = io.BytesIO()
+    npformat.write_array_header_1_0(buf, {"descr": dtype, "fortran_order": False, "shape": shape})
+    return buf.getvalue() + bytes(1000)
+
+
+def _png_header(width, height):
+    """A PNG whose header declares width x height px (a decompression bomb's header) over 100 bytes of pixels."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(bytes(100)))
+            + chunk(b"IEND", b""))
+
+
+add("files", ".npy declaring 100,000 x 100,000 int64", _analyze_path("in.npy"), "error", "in.npy",
+    setup=_write("in.npy", lambda: _npy_header((100000, 100000))))
+add("files", ".npy declaring 10**7 frames", _analyze_path("in.npy"), "error", "in.npy",
+    setup=_write("in.npy", lambda: _npy_header((10**7, 64, 64), "<i4")))
+add("files", ".png declaring 100,000 x 100,000 px", _analyze_path("in.png"), "error", "in.png",
+    setup=_write("in.png", lambda: _png_header(100000, 100000)))
+
+SQUARES = "cell,x,y\n1,0,0\n1,10,0\n1,10,10\n1,0,10\n2,10,0\n2,20,0\n2,20,10\n2,10,10\n"
+VERTICES = {
+    "two squares": (SQUARES, "warn", ("no interior cell",)),
+    "wrong columns": ("a,b,c\n1,2,3\n", "error", ("missing column(s)", "cell, x, y")),
+    "header only": ("cell,x,y\n", "error", ("no rows",)),
+    "NaN coordinate": (SQUARES.replace("1,10,0", "1,nan,0"), "error", ("column 'x'", "NaN")),
+    "inf coordinate": (SQUARES.replace("1,10,0", "1,inf,0"), "error", ("column 'x'", "infinite")),
+    "text coordinate": (SQUARES.replace("1,10,0", "1,a,0"), "error", ("column 'x' must hold numbers",)),
+    "a cell of two vertices": ("cell,x,y\n1,0,0\n1,10,0\n", "error", ("cell 1", "at least 3")),
+    "negative cell ids": (SQUARES.replace("\n1,", "\n-1,"), "error", ("must be positive", "-1")),
+    "fractional cell ids": (SQUARES.replace("\n1,", "\n1.5,"), "error", ("column 'cell' must hold integers",)),
+}
+for name, (text, outcome, texts) in VERTICES.items():
+    add("vertices tables", name, _analyze_path("in.csv"), outcome, *texts, setup=_write("in.csv", text.encode()))
+    add("vertices tables", f"{name} (command)", _analyze_cmd("in.csv"), outcome, *texts,
+        setup=_write("in.csv", text.encode()))
+
+
 def _frames(folder, frames, suffix=".tif"):
     folder.mkdir(parents=True, exist_ok=True)
     for i, f in enumerate(frames):
