@@ -12,7 +12,7 @@ of ``hexatissue analyze|report|export``) and has one expected outcome:
 - ``warn``: a result with a :class:`~hexatissue.HexatissueWarning` holding
   the given text.
 
-Any other exception (a traceback) fails the case, as does running past the
+Any other exception (a traceback) or warning fails the case, as does running past the
 per-case timeout (a hang), or any change to a file that was there before the
 case other than the outputs it names.  The options cases are built from
 ``options.OPTION_CLASSES``: a numeric field added to a stage's options is
@@ -815,6 +815,10 @@ def test_case(key, tmp_path, monkeypatch):
                 assert code == 0, (code, err)
                 result = None
                 caught = [line for line in lines if ": warning: " in line]
+    # numpy's RuntimeWarnings and unclosed files reaching the user are defects too
+    other = [f"{w.category.__name__}: {w.message}" for w in caught
+             if hasattr(w, "category") and not issubclass(w.category, HexatissueWarning)]
+    assert not other, other
     warned = [str(w.message) if hasattr(w, "message") else w for w in caught
               if not hasattr(w, "category") or issubclass(w.category, HexatissueWarning)]
     outcome = "error" if error is not None else ("warn" if warned else "ok")
