@@ -406,6 +406,11 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
     elif isinstance(obj, (list, tuple)):
         refuse("a list of frames", key=key, level=level, axes=axes)
         source = _make(_from_list(obj, channel))
+    elif isinstance(obj, np.ma.MaskedArray) and np.ma.getmask(obj) is not np.ma.nomask and np.ma.getmask(obj).any():
+        # its frames would be read without the mask, so masked pixels would silently stay cells
+        raise InputError(f"a masked array ({int(np.ma.getmask(obj).sum())} masked pixels) is not read with its mask; "
+                         f"pass obj.filled(0) to make the masked pixels background, or the region to keep as mask= "
+                         f"(--mask on the command line)")
     elif hasattr(obj, "shape") and hasattr(obj, "__getitem__"):
         refuse("an array", key=key, level=level)
         source = _make(open_array(obj, channel, axes))

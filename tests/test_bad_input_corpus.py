@@ -206,7 +206,9 @@ ARRAYS = {
     "None": (lambda: None, "error", ("None",), "error", ("None",), 0),
     "a number": (lambda: 3.5, "error", (), "error", (), 0),
     "a dict": (lambda: {"labels": LAB}, "error", ("dict",), "error", ("dict",), 0),
-    "masked array": (lambda: np.ma.masked_array(LAB, LAB == 1), "ok", (), "ok", (), 16),
+    "masked array": (lambda: np.ma.masked_array(LAB, LAB == 1), "error", ("masked array", "filled(0)"), "error",
+                     ("masked array", "filled(0)"), 0),
+    "masked array, nothing masked": (lambda: np.ma.masked_array(LAB), "ok", (), "ok", (), 16),
 }
 
 
