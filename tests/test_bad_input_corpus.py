@@ -72,15 +72,16 @@ class Case:
     writes: tuple = ("out",)  # paths (relative to d) the case may create or change
     check: object = None  # check(result): the truth of a valid result
     documented: str = ""  # the outcome counted in docs/input.md when it differs (an optional dependency missing)
+    keep: tuple = ()  # paths under ``writes`` that must stay as they were (someone else's files)
 
 
 CASES: dict[str, Case] = {}
 
 
-def add(cls, name, run, expect, *texts, setup=None, writes=("out",), check=None, documented=""):
+def add(cls, name, run, expect, *texts, setup=None, writes=("out",), check=None, documented="", keep=()):
     key = f"{cls}: {name}"
     assert key not in CASES, key
-    CASES[key] = Case(cls, name, run, expect, texts, setup, writes, check, documented or expect)
+    CASES[key] = Case(cls, name, run, expect, texts, setup, writes, check, documented or expect, keep)
 
 
 def cells_per_frame(n):
@@ -651,6 +652,36 @@ for name, (extra, outcome, texts) in CLI_RUN.items():
                          _write("small.txt", b"x")(d)))
 
 
+def _in_npy(d):
+    np.save(d / "in.npy", STACK)
+
+
+def _earlier(d, *extra):
+    _in_npy(d)
+    main(["analyze", str(d / "in.npy"), "--out", str(d / "out"), "--workers", "1", *extra])
+
+
+OUT_TARGETS = {
+    "a folder of someone else's files": (lambda d: (_in_npy(d), _write("out/mine.txt", b"keep me")(d)), "ok", (),
+                                         ("out/mine.txt",)),
+    "a folder holding someone else's cells.parquet": (lambda d: (_in_npy(d), _write("out/cells.parquet",
+                                                                                     b"mine")(d)), "error",
+                                                      ("holds cells.parquet", "not a results folder"), ()),
+    "a folder holding someone else's cells.csv": (lambda d: (_in_npy(d), _write("out/cells.csv", b"mine")(d)),
+                                                  "error", ("holds cells.csv",), ()),
+    "an earlier results folder": (_earlier, "ok", (), ()),
+    "an earlier results folder with figures": (lambda d: _earlier(d, "--figures"), "ok", (), ()),
+    "an earlier results folder, as csv": (lambda d: _earlier(d, "--format", "csv"), "ok", (), ()),
+    "an existing file": (lambda d: (_in_npy(d), _write("out", b"keep me")(d)), "error", ("is a file",), ()),
+    "a folder without write permission (root writes anyway)": (
+        lambda d: (_in_npy(d), (d / "out").mkdir(), os.chmod(d / "out", 0o500)),
+        "ok" if os.geteuid() == 0 else "error", *(((), ()) if os.geteuid() == 0 else (("cannot be written",), ()))),
+}
+for name, (setup, outcome, texts, keep) in OUT_TARGETS.items():
+    add("analyze --out onto existing paths", name, cli("analyze", "{d}/in.npy", "--out", "{d}/out", "--workers", 1),
+        outcome, *texts, setup=setup, keep=keep, check=None)
+
+
 # ---------------------------------------------------------------------------------------------------
 # exports onto existing paths; report on folders that are not results
 # ---------------------------------------------------------------------------------------------------
@@ -836,7 +867,7 @@ def test_case(key, tmp_path, monkeypatch):
     after = _snapshot(d)
     writes = () if outcome == "error" else case.writes  # a refused call leaves everything as it was
     for rel, state in before.items():
-        if not _under(rel, writes):
+        if not _under(rel, writes) or rel in case.keep:
             assert after.get(rel) == state, f"{rel} was changed or deleted"
     for rel in set(after) - set(before):
         assert _under(rel, writes), f"{rel} was written"
