@@ -31,8 +31,6 @@ import importlib.util
 import io
 import math
 import os
-import re
-import sys
 import warnings
 from collections import Counter
 from dataclasses import dataclass, fields
@@ -254,7 +252,8 @@ for name, (make, outcome, texts, src_outcome, src_texts, n) in ARRAYS.items():
 # the same arrays saved as .npy and read by the command
 NPY = ("uint16", "big-endian int32", "float64 whole numbers", "fractional floats", "NaN pixel", "negative ids",
        "uint64 ids >= 2**63", "complex", "bool skeleton grid", "all zero", "1 x 1", "0 x 0", "0 frames of 8 x 8",
-       "3-D stack", "4-D T x C x Y x X", "5-D", "RGB colours of the ids", "raw noise image", "strings", "structured dtype")
+       "3-D stack", "4-D T x C x Y x X", "5-D", "RGB colours of the ids", "raw noise image", "strings",
+       "structured dtype")
 
 
 def _save_npy(make):
@@ -507,7 +506,8 @@ ZERO = {"mesh.merge_distance": "ok", "mesh.membrane_width": "ok", "mesh.min_area
         "order.defect_max_distance": "> 0", "track.min_iou": "> 0", "track.max_gap": "ok",
         "track.child_fraction": "> 0", "track.mother_fraction": "> 0", "track.division_min_frames": "ok",
         "track.division_min_cycle": "ok", "track.division_area_tolerance": "ok", "events.min_length": "ok",
-        "events.censor": "ok", "intensity.channel": "bare:channel=0", "intensity.step": "> 0", "deformation.roi_frame": "ok",
+        "events.censor": "ok", "intensity.channel": "bare:channel=0", "intensity.step": "> 0",
+        "deformation.roi_frame": "ok",
         "flow.radius_factor": "> 0", "flow.min_cells": ">= 3", "mechanics.mu": "positive"}
 HUGE = {"mesh.merge_distance": "larger than the frames' diagonal", "mesh.membrane_width": "ok",
         "mesh.min_area": "bare:min_area = 1e+12", "mesh.fill_holes": "ok",
@@ -561,7 +561,8 @@ for stage, cls, f in numeric_fields():
         outcome, texts = _expected(key, label, flag)
         integer = str(f.type).startswith("int")
         if label == "'x'" or (integer and label in ("NaN", "inf", "1e12")):
-            outcome, texts = "error", (f"argument {flag}: invalid",)  # argparse refuses what int() / float() cannot read
+            # argparse refuses what int() / float() cannot read
+            outcome, texts = "error", (f"argument {flag}: invalid",)
         add("options (command)", f"{flag} {text}",
             cli("analyze", "{d}/in.npy", "--out", "{d}/out", "--workers", 1, *NEEDS_FLAGS.get(stage, ()), flag, text),
             outcome, *texts, setup=lambda d: (_write("in.npy", _npy_bytes(STACK))(d), _raw(d)))
@@ -733,7 +734,8 @@ for fmt in ("geff", "ctc", "ome-zarr", "anndata"):
             outcome, texts = "error", ("needs the anndata package",)
         where = "afile/sub" if name == "below a file" else target
         writes = tuple(f"{target}/{g}" for g in GEFF) if fmt == "geff" else (target,)
-        add("export onto existing paths", f"{fmt} {name}", cli("export", "{d}/res", "{d}/" + where, "--to", fmt, *extra),
+        add("export onto existing paths", f"{fmt} {name}",
+            cli("export", "{d}/res", "{d}/" + where, "--to", fmt, *extra),
             outcome, *texts, setup=_export_setup(setup, fmt, target, name == "again onto its own output"),
             writes=writes, documented=documented)
     add("export onto existing paths", f"{fmt} onto the results folder itself",
