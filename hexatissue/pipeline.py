@@ -213,7 +213,10 @@ def _check_limits(options, shape):
     the disk per node): on the bundled 160 x 257 px sample, radius 1e4 px
     took 21 s and 830 MB, 1e6 px ran out of memory, while any radius beyond
     the frames' diagonal averages every node over the whole image.  A
-    merge distance beyond the diagonal merges every vertex into one.
+    merge distance beyond the diagonal merges every vertex into one; an
+    intensity step beyond it samples each junction at its two vertices
+    only.  Frames under 2 x 2 px are left to the first frame's read, which
+    names them.
     """
     if min(shape) < 2:  # reading the first frame refuses it, naming the frame and its shape
         return

@@ -302,7 +302,8 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
         - a 2-D array (one frame), a ``T x rows x cols`` array or any lazily
           indexable array-like with ``.shape`` (numpy, memmap, zarr, dask;
           frame ``t`` is read as ``obj[t]``), or ``T x C x rows x cols``
-          with ``channel=``;
+          with ``channel=`` (a numpy masked array with masked pixels is
+          refused: its mask would not be read);
         - a list or tuple of 2-D arrays of one shape, or of image file paths
           (one frame per file);
         - an MPF run (any object with ``.labels`` and ``.box``, e.g.
