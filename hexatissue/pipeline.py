@@ -34,7 +34,7 @@ from ._rows import Rows
 from ._system import release_freed_memory
 from ._version import __version__
 from .box import as_box
-from .errors import HexatissueWarning, InputError, user_stacklevel
+from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from .progress import progress as progress_bar
 from .results import Movie
 from .source import open_source, read_mask
@@ -120,6 +120,7 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
         When no T1 event is an intercalation because every one that is not
         undone is ``unresolved`` (the censoring window covers them all).
     """
+    check_positive(checkpoint_every, "checkpoint_every", integer=True)  # also without a checkpoint: no value is ignored
     src = open_source(source)
     options = stage_options(options)
     _check_limits(options, src.shape)
@@ -212,8 +213,13 @@ def _check_limits(options, shape):
     the disk per node): on the bundled 160 x 257 px sample, radius 1e4 px
     took 21 s and 830 MB, 1e6 px ran out of memory, while any radius beyond
     the frames' diagonal averages every node over the whole image.  A
-    merge distance beyond the diagonal merges every vertex into one.
+    merge distance beyond the diagonal merges every vertex into one; an
+    intensity step beyond it samples each junction at its two vertices
+    only.  Frames under 2 x 2 px are left to the first frame's read, which
+    names them.
     """
+    if min(shape) < 2:  # reading the first frame refuses it, naming the frame and its shape
+        return
     diagonal = float(np.hypot(*shape))
     order, mesh = options["order"], options["mesh"]
     radii = np.atleast_1d(np.asarray(order.radius if order.radius is not None else [], float))
@@ -221,6 +227,11 @@ def _check_limits(options, shape):
         raise InputError(f"OrderOptions.radius {radii.max():g} px is larger than the frames' diagonal "
                          f"({diagonal:.0f} px): every node's disk would hold the whole image, at a cost growing as "
                          f"the radius squared (memory and time); give at most {diagonal:.0f} px (default 1.5 R_cell)")
+    intensity = options["intensity"]
+    if intensity.enabled and intensity.step > diagonal:
+        raise InputError(f"IntensityOptions.step {intensity.step:g} px is larger than the frames' diagonal "
+                         f"({diagonal:.0f} px): every junction would be sampled at its two ends only, its vertices; "
+                         f"give at most {diagonal:.0f} px (default 0.5 px)")
     if mesh.merge_distance > diagonal:
         raise InputError(f"MeshOptions.merge_distance {mesh.merge_distance:g} px is larger than the frames' "
                          f"diagonal ({diagonal:.0f} px): every vertex would merge into one and the network would have "

@@ -302,7 +302,8 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
         - a 2-D array (one frame), a ``T x rows x cols`` array or any lazily
           indexable array-like with ``.shape`` (numpy, memmap, zarr, dask;
           frame ``t`` is read as ``obj[t]``), or ``T x C x rows x cols``
-          with ``channel=``;
+          with ``channel=`` (a numpy masked array with masked pixels is
+          refused: its mask would not be read);
         - a list or tuple of 2-D arrays of one shape, or of image file paths
           (one frame per file);
         - an MPF run (any object with ``.labels`` and ``.box``, e.g.
@@ -406,6 +407,11 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
     elif isinstance(obj, (list, tuple)):
         refuse("a list of frames", key=key, level=level, axes=axes)
         source = _make(_from_list(obj, channel))
+    elif isinstance(obj, np.ma.MaskedArray) and np.ma.getmask(obj) is not np.ma.nomask and np.ma.getmask(obj).any():
+        # its frames would be read without the mask, so masked pixels would silently stay cells
+        raise InputError(f"a masked array ({int(np.ma.getmask(obj).sum())} masked pixels) is not read with its mask; "
+                         f"pass obj.filled(0) to make the masked pixels background, or the region to keep as mask= "
+                         f"(--mask on the command line)")
     elif hasattr(obj, "shape") and hasattr(obj, "__getitem__"):
         refuse("an array", key=key, level=level)
         source = _make(open_array(obj, channel, axes))
@@ -450,6 +456,14 @@ def _from_list(frames, channel) -> Opened:
 
 
 def _open_path(path: Path, key, channel, level, axes=None) -> Source:
+    try:
+        path.stat()
+    except FileNotFoundError:
+        pass  # refused just below, with what is expected
+    except (OSError, ValueError) as exc:  # a name too long, a symlink loop, a NUL byte in the name
+        detail = getattr(exc, "strerror", None) or exc
+        raise InputError(f"path {str(path)!r} cannot be opened: {detail}; expected a label image or polygon file, a "
+                         f"folder of images or a zarr store") from None
     if not path.exists():
         raise InputError(f"path {str(path)!r} does not exist; expected a label image or polygon file "
                          f"({', '.join(FILE_SUFFIXES)}), a folder of images, a zarr store or an MPF run (.zarr)")
@@ -485,7 +499,12 @@ def _path_reader(path: Path, key, channel, level, axes=None) -> Opened:
             raise InputError(f"path {str(path)!r} is gzip-compressed {inner or 'data without a suffix'}; expected "
                              f"one of {FILE_SUFFIXES} compressed (e.g. .tif.gz)")
         plain = gunzip(path)
-        opened = _path_reader(plain, key, channel, level, axes)
+        try:
+            opened = _path_reader(plain, key, channel, level, axes)
+        except InputError as exc:  # the message names the user's file, not the temporary copy
+            raise InputError(str(exc).replace(str(plain), str(path))) from None
+        if isinstance(getattr(opened.reader, "what", None), str):  # the same for errors of later frame reads
+            opened.reader.what = opened.reader.what.replace(str(plain), str(path))
         return replace(opened, description={**opened.description, "path": str(path)},
                        notes=(*opened.notes, f"decompressed from {path.name} (gzip) into a temporary file"))
     suffix = path.suffix.lower()

@@ -95,7 +95,7 @@ def checked_labels(labels, name="labels", kind="auto"):
         if not np.array_equal(arr, np.round(arr)):
             raise InputError(f"{name} has non-integer float values (dtype {arr.dtype}); expected integer cell ids "
                              f"(for a membrane probability map: --kind membrane-map segments it)")
-        if arr.max() >= 2**31:
+        if float(arr.max()) >= 2**31:  # 2**31 as float16 would overflow (inf): compared as a Python float
             raise InputError(f"{name} has float ids up to {arr.max()}; expected ids below 2**31")
         arr = arr.astype(np.int64)
     elif arr.dtype.kind not in "iu":

@@ -154,7 +154,8 @@ def _cellpose_entry(path, key):
 
 
 def _npz_key(path, key):
-    with np.load(path, allow_pickle=False) as data:
+    # the file is opened here so that it is closed also when numpy refuses it (a truncated zip)
+    with open(path, "rb") as file, np.load(file, allow_pickle=False) as data:
         names = list(data.keys())
     if not names:
         raise InputError(f"{path.name} holds no array; expected a .npz with a label array (named 'labels', or "
@@ -170,5 +171,5 @@ def _npz_key(path, key):
 
 def _npz_entry(path, key):
     # zip members cannot be memory-mapped: the array is read whole on first use
-    with np.load(path, allow_pickle=False) as data:
+    with open(path, "rb") as file, np.load(file, allow_pickle=False) as data:
         return data[key]

@@ -38,9 +38,13 @@ def add_parser(subparsers):
 def _run(args) -> int:
     from pathlib import Path
 
+    from ..errors import InputError
     from ..results import read_results
     from .report import report
 
+    if args.out is not None and Path(args.out).resolve() == Path(args.results).resolve():
+        raise InputError(f"--out {args.out!r} is the results folder itself; the report goes into a folder of its own "
+                         f"(default: RESULTS_DIR/report)")
     movie = read_results(args.results)
     movie = movie.replace(calibration=movie.calibration.override(
         pixel_size=args.pixel_size, length_unit=args.units, frame_interval=args.frame_interval,

@@ -17,8 +17,8 @@ import pandas as pd
 from ..analysis.migration import DEFAULT_DL, PAPER_WINDOW_ITERATIONS, migration_populations, migration_table
 from ..analysis.proximity import t1_defect_proximity
 from ..analysis.timing import cell_timing, in_time_units, timing_summary, timing_test
-from ..errors import HexatissueWarning, InputError
-from ..io import atomic_path, write_table
+from ..errors import HexatissueWarning, InputError, check_p, check_positive
+from ..io import atomic_path, check_output_folder, write_table
 from ..results import Movie, read_results
 from ..schema import empty_table
 from ..track import DIVISION_REASONS, division_rows, tracking_qc, tracking_warning
@@ -188,6 +188,10 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     dict
         Key numbers (also in ``report.md``) and ``written``: the files written.
     """
+    # the numbers are checked before any figure is drawn: a refused report writes nothing
+    check_p(p)
+    check_positive(dl, "dl")
+    check_positive(n_control, "n_control", integer=True)
     if isinstance(results, Movie):
         if out is None:
             raise InputError("out is required when results is a Movie (there is no results folder to write into)")
@@ -196,7 +200,10 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
         movie = read_results(results)
     folder = None if isinstance(results, Movie) else results
     name = Path(str(movie.source.get("path") or folder or "movie")).name  # the input's name, else the folder's
-    out = Path(results) / "report" if out is None else Path(out)
+    out = check_output_folder(Path(results) / "report" if out is None else out, "out")
+    if folder is not None and out.resolve() == Path(folder).resolve():
+        raise InputError(f"out {str(out)!r} is the results folder itself; the report goes into a folder of its own "
+                         f"(default: RESULTS_DIR/report)")
     out.mkdir(parents=True, exist_ok=True)
     order = movie.options.get("order")
     order_p = tuple(order_p if order_p is not None else (order.p if order is not None else (6,)))
