@@ -473,3 +473,47 @@ def test_event_flow_bad_input():
         t1_flow(cells, events.drop(columns="cell_d"), extent=10.0, bin_size=2.0)
     average, samples = t1_flow(cells, events, extent=10.0, bin_size=2.0)  # cells b, c, d absent: no sample
     assert len(average) == 0 and len(samples) == 0
+
+
+def test_flow_fits_in_tasks_of_frames_equal_one_call(monkeypatch):
+    """The flow stage's fits split into tasks of consecutive frames (the workers of analyze) give the table of
+    one call, row for row, also for a grid whose rows are not in frame order."""
+    import hexatissue.stages as stages
+    from hexatissue import FlowOptions
+    from hexatissue._executors import executor
+
+    omega = 0.02
+    seeds = jittered_seeds(SHAPE, 12.0, seed=3)
+    labels = np.stack([voronoi_labels(rotation(omega * t)(seeds), SHAPE) for t in range(9)])
+    serial = analyze(labels, workers=1, progress=False)
+    monkeypatch.setattr(stages, "FLOW_FRAMES", 2)  # 9 frames: 5 tasks, the last of one frame
+    pooled = analyze(labels, workers=2, progress=False)
+    pd.testing.assert_frame_equal(pooled.flow, serial.flow, check_exact=True)
+    assert pooled.flow["valid"].sum() > 0.5 * len(pooled.flow)
+    # the function itself, on a shuffled grid and with the frames of two tasks uneven
+    cells = serial.cells
+    grid = serial.grid.sample(frac=1.0, random_state=0).reset_index(drop=True)
+    monkeypatch.setattr(stages, "FLOW_FRAMES", 4)
+    work, _ = executor(None, 2, 9)
+    try:
+        split = stages.flow_by_frames(cells, grid, None, FlowOptions(), work)
+    finally:
+        work.shutdown()
+    pd.testing.assert_frame_equal(split, flow_fields(cells, grid), check_exact=True)
+
+
+def test_flow_fits_in_tasks_cover_frames_with_gaps(monkeypatch):
+    """Tasks are made of the grid's frames, not of frame numbers: a movie whose grid skips frames loses none."""
+    import hexatissue.stages as stages
+    from hexatissue import FlowOptions
+    from hexatissue._executors import _Serial
+
+    seeds = jittered_seeds(SHAPE, 12.0, seed=3)
+    labels = np.stack([voronoi_labels(rotation(0.02 * t)(seeds), SHAPE) for t in range(6)])
+    movie = analyze(labels, workers=1, progress=False)
+    keep = movie.grid["frame"].isin([1, 3, 4]).to_numpy()  # frames 0, 2, 5 without a grid
+    grid, cells = movie.grid[keep].reset_index(drop=True), movie.cells
+    monkeypatch.setattr(stages, "FLOW_FRAMES", 2)
+    split = stages.flow_by_frames(cells, grid, None, FlowOptions(), _Serial())
+    pd.testing.assert_frame_equal(split, flow_fields(cells, grid), check_exact=True)
+    assert set(split["frame"]) == {1, 3, 4}
