@@ -1,12 +1,11 @@
 """The tissue-flow stage's share of ``analyze`` on the bench_t1 movie (1000 frames x 440 cells, periodic).
 
-Alternates ``analyze`` with the flow stage on (default: velocities and the flow fields on the Gamma_p grid, the
-fits in the workers by tasks of ``stages.FLOW_FRAMES`` frames), on with every fit in the main process (one
-``flow_fields`` call, as when there are no workers) and off (``FlowOptions(enabled=False)``, the CLI's
-``--no-flow``), --pairs times, in this one run: wall time and CPU time (this process and its workers); then the
-flow statistics (``flow_summary``, what the report adds) and the stage alone (``cell_velocities`` +
-``flow_fields``, CPU time in this process) on the last run's tables.  The movie is bench_t1.py's (rendered there
-into --cache).  Writes ``results_flow_share.md`` beside this script.
+Alternates ``analyze`` with the flow stage on (default: velocities and the flow fields on the Gamma_p grid, in
+the main process after the frames) and off (``FlowOptions(enabled=False)``, the CLI's ``--no-flow``), --pairs
+times, in this one run: wall time and CPU time (this process and its workers); then the flow statistics
+(``flow_summary``, what the report adds) and the stage alone (``cell_velocities`` + ``flow_fields``, CPU time in
+this process) on the last run's tables.  The movie is bench_t1.py's (rendered there into --cache).  Writes
+``results_flow_share.md`` beside this script.
 
     NUMBA_NUM_THREADS=1 python benchmarks/bench_flow_share.py [--cache /tmp/hexatissue_bench] [--pairs 2]
 """
@@ -27,7 +26,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_t1 import RawStack, render  # noqa: E402
 
-import hexatissue.stages as stages  # noqa: E402
 from hexatissue import analyze  # noqa: E402
 from hexatissue.box import Box  # noqa: E402
 from hexatissue.errors import HexatissueWarning  # noqa: E402
@@ -54,21 +52,19 @@ def main():
     render(path, args.frames, 440, shape)
     box = Box(shape[1], shape[0])
     analyze(RawStack(path, 3), box=box, workers=1, progress=False)  # numba caches warm, not timed
-    modes = {"workers": (True, stages.FLOW_FRAMES), "main": (True, 10**9), "off": (False, stages.FLOW_FRAMES)}
+    modes = {"on": True, "off": False}
     times = {mode: [] for mode in modes}
     movie = None
     start = datetime.datetime.now(datetime.timezone.utc)
     load_before = os.getloadavg()[0]
     for _ in range(args.pairs):
-        for mode, (flow, frames) in modes.items():
-            stages.FLOW_FRAMES = frames  # read by the flow stage in this process
+        for mode, flow in modes.items():
             w0, c0 = time.perf_counter(), cpu()
             m = analyze(RawStack(path, args.frames), box=box, workers=args.workers, progress=False,
                         flow=FlowOptions(enabled=flow))
             times[mode].append((time.perf_counter() - w0, cpu() - c0))
             movie = m if flow else movie
             print(f"flow {mode}: wall {times[mode][-1][0]:.1f} s, CPU {times[mode][-1][1]:.1f} s", flush=True)
-    stages.FLOW_FRAMES = modes["workers"][1]
     t0 = time.process_time()
     flow_summary(movie.cells, box)
     stats = time.process_time() - t0
@@ -85,10 +81,9 @@ def main():
          f"{platform.python_version()}, `NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS', 'unset')}`; "
          f"1-minute load before {load_before:.1f}, after {os.getloadavg()[0]:.1f}.  bench_t1's movie, "
          f"{args.frames} frames x 440 cells (periodic), {args.workers} workers; {args.pairs} rounds alternating "
-         "the three modes, medians.  CPU = this process and its workers."), "",
+         "on and off, medians.  CPU = this process and its workers."), "",
         "| flow stage | wall | CPU | wall / off | CPU / off |", "|---|---|---|---|---|"]
-    for mode, text in (("workers", "on, fits in the workers"), ("main", "on, fits in the main process"),
-                       ("off", "off (`--no-flow`)")):
+    for mode, text in (("on", "on (default)"), ("off", "off (`--no-flow`)")):
         lines.append(f"| {text} | {med[mode][0]:.1f} s | {med[mode][1]:.1f} s | {med[mode][0] / med['off'][0]:.3f} | "
                      f"**{med[mode][1] / med['off'][1]:.3f}** |")
     lines += ["", "Each run (wall s, CPU s): " + "; ".join(

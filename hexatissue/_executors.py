@@ -1,9 +1,7 @@
 """Where the spine's per-frame work runs: in this process, a local process pool, or a dask cluster.
 
-Every executor has ``submit(fn, *args) -> future`` (with ``future.result()``),
-``shutdown()`` and ``parallel`` (whether a job submitted runs beside this
-process: the movie stages split their work only then); :func:`executor`
-picks one.
+Every executor has ``submit(fn, *args) -> future`` (with ``future.result()``)
+and ``shutdown()``; :func:`executor` picks one.
 """
 from __future__ import annotations
 
@@ -19,8 +17,6 @@ __all__ = ["executor", "batch_size", "BATCH_PIXELS", "BATCH_FRAMES"]
 
 class _Serial:
     """An executor running jobs in the calling process (workers=1)."""
-
-    parallel = False
 
     class _Done:
         def __init__(self, value):
@@ -38,8 +34,6 @@ class _Serial:
 
 class _Dask:
     """Adapter submitting jobs to a dask.distributed client."""
-
-    parallel = True
 
     def __init__(self, client):
         self.client = client
@@ -82,8 +76,6 @@ class _Pool:
     kernels are serial numba code, so no numba thread pool is forked.
     Elsewhere (Windows) the platform's default start method is used.
     """
-
-    parallel = True
 
     def __init__(self, n_workers, warm_ups=()):
         import multiprocessing as mp

@@ -142,24 +142,16 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
                    source=_identity(src.description), options={k: v.to_dict() for k, v in options.items()},
                    mask=mask_info, images={name: _identity(image.description) for name, image in images.items()})
         store = Checkpoint(checkpoint, key, checkpoint_every, tables)
-    rows, tracker, work = _extract(src, box, frame_work, options, mask, images, tracker, tables, client, workers,
-                                   store, progress)
-    try:
-        release_freed_memory()  # the frames' freed temporaries, before the movie stages
-        orders = options["order"].p
-        movie = MovieData(tables={name: rows.pop(name).table(name, orders) for name in tables}, box=box,
-                          n_frames=src.n_frames, source=src, tracker=tracker, options=dict(options), images=images,
-                          executor=work if getattr(work, "parallel", False) else None)
-        del tracker
-        for stage in movie_work:
-            stage.run(movie, options[stage.options.stage])
-            release_freed_memory()  # after each movie stage: its freed working set would stay under the next
-    except BaseException:
-        if work is not None:
-            work.shutdown(abort=True)
-        raise
-    if work is not None:
-        work.shutdown()
+    rows, tracker = _extract(src, box, frame_work, options, mask, images, tracker, tables, client, workers, store,
+                             progress)
+    release_freed_memory()  # the frames' freed temporaries, before the movie stages
+    orders = options["order"].p
+    movie = MovieData(tables={name: rows.pop(name).table(name, orders) for name in tables}, box=box,
+                      n_frames=src.n_frames, source=src, tracker=tracker, options=dict(options), images=images)
+    del tracker
+    for stage in movie_work:
+        stage.run(movie, options[stage.options.stage])
+        release_freed_memory()  # after each movie stage: its freed working set would stay under the next
     return Movie(**movie.tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
                  options=movie.options, source=_described(src.description, mask_info, images), version=__version__,
                  summary=movie.summary)
@@ -284,10 +276,7 @@ def _batch_job(batch, stages, pixels):
 
 
 def _extract(src, box, stages, options, mask, images, tracker, tables, client, workers, store, progress):
-    """Per-frame ``tables`` (in frame order, as :class:`Rows`), the tracker, and the executor that ran the frames.
-
-    The executor is left running for the movie stages (None when every frame
-    came from the checkpoint); the caller shuts it down.
+    """Per-frame ``tables`` (in frame order, as :class:`Rows`) and the tracker, with few frames in flight.
 
     A checkpoint folder is locked for the whole extraction: two runs cannot share it.
     """
@@ -318,7 +307,7 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
                 for table in parts:
                     rows[name].append(table, frames=table["frame"].nunique() if "frame" in table else 1)
     if start >= n_frames:
-        return rows, tracker, None
+        return rows, tracker
     sent = worker_stages(stages, options)
 
     def warm_up():
@@ -380,6 +369,8 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
     except BaseException:  # an error or an interrupt (Ctrl-C): the workers' tasks are of no use, stop them now
         work.shutdown(abort=True)
         raise
+    else:
+        work.shutdown()
     finally:
         frame_warnings.emit()
-    return rows, tracker, work  # the movie stages' per-frame work runs on it too; analyze shuts it down
+    return rows, tracker

@@ -46,7 +46,7 @@ from .track import (cells_with_tracks, check_divisions, check_extrusions, lineag
                     tracking_warning)
 
 __all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
-           "worker_stages", "run_frame", "flow_by_frames", "FLOW_FRAMES"]
+           "worker_stages", "run_frame"]
 
 @dataclass(frozen=True)
 class Stage:
@@ -135,7 +135,6 @@ class MovieData:
     options: dict
     summary: dict = field(default_factory=dict)
     images: dict = field(default_factory=dict)  # the image stages' Sources by stage name (the flow's PIV reads them)
-    executor: object = None  # the workers that ran the frames, for a movie stage's per-frame work; None: here
 
 
 # ----------------------------------------------------------------------------
@@ -238,42 +237,13 @@ def _flow(movie, options):
     cells = movie.tables["cells"]
     cells["vx"], cells["vy"] = cell_velocities(cells, movie.box)
     if "grid" in movie.tables:
-        movie.tables["flow"] = flow_by_frames(cells, movie.tables["grid"], movie.box, options, movie.executor)
+        movie.tables["flow"] = flow_fields(cells, movie.tables["grid"], movie.box, options.radius_factor,
+                                           options.min_cells)
         image = movie.images.get("intensity")
         if options.piv and image is not None and image.n_frames == movie.n_frames > 2:
             piv = piv_fields(image.images(), movie.tables["grid"], movie.box)
             for column in ("piv_vx", "piv_vy", "piv_peak"):
                 movie.tables["flow"][column] = piv[column].to_numpy()
-
-
-#: Frames per task of the flow fits in the workers: a task's cells and nodes are a few MB to send.
-FLOW_FRAMES = 64
-
-
-def flow_by_frames(cells, grid, box, options, executor=None):
-    """:func:`~hexatissue.flow.flow_fields` of ``cells`` on ``grid``, in tasks of consecutive frames on ``executor``.
-
-    Each node's fit uses its own frame's cells only, so the tasks' tables,
-    put back in the grid's row order, are the table of one call (which runs
-    here when ``executor`` is None or there is one task).
-    """
-    frames = np.unique(grid["frame"].to_numpy(np.int64))
-    if executor is None or len(frames) <= FLOW_FRAMES:
-        return flow_fields(cells, grid, box, options.radius_factor, options.min_cells)
-    columns = [c for c in ("frame", "x", "y", "vx", "vy", "is_border") if c in cells.columns]
-    c_frame, g_frame = cells["frame"].to_numpy(np.int64), grid["frame"].to_numpy(np.int64)
-    rows, futures = [], []
-    for start in range(0, len(frames), FLOW_FRAMES):
-        first, last = frames[start], frames[min(start + FLOW_FRAMES, len(frames)) - 1]  # the grid's frames, in order
-        g_rows = np.flatnonzero((g_frame >= first) & (g_frame <= last))
-        in_task = (c_frame >= first) & (c_frame <= last)
-        rows.append(g_rows)
-        futures.append(executor.submit(flow_fields, cells.loc[in_task, columns], grid.iloc[g_rows], box,
-                                       options.radius_factor, options.min_cells))
-    table = pd.concat([future.result() for future in futures], ignore_index=True)
-    order = np.empty(len(grid), np.int64)
-    order[np.concatenate(rows)] = np.arange(len(grid))
-    return validate(table.iloc[order].reset_index(drop=True), "flow")
 
 
 def _t1_events(movie, options):
