@@ -389,8 +389,9 @@ def _factor(matrix, unrelaxed=False):
     fills a 2,500-cell system 15 x more and takes 40 x longer).
     ``unrelaxed``: supernodes are not relaxed (``relax=1``, panels of 12
     columns): the zeros a relaxed supernode stores cost more than its denser
-    blocks save on these balance equations, 20 % of the factorisation at
-    10,000 cells (benchmarks/results_mechanics.md).  Only the factor whose
+    blocks save on these balance equations (the factorisation alone of the
+    10,000-cell benchmark tissue, alternated with the defaults: 13-28 % less
+    time; the whole estimate: benchmarks/results_mechanics.md).  Only the factor whose
     solves give nothing but the free-unknown test (the Bayesian estimate's
     pinned factor) is made so: the other solves round differently with
     another partition into supernodes, and the estimates on the softest modes
