@@ -10,9 +10,16 @@ the probes for free unknowns), the Bayesian estimate at a fixed prior weight,
 the Bayesian estimate with ABIC, and the cell stress.  The same on an open
 crop of the tissue (the central cells, border cells marked).  The posterior
 s.d. (one solve per unknown) is timed on ``--sd-cells`` cells.  Printed with
-the machine's load.  Usage::
+the machine's load.
 
-    python benchmarks/bench_mechanics.py [--cells 10000] [--repeats 3] [--sd-cells 1000]
+``--baseline REF`` compares the Bayesian estimate (mu = 0.01, no s.d., and
+with ABIC) and least squares of this tree with ``hexatissue/mechanics/__init__.py`` as it was at
+the git revision ``REF``, loaded beside it in the same process: runs
+alternated, best of ``--repeats``, the ratio new / old, and the largest
+differences of every output; written to ``benchmarks/results_mechanics.md``.
+Usage::
+
+    python benchmarks/bench_mechanics.py [--cells 10000] [--repeats 3] [--sd-cells 1000] [--baseline REF]
 """
 from __future__ import annotations
 
@@ -22,7 +29,12 @@ for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_name] = "1"
 
 import argparse  # noqa: E402
+import datetime  # noqa: E402
+import importlib.util  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
 import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -95,15 +107,83 @@ def run(tables, box, repeats, label):
           f"{t_fix:.3f} s; Bayesian with ABIC {t_abic:.2f} s (mu = {abic.mu:.2g}); cell stress {t_stress:.3f} s")
 
 
+def baseline_module(ref):
+    """``hexatissue.mechanics`` as it was at git revision ``ref``, as a module of the installed package."""
+    root = Path(__file__).resolve().parents[1]
+    text = subprocess.run(["git", "-C", str(root), "show", f"{ref}:hexatissue/mechanics/__init__.py"],
+                          check=True, capture_output=True, text=True).stdout
+    path = Path(tempfile.mkdtemp()) / "mechanics_baseline.py"
+    path.write_text(text)
+    # a submodule of hexatissue.mechanics, so that its relative imports resolve as in the package
+    spec = importlib.util.spec_from_file_location("hexatissue.mechanics._baseline", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def largest_difference(a, b):
+    """Largest absolute difference of every column of the two Forces' tables and of mu and ABIC."""
+    out = 0.0
+    for x, y in ((a.edges, b.edges), (a.cells, b.cells)):
+        for column in x.columns:
+            u, v = x[column].to_numpy(float), y[column].to_numpy(float)
+            if not np.array_equal(np.isnan(u), np.isnan(v)):
+                return np.inf
+            out = max(out, float(np.nanmax(np.abs(u - v), initial=0.0)))
+    if not a.undetermined.equals(b.undetermined):
+        return np.inf
+    return max(out, abs(a.mu - b.mu), abs(a.abic - b.abic) / max(abs(b.abic), 1.0))
+
+
+def compare(tables, box, repeats, ref):
+    """New / old of each estimate, alternated in this run; the lines of the results file."""
+    old = baseline_module(ref)
+    args = (tables["cells"], tables["vertices"], tables["edges"], tables["cell_vertices"], box)
+    lines = []
+    for label, kw, n_rep in (("Bayes, mu = 0.01, no s.d.", {"method": "bayes", "mu": 0.01, "sd": False}, repeats),
+                             ("least squares", {"method": "lsq"}, repeats),
+                             ("Bayes, ABIC, no s.d.", {"method": "bayes", "sd": False}, 1)):
+        best = {"new": np.inf, "old": np.inf}
+        out = {}
+        for _ in range(n_rep):
+            for name, func in (("old", old.infer_forces), ("new", infer_forces)):
+                start = time.perf_counter()
+                out[name] = func(*args, **kw)
+                best[name] = min(best[name], time.perf_counter() - start)
+        diff = largest_difference(out["new"], out["old"])
+        lines.append(f"| {label} | {best['old']:.3f} s | {best['new']:.3f} s | "
+                     f"**{best['new'] / best['old']:.3f}** | {diff:.1e} |")
+        print(lines[-1], flush=True)
+    return lines
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cells", type=int, default=10000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--sd-cells", type=int, default=1000)
+    parser.add_argument("--baseline", help="git revision whose force inference the Bayesian estimate is "
+                                           "compared with (alternated runs, best of --repeats)")
     args = parser.parse_args()
-    print(f"load average before: {os.getloadavg()}")
+    load_before = os.getloadavg()
+    print(f"load average before: {load_before}")
     tables, box = tissue(args.cells)
     infer_forces(*(tissue(100)[0][k] for k in ("cells", "vertices", "edges", "cell_vertices")), tissue(100)[1])
+    if args.baseline:
+        start = datetime.datetime.now(datetime.timezone.utc)
+        rows = compare(tables, box, args.repeats, args.baseline)
+        head = [f"# Force inference: this tree against `{args.baseline}` (`bench_mechanics.py --baseline`)", "",
+                f"{start:%Y-%m-%d %H:%M} UTC, {platform.machine()} ({os.cpu_count()} cores), Python "
+                f"{platform.python_version()}, one core (`OMP_NUM_THREADS=1`); 1-minute load before "
+                f"{load_before[0]:.1f}.  Periodic Voronoi tissue of {len(tables['cells'])} cells (exact network "
+                f"tables).  Runs alternated old / new; best of {args.repeats} (ABIC: one run each).  The last "
+                "column is the largest absolute difference of every output column (tension, tension_sd, pressure, "
+                "pressure_sd), of mu and of ABIC (relative); inf if the NaNs or the undetermined unknowns differ.",
+                "", "| estimate | old | new | new / old | largest difference |", "|---|---|---|---|---|"]
+        with open(Path(__file__).resolve().parent / "results_mechanics.md", "w") as fh:
+            fh.write("\n".join(head + rows + ["", f"1-minute load after: {os.getloadavg()[0]:.1f}", ""]))
+        return
     run(tables, box, args.repeats, "periodic")
     run(crop(tables, box), None, args.repeats, "open crop")
     small, small_box = tissue(args.sd_cells)

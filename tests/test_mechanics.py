@@ -784,3 +784,25 @@ def test_default_forces_of_shared_datasets_have_no_impossible_tension(real_data,
     ok = np.isfinite(t)
     assert model == "straight" and ok.sum() > 100
     assert not (t[ok] + 1.6448536 * sd[ok] < 0).any() and t[ok].max() < 2  # measured: none, max 1.24-1.56
+
+
+def test_abic_search_reuses_its_best_solve_and_equals_a_fresh_solve_at_that_mu(vertex_model):
+    """The ABIC search returns its best solve instead of factorising the chosen mu again, and the Bayesian path
+    no longer computes the least-squares estimate: both must leave every output as a fresh solve gives it."""
+    tables, _, _, box = vertex_model
+    rng = np.random.default_rng(3)
+    noisy = dict(tables, vertices=tables["vertices"].assign(
+        x=tables["vertices"]["x"] + rng.normal(0, 0.3, len(tables["vertices"])),
+        y=tables["vertices"]["y"] + rng.normal(0, 0.3, len(tables["vertices"]))))
+    searched = _infer(noisy, box, method="bayes")
+    assert 1e-8 < searched.mu < 1e2  # noise makes ABIC choose an interior prior weight
+    fresh = _infer(noisy, box, method="bayes", mu=searched.mu)
+    for a, b in ((searched.edges, fresh.edges), (searched.cells, fresh.cells)):
+        for column in a.columns:
+            assert np.allclose(a[column].to_numpy(float), b[column].to_numpy(float), rtol=0, atol=1e-9,
+                               equal_nan=True), column
+    assert abs(searched.abic - fresh.abic) <= 1e-9 * abs(fresh.abic)
+    assert searched.residual == pytest.approx(fresh.residual, rel=1e-9, abs=1e-12)
+    # the free-unknown probes are shared by both methods: the same unknowns named, for the same reasons
+    lsq = _infer(noisy, box, method="lsq")
+    assert searched.undetermined.equals(lsq.undetermined)

@@ -70,6 +70,8 @@ _EPS = 1e-12
 # lambda = 3e-12 gives 6e-8 after twelve steps.
 _PROBE_STEPS = 12
 _FREE = 1e-6
+# SuperLU's supernode relaxation and panel width for the pinned factor (its defaults: 10 and 20); see _factor
+_RELAX, _PANEL = 1, 12
 _SD_BLOCK = 256  # right-hand sides per solve when the posterior variances are computed
 # Weight of the Young-Laplace rows against the vertex rows (both in force units).  A junction's curvature is a
 # second derivative of its shape, measured less well than the tangents at its ends; a small weight lets the
@@ -380,16 +382,29 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
     return ForceSystem(matrix, t_edge, p_cell, vertex_rows, balanced)
 
 
-def _factor(matrix):
+def _factor(matrix, unrelaxed=False):
     """Sparse LU of a symmetric positive definite matrix: minimum degree on its pattern, pivots on the diagonal.
 
     Diagonal pivots keep the symmetric ordering (the default partial pivoting
-    fills a 2,500-cell system 15 x more and takes 40 x longer).  Should a
-    diagonal pivot vanish, the factorisation is redone with partial pivoting.
+    fills a 2,500-cell system 15 x more and takes 40 x longer).
+    ``unrelaxed``: supernodes are not relaxed (``relax=1``, panels of 12
+    columns): the zeros a relaxed supernode stores cost more than its denser
+    blocks save on these balance equations (the factorisation alone of the
+    10,000-cell benchmark tissue, alternated with the defaults: 13-28 % less
+    time; the whole estimate: benchmarks/results_mechanics.md).  Only the factor whose
+    solves give nothing but the free-unknown test (the Bayesian estimate's
+    pinned factor) is made so: the other solves round differently with
+    another partition into supernodes, and the estimates on the softest modes
+    follow the rounding (least squares moved by 6e-8; near its minimum ABIC is
+    flat down to the rounding of the log-determinant, and its mu moved by 2e-4,
+    relative, on a 10,000-cell tissue).  Should a diagonal pivot vanish, the
+    factorisation is redone with partial pivoting.
     """
     matrix = csc_matrix(matrix)
+    tuning = {"relax": _RELAX, "panel_size": _PANEL} if unrelaxed else {}
     try:
-        return splu(matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        return splu(matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True},
+                    **tuning)
     except RuntimeError:
         return splu(matrix, permc_spec="COLAMD")
 
@@ -501,25 +516,28 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         base = Gs + diags(pin_p)
         pinned = pin_p.copy()
         pinned[t_ref] = 1.0  # and the tension scale
-        lu = _factor(base + diags(pinned - pin_p) + _EPS * identity(n))
-        As = A @ S
-
-        def solve(rhs):
-            """M^-1 rhs (columns), refined with the residual of A itself: the long-wavelength stress modes make
-            A ill-conditioned, and its normal equations square that."""
-            y = lu.solve(rhs)
-            for _ in range(2):
-                y = y + lu.solve(rhs - As.T @ (As @ y) - pinned[:, None] * y)
-            return y
+        lu = _factor(base + diags(pinned - pin_p) + _EPS * identity(n), unrelaxed=method == "bayes")
 
         # least squares with the mean tension fixed, min |A x|^2 at c.x = 1, is proportional to G+^-1 c for G+ =
         # G with the pressure pinned; with the tension pinned too (M = G+ + e e'), Sherman-Morrison gives
-        # G+^-1 c ~ (1 - e'M^-1 e) M^-1 c + (e'M^-1 c) M^-1 e, bounded even where G+ is singular (exact forces)
-        c = np.r_[scale[:n_t], np.zeros(n_p)]
-        e = np.zeros(n)
-        e[t_ref] = 1.0
-        m_e, m_c = solve(np.stack([e, c], axis=1)).T
-        x_lsq = (1.0 - m_e[t_ref]) * m_c + m_c[t_ref] * m_e
+        # G+^-1 c ~ (1 - e'M^-1 e) M^-1 c + (e'M^-1 c) M^-1 e, bounded even where G+ is singular (exact forces).
+        # The Bayesian estimate uses the pinned factor for the probes below only.
+        if method == "lsq":
+            As = A @ S
+
+            def solve(rhs):
+                """M^-1 rhs (columns), refined with the residual of A itself: the long-wavelength stress modes make
+                A ill-conditioned, and its normal equations square that."""
+                y = lu.solve(rhs)
+                for _ in range(2):
+                    y = y + lu.solve(rhs - As.T @ (As @ y) - pinned[:, None] * y)
+                return y
+
+            c = np.r_[scale[:n_t], np.zeros(n_p)]
+            e = np.zeros(n)
+            e[t_ref] = 1.0
+            m_e, m_c = solve(np.stack([e, c], axis=1)).T
+            x_lsq = (1.0 - m_e[t_ref]) * m_c + m_c[t_ref] * m_e
         # the null modes of the pinned equations (beyond scale and pressure constant), probed at random: the
         # regularisation keeps them at O(1), every determined unknown at O(eps / eigenvalue)
         # Every network is probed, also one whose count of equations leaves no free mode: a regular lattice has
@@ -541,13 +559,20 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
             rhs = np.r_[scale[:n_t], np.zeros(n_p)]
             n_dof = A.shape[0] + n_t - (n - 1)
 
+            lowest = {}  # the search's best solve, returned again for the chosen mu instead of factorised anew
+
             def solve(m):
+                if lowest.get("mu") == m:
+                    return lowest["out"]
                 f = _factor(base + m * prior + _EPS * identity(n))
                 xs = f.solve(m * rhs)
                 xx = scale * xs
                 s2 = float(np.sum((A @ xx) ** 2) + m * np.sum((xx[:n_t] - 1.0) ** 2))
                 logdet = float(np.sum(np.log(np.abs(f.U.diagonal()))))
-                return f, xx, s2, n_dof * np.log(max(s2, 1e-300)) - n_t * np.log(m) + logdet
+                out = f, xx, s2, n_dof * np.log(max(s2, 1e-300)) - n_t * np.log(m) + logdet
+                if mu is None and out[3] < lowest.get("out", (None,) * 3 + (np.inf,))[3]:
+                    lowest.update(mu=m, out=out)
+                return out
 
             if mu is None:
                 grid = np.arange(_LOG_MU[0], _LOG_MU[1] + 0.01, 1.0)
