@@ -23,11 +23,11 @@ import pandas as pd
 
 from ..box import as_box
 from ..errors import InputError, check_positive
-from ..schema import interior_mask, require_columns, track_ids, validate
+from ..schema import interior_mask, require_columns, validate
 from ..units import as_calibration
 from . import _kernels as K
 from .centred import angular_harmonics, defect_flow, t1_flow
-from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _sorted_by_track, cell_spacing, correlation_length,
+from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _track_rows, cell_spacing, correlation_length,
                          flow_summary, mean_squared_displacement, msd_exponent, reliable_bins, rms_step,
                          velocity_correlation, velocity_statistics)
 
@@ -66,12 +66,8 @@ def cell_velocities(cells, box=None):
         Velocity along x (columns) and y (rows) of every row of ``cells``, in
         row order, px/frame (NaN where undefined, see above).
     """
-    require_columns(cells, ["frame", "x", "y"], "cells")
     box = as_box(box)
-    track, frame = track_ids(cells), cells["frame"].to_numpy(np.int64)
-    order = _sorted_by_track(track, frame)
-    t, f = track[order], frame[order]
-    xy = cells[["x", "y"]].to_numpy(float)[order]
+    order, t, f, xy = _track_rows(cells)
     # row k (in track order) is followed by the same track one frame later
     step = (t[1:] == t[:-1]) & (f[1:] == f[:-1] + 1)
     centred = np.zeros(len(t), bool)

@@ -23,6 +23,14 @@ def _sorted_by_track(track, frame):
     return np.lexsort((frame, track))
 
 
+def _track_rows(cells):
+    """The rows of ``cells`` by (track, frame): their order, and track, frame and (x, y) in that order."""
+    require_columns(cells, ["frame", "x", "y"], "cells")
+    track, frame = track_ids(cells), cells["frame"].to_numpy(np.int64)
+    order = _sorted_by_track(track, frame)
+    return order, track[order], frame[order], cells[["x", "y"]].to_numpy(float)[order]
+
+
 def _moving_cells(cells):
     """Rows that enter the statistics: interior cells with a finite position and velocity."""
     require_columns(cells, ["frame", "x", "y", "vx", "vy"], "cells")
@@ -337,15 +345,11 @@ def mean_squared_displacement(cells, box=None, lags=None):
         One row per lag: ``lag`` (frames), ``msd`` (px^2; NaN without pairs),
         ``n_pairs``.
     """
-    require_columns(cells, ["frame", "x", "y"], "cells")
     box = as_box(box)
-    track, frame = track_ids(cells), cells["frame"].to_numpy(np.int64)
+    order, t, f, xy = _track_rows(cells)
     if lags is None:
-        lags = _default_lags(int(frame.max() - frame.min()) + 1 if len(frame) else 1)
+        lags = _default_lags(int(f.max() - f.min()) + 1 if len(f) else 1)
     lags = np.asarray([check_positive(v, "lags", integer=True) for v in np.atleast_1d(lags)], np.int64)
-    order = _sorted_by_track(track, frame)
-    t, f = track[order], frame[order]
-    xy = cells[["x", "y"]].to_numpy(float)[order]
     inner = interior_mask(cells)[order] & np.isfinite(xy).all(axis=1)
     if box is not None and len(xy):  # unwrap: each track's path from minimum-image steps
         step = box.min_image(np.diff(xy, axis=0))
@@ -388,12 +392,8 @@ def rms_step(cells, box=None):
     reverses within a frame (centroid jitter of the segmentation, fluctuations), which a difference over
     two frames averages out.
     """
-    require_columns(cells, ["frame", "x", "y"], "cells")
     box = as_box(box)
-    track, frame = track_ids(cells), cells["frame"].to_numpy(np.int64)
-    order = _sorted_by_track(track, frame)
-    t, f = track[order], frame[order]
-    xy = cells[["x", "y"]].to_numpy(float)[order]
+    order, t, f, xy = _track_rows(cells)
     inner = interior_mask(cells)[order] & np.isfinite(xy).all(axis=1)
     ok = (t[1:] == t[:-1]) & (f[1:] == f[:-1] + 1) & inner[1:] & inner[:-1]
     step = xy[1:][ok] - xy[:-1][ok]
