@@ -11,7 +11,7 @@ from hexatissue.mechanics import cell_stress, force_system, frame_forces, infer_
 from hexatissue.mechanics.curvature import fit_arcs, junction_curvature, junction_shapes
 from hexatissue.mechanics.evolver import evolver_labels, evolver_network, read_evolver
 from hexatissue.schema import validate
-from hexatissue.synthetic import (arc_vertex_model_tissue, arcs_at_balance, network_labels, periodic_voronoi_network,
+from hexatissue.synthetic import (arcs_at_balance, network_labels, periodic_voronoi_network,
                                   vertex_model_tissue, voronoi_labels, jittered_seeds)
 
 from .conftest import real_subdir
