@@ -287,6 +287,19 @@ def test_correlation_length_is_refused_with_its_reason():
     assert correlation_length(sparse).length == pytest.approx(4.0, rel=0.05)
 
 
+def test_a_noisy_bin_near_zero_does_not_end_the_fit_but_a_significant_zero_does():
+    from hexatissue.flow import correlation_length
+
+    r = np.arange(10.0, 90.0, 5.0)
+    c = 0.8 * np.exp(-r / 25.0)
+    table = pd.DataFrame({"r": r, "correlation": c, "correlation_sd": 0.01, "n_pairs": 1000})
+    noisy_first = table.assign(correlation=np.where(r == 10.0, -0.05, c), correlation_sd=np.where(r == 10.0, 0.3, 0.01))
+    fit = correlation_length(noisy_first, spacing=8.0)
+    assert fit.n_bins == len(r) and fit.length == pytest.approx(25.0, rel=0.05)
+    significant = table.assign(correlation=np.where(r == 30.0, -0.05, c))  # below 0 by 5 s.e.: C's first zero
+    assert correlation_length(significant, spacing=8.0).n_bins == 4
+
+
 def test_rms_step_exceeds_the_centred_velocity_by_the_centroid_jitter():
     from hexatissue.flow import cell_velocities, rms_step
 

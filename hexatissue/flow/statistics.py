@@ -234,7 +234,8 @@ def correlation_length(correlation, spacing=None):
     """Decay length of a velocity correlation: a fit of ``C(r) = A exp(-r / xi) + B``.
 
     The fit runs over the :func:`reliable_bins` from the first one up to the
-    last before C(r) first falls to 0 or below (anticorrelation further out,
+    last before C(r) first falls below 0 by more than its standard error
+    (below 0 at all without ``correlation_sd``; anticorrelation further out,
     e.g. of vortices, is not an exponential decay), weighted by the bins'
     ``correlation_sd`` when the table has it.  The amplitude A is free, so
     velocity noise that does not correlate between neighbours (A < 1) does
@@ -269,7 +270,9 @@ def correlation_length(correlation, spacing=None):
     c = correlation["correlation"].to_numpy(float)[keep]
     sd = (correlation["correlation_sd"].to_numpy(float)[keep] if "correlation_sd" in correlation.columns
           else np.full(len(keep), np.nan))
-    stop = np.flatnonzero(c <= 0)
+    # C's first zero: the first bin below 0 by more than its standard error (a noisy bin of few pairs near 0,
+    # whose error bar reaches above it, does not end the fit); without standard errors, the first bin <= 0
+    stop = np.flatnonzero(c + np.where(np.isfinite(sd), sd, 0.0) <= 0)
     n = int(stop[0]) if len(stop) else len(c)
     r_all, c_all = r, c
     r, c, sd = r[:n], c[:n], sd[:n]
@@ -286,8 +289,12 @@ def correlation_length(correlation, spacing=None):
     weighted = bool(np.all(np.isfinite(sd) & (sd > 0)))
     if weighted:  # a bin whose few pairs every resampling repeats would otherwise weigh without bound
         sd = np.maximum(sd, 0.1 * np.median(sd))
-    # the start: a straight line through log C
-    slope, offset = np.polyfit(r, np.log(c), 1)
+    # the start: a straight line through log C of the positive bins
+    positive = c > 0
+    if positive.sum() < 2:
+        return refused("C(r) has fewer than 2 positive bins before its first zero: the velocities hardly correlate "
+                       "between cells")
+    slope, offset = np.polyfit(r[positive], np.log(c[positive]), 1)
     start = (min(float(np.exp(offset)), 1.0), -1.0 / slope if slope < 0 else 10.0 * float(r[-1]))
     model = lambda x, a, xi, b: a * np.exp(-x / xi) + b  # noqa: E731
     try:
@@ -308,8 +315,9 @@ def correlation_length(correlation, spacing=None):
     if not xi_sd < xi:
         return refused(f"C(r) is too noisy to fix a length (the fit gives {xi:.3g} ± {xi_sd:.3g} px)", amplitude)
     if xi > r[-1]:
-        return refused(f"C(r) decays over {xi:.3g} px, beyond the fitted range ({r[-1]:.3g} px): the correlation "
-                       f"is longer than the field measures", amplitude)
+        return refused(f"C(r) hardly decays within the fitted range ({r[-1]:.3g} px; the fit's amplitude A = "
+                       f"{amplitude:.2g} and decay length {xi:.3g} px): the correlation is longer than the field "
+                       f"measures", amplitude)
     return CorrelationLength(float(xi), xi_sd, float(amplitude), float(offset), n, float(r[-1]), "")
 
 
