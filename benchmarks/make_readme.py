@@ -27,9 +27,9 @@ HEADER = """\
 
 Scripts that measure speed, memory and accuracy against truth. Each writes (or prints) its results with the
 machine, the date and the 1-minute load at measurement time; the figures live in the `results_*.md` files
-linked below. Timings are never asserted in tests. The machine is a shared 2-core VM whose speed varies by
-up to 2x from minute to minute, so compare figures taken in the same run (most scripts alternate the two
-codes they compare) and read every figure with its load.
+linked below. Timings are never asserted in tests. The machine is a shared 2-core VM whose speed changes
+from run to run (the same rendering code: 50 or 80 frames/s, `results_render.md`), so compare figures taken
+in the same run (most scripts alternate the two codes they compare) and read every figure with its load.
 
 Run a benchmark from the repository root with the tree on the path, e.g.
 `PYTHONPATH=$PWD python benchmarks/bench_mesh.py`; each script's docstring gives its options. Programs
