@@ -53,7 +53,7 @@ Usage::
 Default (200 frames, 1024^2, workers 2 and 1): 6.5 minutes on the shared 2-core machine at load
 3-8, plus about 2 minutes the first time to build the 419 MB stack.  Under load the sampler
 manages ~7 samples/s, not 20: the tree peak can miss a spike shorter than that; the main peak
-(VmHWM) cannot.  Results: ``benchmarks/README.md``.
+(VmHWM) cannot.  Results: ``benchmarks/results_memory.md``.
 """
 from __future__ import annotations
 

@@ -22,7 +22,7 @@ then a fresh ``ThreadTuner`` per timed run; compared with the C code at 2 OpenMP
 on this machine; the table lists the count used for each chunk).
 The C code runs with the OpenMP environment the script was started with (libgomp's default spinning
 waits unless ``OMP_WAIT_POLICY`` is set); hexatissue and the baseline with their own defaults (passive
-waits, after a short spin since this branch).
+waits, after a short spin).
 
 Usage::
 

@@ -11,7 +11,7 @@ the normal approximation of the shot noise, and every feature on (curvature, Air
 bleaching, nuclear channel).  Prints the median frames/s of the repeats (and the best) by wall time,
 and by the process's CPU time (on a loaded machine the better estimate of a quiet core, since the
 renderer is single-threaded), with the machine, date and ``uptime`` load; results go to
-benchmarks/README.md by hand.  Timings are never asserted.
+benchmarks/results_render.md by hand.  Timings are never asserted.
 
 ``--against DIR`` times the hexatissue of another checkout (e.g. a worktree of main) in the same
 process, pass for pass alternating with this one (the order swapped every repeat), so both see the

@@ -7,8 +7,7 @@ analyses a small moving Voronoi movie with every default stage, its mesh made by
 the plain-numpy references (so that it does not compile the kernels the run
 itself compiles first), and so compiles the order, defect, tracking, event and
 flow kernels into numba's cache while the run compiles the mesh's; the run
-then loads them from the cache.  Measured in benchmarks/README.md ("First
-run").
+then loads them from the cache.  Measured in benchmarks/results_precompile.md.
 """
 from __future__ import annotations
 

@@ -15,9 +15,6 @@ from hexatissue.benchmark.truth import T1_KEY
 from hexatissue.cli import main
 from hexatissue.synthetic import t1_movie
 
-# until the Cell Tracking Challenge writer (hexatissue.exchange.ctc, another branch) is merged, make_benchmark
-# warns that it writes no ctc/ folder
-
 ROOT = Path(__file__).resolve().parents[1]
 RUN = ROOT / "hexatissue" / "sample_data" / "mpf_small" / "run.zarr"
 QUIET = dict(progress=False)

@@ -114,7 +114,7 @@ def test_the_manifest_validates_and_its_commands_import():
     assert {w.command for w in manifest.contributions.writers} == {"hexatissue.write_ome_zarr", "hexatissue.write_ctc",
                                                                     "hexatissue.write_geff"}
     assert [s.key for s in manifest.contributions.sample_data] == ["epicure"]
-    # and npe2's own command line, importing every python_name (this worktree's package first on the path)
+    # and npe2's own command line, importing every python_name (this checkout's package first on the path)
     import subprocess
     import sys
 

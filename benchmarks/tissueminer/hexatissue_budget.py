@@ -8,7 +8,7 @@ TissueMiner, so both codes see the same positions.
 
 Usage::
 
-    PYTHONPATH=/work/wt-tm python benchmarks/tissueminer/hexatissue_budget.py RESULTS_DIR --out DEFORMATION.parquet [--centres CSV]
+    PYTHONPATH=$PWD python benchmarks/tissueminer/hexatissue_budget.py RESULTS_DIR --out DEFORMATION.parquet [--centres CSV]
 """
 from __future__ import annotations
 

@@ -35,7 +35,7 @@ Labels are int32, ``[row, col]``; x = column, y = row (hexatissue's convention).
 
 Usage::
 
-    PYTHONPATH=/work/wt-tm python benchmarks/tissueminer/movies.py --kind shear --out /tmp/tmbench/shear
+    PYTHONPATH=$PWD python benchmarks/tissueminer/movies.py --kind shear --out /tmp/tmbench/shear
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole side-by-side check: synthetic movies -> hexatissue.analyze -> TissueMiner DB ->
 # TissueMiner's shear code -> comparison.   OUT defaults to /tmp/tmbench.
-#   PYTHONPATH=/work/wt-tm benchmarks/tissueminer/run_all.sh [OUT]
+#   PYTHONPATH=$PWD benchmarks/tissueminer/run_all.sh [OUT]
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 OUT="${1:-/tmp/tmbench}"

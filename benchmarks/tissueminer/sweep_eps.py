@@ -8,7 +8,7 @@ record per term the mean over frame pairs and the largest deviation from the exa
 
 Usage::
 
-    PYTHONPATH=/work/wt-tm python benchmarks/tissueminer/sweep_eps.py --tables /tmp/tmbench/shear/tables \
+    PYTHONPATH=$PWD python benchmarks/tissueminer/sweep_eps.py --tables /tmp/tmbench/shear/tables \
         --out /tmp/tmbench/sweep [--eps 0.0025 0.005 0.01 0.02 0.04]
 """
 from __future__ import annotations

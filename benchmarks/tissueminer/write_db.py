@@ -42,7 +42,7 @@ track ends, its daughters are new tracks, as TissueMiner's ids); center = the pi
 
 Usage::
 
-    PYTHONPATH=/work/wt-tm python benchmarks/tissueminer/write_db.py RESULTS_DIR OUT_DIR/MOVIE [--triangles tm|hexatissue]
+    PYTHONPATH=$PWD python benchmarks/tissueminer/write_db.py RESULTS_DIR OUT_DIR/MOVIE [--triangles tm|hexatissue]
 """
 from __future__ import annotations
 

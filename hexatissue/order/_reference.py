@@ -51,7 +51,7 @@ def disk_coverage(mask, node_i, node_j, half_width):
 
 def reference_shape_functions(xy, starts, orders, center):
     """Plain-numpy reference of :func:`hexatissue.order._kernels.shape_sums`: the transcendental form
-    ``sum |r|^p exp(i p phi) / sum |r|^p`` (the package's formula up to session 7)."""
+    ``sum |r|^p exp(i p phi) / sum |r|^p`` (the form the kernel's complex powers replace)."""
     n = len(starts)
     lengths = np.diff(np.r_[starts, len(xy)])
     with np.errstate(invalid="ignore", divide="ignore"):
