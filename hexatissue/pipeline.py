@@ -3,10 +3,12 @@
 It runs the list of stages (:data:`hexatissue.stages.STAGES`) over a source:
 
     open_source(...)  ->  per frame, in parallel: the frame stages (labels -> junction network
-                                                  -> intensities -> gamma_p -> Gamma_p and defects)
+                                                  -> intensities -> gamma_p -> Gamma_p and defects
+                                                  -> tensions, pressures and stress)
                       ->  in frame order, in this process: cell tracking
                       ->  over the movie: the movie stages (tracks and lineage, defect tracks and
-                                          pair events, T1 events, per-cell statistics)
+                                          pair events, tissue flow, T1 events, per-cell
+                                          statistics, the deformation budget)
                       ->  Movie  ->  Movie.write(folder)  <->  read_results(folder)
 
 Frames are read one at a time from the :class:`~hexatissue.Source` and sent

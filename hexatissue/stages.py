@@ -192,6 +192,70 @@ def _fields(frame, options):
     frame.tables.update(grid=grid, defects=find_defects(grid, p=options.p, box=frame.box))
 
 
+def _mechanics(frame, options):
+    """Tensions, pressures and stress of the frame from force balance, and the stress on its Gamma_p grid."""
+    tables = {name: pd.DataFrame(frame.tables[name]) for name in ("cells", "vertices", "edges", "cell_vertices")}
+    cells, edges = tables["cells"], tables["edges"]
+    # the junction model needs the junctions' own pixels: a label image (not polygons)
+    forces, curvature, model, share = frame_forces(frame.labels, cells, tables["vertices"], edges,
+                                                   tables["cell_vertices"], box=frame.box,
+                                                   junctions=options.junctions, method=options.method,
+                                                   mu=options.mu, sd=options.sd)
+    stress = cell_stress(cells, tables["vertices"], edges, forces.edges["tension"].to_numpy(),
+                         forces.cells["pressure"].to_numpy(), box=frame.box)
+    columns = {"cells": {"pressure": forces.cells["pressure"], "pressure_sd": forces.cells["pressure_sd"],
+                         **{c: stress[c] for c in ("stress_xx", "stress_xy", "stress_yy")}},
+               "edges": {"tension": forces.edges["tension"], "tension_sd": forces.edges["tension_sd"],
+                         "curvature": pd.Series(curvature)}}
+    for name, new in columns.items():
+        table = frame.tables[name]
+        for column, values in new.items():
+            table[column] = values.to_numpy(float)
+    grid = frame.tables.get("grid")
+    if grid is not None and len(grid):
+        frame.tables["stress"] = stress_grid(cells, stress, pd.DataFrame(grid), box=frame.box)
+    else:
+        frame.tables["stress"] = empty_table("stress")
+    frame.tables["force_fit"] = pd.DataFrame({
+        "frame": [frame.t], "arcs": [model == "curved"], "curved_share": [share], "mu": [forces.mu],
+        "residual": [forces.residual], "n_equations": [forces.n_equations], "n_unknowns": [forces.n_unknowns],
+        "n_free": [int((forces.undetermined["reason"] == "free").sum())]})
+    if options.method == "bayes" and options.mu is None and forces.mu >= MU_RANGE[1] * (1 - 1e-9):
+        # measured on mouse_epidermis_laptrack frame 1: every tension 1.00 with a median s.d. of 0.012
+        warnings.warn(f"force inference: ABIC chose the largest prior weight it searches ({MU_RANGE[1]:g}): the "
+                      f"junctions' geometry does not resolve tension differences here, so every tension is the "
+                      f"prior's 1 and its s.d. the prior's, not a measurement", HexatissueWarning,
+                      stacklevel=user_stacklevel())
+    missing = forces.undetermined
+    if len(missing):
+        warnings.warn(_undetermined_warning(missing, options.method, n_edges=len(forces.edges), n_cells=len(forces.cells),
+                                            n_equations=int(forces.n_equations)),
+                      stacklevel=user_stacklevel())
+
+
+def _undetermined_warning(missing, method, n_edges, n_cells, n_equations):
+    """A :class:`FrameWarning` for the tensions and pressures the force balance does not fix: those it leaves free
+    (an open tissue's border leaves fewer balanced vertices than unknowns: Bayes's prior completes them, least
+    squares leaves them NaN) and those with no equation at all (NaN either way), counted in the frame's detail."""
+    free = missing["reason"] == "free"
+    counts = missing[~free].groupby(["kind", "reason"]).size()
+    no_estimate = "; ".join(f"{n} {kind}(s): {reason}" for (kind, reason), n in counts.items())
+    edges_free = int((free & (missing["kind"] == "edge")).sum())
+    cells_free = int((free & (missing["kind"] == "cell")).sum())
+    detail = (f"{edges_free} of {n_edges} tensions and {cells_free} of {n_cells} pressures not fixed by the balance "
+              f"alone, {n_equations} equations" + (f"; no estimate: {no_estimate}" if no_estimate else ""))
+    if method == "lsq":
+        text = ("force inference (least squares): the force balance does not fix every tension and pressure (an open "
+                "tissue's border leaves fewer balanced vertices than unknowns); those it leaves free are NaN, as are "
+                "those without an equation; the Bayesian estimate (--mechanics-method bayes) completes the free ones")
+    else:
+        text = ("force inference: the force balance alone does not fix every tension and pressure (an open tissue's "
+                "border leaves fewer balanced vertices than unknowns); the Bayesian estimate completes the free ones "
+                "with its prior of equal tensions, and their tension_sd / pressure_sd say how well the data pin them; "
+                "tensions and pressures without any equation are NaN")
+    return FrameWarning(text, detail)
+
+
 # ----------------------------------------------------------------------------
 # Movie stages
 # ----------------------------------------------------------------------------
@@ -307,70 +371,6 @@ def _doubtful_intervals(movie) -> set:
     return bad
 
 
-def _mechanics(frame, options):
-    """Tensions, pressures and stress of the frame from force balance, and the stress on its Gamma_p grid."""
-    tables = {name: pd.DataFrame(frame.tables[name]) for name in ("cells", "vertices", "edges", "cell_vertices")}
-    cells, edges = tables["cells"], tables["edges"]
-    # the junction model needs the junctions' own pixels: a label image (not polygons)
-    forces, curvature, model, share = frame_forces(frame.labels, cells, tables["vertices"], edges,
-                                                   tables["cell_vertices"], box=frame.box,
-                                                   junctions=options.junctions, method=options.method,
-                                                   mu=options.mu, sd=options.sd)
-    stress = cell_stress(cells, tables["vertices"], edges, forces.edges["tension"].to_numpy(),
-                         forces.cells["pressure"].to_numpy(), box=frame.box)
-    columns = {"cells": {"pressure": forces.cells["pressure"], "pressure_sd": forces.cells["pressure_sd"],
-                         **{c: stress[c] for c in ("stress_xx", "stress_xy", "stress_yy")}},
-               "edges": {"tension": forces.edges["tension"], "tension_sd": forces.edges["tension_sd"],
-                         "curvature": pd.Series(curvature)}}
-    for name, new in columns.items():
-        table = frame.tables[name]
-        for column, values in new.items():
-            table[column] = values.to_numpy(float)
-    grid = frame.tables.get("grid")
-    if grid is not None and len(grid):
-        frame.tables["stress"] = stress_grid(cells, stress, pd.DataFrame(grid), box=frame.box)
-    else:
-        frame.tables["stress"] = empty_table("stress")
-    frame.tables["force_fit"] = pd.DataFrame({
-        "frame": [frame.t], "arcs": [model == "curved"], "curved_share": [share], "mu": [forces.mu],
-        "residual": [forces.residual], "n_equations": [forces.n_equations], "n_unknowns": [forces.n_unknowns],
-        "n_free": [int((forces.undetermined["reason"] == "free").sum())]})
-    if options.method == "bayes" and options.mu is None and forces.mu >= MU_RANGE[1] * (1 - 1e-9):
-        # measured on mouse_epidermis_laptrack frame 1: every tension 1.00 with a median s.d. of 0.012
-        warnings.warn(f"force inference: ABIC chose the largest prior weight it searches ({MU_RANGE[1]:g}): the "
-                      f"junctions' geometry does not resolve tension differences here, so every tension is the "
-                      f"prior's 1 and its s.d. the prior's, not a measurement", HexatissueWarning,
-                      stacklevel=user_stacklevel())
-    missing = forces.undetermined
-    if len(missing):
-        warnings.warn(_undetermined_warning(missing, options.method, n_edges=len(forces.edges), n_cells=len(forces.cells),
-                                            n_equations=int(forces.n_equations)),
-                      stacklevel=user_stacklevel())
-
-
-def _undetermined_warning(missing, method, n_edges, n_cells, n_equations):
-    """A :class:`FrameWarning` for the tensions and pressures the force balance does not fix: those it leaves free
-    (an open tissue's border leaves fewer balanced vertices than unknowns: Bayes's prior completes them, least
-    squares leaves them NaN) and those with no equation at all (NaN either way), counted in the frame's detail."""
-    free = missing["reason"] == "free"
-    counts = missing[~free].groupby(["kind", "reason"]).size()
-    no_estimate = "; ".join(f"{n} {kind}(s): {reason}" for (kind, reason), n in counts.items())
-    edges_free = int((free & (missing["kind"] == "edge")).sum())
-    cells_free = int((free & (missing["kind"] == "cell")).sum())
-    detail = (f"{edges_free} of {n_edges} tensions and {cells_free} of {n_cells} pressures not fixed by the balance "
-              f"alone, {n_equations} equations" + (f"; no estimate: {no_estimate}" if no_estimate else ""))
-    if method == "lsq":
-        text = ("force inference (least squares): the force balance does not fix every tension and pressure (an open "
-                "tissue's border leaves fewer balanced vertices than unknowns); those it leaves free are NaN, as are "
-                "those without an equation; the Bayesian estimate (--mechanics-method bayes) completes the free ones")
-    else:
-        text = ("force inference: the force balance alone does not fix every tension and pressure (an open tissue's "
-                "border leaves fewer balanced vertices than unknowns); the Bayesian estimate completes the free ones "
-                "with its prior of equal tensions, and their tension_sd / pressure_sd say how well the data pin them; "
-                "tensions and pressures without any equation are NaN")
-    return FrameWarning(text, detail)
-
-
 def _fields_on(options):
     return options.fields
 
@@ -379,7 +379,8 @@ def _enabled(options):
     return options.enabled
 
 
-#: Every stage of :func:`hexatissue.analyze`, in the order it runs (frame stages, then movie stages).
+#: Every stage of :func:`hexatissue.analyze`, in the order it runs: the frame stages (each frame, in a worker), then
+#: the movie stages (once, in the main process).  ``tests/test_stages.py`` records a run and compares.
 STAGES = (
     Stage("junction network", MeshOptions, "frame", reads=("labels",),
           writes=("cells", "vertices", "edges", "cell_vertices", "labels", "polygons"), run=_mesh),
@@ -391,6 +392,11 @@ STAGES = (
           writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order),
     Stage("order fields", OrderOptions, "frame", reads=("cells",), writes=("grid", "defects"), run=_fields,
           enabled=_fields_on),
+    Stage("mechanics", MechanicsOptions, "frame",
+          reads=("labels", "cells", "vertices", "edges", "cell_vertices", "grid"),
+          writes=("edges.tension", "edges.tension_sd", "edges.curvature", "cells.pressure", "cells.pressure_sd",
+                  "cells.stress_xx", "cells.stress_xy", "cells.stress_yy", "stress", "force_fit"),
+          run=_mechanics, enabled=_enabled),
     Stage("tracks", TrackOptions, "movie", reads=("cells",), writes=("cells.track", "lineage"), run=_tracks),
     Stage("defect tracks", OrderOptions, "movie", reads=("cells", "grid", "defects"),
           writes=("defects.track", "defect_events"), run=_defect_tracks, enabled=_fields_on),
@@ -403,11 +409,6 @@ STAGES = (
     Stage("deformation budget", DeformationOptions, "movie",
           reads=("cells", "vertices", "cell_vertices", "lineage", "events", "neighbour_events", "grid"),
           writes=("deformation", "events.shear_xx", "events.shear_xy"), run=_deformation, enabled=_enabled),
-    # a frame stage: it runs after the order fields, whose grid it reads
-    Stage("mechanics", MechanicsOptions, "frame", reads=("labels", "cells", "vertices", "edges", "cell_vertices",
-                                                         "grid"),
-          writes=("edges.tension", "edges.tension_sd", "edges.curvature", "cells.pressure", "cells.pressure_sd", "cells.stress_xx",
-                  "cells.stress_xy", "cells.stress_yy", "stress", "force_fit"), run=_mechanics, enabled=_enabled),
 )
 
 

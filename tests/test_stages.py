@@ -5,7 +5,7 @@ adds one (an options class, schema entries, one entry in ``STAGES``), and
 ``analyze``, the results folder, the checkpoints and the command line take
 them up with no other change.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -66,6 +66,37 @@ def test_the_stages_that_run_follow_the_options():
     assert [s.name for s in S.frame_stages(off)] == ["junction network", "intensity", "shape order"]
     assert "defect tracks" not in [s.name for s in S.movie_stages(off)]
     assert S.frame_tables(S.frame_stages(off)) == ("cells", "vertices", "edges", "cell_vertices")
+
+
+def test_frame_stages_are_listed_before_movie_stages():
+    per = [s.per for s in S.STAGES]
+    assert per == sorted(per, key=("frame", "movie").index), [s.name for s in S.STAGES]
+
+
+def _recorded(stage, log):
+    """The stage's entry with a ``run`` that first notes the stage's name in ``log``."""
+    def run(data, options):
+        log.append(stage.name)
+        return stage.run(data, options)
+    return replace(stage, run=run)
+
+
+def test_stages_are_listed_in_the_order_analyze_runs_them(monkeypatch):
+    """A run with every stage on, recorded: the list's order is the order the stages ran in."""
+    from hexatissue import DeformationOptions, MechanicsOptions
+
+    log = []
+    monkeypatch.setattr(S, "STAGES", tuple(_recorded(s, log) for s in S.STAGES))
+    movie_frames = voronoi_movie(30, (64, 64), 3, periodic=False, amplitude=0.3, seed=1)
+    labels = np.stack([np.asarray(movie_frames[t]) for t in range(3)])
+    image = np.random.default_rng(0).random(labels.shape)
+    analyze(labels, intensity=image, mechanics=MechanicsOptions(enabled=True),
+            deformation=DeformationOptions(enabled=True), workers=1, progress=False)
+    listed = [s.name for s in S.STAGES]
+    assert list(dict.fromkeys(log)) == listed  # every stage ran, first in the list's order
+    per_frame = [s.name for s in S.STAGES if s.per == "frame"]
+    once = [s.name for s in S.STAGES if s.per == "movie"]
+    assert log == per_frame * 3 + once
 
 
 # --- a new frame stage and a new movie stage, added as a contributor would --------------------------------

@@ -91,7 +91,8 @@ def test_random_relabelling_recovers_identity():
 def test_split_into_components_gives_same_links(monkeypatch):
     stack = relabel_movie(_movie(n_frames=4), seed=2)[0]
     ref = track_labels(stack)[0]
-    monkeypatch.setattr(trk, "_DENSE_LIMIT", 4)
+    for module in (trk.overlap, trk.linking):  # the overlap counts and the assignment
+        monkeypatch.setattr(module, "_DENSE_LIMIT", 4)
     assert track_labels(stack)[0].equals(ref)
 
 
@@ -264,13 +265,13 @@ def test_division_kernel_equals_reference():
         area_a, area_b = rng.integers(1, 30, na), rng.integers(1, 30, nb)
         n = np.minimum(rng.integers(1, 30, len(i)), np.minimum(area_a[i], area_b[j]))  # ties in n and IoU
         args = (i, j, n, area_a, area_b, rng.choice([0.3, 0.6, 1.0]), rng.choice([0.1, 0.2]), rng.choice([0.2, 0.5]))
-        for a, b in zip(trk._divisions(*args), R._divisions_reference(*args)):
+        for a, b in zip(trk.linking._divisions(*args), R._divisions_reference(*args)):
             assert a.dtype == b.dtype and a.shape == b.shape
             np.testing.assert_array_equal(a, b)
         found += len(b) > 0
     assert found > 50
     # hand-made: mother 0 (area 10) split into cells 0 and 1 (4 and 5 px inside it); cell 1 of a moved to cell 2
-    mothers, daughters = trk._divisions(np.array([0, 0, 1]), np.array([0, 1, 2]), np.array([4, 5, 8]),
+    mothers, daughters = trk.linking._divisions(np.array([0, 0, 1]), np.array([0, 1, 2]), np.array([4, 5, 8]),
                                         np.array([10, 9]), np.array([4, 5, 9]), 0.6, 0.2, 0.2)
     assert mothers.tolist() == [0] and daughters.tolist() == [[1, 0]]
 
@@ -286,9 +287,9 @@ def test_fused_compaction_and_overlaps_equal_the_two_kernels():
             cur = np.repeat(cur[:, : max(shape[1] // 3, 1)], 3, axis=1)[:, : shape[1]]
             cur = np.pad(cur, ((0, 0), (0, shape[1] - cur.shape[1])))
         for dtype in (np.uint8, np.uint16, np.int32, np.int64):
-            a = trk._compact(prev.astype(dtype))
-            got, overlaps = trk._compact_after(a, cur.astype(dtype))
-            want = trk._compact_reference(cur.astype(dtype))
+            a = trk.overlap._compact(prev.astype(dtype))
+            got, overlaps = trk.overlap._compact_after(a, cur.astype(dtype))
+            want = trk.overlap._compact_reference(cur.astype(dtype))
             for name in ("index", "ids", "area"):
                 assert getattr(got, name).dtype == getattr(want, name).dtype
                 np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
@@ -305,7 +306,7 @@ def test_compact_kernel_equals_reference():
     cases += [np.zeros((4, 5), np.int64), np.full((3, 3), 9)]
     for lab in cases:
         for dtype in (np.uint8, np.uint16, np.int32, np.int64):
-            a, b = trk._compact(lab.astype(dtype)), trk._compact_reference(lab.astype(dtype))
+            a, b = trk.overlap._compact(lab.astype(dtype)), trk.overlap._compact_reference(lab.astype(dtype))
             for name in ("index", "ids", "area"):
                 assert getattr(a, name).dtype == getattr(b, name).dtype
                 np.testing.assert_array_equal(getattr(a, name), getattr(b, name))

@@ -9,7 +9,8 @@ from hexatissue import HexatissueWarning, InputError, analyze
 from hexatissue.benchmark.tracking import score_tracking
 from hexatissue.options import DeformationOptions, TrackOptions
 from hexatissue.synthetic import flowing_movie, jittered_seeds, relabel_movie, voronoi_labels
-from hexatissue.track import Tracker, _compact, tracking_qc, tracking_warning
+from hexatissue.track import Tracker, tracking_qc, tracking_warning
+from hexatissue.track.overlap import _compact
 from hexatissue.track._kernels import _cell_moments, _warp_index
 from hexatissue.track._motion import centroids, fit_field, outline_piv
 from hexatissue.track._reference import _cell_moments_reference, _warp_index_reference
