@@ -3,8 +3,8 @@
 Every case is one 2-D image given to :func:`hexatissue.open_source` and, when its frame is accepted,
 to :func:`hexatissue.mesh_from_labels`, exactly as ``analyze`` reads a frame. Segmentations must be
 accepted; everything else must be refused with an ``InputError`` (a traceback or a hang would fail
-the run).  The cases come from ``../shared/data/real`` (each folder's SOURCE.md says what the files
-are):
+the run).  The cases come from the public data sets in the folder named by ``HEXATISSUE_REAL_DATA``
+(the one the tests read; docs/input.md lists them):
 
 - segmentations: every frame of every label image, membrane labelling and skeleton held there;
 - raw planes: every frame or z-plane of every raw microscopy image, as stored (8, 16 bit, float);
@@ -36,9 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
-if not REAL.is_dir():
-    REAL = Path("/work/shared/data/real")
+# the real data the tests read (tests/conftest.py): the folder named by HEXATISSUE_REAL_DATA
+REAL = Path(os.environ.get("HEXATISSUE_REAL_DATA", Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
 HERE = Path(__file__).resolve().parent
 
 SEGMENTATION, NOT = "segmentation", "not a segmentation"
@@ -57,7 +56,7 @@ def _frames(arr, axes_before=1):
 
 
 def _segmentations():
-    """(name, frame) of every segmentation held in ../shared."""
+    """(name, frame) of every segmentation held in the real-data folder."""
     r = REAL
     sources = [
         ("epicure_notum/013_crop_labels.tif", _tif),
@@ -88,7 +87,8 @@ def _segmentations():
 
 
 def _raw_planes():
-    """(name, plane, first) of every raw microscopy plane held in ../shared (``first``: the file's first plane)."""
+    """(name, plane, first) of every raw microscopy plane of the real-data folder (``first``: the file's first
+    plane)."""
     r = REAL
     sources = ["epicure_notum/003_crop.tif", "epicure_notum/013_crop.tif", "epicure_notum/static_image.tif",
                "epicure_notum/area3_Composite.tif", "epitools_wingdisc/test_image.tif",
@@ -256,7 +256,7 @@ def write(rows, out, seconds):
     lines = ["# Label-ness corpus: segmentations accepted, everything else refused", "",
              f"`benchmarks/input_corpus.py`, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
              f"{platform.machine()} {os.cpu_count()} cores, Python {platform.python_version()}, 1-minute load "
-             f"{load:.1f}, {seconds:.0f} s; data: ../shared/data/real.", "",
+             f"{load:.1f}, {seconds:.0f} s; data: the real-data folder (`HEXATISSUE_REAL_DATA`).", "",
              "| class | truth | cases | accepted | refused |", "|---|---|---|---|---|"]
     for klass, (acc, ref) in table.items():
         truth = SEGMENTATION if klass == "segmentation" else NOT
