@@ -1,7 +1,14 @@
-"""Timing and reporting helpers shared by the benchmark scripts."""
+"""Timing, reporting and data-location helpers shared by the benchmark scripts."""
+import os
 import time
+from pathlib import Path
 
 import numpy as np
+
+# the real third-party data sets the tests and benchmarks read: the folder named by HEXATISSUE_REAL_DATA (as in
+# tests/conftest.py), else the folder of that name beside the checkout
+REAL_DATA = Path(os.environ.get("HEXATISSUE_REAL_DATA",
+                                Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
 
 
 def median_time(fn, repeats=5):

@@ -42,12 +42,12 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 import published_port as port  # noqa: E402  (benchmarks/published_port.py)
-from _timing import median_time  # noqa: E402  (benchmarks/_timing.py)
+from _timing import REAL_DATA, median_time  # noqa: E402  (benchmarks/_timing.py)
 from hexatissue import Box, mesh_from_labels, shape_order  # noqa: E402
 from hexatissue.defects import defect_events, find_defects, track_defects  # noqa: E402
 from hexatissue.order import cell_radius, coarse_grain, order_vs_radius  # noqa: E402
 
-MDCK = Path(os.environ.get("HEXATISSUE_REAL_DATA", HERE.parent.parent / "shared" / "data" / "real")) / "hexanematic_mdck"
+MDCK = REAL_DATA / "hexanematic_mdck"
 IMAGES = range(6, 69)
 ORDERS = port.ORDERS
 FACTORS = tuple(range(1, 10))

@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from _timing import REAL_DATA  # benchmarks/_timing.py
 from hexatissue.flow.piv import piv_displacements
 
 N, SPOTS, SIGMA, WINDOW, OVERLAP = 512, 6000, 1.6, 32, 16
-ITASC = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / "itasc_micropattern" / "pos00"
+ITASC = REAL_DATA / "itasc_micropattern" / "pos00"
 
 
 def render(centres):

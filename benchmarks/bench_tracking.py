@@ -39,12 +39,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from _timing import REAL_DATA  # benchmarks/_timing.py
 from hexatissue.benchmark.tracking import clone_growth, score_tracking
 from hexatissue.synthetic import flowing_movie, relabel_movie
 from hexatissue.track import Tracker
 
 HERE = Path(__file__).resolve().parent
-REAL = HERE.parent.parent / "shared" / "data" / "real"
+REAL = REAL_DATA
 
 
 def run_ours(labels, follow):

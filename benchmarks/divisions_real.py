@@ -1,7 +1,8 @@
-"""Divisions found and judged plausible on the real stacks of ``../shared/data/real`` (issue 29), and the T1s of
-a random Voronoi movie with the joint loss/gain pairing.
+"""Divisions found and judged plausible on the real stacks of the real-data folder, and the T1s of a random Voronoi
+movie with the joint loss/gain pairing.
 
-Run from the repository root: ``python benchmarks/divisions_real.py [--data ../shared/data/real]``.  Prints one
+Run from the repository root: ``python benchmarks/divisions_real.py [--data FOLDER]`` (default: the folder named by
+``HEXATISSUE_REAL_DATA``, as for the tests).  Prints one
 line per stack: frames, cells per frame, divisions, plausible, suspect, the reasons' counts, the contacts held as
 four-fold vertices; then the T1 events of the random movie of ``tests/test_events.py`` (60 cells, 40 frames,
 exact contacts).  Numbers only: nothing is timed.
@@ -17,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 import hexatissue as ht
+from _timing import REAL_DATA  # benchmarks/_timing.py
 from hexatissue.events import detect_t1
 from hexatissue.synthetic import movie_contacts, voronoi_movie
 from hexatissue.track import division_rows
@@ -44,7 +46,7 @@ def random_movie_t1s():
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=ROOT.parent / "shared" / "data" / "real")
+    parser.add_argument("--data", type=Path, default=REAL_DATA)
     args = parser.parse_args()
     warnings.simplefilter("ignore", ht.HexatissueWarning)
     for name, source in stacks(args.data):
