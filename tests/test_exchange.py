@@ -624,7 +624,7 @@ def test_anndata_export_of_the_squares_holds_the_hand_made_neighbour_graph(squar
     assert main(["export", str(folder / "results"), "--to", "anndata", str(out)]) == 0
     adata = anndata.read_h5ad(out) if suffix == ".h5ad" else anndata.read_zarr(out)  # as squidpy users read it
     cells = movie.cells
-    assert adata.n_obs == len(cells) == 9 and adata.n_vars == 0
+    assert adata.n_obs == len(cells) == 9
     assert list(adata.obs_names) == [f"{t}:{c}" for t, c in zip(cells["frame"], cells["cell"])]
     pd.testing.assert_frame_equal(adata.obs.reset_index(drop=True), cells.reset_index(drop=True),
                                   check_index_type=False)
@@ -644,6 +644,78 @@ def test_anndata_export_of_the_squares_holds_the_hand_made_neighbour_graph(squar
     assert adata.uns["units"]["area"] == "px^2" and adata.uns["units"]["spatial"] == "px"
     assert adata.uns["descriptions"]["area"] == ht.schema.TABLES["cells"]["area"][2]
     assert adata.uns["hexatissue"]["source"] == str(folder / "squares.tif")
+    # X: the features, each an exact copy of its cells column, or the squares' exact shape tensor
+    assert list(adata.var_names) == ["area", "perimeter", "n_sides", "gamma6_re", "gamma6_im", "gamma2_re",
+                                     "gamma2_im", "shape_xx", "shape_xy", "shape_yy"]
+    assert adata.uns["features"]["left_out"] == {"tension": "not computed in this run", "pressure": "not computed "
+                                                 "in this run", "vx": "NaN for every cell-frame",
+                                                 "vy": "NaN for every cell-frame"}  # two frames: no centred velocity
+    assert adata.var.loc["area", "unit"] == "px^2" and adata.var.loc["shape_xy", "unit"] == "px^2"
+    X = pd.DataFrame(np.asarray(adata.X), columns=adata.var_names)
+    for name in ("area", "perimeter", "n_sides", "gamma6_re", "gamma2_im"):
+        np.testing.assert_array_equal(X[name], cells[name].to_numpy(float), err_msg=name)
+    assert not np.asarray(adata.layers["missing"]).any()
+    # every cell is a w x h rectangle: S = diag(w^2, h^2) / 12 with w h = polygon area and 2 (w + h) = perimeter
+    w, h = np.sqrt(12 * X["shape_xx"]), np.sqrt(12 * X["shape_yy"])
+    np.testing.assert_allclose(w * h, cells["polygon_area"], rtol=1e-12)
+    np.testing.assert_allclose(2 * (w + h), cells["perimeter"], rtol=1e-12)
+    np.testing.assert_allclose(X["shape_xy"], 0, atol=1e-9)
+    daughters = cells["cell"].isin([5, 6]).to_numpy()
+    np.testing.assert_allclose((w / h)[daughters], 2.0, rtol=0.1)  # 40 x 20 px halves (vertices on the cracks)
+
+
+def test_anndata_export_of_the_epicure_sample_runs_scanpy_and_squidpy(epicure, tmp_path):
+    """scanpy's pp.neighbors and tl.umap run on X; squidpy's nhood_enrichment, centrality_scores and Moran's I on the
+    contact graph, Moran's I of every feature equal to the formula on that graph."""
+    anndata = pytest.importorskip("anndata")
+    sc = pytest.importorskip("scanpy")
+    sq = pytest.importorskip("squidpy")
+    movie = epicure["movie"]
+    assert main(["export", str(epicure["results"]), "--to", "anndata", str(tmp_path / "cells.h5ad")]) == 0
+    adata = anndata.read_h5ad(tmp_path / "cells.h5ad")
+    cells = movie.cells
+    assert adata.shape == (902, 12)  # no --mechanics: tension and pressure are not features
+    assert set(adata.uns["features"]["left_out"]) == {"tension", "pressure"}
+    assert not np.isnan(np.asarray(adata.X)).any()
+    missing = pd.DataFrame(np.asarray(adata.layers["missing"]), columns=adata.var_names)
+    pd.testing.assert_series_equal(missing["vx"], cells["vx"].isna().reset_index(drop=True), check_names=False)
+    assert missing["vx"].sum() == adata.uns["features"]["n_missing"]["vx"] > 0  # the tracks' ends
+    X = np.asarray(adata.X)
+    vx = adata.var_names.get_loc("vx")
+    np.testing.assert_array_equal(X[~missing["vx"], vx], cells["vx"].dropna().to_numpy())
+    assert np.all(X[missing["vx"], vx] == np.nanmean(cells["vx"]))
+    features = adata.copy()
+    sc.pp.scale(features)
+    sc.pp.neighbors(features, n_neighbors=10, random_state=0)
+    sc.tl.umap(features, random_state=0)
+    assert features.obsm["X_umap"].shape == (902, 2) and np.isfinite(features.obsm["X_umap"]).all()
+    adata.obs["sides"] = pd.Categorical(adata.obs["n_sides"].clip(4, 8).astype(str))
+    sq.gr.nhood_enrichment(adata, cluster_key="sides", n_perms=20, seed=0, show_progress_bar=False)
+    sq.gr.centrality_scores(adata, cluster_key="sides", show_progress_bar=False)
+    assert adata.uns["sides_nhood_enrichment"]["zscore"].shape == (5, 5)
+    assert np.isfinite(adata.uns["sides_centrality_scores"].to_numpy()).all()
+    sq.gr.spatial_autocorr(adata, mode="moran", n_perms=None, show_progress_bar=False)
+    w = adata.obsp["spatial_connectivities"].toarray()
+    w = w / np.maximum(w.sum(axis=1, keepdims=True), 1)  # squidpy's row-normalised weights
+    for name in ("area", "gamma6_re", "vx"):
+        z = X[:, adata.var_names.get_loc(name)] - X[:, adata.var_names.get_loc(name)].mean()
+        want = len(z) / w.sum() * (z @ w @ z) / (z @ z)
+        assert adata.uns["moranI"].loc[name, "I"] == pytest.approx(want, rel=1e-9), name
+
+
+def test_anndata_features_of_a_mechanics_run_hold_the_junction_tension_and_pressure(squares):
+    from hexatissue.exchange.anndata import cell_features
+
+    _, movie = squares
+    edges = movie.edges.assign(tension=np.arange(len(movie.edges), dtype=float))
+    cells = movie.cells.assign(pressure=np.linspace(-1, 1, len(movie.cells)))
+    features, left_out = cell_features(movie.replace(edges=edges, cells=cells))
+    assert "tension" in features and "pressure" in features and "tension" not in left_out
+    np.testing.assert_array_equal(features["pressure"], cells["pressure"])
+    for k, (t, c) in enumerate(zip(cells["frame"], cells["cell"])):  # length-weighted mean of its junctions
+        own = edges[(edges["frame"] == t) & ((edges["cell_a"] == c) | (edges["cell_b"] == c))]
+        want = (own["tension"] * own["length"]).sum() / own["length"].sum()
+        assert features["tension"].iloc[k] == pytest.approx(want, rel=1e-12)
 
 
 def test_anndata_export_says_how_to_install_anndata_and_refuses_a_bad_name(squares, tmp_path, monkeypatch):
