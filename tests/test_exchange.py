@@ -80,10 +80,45 @@ def test_ctc_truth_layout(tmp_path):
     assert folder == tmp_path / "TRA"
     assert (folder / "man_track.txt").read_text() == SCRIPTED_LINES
     assert sorted(p.name for p in folder.glob("*.tif")) == [f"man_track{t:03d}.tif" for t in range(6)]
+    seg = sorted((tmp_path / "SEG").glob("*.tif"))  # the reference segmentation of every frame: the TRA masks
+    assert [p.name for p in seg] == [f"man_seg{t:03d}.tif" for t in range(6)]
+    for t, p in enumerate(seg):
+        np.testing.assert_array_equal(tifffile.imread(p), tifffile.imread(folder / f"man_track{t:03d}.tif"))
     check_ctc(tmp_path)
     check_ctc(folder)
     assert ht.open_source(tmp_path).description["layout"] == "truth"
     assert ht.open_source(folder).parents == {3: 2, 4: 2}
+
+
+def test_check_ctc_checks_the_seg_folder_of_a_ground_truth(tmp_path):
+    masks, lineage = scripted_masks()
+    write_ctc(masks, lineage, tmp_path, truth=True)
+    (tmp_path / "SEG" / "man_seg002.tif").unlink()  # the CTC annotates a subset of frames: allowed
+    check_ctc(tmp_path)
+    (tmp_path / "SEG" / "man_seg003.tif").rename(tmp_path / "SEG" / "man_seg0003.tif")
+    tifffile.imwrite(tmp_path / "SEG" / "man_seg009.tif", masks[0].astype(np.uint16))
+    tifffile.imwrite(tmp_path / "SEG" / "man_seg004.tif", masks[0, :10].astype(np.uint16))
+    with pytest.raises(InputError) as info:
+        check_ctc(tmp_path)
+    text = str(info.value)
+    assert "3 violation(s)" in text and "SEG/man_seg0003.tif: expected a frame number of 3 digits below 6" in text
+    assert "SEG/man_seg009.tif: expected" in text and "SEG/man_seg004.tif is (10, 20); expected (20, 20)" in text
+
+
+def test_ctc_evaluate_seg_measures_a_result_against_the_truth_export(tmp_path):
+    """py-ctcmetrics' ``ctc_evaluate --seg --tra --det`` on the ground-truth export: its own result scores 1; a
+    result missing a quarter of one cell in one frame scores SEG = (13 + 0.75) / 14 (14 reference cell-frames)."""
+    evaluate = pytest.importorskip("ctc_metrics.scripts.evaluate")
+    masks, lineage = scripted_masks()
+    write_ctc(masks, lineage, tmp_path / "gt", truth=True)
+    write_ctc(masks, lineage, tmp_path / "res")
+    scores = evaluate.evaluate_sequence(str(tmp_path / "res"), str(tmp_path / "gt"), ["SEG", "TRA", "DET"], threads=1)
+    assert (scores["SEG"], scores["TRA"], scores["DET"], scores["AOGM"]) == (1.0, 1.0, 1.0, 0.0)
+    eroded = masks.copy()
+    eroded[0, 10:15, :10] = 0  # 50 of track 2's 200 px in frame 0: IoU 0.75
+    write_ctc(eroded, lineage, tmp_path / "res2")
+    scores = evaluate.evaluate_sequence(str(tmp_path / "res2"), str(tmp_path / "gt"), ["SEG"], threads=1)
+    assert scores["SEG"] == pytest.approx((13 + 0.75) / 14, rel=1e-12)
 
 
 def test_ctc_uses_four_digits_beyond_1000_frames(tmp_path):
@@ -314,8 +349,14 @@ def test_exports_of_the_epicure_sample_pass_the_external_validators(epicure, tmp
     import geff
 
     validate = pytest.importorskip("ctc_metrics.scripts.validate")
+    evaluate = pytest.importorskip("ctc_metrics.scripts.evaluate")
     assert main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")]) == 0
     assert validate.validate_sequence(str(tmp_path / "ctc"), threads=1) == {"Valid": 1}
+    # ctc_evaluate --seg --tra on the ground-truth export (TRA/ and SEG/): the result export matches it exactly
+    assert main(["export", str(epicure["results"]), "--to", "ctc", "--truth", str(tmp_path / "gt")]) == 0
+    assert len(list((tmp_path / "gt" / "SEG").glob("man_seg*.tif"))) == 11
+    scores = evaluate.evaluate_sequence(str(tmp_path / "ctc"), str(tmp_path / "gt"), ["SEG", "TRA"], threads=1)
+    assert (scores["SEG"], scores["TRA"], scores["AOGM"]) == (1.0, 1.0, 0.0)
     for store in write_geff(epicure["movie"], tmp_path / "geff"):
         geff.validate_structure(str(store))
 

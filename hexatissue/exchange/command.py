@@ -13,7 +13,8 @@ def add_parser(subparsers):
                        "an OME-Zarr image with its labels or an AnnData file",
         description="geff: OUT/neighbours.geff (cells and their contacts, every frame) and OUT/tracks.geff (cells "
                     "linked along their tracks and divisions), node and edge properties from the tables. ctc: "
-                    "OUT/maskTTT.tif with track ids + OUT/res_track.txt (--truth: OUT/TRA/man_track*). ome-zarr: "
+                    "OUT/maskTTT.tif with track ids + OUT/res_track.txt (--truth: OUT/TRA/man_track* and OUT/SEG/man_seg*). "
+                    "ome-zarr: "
                     "OUT, an OME-Zarr image (the raw channel: --image, or the analysis's intensity image; else the "
                     "cell outlines) with the labels with track ids in OUT/labels/cells. ctc and ome-zarr re-open "
                     "the labels the results were computed from (the path in metadata.json, or --labels). anndata: "
@@ -26,7 +27,9 @@ def add_parser(subparsers):
                    help="ctc, ome-zarr: the label image or stack the results were computed from (default: the "
                         "path recorded in metadata.json)")
     p.add_argument("--mask", metavar="FILE", help="ctc, ome-zarr: the --mask of the analysis (default: the recorded one)")
-    p.add_argument("--truth", action="store_true", help="ctc: the ground-truth layout OUT/TRA/man_trackTTT.tif")
+    p.add_argument("--truth", action="store_true",
+                   help="ctc: the ground-truth layout OUT/TRA/man_trackTTT.tif + OUT/TRA/man_track.txt, with the "
+                        "reference segmentation of every frame in OUT/SEG/man_segTTT.tif")
     p.add_argument("--keep-membranes", action="store_true",
                    help="ctc, ome-zarr: keep the input's membranes (or skeleton lines) at 0 instead of sharing them "
                         "out between the cells, so that analysing the export again gives the same network "
@@ -131,7 +134,8 @@ def _check_out(results, out, to, truth, overwrite):
     else:
         from .ctc import is_ctc_export
 
-        check_replaceable(out / "TRA" if truth else out, is_ctc_export, name="out", overwrite=overwrite)
+        for where in (out / "TRA", out / "SEG") if truth else (out,):
+            check_replaceable(where, is_ctc_export, name="out", overwrite=overwrite)
 
 
 def _raw_image(movie, image):
