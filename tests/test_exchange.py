@@ -17,7 +17,8 @@ from hexatissue.errors import InputError
 from hexatissue.exchange.ctc import check_ctc, read_ctc, write_ctc
 from hexatissue.exchange.geff import geff_tables, read_geff, write_geff
 from hexatissue.exchange.labels import track_masks
-from hexatissue.exchange.omezarr import LABELS_KEY, boundary_image, downsample_labels, write_ome_zarr_labels
+from hexatissue.exchange.omezarr import (LABELS_KEY, boundary_image, downsample_labels, label_colors,
+                                         write_ome_zarr_labels)
 from hexatissue.graph import neighbour_graph
 from hexatissue.options import OrderOptions
 from hexatissue.readers.ctc import gap_links
@@ -455,6 +456,21 @@ def test_export_geff_and_ome_zarr_from_the_command_line(epicure, tmp_path):
     assert source.calibration == ht.Calibration(0.2, "um")
     np.testing.assert_array_equal(np.stack([source.frame(t) for t in range(11)]),
                                   np.stack(track_masks(epicure["movie"])))
+    # image-label colours (one per lineage: the division 73 -> 477 + 490 in one colour) and per-track properties
+    image_label = json.loads((tmp_path / "l.zarr" / "labels" / "cells" / "zarr.json").read_text())[
+        "attributes"]["ome"]["image-label"]
+    colors = {c["label-value"]: c["rgba"] for c in image_label["colors"]}
+    cells = epicure["movie"].cells
+    assert sorted(colors) == [0, *sorted(cells["track"].unique())] and colors[0] == [0, 0, 0, 0]
+    assert colors[73] == colors[477] == colors[490] != colors[16]
+    props = {p["label-value"]: p for p in image_label["properties"]}
+    assert sorted(props) == sorted(cells["track"].unique())
+    assert {k: props[477][k] for k in ("track", "parent", "lineage", "frame_start", "frame_end", "n_frames")} == \
+        {"track": 477, "parent": 73, "lineage": 73, "frame_start": 3, "frame_end": 10, "n_frames": 8}
+    of_16 = cells[cells["track"] == 16]
+    assert props[16]["n_frames"] == len(of_16) < 11  # missing from some frames of the curated labels
+    assert props[16]["area_mean"] == pytest.approx(of_16["area"].mean(), rel=1e-12)
+    assert props[16]["n_sides_mean"] == pytest.approx(of_16["n_sides"].mean(), rel=1e-12)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -537,20 +553,31 @@ def test_ome_zarr_export_passes_ome_zarr_py_ngff_zarr_and_ome_zarr_models(tmp_pa
     ngff_zarr = pytest.importorskip("ngff_zarr")
     ome_zarr_models = pytest.importorskip("ome_zarr_models")
     labels = np.stack([voronoi_labels(jittered_seeds((40, 56), 8, seed=s), (40, 56)) for s in (1, 2, 3)])
+    values = np.unique(labels).tolist()
+    properties = [{"label-value": v, "track": v, "n_sides_mean": 5.5, "name": f"cell {v}"} for v in values]
     path = write_ome_zarr_labels(labels.astype(np.uint16), tmp_path / "v.zarr", levels=2, version=version,
-                                 calibration=ht.Calibration(0.2, "um", 5.0, "min"))
+                                 calibration=ht.Calibration(0.2, "um", 5.0, "min"), properties=properties)
     nodes = list(ome_zarr_reader.Reader(ome_zarr_io.parse_url(str(path)))())
     kinds = {Path(n.zarr.path).relative_to(path).as_posix(): [type(s).__name__ for s in n.specs] for n in nodes}
     assert kinds["."] == ["Multiscales"] and "Label" in kinds["labels/cells"]
     cells = next(n for n in nodes if n.zarr.path.endswith("cells"))
     np.testing.assert_array_equal(np.asarray(cells.data[0]), labels)
+    # ome-zarr-py reads the image-label colours (as 0-1 floats) and the properties of every label value
+    want = {c["label-value"]: [x / 255 for x in c["rgba"]] for c in label_colors(values)}
+    assert cells.metadata["color"] == want and len({tuple(v) for v in want.values()}) == len(values)
+    assert cells.metadata["properties"] == {v: {"track": v, "n_sides_mean": 5.5, "name": f"cell {v}"}
+                                            for v in values}
     for where in (path, path / "labels" / "cells"):
         ms = ngff_zarr.from_ngff_zarr(str(where), validate=True)
         assert ms.images[0].scale == {"t": 5.0, "y": 0.2, "x": 0.2}
         assert ms.images[0].axes_units == {"t": "minute", "y": "micrometer", "x": "micrometer"}
     assert type(ome_zarr_models.open_ome_zarr(str(path))).__name__ == "Image"
     assert type(ome_zarr_models.open_ome_zarr(str(path / "labels"))).__name__ == "Labels"
-    assert type(ome_zarr_models.open_ome_zarr(str(path / "labels" / "cells"))).__name__ == "ImageLabel"
+    image_label = ome_zarr_models.open_ome_zarr(str(path / "labels" / "cells"))
+    assert type(image_label).__name__ == "ImageLabel"
+    label_meta = image_label.attributes.ome.image_label if version == "0.5" else image_label.attributes.image_label
+    assert [c.label_value for c in label_meta.colors] == values
+    assert [p.label_value for p in label_meta.properties] == values
 
 
 def test_two_level_ome_zarr_analyses_at_the_chosen_level(tmp_path):

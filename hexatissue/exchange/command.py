@@ -93,13 +93,14 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
         return [write_ctc(masks, movie.lineage, out, truth=truth, overwrite=overwrite)]
     import numpy as np
 
-    from .omezarr import write_ome_zarr_labels
+    from .omezarr import track_properties, write_ome_zarr_labels
 
     biggest = max(int(m.max()) for m in masks)
     dtype = np.uint16 if biggest < 2**16 else np.uint32 if biggest < 2**32 else np.uint64
+    colors, properties = track_properties(movie)
     return [write_ome_zarr_labels([m.astype(dtype) for m in masks], out, image=_raw_image(movie, image),
                                   calibration=movie.calibration, levels=levels, version=ngff_version,
-                                  overwrite=overwrite)]
+                                  colors=colors, properties=properties, overwrite=overwrite)]
 
 
 def _check_out(results, out, to, truth, overwrite):
