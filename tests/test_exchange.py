@@ -326,6 +326,38 @@ def test_geff_track_graph_follows_tracks_and_divisions(epicure, tmp_path):
     assert meta.extra["hexatissue"]["graph"] == "tracks"
 
 
+def test_geff_exported_with_its_ome_zarr_points_to_the_labels_of_every_node(epicure, tmp_path, capsys):
+    """``--with-ome-zarr``: both stores' related_objects name the labels (node_prop track) and the image, by paths
+    relative to the store; following them, the pixels of value ``track`` in frame ``frame`` are each node's area."""
+    import geff
+    import zarr
+
+    out = tmp_path / "g"
+    assert main(["export", str(epicure["results"]), "--to", "geff", str(out), "--with-ome-zarr"]) == 0
+    assert str(out / "cells.zarr") in capsys.readouterr().out
+    for name in ("neighbours.geff", "tracks.geff"):
+        store = out / name
+        geff.validate_structure(str(store))
+        graph, meta = read_geff(store)
+        related = [(r.type, r.path, r.node_prop) for r in meta.related_objects]
+        assert related == [("labels", "../cells.zarr/labels/cells", "track"), ("image", "../cells.zarr", None)]
+        labels = zarr.open_group(str(store / related[0][1]), mode="r")["0"][:]
+        assert labels.shape == (11, 160, 257)
+        nodes, _ = geff_tables(store)
+        for t, frame_nodes in nodes.groupby("frame"):
+            counts = np.bincount(labels[t].ravel(), minlength=int(frame_nodes["track"].max()) + 1)
+            np.testing.assert_array_equal(counts[frame_nodes["track"].to_numpy()], frame_nodes["area"].to_numpy())
+    assert read_geff(write_geff(epicure["movie"], tmp_path / "plain")[0])[1].related_objects is None
+    with pytest.raises(InputError, match="not an OME-Zarr written by hexatissue"):
+        write_geff(epicure["movie"], tmp_path / "bad", labels=tmp_path / "plain")
+    flipped = write_ome_zarr_labels(np.flip(labels, axis=2), tmp_path / "flipped.zarr")
+    with pytest.raises(InputError, match="frame 0: its label values are not the tracks"):
+        write_geff(epicure["movie"].replace(cells=epicure["movie"].cells[epicure["movie"].cells["track"] != 73]),
+                   tmp_path / "bad", labels=flipped)
+    with pytest.raises(InputError, match="with_ome_zarr"):
+        ht.exchange.command.export(epicure["results"], tmp_path / "c", "ctc", with_ome_zarr=True)
+
+
 def test_read_geff_refuses_what_is_not_a_store(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         read_geff(tmp_path / "none.geff")

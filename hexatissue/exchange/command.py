@@ -4,6 +4,8 @@ from __future__ import annotations
 __all__ = ["add_parser", "export"]
 
 FORMATS = ("geff", "ctc", "ome-zarr", "anndata")
+#: The OME-Zarr that ``--to geff --with-ome-zarr`` writes beside the GEFF stores (and their related_objects name).
+OME_ZARR_BESIDE = "cells.zarr"
 
 
 def add_parser(subparsers):
@@ -34,6 +36,9 @@ def add_parser(subparsers):
                    help="ctc, ome-zarr: keep the input's membranes (or skeleton lines) at 0 instead of sharing them "
                         "out between the cells, so that analysing the export again gives the same network "
                         "(docs/exchange.md)")
+    p.add_argument("--with-ome-zarr", action="store_true",
+                   help=f"geff: also write the labels as OME-Zarr, OUT/{OME_ZARR_BESIDE} (as --to ome-zarr, with its "
+                        f"options), and point both GEFF stores to it (related_objects; without it they are null)")
     p.add_argument("--levels", type=int, default=1, help="ome-zarr: resolution levels (default 1)")
     p.add_argument("--image", metavar="FILE",
                    help="ome-zarr: the raw channel to write under the labels (default: the intensity image of the "
@@ -49,7 +54,7 @@ def add_parser(subparsers):
 
 
 def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, image=None, ngff_version="0.5",
-           keep_membranes=False, overwrite=False):
+           keep_membranes=False, with_ome_zarr=False, overwrite=False):
     """Write a results folder (or Movie) as ``to`` (one of :data:`FORMATS`); returns what was written.
 
     See :func:`~hexatissue.exchange.geff.write_geff`,
@@ -60,6 +65,9 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     image when it had one, else the cell outlines) and
     :func:`~hexatissue.exchange.anndata.write_anndata`; ``keep_membranes``:
     ``membranes`` of :func:`~hexatissue.exchange.labels.track_masks`.
+    ``with_ome_zarr`` (geff): the OME-Zarr export is written too, to
+    ``out/cells.zarr``, and the GEFF stores point to it
+    (``related_objects``); the OME-Zarr is returned first.
 
     Nothing is deleted that an export did not write: ``out`` (for geff its
     two stores, for ctc its mask folder) must not exist, be empty or be an
@@ -72,12 +80,23 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
 
     if to not in FORMATS:
         raise InputError(f"to must be one of {FORMATS}; got {to!r}")
+    from pathlib import Path
+
+    if with_ome_zarr and to != "geff":
+        raise InputError(f"with_ome_zarr (--with-ome-zarr) is for to='geff'; got to={to!r}")
     _check_out(results, out, to, truth, overwrite)
+    if with_ome_zarr:
+        _check_out(results, Path(out) / OME_ZARR_BESIDE, "ome-zarr", truth, overwrite)
     movie = results if isinstance(results, Movie) else read_results(results)
     if to == "geff":
         from .geff import write_geff
 
-        return write_geff(movie, out, overwrite=overwrite)
+        if not with_ome_zarr:
+            return write_geff(movie, out, overwrite=overwrite)
+        beside = export(movie, Path(out) / OME_ZARR_BESIDE, "ome-zarr", labels=labels, mask=mask, levels=levels,
+                        image=image, ngff_version=ngff_version, keep_membranes=keep_membranes,
+                        overwrite=overwrite)
+        return beside + write_geff(movie, out, labels=beside[0], overwrite=overwrite)
     if to == "anndata":
         from .anndata import write_anndata
 
@@ -152,6 +171,7 @@ def _raw_image(movie, image):
 def _run(args) -> int:
     written = export(args.results, args.out, args.to, labels=args.labels, mask=args.mask, truth=args.truth,
                      levels=args.levels, image=args.image, ngff_version=args.ngff_version,
-                     keep_membranes=args.keep_membranes, overwrite=args.overwrite)
+                     keep_membranes=args.keep_membranes, with_ome_zarr=args.with_ome_zarr,
+                     overwrite=args.overwrite)
     print(f"{args.results} -> {args.to}: " + ", ".join(str(w) for w in written))
     return 0
