@@ -485,7 +485,7 @@ def test_export_geff_and_ome_zarr_from_the_command_line(epicure, tmp_path):
                  "--levels", "2"]) == 0
     source = ht.open_source(tmp_path / "l.zarr", key=LABELS_KEY)
     assert source.description["n_levels"] == 2
-    assert source.calibration == ht.Calibration(0.2, "um")
+    assert source.calibration == ht.Calibration(0.2, "um", 300.0, "s")  # the sample's (tests/test_packaging.py)
     np.testing.assert_array_equal(np.stack([source.frame(t) for t in range(11)]),
                                   np.stack(track_masks(epicure["movie"])))
     # image-label colours (one per lineage: the division 73 -> 477 + 490 in one colour) and per-track properties
