@@ -93,7 +93,7 @@ def test_dashboard_extra_brings_the_bokeh_distributed_needs(project):
 
 def test_extras_that_are_test_only_are_not_core_dependencies(project):
     core = set(_requirements(project))
-    for extra in ("anndata", "validate", "dashboard"):
+    for extra in ("anndata", "validate", "validate-anndata", "dashboard"):
         assert not core & set(_requirements(project, extra)), extra
 
 

@@ -15,8 +15,8 @@ def add_parser(subparsers):
                        "an OME-Zarr image with its labels or an AnnData file",
         description="geff: OUT/neighbours.geff (cells and their contacts, every frame) and OUT/tracks.geff (cells "
                     "linked along their tracks and divisions), node and edge properties from the tables. ctc: "
-                    "OUT/maskTTT.tif with track ids + OUT/res_track.txt (--truth: OUT/TRA/man_track* and OUT/SEG/man_seg*). "
-                    "ome-zarr: "
+                    "OUT/maskTTT.tif with track ids + OUT/res_track.txt (--truth: OUT/TRA/man_track* and "
+                    "OUT/SEG/man_seg*). ome-zarr: "
                     "OUT, an OME-Zarr image (the raw channel: --image, or the analysis's intensity image; else the "
                     "cell outlines) with the labels with track ids in OUT/labels/cells. ctc and ome-zarr re-open "
                     "the labels the results were computed from (the path in metadata.json, or --labels). anndata: "
