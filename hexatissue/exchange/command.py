@@ -20,8 +20,9 @@ def add_parser(subparsers):
                     "OUT, an OME-Zarr image (the raw channel: --image, or the analysis's intensity image; else the "
                     "cell outlines) with the labels with track ids in OUT/labels/cells. ctc and ome-zarr re-open "
                     "the labels the results were computed from (the path in metadata.json, or --labels). anndata: "
-                    "OUT.h5ad or OUT.zarr, the cells as observations with their centroids and neighbour graph "
-                    "(extra anndata).")
+                    "OUT.h5ad or OUT.zarr, the cells as observations with their features (X, units in var), centroids "
+                    "and neighbour graph (extra anndata). geff --with-ome-zarr: the labels as OME-Zarr in "
+                    "OUT/cells.zarr too, linked from both stores (related_objects).")
     p.add_argument("results", metavar="RESULTS", help="output folder of 'hexatissue analyze'")
     p.add_argument("out", metavar="OUT", help="output folder (ome-zarr: the .zarr folder)")
     p.add_argument("--to", required=True, choices=FORMATS, help="format to write")
@@ -46,7 +47,8 @@ def add_parser(subparsers):
     p.add_argument("--ngff-version", choices=("0.5", "0.4"), default="0.5",
                    help="ome-zarr: OME-NGFF version (default 0.5, zarr v3; 0.4: zarr v2 for older readers)")
     p.add_argument("--overwrite", action="store_true",
-                   help="replace OUT (ome-zarr, anndata; geff: its two stores; ctc: the mask folder) even when it "
+                   help="replace OUT (ome-zarr, anndata; geff: its two stores and, with --with-ome-zarr, OUT/cells.zarr; "
+                        "ctc: the mask folder, or TRA and SEG with --truth) even when it "
                         "holds something that is not an earlier export of the same format; without it such an OUT "
                         "is refused. The results folder is never replaced")
     p.set_defaults(func=_run)
