@@ -47,10 +47,10 @@ def add_parser(subparsers):
     p.add_argument("--ngff-version", choices=("0.5", "0.4"), default="0.5",
                    help="ome-zarr: OME-NGFF version (default 0.5, zarr v3; 0.4: zarr v2 for older readers)")
     p.add_argument("--overwrite", action="store_true",
-                   help="replace OUT (ome-zarr, anndata; geff: its two stores and, with --with-ome-zarr, OUT/cells.zarr; "
-                        "ctc: the mask folder, or TRA and SEG with --truth) even when it "
-                        "holds something that is not an earlier export of the same format; without it such an OUT "
-                        "is refused. The results folder is never replaced")
+                   help="replace OUT (ome-zarr, anndata; geff: its two stores and, with --with-ome-zarr, "
+                        "OUT/cells.zarr; ctc: the mask folder, or TRA and SEG with --truth) even when it holds "
+                        "something that is not an earlier export of the same format; without it such an OUT is "
+                        "refused. The results folder is never replaced")
     p.set_defaults(func=_run)
     return p
 
