@@ -106,6 +106,17 @@ def test_check_ctc_checks_the_seg_folder_of_a_ground_truth(tmp_path):
     assert "SEG/man_seg009.tif: expected" in text and "SEG/man_seg004.tif is (10, 20); expected (20, 20)" in text
 
 
+def test_ctc_truth_export_refuses_a_foreign_seg_folder_before_writing(tmp_path):
+    masks, lineage = scripted_masks()
+    (tmp_path / "SEG").mkdir()
+    tifffile.imwrite(tmp_path / "SEG" / "man_seg000.tif", np.ones((4, 4), np.uint16))  # someone's annotation
+    with pytest.raises(InputError, match="not an earlier output"):
+        write_ctc(masks, lineage, tmp_path, truth=True)
+    assert not (tmp_path / "TRA").exists() and tifffile.imread(tmp_path / "SEG" / "man_seg000.tif").shape == (4, 4)
+    write_ctc(masks, lineage, tmp_path, truth=True, overwrite=True)
+    check_ctc(tmp_path)
+
+
 def test_ctc_evaluate_seg_measures_a_result_against_the_truth_export(tmp_path):
     """py-ctcmetrics' ``ctc_evaluate --seg --tra --det`` on the ground-truth export: its own result scores 1; a
     result missing a quarter of one cell in one frame scores SEG = (13 + 0.75) / 14 (14 reference cell-frames)."""
