@@ -52,8 +52,10 @@ def _analyze_parser(sub):
     src.add_argument("--periodic", action="store_true", help="the images tile a periodic box (simulations)")
     src.add_argument("--pixel-size", type=float, help="physical size of a pixel (default: from the file)")
     src.add_argument("--units", help="length unit of --pixel-size (default: from the file, else um)")
-    src.add_argument("--frame-interval", type=float, help="time between frames (default: from the file)")
-    src.add_argument("--time-unit", help="unit of --frame-interval, e.g. s, min, h (default: from the file, else min)")
+    src.add_argument("--frame-interval", type=float,
+                     help="time between frames (default: from the file, or a bundled sample's documentation)")
+    src.add_argument("--time-unit", help="unit of --frame-interval, e.g. s, min, h (default: from the file or a bundled "
+                                         "sample's documentation, else min)")
     src.add_argument("--mask", metavar="FILE",
                      help="region of interest: an image of the frames' shape, nonzero = inside; pixels outside are 0")
     add_stage_flags(p)

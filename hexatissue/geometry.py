@@ -15,6 +15,7 @@ from ._components import components
 from .errors import InputError
 
 __all__ = ["match_points", "segment_sum", "pack_polygons", "next_vertex", "polygon_area_centroid", "polygon_perimeter",
+           "polygon_shape_tensor",
            "polygon_cells", "table_polygons", "mesh_order_polygons", "row_keys", "lookup", "distinct_count"]
 
 
@@ -73,6 +74,40 @@ def polygon_area_centroid(xy, starts):
     with np.errstate(invalid="ignore", divide="ignore"):
         centroid = np.stack([cx, cy], axis=1) / (6.0 * area[:, None])
     return area, centroid
+
+
+def polygon_shape_tensor(xy, starts):
+    """Shape tensor of each polygon stored back to back: its second area moment about its centroid over its area.
+
+    ``S = (1/A) * integral over the polygon of (r - c)(r - c)^T dA``, with
+    ``c`` the area centroid: a square of side ``a`` has ``S = a^2/12 * I``,
+    an ellipse of half-axes ``a``, ``b`` along x, y ``diag(a^2, b^2) / 4``.
+    Exact for the polygon (Green's theorem over its edges), whatever its
+    orientation.
+
+    Returns
+    -------
+    (N, 3) float array
+        ``S_xx``, ``S_xy``, ``S_yy``, px^2 (x = column, y = row); NaN for
+        polygons of zero area (fewer than 3 vertices).
+    """
+    n = len(starts)
+    area, centroid = polygon_area_centroid(xy, starts)
+    lengths = np.diff(np.r_[starts, len(xy)])
+    owner = np.repeat(np.arange(n), lengths)
+    with np.errstate(invalid="ignore"):
+        local = xy - centroid[owner]  # about the centroid: no cancellation of large terms
+    nxt = next_vertex(len(xy), starts)
+    x0, y0 = local[:, 0], local[:, 1]
+    x1, y1 = local[nxt, 0], local[nxt, 1]
+    cross = x0 * y1 - x1 * y0
+    ixx = segment_sum(cross * (x0 * x0 + x0 * x1 + x1 * x1), starts, n) / 12.0
+    iyy = segment_sum(cross * (y0 * y0 + y0 * y1 + y1 * y1), starts, n) / 12.0
+    ixy = segment_sum(cross * (2 * x0 * y0 + x0 * y1 + x1 * y0 + 2 * x1 * y1), starts, n) / 24.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.stack([ixx, ixy, iyy], axis=1) / area[:, None]  # the signed area undoes the orientation
+    out[area == 0] = np.nan
+    return out
 
 
 def polygon_perimeter(xy, starts):

@@ -10,8 +10,9 @@ import sys
 from pathlib import Path
 
 from .errors import InputError
+from .units import Calibration
 
-__all__ = ["SAMPLES", "SAMPLE_DATA", "sample_path"]
+__all__ = ["SAMPLES", "SAMPLE_DATA", "SAMPLE_CALIBRATION", "sample_path", "documented_calibration"]
 
 #: The folder of the samples (each has a README.md with its source, licence and citation).
 SAMPLE_DATA = Path(__file__).resolve().parent / "sample_data"
@@ -23,6 +24,36 @@ SAMPLES = {
     "mpf_small": ("mpf_small/run.zarr",
                   "a multiphase-field run of hexatissue's simulator: 60 cells, periodic 140 x 151 px, 301 frames"),
 }
+
+
+#: name -> the calibration its README documents, for what its file's metadata lacks (the one place it is written:
+#: ``open_source`` of the file, hence ``hexatissue analyze``, and the napari sample both take it from here)
+SAMPLE_CALIBRATION = {
+    # the TIFF's ImageJ header holds 0.2 um/px but no frame interval; the README: 300 s between frames
+    "epicure_notum": Calibration(0.2, "um", 300.0, "s"),
+}
+
+
+def documented_calibration(path) -> Calibration | None:
+    """The documented calibration of a bundled sample if the file at ``path`` is one, else None.
+
+    A file is the sample when its bytes are the bundled file's: the file in
+    ``sample_data``, or a copy of it anywhere (a file of another size is
+    told apart by its size alone, without reading it).
+    """
+    import filecmp
+
+    try:
+        path = Path(path)
+        if not path.is_file():
+            return None
+        for name, calibration in SAMPLE_CALIBRATION.items():
+            bundled = SAMPLE_DATA / SAMPLES[name][0]
+            if bundled.is_file() and filecmp.cmp(path, bundled, shallow=False):
+                return calibration
+    except (OSError, TypeError, ValueError):
+        return None
+    return None
 
 
 def sample_path(name: str) -> Path:

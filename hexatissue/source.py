@@ -398,7 +398,7 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
         refuse(f"a Source that is already open", key=key, channel=channel, level=level, axes=axes)
         source = obj
     elif isinstance(obj, (str, os.PathLike)):
-        source = _open_path(Path(obj), key, channel, level, axes)
+        source = _with_documented_calibration(_open_path(Path(obj), key, channel, level, axes), Path(obj))
     elif is_run(obj):
         refuse("an MPF run", key=key, channel=channel, level=level, axes=axes)
         source = _make(open_run(obj))
@@ -422,6 +422,29 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
         source = source.with_calibration(pixel_size=pixel_size, length_unit=length_unit,
                                          frame_interval=frame_interval, time_unit=time_unit)
     return source
+
+
+def _with_documented_calibration(source, path):
+    """A bundled sample's Source with what its file's calibration lacks taken from the sample's documentation
+    (:func:`hexatissue.samples.documented_calibration`; origin ``"sample"``, and a note saying so)."""
+    from .samples import documented_calibration
+
+    documented = documented_calibration(path)
+    cal = source.calibration
+    if documented is None:
+        return source
+    changes, filled = {}, []
+    if not cal.has_length and documented.has_length:
+        changes.update(pixel_size=documented.pixel_size, length_unit=documented.length_unit, length_from="sample")
+        filled.append(f"pixel size {documented.pixel_size:g} {documented.length_unit}")
+    if not cal.has_time and documented.has_time:
+        changes.update(frame_interval=documented.frame_interval, time_unit=documented.time_unit, time_from="sample")
+        filled.append(f"frame interval {documented.frame_interval:g} {documented.time_unit}")
+    if not changes:
+        return source
+    notes = [*source.description.get("notes", []),
+             f"{' and '.join(filled)} from the bundled sample's documentation (the file's metadata has none)"]
+    return replace(source, calibration=replace(cal, **changes), description={**source.description, "notes": notes})
 
 
 def _absolute(path):

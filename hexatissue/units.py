@@ -52,8 +52,9 @@ def normalize_time_unit(unit) -> str:
     return _normalize(unit, _TIME_ALIASES, "time unit")
 
 
-#: Where a calibration's pixel size or frame interval came from (:class:`Calibration`).
-ORIGINS = ("file", "given", "none")
+#: Where a calibration's pixel size or frame interval came from (:class:`Calibration`); "sample": the documentation
+#: of a bundled sample whose file lacks it (:func:`hexatissue.samples.documented_calibration`).
+ORIGINS = ("file", "given", "sample", "none")
 
 
 @dataclass(frozen=True)
@@ -76,8 +77,9 @@ class Calibration:
         ``"iteration"`` (simulation steps).
     length_from, time_from : str
         Where the pixel size (frame interval) came from: ``"file"`` (the
-        file's metadata), ``"given"`` (an argument or flag) or ``"none"``
-        (uncalibrated); by default ``"given"`` when calibrated.  Carried into
+        file's metadata), ``"given"`` (an argument or flag), ``"sample"``
+        (the documentation of a bundled sample whose file lacks it:
+        :mod:`hexatissue.samples`) or ``"none"`` (uncalibrated); by default ``"given"`` when calibrated.  Carried into
         ``metadata.json`` and the report; not compared (two calibrations with
         the same values are equal wherever they came from).
     """
@@ -153,7 +155,8 @@ class Calibration:
     @property
     def origin_text(self) -> str:
         """Where the calibration came from, for reports: e.g. ``"pixel size from the file, frame interval given"``."""
-        words = {"file": "from the file's metadata", "given": "given", "none": "none"}
+        words = {"file": "from the file's metadata", "given": "given",
+                 "sample": "from the bundled sample's documentation", "none": "none"}
         return f"pixel size {words[self.length_from]}, frame interval {words[self.time_from]}"
 
     def override(self, *, pixel_size=None, length_unit=None, frame_interval=None, time_unit=None,

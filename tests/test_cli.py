@@ -54,7 +54,7 @@ def test_epicure_calibration_comes_from_the_tiff_and_can_be_overridden(tmp_path)
     meta = json.loads((tmp_path / "a" / "metadata.json").read_text())
     assert meta["calibration"]["pixel_size"] == 0.2 and meta["calibration"]["length_unit"] == "um"
     assert main(["analyze", SAMPLE, "--out", str(tmp_path / "b"), "--workers", "1", "--no-fields",
-                 "--pixel-size", "0.1", "--frame-interval", "5"]) == 0
+                 "--pixel-size", "0.1", "--frame-interval", "5", "--time-unit", "min"]) == 0
     cal = ht.read_results(tmp_path / "b").calibration
     assert cal == ht.Calibration(0.1, "um", 5.0, "min")
     # the tables stay in px whatever the calibration

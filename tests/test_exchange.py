@@ -17,7 +17,8 @@ from hexatissue.errors import InputError
 from hexatissue.exchange.ctc import check_ctc, read_ctc, write_ctc
 from hexatissue.exchange.geff import geff_tables, read_geff, write_geff
 from hexatissue.exchange.labels import track_masks
-from hexatissue.exchange.omezarr import LABELS_KEY, boundary_image, downsample_labels, write_ome_zarr_labels
+from hexatissue.exchange.omezarr import (LABELS_KEY, boundary_image, downsample_labels, label_colors,
+                                         write_ome_zarr_labels)
 from hexatissue.graph import neighbour_graph
 from hexatissue.options import OrderOptions
 from hexatissue.readers.ctc import gap_links
@@ -80,10 +81,56 @@ def test_ctc_truth_layout(tmp_path):
     assert folder == tmp_path / "TRA"
     assert (folder / "man_track.txt").read_text() == SCRIPTED_LINES
     assert sorted(p.name for p in folder.glob("*.tif")) == [f"man_track{t:03d}.tif" for t in range(6)]
+    seg = sorted((tmp_path / "SEG").glob("*.tif"))  # the reference segmentation of every frame: the TRA masks
+    assert [p.name for p in seg] == [f"man_seg{t:03d}.tif" for t in range(6)]
+    for t, p in enumerate(seg):
+        np.testing.assert_array_equal(tifffile.imread(p), tifffile.imread(folder / f"man_track{t:03d}.tif"))
     check_ctc(tmp_path)
     check_ctc(folder)
     assert ht.open_source(tmp_path).description["layout"] == "truth"
     assert ht.open_source(folder).parents == {3: 2, 4: 2}
+
+
+def test_check_ctc_checks_the_seg_folder_of_a_ground_truth(tmp_path):
+    masks, lineage = scripted_masks()
+    write_ctc(masks, lineage, tmp_path, truth=True)
+    (tmp_path / "SEG" / "man_seg002.tif").unlink()  # the CTC annotates a subset of frames: allowed
+    check_ctc(tmp_path)
+    (tmp_path / "SEG" / "man_seg003.tif").rename(tmp_path / "SEG" / "man_seg0003.tif")
+    tifffile.imwrite(tmp_path / "SEG" / "man_seg009.tif", masks[0].astype(np.uint16))
+    tifffile.imwrite(tmp_path / "SEG" / "man_seg004.tif", masks[0, :10].astype(np.uint16))
+    with pytest.raises(InputError) as info:
+        check_ctc(tmp_path)
+    text = str(info.value)
+    assert "3 violation(s)" in text and "SEG/man_seg0003.tif: expected a frame number of 3 digits below 6" in text
+    assert "SEG/man_seg009.tif: expected" in text and "SEG/man_seg004.tif is (10, 20); expected (20, 20)" in text
+
+
+def test_ctc_truth_export_refuses_a_foreign_seg_folder_before_writing(tmp_path):
+    masks, lineage = scripted_masks()
+    (tmp_path / "SEG").mkdir()
+    tifffile.imwrite(tmp_path / "SEG" / "man_seg000.tif", np.ones((4, 4), np.uint16))  # someone's annotation
+    with pytest.raises(InputError, match="not an earlier output"):
+        write_ctc(masks, lineage, tmp_path, truth=True)
+    assert not (tmp_path / "TRA").exists() and tifffile.imread(tmp_path / "SEG" / "man_seg000.tif").shape == (4, 4)
+    write_ctc(masks, lineage, tmp_path, truth=True, overwrite=True)
+    check_ctc(tmp_path)
+
+
+def test_ctc_evaluate_seg_measures_a_result_against_the_truth_export(tmp_path):
+    """py-ctcmetrics' ``ctc_evaluate --seg --tra --det`` on the ground-truth export: its own result scores 1; a
+    result missing a quarter of one cell in one frame scores SEG = (13 + 0.75) / 14 (14 reference cell-frames)."""
+    evaluate = pytest.importorskip("ctc_metrics.scripts.evaluate")
+    masks, lineage = scripted_masks()
+    write_ctc(masks, lineage, tmp_path / "gt", truth=True)
+    write_ctc(masks, lineage, tmp_path / "res")
+    scores = evaluate.evaluate_sequence(str(tmp_path / "res"), str(tmp_path / "gt"), ["SEG", "TRA", "DET"], threads=1)
+    assert (scores["SEG"], scores["TRA"], scores["DET"], scores["AOGM"]) == (1.0, 1.0, 1.0, 0.0)
+    eroded = masks.copy()
+    eroded[0, 10:15, :10] = 0  # 50 of track 2's 200 px in frame 0: IoU 0.75
+    write_ctc(eroded, lineage, tmp_path / "res2")
+    scores = evaluate.evaluate_sequence(str(tmp_path / "res2"), str(tmp_path / "gt"), ["SEG"], threads=1)
+    assert scores["SEG"] == pytest.approx((13 + 0.75) / 14, rel=1e-12)
 
 
 def test_ctc_uses_four_digits_beyond_1000_frames(tmp_path):
@@ -290,6 +337,38 @@ def test_geff_track_graph_follows_tracks_and_divisions(epicure, tmp_path):
     assert meta.extra["hexatissue"]["graph"] == "tracks"
 
 
+def test_geff_exported_with_its_ome_zarr_points_to_the_labels_of_every_node(epicure, tmp_path, capsys):
+    """``--with-ome-zarr``: both stores' related_objects name the labels (node_prop track) and the image, by paths
+    relative to the store; following them, the pixels of value ``track`` in frame ``frame`` are each node's area."""
+    import geff
+    import zarr
+
+    out = tmp_path / "g"
+    assert main(["export", str(epicure["results"]), "--to", "geff", str(out), "--with-ome-zarr"]) == 0
+    assert str(out / "cells.zarr") in capsys.readouterr().out
+    for name in ("neighbours.geff", "tracks.geff"):
+        store = out / name
+        geff.validate_structure(str(store))
+        graph, meta = read_geff(store)
+        related = [(r.type, r.path, r.node_prop) for r in meta.related_objects]
+        assert related == [("labels", "../cells.zarr/labels/cells", "track"), ("image", "../cells.zarr", None)]
+        labels = zarr.open_group(str(store / related[0][1]), mode="r")["0"][:]
+        assert labels.shape == (11, 160, 257)
+        nodes, _ = geff_tables(store)
+        for t, frame_nodes in nodes.groupby("frame"):
+            counts = np.bincount(labels[t].ravel(), minlength=int(frame_nodes["track"].max()) + 1)
+            np.testing.assert_array_equal(counts[frame_nodes["track"].to_numpy()], frame_nodes["area"].to_numpy())
+    assert read_geff(write_geff(epicure["movie"], tmp_path / "plain")[0])[1].related_objects is None
+    with pytest.raises(InputError, match="not an OME-Zarr written by hexatissue"):
+        write_geff(epicure["movie"], tmp_path / "bad", labels=tmp_path / "plain")
+    flipped = write_ome_zarr_labels(np.flip(labels, axis=2), tmp_path / "flipped.zarr")
+    with pytest.raises(InputError, match="frame 0: its label values are not the tracks"):
+        write_geff(epicure["movie"].replace(cells=epicure["movie"].cells[epicure["movie"].cells["track"] != 73]),
+                   tmp_path / "bad", labels=flipped)
+    with pytest.raises(InputError, match="with_ome_zarr"):
+        ht.exchange.command.export(epicure["results"], tmp_path / "c", "ctc", with_ome_zarr=True)
+
+
 def test_read_geff_refuses_what_is_not_a_store(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         read_geff(tmp_path / "none.geff")
@@ -314,8 +393,14 @@ def test_exports_of_the_epicure_sample_pass_the_external_validators(epicure, tmp
     import geff
 
     validate = pytest.importorskip("ctc_metrics.scripts.validate")
+    evaluate = pytest.importorskip("ctc_metrics.scripts.evaluate")
     assert main(["export", str(epicure["results"]), "--to", "ctc", str(tmp_path / "ctc")]) == 0
     assert validate.validate_sequence(str(tmp_path / "ctc"), threads=1) == {"Valid": 1}
+    # ctc_evaluate --seg --tra on the ground-truth export (TRA/ and SEG/): the result export matches it exactly
+    assert main(["export", str(epicure["results"]), "--to", "ctc", "--truth", str(tmp_path / "gt")]) == 0
+    assert len(list((tmp_path / "gt" / "SEG").glob("man_seg*.tif"))) == 11
+    scores = evaluate.evaluate_sequence(str(tmp_path / "ctc"), str(tmp_path / "gt"), ["SEG", "TRA"], threads=1)
+    assert (scores["SEG"], scores["TRA"], scores["AOGM"]) == (1.0, 1.0, 0.0)
     for store in write_geff(epicure["movie"], tmp_path / "geff"):
         geff.validate_structure(str(store))
 
@@ -411,9 +496,24 @@ def test_export_geff_and_ome_zarr_from_the_command_line(epicure, tmp_path):
                  "--levels", "2"]) == 0
     source = ht.open_source(tmp_path / "l.zarr", key=LABELS_KEY)
     assert source.description["n_levels"] == 2
-    assert source.calibration == ht.Calibration(0.2, "um")
+    assert source.calibration == ht.Calibration(0.2, "um", 300.0, "s")  # the sample's (tests/test_packaging.py)
     np.testing.assert_array_equal(np.stack([source.frame(t) for t in range(11)]),
                                   np.stack(track_masks(epicure["movie"])))
+    # image-label colours (one per lineage: the division 73 -> 477 + 490 in one colour) and per-track properties
+    image_label = json.loads((tmp_path / "l.zarr" / "labels" / "cells" / "zarr.json").read_text())[
+        "attributes"]["ome"]["image-label"]
+    colors = {c["label-value"]: c["rgba"] for c in image_label["colors"]}
+    cells = epicure["movie"].cells
+    assert sorted(colors) == [0, *sorted(cells["track"].unique())] and colors[0] == [0, 0, 0, 0]
+    assert colors[73] == colors[477] == colors[490] != colors[16]
+    props = {p["label-value"]: p for p in image_label["properties"]}
+    assert sorted(props) == sorted(cells["track"].unique())
+    assert {k: props[477][k] for k in ("track", "parent", "lineage", "frame_start", "frame_end", "n_frames")} == \
+        {"track": 477, "parent": 73, "lineage": 73, "frame_start": 3, "frame_end": 10, "n_frames": 8}
+    of_16 = cells[cells["track"] == 16]
+    assert props[16]["n_frames"] == len(of_16) < 11  # missing from some frames of the curated labels
+    assert props[16]["area_mean"] == pytest.approx(of_16["area"].mean(), rel=1e-12)
+    assert props[16]["n_sides_mean"] == pytest.approx(of_16["n_sides"].mean(), rel=1e-12)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -496,20 +596,31 @@ def test_ome_zarr_export_passes_ome_zarr_py_ngff_zarr_and_ome_zarr_models(tmp_pa
     ngff_zarr = pytest.importorskip("ngff_zarr")
     ome_zarr_models = pytest.importorskip("ome_zarr_models")
     labels = np.stack([voronoi_labels(jittered_seeds((40, 56), 8, seed=s), (40, 56)) for s in (1, 2, 3)])
+    values = np.unique(labels).tolist()
+    properties = [{"label-value": v, "track": v, "n_sides_mean": 5.5, "name": f"cell {v}"} for v in values]
     path = write_ome_zarr_labels(labels.astype(np.uint16), tmp_path / "v.zarr", levels=2, version=version,
-                                 calibration=ht.Calibration(0.2, "um", 5.0, "min"))
+                                 calibration=ht.Calibration(0.2, "um", 5.0, "min"), properties=properties)
     nodes = list(ome_zarr_reader.Reader(ome_zarr_io.parse_url(str(path)))())
     kinds = {Path(n.zarr.path).relative_to(path).as_posix(): [type(s).__name__ for s in n.specs] for n in nodes}
     assert kinds["."] == ["Multiscales"] and "Label" in kinds["labels/cells"]
     cells = next(n for n in nodes if n.zarr.path.endswith("cells"))
     np.testing.assert_array_equal(np.asarray(cells.data[0]), labels)
+    # ome-zarr-py reads the image-label colours (as 0-1 floats) and the properties of every label value
+    want = {c["label-value"]: [x / 255 for x in c["rgba"]] for c in label_colors(values)}
+    assert cells.metadata["color"] == want and len({tuple(v) for v in want.values()}) == len(values)
+    assert cells.metadata["properties"] == {v: {"track": v, "n_sides_mean": 5.5, "name": f"cell {v}"}
+                                            for v in values}
     for where in (path, path / "labels" / "cells"):
         ms = ngff_zarr.from_ngff_zarr(str(where), validate=True)
         assert ms.images[0].scale == {"t": 5.0, "y": 0.2, "x": 0.2}
         assert ms.images[0].axes_units == {"t": "minute", "y": "micrometer", "x": "micrometer"}
     assert type(ome_zarr_models.open_ome_zarr(str(path))).__name__ == "Image"
     assert type(ome_zarr_models.open_ome_zarr(str(path / "labels"))).__name__ == "Labels"
-    assert type(ome_zarr_models.open_ome_zarr(str(path / "labels" / "cells"))).__name__ == "ImageLabel"
+    image_label = ome_zarr_models.open_ome_zarr(str(path / "labels" / "cells"))
+    assert type(image_label).__name__ == "ImageLabel"
+    label_meta = image_label.attributes.ome.image_label if version == "0.5" else image_label.attributes.image_label
+    assert [c.label_value for c in label_meta.colors] == values
+    assert [p.label_value for p in label_meta.properties] == values
 
 
 def test_two_level_ome_zarr_analyses_at_the_chosen_level(tmp_path):
@@ -624,7 +735,7 @@ def test_anndata_export_of_the_squares_holds_the_hand_made_neighbour_graph(squar
     assert main(["export", str(folder / "results"), "--to", "anndata", str(out)]) == 0
     adata = anndata.read_h5ad(out) if suffix == ".h5ad" else anndata.read_zarr(out)  # as squidpy users read it
     cells = movie.cells
-    assert adata.n_obs == len(cells) == 9 and adata.n_vars == 0
+    assert adata.n_obs == len(cells) == 9
     assert list(adata.obs_names) == [f"{t}:{c}" for t, c in zip(cells["frame"], cells["cell"])]
     pd.testing.assert_frame_equal(adata.obs.reset_index(drop=True), cells.reset_index(drop=True),
                                   check_index_type=False)
@@ -644,6 +755,78 @@ def test_anndata_export_of_the_squares_holds_the_hand_made_neighbour_graph(squar
     assert adata.uns["units"]["area"] == "px^2" and adata.uns["units"]["spatial"] == "px"
     assert adata.uns["descriptions"]["area"] == ht.schema.TABLES["cells"]["area"][2]
     assert adata.uns["hexatissue"]["source"] == str(folder / "squares.tif")
+    # X: the features, each an exact copy of its cells column, or the squares' exact shape tensor
+    assert list(adata.var_names) == ["area", "perimeter", "n_sides", "gamma6_re", "gamma6_im", "gamma2_re",
+                                     "gamma2_im", "shape_xx", "shape_xy", "shape_yy"]
+    assert adata.uns["features"]["left_out"] == {"tension": "not computed in this run", "pressure": "not computed "
+                                                 "in this run", "vx": "NaN for every cell-frame",
+                                                 "vy": "NaN for every cell-frame"}  # two frames: no centred velocity
+    assert adata.var.loc["area", "unit"] == "px^2" and adata.var.loc["shape_xy", "unit"] == "px^2"
+    X = pd.DataFrame(np.asarray(adata.X), columns=adata.var_names)
+    for name in ("area", "perimeter", "n_sides", "gamma6_re", "gamma2_im"):
+        np.testing.assert_array_equal(X[name], cells[name].to_numpy(float), err_msg=name)
+    assert not np.asarray(adata.layers["missing"]).any()
+    # every cell is a w x h rectangle: S = diag(w^2, h^2) / 12 with w h = polygon area and 2 (w + h) = perimeter
+    w, h = np.sqrt(12 * X["shape_xx"]), np.sqrt(12 * X["shape_yy"])
+    np.testing.assert_allclose(w * h, cells["polygon_area"], rtol=1e-12)
+    np.testing.assert_allclose(2 * (w + h), cells["perimeter"], rtol=1e-12)
+    np.testing.assert_allclose(X["shape_xy"], 0, atol=1e-9)
+    daughters = cells["cell"].isin([5, 6]).to_numpy()
+    np.testing.assert_allclose((w / h)[daughters], 2.0, rtol=0.1)  # 40 x 20 px halves (vertices on the cracks)
+
+
+def test_anndata_export_of_the_epicure_sample_runs_scanpy_and_squidpy(epicure, tmp_path):
+    """scanpy's pp.neighbors and tl.umap run on X; squidpy's nhood_enrichment, centrality_scores and Moran's I on the
+    contact graph, Moran's I of every feature equal to the formula on that graph."""
+    anndata = pytest.importorskip("anndata")
+    sc = pytest.importorskip("scanpy")
+    sq = pytest.importorskip("squidpy")
+    movie = epicure["movie"]
+    assert main(["export", str(epicure["results"]), "--to", "anndata", str(tmp_path / "cells.h5ad")]) == 0
+    adata = anndata.read_h5ad(tmp_path / "cells.h5ad")
+    cells = movie.cells
+    assert adata.shape == (902, 12)  # no --mechanics: tension and pressure are not features
+    assert set(adata.uns["features"]["left_out"]) == {"tension", "pressure"}
+    assert not np.isnan(np.asarray(adata.X)).any()
+    missing = pd.DataFrame(np.asarray(adata.layers["missing"]), columns=adata.var_names)
+    pd.testing.assert_series_equal(missing["vx"], cells["vx"].isna().reset_index(drop=True), check_names=False)
+    assert missing["vx"].sum() == adata.uns["features"]["n_missing"]["vx"] > 0  # the tracks' ends
+    X = np.asarray(adata.X)
+    vx = adata.var_names.get_loc("vx")
+    np.testing.assert_array_equal(X[~missing["vx"], vx], cells["vx"].dropna().to_numpy())
+    assert np.all(X[missing["vx"], vx] == np.nanmean(cells["vx"]))
+    features = adata.copy()
+    sc.pp.scale(features)
+    sc.pp.neighbors(features, n_neighbors=10, random_state=0)
+    sc.tl.umap(features, random_state=0)
+    assert features.obsm["X_umap"].shape == (902, 2) and np.isfinite(features.obsm["X_umap"]).all()
+    adata.obs["sides"] = pd.Categorical(adata.obs["n_sides"].clip(4, 8).astype(str))
+    sq.gr.nhood_enrichment(adata, cluster_key="sides", n_perms=20, seed=0, show_progress_bar=False)
+    sq.gr.centrality_scores(adata, cluster_key="sides", show_progress_bar=False)
+    assert adata.uns["sides_nhood_enrichment"]["zscore"].shape == (5, 5)
+    assert np.isfinite(adata.uns["sides_centrality_scores"].to_numpy()).all()
+    sq.gr.spatial_autocorr(adata, mode="moran", n_perms=None, show_progress_bar=False)
+    w = adata.obsp["spatial_connectivities"].toarray()
+    w = w / np.maximum(w.sum(axis=1, keepdims=True), 1)  # squidpy's row-normalised weights
+    for name in ("area", "gamma6_re", "vx"):
+        z = X[:, adata.var_names.get_loc(name)] - X[:, adata.var_names.get_loc(name)].mean()
+        want = len(z) / w.sum() * (z @ w @ z) / (z @ z)
+        assert adata.uns["moranI"].loc[name, "I"] == pytest.approx(want, rel=1e-9), name
+
+
+def test_anndata_features_of_a_mechanics_run_hold_the_junction_tension_and_pressure(squares):
+    from hexatissue.exchange.anndata import cell_features
+
+    _, movie = squares
+    edges = movie.edges.assign(tension=np.arange(len(movie.edges), dtype=float))
+    cells = movie.cells.assign(pressure=np.linspace(-1, 1, len(movie.cells)))
+    features, left_out = cell_features(movie.replace(edges=edges, cells=cells))
+    assert "tension" in features and "pressure" in features and "tension" not in left_out
+    np.testing.assert_array_equal(features["pressure"], cells["pressure"])
+    for k, (t, c) in enumerate(zip(cells["frame"], cells["cell"])):  # length-weighted mean of its junctions
+        own = edges[(edges["frame"] == t) & ((edges["cell_a"] == c) | (edges["cell_b"] == c))]
+        want = (own["tension"] * own["length"]).sum() / own["length"].sum()
+        assert features["tension"].iloc[k] == pytest.approx(want, rel=1e-12)
 
 
 def test_anndata_export_says_how_to_install_anndata_and_refuses_a_bad_name(squares, tmp_path, monkeypatch):

@@ -91,3 +91,25 @@ def test_match_points_is_the_dense_optimum_with_periodic_distances():
         assert len(pairs) == int(ok[r, c].sum())
         assert pairs[:, 2].sum() == pytest.approx(dist[r, c][ok[r, c]].sum(), rel=1e-12)
     assert match_points(np.zeros((0, 2)), np.ones((3, 2)), 1.0).shape == (0, 3)
+
+
+def test_polygon_shape_tensor_is_the_exact_second_area_moment():
+    """Rotated rectangles: R diag(w^2, h^2) R^T / 12 whatever the place and winding; an ellipse's diag(a^2, b^2) / 4
+    as its inscribed polygon refines; NaN without an area."""
+    from hexatissue.geometry import pack_polygons, polygon_shape_tensor
+
+    polygons, want = [], []
+    for w, h, angle, centre in ((40, 20, 0.0, (100, 50)), (7, 3, 0.6, (-5, 1e4)), (1, 1, 2.0, (0.5, 0.5))):
+        c, s = np.cos(angle), np.sin(angle)
+        rot = np.array([[c, -s], [s, c]])
+        corners = np.array([[-w, -h], [w, -h], [w, h], [-w, h]]) / 2 @ rot.T + centre
+        polygons += [corners, corners[::-1]]  # counter-clockwise and clockwise
+        tensor = rot @ np.diag([w**2, h**2]) @ rot.T / 12
+        want += [[tensor[0, 0], tensor[0, 1], tensor[1, 1]]] * 2
+    xy, starts = pack_polygons(polygons)
+    np.testing.assert_allclose(polygon_shape_tensor(xy, starts), want, rtol=1e-9, atol=1e-9)
+    theta = np.linspace(0, 2 * np.pi, 20001)[:-1]
+    xy, starts = pack_polygons([np.c_[7 * np.cos(theta), 3 * np.sin(theta)], [[0, 0], [1, 1]]])
+    got = polygon_shape_tensor(xy, starts)
+    np.testing.assert_allclose(got[0], [49 / 4, 0, 9 / 4], rtol=1e-7, atol=1e-12)
+    assert np.isnan(got[1]).all()

@@ -93,7 +93,7 @@ def test_dashboard_extra_brings_the_bokeh_distributed_needs(project):
 
 def test_extras_that_are_test_only_are_not_core_dependencies(project):
     core = set(_requirements(project))
-    for extra in ("anndata", "validate", "dashboard"):
+    for extra in ("anndata", "validate", "validate-anndata", "dashboard"):
         assert not core & set(_requirements(project, extra)), extra
 
 
@@ -111,6 +111,38 @@ def test_every_bundled_sample_is_package_data_and_opens(tmp_path):
     printed = subprocess.run([sys.executable, "-m", "hexatissue.samples", "epicure_notum"], capture_output=True,
                              text=True, check=True, cwd=tmp_path, env=env).stdout.strip()
     assert printed == str(sample_path("epicure_notum"))
+
+
+def test_the_epicure_sample_has_one_calibration_whichever_way_it_is_opened(tmp_path):
+    """open_source (Python), `hexatissue analyze` (metadata.json), a copy of the file, and the napari sample layer's
+    scale and units (through the Analyze widget's layer_calibration) all give 0.2 um/px and 300 s per frame: the
+    pixel size from the file's ImageJ header, the frame interval (absent from it) from the sample's README."""
+    import json
+    import shutil
+
+    from hexatissue import Calibration
+    from hexatissue.cli import main
+    from hexatissue.napari.sample import epicure_labels
+    from hexatissue.samples import SAMPLE_CALIBRATION
+
+    want = Calibration(0.2, "um", 300.0, "s")
+    assert SAMPLE_CALIBRATION["epicure_notum"] == want
+    path = sample_path("epicure_notum")
+    source = open_source(path)
+    assert source.calibration == want
+    assert (source.calibration.length_from, source.calibration.time_from) == ("file", "sample")
+    assert source.description["notes"][-1] == ("frame interval 300 s from the bundled sample's documentation (the "
+                                               "file's metadata has none)")
+    shutil.copy(path, tmp_path / "copy.tif")
+    assert open_source(tmp_path / "copy.tif").calibration == want  # the same bytes: the same sample
+    assert open_source(path, frame_interval=60).calibration == Calibration(0.2, "um", 60.0, "s")  # a flag wins
+    _, kwargs, _ = epicure_labels()[0]
+    assert kwargs["scale"] == (300.0, 0.2, 0.2) and kwargs["units"] == ("s", "um", "um")
+    widget = pytest.importorskip("hexatissue.napari.widget", exc_type=ImportError)
+    assert Calibration.from_dict(widget.layer_calibration(kwargs["scale"], kwargs["units"])) == want
+    assert main(["analyze", str(path), "--out", str(tmp_path / "r"), "--workers", "1", "--no-fields", "--no-flow"]) == 0
+    recorded = json.loads((tmp_path / "r" / "metadata.json").read_text())["calibration"]
+    assert Calibration.from_dict(recorded) == want and recorded["time_from"] == "sample"
 
 
 def test_the_sdist_manifest_ships_the_tests_and_their_helpers():

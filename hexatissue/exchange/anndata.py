@@ -9,11 +9,17 @@ squidpy's ``spatial_neighbors`` names them: ``spatial_connectivities`` (1
 for two cells that share a junction in the same frame), ``spatial_distances``
 (their centroid distance, px, across the periodic box when there is one),
 and ``contact_length`` (the total length of their junctions, px).  ``X`` is
-empty (no variables): the measurements are ``obs`` columns.  ``uns`` holds
-the units and meanings of the ``obs`` columns (from
-:mod:`hexatissue.schema`), the calibration that converts px and frames, and
-where the data came from.  ``anndata`` is an optional extra
-(``pip install 'hexatissue[anndata]'``), imported only here.
+the per-cell feature matrix (:func:`cell_features`: area, perimeter,
+``n_sides``, the shape functions, the shape tensor, and the junction tension,
+pressure and velocity when the run computed them), one variable per
+feature with its unit in ``var["unit"]``; values a cell-frame lacks (NaN in
+``obs``: the velocity at a track's ends, a border cell without a polygon)
+are the feature's mean in ``X`` and flagged in ``layers["missing"]``, so
+that scanpy's ``pp.neighbors`` and ``tl.umap`` run on it.  ``uns`` holds the
+units and meanings of the ``obs`` columns (from :mod:`hexatissue.schema`),
+the calibration that converts px and frames, and where the data came from.
+``anndata`` is an optional extra (``pip install 'hexatissue[anndata]'``),
+imported only here.
 """
 from __future__ import annotations
 
@@ -23,10 +29,11 @@ import numpy as np
 
 from .._version import __version__
 from ..errors import InputError
+from ..geometry import lookup, polygon_shape_tensor, row_keys, table_polygons
 from ..graph import contact_table
 from ..schema import column_units
 
-__all__ = ["movie_to_anndata", "write_anndata", "is_anndata_export"]
+__all__ = ["movie_to_anndata", "write_anndata", "is_anndata_export", "cell_features", "FEATURES"]
 
 SUFFIXES = (".h5ad", ".zarr")
 
@@ -40,6 +47,120 @@ def _need_anndata():
     return anndata
 
 
+#: The variables of ``X`` (those the run computed, in this order; ``gamma{p}`` once per order p): unit, meaning.
+FEATURES = {
+    "area": ("px^2", "number of pixels of the cell (cells.area)"),
+    "perimeter": ("px", "perimeter of the vertex polygon (cells.perimeter)"),
+    "n_sides": ("", "number of polygon vertices (cells.n_sides)"),
+    "gamma{p}_re": ("", "real part of the p-fold shape function (cells.gamma{p}_re)"),
+    "gamma{p}_im": ("", "imaginary part of the p-fold shape function (cells.gamma{p}_im)"),
+    "shape_xx": ("px^2", "shape tensor of the vertex polygon, xx: its second area moment about the centroid over "
+                         "its area (a square of side a: a^2/12)"),
+    "shape_xy": ("px^2", "shape tensor, xy"),
+    "shape_yy": ("px^2", "shape tensor, yy"),
+    "tension": ("tension", "inferred tension of the cell's junctions, mean weighted by junction length "
+                           "(edges.tension, with --mechanics)"),
+    "pressure": ("tension/px", "inferred pressure relative to the frame's mean (cells.pressure, with --mechanics)"),
+    "vx": ("px/frame", "velocity along x (cells.vx)"),
+    "vy": ("px/frame", "velocity along y, rows (cells.vy)"),
+}
+
+
+def _orders(cells):
+    return [int(c[len("gamma"):-len("_re")]) for c in cells.columns
+            if c.startswith("gamma") and c.endswith("_re") and c[len("gamma"):-len("_re")].isdigit()]
+
+
+def _junction_tension(movie, keys):
+    """Length-weighted mean tension of each cell's junctions (NaN without a junction of known tension), for the
+    cells of sorted ``keys`` (:func:`hexatissue.geometry.row_keys` of frame and cell)."""
+    edges = movie.edges
+    frame = edges["frame"].to_numpy(np.int64)
+    weight = edges["length"].to_numpy(float)
+    tension = edges["tension"].to_numpy(float)
+    total, norm = np.zeros(len(keys)), np.zeros(len(keys))
+    for side in ("cell_a", "cell_b"):
+        row = lookup(keys, np.arange(len(keys)), row_keys(frame, edges[side].to_numpy(np.int64)))
+        ok = (row >= 0) & np.isfinite(tension)  # the outside (cell 0) has no row
+        total += np.bincount(row[ok], weight[ok] * tension[ok], len(keys))
+        norm += np.bincount(row[ok], weight[ok], len(keys))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(norm > 0, total / norm, np.nan)
+
+
+def cell_features(movie):
+    """The per-cell features of a Movie, the ``X`` of :func:`movie_to_anndata`.
+
+    Parameters
+    ----------
+    movie : Movie
+        An analysis (:func:`hexatissue.read_results`).
+
+    Returns
+    -------
+    features : pandas.DataFrame
+        One row per row of ``cells`` (same order), one column per feature of
+        :data:`FEATURES` that the run computed: ``area`` (px^2),
+        ``perimeter`` (px), ``n_sides``, ``gamma{p}_re``/``_im`` for each
+        order p analysed, ``shape_xx``/``_xy``/``_yy`` (px^2, the shape
+        tensor of the vertex polygon), ``tension`` (the length-weighted
+        mean tension of the cell's junctions) and ``pressure`` with
+        ``--mechanics``, ``vx``/``vy`` (px/frame) with the flow stage.
+        NaN where a cell-frame has no value (no polygon, a track's end, no
+        inferred force).
+    left_out : dict
+        ``{feature: why}`` for the features of :data:`FEATURES` that are not
+        columns (not computed in this run, or NaN for every cell).
+    """
+    import pandas as pd
+
+    cells = movie.cells.reset_index(drop=True)
+    keys = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    columns, left_out = {}, {}
+    for name in ("area", "perimeter", "n_sides"):
+        columns[name] = cells[name].to_numpy(float)
+    for p in _orders(cells):
+        re, im = cells[f"gamma{p}_re"].to_numpy(float), cells[f"gamma{p}_im"].to_numpy(float)
+        lacking = np.isnan(re) | np.isnan(im)  # a cell without a polygon: neither part is a measurement
+        columns[f"gamma{p}_re"], columns[f"gamma{p}_im"] = np.where(lacking, np.nan, re), np.where(lacking, np.nan, im)
+    shape = np.full((len(cells), 3), np.nan)
+    if len(movie.cell_vertices):
+        poly_keys, xy, starts = table_polygons(movie.vertices, movie.cell_vertices, movie.box)
+        rows = lookup(sorted_keys, order, row_keys(poly_keys["frame"].to_numpy(np.int64),
+                                                   poly_keys["cell"].to_numpy(np.int64)))
+        tensor = polygon_shape_tensor(xy, starts)
+        # a cell of fewer than 3 vertices (n_sides 0) has no polygon: its row stays NaN like its perimeter
+        has_polygon = (rows >= 0) & (np.diff(np.r_[starts, len(xy)]) >= 3)
+        shape[rows[has_polygon]] = tensor[has_polygon]
+    columns.update(shape_xx=shape[:, 0], shape_xy=shape[:, 1], shape_yy=shape[:, 2])
+    columns["tension"] = None
+    if "tension" in movie.edges.columns:
+        columns["tension"] = np.empty(len(cells))
+        columns["tension"][order] = _junction_tension(movie, keys[order])
+    for name in ("pressure", "vx", "vy"):
+        columns[name] = cells[name].to_numpy(float) if name in cells.columns else None
+    features = {}
+    for name, values in columns.items():
+        if values is None:
+            left_out[name] = "not computed in this run"
+        elif len(values) and np.isnan(values).all():
+            left_out[name] = "NaN for every cell-frame"
+        else:
+            features[name] = values
+    return pd.DataFrame(features), left_out
+
+
+def _feature_meaning(name):
+    """``(unit, meaning)`` of a feature column, the ``{p}`` patterns filled in."""
+    if name.startswith("gamma"):
+        p = name[len("gamma"):-3]
+        unit, meaning = FEATURES["gamma{p}" + name[-3:]]
+        return unit, meaning.replace("p-fold", f"{p}-fold").replace("{p}", p)
+    return FEATURES[name]
+
+
 def movie_to_anndata(movie):
     """The cells of a Movie as an AnnData object (see the module's description).
 
@@ -51,7 +172,12 @@ def movie_to_anndata(movie):
     Returns
     -------
     anndata.AnnData
-        ``n_obs`` = rows of ``cells``, no variables.  ``obs``: every column
+        ``n_obs`` = rows of ``cells``; ``n_vars`` = the features of
+        :func:`cell_features` that the run computed.  ``X``: those
+        features (float64, NaN replaced by the feature's mean over the
+        cell-frames that have it); ``var``: ``unit`` and ``description`` of
+        each; ``layers["missing"]``: True where ``X`` holds such a mean
+        (``obs`` keeps the NaN); ``obs``: every column
         of ``cells`` in its unit (``uns["units"]``: ``x``, ``y`` px,
         ``area`` px^2, ``frame`` frames, ...); ``obsm["spatial"]``:
         ``(n_obs, 2)`` float, columns ``x``, ``y`` (px); ``obsp``:
@@ -59,7 +185,8 @@ def movie_to_anndata(movie):
         ``contact_length`` (px), sparse CSR, symmetric, nonzero only
         between two cells of one frame that share a junction;
         ``uns``: ``units`` and ``descriptions`` (by ``obs`` column, and
-        ``spatial``), ``calibration`` (pixel size, frame interval and their
+        ``spatial``), ``features`` (``left_out``: ``{feature: why}``, and
+        how missing values were filled), ``calibration`` (pixel size, frame interval and their
         units), ``spatial_neighbors`` (squidpy's keys of the two matrices),
         ``hexatissue`` (version, source, box).
     """
@@ -93,7 +220,15 @@ def movie_to_anndata(movie):
 
     units = column_units("cells", obs.columns)
     cal = movie.calibration
-    adata = anndata.AnnData(obs=obs, obsm={"spatial": xy})
+    features, left_out = cell_features(movie)
+    values = features.to_numpy(np.float64).reshape(n, features.shape[1])
+    missing = np.isnan(values)
+    if missing.any():
+        values = np.where(missing, np.nanmean(values, axis=0), values)  # no column is NaN throughout
+    var = pd.DataFrame({"unit": [_feature_meaning(c)[0] for c in features.columns],
+                        "description": [_feature_meaning(c)[1] for c in features.columns]},
+                       index=pd.Index([str(c) for c in features.columns], dtype=str))
+    adata = anndata.AnnData(X=values, obs=obs, var=var, obsm={"spatial": xy}, layers={"missing": missing})
     adata.obsp["spatial_connectivities"] = symmetric(np.ones(len(a)))
     adata.obsp["spatial_distances"] = symmetric(distance)
     adata.obsp["contact_length"] = symmetric(contacts["length"].to_numpy(float))
@@ -104,6 +239,11 @@ def movie_to_anndata(movie):
                                  "spatial_connectivities": "1 for two cells of one frame that share a junction",
                                  "spatial_distances": "centroid distance of two neighbours",
                                  "contact_length": "total length of the junctions two neighbours share"}
+    adata.uns["features"] = {
+        "left_out": left_out,
+        "missing": "X holds the feature's mean over the cell-frames that have it where a cell-frame has no value "
+                   "(obs holds NaN there); layers['missing'] is True at those entries",
+        "n_missing": {str(c): int(k) for c, k in zip(features.columns, missing.sum(axis=0))}}
     adata.uns["calibration"] = {k: v for k, v in cal.to_dict().items() if v is not None}
     adata.uns["spatial_neighbors"] = {"connectivities_key": "spatial_connectivities",
                                       "distances_key": "spatial_distances",

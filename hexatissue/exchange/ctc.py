@@ -9,7 +9,11 @@ its parent track ``P`` (0 = none).  A track is present in every frame from
 Two layouts hold the same content:
 
 - a result: ``maskTTT.tif`` and ``res_track.txt`` in one folder;
-- a ground truth: ``TRA/man_trackTTT.tif`` and ``TRA/man_track.txt``.
+- a ground truth: ``TRA/man_trackTTT.tif`` and ``TRA/man_track.txt``, and
+  the reference segmentation ``SEG/man_segTTT.tif`` (what the SEG measure,
+  ``ctc_evaluate --seg``, compares a result's masks with): a label image
+  per annotated frame whose ids need not match the tracks; the export
+  annotates every frame, with the same masks as ``TRA``.
 
 ``TTT`` is the frame index with 3 digits (4 when there are more than 1000
 frames).  The format has no gaps: an object missing for some frames and
@@ -25,6 +29,7 @@ folder against it.
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -37,10 +42,12 @@ from ..readers.ctc import RESULT, TRUTH, ctc_layout, mask_digits, mask_files, nu
 from ..schema import require_columns
 from ..source import open_source
 
-__all__ = ["write_ctc", "is_ctc_export", "MARK", "check_ctc", "read_ctc", "MAX_ID"]
+__all__ = ["write_ctc", "is_ctc_export", "MARK", "check_ctc", "read_ctc", "MAX_ID", "SEG_PREFIX"]
 
 MAX_ID = 2**16 - 1  # CTC masks are 16-bit
 MAX_LISTED = 50  # violations spelled out by check_ctc before it only counts the rest
+#: The reference segmentation's file prefix in a ground truth's ``SEG`` folder (``SEG/man_segTTT.tif``, 2-D frames).
+SEG_PREFIX = "man_seg"
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -143,12 +150,14 @@ def write_ctc(masks, lineage, out, *, truth=False, overwrite=False) -> Path:
     truth : bool
         False: the result layout, ``out/maskTTT.tif`` and
         ``out/res_track.txt``; True: the ground-truth layout,
-        ``out/TRA/man_trackTTT.tif`` and ``out/TRA/man_track.txt``.
+        ``out/TRA/man_trackTTT.tif`` and ``out/TRA/man_track.txt``, plus
+        the reference segmentation of every frame,
+        ``out/SEG/man_segTTT.tif`` (the same masks).
     overwrite : bool
-        Write into a mask folder (``out``, or ``out/TRA``) that holds files
-        and is not an earlier export; without it such a folder is refused
-        before anything is written, so no one else's masks are replaced or
-        removed.
+        Write into a mask folder (``out``, or ``out/TRA`` and ``out/SEG``)
+        that holds files and is not an earlier export; without it such a
+        folder is refused before anything is written, so no one else's
+        masks are replaced or removed.
 
     Returns
     -------
@@ -193,26 +202,31 @@ def write_ctc(masks, lineage, out, *, truth=False, overwrite=False) -> Path:
         raise InputError(f"splitting tracks at their gaps needs ids up to {max(r[0] for r in rows)}; CTC masks are "
                          f"16-bit (ids up to {MAX_ID}): relabel the tracks to smaller ids first")
     prefix, track_name = TRUTH if truth else RESULT
-    folder = check_output_folder(out, "out")
-    folder = folder / "TRA" if truth else folder
-    check_replaceable(folder, is_ctc_export, name="out", overwrite=overwrite)
-    folder.mkdir(parents=True, exist_ok=True)
-    # marked first, so that an export interrupted halfway can be written again
-    (folder / MARK).write_text(f"Cell Tracking Challenge {'ground truth' if truth else 'result'} written by "
-                               f"hexatissue.exchange.ctc.write_ctc\n")
+    root = check_output_folder(out, "out")
+    folder = root / "TRA" if truth else root
+    targets = [(folder, prefix)] + ([(root / "SEG", SEG_PREFIX)] if truth else [])
+    for where, _ in targets:
+        check_replaceable(where, is_ctc_export, name="out", overwrite=overwrite)
+    for where, _ in targets:
+        where.mkdir(parents=True, exist_ok=True)
+        # marked first, so that an export interrupted halfway can be written again
+        (where / MARK).write_text(f"Cell Tracking Challenge {'ground truth' if truth else 'result'} written by "
+                                  f"hexatissue.exchange.ctc.write_ctc\n")
     digits = mask_digits(len(frames))
     written = set()
     for t, f in enumerate(frames):
         if t in renamed:  # the ids of the parts after a gap
             old = sorted(renamed[t])
             f = relabel(f, old, [renamed[t][i] for i in old])
-        path = folder / f"{prefix}{t:0{digits}d}.tif"
-        with atomic_path(path) as tmp:
-            tifffile.imwrite(tmp, f.astype(np.uint16), photometric="minisblack")
-        written.add(path.name)
-    for stale in mask_files(folder, prefix):
-        if stale.name not in written:
-            stale.unlink()
+        for where, name in targets:
+            path = where / f"{name}{t:0{digits}d}.tif"
+            with atomic_path(path) as tmp:
+                tifffile.imwrite(tmp, f.astype(np.uint16), photometric="minisblack")
+            written.add(path)
+    for where, name in targets:
+        for stale in mask_files(where, name):
+            if stale not in written:
+                stale.unlink()
     with atomic_path(folder / track_name) as tmp:
         tmp.write_text("".join(f"{l} {b} {e} {p}\n" for l, b, e, p in rows))
     return folder
@@ -275,8 +289,32 @@ def _read_masks(paths, problems) -> dict[int, np.ndarray]:
     return frames
 
 
+def _check_seg(seg, n_frames, shape, problems):
+    """A ground truth's ``SEG`` folder: ``man_segTTT.tif`` of frames among the TRA masks' (TTT digits as theirs),
+    single 2-D integer images of their shape."""
+    pattern = re.compile(rf"^{SEG_PREFIX}(\d+)\.tiff?$", re.IGNORECASE)
+    files = {}
+    for path in sorted(p for p in seg.iterdir() if p.is_file() and p.suffix.lower() in (".tif", ".tiff")):
+        match = pattern.match(path.name)
+        if match is None:  # 3-D annotations (man_seg_TTT_SSS.tif) are not written or read here
+            problems.append(f"SEG/{path.name}: expected {SEG_PREFIX}TTT.tif (2-D reference segmentation of frame TTT)")
+        elif len(match.group(1)) != mask_digits(n_frames) or int(match.group(1)) >= n_frames:
+            problems.append(f"SEG/{path.name}: expected a frame number of {mask_digits(n_frames)} digits below "
+                            f"{n_frames} (the TRA masks' frames)")
+        else:
+            files[int(match.group(1))] = path
+    if not files and not problems:
+        problems.append("SEG holds no man_segTTT.tif file")
+    found: list[str] = []
+    frames = _read_masks(files, found)
+    problems.extend(f"SEG/{p}" for p in found)
+    for t, f in frames.items():
+        if shape is not None and f.shape != shape:
+            problems.append(f"SEG/{files[t].name} is {f.shape}; expected {shape} like the TRA masks")
+
+
 def _inspect(folder):
-    """``(masks by frame, tracks, problems, layout)`` of a CTC folder."""
+    """``(masks by frame, tracks, problems, layout)`` of a CTC folder (a ground truth's SEG folder checked too)."""
     where, track_file, prefix, layout = ctc_layout(folder)
     problems: list[str] = []
     tracks = read_track_file(track_file, problems)
@@ -284,6 +322,9 @@ def _inspect(folder):
     frames = _read_masks(paths, problems)
     if frames and len(frames) == len(paths):
         _check_tracks(tracks, _presence(frames), problems)
+    seg = where.parent / "SEG" if where.name == "TRA" else where / "SEG"
+    if layout == "truth" and seg.is_dir() and paths:
+        _check_seg(seg, len(paths), next(iter(frames.values())).shape if frames else None, problems)
     return frames, tracks, problems, layout
 
 
@@ -291,7 +332,9 @@ def check_ctc(folder) -> None:
     """Check a Cell Tracking Challenge folder (either layout); InputError listing every violation.
 
     Checked: the mask files are numbered ``0..T-1`` with 3 digits (4 beyond
-    1000 frames), are single 2-D integer images of one shape; every line of
+    1000 frames), are single 2-D integer images of one shape (in a ground
+    truth with a ``SEG`` folder, its ``man_segTTT.tif`` files too: frames
+    among ``0..T-1``, the same digits and shape); every line of
     the track file is ``L B E P`` (non-negative integers); ids are unique
     and not 0; every mask id has a line and is present in exactly the
     frames ``B..E`` of it; every parent has a line and ends before its

@@ -21,6 +21,14 @@ clockwise in x, y) and, in ``tracks.geff``, ``lineage`` (the first ancestor's
 track).  Values stay in px and frames; the axes (``frame``: time, ``y``,
 ``x``: space) carry units ``frame`` and ``pixel`` with the Movie's pixel size
 and frame interval as ``scale`` and the physical unit as ``scaled_unit``.
+
+When the labels were exported as OME-Zarr too (``labels=``,
+``hexatissue export --to geff --with-ome-zarr``), both stores list them in
+``related_objects``: ``{"type": "labels", "path": <labels/cells of the
+OME-Zarr, relative to the store>, "node_prop": "track"}`` (a node's
+segment is the pixels of value ``track`` in frame ``frame``) and
+``{"type": "image", "path": <the OME-Zarr's image>}``.  Without them
+``related_objects`` is null: the stores hold no segmentation to point to.
 """
 from __future__ import annotations
 
@@ -35,7 +43,7 @@ from ..graph import contact_table
 from ..io import atomic_dir, check_output_folder, check_replaceable, zarr_attributes
 from ..schema import TABLES as SCHEMAS
 from ..track import lineage_roots
-from .omezarr import NGFF_LENGTH, NGFF_TIME  # GEFF uses the OME-NGFF unit names
+from .omezarr import LABELS_KEY, NGFF_LENGTH, NGFF_TIME, is_ome_zarr_export  # GEFF uses the OME-NGFF unit names
 
 __all__ = ["write_geff", "is_geff_export", "read_geff", "geff_tables", "neighbour_edges", "track_edges", "NEIGHBOURS",
            "TRACKS"]
@@ -174,11 +182,14 @@ def _meanings(nodes):
     return out
 
 
-def _write_store(path, nodes, edges, directed, calibration, extra, tracklet, overwrite):
+def _write_store(path, nodes, edges, directed, calibration, extra, tracklet, overwrite, labels=None):
+    import os
+
     from geff.core_io import write_arrays
-    from geff_spec import GeffMetadata, PropMetadata
+    from geff_spec import GeffMetadata, PropMetadata, RelatedObject
 
 
+    store = Path(path).resolve()  # the related objects' paths are relative to it
     meanings = _meanings(nodes)
     node_props, node_meta = _props(nodes.drop(columns="node"), meanings)
     edge_props, edge_meta = _props(edges.drop(columns=["source", "target"]), EDGE_PROPS)
@@ -191,6 +202,10 @@ def _write_store(path, nodes, edges, directed, calibration, extra, tracklet, ove
                             node_props_metadata=described(node_meta, node_props),
                             edge_props_metadata=described(edge_meta, edge_props),
                             track_node_props={"tracklet": "track", "lineage": "lineage"} if tracklet else None,
+                            related_objects=None if labels is None else [
+                                RelatedObject(type="labels", path=os.path.relpath(labels / LABELS_KEY, store),
+                                              node_prop="track"),
+                                RelatedObject(type="image", path=os.path.relpath(labels, store))],
                             extra={"hexatissue": extra})
     ids = nodes["node"].to_numpy(np.int64)
     pairs = edges[["source", "target"]].to_numpy(np.int64).reshape(-1, 2)
@@ -205,7 +220,29 @@ def is_geff_export(path) -> bool:
     return isinstance(extra, dict) and "hexatissue" in extra
 
 
-def write_geff(movie, out, *, overwrite=False) -> list[Path]:
+def _check_labels(movie, labels):
+    """The OME-Zarr export ``labels`` (absolute), checked to hold the Movie's tracks frame by frame."""
+    from ..source import open_source
+
+    labels = Path(labels).resolve()
+    if not is_ome_zarr_export(labels):
+        raise InputError(f"labels {str(labels)!r} is not an OME-Zarr written by hexatissue (write_ome_zarr_labels, "
+                         f"hexatissue export --to ome-zarr); expected the labels exported from these results")
+    source = open_source(labels, key=LABELS_KEY)
+    if source.n_frames != movie.n_frames or tuple(source.shape) != tuple(movie.shape):
+        raise InputError(f"labels {str(labels)!r} hold {source.n_frames} frame(s) of {tuple(source.shape)}; the "
+                         f"results have {movie.n_frames} of {tuple(movie.shape)}")
+    tracks = movie.cells.groupby("frame")["track"].unique()
+    for t in range(movie.n_frames):
+        found = np.unique(source.raw_frame(t))
+        want = np.sort(tracks.get(t, np.zeros(0, np.int64)))
+        if not np.array_equal(found[found > 0], want):
+            raise InputError(f"labels {str(labels)!r}, frame {t}: its label values are not the tracks of the "
+                             f"results' cells in that frame; expected the OME-Zarr exported from these results")
+    return labels
+
+
+def write_geff(movie, out, *, labels=None, overwrite=False) -> list[Path]:
     """Write the neighbour graph and the track graph of a Movie as two GEFF stores.
 
     Parameters
@@ -218,6 +255,14 @@ def write_geff(movie, out, *, overwrite=False) -> list[Path]:
         an existing ``neighbours.geff`` or ``tracks.geff`` that is not an
         earlier output of this function is refused (before anything is
         written) unless ``overwrite``.
+    labels : str or Path, optional
+        The OME-Zarr export of the same results' labels
+        (:func:`~hexatissue.exchange.omezarr.write_ome_zarr_labels` through
+        ``hexatissue export --to ome-zarr``, whose label values are the
+        tracks): both stores point to it in ``related_objects`` (paths
+        relative to each store).  It is checked to hold, in every frame,
+        exactly the tracks of that frame's cells.  Default: none
+        (``related_objects`` null).
     overwrite : bool
         Replace those two paths whatever they hold (never a results folder).
 
@@ -234,15 +279,18 @@ def write_geff(movie, out, *, overwrite=False) -> list[Path]:
     folder = check_output_folder(out, "out")
     for name in (NEIGHBOURS, TRACKS):
         check_replaceable(folder / name, is_geff_export, name="out", overwrite=overwrite)
+    if labels is not None:
+        labels = _check_labels(movie, labels)
     nodes = _nodes(movie.cells)
     extra = {"version": movie.version or __version__, "calibration": movie.calibration.to_dict(),
              "box": None if movie.box is None else movie.box.to_list(), "shape": [int(s) for s in movie.shape]}
     neighbours = _write_store(folder / NEIGHBOURS, nodes, _neighbour_edges(nodes, movie.edges), False,
                               movie.calibration, {**extra, "graph": "neighbours"}, tracklet=False,
-                              overwrite=overwrite)
+                              overwrite=overwrite, labels=labels)
     tracked = nodes.assign(lineage=_lineage_roots(nodes, movie.lineage))
     tracks = _write_store(folder / TRACKS, tracked, _track_edges(nodes, movie.lineage), True,
-                          movie.calibration, {**extra, "graph": "tracks"}, tracklet=True, overwrite=overwrite)
+                          movie.calibration, {**extra, "graph": "tracks"}, tracklet=True, overwrite=overwrite,
+                          labels=labels)
     return [neighbours, tracks]
 
 

@@ -5,7 +5,10 @@ viewers (napari-ome-zarr, ome-zarr-py, ngff-zarr) open as labels over an
 image: the root group is a multiscale image (the raw channel when one is
 given, else :func:`boundary_image`, the cells' outlines, so that the labels
 have something to sit on), and ``labels/cells`` is the multiscale label
-image, with ``image-label`` metadata pointing back to it.  Axes ``t``
+image, with ``image-label`` metadata pointing back to it and giving each
+label value a colour (``colors``: :func:`label_colors`) and, from an
+analysis, its track's properties (``properties``: :func:`track_properties`).
+Axes ``t``
 (time), ``y``, ``x`` (space) with their units when the calibration has
 them; arrays ``0``, ``1``, ... each half the size of the one before, with a
 ``scale`` coordinate transformation per level (frame interval, pixel size x
@@ -24,8 +27,8 @@ import numpy as np
 from ..errors import InputError, check_positive
 from ..units import as_calibration
 
-__all__ = ["write_ome_zarr_labels", "is_ome_zarr_export", "downsample_labels", "boundary_image", "NGFF_LENGTH",
-           "NGFF_TIME", "NGFF_VERSIONS", "LABELS_KEY"]
+__all__ = ["write_ome_zarr_labels", "is_ome_zarr_export", "downsample_labels", "boundary_image", "label_colors",
+           "track_properties", "NGFF_LENGTH", "NGFF_TIME", "NGFF_VERSIONS", "LABELS_KEY"]
 
 #: The OME-NGFF versions written: 0.5 (zarr v3, the default) and 0.4 (zarr v2).
 NGFF_VERSIONS = ("0.5", "0.4")
@@ -35,6 +38,7 @@ LABELS_KEY = "labels/cells"
 NGFF_LENGTH = {"um": "micrometer", "nm": "nanometer", "mm": "millimeter", "cm": "centimeter", "m": "meter"}
 NGFF_TIME = {"ms": "millisecond", "s": "second", "min": "minute", "h": "hour"}
 MAX_CHUNK = 1024  # px per chunk side by default
+GOLDEN = 0.6180339887498949  # hue step between consecutive groups: neighbouring group numbers get distant hues
 
 
 def downsample_labels(frame) -> np.ndarray:
@@ -103,6 +107,74 @@ def boundary_image(frame) -> np.ndarray:
     return edge.astype(np.uint8) * np.uint8(255)
 
 
+def label_colors(values, groups=None) -> list[dict]:
+    """The NGFF ``image-label`` ``colors`` of label values: one opaque colour per group, background transparent.
+
+    Parameters
+    ----------
+    values : sequence of int
+        Label values (0, the background, may be among them).
+    groups : sequence of int, optional
+        A group number per value (default: the value itself): values of one
+        group share a colour, e.g. the tracks of one lineage.
+
+    Returns
+    -------
+    list of dict
+        ``{"label-value": v, "rgba": [r, g, b, a]}`` (0-255 integers) for
+        every value, sorted by value: hue ``frac(group * 0.618...)`` at
+        saturation 0.65 and value 0.95, alpha 255; ``[0, 0, 0, 0]`` for 0.
+    """
+    import colorsys
+
+    values = np.asarray(values, np.int64).ravel()
+    groups = values if groups is None else np.asarray(groups, np.int64).ravel()
+    if groups.shape != values.shape:
+        raise InputError(f"groups must have one number per label value ({len(values)}); got {len(groups)}")
+    out = []
+    for v, g in sorted(zip(values.tolist(), groups.tolist())):
+        if v == 0:
+            out.append({"label-value": 0, "rgba": [0, 0, 0, 0]})
+            continue
+        r, gr, b = colorsys.hsv_to_rgb((g * GOLDEN) % 1.0, 0.65, 0.95)
+        out.append({"label-value": int(v), "rgba": [round(r * 255), round(gr * 255), round(b * 255), 255]})
+    return out
+
+
+def track_properties(movie) -> tuple[list[dict], list[dict]]:
+    """``(colors, properties)`` of a Movie's tracks for the ``image-label`` of its track-id labels.
+
+    Returns
+    -------
+    colors : list of dict
+        :func:`label_colors` of the background (0, transparent) and of
+        every track, one colour per lineage (the daughters of a division
+        keep their mother's colour).
+    properties : list of dict
+        One per track, sorted: ``label-value`` (= ``track``), ``track``,
+        ``parent`` (0 = none), ``lineage`` (the first ancestor's track),
+        ``frame_start``, ``frame_end`` (frames, inclusive), ``n_frames``
+        (frames it is present in), ``area_mean`` (px^2) and
+        ``n_sides_mean`` over those frames.
+    """
+    from ..track import lineage_roots
+
+    cells = movie.cells
+    by_track = cells.groupby("track", sort=True)
+    stats = by_track.agg(frame_start=("frame", "min"), frame_end=("frame", "max"), n_frames=("frame", "size"),
+                         area_mean=("area", "mean"), n_sides_mean=("n_sides", "mean"))
+    lineage = movie.lineage
+    parents = {} if lineage is None else {int(t): int(p) for t, p in zip(lineage["track"], lineage["parent"]) if p}
+    tracks = stats.index.to_numpy(np.int64).tolist()
+    roots = lineage_roots(parents, tracks)
+    properties = [{"label-value": int(t), "track": int(t), "parent": parents.get(int(t), 0),
+                   "lineage": int(roots[t]), "frame_start": int(row.frame_start), "frame_end": int(row.frame_end),
+                   "n_frames": int(row.n_frames), "area_mean": float(row.area_mean),
+                   "n_sides_mean": float(row.n_sides_mean)}
+                  for t, row in zip(tracks, stats.itertuples())]
+    return label_colors([0, *tracks], [0, *(roots[t] for t in tracks)]), properties
+
+
 def _frames(stack, name="stack"):
     """(number of frames, read(t), frame shape) of an array, a sequence of 2-D frames or a Source."""
     if hasattr(stack, "frame") and hasattr(stack, "n_frames"):  # a Source (hexatissue.open_source)
@@ -156,7 +228,7 @@ def _levels(group, n, shape, dtype, levels, chunks, version, fill):
 
 
 def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1, chunks=None,
-                          version="0.5", overwrite=False) -> Path:
+                          version="0.5", colors=None, properties=None, overwrite=False) -> Path:
     """Write a label stack as an OME-Zarr image with its labels (``labels/cells``), atomically.
 
     Parameters
@@ -187,6 +259,14 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
     version : {"0.5", "0.4"}
         OME-NGFF version: 0.5 (zarr v3, attributes under ``ome``) or 0.4
         (zarr v2, for older readers).
+    colors : list of dict, optional
+        The ``image-label`` ``colors``: ``{"label-value": v, "rgba": [r, g,
+        b, a]}`` (0-255).  Default: :func:`label_colors` of every value in
+        the stack (each its own colour, 0 transparent).
+    properties : list of dict, optional
+        The ``image-label`` ``properties``: one dict per label value with
+        its ``label-value`` (:func:`track_properties` for an analysis's
+        tracks).  Default: none.
     overwrite : bool
         Replace ``path`` even when it is not an earlier export (a file, a
         folder of other files, another tool's store).
@@ -248,6 +328,7 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
         pictures = _levels(root, n, shape, image_dtype, levels, chunks, version, 0)
         cells = root.create_group("labels").create_group("cells")
         arrays = _levels(cells, n, shape, first.dtype, levels, chunks, version, 0)
+        seen = set()
         for t in range(n):
             frame = first if t == 0 else read(t)
             if frame.shape != shape or frame.dtype.kind not in "iub":
@@ -255,6 +336,8 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
                                  f"{shape} like frame 0")
             if frame.size and frame.min() < 0:
                 raise InputError(f"stack frame {t} has negative ids; expected 0 = background and positive ids")
+            if colors is None:
+                seen.update(np.unique(frame).tolist())
             picture = np.asarray(read_image(t if n_image == n else 0)).astype(image_dtype, copy=False)
             for k, (arr, pic) in enumerate(zip(arrays, pictures)):
                 if k:
@@ -270,8 +353,34 @@ def write_ome_zarr_labels(stack, path, *, image=None, calibration=None, levels=1
         cells.attrs.update(_ome({
             "multiscales": [{"name": "cells", "axes": axes, "datasets": datasets, "type": "mode",
                              "metadata": {"method": "mode of each 2 x 2 block (hexatissue.exchange.omezarr)"}}],
-            "image-label": {"source": {"image": "../../"}}}, version))
+            "image-label": {"source": {"image": "../../"},
+                            "colors": _checked_colors(label_colors(sorted(seen)) if colors is None else colors),
+                            **({} if properties is None else {"properties": _checked_properties(properties)})}},
+            version))
     return Path(path)
+
+
+def _checked_colors(colors):
+    """``colors`` as JSON-ready NGFF entries; InputError naming what is wrong."""
+    out = []
+    for k, c in enumerate(colors):
+        rgba = c.get("rgba") if isinstance(c, dict) else None
+        if (not isinstance(c, dict) or "label-value" not in c or rgba is None or len(rgba) != 4
+                or not all(isinstance(x, (int, np.integer)) and 0 <= x <= 255 for x in rgba)):
+            raise InputError(f"colors[{k}] must be {{'label-value': int, 'rgba': [r, g, b, a]}} with integers "
+                             f"0-255; got {c!r}")
+        out.append({"label-value": int(c["label-value"]), "rgba": [int(x) for x in rgba]})
+    return out
+
+
+def _checked_properties(properties):
+    """``properties`` as JSON-ready NGFF entries (numpy scalars made Python's); each needs its ``label-value``."""
+    out = []
+    for k, p in enumerate(properties):
+        if not isinstance(p, dict) or "label-value" not in p:
+            raise InputError(f"properties[{k}] must be a dict with a 'label-value'; got {p!r}")
+        out.append({str(key): value.item() if isinstance(value, np.generic) else value for key, value in p.items()})
+    return out
 
 
 def is_ome_zarr_export(path) -> bool:
