@@ -76,9 +76,13 @@ def measure(labels):
         xy = sum(d[f"{t}_xy"] for t in terms)
         return float(np.hypot(xx, xy).mean() / total.mean()), float(xx.sum()), float(xy.sum())
 
-    rearr, t1 = per_interval(["rearrangement"]), per_interval(T1_TERMS)
-    return {"intervals": len(d), "total_xx": float(d["total_xx"].sum()), "total_xy": float(d["total_xy"].sum()),
+    rearr, t1, resampling = per_interval(["rearrangement"]), per_interval(T1_TERMS), per_interval(["resampling"])
+    shear_xx = float(d["total_xx"].sum())
+    return {"intervals": len(d), "total_xx": shear_xx, "total_xy": float(d["total_xy"].sum()),
             "rearrangement / shear (per interval)": rearr[0], "rearrangement_xx": rearr[1], "rearrangement_xy": rearr[2],
+            "rearrangement_xx / total_xx": rearr[1] / shear_xx,
+            "resampling / shear (per interval)": resampling[0], "resampling_xx": resampling[1],
+            "resampling_xx / total_xx": resampling[1] / shear_xx,
             "T1_xx": t1[1], "T1_xy": t1[2], "T1 share (xx)": t1[1] / (t1[1] + rearr[1]) if t1[1] + rearr[1] else np.nan,
             "T1 events": len(mv.events), "max |closure|": float(d[["closure_xx", "closure_xy"]].abs().to_numpy().max())}
 
