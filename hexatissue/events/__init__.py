@@ -190,30 +190,38 @@ def _held_pairs(edges, cells):
     """
     if not {"vertex_a", "vertex_b"} <= set(edges.columns) or len(edges) == 0:
         return {}
-    frame = np.tile(edges["frame"].to_numpy(np.int64), 4)
-    vertex = np.repeat(np.stack([edges["vertex_a"].to_numpy(np.int64), edges["vertex_b"].to_numpy(np.int64)]),
-                       2, axis=0).ravel()
-    cell = np.tile(np.concatenate([edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)]), 2)
+    columns = [edges[c].to_numpy(np.int64) for c in ("frame", "vertex_a", "vertex_b", "cell_a", "cell_b")]
+    tracks = None
+    if "track" in cells.columns:
+        tracks = (row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64)), track_ids(cells))
+    out = {}
+    for _, rows in FrameRows(columns[0]).blocks(3 * BLOCK_ROWS):  # a block of frames at a time: the movie's
+        out.update(_held_block(*(c[rows] for c in columns), tracks))  # edges four times over would not stream
+    return out
+
+
+def _held_block(frame, vertex_a, vertex_b, cell_a, cell_b, tracks):
+    """:func:`_held_pairs` of the edges of a few whole frames; ``tracks``: (row keys, track ids) of the cells."""
+    frame = np.tile(frame, 4)
+    vertex = np.concatenate([vertex_a, vertex_a, vertex_b, vertex_b])  # each end with each side's cell
+    cell = np.tile(np.concatenate([cell_a, cell_b]), 2)
     keep = cell > 0
     frame, vertex, cell = frame[keep], vertex[keep], cell[keep]
     order, starts = pair_groups(frame, vertex, cell)
     first = order[starts]  # each (frame, vertex, cell) once, sorted by frame, vertex, cell
     frame, vertex, cell = frame[first], vertex[first], cell[first]
     group = np.r_[True, (frame[1:] != frame[:-1]) | (vertex[1:] != vertex[:-1])].cumsum() - 1
-    size = np.bincount(group)
-    big = size[group] >= 4
+    big = np.bincount(group)[group] >= 4
     frame, group, cell = frame[big], group[big], cell[big]
     if not len(cell):
         return {}
-    if "track" in cells.columns:
-        keys = row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64))
-        cell = lookup(keys, track_ids(cells), row_keys(frame, cell), MISSING_CELLS)
-    end = np.searchsorted(group, group, "right")
-    later = end - np.arange(len(group)) - 1
+    if tracks is not None:
+        cell = lookup(tracks[0], tracks[1], row_keys(frame, cell), MISSING_CELLS)
+    later = np.searchsorted(group, group, "right") - np.arange(len(group)) - 1  # each cell with the later ones
     i = np.repeat(np.arange(len(group)), later)
     j = np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later) + i + 1
     a, b = np.minimum(cell[i], cell[j]), np.maximum(cell[i], cell[j])
-    pair_bounds = dict((int(v), (lo, hi)) for v, lo, hi in zip(*_frame_bounds(frame[i])))
+    pair_bounds = {int(v): (lo, hi) for v, lo, hi in zip(*_frame_bounds(frame[i]))}
     out = {}
     for value, lo, hi in zip(*_frame_bounds(frame)):
         p0, p1 = pair_bounds[int(value)]
