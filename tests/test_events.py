@@ -759,3 +759,29 @@ def test_the_sides_of_a_held_four_fold_vertex_collapsing_in_turn_are_not_a_t1():
     from hexatissue.events import _reference as reference
 
     assert reference.detect_t1(edges, cells, censor=1).empty
+
+
+def test_t1_step_with_held_flanks_equals_the_numpy_reference():
+    """:func:`_t1_step` and its reference when a frame's neighbours include pairs held at four-fold vertices
+    (the network of the held-flank test): the T1's quartet is seen on both sides."""
+    from hexatissue.events import _FrameGraph, _held_pairs, _ids, _index_of, _movie_frames, _t1_step
+    from hexatissue.events._reference import _t1_step_reference
+
+    before = [(0, 1, 1, 2), (0, 2, 1, 3), (0, 3, 2, 3), (1, 4, 2, 4), (1, 5, 4, 5), (1, 6, 5, 1)]
+    after = [(0, 1, 3, 4), (0, 2, 1, 3), (0, 5, 4, 5), (0, 6, 5, 1), (1, 3, 2, 3), (1, 4, 2, 4)]
+    edges, cells = _vertex_edges([before, after])
+    held = _held_pairs(edges, cells)
+    ids = _ids(edges, cells)
+    index, K = _index_of(ids), np.int64(len(ids) + 1)
+    graphs = []
+    for f, tracks, a, b, _ in _movie_frames(edges, cells, 0.0):
+        g = _FrameGraph(index(tracks), index(a), index(b), K)
+        g.flanks = _FrameGraph(g.present, index(np.r_[a, held[f][0]]), index(np.r_[b, held[f][1]]), K)
+        graphs.append(g)
+    got, want = _t1_step(*graphs), _t1_step_reference(*graphs)
+    for x, y in zip(got, want):
+        np.testing.assert_array_equal(x, y)
+    ab, cd = index(np.array([1])) * K + index(np.array([2])), index(np.array([3])) * K + index(np.array([4]))
+    # the loss's pairs of flanking cells before (c-d among them: x = 5 flanks a-b too, at the four-fold vertex)
+    assert set(got[2].tolist()) == set(ab.tolist()) and int(cd[0]) in got[3].tolist()
+    assert int(ab[0]) in got[4].tolist() and set(got[5].tolist()) == set(cd.tolist())  # and the gain's after

@@ -484,12 +484,14 @@ def _match_once(ab, lost, cd, gain):
 
 
 def _t1_step(prev, cur):
-    """What :func:`_find_t1` takes from two consecutive frames (:class:`_FrameGraph`), in one numba kernel.
+    """What :func:`_find_t1` takes from two consecutive frames (:class:`_FrameGraph`), in numba kernels.
 
     Returns ``new``, ``gone`` (contact keys gained and lost), ``loss_ab``, ``loss_cd`` (each contact lost
     whose cells are both still present, with each pair of its common neighbours before) and ``gain_ab``,
     ``gain_cd`` (each pair of common neighbours of each contact gained whose cells were both present
-    before, with that contact).  :func:`hexatissue.events._reference._t1_step_reference` is the same in numpy.
+    before, with that contact).  Neighbours are those of each frame's ``flanks`` (held four-fold vertices
+    included); the kernel's own quartets are those of the contacts, taken when no pair is held.
+    :func:`hexatissue.events._reference._t1_step_reference` is the same in numpy.
     """
     new, gone, loss_ab, loss_cd, gain_ab, gain_cd = _t1_kernel(prev.keys, prev.u, prev.v, prev.present, cur.keys,
                                                                cur.u, cur.v, cur.present, cur.K)

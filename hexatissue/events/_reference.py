@@ -371,12 +371,13 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
 # ----------------------------------------------------------------------------
 
 def _t1_step_reference(prev, cur):
-    """:func:`hexatissue.events._t1_step` in numpy (about 40 calls on a few hundred values)."""
+    """:func:`hexatissue.events._t1_step` in numpy (about 40 calls on a few hundred values); the quartets
+    of each frame's ``flanks`` (its contacts, and the pairs held at four-fold vertices)."""
     new, gone = cur.keys[~in_sorted(cur.keys, prev.keys)], prev.keys[~in_sorted(prev.keys, cur.keys)]
     la, lb = np.divmod(gone, cur.K)  # losses: both cells still present; quartets of the frame before
-    loss_ab, loss_cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
+    loss_ab, loss_cd = prev.flanks.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
     ga, gb = np.divmod(new, cur.K)  # gains: both cells present before; quartets of this frame
-    gain_cd, gain_ab = cur.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
+    gain_cd, gain_ab = cur.flanks.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
     return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
 
 
