@@ -600,6 +600,7 @@ BUDGET_GROUPS = (
     ("cells entering / leaving", ("border",), "#7f7f7f"),
     ("correlation effects", ("growth_correlation", "rotation_correlation"), "#ff7f0e"),
     ("other rearrangements", ("rearrangement", "advection"), "#bcbd22"),
+    ("resampling (no contact change)", ("resampling",), "#aec7e8"),
 )
 
 

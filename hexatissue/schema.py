@@ -31,7 +31,10 @@ DEFORMATION_TERMS = {
     "t1_cycle": "T1s that are undone (events of kind cycle)",
     "t1_intercalation": "T1s that last (events of kind intercalation)",
     "t1_unresolved": "T1s too close to the end to tell (events of kind unresolved)",
-    "rearrangement": "other retriangulations (no T1 of the events table), incl. triangles that flip over",
+    "rearrangement": "other retriangulations (cell contacts change, but no T1 of the events table explains it), incl. "
+                     "triangles that flip over",
+    "resampling": "retriangulations that change no cell contact (a vertex merging with or parting from another, "
+                  "contacts held as four-fold vertices included): pixel resampling of the network, not an event",
     "division": "cell divisions",
     "extrusion": "cell extrusions (a cell shrinking to its neighbours' centre, then leaving)",
     "border": "cells entering or leaving the analysed tissue (field of view, mask, interior appearance)",
@@ -39,7 +42,7 @@ DEFORMATION_TERMS = {
     "closure": "total minus the sum of the other terms (0 up to the quadrature's error)",
 }
 #: The terms that also change areas: they have an ``_iso`` column.
-ISOTROPIC_TERMS = ("total", "cell_shape", "t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement",
+ISOTROPIC_TERMS = ("total", "cell_shape", "t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement", "resampling",
                    "division", "extrusion", "border", "advection", "closure")
 
 

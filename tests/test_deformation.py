@@ -6,14 +6,16 @@ from scipy import ndimage
 from scipy.linalg import expm
 
 import hexatissue as ht
-from hexatissue.deformation import _stays_positive, deformation_budget, frame_triangles, pair_keys, roi_tracks
+from hexatissue.deformation import (_stays_positive, deformation_budget, frame_contacts, frame_triangles, pair_keys,
+                                    roi_tracks)
 from hexatissue.deformation.flow import integrate_flow
 from hexatissue.deformation.triangles import REFERENCE_INVERSE, edge_matrices, elongation, state_tensors
 from hexatissue.errors import InputError
 from hexatissue.schema import DEFORMATION_TERMS, ISOTROPIC_TERMS
 from hexatissue.synthetic import hexagonal_seeds, jittered_seeds, t1_movie, voronoi_labels
 
-TOPOLOGICAL = ("t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement", "division", "extrusion", "border")
+TOPOLOGICAL = ("t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement", "resampling", "division", "extrusion",
+               "border")
 
 
 def _rotation(theta):
@@ -463,3 +465,60 @@ def test_a_nearly_motionless_interval_needs_no_refinement():
     out, splits = integrate_flow(xy0[keep], xy1[keep], [(np.zeros(int(keep.sum()), int), 1)],
                                  [(_mean_q(xy1[keep]) - _mean_q(xy0[keep]))[:2]])
     assert splits == 1
+
+
+# ----------------------------------------------------------------------------
+# Retriangulations that change no contact: resampling, not rearrangement
+# ----------------------------------------------------------------------------
+
+def test_frame_contacts_are_the_pairs_of_cells_sharing_a_vertex():
+    """Against a plain loop over the vertices: a three-fold vertex, a four-fold one (both diagonals), a label
+    the cells table lacks (left out) and track ids that differ from the labels."""
+    cv = pd.DataFrame({"vertex": [0, 0, 0, 1, 1, 1, 1, 2, 2, 2], "cell": [1, 2, 3, 2, 3, 4, 5, 5, 6, 9]})
+    cell, track = np.array([1, 2, 3, 4, 5, 6]), np.array([11, 12, 13, 14, 15, 16])
+    K = 20
+    want = set()
+    tr = dict(zip(cell.tolist(), track.tolist()))
+    for _, g in cv.groupby("vertex"):
+        ids = [tr[c] for c in g["cell"] if c in tr]
+        want |= {pair_keys(np.int64(a), np.int64(b), K) for i, a in enumerate(ids) for b in ids[i + 1:]}
+    got = frame_contacts(track, cell, cv, K)
+    assert got.tolist() == sorted(want)
+    assert pair_keys(np.int64(12), np.int64(14), K) in got  # the four-fold vertex's diagonal 2-4
+    assert len(frame_contacts(track[:0], cell[:0], cv, K)) == 0
+
+
+def _voronoi_patch_warp(n_frames=5):
+    """300 random seeds (a patch on background) pulled through exp(t L): no cell changes neighbours, but vertices
+    a few px apart merge and part under the pixel resampling."""
+    rng = np.random.default_rng(0)
+    shape = (360, 360)
+    seeds = rng.uniform(30, 330, (300, 2))
+    base = voronoi_labels(seeds, shape)
+    outside = np.flatnonzero(np.abs(seeds - np.array(shape[::-1]) / 2.0).max(axis=1) > 0.3 * min(shape)) + 1
+    base[np.isin(base, outside)] = 0
+    L = np.array([[0.01, 0.004], [0.004, -0.01]])
+    centre = (np.array(shape) - 1) / 2.0
+    frames = []
+    for t in range(n_frames):
+        inv = np.linalg.inv(expm(t * L)[::-1, ::-1])
+        frames.append(ndimage.affine_transform(base, inv, offset=centre - inv @ centre, order=0, mode="constant"))
+    return np.stack(frames)
+
+
+def test_a_pure_warp_puts_its_retriangulations_in_resampling_not_rearrangement():
+    """Exact truth: no contact changes, so no T1 and no rearrangement; the vertices that merge with the
+    tissue's edge vertices still retriangulate, and that goes to ``resampling``; the budget still closes."""
+    movie, d = _budget(_voronoi_patch_warp())
+    tissue = d[d["region"] == "tissue"]
+    assert len(movie.events) == 0
+    for term in ("t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement"):
+        assert tissue[[f"{term}_xx", f"{term}_xy", f"{term}_iso"]].abs().to_numpy().max() < 1e-14, term
+    assert tissue[["resampling_xx", "resampling_xy"]].abs().to_numpy().max() > 1e-4  # the movie has some
+    _closure_ok(d)
+
+
+def test_the_scripted_t1s_are_not_resampling(scripted):
+    """Every retriangulation of the scripted T1 movie changes a contact: none is resampling."""
+    _, _, d = scripted
+    assert d[["resampling_xx", "resampling_xy", "resampling_iso"]].abs().to_numpy().max() < 1e-14

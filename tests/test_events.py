@@ -709,3 +709,79 @@ def test_contacts_held_as_four_fold_vertices_are_counted():
     assert held["frame"].tolist() == [4, 5] and held["n_merged"].tolist() == [2, 2] and (held["degree"] == 5).all()
     assert movie.summary["events"]["n_held_contacts"] == 4 and movie.summary["events"]["n_held_vertices"] == 2
     assert len(movie.events) == 2  # the two T1s through the held vertex, not lost to it
+
+
+# ----------------------------------------------------------------------------
+# Flanks held as four-fold vertices
+# ----------------------------------------------------------------------------
+
+def _vertex_edges(frames):
+    """Edges (with their vertices) from per-frame lists of (vertex_a, vertex_b, cell_a, cell_b); cells 1-5 present."""
+    rows = [(t, va, vb, a, b, 5.0) for t, junctions in enumerate(frames) for va, vb, a, b in junctions]
+    edges = pd.DataFrame(rows, columns=["frame", "vertex_a", "vertex_b", "cell_a", "cell_b", "length"])
+    cells = pd.DataFrame([(t, c, float(c), 0.0) for t in range(len(frames)) for c in range(1, 6)],
+                         columns=["frame", "cell", "x", "y"])
+    return edges, cells
+
+
+def test_a_t1_whose_flank_is_held_as_a_four_fold_vertex_is_found():
+    """a=1, b=2 lose their junction, c=3, d=4 gain one; the flank a-d is a junction contracted into a
+    four-fold vertex with x=5 on both sides (no a-d edge), so neither side has four flanking contacts. The
+    cells around the four-fold vertex are neighbours in the quartet search: one T1, as the reference finds."""
+    before = [(0, 1, 1, 2), (0, 2, 1, 3), (0, 3, 2, 3),  # P = (a, b, c); the a-b junction P-Q
+              (1, 4, 2, 4), (1, 5, 4, 5), (1, 6, 5, 1)]  # Q = (a, b, d, x): a-d held
+    after = [(0, 1, 3, 4), (0, 2, 1, 3), (0, 5, 4, 5), (0, 6, 5, 1),  # P' = (a, c, d, x): a-d held; c-d P'-Q'
+             (1, 3, 2, 3), (1, 4, 2, 4)]  # Q' = (b, c, d)
+    edges, cells = _vertex_edges([before] * 3 + [after] * 3)
+    ev = detect_t1(edges, cells, censor=1)
+    assert ev[["kind", "frame_start", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d"]].values.tolist() == [
+        ["intercalation", 3, 3, 1, 2, 3, 4]]
+    # without the vertices (contacts only) the quartet is not seen: the T1 the held flank hides
+    assert detect_t1(edges.drop(columns=["vertex_a", "vertex_b"]), cells, censor=1).empty
+    from hexatissue.events import _reference as reference
+
+    pd.testing.assert_frame_equal(ev, reference.detect_t1(edges, cells, censor=1))
+    pd.testing.assert_frame_equal(t1_tables(edges, cells, censor=1)[0], ev)
+
+
+def test_the_sides_of_a_held_four_fold_vertex_collapsing_in_turn_are_not_a_t1():
+    """Cells 1-4 around one four-fold vertex 0 (sides 1-2, 2-3, 3-4, 4-1 to outer vertices); side 3-4 collapses
+    at frame 2, side 1-2 at frame 3: 1-2 lost as 3-4 comes back, flanked through the vertex's diagonals, but
+    the four cells are around one vertex before and after: no contact was exchanged, no T1."""
+    sides = {(1, 2): (0, 1, 1, 2), (2, 3): (0, 2, 2, 3), (3, 4): (0, 3, 3, 4), (1, 4): (0, 4, 4, 1)}
+    rest = [(1, 5, 1, 5), (2, 5, 2, 5)]
+    frames = [list(sides.values()) + rest] * 2
+    frames += [[j for p, j in sides.items() if p != (3, 4)] + rest]
+    frames += [[j for p, j in sides.items() if p != (1, 2)] + rest]
+    frames += [list(sides.values()) + rest] * 2
+    edges, cells = _vertex_edges(frames)
+    assert detect_t1(edges, cells, censor=1).empty
+    from hexatissue.events import _reference as reference
+
+    assert reference.detect_t1(edges, cells, censor=1).empty
+
+
+def test_t1_step_with_held_flanks_equals_the_numpy_reference():
+    """:func:`_t1_step` and its reference when a frame's neighbours include pairs held at four-fold vertices
+    (the network of the held-flank test): the T1's quartet is seen on both sides."""
+    from hexatissue.events import _FrameGraph, _held_pairs, _ids, _index_of, _movie_frames, _t1_step
+    from hexatissue.events._reference import _t1_step_reference
+
+    before = [(0, 1, 1, 2), (0, 2, 1, 3), (0, 3, 2, 3), (1, 4, 2, 4), (1, 5, 4, 5), (1, 6, 5, 1)]
+    after = [(0, 1, 3, 4), (0, 2, 1, 3), (0, 5, 4, 5), (0, 6, 5, 1), (1, 3, 2, 3), (1, 4, 2, 4)]
+    edges, cells = _vertex_edges([before, after])
+    held = _held_pairs(edges, cells)
+    ids = _ids(edges, cells)
+    index, K = _index_of(ids), np.int64(len(ids) + 1)
+    graphs = []
+    for f, tracks, a, b, _ in _movie_frames(edges, cells, 0.0):
+        g = _FrameGraph(index(tracks), index(a), index(b), K)
+        g.flanks = _FrameGraph(g.present, index(np.r_[a, held[f][0]]), index(np.r_[b, held[f][1]]), K)
+        graphs.append(g)
+    got, want = _t1_step(*graphs), _t1_step_reference(*graphs)
+    for x, y in zip(got, want):
+        np.testing.assert_array_equal(x, y)
+    ab, cd = index(np.array([1])) * K + index(np.array([2])), index(np.array([3])) * K + index(np.array([4]))
+    # the loss's pairs of flanking cells before (c-d among them: x = 5 flanks a-b too, at the four-fold vertex)
+    assert set(got[2].tolist()) == set(ab.tolist()) and int(cd[0]) in got[3].tolist()
+    assert int(ab[0]) in got[4].tolist() and set(got[5].tolist()) == set(cd.tolist())  # and the gain's after

@@ -16,6 +16,7 @@ cagc                area-growth correlation                            growth_co
 crc                 rotation correlation                               rotation_correlation
 ShearT1             T1 transitions (I2 -> I3: every retriangulation    t1_cycle + t1_intercalation
                     but divisions)                                     + t1_unresolved + rearrangement
+                                                                       + resampling
 ShearCD             cell divisions (I3 -> t+1)                         division
 ShearT2             extrusions ("T2", t -> I1)                         extrusion
 deltaCheck          TissueMiner's own residual nu - (cecr + ct +       nonlinear + closure
@@ -68,7 +69,8 @@ HX_TERMS = {
     "growth_correlation": [["growth_correlation"]],
     "rotation_correlation": [["rotation_correlation"]],
     # TissueMiner's ShearT1 is every change of triangulation I2 -> I3 (all but divisions)
-    "t1": [["t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement"], ["rearrangement"], ["t1"]],
+    "t1": [["t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement", "resampling"], ["rearrangement"],
+           ["t1"]],
     "division": [["division"]],
     "extrusion": [["extrusion"]],
     # TissueMiner leaves out the nonlinear corotational term: its residual deltaCheck is that term

@@ -18,7 +18,9 @@ kind of cellular event takes (:func:`deformation_budget`):
 4. the triangulation changes to the second frame's, daughters still merged:
    each connected retriangulation is an extrusion (it holds an extruding
    cell), a T1 of the ``events`` table (its kind: ``t1_cycle``,
-   ``t1_intercalation``, ``t1_unresolved``) or another ``rearrangement``;
+   ``t1_intercalation``, ``t1_unresolved``), a ``resampling`` (no cell
+   contact changes: the pixel network resampled, not an event) or another
+   ``rearrangement``;
 5. daughters split (``division``), then cells entering the tissue are added
    (``border``).
 
@@ -43,11 +45,11 @@ from .flow import integrate_flow
 from ._kernels import triangle_shapes
 from .triangles import REFERENCE_INVERSE, det2, edge_matrices, inv2
 
-__all__ = ["frame_triangles", "deformation_budget", "roi_tracks", "read_roi"]
+__all__ = ["frame_triangles", "frame_contacts", "deformation_budget", "roi_tracks", "read_roi"]
 
 _T1_KINDS = {"cycle": "t1_cycle", "intercalation": "t1_intercalation", "unresolved": "t1_unresolved"}
 # the order in which the retriangulations of step 4 are applied
-_STEP4 = ("extrusion", "t1_cycle", "t1_intercalation", "t1_unresolved", "rearrangement")
+_STEP4 = ("extrusion", "t1_cycle", "t1_intercalation", "t1_unresolved", "resampling", "rearrangement")
 
 
 # ----------------------------------------------------------------------------
@@ -225,6 +227,50 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
     # two vertices joining the same three cells (cells that share two junctions) give one triangle
     first = _first_of_each(_triple_keys(ids))
     return ids[first], tri_xy[first]
+
+
+def frame_contacts(track, cell, cell_vertices, K):
+    """The cell contacts of one frame as the triangulation sees them: every pair of cells sharing a vertex.
+
+    A junction's two cells share its end vertices, and the cells around a
+    four-fold vertex or rosette all share it: a contact held as a four-fold
+    vertex (a junction shorter than ``merge_distance``) counts, and so do
+    both diagonals of the four-fold vertex, either of which the triangles may
+    take.
+
+    Parameters
+    ----------
+    track, cell : arrays
+        The frame's cells: track id and label id, aligned.
+    cell_vertices : pandas.DataFrame
+        The frame's ``cell``, ``vertex``.
+    K : int
+        Above every track id (the base of :func:`pair_keys`).
+
+    Returns
+    -------
+    int64 array
+        The sorted keys (:func:`pair_keys`, track ids) of the cell pairs
+        that share a vertex.
+    """
+    track, cell = np.asarray(track, np.int64), np.asarray(cell, np.int64)
+    cv_cell = cell_vertices["cell"].to_numpy(np.int64)
+    vertex = cell_vertices["vertex"].to_numpy(np.int64)
+    if len(cell) == 0 or len(cv_cell) == 0:
+        return np.zeros(0, np.int64)
+    order = np.argsort(cell, kind="stable")
+    at = np.minimum(np.searchsorted(cell[order], cv_cell), len(cell) - 1)
+    known = cell[order][at] == cv_cell
+    ids, vertex = track[order][at][known], vertex[known]
+    by_vertex = np.argsort(vertex, kind="stable")
+    ids, vertex = ids[by_vertex], vertex[by_vertex]
+    # each row with every later row of its vertex
+    later = np.searchsorted(vertex, vertex, "right") - np.arange(len(vertex)) - 1
+    first = np.repeat(np.arange(len(vertex)), later)
+    second = np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later) + first + 1
+    a, b = ids[first], ids[second]
+    keep = a != b
+    return _sorted_unique(pair_keys(a[keep], b[keep], K))
 
 
 def _triple_keys(*tables):
@@ -519,8 +565,15 @@ class _Lineage:
                                lineage["parent"].to_numpy(np.int64).tolist()))
 
 
-def _step4_kinds(removed, added, dying, candidates, K):
-    """The kind of each connected retriangulation, as shares per kind: (n_components, len(_STEP4)), labels."""
+def _step4_kinds(removed, added, dying, candidates, K, contacts):
+    """The kind of each connected retriangulation, as shares per kind: (n_components, len(_STEP4)), labels.
+
+    ``contacts``: the sorted pair keys of the cells sharing a vertex before
+    and after (:func:`frame_contacts`, daughters merged into their mother).
+    A retriangulation with no extruding cell and no T1 of ``candidates``
+    whose every triangle edge is a contact on both sides changes no contact:
+    a ``resampling``; else a ``rearrangement``.
+    """
     both = np.concatenate([removed, added])
     labels = _components(both, K)
     n = labels.max() + 1 if len(labels) else 0
@@ -528,6 +581,9 @@ def _step4_kinds(removed, added, dying, candidates, K):
     matched = [[] for _ in range(n)]
     if n == 0:
         return share, labels, matched
+    edges = np.concatenate([pair_keys(both[:, i], both[:, j], K) for i, j in ((0, 1), (1, 2), (0, 2))])
+    flips = in_sorted(edges, contacts[0]) != in_sorted(edges, contacts[1])
+    contact_changes = np.bincount(np.tile(labels, 3), flips, n) > 0
     ids_of = [set() for _ in range(n)]
     for lab, row in zip(labels, both):
         ids_of[lab].update(row.tolist())
@@ -541,7 +597,7 @@ def _step4_kinds(removed, added, dying, candidates, K):
                 share[c, _STEP4.index(kind)] += 1.0 / len(hits)
             matched[c] = [event for event, _ in hits]
         else:
-            share[c, 4] = 1.0
+            share[c, _STEP4.index("rearrangement" if contact_changes[c] else "resampling")] = 1.0
     return share, labels, matched
 
 
@@ -569,8 +625,11 @@ class _Candidates:
         return self.by_frame.get(frame, [])
 
 
-def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
-    """The budget of the interval ``t`` -> ``t + 1``: per layer a (terms, n_regions) block, and per-event shares."""
+def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K, contacts):
+    """The budget of the interval ``t`` -> ``t + 1``: per layer a (terms, n_regions) block, and per-event shares.
+
+    ``contacts``: the two frames' :func:`frame_contacts`.
+    """
     box = frames.box
     t_next = t + 1
     # the analysed tissue: the interior cells (a cell turning into a border cell leaves it)
@@ -660,7 +719,8 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     s4 = s4.take(s4.area > 0)
     gone, come = ~_isin_rows(s3.ids, s4.ids), ~_isin_rows(s4.ids, s3.ids)
     removed, added = s3.take(gone), s4.take(come)
-    share, comp, matched = _step4_kinds(removed.ids, added.ids, dying, t1.at(t_next), K)
+    share, comp, matched = _step4_kinds(removed.ids, added.ids, dying, t1.at(t_next), K,
+                                        (contacts[0], _merge_daughters(contacts[1], mothers, K)))
     n_removed = len(removed.ids)
     sums = s3.sums(sizes)
     events = []
@@ -689,6 +749,21 @@ def _pair(frames, lineage, layers, t, tri_t, tri_next, t1, tolerance, K):
     info = {"n_triangles": len(ids0), "n_flipped": int((~usable).sum()), "splits": splits,
             "area": [c[0] for c in end], "complete": complete}
     return blocks, events, info
+
+
+def _merge_daughters(keys, mothers, K):
+    """Contact keys with each daughter's id replaced by its mother's (a contact between sisters dropped)."""
+    if not mothers or len(keys) == 0:
+        return keys
+    daughters = np.array([d for ds in mothers.values() for d in ds], np.int64)
+    mother_of = np.array([m for m, ds in mothers.items() for _ in ds], np.int64)
+    order = np.argsort(daughters)
+    daughters, mother_of = daughters[order], mother_of[order]
+    ab = np.stack(np.divmod(keys, np.int64(K)))
+    at, found = _lookup(ab, daughters)
+    ab = np.where(found, mother_of[at], ab)
+    keep = ab[0] != ab[1]
+    return _sorted_unique(pair_keys(ab[0][keep], ab[1][keep], K))
 
 
 #: A triangle whose area falls below this fraction of its start within an interval is retriangulated
@@ -742,8 +817,8 @@ def _block(chain, flow, layer, n):
     return np.array(out)
 
 
-_TERMS_OF_STEPS = ("border", "extrusion", "rearrangement", "advection", "t1_cycle", "t1_intercalation",
-                   "t1_unresolved", "division")
+_TERMS_OF_STEPS = ("border", "extrusion", "rearrangement", "resampling", "advection", "t1_cycle",
+                   "t1_intercalation", "t1_unresolved", "division")
 
 
 def _columns():
@@ -832,14 +907,18 @@ def deformation_budget(cells, vertices, cell_vertices, lineage, t1=None, *, box=
             following = None
         later[times[i]] = following
         following = triangle_edges(triangles(times[i], following)[0], K)
+    contacts_prev = None
     for i, t in enumerate(times):
         tri = triangles(t, previous, later[t])
         previous = triangle_edges(tri[0], K)
+        sl = frames.rows(t)
+        contacts = frame_contacts(frames.track[sl], frames.cell[sl], _part(cell_vertices, cv_rows, t), K)
         if tri_prev is not None and t == times[i - 1] + 1:
-            blocks, ev, info = _pair(frames, lin, layers, t - 1, tri_prev, tri, candidates, tolerance, K)
+            blocks, ev, info = _pair(frames, lin, layers, t - 1, tri_prev, tri, candidates, tolerance, K,
+                                     (contacts_prev, contacts))
             rows.append(_rows(t - 1, blocks, layers, info))
             events.extend(ev)
-        tri_prev = tri
+        tri_prev, contacts_prev = tri, contacts
         if progress is not None:
             progress(i + 1, len(times))
     table = _table(rows)

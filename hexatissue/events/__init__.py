@@ -40,7 +40,8 @@ from ..errors import HexatissueWarning, InputError, is_real, user_stacklevel
 from ..geometry import in_sorted, lookup, row_keys
 from ..graph import pair_groups
 from ..schema import FrameRows, deprecated_column_lists, interior_mask, string_column, track_ids, validate
-from ._kernels import _change_kernel, _close_kernel, _excursion_starts, _lists_kernel, _t1_kernel, _undo_pairs
+from ._kernels import (_both_in, _change_kernel, _close_kernel, _excursion_starts, _lists_kernel, _quartet_kernel,
+                       _t1_kernel, _undo_pairs)
 
 __all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1",
            "find_t1", "track_contacts", "cell_event_stats", "intercalation_intervals", "events_summary"]
@@ -174,6 +175,81 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
             yield f, ids[p_bounds[k]:p_hi], a[lo:hi], b[lo:hi], length[lo:hi]
 
 
+def _held_pairs(edges, cells):
+    """Per frame, the pairs of cells around each vertex of four or more cells, and those vertices' cells.
+
+    ``{frame: (a, b, vertex, cell)}``: the pairs ``a`` < ``b`` and, per vertex
+    of four or more cells (numbered ``vertex``), its cells (all track ids).
+
+    A four-fold vertex holds a contact (a junction shorter than
+    ``merge_distance``, contracted) between one of its two diagonal pairs:
+    the contacts table has neither, and a T1 whose flanking contact is held
+    so has no quartet of contacts on either side.  These pairs complete the
+    flanks the quartet search looks at (:func:`_find_t1`).  Empty when the
+    edges have no ``vertex_a``, ``vertex_b``.
+    """
+    if not {"vertex_a", "vertex_b"} <= set(edges.columns) or len(edges) == 0:
+        return {}
+    columns = [edges[c].to_numpy(np.int64) for c in ("frame", "vertex_a", "vertex_b", "cell_a", "cell_b")]
+    tracks = None
+    if "track" in cells.columns:
+        tracks = (row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64)), track_ids(cells))
+    out = {}
+    for _, rows in FrameRows(columns[0]).blocks(3 * BLOCK_ROWS):  # a block of frames at a time: the movie's
+        out.update(_held_block(*(c[rows] for c in columns), tracks))  # edges four times over would not stream
+    return out
+
+
+def _held_block(frame, vertex_a, vertex_b, cell_a, cell_b, tracks):
+    """:func:`_held_pairs` of the edges of a few whole frames; ``tracks``: (row keys, track ids) of the cells."""
+    frame = np.tile(frame, 4)
+    vertex = np.concatenate([vertex_a, vertex_a, vertex_b, vertex_b])  # each end with each side's cell
+    cell = np.tile(np.concatenate([cell_a, cell_b]), 2)
+    keep = cell > 0
+    frame, vertex, cell = frame[keep], vertex[keep], cell[keep]
+    order, starts = pair_groups(frame, vertex, cell)
+    first = order[starts]  # each (frame, vertex, cell) once, sorted by frame, vertex, cell
+    frame, vertex, cell = frame[first], vertex[first], cell[first]
+    group = np.r_[True, (frame[1:] != frame[:-1]) | (vertex[1:] != vertex[:-1])].cumsum() - 1
+    big = np.bincount(group)[group] >= 4
+    frame, group, cell = frame[big], group[big], cell[big]
+    if not len(cell):
+        return {}
+    if tracks is not None:
+        cell = lookup(tracks[0], tracks[1], row_keys(frame, cell), MISSING_CELLS)
+    later = np.searchsorted(group, group, "right") - np.arange(len(group)) - 1  # each cell with the later ones
+    i = np.repeat(np.arange(len(group)), later)
+    j = np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later) + i + 1
+    a, b = np.minimum(cell[i], cell[j]), np.maximum(cell[i], cell[j])
+    pair_bounds = {int(v): (lo, hi) for v, lo, hi in zip(*_frame_bounds(frame[i]))}
+    out = {}
+    for value, lo, hi in zip(*_frame_bounds(frame)):
+        p0, p1 = pair_bounds[int(value)]
+        out[int(value)] = (a[p0:p1], b[p0:p1], group[lo:hi], cell[lo:hi])
+    return out
+
+
+def _one_vertex(held, cells):
+    """Whether the ``cells`` are all around one vertex of four or more cells (``held``: a frame's
+    :func:`_held_pairs` entry, or None)."""
+    if held is None:
+        return False
+    group, cell = held[2], held[3]
+    common = None
+    for c in cells:
+        around = set(group[cell == c].tolist())
+        common = around if common is None else common & around
+        if not common:
+            return False
+    return True
+
+
+def _frame_bounds(frame):
+    """The distinct values of the sorted ``frame`` and where each run starts and ends."""
+    starts = np.flatnonzero(np.r_[True, frame[1:] != frame[:-1]])
+    return frame[starts], starts, np.r_[starts[1:], len(frame)]
+
+
 def _unique(values):
     """``np.unique(values)``, without its sort (a hash unique) when ``values`` are strictly increasing already."""
     return values if len(values) < 2 or bool(np.all(values[1:] > values[:-1])) else np.unique(values)
@@ -219,10 +295,15 @@ def _directed(a, b):
 
 
 class _FrameGraph:
-    """One frame's contacts and cells in compact ids: sorted pair keys ``a * K + b`` and adjacency."""
+    """One frame's contacts and cells in compact ids: sorted pair keys ``a * K + b`` and adjacency.
+
+    ``flanks``: the graph the quartet search looks at (:func:`_t1_step`), the
+    contacts and the pairs held at four-fold vertices; the frame itself
+    when none is held.
+    """
 
     def __init__(self, present, a, b, K):
-        self.present, self.K = present, K
+        self.present, self.K, self.flanks = present, K, self
         keys = np.minimum(a, b) * K + np.maximum(a, b)
         self.keys = _unique(keys)  # the contacts of _movie_frames come sorted and unique already
         lo, hi = np.divmod(self.keys, K)
@@ -284,7 +365,7 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     return _find_t1(frames, np.unique(np.r_[track, a, b]))
 
 
-def _find_t1(frames, ids):
+def _find_t1(frames, ids, held=None):
     """:func:`find_t1` of a stream of frames ``(frame, tracks present, a, b)`` whose ids are all in ``ids``.
 
     One pass, two frames at a time: a contact lost between consecutive frames
@@ -292,13 +373,20 @@ def _find_t1(frames, ids):
     common neighbours before; a contact gained (its cells present before) is
     a gain, with a quartet for each pair of common neighbours after; the runs
     of frames of every contact say which loss and gain were not interrupted.
+    ``held`` (:func:`_held_pairs`): per frame, the pairs around four-fold
+    vertices, which count as neighbours in the quartet search (not as
+    contacts that are lost or gained).
     """
     K = np.int64(len(ids) + 1)
     starts, stops, losses, gains, values, every_loss = [], [], [], [], [], []
     prev = None
     index = _index_of(ids)
+    held = {} if held is None else held
     for i, (frame, tracks, a, b) in enumerate(frames):
         cur = _FrameGraph(index(tracks), index(a), index(b), K)
+        if frame in held:
+            ha, hb = held[frame][:2]
+            cur.flanks = _FrameGraph(cur.present, index(np.r_[a, ha]), index(np.r_[b, hb]), K)
         values.append(frame)
         if prev is None:
             starts.append((cur.keys, 0))
@@ -331,8 +419,13 @@ def _find_t1(frames, ids):
     if gains.empty or lost.empty:
         return empty
     m = _pair_losses_and_gains(losses, gains, lost)
-    ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
     values = np.asarray(values, np.int64)
+    if held:  # a four-fold vertex's sides collapsing in turn: its four cells around it before the loss and after the gain
+        quartet = np.stack([ids[m["ab"] // K], ids[m["ab"] % K], ids[m["cd"] // K], ids[m["cd"] % K]], axis=1)
+        before, after = values[m["frame_lost"].to_numpy(np.int64) - 1], values[m["frame_gain"].to_numpy(np.int64)]
+        m = m[np.array([not (_one_vertex(held.get(int(f0)), q) and _one_vertex(held.get(int(f1)), q))
+                        for q, f0, f1 in zip(quartet.tolist(), before.tolist(), after.tolist())], bool)]
+    ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
     out = pd.DataFrame({
         "frame_lost": values[m["frame_lost"].to_numpy(np.int64)],
         "frame_gain": values[m["frame_gain"].to_numpy(np.int64)],
@@ -391,14 +484,24 @@ def _match_once(ab, lost, cd, gain):
 
 
 def _t1_step(prev, cur):
-    """What :func:`_find_t1` takes from two consecutive frames (:class:`_FrameGraph`), in one numba kernel.
+    """What :func:`_find_t1` takes from two consecutive frames (:class:`_FrameGraph`), in numba kernels.
 
     Returns ``new``, ``gone`` (contact keys gained and lost), ``loss_ab``, ``loss_cd`` (each contact lost
     whose cells are both still present, with each pair of its common neighbours before) and ``gain_ab``,
     ``gain_cd`` (each pair of common neighbours of each contact gained whose cells were both present
-    before, with that contact).  :func:`hexatissue.events._reference._t1_step_reference` is the same in numpy.
+    before, with that contact).  Neighbours are those of each frame's ``flanks`` (held four-fold vertices
+    included); the kernel's own quartets are those of the contacts, taken when no pair is held.
+    :func:`hexatissue.events._reference._t1_step_reference` is the same in numpy.
     """
-    return _t1_kernel(prev.keys, prev.u, prev.v, prev.present, cur.keys, cur.u, cur.v, cur.present, cur.K)
+    new, gone, loss_ab, loss_cd, gain_ab, gain_cd = _t1_kernel(prev.keys, prev.u, prev.v, prev.present, cur.keys,
+                                                               cur.u, cur.v, cur.present, cur.K)
+    if prev.flanks is not prev:  # the flanks of the losses, held four-fold vertices included
+        loss_ab, loss_cd = _quartet_kernel(gone[_both_in(gone, cur.present, cur.K)], prev.flanks.keys,
+                                           prev.flanks.u, prev.flanks.v, cur.K)
+    if cur.flanks is not cur:  # and of the gains
+        gain_cd, gain_ab = _quartet_kernel(new[_both_in(new, prev.present, cur.K)], cur.flanks.keys,
+                                           cur.flanks.u, cur.flanks.v, cur.K)
+    return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
 
 
 def _index_of(ids):
@@ -571,7 +674,8 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     """
     _check_cells(cells)
     frames = _movie_frames(edges, cells, min_length)
-    raw = _find_t1(((f, tracks, a, b) for f, tracks, a, b, _ in frames), _ids(edges, cells))
+    raw = _find_t1(((f, tracks, a, b) for f, tracks, a, b, _ in frames), _ids(edges, cells),
+                   _held_pairs(edges, cells))
     last = int(cells["frame"].max()) if len(cells) else 0
     return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
 
@@ -610,7 +714,7 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
             changes.add(_Lists(f, tracks, a, b))
             yield f, tracks, a, b
 
-    raw = _find_t1(contacts(), _ids(edges, cells))
+    raw = _find_t1(contacts(), _ids(edges, cells), _held_pairs(edges, cells))
     release_freed_memory()  # the contacts' freed working set would stay resident under the two tables' own
     return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, by_frame, censor)
 

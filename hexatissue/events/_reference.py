@@ -75,8 +75,31 @@ class _Graph:
         return owner[keep], v[keep]
 
 
-def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
-    """Raw T1s (one per neighbour exchange) from contacts and cell presence. (reference)"""
+def held_rings(edges: pd.DataFrame, cells: pd.DataFrame) -> dict:
+    """Per frame, the cell sets (track ids) of the vertices of four or more cells, from the edges' ends. (reference)"""
+    if not {"vertex_a", "vertex_b"} <= set(edges.columns):
+        return {}
+    translate = "track" in cells.columns
+    track = dict(zip(zip(cells["frame"].tolist(), cells["cell"].tolist()), cells["track"].tolist())) if translate else {}
+    around = {}
+    for f, va, vb, a, b in zip(*(edges[c].tolist() for c in ("frame", "vertex_a", "vertex_b", "cell_a", "cell_b"))):
+        for v in (va, vb):
+            around.setdefault((f, v), set()).update(c for c in (a, b) if c > 0)
+    out = {}
+    for (f, _), cs in around.items():
+        if len(cs) >= 4:
+            out.setdefault(f, []).append(frozenset(track[(f, c)] if translate else c for c in cs))
+    return out
+
+
+def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame, held: dict | None = None) -> pd.DataFrame:
+    """Raw T1s (one per neighbour exchange) from contacts and cell presence. (reference)
+
+    ``held`` (:func:`held_rings`): the cells around each vertex of four or
+    more cells, per frame; their pairs are neighbours in the quartet search,
+    and a T1 whose four cells are around one such vertex before its loss and
+    after its gain is a four-fold vertex's sides collapsing in turn, not a T1.
+    """
     frames = np.unique(presence["frame"].to_numpy(np.int64))
     ids, inv = np.unique(np.r_[presence["track"].to_numpy(np.int64), contacts["a"].to_numpy(np.int64),
                                contacts["b"].to_numpy(np.int64)], return_inverse=True)
@@ -89,6 +112,24 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     if n_c == 0 or len(frames) < 2:
         return empty
     g = _Graph(c_fr, a, b, p_fr, p_id, len(ids))
+    flanks = g
+    held = {} if held is None else held
+    if held:  # the contacts and the pairs around every vertex of four or more cells
+        fa, fb, ff = [a], [b], [c_fr]
+        for f, rings in held.items():
+            if f not in set(frames.tolist()):
+                continue
+            for ring in rings:
+                r = sorted(np.searchsorted(ids, sorted(ring)).tolist())
+                pairs = [(x, y) for i, x in enumerate(r) for y in r[i + 1:]]
+                fa.append(np.array([x for x, _ in pairs], np.int64))
+                fb.append(np.array([y for _, y in pairs], np.int64))
+                ff.append(np.full(len(pairs), np.searchsorted(frames, f), np.int64))
+        fa, fb, ff = np.concatenate(fa), np.concatenate(fb), np.concatenate(ff)
+        key = np.unique((ff * g.K + fa) * g.K + fb)
+        ff, rest = np.divmod(key, g.K * g.K)
+        fa, fb = np.divmod(rest, g.K)
+        flanks = _Graph(ff, fa, fb, p_fr, p_id, len(ids))
     # Runs of consecutive frames of each contact: interval starts are gains, ends are losses.
     pair = a * g.K + b
     order = np.lexsort((c_fr, pair))
@@ -112,9 +153,9 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     gain &= g.is_present(np.maximum(i_start - 1, 0), ia) & g.is_present(np.maximum(i_start - 1, 0), ib)
     G = np.flatnonzero(gain)
     # Quartet of a loss: common neighbours of a, b just before; of a gain: of c, d just after.
-    q, v = g.common_neighbours(i_stop[L] - 1, ia[L], ib[L])
+    q, v = flanks.common_neighbours(i_stop[L] - 1, ia[L], ib[L])
     lq, lc, ld = _quartets(q, v)
-    q, v = g.common_neighbours(i_start[G], ia[G], ib[G])
+    q, v = flanks.common_neighbours(i_start[G], ia[G], ib[G])
     gq, ga, gb = _quartets(q, v)
     # a loss of a-b (run k) and a gain of c-d (run g) are one T1 when the quartet is seen before the loss
     # (c, d common neighbours of a, b) or after the gain (a, b common neighbours of c, d), the gain is the
@@ -149,7 +190,9 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     for _, _, t_gain, ab, cd, t_lost in sorted(candidates):
         if ("loss", ab, t_lost) not in used and ("gain", cd, t_gain) not in used:
             used |= {("loss", ab, t_lost), ("gain", cd, t_gain)}
-            chosen.append((ab, cd, t_lost, t_gain))
+            quartet = {int(ids[ab // g.K]), int(ids[ab % g.K]), int(ids[cd // g.K]), int(ids[cd % g.K])}
+            if not all(any(quartet <= ring for ring in held.get(int(frames[t]), ())) for t in (t_lost - 1, t_gain)):
+                chosen.append((ab, cd, t_lost, t_gain))
     if not chosen:
         return empty
     ab, cd, lost_at, gain_at = map(np.array, zip(*chosen))
@@ -187,7 +230,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     """T1 events of a movie, classified as ``cycle``, ``intercalation`` or ``unresolved``. (reference)"""
     presence = pd.DataFrame({"frame": cells["frame"].to_numpy(np.int64), "track": track_ids(cells)})
     contacts = track_contacts(edges, cells, min_length)
-    raw = find_t1(contacts, presence)
+    raw = find_t1(contacts, presence, held_rings(edges, cells))
     last = int(presence["frame"].max()) if len(presence) else 0
     events = classify_t1(raw, last, default_censor(last + 1) if censor is None else censor)
     x, y, border = _positions(events, cells, box)  # the reference's own placement, not the package's
@@ -328,12 +371,13 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
 # ----------------------------------------------------------------------------
 
 def _t1_step_reference(prev, cur):
-    """:func:`hexatissue.events._t1_step` in numpy (about 40 calls on a few hundred values)."""
+    """:func:`hexatissue.events._t1_step` in numpy (about 40 calls on a few hundred values); the quartets
+    of each frame's ``flanks`` (its contacts, and the pairs held at four-fold vertices)."""
     new, gone = cur.keys[~in_sorted(cur.keys, prev.keys)], prev.keys[~in_sorted(prev.keys, cur.keys)]
     la, lb = np.divmod(gone, cur.K)  # losses: both cells still present; quartets of the frame before
-    loss_ab, loss_cd = prev.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
+    loss_ab, loss_cd = prev.flanks.quartets(gone[cur.is_present(la) & cur.is_present(lb)])
     ga, gb = np.divmod(new, cur.K)  # gains: both cells present before; quartets of this frame
-    gain_cd, gain_ab = cur.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
+    gain_cd, gain_ab = cur.flanks.quartets(new[prev.is_present(ga) & prev.is_present(gb)])
     return new, gone, loss_ab, loss_cd, gain_ab, gain_cd
 
 
