@@ -42,11 +42,8 @@ def layers(epicure):
 def test_every_layer_of_the_epicure_results_has_the_table_counts_and_the_scale(layers):
     movie, by_name = layers
     assert list(by_name) == ["labels", "polygons", "vertices", "gamma6 stars", "Gamma2 defects", "Gamma6 defects",
-                             "T1 events", "tracks", "flow", "legend"]
+                             "T1 events", "tracks", "flow"]  # the legend is a dock widget (hexatissue.napari.legend)
     for data, kw, kind in by_name.values():
-        if kw["name"] == "legend":  # 2-D: drawn in every frame
-            assert kw["scale"] == (0.2, 0.2) and kw["units"] == ("um", "um") and kw["axis_labels"] == ("y", "x")
-            continue
         assert kw["scale"] == (300.0, 0.2, 0.2), kw["name"]
         assert kw["metadata"]["units"] == {"t": "s", "y": "um", "x": "um"}, kw["name"]
         assert kw["units"] == ("s", "um", "um"), kw["name"]  # napari's (pint) names
@@ -264,26 +261,26 @@ def test_tension_layer_draws_each_junction_with_its_tension():
     assert kw["edge_color"] == "tension" and any(layer[1]["name"] == "tension" for layer in L.movie_layers(movie))
 
 
-def test_the_legend_lists_every_side_colour_and_defect_symbol_beside_the_image(layers):
-    movie, by_name = layers
-    data, kw, kind = by_name["legend"]
-    entries = kw["features"]
-    assert kind == "points" and len(data) == len(entries) == 13
+def test_the_legend_lists_every_side_colour_defect_symbol_star_and_t1_kind(layers):
+    movie, _ = layers
+    entries = L.legend_entries(movie)
+    assert len(entries) == 13
     sides = entries.iloc[:7]
     assert list(sides["label"]) == ["≤3 sides", "4 sides", "5 sides", "6 sides", "7 sides", "8 sides", "≥9 sides"]
     assert list(sides["color"]) == list(mesh_view.SIDES_COLORS.values())
-    plus, minus = entries.iloc[7], entries.iloc[8]
+    plus, minus, star = entries.iloc[7], entries.iloc[8], entries.iloc[9]
     assert (plus["symbol"], plus["color"]) == ("disc", PLUS_COLOR) and "charge > 0" in plus["label"]
     assert (minus["symbol"], minus["color"]) == ("triangle_up", MINUS_COLOR) and "charge < 0" in minus["label"]
-    assert np.allclose(kw["face_color"], rgba(entries["color"]))
-    assert list(kw["symbol"]) == list(entries["symbol"]) and kw["text"]["string"] == "{label}"
-    assert (data[:, 1] > movie.shape[1]).all()  # right of the image (x > cols), not over the cells
-    assert np.all(np.diff(data[:, 0]) > 0)
+    assert (star["label"], star["color"]) == ("γ6 star", order_view.STAR_COLOR)
+    assert list(entries["label"].iloc[10:]) == [f"T1 {kind}" for kind in events_view.EVENT_COLORS]
+    assert list(L.legend_entries(movie, p=2)["label"].iloc[7:10]) == ["Γ2 defect, charge > 0", "Γ2 defect, charge < 0",
+                                                                     "γ2 star"]
 
 
 def test_aligned_layers_take_the_reference_grid_on_their_last_axes(layers):
     _, by_name = layers
-    moved = L.aligned([by_name["polygons"], by_name["legend"]], (2.0, 0.5, 0.25), (10.0, 3.0, 4.0),
+    flat = (np.zeros((1, 2)), {"name": "2-D", "scale": (0.2, 0.2)}, "points")  # drawn in every frame
+    moved = L.aligned([by_name["polygons"], flat], (2.0, 0.5, 0.25), (10.0, 3.0, 4.0),
                       ("minute", "nm", "nm"), ("T", "Y", "X"))
     (_, poly, _), (_, legend, _) = moved
     assert poly["scale"] == (2.0, 0.5, 0.25) and poly["translate"] == (10.0, 3.0, 4.0)

@@ -33,11 +33,9 @@ import pandas as pd
 
 from ..errors import HexatissueWarning, InputError
 from ..views import layer_makers, legend_rows
-import numpy as np
+from ..views.layerdata import common, is_movie, layer_scale
 
-from ..views.layerdata import common, is_movie, layer_scale, rgba, spacing
-
-__all__ = ["movie_layers", "labels_layer", "legend_entries", "legend_layer", "open_labels", "lazy_stack", "layer_scale", "aligned",
+__all__ = ["movie_layers", "labels_layer", "legend_entries", "open_labels", "lazy_stack", "layer_scale", "aligned",
            "with_movie", "MOVIE_KEY"]
 
 MOVIE_KEY = "movie"  # the layer metadata key of the Movie a layer shows (for the writers)
@@ -178,30 +176,11 @@ def legend_entries(movie, p=6) -> pd.DataFrame:
     return pd.DataFrame(legend_rows(movie, p), columns=["label", "symbol", "color"])
 
 
-def legend_layer(movie, p=6) -> tuple:
-    """Points layer of the legend: one symbol per entry of :func:`legend_entries` with its label, in a column
-    to the right of the image (2-D, so shown in every frame), a cell spacing apart.
-
-    ``features``: the entries (``label``, ``symbol``, ``color``)."""
-    entries = legend_entries(movie, p)
-    step = spacing(movie)
-    rows, cols = (float(s) for s in movie.shape)
-    y = step * (0.6 + 1.2 * np.arange(len(entries)))
-    data = np.column_stack([y, np.full(len(entries), cols + 1.5 * step)])
-    kwargs = {"name": "legend", "size": 0.8 * step, "symbol": entries["symbol"].to_numpy(),
-              "face_color": rgba(entries["color"]), "border_color": "#808080", "border_width": 0.05,
-              "features": entries,
-              "text": {"string": "{label}", "anchor": "upper_left", "translation": [0.4 * step, 0.7 * step],
-                       "color": "white", "size": 10},
-              **common(movie, time=False)}
-    return data, kwargs, "points"
-
-
 def movie_layers(movie, labels=None, p=6) -> list:
     """Every layer of a Movie, bottom to top: labels (when given), then every stage's layers by rank (polygons,
     vertices, gamma_p stars, Gamma_p defects (one layer per p), T1 events, tracks, the tissue flow, the
-    deformation budget's shear rates, the inferred junction tensions, when the results have them), then the
-    legend; vertices,
+    deformation budget's shear rates, the inferred junction tensions, when the results have them); the legend is
+    a dock widget (:mod:`hexatissue.napari.legend`), not a layer; vertices,
     tracks, the T1s' shear, the tensions and the defects of other orders than ``p`` start hidden.
 
     Parameters
@@ -222,4 +201,4 @@ def movie_layers(movie, labels=None, p=6) -> list:
     layers = [labels_layer(movie, labels)] if labels is not None else []
     for maker in layer_makers():
         layers += maker.make(movie, p)
-    return layers + [legend_layer(movie, p)]
+    return layers

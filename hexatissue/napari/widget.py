@@ -215,6 +215,8 @@ class AnalyzeWidget(Container):
     def _finish(self, result):
         from napari.layers import Layer
 
+        from .legend import show_legend
+
         layers, error = result
         if error is not None:
             self.status.value = f"error: {error}"
@@ -223,6 +225,7 @@ class AnalyzeWidget(Container):
         labels = None if _is_default_axis_labels(src.axis_labels) else src.axis_labels
         for data, kwargs, kind in aligned(layers, src.scale, src.translate, src.units, labels):
             self.viewer.add_layer(Layer.create(data, kwargs, kind))
+        show_legend(self.viewer)
         self.status.value = f"added {len(layers)} layers"
 
 
