@@ -55,8 +55,8 @@ from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .track import (MovieTracker, cells_with_tracks, check_divisions, check_extrusions, compact_frames, lineage_table,
                     tracking_summary, tracking_warning)
 
-__all__ = ["Stage", "FrameState", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
-           "worker_stages", "run_frame"]
+__all__ = ["Stage", "FrameState", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages",
+           "frame_tables", "worker_stages", "run_frame"]
 
 @dataclass(frozen=True)
 class FrameState:

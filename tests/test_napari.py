@@ -20,6 +20,7 @@ from hexatissue.napari.layers import legend_entries  # noqa: E402
 from hexatissue.napari.legend import DOCK_NAME, LegendWidget  # noqa: E402
 from hexatissue.napari.reader import get_reader, read_folder, read_labels_source  # noqa: E402
 from tests.test_napari_layers import SAMPLE, epicure  # noqa: E402,F401  (the analysed sample, a fixture)
+from tests.test_stages import toy_stage  # noqa: E402,F401  (a stage added with its entry alone, a fixture)
 
 pytestmark = pytest.mark.napari
 
@@ -393,3 +394,24 @@ def test_the_widget_fields_come_from_the_options_classes(viewer):
     assert "four-fold" in widget.merge_distance.tooltip
     assert OrderOptions().radius is None and widget.radius.value == 0  # 0 = chosen from the data
     assert widget.deformation.value is False and "deformation budget" in widget.deformation.tooltip
+
+
+def test_the_widget_offers_a_new_stage_s_field_and_runs_it(viewer, toy_stage):
+    """A stage added with its entry alone (tests/test_stages.py) gets its field in the analyze widget, and
+    run_analysis gives that stage its value and shows its layer."""
+    from hexatissue.napari.widget import AnalyzeWidget, run_analysis
+    from hexatissue.synthetic import voronoi_movie
+
+    widget = AnalyzeWidget(viewer)
+    assert widget.toy_factor.value == 2.0 and widget.toy_factor.tooltip == "factor of the toy area"
+    movie_frames = voronoi_movie(30, (64, 64), 3, periodic=False, amplitude=0.3, seed=1)
+    labels = np.stack([np.asarray(movie_frames[t]) for t in range(3)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        layers = run_analysis(labels, toy_factor=4.0, progress=False)
+    by_name = {kw["name"]: (data, kw) for data, kw, _ in layers}
+    movie = by_name["toy cells"][1]["metadata"]["movie"]
+    assert movie.options["toy"].factor == 4.0
+    np.testing.assert_allclose(by_name["toy cells"][1]["features"]["toy_area"], 4.0 * movie.cells["area"])
+    with pytest.raises(TypeError, match="toy_facto"):
+        run_analysis(labels, toy_facto=4.0)

@@ -30,7 +30,7 @@ from typing import Callable
 from ..io import write_table
 
 __all__ = ["StageView", "Section", "LayerMaker", "WidgetField", "Report", "stage_views", "report_sections",
-           "layer_makers", "legend_rows", "widget_fields", "movie_figures", "shown_frames"]
+           "layer_makers", "legend_rows", "widget_fields", "movie_figures", "shown_frames", "single"]
 
 
 def shown_frames(movie) -> list[int]:
@@ -56,6 +56,15 @@ class LayerMaker:
 
     rank: float
     make: Callable
+
+
+def single(make) -> Callable:
+    """A :class:`LayerMaker`'s ``make`` of ``make(movie)`` -> one layer data tuple, or None when the Movie has
+    nothing to show."""
+    def layers(movie, p):
+        layer = make(movie)
+        return [] if layer is None else [layer]
+    return layers
 
 
 @dataclass(frozen=True)

@@ -2,12 +2,12 @@
 report; the events in napari."""
 from __future__ import annotations
 
-import pandas as pd
 import numpy as np
+import pandas as pd
 
 from ..analysis.plots import plot_event_overview
 from ..analysis.timing import cell_timing, timing_summary, timing_test
-from . import LayerMaker, Section, StageView
+from . import LayerMaker, Section, StageView, single
 from .layerdata import common, coords, is_movie, rgba, spacing
 from .text import md_table
 
@@ -140,5 +140,4 @@ def _legend(movie, p):
 
 
 VIEW = StageView(report=(Section(40, _t1_events, tracked=True), Section(45, _per_cell_definition, tracked=True)),
-                 layers=(LayerMaker(50, lambda movie, p: [layer for layer in (event_layer(movie),) if layer is not None]),),
-                 legend=_legend)
+                 layers=(LayerMaker(50, single(event_layer)),), legend=_legend)

@@ -11,7 +11,7 @@ from ..flow import (angular_harmonics, defect_flow, flow_summary, mean_squared_d
 from ..flow.piv import piv_agreement
 from ..plot import plot_flow, typical_spacing
 from ..theory import quadrupole_flow_exact
-from . import LayerMaker, Section, StageView, WidgetField
+from . import LayerMaker, Section, StageView, single, WidgetField
 from .layerdata import common, coords
 from .text import length, rate
 
@@ -208,5 +208,5 @@ def flow_layer(movie) -> tuple | None:
 
 
 VIEW = StageView(report=(Section(60, _flow, tracked=True),),
-                 layers=(LayerMaker(70, lambda movie, p: [layer for layer in (flow_layer(movie),) if layer is not None]),),
+                 layers=(LayerMaker(70, single(flow_layer)),),
                  widget=(WidgetField("enabled", name="flow", label="tissue flow"),))

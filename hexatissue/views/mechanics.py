@@ -7,7 +7,7 @@ import pandas as pd
 
 from ..mechanics import MU_RANGE, t1_tension_histories, tissue_stress
 from ..plot import plot_stress, plot_t1_tensions, plot_tension_histogram, plot_tensions
-from . import LayerMaker, Section, StageView, WidgetField
+from . import LayerMaker, Section, StageView, single, WidgetField
 from .layerdata import common, coords
 from .text import md_table
 
@@ -136,5 +136,5 @@ def tension_layer(movie) -> tuple | None:
 
 
 VIEW = StageView(report=(Section(90, _forces),),
-                 layers=(LayerMaker(90, lambda movie, p: [layer for layer in (tension_layer(movie),) if layer is not None]),),
+                 layers=(LayerMaker(90, single(tension_layer)),),
                  widget=(WidgetField("enabled", name="mechanics", label="force inference"),))

@@ -7,7 +7,7 @@ import numpy as np
 from ..analysis.plots import plot_cell_distributions
 from ..geometry import table_polygons
 from ..plot import plot_labels
-from . import LayerMaker, Section, StageView, WidgetField, shown_frames
+from . import LayerMaker, Section, StageView, WidgetField, shown_frames, single
 from .layerdata import common, coords, is_movie, rgba
 
 __all__ = ["VIEW", "polygon_layer", "vertex_layer", "SIDES_COLORS", "VERTEX_COLORS", "POLYGON_EDGE_COLOR"]
@@ -154,12 +154,12 @@ def vertex_layer(movie) -> tuple:
 
 
 def _legend(movie, p):
-    return [(("≤3" if k == 3 else "≥9" if k == 9 else str(k)) + " sides", "square", c) for k, c in SIDES_COLORS.items()]
+    return [(("≤3" if k == 3 else "≥9" if k == 9 else str(k)) + " sides", "square", c)
+            for k, c in SIDES_COLORS.items()]
 
 
 VIEW = StageView(figures=_figures, report=(Section(10, _tissue), Section(12, _cell_figure)),
-                 layers=(LayerMaker(10, lambda movie, p: [polygon_layer(movie)]),
-                         LayerMaker(20, lambda movie, p: [vertex_layer(movie)])),
+                 layers=(LayerMaker(10, single(polygon_layer)), LayerMaker(20, single(vertex_layer))),
                  legend=_legend,
                  widget=(WidgetField("merge_distance", name="merge_distance", label="merge distance (px)",
                                      limits={"min": 0.0, "max": 100.0, "step": 0.5}),))

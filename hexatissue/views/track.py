@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from ..track import DIVISION_REASONS, division_rows, tracking_qc, tracking_warning
-from . import LayerMaker, Section, StageView, WidgetField
+from . import LayerMaker, Section, StageView, single, WidgetField
 from .layerdata import common, is_movie
 from .text import md_table
 
@@ -130,5 +130,5 @@ def track_layer(movie) -> tuple | None:
 
 
 VIEW = StageView(report=(Section(30, _tracking_qc, tracked=True),),
-                 layers=(LayerMaker(60, lambda movie, p: [layer for layer in (track_layer(movie),) if layer is not None]),),
+                 layers=(LayerMaker(60, single(track_layer)),),
                  widget=(WidgetField("mode", name="track_mode", label="track mode"),))
