@@ -42,6 +42,17 @@ def test_every_stage_names_a_registered_options_class_and_writes_what_the_schema
             assert not column or _column_in_schema(table, column), (stage.name, name)
 
 
+def test_every_views_module_named_in_the_list_is_a_stage_view_on_the_analysis_floor():
+    from hexatissue.views import StageView, stage_views
+
+    named = [s for s in S.STAGES if s.views is not None]
+    assert {s.views for s in named} == {f"hexatissue.views.{m}" for m in ("mesh", "order", "track", "events", "flow",
+                                                                          "deformation", "mechanics")}
+    views = stage_views()
+    assert [stage.name for stage, _ in views] == [s.name for s in named]
+    assert all(isinstance(view, StageView) for _, view in views)
+
+
 def test_tables_read_are_written_by_an_earlier_stage():
     written = {"labels", "image"}
     for stage in S.STAGES:

@@ -1,8 +1,8 @@
 """Each stage's presentation: its figures, its report section, its napari layers and its widget fields.
 
 A stage's entry in :data:`hexatissue.stages.STAGES` names its views module
-(``Stage.views``: a module name, imported here and only here, or a
-:class:`StageView` itself).  The module sits on the analysis floor, so it may
+(``Stage.views``: a module name, which :func:`stage_views` imports, or a
+:class:`StageView` itself); the analysis never imports it.  The module sits on the analysis floor, so it may
 draw with :mod:`hexatissue.plot` and :mod:`hexatissue.analysis`; its
 ``VIEW`` is a :class:`StageView`.  The consumers iterate the list and know
 no stage by name:
