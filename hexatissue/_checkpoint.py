@@ -1,8 +1,8 @@
-"""Checkpoints of a running analysis: the finished frames' tables and the tracker, saved every few frames."""
+"""Checkpoints of a running analysis: the finished frames' tables and the stages' frame states (the tracker), saved
+every few frames."""
 from __future__ import annotations
 
 import json
-import pickle
 
 import pandas as pd
 
@@ -13,7 +13,8 @@ __all__ = ["Checkpoint"]
 
 
 class Checkpoint:
-    """Frame tables (``tables``, by name) and tracker state saved every ``every`` frames in ``directory``.
+    """Frame tables (``tables``, by name) and the stages' frame states (by stage name, as bytes: the tracker's
+    pickle, :class:`hexatissue.stages.FrameState`) saved every ``every`` frames in ``directory``.
 
     ``key`` (JSON-able) says what is analysed and how: a folder holding
     another key is refused, not resumed.
@@ -51,15 +52,20 @@ class Checkpoint:
             return None
         try:
             state = json.loads(self.state_path.read_text())
-            if not (isinstance(state, dict) and {"key", "done", "files", "tracker"} <= set(state)
-                    and isinstance(state["files"], dict)):
+            if not (isinstance(state, dict) and {"key", "done", "files"} <= set(state)
+                    and isinstance(state["files"], dict) and ("states" in state or "tracker" in state)):
                 raise ValueError("not a checkpoint state")
+            if "states" not in state:  # written before the stages kept their own states: the tracker's alone
+                state["states"] = {"track": state.pop("tracker")} if state["tracker"] else {}
         except (OSError, ValueError) as exc:
             raise self._damaged(f"checkpoint.json cannot be read: {exc}") from None
         return state
 
-    def load(self):
-        """(frames done, tables, tracker) from the last checkpoint, or (0, None, None)."""
+    def load(self, loaders):
+        """(frames done, tables, frame states by stage name) from the last checkpoint, or (0, None, None).
+
+        ``loaders``: by stage name, the function that makes a state of its bytes (``FrameState.load``).
+        """
         state = self._state()
         if state is None:
             return 0, None, None
@@ -71,22 +77,26 @@ class Checkpoint:
                      for name in self.tables}
         except InputError as exc:
             raise self._damaged(str(exc)) from None
-        tracker = None
-        if state["tracker"]:
+        states = {}
+        for name, load in loaders.items():
+            fname = state["states"].get(name)
+            if fname is None:
+                raise self._damaged(f"no {name} state")
             try:
-                tracker = pickle.loads((self.dir / state["tracker"]).read_bytes())
+                states[name] = load((self.dir / fname).read_bytes())
             except Exception as exc:  # missing or truncated pickle
-                raise self._damaged(f"tracker state {state['tracker']!r}: {type(exc).__name__}: {exc}") from None
-        return int(state["done"]), parts, tracker
+                raise self._damaged(f"{name} state {fname!r}: {type(exc).__name__}: {exc}") from None
+        return int(state["done"]), parts, states
 
-    def save(self, done, new_parts, tracker_bytes):
-        """Add the tables of the frames finished since the last checkpoint and the tracker; ``done`` frames in all.
+    def save(self, done, new_parts, states):
+        """Add the tables of the frames finished since the last checkpoint and the frame ``states`` (bytes by stage
+        name); ``done`` frames in all.
 
         Parts are packed as they come (:meth:`_pack`): a table of a long movie is held in a few files, not one
         per checkpoint (65,536 frames saved every 100 made 2,627 files).
         """
         state = self._state() or {"key": self.key, "done": 0, "files": {name: [] for name in self.tables},
-                                  "tracker": None}
+                                  "states": {}}
         superseded = []
         for name, tables in new_parts.items():
             if not tables:
@@ -96,13 +106,13 @@ class Checkpoint:
                 pd.concat(tables, ignore_index=True).to_parquet(tmp, index=False)
             state["files"][name].append(fname)
             superseded += self._pack(state["files"][name], name)
-        if tracker_bytes is not None:
-            fname = f"tracker_{done:08d}.pkl"
+        for name, data in states.items():
+            fname = f"{name}_state_{done:08d}.pkl"
             with atomic_path(self.dir / fname) as tmp:
-                tmp.write_bytes(tracker_bytes)
-            if state["tracker"]:
-                superseded.append(state["tracker"])
-            state["tracker"] = fname
+                tmp.write_bytes(data)
+            if name in state["states"]:
+                superseded.append(state["states"][name])
+            state["states"][name] = fname
         state["done"] = int(done)
         # the state file is written last: a crash before this line leaves the previous checkpoint valid
         with atomic_path(self.state_path) as tmp:

@@ -5,7 +5,8 @@ It runs the list of stages (:data:`hexatissue.stages.STAGES`) over a source:
     open_source(...)  ->  per frame, in parallel: the frame stages (labels -> junction network
                                                   -> intensities -> gamma_p -> Gamma_p and defects
                                                   -> tensions, pressures and stress)
-                      ->  in frame order, in this process: cell tracking
+                      ->  in frame order, in this process: the movie stages' frame states
+                                                  (the tracks stage's tracker links the cells)
                       ->  over the movie: the movie stages (tracks and lineage, defect tracks and
                                           pair events, tissue flow, T1 events, per-cell
                                           statistics, the deformation budget)
@@ -15,7 +16,8 @@ Frames are read one at a time from the :class:`~hexatissue.Source` and sent
 to the workers in batches of consecutive frames; at most a few batches are
 in flight, so memory does not grow with the movie's length beyond its output
 tables.  The workers also compact each frame's labels and count their
-overlaps with the previous frame, so the tracker only links cells.  The
+overlaps with the previous frame (the tracks stage's
+:class:`~hexatissue.stages.FrameState`), so the tracker only links cells.  The
 per-frame work runs in a local process pool (default) or on a
 dask.distributed cluster (``client``).  Conventions: label images are
 indexed ``[row, col]``; tables use ``x`` = column, ``y`` = row, in px, origin
@@ -23,7 +25,6 @@ at the centre of pixel (0, 0); times in frames.
 """
 from __future__ import annotations
 
-import pickle
 import warnings
 from pathlib import Path
 from collections import deque
@@ -42,7 +43,6 @@ from .results import Movie
 from .source import open_source, read_mask
 from .stages import (FrameData, MovieData, frame_stages, frame_tables, movie_stages, run_frame, stage_options,
                      worker_stages)
-from .track import MovieTracker, compact_frames
 
 __all__ = ["analyze"]
 
@@ -74,10 +74,10 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
         in this process).
     checkpoint : str or Path, optional
         Folder for checkpoints: every ``checkpoint_every`` frames the tables
-        of the finished frames and the tracker state are saved there
+        of the finished frames and the stages' frame states (the tracker) are saved there
         (atomically); a later call with the same source and options resumes
         after the last checkpoint.  The folder is locked while a run uses it
-        (``checkpoint.lock``): a second run on it raises InputError.  The tracker state is a pickle: only
+        (``checkpoint.lock``): a second run on it raises InputError.  The tracker's state is a pickle: only
         resume from folders you wrote yourself.
     checkpoint_every : int
         Frames per checkpoint.
@@ -128,16 +128,13 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     _check_limits(options, src.shape)
     frame_work, movie_work = frame_stages(options), movie_stages(options)
     if src.kind == "polygons":
-        _check_polygon_run(box, mask, frame_work, options)
+        _check_polygon_run(box, mask, frame_work)
     box = src.box if box is None else as_box(box, src.shape)
     mask, mask_info = read_mask(mask, src.shape)
     images = {s.options.stage: _image_source(s.options.stage, options[s.options.stage], src)
               for s in frame_work if s.image}
-    track_options = options["track"]
-    tracker = MovieTracker(track_options.mode, track_options.min_iou, track_options.child_fraction,
-                           track_options.mother_fraction, track_options.max_gap,
-                           ids_consistent=src.ids_consistent, independent=src.independent,
-                           follow=track_options.follow, periodic=box is not None)
+    followers = {s.options.stage: s.state for s in movie_work if s.state is not None}
+    states = {name: follow.new(options[name], src, box) for name, follow in followers.items()}
     tables = frame_tables(frame_work)
     store = None
     if checkpoint is not None:
@@ -145,13 +142,13 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
                    source=_identity(src.description), options={k: v.to_dict() for k, v in options.items()},
                    mask=mask_info, images={name: _identity(image.description) for name, image in images.items()})
         store = Checkpoint(checkpoint, key, checkpoint_every, tables)
-    rows, tracker = _extract(src, box, frame_work, options, mask, images, tracker, tables, client, workers, store,
-                             progress)
+    rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client, workers,
+                            store, progress)
     release_freed_memory()  # the frames' freed temporaries, before the movie stages
     orders = options["order"].p
     movie = MovieData(tables={name: rows.pop(name).table(name, orders) for name in tables}, box=box,
-                      n_frames=src.n_frames, source=src, tracker=tracker, options=dict(options), images=images)
-    del tracker
+                      n_frames=src.n_frames, source=src, states=states, options=dict(options), images=images)
+    del states
     for stage in movie_work:
         stage.run(movie, options[stage.options.stage])
         release_freed_memory()  # after each movie stage: its freed working set would stay under the next
@@ -196,16 +193,14 @@ def _image_source(name, options, src):
     return image
 
 
-def _check_polygon_run(box, mask, stages, options):
-    """Refuse what cell polygons cannot have: a periodic box, a mask, an image stage, overlap tracking."""
+def _check_polygon_run(box, mask, stages):
+    """Refuse what cell polygons cannot have: a periodic box, a mask, an image stage (the tracks stage refuses
+    overlap tracking when it makes its tracker)."""
     if box is not None and box is not False:
         raise InputError(f"box={box!r}: cell polygons are an open image; a periodic box needs label images")
     pixels = (["mask"] if mask is not None else []) + [s.options.stage for s in stages if s.image]
     if pixels:
         raise InputError(f"{pixels[0]}= needs a label image; the source holds cell polygons (no pixels)")
-    if options["track"].mode == "always":
-        raise InputError("track mode 'always' (overlap tracking) needs label images; cells given as polygons are "
-                         "tracked by their ids: use 'never' (ids are tracks), 'off' or 'auto'")
 
 
 def _check_limits(options, shape):
@@ -268,32 +263,28 @@ class _FrameWarnings:
                           category, stacklevel=user_stacklevel())
 
 
-def _batch_job(batch, stages, pixels):
-    """The frame ``stages`` (``(stage, options)`` pairs) on consecutive frames (:class:`FrameData`), in one task.
+def _batch_job(batch, stages, follow):
+    """The frame ``stages`` (``(run, options)`` pairs) on consecutive frames (:class:`FrameData`), in one task.
 
-    Label frames come back compacted for the tracker, with their overlaps
-    with the batch's previous frame counted here
-    (:func:`hexatissue.track.compact_frames`; ``pixels``: keep every frame's
-    pixels, for gap closing), so that the main process only links them;
-    polygon frames come back as their cell ids.  Returns ``[(tables, labels,
-    overlaps or None, warnings), ...]`` in frame order.
+    Then each frame state's ``prepare`` (``follow``: ``(name, prepare,
+    params)`` triples, :class:`~hexatissue.stages.FrameState`) makes its
+    payload of every frame here, in the worker (the tracks stage: the label
+    frames compacted, with their overlaps with the batch's previous frame),
+    so that the main process only adds them.  Returns ``[(tables, {name:
+    payload}, warnings), ...]`` in frame order.
     """
-    done = []
-    for frame in batch:
-        found = run_frame(frame, stages)
-        done.append((frame.tables, frame.labels, found))
-    if batch and batch[0].cell_polygons is not None:
-        return [(tables, ids, None, found) for tables, ids, found in done]
-    tracked = compact_frames([labels for _, labels, _ in done], pixels)
-    return [(tables, labels, overlaps, found) for (tables, _, found), (labels, overlaps) in zip(done, tracked)]
+    found = [run_frame(frame, stages) for frame in batch]
+    payloads = {name: prepare(batch, params) for name, prepare, params in follow}
+    return [(frame.tables, {name: p[k] for name, p in payloads.items()}, found[k]) for k, frame in enumerate(batch)]
 
 
-def _extract(src, box, stages, options, mask, images, tracker, tables, client, workers, store, progress):
-    """Per-frame ``tables`` (in frame order, as :class:`Rows`) and the tracker, with few frames in flight.
+def _extract(src, box, stages, options, mask, images, followers, states, tables, client, workers, store, progress):
+    """Per-frame ``tables`` (in frame order, as :class:`Rows`) and the frame ``states`` (by stage options name, of
+    the :class:`~hexatissue.stages.FrameState` ``followers``), with few frames in flight.
 
     A checkpoint folder is locked for the whole extraction: two runs cannot share it.
     """
-    args = (src, box, stages, options, mask, images, tracker, tables, client, workers, store, progress)
+    args = (src, box, stages, options, mask, images, followers, states, tables, client, workers, store, progress)
     if store is None:
         return _extract_locked(*args)
     store.lock()
@@ -303,31 +294,35 @@ def _extract(src, box, stages, options, mask, images, tracker, tables, client, w
         store.unlock()
 
 
-def _extract_locked(src, box, stages, options, mask, images, tracker, tables, client, workers, store, progress):
-    """The frame loop: batches of consecutive frames go to the executor; their results are tracked in order.
+def _extract_locked(src, box, stages, options, mask, images, followers, states, tables, client, workers, store,
+                    progress):
+    """The frame loop: batches of consecutive frames go to the executor; their results join the frame states in
+    frame order.
 
-    A batch never spans a checkpoint (its last frame keeps its pixels, which
-    the checkpointed tracker holds for the next frame's overlaps).
+    A batch never spans a checkpoint (the tracker's last frame keeps its
+    pixels, which the checkpointed tracker holds for the next frame's
+    overlaps).
     """
     n_frames = src.n_frames
     rows = {name: Rows(n_frames) for name in tables}
     start = 0
     if store is not None:
-        start, loaded, saved_tracker = store.load()
+        start, loaded, saved_states = store.load({name: f.load for name, f in followers.items()})
         if start:
-            tracker = saved_tracker
+            states = saved_states
             for name, parts in loaded.items():
                 for table in parts:
                     rows[name].append(table, frames=table["frame"].nunique() if "frame" in table else 1)
     if start >= n_frames:
-        return rows, tracker
+        return rows, states
     sent = worker_stages(stages, options)
+    follow = tuple((name, f.prepare, f.params(states[name], src)) for name, f in followers.items())
 
     def warm_up():
         """The job's first frames, once, here: forked workers inherit exactly the compiled kernels they need."""
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", HexatissueWarning)  # reported when the frames are analysed
-            _batch_job([frame_data(t) for t in range(start, min(start + 2, n_frames))], sent, pixels)
+            _batch_job([frame_data(t) for t in range(start, min(start + 2, n_frames))], sent, follow)
 
     pending: deque = deque()
     due = store.due(start, n_frames) if store is not None else set()
@@ -336,21 +331,18 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
     files = src.description.get("files")
     frame_warnings = _FrameWarnings(files if files is not None and len(files) == n_frames else None)
     polygons = src.kind == "polygons"
-    pixels = not polygons and tracker.needs_pixels
 
     def collect(first, future):
-        for t, (done, labels, overlaps, found) in enumerate(future.result(), start=first):
+        for t, (done, payloads, found) in enumerate(future.result(), start=first):
             frame_warnings.add(t, found)
-            if polygons:
-                tracker.add_ids(labels, t)  # the cell ids: polygons have no labels to overlap
-            else:
-                tracker.add_valid(labels, t, overlaps)
+            for name, follower in followers.items():
+                follower.add(states[name], payloads[name], t)
             for name, table in done.items():
                 rows[name].append(table)
-            del done, labels, overlaps
+            del done, payloads
             if t + 1 in due:
                 new = {name: [r.table(start=saved[name])] for name, r in rows.items() if r.n > saved[name]}
-                store.save(t + 1, new, pickle.dumps(tracker))
+                store.save(t + 1, new, {name: f.dump(states[name]) for name, f in followers.items()})
                 saved.update({name: r.n for name, r in rows.items()})
 
     def frame_data(t):
@@ -373,7 +365,7 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
             batch.append(frame_data(t))
             if len(batch) < size and t + 1 not in due and t + 1 < n_frames:
                 continue
-            pending.append((t + 1 - len(batch), work.submit(_batch_job, batch, sent, pixels)))
+            pending.append((t + 1 - len(batch), work.submit(_batch_job, batch, sent, follow)))
             batch = []
             while len(pending) >= max_inflight:
                 collect(*pending.popleft())
@@ -386,4 +378,4 @@ def _extract_locked(src, box, stages, options, mask, images, tracker, tables, cl
         work.shutdown()
     finally:
         frame_warnings.emit()
-    return rows, tracker
+    return rows, states

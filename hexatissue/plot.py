@@ -23,12 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 from .box import as_box
-from .defects import find_defects
 from .errors import InputError, as_generator
-from .flow import in_units, velocity_unit
 from .io import atomic_path
-from .order import coarse_grain
-from .units import as_calibration
+from .units import as_calibration, in_units, velocity_unit
 
 __all__ = [
     "add_scale_bar",
@@ -45,7 +42,8 @@ __all__ = [
     "plot_tensions",
     "plot_tension_histogram",
     "save_figure",
-    "save_analysis_figures",
+    "typical_spacing",
+    "star_segments",
 ]
 
 #: Colours of positive and negative defects (the paper's Fig. 3: red +, blue -).
@@ -296,7 +294,7 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
     return _finish(fig, path)
 
 
-def _star_segments(xy, angle, length, p):
+def star_segments(xy, angle, length, p):
     """``p`` legs per point: segments from each centre at ``angle + 2 pi k / p``."""
     k = np.arange(p)
     a = angle[:, None] + 2 * np.pi * k[None, :] / p
@@ -312,7 +310,7 @@ def _gamma(table, name, p):
     return table[re].to_numpy(float) + 1j * table[im].to_numpy(float)
 
 
-def _typical_spacing(xy):
+def typical_spacing(xy):
     """Median nearest-neighbour distance of points ``xy`` (1 if fewer than two)."""
     from scipy.spatial import cKDTree
 
@@ -354,7 +352,7 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
     ok = np.isfinite(gamma) & np.isfinite(xy).all(axis=1)
     background = _draw_background(ax, labels, image, alpha=0.5)
     _draw_polygons(ax, polygons, color="0.35", linewidth=0.6, box=box)
-    _add_stars(ax, xy[ok], gamma[ok], p, scale * _typical_spacing(xy[ok]), color, linewidth=1.1)
+    _add_stars(ax, xy[ok], gamma[ok], p, scale * typical_spacing(xy[ok]), color, linewidth=1.1)
     _image_axes(ax, _extent_of(background, polygons, xy[ok], as_box(box)), calibration)
     ax.set_title(f"cell orientation Arg($\\gamma_{p}$)/{p}")
     return _finish(fig, path)
@@ -363,7 +361,7 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
 def _add_stars(ax, xy, value, p, unit_length, color, linewidth):
     from matplotlib.collections import LineCollection
 
-    segments = _star_segments(xy, np.angle(value) / p, np.abs(value) * unit_length, p)
+    segments = star_segments(xy, np.angle(value) / p, np.abs(value) * unit_length, p)
     ax.add_collection(LineCollection(segments, colors=color, linewidths=linewidth, capstyle="round"))
 
 
@@ -433,7 +431,7 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
 def _grid_spacing(grid):
     if "spacing" in grid.columns and len(grid):
         return float(grid["spacing"].iloc[0])
-    return _typical_spacing(grid[["x", "y"]].to_numpy(float))
+    return typical_spacing(grid[["x", "y"]].to_numpy(float))
 
 
 def _shade_magnitude(fig, ax, grid, gamma, valid, p):
@@ -538,57 +536,6 @@ def plot_order_vs_radius(curve, ax=None, path=None, figsize=(5, 3.6)):
     return _finish(fig, path)
 
 
-def save_analysis_figures(frame, directory, labels=None, grid=None, defects=None, p=6, prefix="",
-                          calibration=None):
-    """Write the standard figures of one frame: polygons, p-legged stars, Gamma_p field with defects.
-
-    Parameters
-    ----------
-    frame : hexatissue.Frame
-        One time point (``frame.cells`` with ``gamma{p}``, ``frame.box``, polygons).
-    directory : str or Path
-        Output folder (created if needed).
-    labels : (rows, cols) int array, optional
-        The label image, drawn underneath.
-    grid, defects : pandas.DataFrame, optional
-        This frame's grid and defects tables; computed with the defaults of
-        :func:`hexatissue.coarse_grain` and :func:`hexatissue.find_defects`
-        when not given.
-    p : int
-        Symmetry order of the stars and the field.
-    prefix : str
-        Prepended to the file names (e.g. ``"frame0003_"``).
-    calibration : Calibration, optional
-        Pixel size and length unit of the scale bars; when None, the
-        frame's ``calibration`` attribute if it has one, else px.
-
-    Returns
-    -------
-    list of pathlib.Path
-        ``{prefix}polygons.png``, ``{prefix}stars{p}.png``, ``{prefix}gamma{p}_defects.png``.
-    """
-    from pathlib import Path
-
-
-    if calibration is None:
-        calibration = getattr(frame, "calibration", None)
-    calibration = as_calibration(calibration)
-    directory = Path(directory)
-    box = frame.box
-    if grid is None:
-        grid = coarse_grain(frame.cells, p=p, box=box)
-    if defects is None:
-        defects = find_defects(grid, p=p, box=box)
-    polygons = frame.polygons()
-    paths = [directory / f"{prefix}polygons.png", directory / f"{prefix}stars{p}.png",
-             directory / f"{prefix}gamma{p}_defects.png"]
-    plot_labels(labels, polygons, frame.cells, path=paths[0], box=box, calibration=calibration)
-    plot_stars(frame.cells, p=p, polygons=polygons, labels=labels, path=paths[1], box=box, calibration=calibration)
-    plot_order_field(grid, defects, p=p, polygons=polygons, labels=labels, box=box, path=paths[2],
-                     calibration=calibration)
-    return paths
-
-
 #: How the deformation budget's terms are drawn: (label, terms summed, colour); "total" is drawn on top.
 BUDGET_GROUPS = (
     ("cell shape change", ("cell_shape", "corotation", "nonlinear"), "#1f77b4"),
@@ -685,7 +632,7 @@ def plot_deformation_map(deformation, grid, calibration=None, ax=None, path=None
     t1 = [sum(mean[f"{k}_{c}"].to_numpy() for k in t1_terms) for c in ("xx", "xy")]
     total = [mean[f"total_{c}"].to_numpy() for c in ("xx", "xy")]
     largest = max(float(np.nanmax(np.hypot(*total), initial=0.0)), 1e-300)
-    half_spacing = 0.45 * _typical_spacing(xy)
+    half_spacing = 0.45 * typical_spacing(xy)
     from matplotlib.collections import LineCollection
 
     for (xx, xy_), colour, width in ((total, "k", 2.2), (t1, PLUS_COLOR, 1.4)):
@@ -753,7 +700,7 @@ def plot_flow(flow, polygons=None, ax=None, path=None, box=None, calibration=Non
         speed = np.hypot(u, v)
         typical = float(np.percentile(speed, 95)) if speed.max() > 0 else 1.0
         # the 95th-percentile speed spans 0.9 grid steps, so arrows rarely cross their neighbours
-        step = _typical_spacing(np.c_[x, y])
+        step = typical_spacing(np.c_[x, y])
         ax.quiver(x[valid], y[valid], u, v, angles="xy", scale_units="xy", scale=typical / (0.9 * step),
                   width=0.004, color="k", zorder=4)
         key = scale_bar_length(float(in_units(typical, cal)), 1.0)  # a round speed near the typical one

@@ -9,16 +9,26 @@ and the function that runs it:
   :class:`FrameData` (the frame's labels and tables); what they write is
   gathered into the movie's tables in frame order;
 - **movie stages** run once, in the main process, in list order, on a
-  :class:`MovieData` (every table of the movie) after the frames are done.
+  :class:`MovieData` (every table of the movie) after the frames are done;
+  a movie stage may also follow the frames as they come (its
+  :class:`FrameState`: the tracks stage's tracker), in frame order, in the
+  main process, its state saved in the checkpoints.
+
+A stage's figures, report section and napari layers live in its views
+module (``Stage.views``, on the analysis floor: :mod:`hexatissue.views`),
+which the report, ``analyze --figures`` and the napari plugin take from
+this list.
 
 Adding a stage: its module (the computation, with its ``_kernels`` and
 ``_reference``), its options class (:mod:`hexatissue.options`), its tables or
 columns in :mod:`hexatissue.schema`, one entry in :data:`STAGES` with the
-small function that calls it, and tests.  The spine, the checkpoints, the
-command line and the napari widget take the rest from here.
+small function that calls it (and the name of its views module), and tests.
+The spine, the checkpoints, the command line, the report, the figures and the
+napari plugin take the rest from here.
 """
 from __future__ import annotations
 
+import pickle
 import warnings
 from dataclasses import dataclass, field, replace
 from typing import Callable
@@ -42,11 +52,47 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
                       MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
-from .track import (cells_with_tracks, check_divisions, check_extrusions, lineage_table, tracking_summary,
-                    tracking_warning)
+from .track import (MovieTracker, cells_with_tracks, check_divisions, check_extrusions, compact_frames, lineage_table,
+                    tracking_summary, tracking_warning)
 
-__all__ = ["Stage", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages", "frame_tables",
-           "worker_stages", "run_frame"]
+__all__ = ["Stage", "FrameState", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages",
+           "frame_tables", "worker_stages", "run_frame"]
+
+@dataclass(frozen=True)
+class FrameState:
+    """What a movie stage follows frame by frame while the frame stages run (the tracks stage: its tracker).
+
+    The spine makes the state once (``new``), sends ``params(state, source)``
+    with every batch of consecutive frames to the worker, which calls
+    ``prepare(frames, params)`` after the frame stages (the
+    :class:`FrameData` of the batch; one picklable payload per frame), then
+    hands each frame's payload to ``add(state, payload, t)`` in frame order,
+    in the main process.  The state is saved in every checkpoint
+    (``dump``; ``load`` on resume) and handed to the movie stages in
+    :attr:`MovieData.states`.
+
+    Attributes
+    ----------
+    new : callable
+        ``new(options, source, box) -> state``, with the stage's options, the
+        opened Source and the box (None: open image).
+    prepare : callable
+        ``prepare(frames, params) -> list``: one payload per frame, in the worker.
+    add : callable
+        ``add(state, payload, t)``.
+    params : callable
+        ``params(state, source)``: what ``prepare`` needs (picklable; None by default).
+    dump, load : callable
+        The state to bytes and back (default: pickle; only resume from checkpoint folders you wrote).
+    """
+
+    new: Callable
+    prepare: Callable
+    add: Callable
+    params: Callable = field(default=lambda state, source: None)  # noqa: E731  (nothing to send)
+    dump: Callable = field(default=pickle.dumps)
+    load: Callable = field(default=pickle.loads)
+
 
 @dataclass(frozen=True)
 class Stage:
@@ -73,6 +119,12 @@ class Stage:
     image : bool
         The stage measures an image of its own (``options.image``, read
         frame by frame like the labels).
+    state : FrameState, optional
+        A movie stage's state that follows the frames (the tracker).
+    views : str or object, optional
+        Its presentation: the name of a module (imported by the report, the
+        figures and the napari plugin, never by the analysis) whose ``VIEW``
+        is a :class:`hexatissue.views.StageView`, or the view itself.
     """
 
     name: str
@@ -83,6 +135,8 @@ class Stage:
     run: Callable
     enabled: Callable = field(default=None)
     image: bool = False
+    state: FrameState | None = None
+    views: object = None
 
     def runs_with(self, options) -> bool:
         """Whether the stage runs with these options (``enabled(options)``; always when ``enabled`` is None)."""
@@ -120,8 +174,9 @@ class MovieData:
     """The movie as the movie stages see it: its tables, and what they decide.
 
     ``tables`` by name (stages add, replace and drop them); ``source`` the
-    opened :class:`~hexatissue.Source`; ``tracker`` the
-    :class:`~hexatissue.track.MovieTracker` that linked the frames;
+    opened :class:`~hexatissue.Source`; ``states`` the :class:`FrameState`
+    of each stage that has one, by stage options name (``states["track"]``:
+    the :class:`~hexatissue.track.MovieTracker` that linked the frames);
     ``options`` the options by stage name (a stage records what it resolved,
     e.g. the tracking mode used); ``summary`` what the stages decided, by
     stage name.
@@ -131,7 +186,7 @@ class MovieData:
     box: object
     n_frames: int
     source: object
-    tracker: object
+    states: dict
     options: dict
     summary: dict = field(default_factory=dict)
     images: dict = field(default_factory=dict)  # the image stages' Sources by stage name (the flow's PIV reads them)
@@ -260,9 +315,42 @@ def _undetermined_warning(missing, method, n_edges, n_cells, n_equations):
 # Movie stages
 # ----------------------------------------------------------------------------
 
+def _new_tracker(options, source, box):
+    """The tracker of the tracks stage (:class:`~hexatissue.track.MovieTracker`), for this source and box."""
+    if source.kind == "polygons" and options.mode == "always":
+        raise InputError("track mode 'always' (overlap tracking) needs label images; cells given as polygons are "
+                         "tracked by their ids: use 'never' (ids are tracks), 'off' or 'auto'")
+    return MovieTracker(options.mode, options.min_iou, options.child_fraction, options.mother_fraction,
+                        options.max_gap, ids_consistent=source.ids_consistent, independent=source.independent,
+                        follow=options.follow, periodic=box is not None)
+
+
+def _tracker_params(tracker, source):
+    """Whether the worker keeps every frame's pixels (gap closing needs them; polygons have none)."""
+    return source.kind != "polygons" and tracker.needs_pixels
+
+
+def _compact_batch(frames, pixels):
+    """In the worker: each label frame compacted, with its overlaps with the batch's previous frame
+    (:func:`hexatissue.track.compact_frames`), so the main process only links cells; polygon frames: their
+    cell ids."""
+    if frames and frames[0].cell_polygons is not None:
+        return [(True, frame.labels, None) for frame in frames]
+    return [(False, labels, overlaps) for labels, overlaps in compact_frames([f.labels for f in frames], pixels)]
+
+
+def _link(tracker, payload, t):
+    """In the main process, in frame order: the frame's cells linked to the earlier frames'."""
+    ids, labels, overlaps = payload
+    if ids:
+        tracker.add_ids(labels, t)  # the cell ids: polygons have no labels to overlap
+    else:
+        tracker.add_valid(labels, t, overlaps)
+
+
 def _tracks(movie, options):
     """Each cell's ``track`` from the tracker, the lineage, and what tracking decided."""
-    tracker, src = movie.tracker, movie.source
+    tracker, src = movie.states["track"], movie.source
     cells = cells_with_tracks(movie.tables["cells"], tracker)
     movie.tables["cells"] = cells
     # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
@@ -277,7 +365,7 @@ def _tracks(movie, options):
     if broken:
         warnings.warn(broken, HexatissueWarning, stacklevel=user_stacklevel())
     movie.options["track"] = options.replace(mode=movie.summary["tracking"]["resolved"])
-    movie.tracker = None  # its per-cell-frame ids are in cells now; the later stages need the memory
+    movie.states["track"] = None  # its per-cell-frame ids are in cells now; the later stages need the memory
 
 
 def _defect_tracks(movie, options):
@@ -383,32 +471,36 @@ def _enabled(options):
 #: the movie stages (once, in the main process).  ``tests/test_stages.py`` records a run and compares.
 STAGES = (
     Stage("junction network", MeshOptions, "frame", reads=("labels",),
-          writes=("cells", "vertices", "edges", "cell_vertices", "labels", "polygons"), run=_mesh),
+          writes=("cells", "vertices", "edges", "cell_vertices", "labels", "polygons"), run=_mesh,
+          views="hexatissue.views.mesh"),
     Stage("intensity", IntensityOptions, "frame", reads=("labels", "image", "cells", "vertices", "edges"),
           writes=("cells.intensity_mean", "cells.junction_polarity_re", "cells.junction_polarity_im",
                   "edges.intensity_mean", "edges.intensity_total"),
           run=_intensity, enabled=_enabled, image=True),
     Stage("shape order", OrderOptions, "frame", reads=("polygons", "cells"),
-          writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order),
+          writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order, views="hexatissue.views.order"),
     Stage("order fields", OrderOptions, "frame", reads=("cells",), writes=("grid", "defects"), run=_fields,
           enabled=_fields_on),
     Stage("mechanics", MechanicsOptions, "frame",
           reads=("labels", "cells", "vertices", "edges", "cell_vertices", "grid"),
           writes=("edges.tension", "edges.tension_sd", "edges.curvature", "cells.pressure", "cells.pressure_sd",
                   "cells.stress_xx", "cells.stress_xy", "cells.stress_yy", "stress", "force_fit"),
-          run=_mechanics, enabled=_enabled),
-    Stage("tracks", TrackOptions, "movie", reads=("cells",), writes=("cells.track", "lineage"), run=_tracks),
+          run=_mechanics, enabled=_enabled, views="hexatissue.views.mechanics"),
+    Stage("tracks", TrackOptions, "movie", reads=("cells",), writes=("cells.track", "lineage"), run=_tracks,
+          state=FrameState(new=_new_tracker, prepare=_compact_batch, add=_link, params=_tracker_params),
+          views="hexatissue.views.track"),
     Stage("defect tracks", OrderOptions, "movie", reads=("cells", "grid", "defects"),
           writes=("defects.track", "defect_events"), run=_defect_tracks, enabled=_fields_on),
     Stage("tissue flow", FlowOptions, "movie", reads=("cells", "grid"), writes=("cells.vx", "cells.vy", "flow"),
-          run=_flow, enabled=_enabled),
+          run=_flow, enabled=_enabled, views="hexatissue.views.flow"),
     Stage("T1 events", EventOptions, "movie", reads=("cells", "edges", "vertices"),
-          writes=("events", "neighbour_events"), run=_t1_events),
+          writes=("events", "neighbour_events"), run=_t1_events, views="hexatissue.views.events"),
     Stage("cell events", EventOptions, "movie", reads=("events", "cells"), writes=("cell_events",),
           run=_cell_events),
     Stage("deformation budget", DeformationOptions, "movie",
           reads=("cells", "vertices", "cell_vertices", "lineage", "events", "neighbour_events", "grid"),
-          writes=("deformation", "events.shear_xx", "events.shear_xy"), run=_deformation, enabled=_enabled),
+          writes=("deformation", "events.shear_xx", "events.shear_xy"), run=_deformation, enabled=_enabled,
+          views="hexatissue.views.deformation"),
 )
 
 

@@ -9,9 +9,11 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, replace
 
+import numpy as np
+
 from .errors import InputError, check_positive
 
-__all__ = ["Calibration", "as_calibration", "override_units", "normalize_length_unit", "normalize_time_unit"]
+__all__ = ["Calibration", "as_calibration", "velocity_unit", "in_units", "override_units", "normalize_length_unit", "normalize_time_unit"]
 
 # spellings found in ImageJ / OME / zarr metadata -> one canonical ASCII name
 _LENGTH_ALIASES = {
@@ -233,3 +235,20 @@ def as_calibration(calibration) -> Calibration:
     if not isinstance(calibration, Calibration):
         raise InputError(f"calibration must be a hexatissue.Calibration or None; got {type(calibration).__name__}")
     return calibration
+
+
+def velocity_unit(calibration=None) -> str:
+    """Unit of a velocity in ``calibration``: ``"µm/min"``, or ``"px/frame"`` when uncalibrated."""
+    cal = as_calibration(calibration)
+    time = cal.time_unit if cal.has_time else "frame"
+    return f"{cal.length_label}/{time}"
+
+
+def in_units(values, calibration=None, length_power=1, time_power=-1):
+    """``values`` in px^length_power frame^time_power converted to ``calibration``'s units.
+
+    Velocities are ``(1, -1)`` (px/frame -> µm/min), rates ``(0, -1)``,
+    mean squared displacements ``(2, 0)``.
+    """
+    cal = as_calibration(calibration)
+    return np.asarray(values, float) * cal.pixel_size ** length_power * cal.frame_interval ** time_power

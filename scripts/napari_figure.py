@@ -10,10 +10,14 @@ import warnings
 from pathlib import Path
 
 import napari
+import numpy as np
+from qtpy.QtGui import QImage
 from qtpy.QtWidgets import QApplication
 
 from hexatissue import analyze, open_source
 from hexatissue.errors import HexatissueWarning
+from hexatissue.io import atomic_path
+from hexatissue.napari.legend import DOCK_NAME
 from hexatissue.napari.screenshot import canvas_image
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,13 +34,27 @@ def main(frame=0, out=ROOT / "docs" / "figures" / "napari_epicure.png"):
         viewer.dims.set_point(0, frame * 300.0)
         QApplication.processEvents()
         viewer.reset_view()
-        # room for the legend's labels, which reset_view does not count (it fits the layers' points)
-        viewer.camera.zoom *= 0.85
-        viewer.camera.center = (viewer.camera.center[0], viewer.camera.center[1], viewer.camera.center[2] + 8.0)
         viewer.scale_bar.visible = True
-        canvas_image(viewer, out)
+        canvas = canvas_image(viewer)
+        legend = _widget_image(viewer.window.dock_widgets[DOCK_NAME])  # the dock beside the canvas
         viewer.close()
+    rows = max(len(canvas), len(legend))
+    picture = np.zeros((rows, canvas.shape[1] + legend.shape[1], 4), np.uint8)
+    picture[..., 3] = 255
+    picture[:len(canvas), :canvas.shape[1]] = canvas
+    picture[:len(legend), canvas.shape[1]:] = legend
+    import imageio.v3 as iio
+
+    with atomic_path(out) as tmp:
+        iio.imwrite(tmp, picture, extension=".png")
     print(out)
+
+
+def _widget_image(widget) -> np.ndarray:
+    """``(rows, cols, 4)`` uint8 RGBA of a Qt widget as it is drawn."""
+    image = widget.grab().toImage().convertToFormat(QImage.Format.Format_RGBA8888)
+    data = np.frombuffer(image.constBits().asarray(image.sizeInBytes()), np.uint8)
+    return data.reshape(image.height(), image.bytesPerLine() // 4, 4)[:, :image.width()].copy()
 
 
 if __name__ == "__main__":

@@ -363,7 +363,7 @@ def test_damaged_checkpoint(tmp_path, damage):
     elif damage == "truncated part":
         part.write_bytes(part.read_bytes()[:40])
     else:
-        (folder / state["tracker"]).unlink()
+        (folder / state["states"]["track"]).unlink()
     with pytest.raises(InputError, match="damaged"):
         ht.analyze(STACK, workers=1, progress=False, checkpoint=folder, checkpoint_every=2)
 

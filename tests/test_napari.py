@@ -16,8 +16,11 @@ napari = pytest.importorskip("napari")
 
 from hexatissue import OrderOptions, TrackOptions, analyze, open_source, read_results  # noqa: E402
 from hexatissue.errors import HexatissueWarning  # noqa: E402
+from hexatissue.napari.layers import legend_entries  # noqa: E402
+from hexatissue.napari.legend import DOCK_NAME, LegendWidget  # noqa: E402
 from hexatissue.napari.reader import get_reader, read_folder, read_labels_source  # noqa: E402
 from tests.test_napari_layers import SAMPLE, epicure  # noqa: E402,F401  (the analysed sample, a fixture)
+from tests.test_stages import toy_stage  # noqa: E402,F401  (a stage added with its entry alone, a fixture)
 
 pytestmark = pytest.mark.napari
 
@@ -40,7 +43,7 @@ def test_the_reader_opens_a_results_folder_as_the_layers(viewer, epicure):
     movie = read_results(epicure)
     names = [layer.name for layer in viewer.layers]
     assert names == ["labels", "polygons", "vertices", "gamma6 stars", "Gamma2 defects", "Gamma6 defects",
-                     "T1 events", "tracks", "flow", "legend"]
+                     "T1 events", "tracks", "flow"]
     assert _layer(viewer, "polygons").nshapes == int((movie.cells["n_sides"] >= 3).sum())
     assert len(_layer(viewer, "vertices").data) == len(movie.vertices)
     assert list(_layer(viewer, "vertices").features["degree"]) == list(movie.vertices["degree"])
@@ -54,8 +57,14 @@ def test_the_reader_opens_a_results_folder_as_the_layers(viewer, epicure):
         assert tuple(layer.scale) == (300.0, 0.2, 0.2)[-n:], layer.name
         assert [str(u) for u in layer.units] == ["second", "micrometer", "micrometer"][-n:], layer.name
         assert tuple(layer.axis_labels) == ("t", "y", "x")[-n:], layer.name
-    assert viewer.layers["legend"].ndim == 2
-    assert viewer.layers.extent.units is not None  # one set of units over every layer, the legend's too
+    assert viewer.layers.extent.units is not None  # one set of units over every layer
+    # the legend is a dock widget beside the canvas, not a layer in data space
+    legend = viewer.window.dock_widgets[DOCK_NAME]
+    assert isinstance(legend, LegendWidget)
+    assert list(legend.entries["label"]) == list(legend_entries(movie)["label"])
+    assert "≤3 sides" in legend.label.text() and "T1 intercalation" in legend.label.text()
+    extent = viewer.layers.extent.world  # the canvas holds the tissue (the legend's column took half of it)
+    assert extent[1][-1] < 1.1 * movie.shape[1] * 0.2
     assert np.array_equal(np.asarray(_layer(viewer, "labels").data), tifffile.imread(SAMPLE).astype(np.int64))
 
 
@@ -286,6 +295,8 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
     widget.reset_choices()
     widget.layer.value = viewer.layers["epicure"]
     widget.track_mode.value = "never"
+    # every stage view's fields, from the options classes: flow on, force inference off by default
+    assert widget.flow.value is True and widget.mechanics.value is False and widget.merge_distance.value == 2.0
     widget.deformation.value = True
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
@@ -295,8 +306,9 @@ def test_the_widget_analyses_a_labels_layer_and_adds_the_layers(viewer):
     assert done, "the analysis did not finish"
     names = [layer.name for layer in viewer.layers]
     assert names == ["epicure", "polygons", "vertices", "gamma6 stars", "Gamma6 defects", "T1 events", "tracks",
-                     "flow", "shear rate (total)", "shear rate (T1s)", "legend"]
-    assert widget.status.value == "added 10 layers"
+                     "flow", "shear rate (total)", "shear rate (T1s)"]
+    assert widget.status.value == "added 9 layers"
+    assert isinstance(viewer.window.dock_widgets[DOCK_NAME], LegendWidget)
     assert viewer.layers["polygons"].nshapes == int((movie.cells["n_sides"] >= 3).sum())
     assert len(viewer.layers["Gamma6 defects"].data) == len(movie.defects)
     for layer in viewer.layers[1:]:  # every result layer on the input's grid, so they lie over it
@@ -353,7 +365,7 @@ print(",".join(layer.name for layer in v.layers))
     assert run.returncode == 0, run.stderr[-3000:]
     status, names = run.stdout.strip().splitlines()[-2:]
     names = names.split(",")
-    assert names[0] == "input" and {"polygons", "gamma6 stars", "Gamma6 defects", "legend"} <= set(names)
+    assert names[0] == "input" and {"polygons", "gamma6 stars", "Gamma6 defects"} <= set(names)
     assert status == f"added {len(names) - 1} layers"
 
 
@@ -382,3 +394,24 @@ def test_the_widget_fields_come_from_the_options_classes(viewer):
     assert "four-fold" in widget.merge_distance.tooltip
     assert OrderOptions().radius is None and widget.radius.value == 0  # 0 = chosen from the data
     assert widget.deformation.value is False and "deformation budget" in widget.deformation.tooltip
+
+
+def test_the_widget_offers_a_new_stage_s_field_and_runs_it(viewer, toy_stage):
+    """A stage added with its entry alone (tests/test_stages.py) gets its field in the analyze widget, and
+    run_analysis gives that stage its value and shows its layer."""
+    from hexatissue.napari.widget import AnalyzeWidget, run_analysis
+    from hexatissue.synthetic import voronoi_movie
+
+    widget = AnalyzeWidget(viewer)
+    assert widget.toy_factor.value == 2.0 and widget.toy_factor.tooltip == "factor of the toy area"
+    movie_frames = voronoi_movie(30, (64, 64), 3, periodic=False, amplitude=0.3, seed=1)
+    labels = np.stack([np.asarray(movie_frames[t]) for t in range(3)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HexatissueWarning)
+        layers = run_analysis(labels, toy_factor=4.0, progress=False)
+    by_name = {kw["name"]: (data, kw) for data, kw, _ in layers}
+    movie = by_name["toy cells"][1]["metadata"]["movie"]
+    assert movie.options["toy"].factor == 4.0
+    np.testing.assert_allclose(by_name["toy cells"][1]["features"]["toy_area"], 4.0 * movie.cells["area"])
+    with pytest.raises(TypeError, match="toy_facto"):
+        run_analysis(labels, toy_facto=4.0)

@@ -1,4 +1,4 @@
-"""napari layer data of a Movie (hexatissue.napari.layers): counts, coordinates, colours and scale, no napari needed."""
+"""napari layer data of a Movie (hexatissue.napari.layers, the stages' views): counts, coordinates, colours and scale, no napari needed."""
 import shutil
 import warnings
 from pathlib import Path
@@ -10,6 +10,9 @@ import tifffile
 from hexatissue import EventOptions, analyze, open_source, read_results
 from hexatissue.errors import HexatissueWarning, InputError
 from hexatissue.napari import layers as L
+from hexatissue.views import deformation as deformation_view, events as events_view, mechanics as mechanics_view
+from hexatissue.views import mesh as mesh_view, order as order_view, track as track_view
+from hexatissue.views.layerdata import rgba
 from hexatissue.plot import MINUS_COLOR, PLUS_COLOR
 from hexatissue.synthetic import t1_movie
 
@@ -39,11 +42,8 @@ def layers(epicure):
 def test_every_layer_of_the_epicure_results_has_the_table_counts_and_the_scale(layers):
     movie, by_name = layers
     assert list(by_name) == ["labels", "polygons", "vertices", "gamma6 stars", "Gamma2 defects", "Gamma6 defects",
-                             "T1 events", "tracks", "flow", "legend"]
+                             "T1 events", "tracks", "flow"]  # the legend is a dock widget (hexatissue.napari.legend)
     for data, kw, kind in by_name.values():
-        if kw["name"] == "legend":  # 2-D: drawn in every frame
-            assert kw["scale"] == (0.2, 0.2) and kw["units"] == ("um", "um") and kw["axis_labels"] == ("y", "x")
-            continue
         assert kw["scale"] == (300.0, 0.2, 0.2), kw["name"]
         assert kw["metadata"]["units"] == {"t": "s", "y": "um", "x": "um"}, kw["name"]
         assert kw["units"] == ("s", "um", "um"), kw["name"]  # napari's (pint) names
@@ -96,10 +96,10 @@ def test_polygons_are_the_cell_vertices_in_row_col_order_coloured_by_sides(layer
     assert np.allclose(polygons[i], np.column_stack([np.full(len(v), 5.0), v["y"], v["x"]]))
     hexagon = np.flatnonzero(features["n_sides"].to_numpy() == 6)[0]
     pentagon = np.flatnonzero(features["n_sides"].to_numpy() == 5)[0]
-    assert np.allclose(kw["face_color"][hexagon], L._rgba([L.SIDES_COLORS[6]])[0])
-    assert np.allclose(kw["face_color"][pentagon], L._rgba([L.SIDES_COLORS[5]])[0])
+    assert np.allclose(kw["face_color"][hexagon], rgba([mesh_view.SIDES_COLORS[6]])[0])
+    assert np.allclose(kw["face_color"][pentagon], rgba([mesh_view.SIDES_COLORS[5]])[0])
     # opaque faces: the labels layer's random colours cannot show through and change the side colours
-    assert np.allclose(kw["face_color"][:, 3], 1.0) and kw["edge_color"] == L.POLYGON_EDGE_COLOR
+    assert np.allclose(kw["face_color"][:, 3], 1.0) and kw["edge_color"] == mesh_view.POLYGON_EDGE_COLOR
 
 
 def test_stars_have_p_legs_along_arg_gamma_over_p_scaled_by_its_modulus(layers):
@@ -127,8 +127,8 @@ def test_defects_are_red_for_positive_and_blue_for_negative_charges(layers):
     data, kw, _ = by_name["Gamma6 defects"]
     charge = kw["features"]["charge"].to_numpy()
     assert set(np.round(charge * 6).astype(int)) <= {-1, 1} and (charge > 0).any() and (charge < 0).any()
-    assert np.allclose(kw["face_color"][charge > 0], L._rgba([PLUS_COLOR])[0])
-    assert np.allclose(kw["face_color"][charge < 0], L._rgba([MINUS_COLOR])[0])
+    assert np.allclose(kw["face_color"][charge > 0], rgba([PLUS_COLOR])[0])
+    assert np.allclose(kw["face_color"][charge < 0], rgba([MINUS_COLOR])[0])
     rows = movie.defects[movie.defects["p"] == 6]
     assert np.allclose(data, rows[["frame", "y", "x"]].to_numpy(float))
 
@@ -155,7 +155,7 @@ def test_labels_fall_back_to_labels_tif_then_are_left_out_with_a_warning(epicure
     with pytest.raises(InputError, match="labels must have shape"):
         L.labels_layer(movie, np.zeros((3, 160, 257), int))
     with pytest.raises(InputError, match="p=4"):
-        L.star_layer(movie, p=4)
+        order_view.star_layer(movie, p=4)
 
 
 @pytest.fixture(scope="module")
@@ -170,19 +170,19 @@ def scripted(tmp_path_factory):
 
 def test_t1_events_are_points_at_their_quartet_centre_with_kind_and_duration(scripted):
     truth, movie = scripted
-    data, kw, kind = L.event_layer(movie)
+    data, kw, kind = events_view.event_layer(movie)
     assert kind == "points" and len(data) == len(movie.events) == len(truth.events) == 5
     assert np.allclose(data, movie.events[["frame_start", "y", "x"]].to_numpy(float))
     assert sorted(kw["features"]["kind"]) == sorted(truth.events["kind"])
     cycles = kw["features"][kw["features"]["kind"] == "cycle"]
     assert np.isfinite(cycles["duration"]).all() and len(cycles) == 2
     assert np.allclose(kw["face_color"][(kw["features"]["kind"] == "cycle").to_numpy()],
-                       L._rgba([L.EVENT_COLORS["cycle"]])[0])
+                       rgba([events_view.EVENT_COLORS["cycle"]])[0])
 
 
 def test_periodic_polygons_sit_at_their_cell_and_tracks_are_unwrapped(scripted):
     truth, movie = scripted
-    polygons, kw, _ = L.polygon_layer(movie)
+    polygons, kw, _ = mesh_view.polygon_layer(movie)
     features = kw["features"]
     assert len(polygons) == int((movie.cells["n_sides"] >= 3).sum()) == len(movie.cells)
     centre = np.array([p[:, 1:].mean(axis=0) for p in polygons])  # (y, x) vertex mean
@@ -193,7 +193,7 @@ def test_periodic_polygons_sit_at_their_cell_and_tracks_are_unwrapped(scripted):
     hi = np.array([p[:, 1:].max(axis=0) for p in polygons])
     assert (lo < 0).any() and (hi[:, 1] > truth.box.Lx).any()
     assert (hi - lo).max() < 60  # contiguous: cells are 30-41 px across; a polygon split by the box spans ~L
-    tracks, tkw, _ = L.track_layer(movie)
+    tracks, tkw, _ = track_view.track_layer(movie)
     same = tracks[1:, 0] == tracks[:-1, 0]
     steps = np.abs(np.diff(tracks[:, 2:], axis=0))[same]
     assert steps.max() < 10.0  # drift, wobble and the T1 scripts move cells < 6 px a frame; a wrap jumps ~L
@@ -219,8 +219,8 @@ def test_deformation_bars_sit_on_their_grid_node_along_the_stretching_axis():
 
     m = t1_movie(periodic=True, seed=2)
     movie = analyze(m.labels, box=m.box, workers=1, progress=False, deformation=DeformationOptions(enabled=True))
-    assert L.deformation_layers(analyze(m.labels[:3], box=m.box, workers=1, progress=False)) == []
-    (total, kw, kind), (t1, t1_kw, _) = L.deformation_layers(movie)
+    assert deformation_view.deformation_layers(analyze(m.labels[:3], box=m.box, workers=1, progress=False)) == []
+    (total, kw, kind), (t1, t1_kw, _) = deformation_view.deformation_layers(movie)
     rows = movie.deformation[movie.deformation["region"] == "grid"]
     assert kind == "vectors" and len(total) == len(t1) == len(rows)
     assert kw["visible"] and not t1_kw["visible"]
@@ -244,12 +244,12 @@ def test_tension_layer_draws_each_junction_with_its_tension():
     from hexatissue.synthetic import jittered_seeds, voronoi_labels
 
     labels = voronoi_labels(jittered_seeds((96, 96), 24, seed=5), (96, 96), periodic=True)
-    assert L.tension_layer(analyze(labels, box=Box(96, 96), workers=1, progress=False)) is None
+    assert mechanics_view.tension_layer(analyze(labels, box=Box(96, 96), workers=1, progress=False)) is None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HexatissueWarning)
         movie = analyze(labels, box=Box(96, 96), workers=1, progress=False,
                         mechanics=MechanicsOptions(enabled=True, sd=False))
-    data, kw, kind = L.tension_layer(movie)
+    data, kw, kind = mechanics_view.tension_layer(movie)
     edges = movie.tables["edges"]
     assert kind == "vectors" and len(data) == int(np.isfinite(edges["tension"]).sum())
     np.testing.assert_allclose(kw["features"]["tension"], edges["tension"].dropna())
@@ -261,26 +261,26 @@ def test_tension_layer_draws_each_junction_with_its_tension():
     assert kw["edge_color"] == "tension" and any(layer[1]["name"] == "tension" for layer in L.movie_layers(movie))
 
 
-def test_the_legend_lists_every_side_colour_and_defect_symbol_beside_the_image(layers):
-    movie, by_name = layers
-    data, kw, kind = by_name["legend"]
-    entries = kw["features"]
-    assert kind == "points" and len(data) == len(entries) == 13
+def test_the_legend_lists_every_side_colour_defect_symbol_star_and_t1_kind(layers):
+    movie, _ = layers
+    entries = L.legend_entries(movie)
+    assert len(entries) == 13
     sides = entries.iloc[:7]
     assert list(sides["label"]) == ["≤3 sides", "4 sides", "5 sides", "6 sides", "7 sides", "8 sides", "≥9 sides"]
-    assert list(sides["color"]) == list(L.SIDES_COLORS.values())
-    plus, minus = entries.iloc[7], entries.iloc[8]
+    assert list(sides["color"]) == list(mesh_view.SIDES_COLORS.values())
+    plus, minus, star = entries.iloc[7], entries.iloc[8], entries.iloc[9]
     assert (plus["symbol"], plus["color"]) == ("disc", PLUS_COLOR) and "charge > 0" in plus["label"]
     assert (minus["symbol"], minus["color"]) == ("triangle_up", MINUS_COLOR) and "charge < 0" in minus["label"]
-    assert np.allclose(kw["face_color"], L._rgba(entries["color"]))
-    assert list(kw["symbol"]) == list(entries["symbol"]) and kw["text"]["string"] == "{label}"
-    assert (data[:, 1] > movie.shape[1]).all()  # right of the image (x > cols), not over the cells
-    assert np.all(np.diff(data[:, 0]) > 0)
+    assert (star["label"], star["color"]) == ("γ6 star", order_view.STAR_COLOR)
+    assert list(entries["label"].iloc[10:]) == [f"T1 {kind}" for kind in events_view.EVENT_COLORS]
+    assert list(L.legend_entries(movie, p=2)["label"].iloc[7:10]) == ["Γ2 defect, charge > 0", "Γ2 defect, charge < 0",
+                                                                     "γ2 star"]
 
 
 def test_aligned_layers_take_the_reference_grid_on_their_last_axes(layers):
     _, by_name = layers
-    moved = L.aligned([by_name["polygons"], by_name["legend"]], (2.0, 0.5, 0.25), (10.0, 3.0, 4.0),
+    flat = (np.zeros((1, 2)), {"name": "2-D", "scale": (0.2, 0.2)}, "points")  # drawn in every frame
+    moved = L.aligned([by_name["polygons"], flat], (2.0, 0.5, 0.25), (10.0, 3.0, 4.0),
                       ("minute", "nm", "nm"), ("T", "Y", "X"))
     (_, poly, _), (_, legend, _) = moved
     assert poly["scale"] == (2.0, 0.5, 0.25) and poly["translate"] == (10.0, 3.0, 4.0)

@@ -205,6 +205,23 @@ def test_checkpoint_resume_gives_the_uninterrupted_result(tmp_path):
         analyze_movie(stack, workers=1, checkpoint=tmp_path, max_gap=3)
 
 
+def test_checkpoint_written_with_the_tracker_alone_resumes(tmp_path):
+    """A checkpoint whose state names the tracker's pickle under ``tracker`` (before the stages kept their frame
+    states by name) resumes as the tracks stage's state, to the uninterrupted result."""
+    mov = voronoi_movie(25, (70, 90), 5, periodic=False, amplitude=0.5, seed=8)
+    stack = np.stack([mov[t] for t in range(5)])
+    full = analyze_movie(stack, workers=1)
+    with pytest.raises(InputError, match="simulated crash"):
+        analyze_movie(_FailingStack(stack, 3), workers=1, checkpoint=tmp_path, checkpoint_every=2)
+    state = json.loads((tmp_path / "checkpoint.json").read_text())
+    assert state["states"] == {"track": "track_state_00000002.pkl"}
+    state["tracker"] = state.pop("states")["track"]
+    (tmp_path / "checkpoint.json").write_text(json.dumps(state))
+    resumed = analyze_movie(_FailingStack(stack, 1), workers=1, checkpoint=tmp_path, checkpoint_every=2)
+    for name, table in full.tables.items():
+        pd.testing.assert_frame_equal(resumed.tables[name], table)
+
+
 def test_checkpoint_parts_are_packed_for_long_movies(tmp_path):
     """Saved every frame, a table keeps about log2(frames) files, and a crash anywhere resumes to the same tables."""
     mov = voronoi_movie(12, (40, 50), 37, periodic=False, amplitude=0.5, seed=3)

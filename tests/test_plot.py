@@ -7,6 +7,7 @@ from scipy.spatial import Voronoi
 from hexatissue import Box, InputError
 from hexatissue.units import Calibration
 from hexatissue import plot
+from hexatissue.views.order import save_analysis_figures
 from hexatissue.defects import find_defects
 from hexatissue.order import cells_from_polygons, coarse_grain
 
@@ -169,7 +170,7 @@ def test_save_analysis_figures_of_a_periodic_frame(tmp_path):
 
     labels = voronoi_labels(jittered_seeds((90, 120), 15.0, seed=5), (90, 120), periodic=True)
     frame = shape_order(mesh_from_labels(labels, box=Box(120, 90)))
-    paths = plot.save_analysis_figures(frame, tmp_path / "figs", labels=labels, prefix="f0_")
+    paths = save_analysis_figures(frame, tmp_path / "figs", labels=labels, prefix="f0_")
     assert [p.name for p in paths] == ["f0_polygons.png", "f0_stars6.png", "f0_gamma6_defects.png"]
     for path in paths:
         png_pixels(path)
@@ -288,7 +289,7 @@ def test_save_analysis_figures_takes_the_frame_calibration(tmp_path, monkeypatch
         return original(ax, calibration, extent, fraction)
 
     monkeypatch.setattr(plot, "add_scale_bar", recording)
-    plot.save_analysis_figures(frame, tmp_path, labels=labels)
+    save_analysis_figures(frame, tmp_path, labels=labels)
     assert used == [Calibration()] * 3
 
     class CalibratedFrame:  # stands in for a Frame that carries its calibration
@@ -297,9 +298,9 @@ def test_save_analysis_figures_takes_the_frame_calibration(tmp_path, monkeypatch
 
     used.clear()
     cal = Calibration(0.2, "um")
-    plot.save_analysis_figures(CalibratedFrame(frame, cal), tmp_path, labels=labels)
+    save_analysis_figures(CalibratedFrame(frame, cal), tmp_path, labels=labels)
     assert used == [cal] * 3
     used.clear()
     explicit = Calibration(0.1, "um")
-    plot.save_analysis_figures(CalibratedFrame(frame, cal), tmp_path, labels=labels, calibration=explicit)
+    save_analysis_figures(CalibratedFrame(frame, cal), tmp_path, labels=labels, calibration=explicit)
     assert used == [explicit] * 3

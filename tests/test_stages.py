@@ -1,9 +1,13 @@
 """The list of stages: what it declares is true, and a new stage plugs in with its entry alone.
 
 A new frame stage and a new movie stage are added here the way a contributor
-adds one (an options class, schema entries, one entry in ``STAGES``), and
-``analyze``, the results folder, the checkpoints and the command line take
-them up with no other change.
+adds one (an options class, schema entries, one entry in ``STAGES``, and the
+stage's views module: this one, whose ``VIEW`` holds its figure, report
+section, napari layer, legend rows and widget field), and ``analyze``, the
+results folder, the checkpoints, the command line, the report, ``analyze
+--figures`` and the napari layers and widget take them up with no other
+change.  The movie stage also follows the frames (a
+:class:`~hexatissue.stages.FrameState`, as the tracks stage's tracker does).
 """
 from dataclasses import dataclass, replace
 
@@ -15,6 +19,7 @@ from hexatissue import InputError, analyze, read_results, schema
 from hexatissue import stages as S
 from hexatissue.options import OPTION_CLASSES, _Options, cli_field
 from hexatissue.synthetic import voronoi_movie
+from hexatissue.views import LayerMaker, Section, StageView, WidgetField
 
 pytestmark = pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
 
@@ -35,6 +40,17 @@ def test_every_stage_names_a_registered_options_class_and_writes_what_the_schema
                 continue
             assert table in schema.TABLES, (stage.name, name)
             assert not column or _column_in_schema(table, column), (stage.name, name)
+
+
+def test_every_views_module_named_in_the_list_is_a_stage_view_on_the_analysis_floor():
+    from hexatissue.views import StageView, stage_views
+
+    named = [s for s in S.STAGES if s.views is not None]
+    assert {s.views for s in named} == {f"hexatissue.views.{m}" for m in ("mesh", "order", "track", "events", "flow",
+                                                                          "deformation", "mechanics")}
+    views = stage_views()
+    assert [stage.name for stage, _ in views] == [s.name for s in named]
+    assert all(isinstance(view, StageView) for _, view in views)
 
 
 def test_tables_read_are_written_by_an_earlier_stage():
@@ -108,11 +124,60 @@ def _elongation(frame, options):
 
 
 def _area_summary(movie, options):
-    """Toy movie stage: a new table, the mean toy area per frame."""
+    """Toy movie stage: a new table, the mean toy area per frame, and the cells its frame state counted."""
     cells = movie.tables["cells"]
     mean = cells.groupby("frame")["toy_area"].mean()
+    counted = dict(movie.states["toy"])
     movie.tables["toy_summary"] = pd.DataFrame({"frame": mean.index.to_numpy(np.int64),
-                                                "mean_toy_area": mean.to_numpy(float)})
+                                                "mean_toy_area": mean.to_numpy(float),
+                                                "n_counted": [counted[t] for t in mean.index]})
+
+
+def _new_count(options, source, box):
+    return []  # (frame, cells) in the order the frames were added
+
+
+def _count_cells(frames, params):
+    """In the worker, after the frame stages: each frame's number of cells, times ``params`` (1)."""
+    return [params * len(frame.tables["cells"]["cell"]) for frame in frames]
+
+
+def _add_count(state, payload, t):
+    assert not state or state[-1][0] == t - 1  # in frame order
+    state.append((t, payload))
+
+
+def _toy_figures(movie, folder, source=None):
+    from matplotlib.figure import Figure
+
+    from hexatissue.plot import save_figure
+
+    fig = Figure()
+    fig.add_subplot().plot(movie.toy_summary["frame"], movie.toy_summary["mean_toy_area"])
+    path = folder / "toy.png"
+    save_figure(fig, path)
+    return [path]
+
+
+def _toy_section(movie, report):
+    if "toy_summary" not in movie.tables:
+        return []
+    mean = float(movie.toy_summary["mean_toy_area"].mean())
+    report.numbers["toy"] = mean
+    report.table(movie.toy_summary, "toy_summary.csv")
+    return ["## Toy stage", "", f"- mean toy area: {mean:.6g} px^2", ""] + report.figure(
+        _toy_figures(movie, report.out)[0], "toy area")
+
+
+def _toy_layers(movie, p):
+    cells = movie.cells
+    return [(cells[["frame", "y", "x"]].to_numpy(float), {"name": "toy cells", "features": cells[["toy_area"]]},
+             "points")]
+
+
+#: The toy stage's presentation, found through its entry's ``views`` (this module's name).
+VIEW = StageView(figures=_toy_figures, report=(Section(95, _toy_section),), layers=(LayerMaker(55, _toy_layers),),
+                 legend=lambda movie, p: [("toy cell", "disc", "#00ff00")], widget=(WidgetField("factor"),))
 
 
 @pytest.fixture
@@ -128,11 +193,14 @@ def toy_stage(monkeypatch):
         monkeypatch.setitem(schema.TABLES["cells"], "toy_area", ("f", "px^2", "toy: area x factor"))
         monkeypatch.setattr(schema, "_OPTIONAL", schema._OPTIONAL | {"toy_area"})  # a column a stage adds
         monkeypatch.setitem(schema.TABLES, "toy_summary", {"frame": ("i", "frame", "time point"),
-                                                           "mean_toy_area": ("f", "px^2", "mean toy area")})
+                                                           "mean_toy_area": ("f", "px^2", "mean toy area"),
+                                                           "n_counted": ("i", "", "cells its frame state counted")})
         frame_entry = S.Stage("toy area", ToyOptions, "frame", reads=("cells",), writes=("cells.toy_area",),
                               run=_elongation)
         movie_entry = S.Stage("toy summary", ToyOptions, "movie", reads=("cells.toy_area",),
-                              writes=("toy_summary",), run=_area_summary)
+                              writes=("toy_summary",), run=_area_summary, views=__name__,
+                              state=S.FrameState(new=_new_count, prepare=_count_cells, add=_add_count,
+                                                 params=lambda state, source: 1))
         stages = list(S.STAGES)
         stages.insert(1, frame_entry)
         stages.append(movie_entry)
@@ -169,3 +237,52 @@ def test_a_new_stage_gets_its_flag_and_its_checkpoint_key(toy_stage, tmp_path):
     analyze(labels, toy=toy_stage(factor=5.0), workers=1, progress=False, checkpoint=tmp_path / "ck")
     with pytest.raises(InputError, match="holds another movie or other options"):
         analyze(labels, toy=toy_stage(factor=6.0), workers=1, progress=False, checkpoint=tmp_path / "ck")
+
+
+def test_a_new_stage_follows_the_frames_and_resumes_from_a_checkpoint(toy_stage, tmp_path):
+    """The toy stage's frame state counts each frame's cells in the worker and adds them in frame order, in one
+    process and in a pool, and is saved in the checkpoints: a resumed run ends with the same state."""
+    from tests.test_pipeline import _FailingStack
+
+    movie_frames = voronoi_movie(30, (64, 64), 5, periodic=False, amplitude=0.3, seed=1)
+    labels = np.stack([np.asarray(movie_frames[t]) for t in range(5)])
+    full = analyze(labels, toy=toy_stage(), workers=1, progress=False)
+    expected = full.cells.groupby("frame").size().to_numpy()
+    np.testing.assert_array_equal(full.toy_summary["n_counted"], expected)
+    pooled = analyze(labels, toy=toy_stage(), workers=2, progress=False)
+    pd.testing.assert_frame_equal(pooled.toy_summary, full.toy_summary)
+    with pytest.raises(InputError, match="simulated crash"):
+        analyze(_FailingStack(labels, 3), toy=toy_stage(), workers=1, progress=False, checkpoint=tmp_path,
+                checkpoint_every=2)
+    state = (tmp_path / "checkpoint.json").read_text()
+    assert '"toy": "toy_state_00000002.pkl"' in state and '"track": "track_state_00000002.pkl"' in state
+    resumed = analyze(_FailingStack(labels, 1), toy=toy_stage(), workers=1, progress=False, checkpoint=tmp_path,
+                      checkpoint_every=2)  # frames 0-1 come from the checkpoint, with the counts of the state
+    pd.testing.assert_frame_equal(resumed.toy_summary, full.toy_summary)
+
+
+def test_a_new_stage_brings_its_figure_report_section_napari_layer_and_widget_field(toy_stage, tmp_path):
+    """The report, analyze --figures, the napari layers and legend, and the widget's fields take the toy stage's
+    views from its entry alone, in the place its ranks give."""
+    from hexatissue.napari.layers import legend_entries, movie_layers
+    from hexatissue.views import widget_fields
+    from hexatissue.workflows import report, save_movie_figures
+
+    movie_frames = voronoi_movie(30, (64, 64), 3, periodic=False, amplitude=0.3, seed=1)
+    labels = np.stack([np.asarray(movie_frames[t]) for t in range(3)])
+    analyze(labels, toy=toy_stage(factor=3.0), workers=1, progress=False).write(tmp_path / "out")
+    movie = read_results(tmp_path / "out")
+    numbers = report(tmp_path / "out")
+    text = (tmp_path / "out" / "report" / "report.md").read_text()
+    assert "## Toy stage" in text and "![toy area](toy.png)" in text
+    assert text.index("## Tissue flow") < text.index("## Toy stage")  # rank 95: after the flow (60)
+    assert numbers["toy"] == pytest.approx(3.0 * movie.cells.groupby("frame")["area"].mean().mean())
+    assert {"toy.png", "toy_summary.csv"} <= {p.rsplit("/", 1)[-1] for p in numbers["written"]}
+    figures = save_movie_figures(movie, tmp_path / "figures")
+    assert tmp_path / "figures" / "toy.png" in figures and (tmp_path / "figures" / "toy.png").stat().st_size
+    names = [kw["name"] for _, kw, _ in movie_layers(movie)]
+    assert names.index("T1 events") < names.index("toy cells") < names.index("tracks")  # rank 55: between
+    data, kw, kind = movie_layers(movie)[names.index("toy cells")]
+    assert kind == "points" and len(data) == len(movie.cells)
+    assert list(legend_entries(movie)["label"])[-1] == "toy cell"
+    assert (toy_stage, WidgetField("factor")) in widget_fields()

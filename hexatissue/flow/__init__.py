@@ -24,7 +24,7 @@ import pandas as pd
 from ..box import as_box
 from ..errors import InputError, check_positive
 from ..schema import interior_mask, require_columns, validate
-from ..units import as_calibration
+from ..units import in_units, velocity_unit  # the flow's units (defined with the calibration), kept in its API
 from . import _kernels as K
 from .centred import angular_harmonics, defect_flow, t1_flow
 from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _track_rows, cell_spacing, correlation_length,
@@ -190,20 +190,3 @@ def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
     table = pd.DataFrame({"frame": g_frame, "node": grid["node"].to_numpy(np.int64), **columns, "n_cells": counts,
                           "valid": valid}, copy=False)
     return validate(table, "flow")
-
-
-def velocity_unit(calibration=None) -> str:
-    """Unit of a velocity in ``calibration``: ``"µm/min"``, or ``"px/frame"`` when uncalibrated."""
-    cal = as_calibration(calibration)
-    time = cal.time_unit if cal.has_time else "frame"
-    return f"{cal.length_label}/{time}"
-
-
-def in_units(values, calibration=None, length_power=1, time_power=-1):
-    """``values`` in px^length_power frame^time_power converted to ``calibration``'s units.
-
-    Velocities are ``(1, -1)`` (px/frame -> µm/min), rates ``(0, -1)``,
-    mean squared displacements ``(2, 0)``.
-    """
-    cal = as_calibration(calibration)
-    return np.asarray(values, float) * cal.pixel_size ** length_power * cal.frame_interval ** time_power

@@ -63,14 +63,29 @@ def _one(path) -> Path:
     return path.parent if path.name == METADATA and path.is_file() else path
 
 
+def _dock_legend():
+    """The legend (:mod:`hexatissue.napari.legend`) docked in the viewer the layers are read into: napari gives a
+    reader no viewer, so the current one (none when the reader is called outside napari)."""
+    import napari
+
+    from .legend import show_legend
+
+    viewer = napari.current_viewer()
+    if viewer is not None:
+        show_legend(viewer)
+
+
 def read_folder(path) -> list:
     """Layers of a results folder: labels (from the recorded source or ``labels.tif``), polygons, vertices,
-    gamma6 stars, Gamma_p defects, T1 events and tracks (see :func:`hexatissue.napari.layers.movie_layers`)."""
+    gamma6 stars, Gamma_p defects, T1 events and tracks (see :func:`hexatissue.napari.layers.movie_layers`); the
+    legend docked beside the canvas."""
     from ..results import read_results
 
     folder = _one(path)
     movie = read_results(folder)
-    return with_movie(movie_layers(movie, labels=open_labels(movie, folder)), movie)
+    layers = with_movie(movie_layers(movie, labels=open_labels(movie, folder)), movie)
+    _dock_legend()
+    return layers
 
 
 def read_labels_source(path) -> list:
@@ -80,5 +95,7 @@ def read_labels_source(path) -> list:
 
     source = _open_labels(_one(path))
     movie = analyze(source, workers=1)
-    return with_movie(movie_layers(movie, labels=lazy_stack(source) if source.kind == "labels" else None), movie)
+    layers = with_movie(movie_layers(movie, labels=lazy_stack(source) if source.kind == "labels" else None), movie)
+    _dock_legend()
+    return layers
 

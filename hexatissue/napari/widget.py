@@ -19,7 +19,8 @@ from magicgui.widgets import (CheckBox, ComboBox, Container, FloatSpinBox, Label
                               create_widget)
 
 from ..errors import InputError
-from ..options import DeformationOptions, MeshOptions, OrderOptions, TrackOptions
+from ..options import OPTION_CLASSES
+from ..views import widget_fields
 from .layers import aligned, movie_layers, with_movie
 
 __all__ = ["AnalyzeWidget", "run_analysis", "option_widget", "layer_calibration"]
@@ -71,8 +72,12 @@ def option_widget(options_class, field_name, *, name=None, label=None, **limits)
     return number(value=0 if f.default is None else f.default, name=name, label=label, tooltip=tooltip, **limits)
 
 
-def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=2.0, pixel_size=None,
-                 length_unit="um", calibration=None, deformation=False, progress=True):
+def _field_names():
+    """``{widget name: (options class, field name)}`` of every stage view's widget fields, in list order."""
+    return {f.name or f"{cls.stage}_{f.field}": (cls, f.field) for cls, f in widget_fields()}
+
+
+def run_analysis(labels, *, p=6, pixel_size=None, length_unit="um", calibration=None, progress=True, **fields):
     """``analyze`` of a label array with the widget's options; returns the result layers (no labels layer).
 
     Parameters
@@ -81,12 +86,6 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
         ``(T, rows, cols)`` or ``(rows, cols)`` label images (a Labels layer's data).
     p : int
         Order of gamma_p, Gamma_p and the defects (drawn as p-legged stars).
-    radius : float, optional
-        Coarse-graining radius of Gamma_p, px (None: the default).
-    track_mode : {"auto", "always", "never"}
-        See :class:`hexatissue.TrackOptions`.
-    merge_distance : float
-        Junctions shorter than this (px) become four-fold vertices.
     pixel_size : float, optional
         Pixel side in ``length_unit``; None keeps ``calibration``'s (or px).
     length_unit : str
@@ -94,11 +93,13 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
     calibration : dict, optional
         :meth:`hexatissue.Calibration.to_dict` of the layer (set by this
         plugin's reader), so the new layers line up with it.
-    deformation : bool
-        Also the deformation budget (:class:`hexatissue.DeformationOptions`):
-        its shear-rate bars on the grid.
     progress : bool or tqdm class
         Progress bar (see :func:`hexatissue.analyze`).
+    **fields
+        The stages' option fields the widget offers, by widget name
+        (:func:`hexatissue.views.widget_fields`: ``merge_distance``,
+        ``radius`` (None: the default), ``mechanics``, ``track_mode``,
+        ``flow``, ``deformation``); the others keep their defaults.
 
     Returns
     -------
@@ -111,6 +112,16 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
     from ..source import open_source
     from ..units import Calibration
 
+    names = _field_names()
+    unknown = sorted(set(fields) - set(names))
+    if unknown:
+        raise TypeError(f"run_analysis() got unexpected keyword argument(s) {unknown}; the widget's fields are "
+                        f"{sorted(names)}")
+    given = {"order": {"p": (int(p),)}}  # the order drawn is the order analysed
+    for name, value in fields.items():
+        cls, field_name = names[name]
+        given.setdefault(cls.stage, {})[field_name] = value
+    options = {stage: OPTION_CLASSES[stage](**values) for stage, values in given.items()}
     source = open_source(labels)
     if calibration:
         cal = Calibration.from_dict(calibration)
@@ -118,33 +129,29 @@ def run_analysis(labels, *, p=6, radius=None, track_mode="auto", merge_distance=
                                          frame_interval=cal.frame_interval, time_unit=cal.time_unit)
     if pixel_size is not None:
         source = source.with_calibration(pixel_size=pixel_size, length_unit=length_unit)
-    movie = analyze(source, mesh=MeshOptions(merge_distance=merge_distance),
-                    order=OrderOptions(p=(int(p),), radius=radius), track=TrackOptions(mode=track_mode),
-                    deformation=DeformationOptions(enabled=bool(deformation)), workers=1, progress=progress)
+    movie = analyze(source, workers=1, progress=progress, **options)
     return with_movie(movie_layers(movie, p=int(p)), movie)
 
 
 class AnalyzeWidget(Container):
-    """Labels layer, p, radius (0 = default), track mode, merge distance, pixel size (0 = keep), deformation budget
-    and Analyze.  The result layers are drawn on the input layer's grid (scale, translate, units; see
+    """Labels layer, p, the stages' fields (:func:`hexatissue.views.widget_fields`: merge distance, radius (0 =
+    default), force inference, track mode, tissue flow, deformation budget), pixel size (0 = keep) and Analyze.
+    The result layers are drawn on the input layer's grid (scale, translate, units; see
     :func:`hexatissue.napari.layers.aligned`)."""
 
     def __init__(self, napari_viewer):
         import napari
 
+        stage_fields = [option_widget(cls, f.field, name=f.name, label=f.label, **f.limits)
+                        for cls, f in widget_fields()]
         # children are reached by name (self.layer, self.p, ...), as magicgui containers do
         super().__init__(widgets=[
             create_widget(annotation=napari.layers.Labels, name="layer", label="labels"),
             SpinBox(value=6, min=2, max=12, name="p", label="p", tooltip="symmetry order of gamma_p, Gamma_p "
                     "and the defects"),
-            option_widget(OrderOptions, "radius", name="radius", label="radius (px, 0 = auto)", min=0.0, max=1e4,
-                          step=1.0),
-            option_widget(TrackOptions, "mode", name="track_mode", label="track mode"),
-            option_widget(MeshOptions, "merge_distance", name="merge_distance", label="merge distance (px)",
-                          min=0.0, max=100.0, step=0.5),
+            *stage_fields,
             FloatSpinBox(value=0.0, min=0.0, max=1e6, step=0.01, name="pixel_size", label="pixel size (0 = keep)"),
             LineEdit(value="um", name="length_unit", label="length unit"),
-            option_widget(DeformationOptions, "enabled", name="deformation", label="deformation budget"),
             PushButton(text="Analyze", name="run"),
             Label(value="", name="status")])
         self.viewer = napari_viewer
@@ -152,6 +159,16 @@ class AnalyzeWidget(Container):
         self._input = None  # the layer being analysed: its grid for the result layers
         self._bar = self._relay = None  # the main thread's progress bar and the worker's relay to it
         self.run.changed.connect(self.start)
+
+    def _stage_values(self) -> dict:
+        """The stages' fields by widget name; a number field whose default is None (chosen from the data) reads 0
+        as None."""
+        out = {}
+        for name, (cls, field_name) in _field_names().items():
+            value = getattr(self, name).value
+            default = {f.name: f.default for f in fields(cls)}[field_name]
+            out[name] = None if default is None and value == 0 else value
+        return out
 
     def start(self, *_):
         """Start the analysis of the chosen layer in a thread worker; returns the worker (None if no layer)."""
@@ -162,10 +179,8 @@ class AnalyzeWidget(Container):
             self.status.value = "choose a Labels layer"
             return None
         calibration = layer.metadata.get("calibration") or layer_calibration(layer.scale, layer.units)
-        options = {"p": self.p.value, "radius": self.radius.value or None, "track_mode": self.track_mode.value,
-                   "merge_distance": self.merge_distance.value, "pixel_size": self.pixel_size.value or None,
-                   "length_unit": self.length_unit.value, "calibration": calibration,
-                   "deformation": self.deformation.value}
+        options = {"p": self.p.value, "pixel_size": self.pixel_size.value or None,
+                   "length_unit": self.length_unit.value, "calibration": calibration, **self._stage_values()}
         self._input = layer
         data = layer.data[0] if layer.multiscale else layer.data  # read lazily, frame by frame, by open_source
         self.status.value = f"analysing {layer.name}..."
@@ -200,6 +215,8 @@ class AnalyzeWidget(Container):
     def _finish(self, result):
         from napari.layers import Layer
 
+        from .legend import show_legend
+
         layers, error = result
         if error is not None:
             self.status.value = f"error: {error}"
@@ -208,6 +225,7 @@ class AnalyzeWidget(Container):
         labels = None if _is_default_axis_labels(src.axis_labels) else src.axis_labels
         for data, kwargs, kind in aligned(layers, src.scale, src.translate, src.units, labels):
             self.viewer.add_layer(Layer.create(data, kwargs, kind))
+        show_legend(self.viewer)
         self.status.value = f"added {len(layers)} layers"
 
 
