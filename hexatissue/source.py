@@ -395,7 +395,7 @@ def open_source(obj, *, key=None, channel=None, level=None, axes=None, pixel_siz
     if key is not None and not isinstance(key, str):
         raise InputError(f"key must be a str naming an array; got {key!r} ({type(key).__name__})")
     if isinstance(obj, Source):
-        refuse(f"a Source that is already open", key=key, channel=channel, level=level, axes=axes)
+        refuse("a Source that is already open", key=key, channel=channel, level=level, axes=axes)
         source = obj
     elif isinstance(obj, (str, os.PathLike)):
         source = _with_documented_calibration(_open_path(Path(obj), key, channel, level, axes), Path(obj))

@@ -28,8 +28,8 @@ def _tissue(movie, report):
              f"- frames: {len(movie)}" + ("" if len(movie) > 1 else " (single image)"),
              f"- cells per frame: {len(cells) / n_frames:.1f} ({len(inner) / n_frames:.1f} interior)",
              f"- periodic box: {movie.box is not None}",
-             f"- pixel size: " + (f"{cal.pixel_size:g} {cal.length_label}" if cal.has_length else "not calibrated (px)"),
-             f"- frame interval: " + (f"{cal.frame_interval:g} {cal.time_label}" if cal.has_time
+             "- pixel size: " + (f"{cal.pixel_size:g} {cal.length_label}" if cal.has_length else "not calibrated (px)"),
+             "- frame interval: " + (f"{cal.frame_interval:g} {cal.time_label}" if cal.has_time
                                      else "not calibrated (frames)"),
              f"- calibration: {cal.origin_text}"]
     if len(inner):
