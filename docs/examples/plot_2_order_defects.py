@@ -30,6 +30,7 @@ plot_stars(cells, p=6, polygons=movie.polygons(0), ax=ax, calibration=movie.cali
 plt.show()
 
 # %%
+# sphinx_gallery_thumbnail_number = 2
 # The coarse-grained field Γ6 (stars on the valid grid nodes, shaded by ``|Γ6|``) and its defects:
 # +1/6 red discs, -1/6 blue triangles. Nodes whose disk reaches beyond the tissue are not valid and
 # carry no star; defects are found only on plaquettes of valid nodes.
