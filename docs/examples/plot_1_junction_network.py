@@ -24,7 +24,7 @@ print(frame.cells[["cell", "x", "y", "polygon_area", "n_sides", "is_border"]].he
 print(frame.vertices["degree"].value_counts().sort_index())
 
 # %%
-# The polygons over the labels (grey crosses: border cells, whose polygons are cut by the image edge),
+# The polygons over the labels (grey crosses: border cells, which touch the image edge or the background),
 # and the vertices coloured by their degree: the four-fold vertices are contacts shorter than
 # ``MeshOptions.merge_distance`` (2 px), where a T1 may be under way.
 fig, ax = plt.subplots(figsize=(8, 4.6), layout="constrained")

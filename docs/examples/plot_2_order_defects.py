@@ -32,8 +32,8 @@ plt.show()
 # %%
 # sphinx_gallery_thumbnail_number = 2
 # The coarse-grained field Γ6 (stars on the valid grid nodes, shaded by ``|Γ6|``) and its defects:
-# +1/6 red discs, -1/6 blue triangles. Nodes whose disk reaches beyond the tissue are not valid and
-# carry no star; defects are found only on plaquettes of valid nodes.
+# +1/6 red discs, -1/6 blue triangles. Nodes whose disk is not wholly on interior cells are not valid
+# and carry no star; defects are found only between valid nodes.
 grid = movie.table_at("grid", 0)
 defects = movie.table_at("defects", 0)
 print(defects[["x", "y", "charge", "p"]])
