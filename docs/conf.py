@@ -87,3 +87,27 @@ linkcheck_timeout = 15
 linkcheck_retries = 2
 # the project's own repository address is set with the first release (pyproject.toml, [project.urls])
 linkcheck_ignore = [r"https://github\.com/hexatissue/hexatissue.*"]
+
+
+# --- the package's own names --------------------------------------------------------------------------------
+# Docstrings refer to the public names as the package exports them (:func:`hexatissue.analyze`); the reference
+# documents each where its module exports it (hexatissue.pipeline.analyze, docs/api.md). This resolves the first
+# to the second, by identity of the object, so those references become links.
+def _package_name(app, env, node, contnode):
+    target = node.get("reftarget", "")
+    if node.get("refdomain") != "py" or not target.startswith("hexatissue."):
+        return None
+    name = target.removeprefix("hexatissue.")
+    if name not in hexatissue.__all__:
+        return None
+    obj = getattr(hexatissue, name)
+    domain = env.get_domain("py")
+    for full in domain.objects:
+        module, _, last = full.rpartition(".")
+        if last == name and getattr(sys.modules.get(module), name, None) is obj:
+            return domain.resolve_xref(env, node["refdoc"], app.builder, node["reftype"], full, node, contnode)
+    return None
+
+
+def setup(app):
+    app.connect("missing-reference", _package_name)
