@@ -9,6 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+__all__ = ["InputError", "HexatissueWarning", "FrameWarning", "check_positive", "check_p", "check_orders",
+           "as_generator", "is_real", "deprecated_alias"]
+
 
 class InputError(ValueError):
     """Invalid input given to a hexatissue function (a ``ValueError``)."""

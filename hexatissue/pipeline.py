@@ -1,6 +1,6 @@
 """The analysis spine: ``analyze(source) -> Movie``.
 
-It runs the list of stages (:data:`hexatissue.stages.STAGES`) over a source:
+It runs the list of stages (:data:`hexatissue.stages.STAGES`) over a source::
 
     open_source(...)  ->  per frame, in parallel: the frame stages (labels -> junction network
                                                   -> intensities -> gamma_p -> Gamma_p and defects

@@ -446,7 +446,7 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
 
     The uniform state is stable at ``alpha6 = 0`` (all rates <= 0; the phase mode is the Goldstone mode,
     rate -> 0 as k -> 0).  For each sign of ``alpha6`` the onset is the smallest ``|alpha6|`` at which some
-    wavevector grows (rate > ``tol`` Gamma6 |A6|), found by bisection on the largest growth rate of
+    wavevector grows (rate > ``tol`` ``Gamma6 |A6|``), found by bisection on the largest growth rate of
     :func:`linear_operator` over the scheme's wavevectors: those of an ``n x n`` grid, or (``n=None``) a scan
     of the scheme's whole range refined twice around the first growing wavevector.
 
@@ -469,7 +469,7 @@ def bulk_onset(params, scheme="continuum", n=None, alpha_max=1e4, tol=1e-6):
     DataFrame
         One row per sign: ``side`` ("extensile" for alpha6 < 0, "contractile" for alpha6 > 0), ``alpha``
         (the onset alpha6; NaN if stable up to ``alpha_max``; 0 if unstable at any activity), ``k``
-        (|k| of the first growing wavevector, 1 / length), ``wavelength`` (2 pi / k, length), ``angle_deg``
+        (``|k|`` of the first growing wavevector, 1 / length), ``wavelength`` (2 pi / k, length), ``angle_deg``
         (angle of that wavevector from the bond direction, degrees, folded into [0, 30]), ``kx``, ``ky`` (that
         wavevector, 1 / length).
     """
@@ -572,7 +572,7 @@ def regime(params, ell, scheme="continuum", n=None):
         ``alpha`` (the run's alpha6), ``window`` ((extensile onset, contractile onset)), ``bulk_stable``
         (bool: alpha6 strictly inside the window), ``ell6`` (``sqrt(|alpha6| / L6)``, length), ``ell6_over_ell``,
         ``active`` (bool: ``ell6 >= ell``, the activity beats elasticity at the defect spacing),
-        ``alpha_at_ell`` (``L6 ell^2``, the |alpha6| at which ``ell6 = ell``).
+        ``alpha_at_ell`` (``L6 ell^2``, the ``|alpha6|`` at which ``ell6 = ell``).
     """
     check_positive(ell, "ell")
     onset = bulk_onset(params, scheme, n)

@@ -136,7 +136,7 @@ class Calibration:
         return px * self.pixel_size
 
     def area(self, px2):
-        """An area in px^2 converted to ``length_unit``^2."""
+        """An area in px^2 converted to the square of ``length_unit``."""
         return px2 * self.pixel_size**2
 
     def time(self, frames):

@@ -60,7 +60,7 @@ class Scores:
         The numbers behind the scores: cells, pairs, vertices, links,
         divisions and T1 events of each side and how many were matched;
         ``n_split``, ``n_merge``, ``n_missed``, ``n_extra``;
-        ``gamma{p}_mean_error`` (mean |gamma_p,pred - gamma_p,true| of the
+        ``gamma{p}_mean_error`` (mean ``|gamma_p,pred - gamma_p,true|`` of the
         matched interior cells, in [0, 2]).
     tables : dict of str -> pandas.DataFrame
         ``cells`` (one row per truth cell and frame), ``pred_cells`` (per

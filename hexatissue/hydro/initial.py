@@ -99,7 +99,7 @@ def _check_orientation(orientation):
 
 def quadrupole_initial(n=256, ell=7.0, disk=28.0, params=None, seed=0, noise=NOISE, thermalise_kw=None,
                        orientation=0.0):
-    """Quadrupole of +-1/6 defects (Psi6 = W/|W|, exact) fixed in a disk, random outside, relaxed.
+    """Quadrupole of +-1/6 defects (``Psi6 = W/|W|``, exact) fixed in a disk, random outside, relaxed.
 
     -1/6 defects at ``(cx +- ell, cy)``, +1/6 at ``(cx, cy +- ell)``, with
     ``cx = cy = (n/2 - 1/2) dx`` (a plaquette centre).  Outside the disk the

@@ -1,7 +1,7 @@
 """p-atic shape order of cells: the order stage.
 
 The shape function of a polygon with vertices ``r_v`` (relative to a cell
-centre, ``x`` = column, ``y`` = row) is
+centre, ``x`` = column, ``y`` = row) is ::
 
     gamma_p = sum_v |r_v|^p exp(i p phi_v) / sum_v |r_v|^p,
 

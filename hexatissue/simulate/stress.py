@@ -13,9 +13,9 @@ __all__ = ["cell_stress"]
 
 
 def cell_stress(phi, theta, k_phi, p, dx=1.0):
-    """Longitudinal p-atic stress of every cell of a multiphase-field (MPF) configuration.
+    """Longitudinal p-atic stress of every cell of a multiphase-field (MPF) configuration ::
 
-    sigma_par = -k_phi sum_r |grad phi_c|^p cos(p (alpha(r) - theta_c)),
+        sigma_par = -k_phi sum_r |grad phi_c|^p cos(p (alpha(r) - theta_c)),
 
     with ``alpha`` the direction of ``grad phi_c`` at lattice site ``r`` and
     ``theta_c`` the cell's p-fold orientation.  This is the complex form of
