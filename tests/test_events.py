@@ -173,6 +173,9 @@ def assert_valid_quartets(events, edges, cells):
     The quartet is seen on one side at least (c, d flank a-b before the loss, or a, b flank c-d after
     the gain: two T1s on junctions sharing a vertex in one frame see theirs on one side each, see
     test_t1s_next_to_t1s_are_each_found_with_their_kind), and every loss and gain is one T1 at most.
+    Flanks count the cells around a vertex of four or more cells as neighbours (a flanking contact held as a
+    four-fold vertex: test_a_t1_whose_flank_is_held_as_a_four_fold_vertex_is_found); the exchanged pairs themselves
+    must be contacts.
     """
     con = track_contacts(edges, cells)
     keys = set(zip(con["frame"], con["a"], con["b"]))
@@ -181,6 +184,18 @@ def assert_valid_quartets(events, edges, cells):
     for f, a, b in keys:
         nbrs.setdefault((f, a), set()).add(b)
         nbrs.setdefault((f, b), set()).add(a)
+    if {"vertex_a", "vertex_b"} <= set(edges.columns):  # cells around one vertex of four or more, plain loops
+        track = dict(zip(zip(cells["frame"], cells["cell"]), cells["track"])) if "track" in cells else None
+        around = {}
+        for r in edges.itertuples():
+            for v in (r.vertex_a, r.vertex_b):
+                for c in (r.cell_a, r.cell_b):
+                    if c > 0:
+                        around.setdefault((r.frame, v), set()).add(c if track is None else track[(r.frame, c)])
+        for (f, _), ring in around.items():
+            if len(ring) >= 4:
+                for c in ring:
+                    nbrs.setdefault((f, c), set()).update(ring - {c})
     touch = lambda f, u, v: (f, min(u, v), max(u, v)) in keys
     for r in events.itertuples():
         before = frames[np.searchsorted(frames, r.frame_start) - 1]
@@ -785,3 +800,28 @@ def test_t1_step_with_held_flanks_equals_the_numpy_reference():
     # the loss's pairs of flanking cells before (c-d among them: x = 5 flanks a-b too, at the four-fold vertex)
     assert set(got[2].tolist()) == set(ab.tolist()) and int(cd[0]) in got[3].tolist()
     assert int(ab[0]) in got[4].tolist() and set(got[5].tolist()) == set(cd.tolist())  # and the gain's after
+
+
+def test_two_losses_seeing_one_gain_are_told_apart_by_junction_length_not_ids():
+    """A rosette: losses a-b and a-e in the same frame both see the gain c-d (one side each, held flanks).
+    The lost junction that had shrunk is the T1's, whichever ids the cells have (ITASC pos01 paired by ids)."""
+    from hexatissue.events import _pair_losses_and_gains
+
+    K = 10
+
+    def pairing(a, b, e, c, d):
+        ab, ae, cd = min(a, b) * K + max(a, b), min(a, e) * K + max(a, e), min(c, d) * K + max(c, d)
+        losses = pd.DataFrame({"ab": np.empty(0, np.int64), "cd": np.empty(0, np.int64),
+                               "frame_lost": np.empty(0, np.int64), "held": np.empty(0, bool),
+                               "next_ab": np.empty(0, np.int64)})
+        gains = pd.DataFrame({"ab": [ab, ae], "cd": [cd, cd], "frame_gain": [1, 1], "held": [True, True],
+                              "prev_cd": [-1, -1]})
+        lost = pd.DataFrame({"ab": [ab, ae], "frame_lost": [1, 1], "next_ab": [99, 99]})
+        lengths = pd.DataFrame({"pair": [ab, ae, cd], "frame": [1, 1, 1], "length": [0.7, 6.0, 0.5]})
+        m = _pair_losses_and_gains(losses, gains, lost, lengths)
+        assert len(m) == 1
+        return {int(m["ab"].iloc[0]) // K, int(m["ab"].iloc[0]) % K}
+
+    assert pairing(1, 2, 3, 4, 5) == {1, 2}  # a-b had shrunk to 0.7 px, a-e was 6 px long
+    assert pairing(3, 2, 1, 4, 5) == {2, 3}  # the same cells numbered the other way round
+    assert pairing(5, 4, 3, 1, 2) == {4, 5}

@@ -360,13 +360,13 @@ def find_t1(contacts: pd.DataFrame, presence: pd.DataFrame) -> pd.DataFrame:
     track = presence["track"].to_numpy(np.int64)
     a, b = contacts["a"].to_numpy(np.int64), contacts["b"].to_numpy(np.int64)
     contact_rows = FrameRows(contacts["frame"].to_numpy(np.int64))
-    frames = ((frame, np.unique(track[rows]), a[contact_rows.rows(frame)], b[contact_rows.rows(frame)])
+    frames = ((frame, np.unique(track[rows]), a[contact_rows.rows(frame)], b[contact_rows.rows(frame)], None)
               for frame, rows in FrameRows(presence["frame"].to_numpy(np.int64)))
     return _find_t1(frames, np.unique(np.r_[track, a, b]))
 
 
 def _find_t1(frames, ids, held=None):
-    """:func:`find_t1` of a stream of frames ``(frame, tracks present, a, b)`` whose ids are all in ``ids``.
+    """:func:`find_t1` of a stream of frames ``(frame, tracks present, a, b, length)`` whose ids are all in ``ids``.
 
     One pass, two frames at a time: a contact lost between consecutive frames
     (its two cells still present) is a loss, with a quartet for each pair of
@@ -375,15 +375,19 @@ def _find_t1(frames, ids, held=None):
     of frames of every contact say which loss and gain were not interrupted.
     ``held`` (:func:`_held_pairs`): per frame, the pairs around four-fold
     vertices, which count as neighbours in the quartet search (not as
-    contacts that are lost or gained).
+    contacts that are lost or gained).  ``length`` (px, per contact, in the
+    order of ``a``, ``b``; or None) breaks ties between candidate pairings
+    (:func:`_pair_losses_and_gains`).
     """
     K = np.int64(len(ids) + 1)
-    starts, stops, losses, gains, values, every_loss = [], [], [], [], [], []
+    starts, stops, losses, gains, values, every_loss, lengths = [], [], [], [], [], [], []
     prev = None
     index = _index_of(ids)
     held = {} if held is None else held
-    for i, (frame, tracks, a, b) in enumerate(frames):
+    for i, (frame, tracks, a, b, length) in enumerate(frames):
         cur = _FrameGraph(index(tracks), index(a), index(b), K)
+        # the contacts' lengths in the order of cur.keys (the contacts come sorted and unique, see _frames)
+        cur.length = length if length is not None and len(length) == len(cur.keys) else None
         if frame in held:
             ha, hb = held[frame][:2]
             cur.flanks = _FrameGraph(cur.present, index(np.r_[a, ha]), index(np.r_[b, hb]), K)
@@ -394,12 +398,16 @@ def _find_t1(frames, ids, held=None):
             new, gone, loss_ab, loss_cd, gain_ab, gain_cd = _t1_step(prev, cur)
             starts.append((new, i))
             stops.append((gone, i))
-            losses.append((loss_ab, loss_cd, np.full(len(loss_ab), i)))
-            gains.append((gain_ab, gain_cd, np.full(len(gain_ab), i)))
+            losses.append((loss_ab, loss_cd, np.full(len(loss_ab), i), _flank_held(prev, loss_ab, loss_cd)))
+            gains.append((gain_ab, gain_cd, np.full(len(gain_ab), i), _flank_held(cur, gain_ab, gain_cd)))
             # every loss, also one with no pair of common neighbours just before (its flanks changed in the
             # same frame): the quartet may be seen after the gain only
             lost = gone[cur.is_present(gone // K) & cur.is_present(gone % K)]
             every_loss.append((lost, np.full(len(lost), i)))
+            if prev.length is not None and cur.length is not None:  # the lost contacts' last and the new ones' first
+                lengths.append((np.r_[gone, new], np.full(len(gone) + len(new), i),  # length
+                                np.r_[prev.length[np.searchsorted(prev.keys, gone)],
+                                      cur.length[np.searchsorted(cur.keys, new)]]))
         prev = cur
     empty = pd.DataFrame({c: np.empty(0, np.int64) for c in
                           ("frame_lost", "frame_gain", "cell_a", "cell_b", "cell_c", "cell_d")})
@@ -407,8 +415,8 @@ def _find_t1(frames, ids, held=None):
         return empty
     stops.append((prev.keys, len(values)))
     runs = _runs(starts, stops)
-    losses = pd.DataFrame(dict(zip(("ab", "cd", "frame_lost"), (np.concatenate(c) for c in zip(*losses)))))
-    gains = pd.DataFrame(dict(zip(("ab", "cd", "frame_gain"), (np.concatenate(c) for c in zip(*gains)))))
+    losses = pd.DataFrame(dict(zip(("ab", "cd", "frame_lost", "held"), (np.concatenate(c) for c in zip(*losses)))))
+    gains = pd.DataFrame(dict(zip(("ab", "cd", "frame_gain", "held"), (np.concatenate(c) for c in zip(*gains)))))
     losses = losses.merge(runs[["pair", "stop", "next_start"]], left_on=["ab", "frame_lost"],
                           right_on=["pair", "stop"]).drop(columns=["pair", "stop"]).rename(columns={"next_start": "next_ab"})
     gains = gains.merge(runs[["pair", "start", "prev_stop"]], left_on=["cd", "frame_gain"],
@@ -418,7 +426,9 @@ def _find_t1(frames, ids, held=None):
     lost = lost[["ab", "frame_lost", "next_start"]].rename(columns={"next_start": "next_ab"})
     if gains.empty or lost.empty:
         return empty
-    m = _pair_losses_and_gains(losses, gains, lost)
+    if lengths:
+        lengths = pd.DataFrame(dict(zip(("pair", "frame", "length"), (np.concatenate(c) for c in zip(*lengths)))))
+    m = _pair_losses_and_gains(losses, gains, lost, lengths if len(lengths) else None)
     values = np.asarray(values, np.int64)
     if held:  # a four-fold vertex's sides collapsing in turn: its four cells around it before the loss and after the gain
         quartet = np.stack([ids[m["ab"] // K], ids[m["ab"] % K], ids[m["cd"] // K], ids[m["cd"] % K]], axis=1)
@@ -434,7 +444,15 @@ def _find_t1(frames, ids, held=None):
     return out.sort_values(["frame_lost", "cell_a", "cell_b", "cell_c", "cell_d"], ignore_index=True)
 
 
-def _pair_losses_and_gains(losses, gains, lost):
+def _flank_held(graph, ab, cd):
+    """Per quartet (contact keys ``ab``, ``cd``) of a :class:`_FrameGraph`: whether a flank of it is held
+    at a four-fold vertex rather than a contact of the frame."""
+    K = graph.K
+    a, b, c, d = ab // K, ab % K, cd // K, cd % K
+    return ~(graph.has_pair(a, c) & graph.has_pair(a, d) & graph.has_pair(b, c) & graph.has_pair(b, d))
+
+
+def _pair_losses_and_gains(losses, gains, lost, lengths=None):
     """The T1s of a movie's losses and gains: rows ``ab``, ``cd``, ``frame_lost``, ``frame_gain``.
 
     ``losses``: each contact a-b lost (``frame_lost``, ``next_ab`` the start
@@ -455,17 +473,32 @@ def _pair_losses_and_gains(losses, gains, lost):
     a, b are no longer both neighbours of c, d after the second, and the
     second's c, d did not both flank its a-b before the first.  Every loss
     and every gain is one T1 at most, matched greedily: quartets seen on both
-    sides first, then the shortest wait from loss to gain, then the earliest
-    gain (:func:`_match_once`).
+    sides first, then quartets seen with contacts for flanks (``held``: a
+    flank held at a four-fold vertex on every side it is seen from), then
+    the shortest wait from loss to gain, then the earliest gain, then the
+    shortest junctions (``lengths``: ``pair``, ``frame``, ``length``, the
+    lost contact's length before its loss plus the new one's at its gain;
+    a T1's junction shrinks to nothing and grows from it), so that two
+    losses of one rosette seeing the same gain are told apart by the
+    geometry (:func:`_match_once`).  The ids come last: the pairing does not
+    depend on how the cells are numbered wherever the geometry decides.
     """
-    keys = ["ab", "cd", "frame_lost", "next_ab", "frame_gain", "prev_cd"]
+    keys = ["ab", "cd", "frame_lost", "next_ab", "frame_gain", "prev_cd", "held"]
     gained = gains.drop_duplicates(["cd", "frame_gain"])[["cd", "frame_gain", "prev_cd"]]
     # quartets seen before a loss, with every gain of their c-d; quartets seen after a gain, with every loss of a-b
     m = pd.concat([losses.merge(gained, on="cd")[keys], gains.merge(lost, on="ab")[keys]], ignore_index=True)
     m = m[(m["frame_gain"] >= m["frame_lost"]) & (m["next_ab"] > m["frame_gain"]) & (m["prev_cd"] <= m["frame_lost"])]
-    m = m.groupby(["ab", "cd", "frame_lost", "frame_gain"], as_index=False, sort=False).size()
-    m = m.assign(wait=m["frame_gain"] - m["frame_lost"], one_side=m["size"] == 1)
-    m = m.sort_values(["one_side", "wait", "frame_gain", "ab", "cd"], kind="stable", ignore_index=True)
+    m = m.groupby(["ab", "cd", "frame_lost", "frame_gain"], as_index=False, sort=False).agg(
+        size=("held", "size"), held=("held", "min"))
+    m = m.assign(wait=m["frame_gain"] - m["frame_lost"], one_side=m["size"] == 1, length=np.inf)
+    if lengths is not None and len(m):
+        at = pd.MultiIndex.from_arrays([lengths["pair"], lengths["frame"]])
+        length = pd.Series(lengths["length"].to_numpy(float), index=at)
+        before = length.reindex(pd.MultiIndex.from_arrays([m["ab"], m["frame_lost"]])).to_numpy(float)
+        after = length.reindex(pd.MultiIndex.from_arrays([m["cd"], m["frame_gain"]])).to_numpy(float)
+        m["length"] = np.nan_to_num(before + after, nan=np.inf)
+    m = m.sort_values(["one_side", "held", "wait", "frame_gain", "length", "ab", "cd"], kind="stable",
+                      ignore_index=True)
     return m[_match_once(m["ab"].to_numpy(np.int64), m["frame_lost"].to_numpy(np.int64),
                          m["cd"].to_numpy(np.int64), m["frame_gain"].to_numpy(np.int64))]
 
@@ -674,8 +707,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     """
     _check_cells(cells)
     frames = _movie_frames(edges, cells, min_length)
-    raw = _find_t1(((f, tracks, a, b) for f, tracks, a, b, _ in frames), _ids(edges, cells),
-                   _held_pairs(edges, cells))
+    raw = _find_t1(frames, _ids(edges, cells), _held_pairs(edges, cells))
     last = int(cells["frame"].max()) if len(cells) else 0
     return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
 
@@ -710,9 +742,9 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     changes, by_frame = _changes(cells)
 
     def contacts():  # each frame's contacts, to the per-cell lists as they go to the quartet search
-        for f, tracks, a, b, _ in _movie_frames(edges, cells, min_length):
+        for f, tracks, a, b, length in _movie_frames(edges, cells, min_length):
             changes.add(_Lists(f, tracks, a, b))
-            yield f, tracks, a, b
+            yield f, tracks, a, b, length
 
     raw = _find_t1(contacts(), _ids(edges, cells), _held_pairs(edges, cells))
     release_freed_memory()  # the contacts' freed working set would stay resident under the two tables' own
