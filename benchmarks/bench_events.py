@@ -14,7 +14,9 @@ for each merge distance asked (``MeshOptions.merge_distance``, px), and scored b
 frame tolerance of 1 and 2 frames, a T1 on time by its ``frame_start`` or by its held
 four-fold interval (``t1_timing``); neighbour pairs beside them.  The per-cell
 definition (``neighbour_events``: a cell's neighbour list changes and returns)
-is counted beside it, on the prediction and on the truth's clean labels.
+is counted beside it, on the prediction and on the truth's clean labels.  The true T1s
+missed on the clean labels at the default merge distance are listed with what the model's
+exact junctions say about them (:func:`misses`).
 Writes ``benchmarks/results_events.md``.  Usage::
 
     PYTHONPATH=$PWD python benchmarks/bench_events.py [--cells 196] [--frames 80]

@@ -293,6 +293,17 @@ def _held_lines(movie):
             f"`--merge-distance` sets it)"]
 
 
+def _one_frame_lines(movie):
+    """How many T1s are cycles of one frame, the doubtful ones on segmented microscopy."""
+    e = movie.summary.get("events") or {}
+    if not e.get("n_one_frame_cycles"):
+        return []
+    return [f"- cycles of one frame (a-b lost and c-d gained in one frame, undone in the next): "
+            f"{e['n_one_frame_cycles']} of {e['n_events']} T1s; on segmented microscopy these are mostly four-fold "
+            f"vertex flicker or segmentation errors (docs/t1.md, *T1 counts on real data*); leave them out with "
+            f"`duration == 1` when the movie is not exactly resolved"]
+
+
 #: Divisions and per-frame rows shown in report.md (all of them are in the CSV files next to it).
 QC_ROWS = 40
 #: Track lengths are counted in these bins (frames; the last bin is open).
@@ -391,7 +402,7 @@ def _movie_sections(movie, out, written, numbers, *, p, dl, dt, n_control, seed,
     cycles = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float)
     numbers["events"] = {k: int(v) for k, v in counts.items()}
     censor = _censor_of(movie)
-    lines += ["## T1 events", "", *_tracking_lines(movie), *_held_lines(movie),
+    lines += ["## T1 events", "", *_tracking_lines(movie), *_held_lines(movie), *_one_frame_lines(movie),
               "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected")
               + (f" (censor {censor} frames)" if censor is not None else ""),
               (f"- mean T1-cycle duration: {np.mean(cycles):.3g} frames"
