@@ -132,6 +132,11 @@ def scores(movie, truth, labels):
         if timing == "held":
             row.update({name: s.summary.get(name, np.nan) for name in SHOWN[3:]})
             row.update(n_truth=s.counts["n_truth_t1"], n_pred=s.counts["n_pred_t1"])
+            ev = movie.events
+            one = ev.loc[(ev["kind"] == "cycle") & (ev["duration"] == 1), "event"]  # the doubtful class of docs/t1.md
+            t1 = s.tables["t1"]
+            matched = set(t1.loc[t1["status"] == "matched", "pred_event"].tolist())
+            row.update(n_one_frame_cycles=len(one), one_frame_true=int(one.isin(matched).sum()))
     row["n_cell_events"] = len(movie.tables["neighbour_events"]) if "neighbour_events" in movie.tables else np.nan
     held = movie.summary.get("events", {})
     row["n_held_contacts"] = held.get("n_held_contacts", np.nan)
@@ -201,10 +206,12 @@ def write(args, truth, kinds, table, seconds, missed=None):
         "tolerance 1 (@1) and 2 (@2), on time by `frame_start` (start) or by the held four-fold interval "
         "`frame_start`..`frame_gain` (held, `t1_timing='held'`); `n_cell_events`: rows of the per-cell "
         "`neighbour_events` table; "
-        "`n_held_contacts`: contacts held as four-fold vertices (contact-frames).", "",
+        "`n_held_contacts`: contacts held as four-fold vertices (contact-frames); `n_one_frame_cycles`: predicted "
+        "cycles of one frame (`duration` 1), `one_frame_true`: how many of them match a true T1 (held@1).", "",
     ]
     cols = ["input", "merge_distance"] + [f"{n} {t}" for t in ("start@1", "start@2", "held@1") for n in SHOWN[:3]] + [
-        "neighbour_pairs_precision", "neighbour_pairs_recall", "n_truth", "n_pred", "n_cell_events", "n_held_contacts"]
+        "neighbour_pairs_precision", "neighbour_pairs_recall", "n_truth", "n_pred", "n_cell_events", "n_held_contacts",
+        "n_one_frame_cycles", "one_frame_true"]
     lines.append("| " + " | ".join(cols) + " |")
     lines.append("|" + "---|" * len(cols))
     for r in table[cols].itertuples(index=False):

@@ -3,8 +3,10 @@
 For each movie (ITASC pos00, the EpiTools wing disc, the bundled EpiCure notum) the script runs ``analyze``
 with the default options (ids kept) and, when ``--old`` names a checkout of an earlier commit, the same
 analysis with that code (a subprocess with the checkout first on ``PYTHONPATH``); the T1s found now and not
-before are the ones audited (``--all`` audits every T1).  For each audited T1 it measures, from the
-``edges`` and ``vertices`` tables:
+before are the ones audited (every T1 when none is new or without ``--old``), and so is every cycle of
+one frame (``duration`` 1: a-b lost and c-d gained in one frame, undone in the next).  With each
+``--min-length`` it also counts which audited T1s a junction-length threshold keeps.  For each audited
+T1 it measures, from the ``edges`` and ``cells`` tables:
 
 - ``ab_before``: the a-b contact's length (px) in the frame before ``frame_start``;
 - ``cd_after``: the c-d contact's length in the frame of ``frame_gain``, and ``cd_frames``: the
@@ -72,6 +74,7 @@ def analyse(path, key, out, tree=None, min_length=0.0):
 
 
 def event_key(r):
+    """A T1 as (frame_start, frame_gain, a-b, c-d), each pair sorted: the same event in two analyses."""
     return (int(r.frame_start), int(r.frame_gain), tuple(sorted((int(r.cell_a), int(r.cell_b)))),
             tuple(sorted((int(r.cell_c), int(r.cell_d)))))
 
