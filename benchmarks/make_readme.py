@@ -115,6 +115,15 @@ ENTRIES = (
         "not met (recall 0.948 on clean labels; every merge distance below 2 px loses precision on rendered movies)",
     ),
     Entry(
+        "results_t1_audit.md",
+        "T1s at default settings on real movies (ITASC pos00, EpiTools wing disc, EpiCure notum), read by eye from crops",
+        "`python benchmarks/t1_audit_real.py --old CHECKOUT` (CHECKOUT: `git worktree add /tmp/old 29a5bbb`)",
+        "ITASC 156 T1s (123 before the held flanks); of the 38 new: 11 real, 13 four-fold flicker, 14 segmentation "
+        "errors; cycles of 1 frame: 13, none real",
+        "no confident wrong numbers on real data",
+        "not met: the doubtful class marked (cycles of 1 frame), the other wrong T1s not separable by any measured feature",
+    ),
+    Entry(
         "results_deformation.md",
         "deformation budget of a 1,500-cell movie, per frame pair, one core",
         "`python benchmarks/bench_deformation.py`",

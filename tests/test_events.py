@@ -95,6 +95,29 @@ def test_oscillating_t1s_are_cycles_and_min_length_suppresses_them():
     assert detect_t1(edges, cells, min_length=1.0, censor=2).empty
 
 
+def test_cycles_of_one_frame_are_counted_in_the_summary_and_the_report():
+    """The doubtful class of segmented movies (docs/t1.md): a-b -> c-d -> a-b over two frame intervals. The
+    summary counts those cycles and no other event: here three one-frame flickers, then a cycle of 3 frames
+    through a held four-fold vertex and an intercalation; reference and streaming implementations agree."""
+    from types import SimpleNamespace
+
+    from hexatissue.events import _reference as ref
+    from hexatissue.events import events_summary
+    from hexatissue.views.events import _one_frame_lines
+
+    states = ["ab"] * 2 + ["cd", "ab"] * 3 + ["4", "cd", "cd", "ab", "ab", "cd", "cd", "cd"]
+    edges, cells = _quartet_tables(states)
+    ev = detect_t1(edges, cells, censor=2)
+    pd.testing.assert_frame_equal(ref.detect_t1(edges, cells, censor=2), ev)
+    assert ev["kind"].tolist() == ["cycle"] * 4 + ["intercalation"]
+    assert ev["duration"].tolist()[:4] == [1.0, 1.0, 1.0, 3.0]
+    summary = events_summary(ev, 2, True, len(states))
+    assert summary["n_one_frame_cycles"] == 3 and summary["n_cycles"] == 4
+    line, = _one_frame_lines(SimpleNamespace(summary={"events": summary}))
+    assert "3 of 5 T1s" in line
+    assert _one_frame_lines(SimpleNamespace(summary={"events": events_summary(ev.iloc[3:], 2, True, 17)})) == []
+
+
 def test_persistent_fourfold_vertex_then_reversal():
     states = ["ab"] * 3 + ["4"] * 4 + ["cd"] * 3 + ["4"] * 2 + ["ab"] * 2 + ["4"] * 2 + ["ab"] * 4
     ev = detect_t1(*_quartet_tables(states), censor=2)

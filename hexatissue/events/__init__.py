@@ -1121,7 +1121,10 @@ def events_summary(events, censor, given, n_frames, vertices=None):
     shorter than ``merge_distance`` held as four-fold (or higher) vertices,
     summed over frames, and ``n_held_vertices`` the vertex-frames holding
     them (a T1 whose new junction never grows past ``merge_distance`` is one
-    of these, not an event); both None without that column.  Warns
+    of these, not an event); both None without that column.
+    ``n_one_frame_cycles``: cycles of one frame (``duration`` 1: a-b lost and
+    c-d gained in one frame, undone in the next), the doubtful T1s of a
+    segmented movie (docs/t1.md, *T1 counts on real data*).  Warns
     (:class:`HexatissueWarning`) when no T1 is an intercalation because every
     one that is not undone is unresolved.
     """
@@ -1134,6 +1137,8 @@ def events_summary(events, censor, given, n_frames, vertices=None):
     return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
             "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
             "n_classified": n["cycle"] + n["intercalation"],
+            "n_one_frame_cycles": int(((events["kind"].astype(str) == "cycle")
+                                       & (events["duration"].to_numpy(float) == 1)).sum()),
             "n_held_contacts": None if held is None else int(held.sum()),
             "n_held_vertices": None if held is None else int((held > 0).sum())}
 

@@ -64,6 +64,17 @@ def _held_lines(movie):
             f"`--merge-distance` sets it)"]
 
 
+def _one_frame_lines(movie):
+    """How many T1s are cycles of one frame, the doubtful ones on segmented microscopy."""
+    e = movie.summary.get("events") or {}
+    if not e.get("n_one_frame_cycles"):
+        return []
+    return [f"- cycles of one frame (a-b lost and c-d gained in one frame, undone in the next): "
+            f"{e['n_one_frame_cycles']} of {e['n_events']} T1s; on segmented microscopy these are mostly four-fold "
+            f"vertex flicker or segmentation errors (docs/t1.md, *T1 counts on real data*); leave them out with "
+            f"`duration == 1` when the movie is not exactly resolved"]
+
+
 def _t1_events(movie, report):
     """The T1 events: how the cells were tracked, the events by kind, their overview over time."""
     events, cal = movie.events, movie.calibration
@@ -76,7 +87,7 @@ def _t1_events(movie, report):
     cycles = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float)
     report.numbers["events"] = {k: int(v) for k, v in counts.items()}
     censor = censor_of(movie)
-    lines += ["## T1 events", "", *_tracking_lines(movie), *_held_lines(movie),
+    lines += ["## T1 events", "", *_tracking_lines(movie), *_held_lines(movie), *_one_frame_lines(movie),
               "- " + (", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) or "none detected")
               + (f" (censor {censor} frames)" if censor is not None else ""),
               (f"- mean T1-cycle duration: {np.mean(cycles):.3g} frames"
