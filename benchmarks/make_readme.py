@@ -118,8 +118,8 @@ ENTRIES = (
         "results_t1_audit.md",
         "T1s at default settings on real movies (ITASC pos00, EpiTools wing disc, EpiCure notum), read by eye from crops",
         "`python benchmarks/t1_audit_real.py --old CHECKOUT` (CHECKOUT: `git worktree add /tmp/old 29a5bbb`)",
-        "ITASC 156 T1s (123 before the held flanks); of the 38 new: 11 real, 13 four-fold flicker, 14 segmentation "
-        "errors; cycles of 1 frame: 13, none real",
+        "ITASC 155 T1s (123 before the held flanks); of the 34 new: 12 real, 10 four-fold flicker, 12 segmentation "
+        "errors; cycles of 1 frame: 14, none real",
         "no confident wrong numbers on real data",
         "not met: the doubtful class marked (cycles of 1 frame), the other wrong T1s not separable by any measured feature",
     ),
