@@ -109,26 +109,38 @@ def _padded(labels, periodic):
 
 
 def corner_types(labels, periodic):
-    """Reference of :func:`._kernels.corner_types`."""
+    """Reference of :func:`._kernels.corner_types`, on whole arrays (it runs on small first-run inputs too).
+
+    Corner (ci, cj) has TL = ``pad[ci, cj]``, TR = ``pad[ci, cj + 1]``,
+    BL = ``pad[ci + 1, cj]``, BR = ``pad[ci + 1, cj + 1]``; arm d runs
+    between the two pixels beside its crack (:func:`_pixels_beside`): +x
+    between TR and BR, +y between BL and BR, -x between TL and BL, -y
+    between TL and TR.
+    """
     pad, (nci, ncj) = _padded(labels, periodic)
-    image_corners = not periodic
-    arms = np.zeros((nci, ncj), np.uint8)
-    kind = np.zeros((nci, ncj), np.uint8)
-    cracks = set()
-    vertices = []
-    for ci in range(nci):
-        for cj in range(ncj):
-            present = [d for d in range(4) if len(set(_labels_beside(pad, ci, cj, d))) == 2]
-            arms[ci, cj] = sum(1 << d for d in present)
-            cracks.update(_crack_key(ci, cj, d, nci, ncj) for d in present)
-            block = pad[ci, cj], pad[ci, cj + 1], pad[ci + 1, cj], pad[ci + 1, cj + 1]
-            kind[ci, cj] = _corner_kind(*block, len(present))
-            image_corner = image_corners and ci in (0, nci - 1) and cj in (0, ncj - 1)
-            if kind[ci, cj] in (3, 4) or (image_corner and present):
-                vertices.append((ci, cj))
-    vi = np.array([c[0] for c in vertices], np.int64)
-    vj = np.array([c[1] for c in vertices], np.int64)
-    return arms | (kind << 4), vi, vj, len(cracks)
+    tl, tr = pad[:nci, :ncj], pad[:nci, 1:ncj + 1]
+    bl, br = pad[1:nci + 1, :ncj], pad[1:nci + 1, 1:ncj + 1]
+    present = np.stack([tr != br, bl != br, tl != bl, tl != tr])  # direction d = 0..3
+    arms = (present * (1 << np.arange(4))[:, None, None]).sum(axis=0).astype(np.uint8)
+    n_arms = present.sum(axis=0)
+    distinct = (tl != tr) & (tl != bl) & (tl != br) & (tr != bl) & (tr != br) & (bl != br)
+    main, anti = tl == br, tr == bl  # which diagonal pair of pixels shares a label
+    # a two-label checkerboard (both pairs equal): the smaller label is the connected one
+    five = np.where(main & anti, tl < tr, main)
+    kind = np.where(n_arms < 4, n_arms, np.where(distinct, 4, np.where(five, 5, 6))).astype(np.uint8)
+    is_vertex = (kind == 3) | (kind == 4)
+    if not periodic:  # the image corners of an open image, where a boundary turns
+        corner = np.zeros((nci, ncj), bool)
+        corner[[0, 0, -1, -1], [0, -1, 0, -1]] = True
+        is_vertex |= corner & (n_arms > 0)
+    vi, vj = np.nonzero(is_vertex)  # raster order
+    # each crack once, named by the corner it leaves along +x or +y (_crack_key)
+    d, ci, cj = np.nonzero(present)
+    back = d >= 2
+    ci[back] = (ci[back] + np.where(d[back] == 3, -1, 0)) % nci
+    cj[back] = (cj[back] + np.where(d[back] == 2, -1, 0)) % ncj
+    n_cracks = len(np.unique((d % 2) * (nci * ncj) + ci * ncj + cj))
+    return arms | (kind << 4), vi.astype(np.int64), vj.astype(np.int64), n_cracks
 
 
 def _split(corners):
@@ -534,3 +546,31 @@ def at_most_two_values(labels):
     """Reference of :func:`._kernels.at_most_two_values` (two comparisons, not a sort)."""
     others = labels[labels != labels.flat[0]]
     return others.size == 0 or not (others != others[0]).any()
+
+
+def fill_gaps(labels, passes, periodic):
+    """Reference of :func:`._kernels.fill_gaps`, on whole arrays (it runs on small first-run inputs too).
+
+    Each pass gives every 0-pixel the most frequent nonzero label among its
+    4 neighbours, read in the order up, left, down, right rotated by
+    ``(row + col) % 4``; of equally frequent labels the first read wins.
+    """
+    cur = labels.copy()
+    h, w = labels.shape
+    rows, cols = np.indices((h, w))
+    start = (rows + cols) % 4
+    for _ in range(passes):
+        zero = cur == 0
+        if not zero.any():
+            break
+        pad = np.pad(cur, 1, mode="wrap" if periodic else "constant")
+        # neighbour k: up, left, down, right (the kernel's k = 0..3)
+        around = np.stack([pad[:-2, 1:-1], pad[1:-1, :-2], pad[2:, 1:-1], pad[1:-1, 2:]])
+        cand = np.stack([np.take_along_axis(around, ((start + s) % 4)[None], axis=0)[0] for s in range(4)])
+        votes = np.where(cand != 0, (cand[:, None] == cand[None]).sum(axis=1), -1)
+        best = np.take_along_axis(cand, votes.argmax(axis=0)[None], axis=0)[0]  # argmax: the first of ties
+        filled = zero & (best != 0)
+        if not filled.any():
+            break
+        cur = np.where(filled, best, cur)
+    return cur
