@@ -31,7 +31,7 @@ from collections import deque
 import numpy as np
 
 from ._checkpoint import Checkpoint
-from ._dispatch import references
+from ._dispatch import reference_mode, references
 from ._executors import batch_size, executor
 from ._rows import Rows
 from ._system import release_freed_memory
@@ -174,8 +174,11 @@ def kernel_mode(source, client=None) -> str:
     (in this process or numba's cache) runs its plain-numpy reference, so the
     run waits on no compilation; ``"kernel"`` otherwise (a dask cluster's
     workers compile on their side).  Small: at most :data:`REFERENCE_PIXELS`
-    pixels in all frames.
+    pixels in all frames.  Inside :func:`hexatissue._dispatch.references` the
+    caller's mode is kept.
     """
+    if reference_mode() != "kernel":
+        return reference_mode()
     return "auto" if client is None and source.n_frames * int(np.prod(source.shape)) <= REFERENCE_PIXELS else "kernel"
 
 

@@ -63,15 +63,19 @@ def _crack_key(ci, cj, d, nci, ncj):
     return d - 2, ei, ej
 
 
+_ARM_SETS = tuple(tuple(d for d in range(4) if (mask >> d) & 1) for mask in range(16))
+
+
 def _arm_set(mask):
-    return [d for d in range(4) if (int(mask) >> d) & 1]
+    """The directions of the arms of a corner, from its arm bits."""
+    return _ARM_SETS[mask]
 
 
 def _partner(corner_kind, mask, arm):
     """The arm continuing the boundary that reaches a pass-through corner (type 2, 5 or 6) by ``arm``."""
     if corner_kind == 2:
-        (other,) = [d for d in _arm_set(mask) if d != arm]
-        return other
+        first, second = _arm_set(mask)
+        return second if arm == first else first
     for a, b in DIAGONAL_PAIRS[corner_kind]:
         if arm in (a, b):
             return b if arm == a else a
@@ -185,9 +189,11 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
         membrane = np.zeros(pad.shape, bool)
     vid = _vertex_map(arms.shape, vi, vj)
     rows = []
+    walks = {}  # (vertex, arm) -> its cracks, walked once for the junctions and the arm fits
     for v in range(len(vi)):
         for d in _arm_set(arms[vi[v], vj[v]]):
             cracks, end_corner = _junction_cracks(arms, kind, vid, vi[v], vj[v], d)
+            walks[v, d] = cracks
             end, end_arm = int(vid[end_corner]), (cracks[-1][2] + 2) % 4
             if (end, end_arm) < (v, d):
                 continue  # listed from its other end
@@ -203,7 +209,7 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
     half = np.clip((ncrack + 1) // 2, 1, max_reach)
     reach[start, start_arm] = half
     reach[end, end_arm] = half
-    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane)
+    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane, walks)
 
 
 def mark_junctions(periodic, corners, vi, vj, start, start_arm):
@@ -260,8 +266,10 @@ def _crack_point(membrane, ci, cj, d):
     return np.array([0.5 * ex - 0.5 * ey * side, 0.5 * ey + 0.5 * ex * side])
 
 
-def _arm_lines(arms, kind, vid, vi, vj, reach, membrane):
-    """The arm line fits of :func:`trace_junctions`, walking ``reach[v, d]`` cracks along arm d of vertex v.
+def _arm_lines(arms, kind, vid, vi, vj, reach, membrane, walks):
+    """The arm line fits of :func:`trace_junctions` over the first ``reach[v, d]`` cracks along arm d of vertex v.
+
+    ``walks[v, d]``: the cracks of that arm's junction, as :func:`_junction_cracks` walked them.
 
     ``direction`` is a line's axis, whose sign has no meaning; here it has
     x >= 0 (y > 0 when x == 0).  Compare up to sign: the kernel's sign for
@@ -278,7 +286,7 @@ def _arm_lines(arms, kind, vid, vi, vj, reach, membrane):
         for d in _arm_set(arms[vi[v], vj[v]]):
             if reach[v, d] == 0:
                 continue
-            cracks = _junction_cracks(arms, kind, vid, vi[v], vj[v], d)[0][: reach[v, d]]
+            cracks = walks[v, d][: reach[v, d]]
             # each point relative to the vertex corner: the corner it leaves, unwrapped, plus its point there
             corner = np.cumsum([(0, 0)] + [UNIT[c[2]] for c in cracks[:-1]], axis=0)
             points = corner + np.array([_crack_point(membrane, *c) for c in cracks])
