@@ -1,4 +1,8 @@
-"""Plain-Python references of the numba kernels in :mod:`hexatissue.mesh._kernels` -- for tests only.
+"""Plain-Python references of the numba kernels in :mod:`hexatissue.mesh._kernels`.
+
+The tests compare the kernels against them, and a first run of a small input
+on an empty numba cache runs them instead of compiling the kernels
+(:mod:`hexatissue._dispatch`).
 
 Each function here has the name, signature and outputs (values, dtypes and,
 where the kernel's order is a defined rule, order) of the kernel it checks.
@@ -16,8 +20,9 @@ code, so that a slip in one is unlikely to be repeated in the other:
 - line fits use the covariance matrix's eigenvectors; chains of half-edges
   are found by linear search.
 
-Everything is a Python loop over pixels, corners or half-edges: slow, and
-meant for the small images of ``tests/test_mesh_kernels.py``.  Conventions
+Everything but :func:`corner_types` and :func:`fill_gaps` (whole-array
+numpy) is a Python loop over corners or half-edges: slow, and meant for
+small images (the bundled sample's 11 frames of 160 x 257 px: about 3 s).  Conventions
 (corner lattice, directions, corner types) are those of ``_kernels``.
 """
 import numpy as np
