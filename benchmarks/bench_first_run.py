@@ -154,7 +154,8 @@ def main():
         f"{cold_cpu[0]:.1f}-{cold_cpu[1]:.1f} CPU-s",
         f"- warm: {warm[0]:.1f}-{warm[1]:.1f} s wall, {warm_cpu[0]:.1f}-{warm_cpu[1]:.1f} CPU-s",
         f"- cold / warm (same round): {min(ratios):.1f}-{max(ratios):.1f} x (goal <= 3 x on a quiet machine)",
-        f"- compiling every kernel (how every first run went before): {comp[0]:.1f}-{comp[1]:.1f} s wall, "
+        f"- compiling every kernel in the run (a large input's first run; small ones did too before the references, "
+        f"then with a second compiling process beside them): {comp[0]:.1f}-{comp[1]:.1f} s wall, "
         f"{comp_cpu[0]:.1f}-{comp_cpu[1]:.1f} CPU-s",
     ]
     if profiles:
