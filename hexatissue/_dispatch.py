@@ -78,13 +78,28 @@ class Kernels:
             self._reference = import_module(self._reference_name)
         return getattr(self._reference, self._names.get(name, name), None)
 
-    def __getattr__(self, name):
-        kernel = getattr(self._kernels, name)
+    def replaced(self, name):
+        """Whether kernel ``name`` is to be replaced by its reference now."""
         mode = _MODE[0]
         if mode == "kernel":
-            return kernel
-        if mode == "auto" and (name in self._compiled or compiled_or_cached(kernel)):
+            return False
+        if mode == "auto" and (name in self._compiled or compiled_or_cached(getattr(self._kernels, name))):
             self._compiled.add(name)
-            return kernel
-        reference = self._reference_of(name)
+            return False
+        return True
+
+    def __getattr__(self, name):
+        kernel = getattr(self._kernels, name)
+        reference = self._reference_of(name) if self.replaced(name) else None
         return kernel if reference is None else reference
+
+    def replacement(self, kernel, reference):
+        """Object ``reference`` of the reference module when kernel ``kernel`` is to be replaced now, else None.
+
+        For references written one level up (a class or a step that calls
+        several kernels), which take the place of the code that calls the kernel.
+        """
+        if not self.replaced(kernel):
+            return None
+        self._reference_of(kernel)  # imports the module
+        return getattr(self._reference, reference)
