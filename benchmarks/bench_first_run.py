@@ -14,7 +14,10 @@ session so that what it leaves running can be listed (``ps -s``) once it returns
 * ``compiling``: an empty cache with ``pipeline.REFERENCE_PIXELS = 0``, so that the run compiles
   every kernel it needs, as every run did before the references (and as a large input does now).
 
-Runs alternate (cold, warm, compiling, ...) ``--pairs`` times.  CPU-seconds are user + system time
+Runs alternate (cold, warm, compiling, ...) ``--pairs`` times.  Then, for the size limit of the
+references (``pipeline.REFERENCE_PIXELS``), one ``cold`` and one ``compiling`` run of a single
+Voronoi label image of that many pixels (cells 16 px apart): the references must cost less than
+compiling there.  CPU-seconds are user + system time
 of the subprocess and of every descendant it waited for (``resource.getrusage(RUSAGE_CHILDREN)``
 differences; a process still running when the run returns is listed as left over instead).
 ``--profile`` adds, in one more subprocess per mode on an empty cache, the numba kernels that
@@ -92,12 +95,25 @@ def run(kind, sample, cache, work):
     return wall, cpu, load, left, proc.returncode == 0, announced
 
 
+def limit_image(work):
+    """A square Voronoi label image of about ``REFERENCE_PIXELS`` pixels (at most that many), saved as .npy."""
+    import numpy as np
+
+    from hexatissue.pipeline import REFERENCE_PIXELS
+    from hexatissue.synthetic import jittered_seeds, voronoi_labels
+
+    side = int(np.sqrt(REFERENCE_PIXELS))
+    path = work / "limit.npy"
+    np.save(path, voronoi_labels(jittered_seeds((side, side), 16, seed=1), (side, side)).astype(np.int32))
+    return path, side
+
+
 def profile(mode, work):
     cache = Path(tempfile.mkdtemp(dir=work))
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     out = subprocess.run([sys.executable, "-c", PROFILE, mode], env=env, capture_output=True, text=True, check=True)
-    n, total, top = out.stdout.strip().split(" ", 2)
-    return int(n), float(total), top
+    n, total, *top = out.stdout.strip().split(" ", 2)
+    return int(n), float(total), top[0] if top else "none"
 
 
 def main():
@@ -123,6 +139,10 @@ def main():
                 rows.append((pair + 1, kind, wall, cpu, load, left, ok, announced))
                 print(f"pair {pair + 1} {kind}: {wall:.1f} s wall, {cpu:.1f} CPU-s, load {load:.2f}, "
                       f"left over {left or 'none'}, exit ok {ok}, compile announced {announced}", flush=True)
+        limit, side = limit_image(work)
+        at_limit = {kind: run(kind, limit, Path(tempfile.mkdtemp(dir=work)), work) for kind in ("cold", "compiling")}
+        for kind, (wall, cpu, load, left, ok, announced) in at_limit.items():
+            print(f"limit {kind}: {wall:.1f} s wall, {cpu:.1f} CPU-s, load {load:.2f}, exit ok {ok}", flush=True)
         profiles = {mode: profile(mode, work) for mode in ("default", "compiling")} if args.profile else {}
     end_load = os.getloadavg()[0]
 
@@ -158,6 +178,11 @@ def main():
         f"then with a second compiling process beside them): {comp[0]:.1f}-{comp[1]:.1f} s wall, "
         f"{comp_cpu[0]:.1f}-{comp_cpu[1]:.1f} CPU-s",
     ]
+    lines += ["", f"At the references' size limit (one {side} x {side} px Voronoi image, {side * side:,} px, cells 16 px "
+              f"apart), empty cache:", ""]
+    for kind, (wall, cpu, load, left, ok, announced) in at_limit.items():
+        lines.append(f"- {kind}: {wall:.1f} s wall, {cpu:.1f} CPU-s (load before {load:.2f}; left running: "
+                     f"{', '.join(left) or 'nothing'}; exit 0: {'yes' if ok else 'NO'})")
     if profiles:
         lines += ["", "Kernels compiled in one process on an empty cache (numba's compile events; nested kernels "
                   "are counted in their callers too, so the seconds add up to more than the run's CPU time):", ""]

@@ -231,10 +231,10 @@ ENTRIES = (
         "first `analyze` of the bundled sample on an empty numba cache (references for what is not compiled) "
         "against a warm cache",
         "`python benchmarks/bench_first_run.py --pairs 2 --profile`",
-        "cold 15.1-19.9 s, 11.0-11.3 CPU-s; warm 2.7-4.5 s; 4.4-5.5 x; nothing left running "
-        "(compiling every kernel: 50.5 CPU-s)",
+        "cold 6.3-7.2 s, 3.6-3.8 CPU-s; warm 4.1-5.1 s; 1.4-1.5 x; nothing left running "
+        "(compiling every kernel: 52.9-54.4 CPU-s)",
         "<= 3 x warm on a quiet machine, <= 15 CPU-s",
-        "CPU met; 3 x not met",
+        "met",
     ),
     Entry(
         "results_analysis.md",

@@ -48,9 +48,10 @@ from .track import MovieTracker, compact_frames
 __all__ = ["analyze"]
 
 #: Pixels (all frames) up to which a run on an empty numba cache runs the references of the kernels not yet
-#: compiled instead of compiling them: below it the references cost less time than compiling
-#: (benchmarks/results_first_run.md).
-REFERENCE_PIXELS = 2_000_000
+#: compiled instead of compiling them.  At this limit (one dense 707 x 707 px image, cells 16 px apart) the
+#: references took 7.2 CPU-s against 38.0 for compiling (benchmarks/results_first_run.md); some references
+#: search by brute force (cost growing faster than the pixels), so a larger limit would soon lose.
+REFERENCE_PIXELS = 500_000
 
 
 def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoint=None, checkpoint_every=100,
