@@ -22,6 +22,8 @@ __all__ = ["main"]
 # stages that register their own subcommand with ``add_parser(subparsers)``
 SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command",
                       "hexatissue.exchange.command", "hexatissue.benchmark.command")
+#: What compiling the kernels cost, measured (benchmarks/results_first_run.md).
+COMPILE_TEXT = "measured: 38-54 CPU-seconds, 59-107 s on a shared 2-core machine at load 5-6"
 DEBUG_HELP = "on an error, show the Python traceback instead of one line"
 
 
@@ -124,18 +126,12 @@ def _run_analyze(args) -> int:
 
 
 def _analyze_into(args, source, options) -> int:
-    from .mesh import kernels_cached
+    from .pipeline import analyze, first_run_compiles
     from .results import write_results
-    from .pipeline import analyze
 
     client = connect_scheduler(args.scheduler) if args.scheduler else None
-    helper = None
-    if client is None and not kernels_cached():
-        from ._precompile import start as start_helper
-
-        print("hexatissue analyze: first run: compiling the numba kernels, about 40 s on 2 cores (once: "
-              "later runs load them from numba's cache)", file=sys.stderr, flush=True)
-        helper = start_helper()  # compiles the later stages' kernels while this process compiles the mesh's
+    if first_run_compiles(source, client):
+        announce_compile(source, options)
     start = time.perf_counter()
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
@@ -143,9 +139,6 @@ def _analyze_into(args, source, options) -> int:
     finally:
         if client is not None:
             client.close()
-        if helper is not None:  # done or not, it is not needed any more (numba writes each cache entry whole)
-            helper.kill()
-            helper.wait()
     line = summary_line(movie)
     if args.figures:
         from .workflows.figures import save_movie_figures
@@ -160,6 +153,24 @@ def _analyze_into(args, source, options) -> int:
     print(f"{args.input}: {line}; {len(written)} files in {args.out} "
           f"({time.perf_counter() - start:.1f} s)")
     return 0
+
+
+def announce_compile(source, options):
+    """Say that this run compiles the numba kernels, once its first frame has been read and checked.
+
+    A refused input so stops before the message (and compiles nothing);
+    the check runs the kernels' references (:func:`hexatissue._dispatch.references`),
+    so nothing is compiled before the message either.  The figure is
+    measured by ``benchmarks/bench_first_run.py``.
+    """
+    from ._dispatch import references
+
+    if source.kind != "polygons":
+        with references("auto"), warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the run reports the frame's warnings with the others
+            source.checked_frame(0, options["mesh"].kind)
+    print(f"hexatissue analyze: first run on an empty numba cache: compiling the kernels this input needs "
+          f"({COMPILE_TEXT}; once: later runs load them from numba's cache)", file=sys.stderr, flush=True)
 
 
 def connect_scheduler(address, name="--scheduler"):
@@ -298,6 +309,9 @@ def main(argv=None) -> int:
         if not _interrupted(exc):
             raise
         print(f"hexatissue {args.command}: interrupted; files already written are complete", file=sys.stderr)
+        # an interrupt inside numba's compiler leaves half-built LLVM objects whose destructors fail when they are
+        # collected ("Exception ignored in ... PassBuilder"): noise after the message above, not news
+        sys.unraisablehook = lambda unraisable: None
         return 130
     finally:
         warnings.showwarning = saved

@@ -32,6 +32,7 @@ from collections import deque
 import numpy as np
 
 from ._checkpoint import Checkpoint
+from ._dispatch import reference_mode, references
 from ._executors import batch_size, executor
 from ._rows import Rows
 from ._system import release_freed_memory
@@ -45,6 +46,12 @@ from .stages import (FrameData, MovieData, frame_stages, frame_tables, movie_sta
                      worker_stages)
 
 __all__ = ["analyze"]
+
+#: Pixels (all frames) up to which a run on an empty numba cache runs the references of the kernels not yet
+#: compiled instead of compiling them.  At this limit (one dense 707 x 707 px image, cells 16 px apart) the
+#: references took 7.2 CPU-s against 38.0 for compiling (benchmarks/results_first_run.md); some references
+#: search by brute force (cost growing faster than the pixels), so a larger limit would soon lose.
+REFERENCE_PIXELS = 500_000
 
 
 def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoint=None, checkpoint_every=100,
@@ -142,19 +149,45 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
                    source=_identity(src.description), options={k: v.to_dict() for k, v in options.items()},
                    mask=mask_info, images={name: _identity(image.description) for name, image in images.items()})
         store = Checkpoint(checkpoint, key, checkpoint_every, tables)
-    rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client, workers,
-                            store, progress)
-    release_freed_memory()  # the frames' freed temporaries, before the movie stages
-    orders = options["order"].p
-    movie = MovieData(tables={name: rows.pop(name).table(name, orders) for name in tables}, box=box,
-                      n_frames=src.n_frames, source=src, states=states, options=dict(options), images=images)
-    del states
-    for stage in movie_work:
-        stage.run(movie, options[stage.options.stage])
-        release_freed_memory()  # after each movie stage: its freed working set would stay under the next
+    with references(kernel_mode(src, client)):
+        rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client,
+                                workers, store, progress)
+        release_freed_memory()  # the frames' freed temporaries, before the movie stages
+        orders = options["order"].p
+        movie = MovieData(tables={name: rows.pop(name).table(name, orders) for name in tables}, box=box,
+                          n_frames=src.n_frames, source=src, states=states, options=dict(options), images=images)
+        del states
+        for stage in movie_work:
+            stage.run(movie, options[stage.options.stage])
+            release_freed_memory()  # after each movie stage: its freed working set would stay under the next
     return Movie(**movie.tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
                  options=movie.options, source=_described(src.description, mask_info, images), version=__version__,
                  summary=movie.summary)
+
+
+def kernel_mode(source, client=None) -> str:
+    """How :func:`analyze` runs the kernels of ``source`` (:func:`hexatissue._dispatch.references`).
+
+    ``"auto"`` for a small input analysed locally: a kernel not yet compiled
+    (in this process or numba's cache) runs its plain-numpy reference, so the
+    run waits on no compilation; ``"kernel"`` otherwise (a dask cluster's
+    workers compile on their side).  Small: at most :data:`REFERENCE_PIXELS`
+    pixels in all frames.  Inside :func:`hexatissue._dispatch.references` the
+    caller's mode is kept.
+    """
+    if reference_mode() != "kernel":
+        return reference_mode()
+    return "auto" if client is None and source.n_frames * int(np.prod(source.shape)) <= REFERENCE_PIXELS else "kernel"
+
+
+def first_run_compiles(source, client=None) -> bool:
+    """Whether :func:`analyze` of ``source`` compiles the numba kernels (numba's cache does not hold the mesh's).
+
+    A small input (:func:`kernel_mode`) never waits on compilation.
+    """
+    from .mesh import kernels_cached
+
+    return kernel_mode(source, client) == "kernel" and client is None and not kernels_cached()
 
 
 def _identity(description):

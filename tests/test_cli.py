@@ -135,15 +135,29 @@ def test_the_command_does_not_import_what_only_other_commands_use(tmp_path):
     assert out.split("\n")[-2] == "0", out
 
 
-def test_first_run_says_that_it_compiles(tmp_path, monkeypatch, capsys):
+def test_a_run_that_compiles_says_so_after_checking_its_input(tmp_path, monkeypatch, capsys):
+    """On an empty cache a run that compiles (here: every input counts as large) announces it, with the measured
+    figure; a small input (references) and a refused input (nothing compiled) print no such message."""
     import hexatissue.mesh
+    import hexatissue.pipeline
+    from hexatissue.cli import COMPILE_TEXT
 
-    np.save(tmp_path / "labels.npy", np.kron(np.arange(1, 10).reshape(3, 3), np.ones((6, 6), int)))
+    labels = tmp_path / "labels.npy"
+    np.save(labels, np.kron(np.arange(1, 10).reshape(3, 3), np.ones((6, 6), int)))
+    refused = tmp_path / "float.npy"
+    np.save(refused, np.full((10, 10), 0.5))
     monkeypatch.setattr(hexatissue.mesh, "kernels_cached", lambda: False)
-    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/o".split()) == 0
-    assert "first run: compiling the numba kernels" in capsys.readouterr().err
+    assert main(f"analyze {labels} --out {tmp_path}/small".split()) == 0
+    assert "compiling" not in capsys.readouterr().err  # small: the references run, nothing is compiled
+    monkeypatch.setattr(hexatissue.pipeline, "REFERENCE_PIXELS", 0)
+    assert main(f"analyze {refused} --out {tmp_path}/o".split()) == 2
+    err = capsys.readouterr().err
+    assert "non-integer" in err and "compiling" not in err
+    assert main(f"analyze {labels} --out {tmp_path}/large".split()) == 0
+    err = capsys.readouterr().err
+    assert "first run on an empty numba cache: compiling the kernels" in err and COMPILE_TEXT in err
     monkeypatch.setattr(hexatissue.mesh, "kernels_cached", lambda: True)
-    assert main(f"analyze {tmp_path}/labels.npy --out {tmp_path}/o2".split()) == 0
+    assert main(f"analyze {labels} --out {tmp_path}/o2".split()) == 0
     assert "compiling" not in capsys.readouterr().err
 
 
@@ -152,18 +166,3 @@ def test_kernels_cached_reads_numba_s_index():
 
     _kernels.cell_moments(np.ones((2, 2), np.int32), 2, False)  # compiled or loaded: cached now
     assert kernels_cached()
-
-
-@pytest.mark.slow
-def test_the_first_run_helper_fills_the_cache_with_the_later_stages_kernels(tmp_path):
-    """``python -m hexatissue._precompile`` on an empty numba cache compiles the order, defect, tracking, event and
-    flow kernels (their cache indexes appear) and none of the mesh kernels that have a reference."""
-    import os
-    import subprocess
-    import sys
-
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    subprocess.run([sys.executable, "-m", "hexatissue._precompile"], env=env, check=True, timeout=600)
-    indexes = {p.name.split(".")[1].split("-")[0] for p in tmp_path.rglob("*.nbi")}
-    assert {"shape_sums", "plaquette_defects", "_t1_kernel", "affine_fits", "_compact_overlaps"} <= indexes, indexes
-    assert not {"trace_junctions", "merge_clusters", "polygons"} & indexes, indexes

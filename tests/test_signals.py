@@ -1,5 +1,5 @@
-"""Interrupts and kills: a run stops within 2 s of SIGINT, its workers and helper included, and leaves no folder
-that reads as complete; no helper outlives its parent (subprocesses on the real command)."""
+"""Interrupts and kills: a run stops within 2 s of SIGINT, its workers included, also while it compiles its kernels,
+and leaves no folder that reads as complete (subprocesses on the real command)."""
 import os
 import signal
 import subprocess
@@ -69,20 +69,34 @@ def test_sigint_stops_a_run_and_its_workers_within_two_seconds(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_compile_helper_dies_with_its_run(tmp_path):
-    # a parent that starts the helper, then is killed outright (SIGKILL: no finally, no cleanup)
-    script = "import time; from hexatissue import _precompile; h = _precompile.start(); print(h.pid, flush=True); " \
-             "time.sleep(60)"
-    parent = subprocess.Popen([sys.executable, "-c", script], env=_env(), stdout=subprocess.PIPE,
-                              start_new_session=True)
-    helper = int(parent.stdout.readline())
-    time.sleep(1.0)
-    os.kill(parent.pid, signal.SIGKILL)
-    parent.wait()
-    deadline = time.monotonic() + 2.0
-    while time.monotonic() < deadline and _session(parent.pid):
-        time.sleep(0.1)
-    assert _session(parent.pid) == [], f"helper {helper} outlived its parent"
+def test_sigint_while_the_first_run_compiles_stops_it_at_once(tmp_path):
+    """An empty numba cache and an input above REFERENCE_PIXELS: the run compiles the kernels and says so; SIGINT
+    then stops it within 2 s with the interrupted message and code (no traceback, no destructor noise) and leaves
+    no process behind."""
+    from hexatissue.pipeline import REFERENCE_PIXELS
+
+    side = int(np.sqrt(REFERENCE_PIXELS)) + 64
+    np.save(tmp_path / "large.npy", voronoi_labels(jittered_seeds((side, side), 40, seed=1), (side, side)))
+    env = dict(_env(), NUMBA_CACHE_DIR=str(tmp_path / "cache"), HEXATISSUE_PROGRESS="0")
+    run = subprocess.Popen([sys.executable, "-m", "hexatissue.cli", "analyze", str(tmp_path / "large.npy"), "--out",
+                            str(tmp_path / "o")], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           start_new_session=True)
+    try:
+        assert "compiling the kernels" in run.stderr.readline()
+        time.sleep(2.0)  # inside numba's compiler by now (the mesh's kernels take tens of seconds)
+        assert run.poll() is None
+        start = time.monotonic()
+        os.kill(run.pid, signal.SIGINT)
+        _, err = run.communicate(timeout=30)
+        took = time.monotonic() - start
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 130 and err.strip() == "hexatissue analyze: interrupted; files already written are " \
+        "complete", err[-2000:]
+    assert took < 2.0, took
+    time.sleep(0.5)
+    assert _session(run.pid) == []
 
 
 def test_a_failed_figure_leaves_a_folder_that_does_not_read_as_complete(tmp_path, monkeypatch, capsys):

@@ -18,6 +18,10 @@ from .._system import release_freed_memory
 from ..errors import InputError, check_orders, check_p, check_positive
 from ..geometry import match_points
 from ..schema import require_columns, rows_by_frame, string_column, validate
+from .._dispatch import Kernels
+from . import _kernels
+
+K = Kernels(_kernels, "hexatissue.defects._reference")
 
 #: the ``kind`` of a defect event, alphabetical (events carry its index until their table is built)
 EVENT_KINDS = ("annihilation", "appearance", "creation", "disappearance")
@@ -188,11 +192,9 @@ def _field_layouts(row, col, groups):
     field back to back (field ``g`` is ``rows[cuts[g]:cuts[g + 1]]``) and whether each field is a
     block of consecutive rows in node order (:func:`hexatissue.defects._kernels.field_layouts`).
     """
-    from ._kernels import field_layouts
-
     rows = np.concatenate([r for _, _, r in groups])
     cuts = np.r_[0, np.cumsum([len(r) for _, _, r in groups])]
-    shapes, once, block = field_layouts(row, col, rows, cuts)
+    shapes, once, block = K.field_layouts(row, col, rows, cuts)
     bad = np.flatnonzero(~once | (shapes.min(axis=1) < 2))
     if len(bad):
         ny, nx = shapes[bad[0]]
@@ -240,14 +242,12 @@ def _stack_positions(x, y, stacking, count, shape, box):
 
 def _stack_defects(re, im, usable, stacking, positions, count, shape, p, box):
     """Defects of a stack of fields of one shape: field index in the stack, positions and charges."""
-    from ._kernels import plaquette_defects
-
     theta = np.arctan2(_stack(im, *stacking, count, shape), _stack(re, *stacking, count, shape))
     theta /= p  # = Arg / p (in place: theta is a new array)
     unusable = ~_stack(usable, *stacking, count, shape, fill=False)
     if unusable.any():
         theta[unusable] = np.nan
-    flat, charge = plaquette_defects(theta, p, box is not None)
+    flat, charge = K.plaquette_defects(theta, p, box is not None)
     g, i, j = np.unravel_index(flat, (count, *shape) if box is not None else (count, shape[0] - 1, shape[1] - 1))
     gx, gy, dx, dy = positions
     # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]

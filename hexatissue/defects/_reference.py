@@ -1,14 +1,14 @@
 """Plain-numpy references of the kernels in :mod:`hexatissue.defects._kernels`.
 
-:func:`field_layouts` has the kernel's name and signature; :func:`winding`
-(the plain-numpy path of :func:`hexatissue.defects.plaquette_charges`) gives
-every plaquette's charge, of which ``plaquette_defects`` keeps the charged ones.
+:func:`field_layouts` and :func:`plaquette_defects` have the kernels' names and signatures; the latter keeps
+the charged plaquettes of :func:`winding` (the plain-numpy path of
+:func:`hexatissue.defects.plaquette_charges`), which gives every plaquette's charge.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from . import winding  # noqa: F401  (the reference of _kernels.plaquette_defects, beside plaquette_charges)
+from . import winding  # the reference of _kernels.plaquette_defects, beside plaquette_charges
 
 
 def field_layouts(row, col, rows, cuts):
@@ -25,3 +25,11 @@ def field_layouts(row, col, rows, cuts):
         once[g] = np.bincount(node, minlength=n).max() == 1
         block[g] = once[g] and (node == np.arange(n)).all() and (rows[a:b] == rows[a] + np.arange(n)).all()
     return shapes, once, block
+
+
+def plaquette_defects(theta, p, periodic):
+    """Reference of :func:`hexatissue.defects._kernels.plaquette_defects`: the charged plaquettes of :func:`winding`."""
+    charge = winding(theta, p, periodic).ravel()
+    flat = np.flatnonzero(charge != 0)  # NaN != 0, but a NaN plaquette is never charged
+    flat = flat[np.isfinite(charge[flat])]
+    return flat.astype(np.int64), charge[flat]

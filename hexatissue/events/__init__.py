@@ -40,11 +40,16 @@ from ..errors import HexatissueWarning, InputError, is_real, user_stacklevel
 from ..geometry import in_sorted, lookup, row_keys
 from ..graph import pair_groups
 from ..schema import FrameRows, deprecated_column_lists, interior_mask, string_column, track_ids, validate
-from ._kernels import (_both_in, _change_kernel, _close_kernel, _excursion_starts, _lists_kernel, _quartet_kernel,
-                       _t1_kernel, _undo_pairs)
+from . import _kernels
+from ._kernels import _both_in, _change_kernel, _close_kernel, _lists_kernel, _quartet_kernel, _t1_kernel
+from .._dispatch import Kernels
 
 __all__ = ["detect_t1", "neighbour_events", "t1_tables", "default_censor", "CENSOR_MAX", "CENSOR_DIVISOR", "classify_t1",
            "find_t1", "track_contacts", "cell_event_stats", "intercalation_intervals", "events_summary"]
+
+# the kernels, or their references (:mod:`hexatissue._dispatch`); not ``K``, which names the key base here
+KERNELS = Kernels(_kernels, "hexatissue.events._reference", names={"_undo_pairs": "_undo_pairs_reference",
+                                                                  "_excursion_starts": "_excursion_starts_reference"})
 
 #: The ``kind`` of a T1 (quartet or per-cell event); tables are built from codes, its indices.
 T1_KINDS = ("cycle", "intercalation", "unresolved")
@@ -309,6 +314,9 @@ class _FrameGraph:
         lo, hi = np.divmod(self.keys, K)
         # both directions sorted by (u, v): the neighbour lists of the present cells (a kernel, no sort;
         # their hashes are not used) when they hold every contact, else a sort of them all
+        if KERNELS.replaced("_lists_kernel"):  # the sort of them all, in numpy
+            self.u, self.v = _directed(lo, hi)
+            return
         self.u, self.v = _lists_kernel(present, lo, hi, np.uint64(GOLDEN))[:2]
         if len(self.v) != 2 * len(self.keys):
             self.u, self.v = _directed(lo, hi)
@@ -526,6 +534,9 @@ def _t1_step(prev, cur):
     included); the kernel's own quartets are those of the contacts, taken when no pair is held.
     :func:`hexatissue.events._reference._t1_step_reference` is the same in numpy.
     """
+    reference = KERNELS.replacement("_t1_kernel", "_t1_step_reference")
+    if reference is not None:
+        return reference(prev, cur)
     new, gone, loss_ab, loss_cd, gain_ab, gain_cd = _t1_kernel(prev.keys, prev.u, prev.v, prev.present, cur.keys,
                                                                cur.u, cur.v, cur.present, cur.K)
     if prev.flanks is not prev:  # the flanks of the losses, held four-fold vertices included
@@ -602,7 +613,7 @@ def classify_t1(t1: pd.DataFrame, last_frame: int, censor: int = 10) -> pd.DataF
     undone = np.zeros(len(lost), bool)
     undone[:-1] = (q_lo[1:] == q_lo[:-1]) & (q_hi[1:] == q_hi[:-1]) & (cells["cell_a"][1:] == cells["cell_c"][:-1]) \
         & (cells["cell_b"][1:] == cells["cell_d"][:-1])
-    first, cycle = _undo_pairs(undone)
+    first, cycle = KERNELS._undo_pairs(undone)
     kind = _kind_codes(cycle, lost[first], last_frame, censor)
     undo = np.minimum(first + 1, len(lost) - 1)  # the inverse T1 of a cycle (clipped where there is none)
     end, undo_at = np.where(cycle, gain[undo], np.nan), np.where(cycle, lost[undo], np.nan)
@@ -743,7 +754,7 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
 
     def contacts():  # each frame's contacts, to the per-cell lists as they go to the quartet search
         for f, tracks, a, b, length in _movie_frames(edges, cells, min_length):
-            changes.add(_Lists(f, tracks, a, b))
+            changes.add(_lists(f, tracks, a, b))
             yield f, tracks, a, b, length
 
     raw = _find_t1(contacts(), _ids(edges, cells), _held_pairs(edges, cells))
@@ -894,6 +905,11 @@ class _Lists:
 SLOT_TABLE_ROWS = 4
 
 
+def _lists(frame, tracks, a, b):
+    """A frame's :class:`_Lists`, or its numpy reference where :mod:`hexatissue._dispatch` replaces the kernel."""
+    return (KERNELS.replacement("_lists_kernel", "_ListsReference") or _Lists)(frame, tracks, a, b)
+
+
 def _table_fits(top, n):
     """Whether a lookup table over ids 0..``top`` is small enough for ``n`` ids (:data:`SLOT_TABLE_ROWS`)."""
     return top < SLOT_TABLE_ROWS * n + 2**16
@@ -947,7 +963,7 @@ class _ChangeLog:
         back = np.full(self.n, -1, np.int64)
         for index, frame in self.back:
             back[index] = frame
-        first = _excursion_starts(order, track, start, back)
+        first = KERNELS._excursion_starts(order, track, start, back)
         cycle = back[first] >= 0
         kind = _kind_codes(cycle, start[first], last, censor)
         return (track[first], kind, start[first], np.where(cycle, back[first], np.nan), n_lost[first],
@@ -1058,7 +1074,7 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
     _check_censor(censor)
     changes, by_frame = _changes(cells)
     for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
-        changes.add(_Lists(frame, present, a, b))
+        changes.add(_lists(frame, present, a, b))
     return _neighbour_table(changes, cells, by_frame, censor)
 
 
@@ -1073,8 +1089,8 @@ def _changes(cells):
     by_frame = FrameRows(frames)
     constant = _same_cells_every_frame(by_frame, tracks)
     top = int(tracks.max()) if len(tracks) else 0
-    changes = _Changes(None if constant else np.unique(row_keys(frames, tracks)),
-                       top if _table_fits(top, len(tracks)) else None)
+    changes = (KERNELS.replacement("_close_kernel", "_ChangesReference") or _Changes)(
+        None if constant else np.unique(row_keys(frames, tracks)), top if _table_fits(top, len(tracks)) else None)
     return changes, by_frame
 
 

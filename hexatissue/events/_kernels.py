@@ -47,7 +47,7 @@ def _missing(a, b):
 @njit(cache=True)
 def _quartet_kernel(pairs, keys, u, v, K):
     """:meth:`_FrameGraph.quartets` of a frame's keys and directed contacts: arrays (pair, c * K + d)."""
-    lo, hi = np.searchsorted(u, pairs // K), np.searchsorted(u, pairs // K, side="right")  # neighbours of a
+    lo, hi = _first_not_below(u, pairs // K, 0), _first_not_below(u, pairs // K, 1)  # neighbours of a (ids: integers)
     common = np.empty((hi - lo).sum(), np.int64)
     found = np.empty(len(pairs) + 1, np.int64)  # first common neighbour of each pair, and the end
     found[0] = 0
@@ -100,7 +100,7 @@ def _lists_kernel(tracks, a, b, golden):
     of ``v + golden``) summed.
     """
     n = len(tracks)
-    ra, rb = np.searchsorted(tracks, a), np.searchsorted(tracks, b)
+    ra, rb = _first_not_below(tracks, a, 0), _first_not_below(tracks, b, 0)
     start = np.zeros(n + 1, np.int64)
     for k in range(len(a)):
         if ra[k] < n and tracks[ra[k]] == a[k]:
@@ -153,9 +153,36 @@ def _excursion_starts(order, track, start, back):
 
 
 @njit(cache=True)
+def _search(values, x):
+    """``np.searchsorted(values, x)`` of one value (binary search).
+
+    numba's ``np.searchsorted`` brings its generic comparisons (complex and
+    NaN-aware ones among them) into every kernel that calls it, and
+    compiling them was seconds of a first run.
+    """
+    lo, hi = 0, len(values)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if values[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def _first_not_below(values, xs, shift):
+    """``np.searchsorted(values, xs + shift)`` of integers ``xs``: shift 0 is side "left", shift 1 side "right"."""
+    out = np.empty(len(xs), np.int64)
+    for k in range(len(xs)):
+        out[k] = _search(values, xs[k] + shift)
+    return out
+
+
+@njit(cache=True)
 def _contains(values, x):
     """Whether ``x`` is in the sorted array ``values``."""
-    i = np.searchsorted(values, x)
+    i = _search(values, x)
     return i < len(values) and values[i] == x
 
 
@@ -194,8 +221,11 @@ def _close_kernel(tracks, u, v, h, full, open_, ref, m, rare, rare_h, k, common,
     empty (a binary search).  Every open change is compared at every frame (one lookup and one comparison
     each); the buffers are rewritten only from the first change closed on.
     """
+    # element by element: numba's fancy-index assignment of an array compiles a shape-mismatch message (str and
+    # repr of shapes), seconds of a first run
     if len(slot):
-        slot[tracks] = np.arange(len(tracks))
+        for r in range(len(tracks)):
+            slot[tracks[r]] = r
     back = np.zeros(m, np.bool_)
     first, first_rare, o = m, k, 0  # the first change closed, its first rare neighbour; next rare neighbour
     for c in range(m):
@@ -205,13 +235,13 @@ def _close_kernel(tracks, u, v, h, full, open_, ref, m, rare, rare_h, k, common,
         if len(slot):
             row = slot[cell]
         else:
-            row = np.searchsorted(tracks, cell)
+            row = _search(tracks, cell)
             row = row if row < len(tracks) and tracks[row] == cell else -1
         if row < 0:
             continue
         now, was = full[row], ref[c]
         if rare_ids:  # less the neighbours absent from either frame
-            r = np.searchsorted(u, cell)
+            r = _search(u, cell)
             while r < len(u) and u[r] == cell:
                 if not _contains(common, v[r]) and _absent(v[r], before, tracks, keys):
                     now -= h[r]
@@ -224,7 +254,8 @@ def _close_kernel(tracks, u, v, h, full, open_, ref, m, rare, rare_h, k, common,
             if first == m:
                 first, first_rare = c, lo
     if len(slot):
-        slot[tracks] = -1
+        for r in range(len(tracks)):
+            slot[tracks[r]] = -1
     done = open_[0, first:m][back[first:m]].copy()
     w, wk, o = first, first_rare, first_rare  # open changes and rare neighbours kept; next rare neighbour
     for c in range(first, m):

@@ -21,11 +21,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .._dispatch import Kernels
 from ..box import as_box
 from ..errors import InputError, check_positive
 from ..schema import interior_mask, require_columns, validate
 from ..units import in_units, velocity_unit  # the flow's units (defined with the calibration), kept in its API
-from . import _kernels as K
+from . import _kernels
 from .centred import angular_harmonics, defect_flow, t1_flow
 from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _track_rows, cell_spacing, correlation_length,
                          flow_summary, mean_squared_displacement, msd_exponent, reliable_bins, rms_step,
@@ -35,6 +36,8 @@ __all__ = ["cell_velocities", "flow_fields", "velocity_statistics", "velocity_co
            "mean_squared_displacement", "msd_exponent", "flow_summary", "velocity_unit", "in_units", "MIN_CELLS",
            "t1_flow", "defect_flow", "angular_harmonics", "reliable_bins", "SPARSE_BIN", "MIN_BIN_PAIRS", "CorrelationLength",
            "rms_step", "cell_spacing"]
+
+K = Kernels(_kernels, "hexatissue.flow._reference")
 
 #: Fewest cells an affine fit takes (three non-collinear points fix a 2-D affine map).
 MIN_CELLS = 3

@@ -1,4 +1,8 @@
-"""Plain-Python references of the numba kernels in :mod:`hexatissue.mesh._kernels` -- for tests only.
+"""Plain-Python references of the numba kernels in :mod:`hexatissue.mesh._kernels`.
+
+The tests compare the kernels against them, and a first run of a small input
+on an empty numba cache runs them instead of compiling the kernels
+(:mod:`hexatissue._dispatch`).
 
 Each function here has the name, signature and outputs (values, dtypes and,
 where the kernel's order is a defined rule, order) of the kernel it checks.
@@ -16,8 +20,9 @@ code, so that a slip in one is unlikely to be repeated in the other:
 - line fits use the covariance matrix's eigenvectors; chains of half-edges
   are found by linear search.
 
-Everything is a Python loop over pixels, corners or half-edges: slow, and
-meant for the small images of ``tests/test_mesh_kernels.py``.  Conventions
+Everything but :func:`corner_types` and :func:`fill_gaps` (whole-array
+numpy) is a Python loop over corners or half-edges: slow, and meant for
+small images (the bundled sample's 11 frames of 160 x 257 px: about 3 s).  Conventions
 (corner lattice, directions, corner types) are those of ``_kernels``.
 """
 import numpy as np
@@ -63,15 +68,19 @@ def _crack_key(ci, cj, d, nci, ncj):
     return d - 2, ei, ej
 
 
+_ARM_SETS = tuple(tuple(d for d in range(4) if (mask >> d) & 1) for mask in range(16))
+
+
 def _arm_set(mask):
-    return [d for d in range(4) if (int(mask) >> d) & 1]
+    """The directions of the arms of a corner, from its arm bits."""
+    return _ARM_SETS[mask]
 
 
 def _partner(corner_kind, mask, arm):
     """The arm continuing the boundary that reaches a pass-through corner (type 2, 5 or 6) by ``arm``."""
     if corner_kind == 2:
-        (other,) = [d for d in _arm_set(mask) if d != arm]
-        return other
+        first, second = _arm_set(mask)
+        return second if arm == first else first
     for a, b in DIAGONAL_PAIRS[corner_kind]:
         if arm in (a, b):
             return b if arm == a else a
@@ -109,26 +118,38 @@ def _padded(labels, periodic):
 
 
 def corner_types(labels, periodic):
-    """Reference of :func:`._kernels.corner_types`."""
+    """Reference of :func:`._kernels.corner_types`, on whole arrays (it runs on small first-run inputs too).
+
+    Corner (ci, cj) has TL = ``pad[ci, cj]``, TR = ``pad[ci, cj + 1]``,
+    BL = ``pad[ci + 1, cj]``, BR = ``pad[ci + 1, cj + 1]``; arm d runs
+    between the two pixels beside its crack (:func:`_pixels_beside`): +x
+    between TR and BR, +y between BL and BR, -x between TL and BL, -y
+    between TL and TR.
+    """
     pad, (nci, ncj) = _padded(labels, periodic)
-    image_corners = not periodic
-    arms = np.zeros((nci, ncj), np.uint8)
-    kind = np.zeros((nci, ncj), np.uint8)
-    cracks = set()
-    vertices = []
-    for ci in range(nci):
-        for cj in range(ncj):
-            present = [d for d in range(4) if len(set(_labels_beside(pad, ci, cj, d))) == 2]
-            arms[ci, cj] = sum(1 << d for d in present)
-            cracks.update(_crack_key(ci, cj, d, nci, ncj) for d in present)
-            block = pad[ci, cj], pad[ci, cj + 1], pad[ci + 1, cj], pad[ci + 1, cj + 1]
-            kind[ci, cj] = _corner_kind(*block, len(present))
-            image_corner = image_corners and ci in (0, nci - 1) and cj in (0, ncj - 1)
-            if kind[ci, cj] in (3, 4) or (image_corner and present):
-                vertices.append((ci, cj))
-    vi = np.array([c[0] for c in vertices], np.int64)
-    vj = np.array([c[1] for c in vertices], np.int64)
-    return arms | (kind << 4), vi, vj, len(cracks)
+    tl, tr = pad[:nci, :ncj], pad[:nci, 1:ncj + 1]
+    bl, br = pad[1:nci + 1, :ncj], pad[1:nci + 1, 1:ncj + 1]
+    present = np.stack([tr != br, bl != br, tl != bl, tl != tr])  # direction d = 0..3
+    arms = (present * (1 << np.arange(4))[:, None, None]).sum(axis=0).astype(np.uint8)
+    n_arms = present.sum(axis=0)
+    distinct = (tl != tr) & (tl != bl) & (tl != br) & (tr != bl) & (tr != br) & (bl != br)
+    main, anti = tl == br, tr == bl  # which diagonal pair of pixels shares a label
+    # a two-label checkerboard (both pairs equal): the smaller label is the connected one
+    five = np.where(main & anti, tl < tr, main)
+    kind = np.where(n_arms < 4, n_arms, np.where(distinct, 4, np.where(five, 5, 6))).astype(np.uint8)
+    is_vertex = (kind == 3) | (kind == 4)
+    if not periodic:  # the image corners of an open image, where a boundary turns
+        corner = np.zeros((nci, ncj), bool)
+        corner[[0, 0, -1, -1], [0, -1, 0, -1]] = True
+        is_vertex |= corner & (n_arms > 0)
+    vi, vj = np.nonzero(is_vertex)  # raster order
+    # each crack once, named by the corner it leaves along +x or +y (_crack_key)
+    d, ci, cj = np.nonzero(present)
+    back = d >= 2
+    ci[back] = (ci[back] + np.where(d[back] == 3, -1, 0)) % nci
+    cj[back] = (cj[back] + np.where(d[back] == 2, -1, 0)) % ncj
+    n_cracks = len(np.unique((d % 2) * (nci * ncj) + ci * ncj + cj))
+    return arms | (kind << 4), vi.astype(np.int64), vj.astype(np.int64), n_cracks
 
 
 def _split(corners):
@@ -173,9 +194,11 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
         membrane = np.zeros(pad.shape, bool)
     vid = _vertex_map(arms.shape, vi, vj)
     rows = []
+    walks = {}  # (vertex, arm) -> its cracks, walked once for the junctions and the arm fits
     for v in range(len(vi)):
         for d in _arm_set(arms[vi[v], vj[v]]):
             cracks, end_corner = _junction_cracks(arms, kind, vid, vi[v], vj[v], d)
+            walks[v, d] = cracks
             end, end_arm = int(vid[end_corner]), (cracks[-1][2] + 2) % 4
             if (end, end_arm) < (v, d):
                 continue  # listed from its other end
@@ -191,7 +214,7 @@ def trace_junctions(labels, periodic, corners, vi, vj, n_max, membrane, max_reac
     half = np.clip((ncrack + 1) // 2, 1, max_reach)
     reach[start, start_arm] = half
     reach[end, end_arm] = half
-    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane)
+    return junctions + _arm_lines(arms, kind, vid, vi, vj, reach, membrane, walks)
 
 
 def mark_junctions(periodic, corners, vi, vj, start, start_arm):
@@ -248,8 +271,10 @@ def _crack_point(membrane, ci, cj, d):
     return np.array([0.5 * ex - 0.5 * ey * side, 0.5 * ey + 0.5 * ex * side])
 
 
-def _arm_lines(arms, kind, vid, vi, vj, reach, membrane):
-    """The arm line fits of :func:`trace_junctions`, walking ``reach[v, d]`` cracks along arm d of vertex v.
+def _arm_lines(arms, kind, vid, vi, vj, reach, membrane, walks):
+    """The arm line fits of :func:`trace_junctions` over the first ``reach[v, d]`` cracks along arm d of vertex v.
+
+    ``walks[v, d]``: the cracks of that arm's junction, as :func:`_junction_cracks` walked them.
 
     ``direction`` is a line's axis, whose sign has no meaning; here it has
     x >= 0 (y > 0 when x == 0).  Compare up to sign: the kernel's sign for
@@ -266,7 +291,7 @@ def _arm_lines(arms, kind, vid, vi, vj, reach, membrane):
         for d in _arm_set(arms[vi[v], vj[v]]):
             if reach[v, d] == 0:
                 continue
-            cracks = _junction_cracks(arms, kind, vid, vi[v], vj[v], d)[0][: reach[v, d]]
+            cracks = walks[v, d][: reach[v, d]]
             # each point relative to the vertex corner: the corner it leaves, unwrapped, plus its point there
             corner = np.cumsum([(0, 0)] + [UNIT[c[2]] for c in cracks[:-1]], axis=0)
             points = corner + np.array([_crack_point(membrane, *c) for c in cracks])
@@ -534,3 +559,31 @@ def at_most_two_values(labels):
     """Reference of :func:`._kernels.at_most_two_values` (two comparisons, not a sort)."""
     others = labels[labels != labels.flat[0]]
     return others.size == 0 or not (others != others[0]).any()
+
+
+def fill_gaps(labels, passes, periodic):
+    """Reference of :func:`._kernels.fill_gaps`, on whole arrays (it runs on small first-run inputs too).
+
+    Each pass gives every 0-pixel the most frequent nonzero label among its
+    4 neighbours, read in the order up, left, down, right rotated by
+    ``(row + col) % 4``; of equally frequent labels the first read wins.
+    """
+    cur = labels.copy()
+    h, w = labels.shape
+    rows, cols = np.indices((h, w))
+    start = (rows + cols) % 4
+    for _ in range(passes):
+        zero = cur == 0
+        if not zero.any():
+            break
+        pad = np.pad(cur, 1, mode="wrap" if periodic else "constant")
+        # neighbour k: up, left, down, right (the kernel's k = 0..3)
+        around = np.stack([pad[:-2, 1:-1], pad[1:-1, :-2], pad[2:, 1:-1], pad[1:-1, 2:]])
+        cand = np.stack([np.take_along_axis(around, ((start + s) % 4)[None], axis=0)[0] for s in range(4)])
+        votes = np.where(cand != 0, (cand[:, None] == cand[None]).sum(axis=1), -1)
+        best = np.take_along_axis(cand, votes.argmax(axis=0)[None], axis=0)[0]  # argmax: the first of ties
+        filled = zero & (best != 0)
+        if not filled.any():
+            break
+        cur = np.where(filled, best, cur)
+    return cur

@@ -59,9 +59,12 @@ import numpy as np
 from scipy import ndimage
 
 from .._components import components
+from .._dispatch import Kernels
 from ..errors import FrameWarning, HexatissueWarning, InputError, is_real
 from ..options import KINDS, OUTSIDE_RULES, POCKET_AREA, check_background
-from ._kernels import at_most_two_values, fill_gaps, label_summary, present_ids
+from . import _kernels
+
+K = Kernels(_kernels, "hexatissue.mesh._reference")
 
 OUTSIDE_FACTOR = 20  # a region touching the image edge and > 20 x the median region area is the outside
 OUTSIDE_EDGE_SHARE = 0.1  # a label holding this share of the image edge's pixels may be the outside (any kind)
@@ -102,7 +105,7 @@ def checked_labels(labels, name="labels", kind="auto"):
         raise InputError(f"{name} must hold integer cell ids; got dtype {arr.dtype}")
     if not arr.dtype.isnative:  # big-endian TIFF data: the kernel needs the machine's byte order
         arr = arr.astype(arr.dtype.newbyteorder("="))
-    lo, hi, nonzero, same_h, same_v = label_summary(arr)  # one pass instead of one per check
+    lo, hi, nonzero, same_h, same_v = K.label_summary(arr)  # one pass instead of one per check
     if arr.dtype.kind == "u" and arr.dtype.itemsize == 8 and hi > np.iinfo(np.int64).max:
         raise InputError(f"{name} has ids up to {hi} (uint64); expected ids below 2**63 (cell ids are "
                          f"int64 in the tables): relabel the image")
@@ -235,7 +238,7 @@ def detect_kind(lab, periodic=False, lowest=None) -> str:
     """
     # a contiguous copy (of ~256 x 256 px): the kernel then has one layout, compiled by mesh.warm_up
     sample = np.ascontiguousarray(lab[:: max(1, lab.shape[0] // 256), :: max(1, lab.shape[1] // 256)])
-    if at_most_two_values(sample) and len(np.unique(lab)) == 2:
+    if K.at_most_two_values(sample) and len(np.unique(lab)) == 2:
         fg = lab != 0
         interior = ndimage.binary_erosion(fg, border_value=1)
         if fg.mean() < 0.5 and interior.sum() < 0.2 * fg.sum():
@@ -360,7 +363,7 @@ def normalize_valid(lab, kind="auto", periodic=False, membrane_width=3, min_area
     dtype = np.int32 if lab.max() < 2**31 else np.int64
     lab = np.ascontiguousarray(lab, dtype=dtype)
     if kind in ("membrane", "skeleton") and membrane_width > 0:
-        lab = fill_gaps(lab, int(membrane_width), bool(periodic))
+        lab = K.fill_gaps(lab, int(membrane_width), bool(periodic))
         if mask is not None:
             lab[~mask] = 0
         membrane = zero & (lab != 0)
@@ -571,7 +574,7 @@ def compact_labels(lab, top=None):
     """
     top = int(lab.max()) if top is None else top
     if top < 2**24 and top <= 4 * lab.size:
-        present = present_ids(lab, top)  # no int64 copy of the image, unlike np.bincount
+        present = K.present_ids(lab, top)  # no int64 copy of the image, unlike np.bincount
         present[0] = True
         ids = np.flatnonzero(present)
         if len(ids) == top + 1:
@@ -645,7 +648,7 @@ def _fill_pockets(lab, fill_holes, periodic, mask=None):
     holes = small[pockets]
     # one pass fills one layer: as many passes as the deepest hole pixel is far from a cell (4-connected)
     passes = int(ndimage.distance_transform_cdt(holes, metric="taxicab").max())
-    filled = fill_gaps(np.ascontiguousarray(lab), passes, bool(periodic))
+    filled = K.fill_gaps(np.ascontiguousarray(lab), passes, bool(periodic))
     filled[zero & ~holes] = 0
     return filled, left
 

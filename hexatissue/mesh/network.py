@@ -6,14 +6,17 @@ import warnings
 import numpy as np
 import pandas as pd
 
+from .._dispatch import Kernels, compiled_or_cached
 from ..box import as_box
 from ..errors import HexatissueWarning, InputError, is_real
 from ..frame import Frame
 from ..schema import validate
-from . import _kernels as K
+from . import _kernels
 from ..options import POCKET_AREA
 from .labels import check_mask, checked_labels, compact_labels, normalize_valid
 from .segment import segment_membrane_map
+
+K = Kernels(_kernels, "hexatissue.mesh._reference")
 
 __all__ = ["mesh_from_labels", "network_tables", "kernels_cached"]
 
@@ -453,15 +456,8 @@ def _network_columns(centre, kept, ids, cells, poly_start, poly_len, verts, xy, 
 
 
 def kernels_cached() -> bool:
-    """Whether numba's cache holds the compiled mesh kernels (else the first analysis compiles every kernel).
+    """Whether the mesh kernels are compiled or in numba's cache (else an analysis that compiles compiles them all).
 
-    Numba keeps one index file per cached function; the mesh's cell-moment kernel stands for all (every
-    analysis of labels compiles it).  Unknown (a numba without this layout): True, so nothing is announced.
+    The mesh's cell-moment kernel stands for all (every analysis of labels runs it).
     """
-    import os
-
-    try:
-        cache = K.cell_moments._cache._cache_file
-        return os.path.exists(cache._index_path)
-    except AttributeError:
-        return True
+    return compiled_or_cached(_kernels.cell_moments)

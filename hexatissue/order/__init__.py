@@ -14,14 +14,16 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from . import _kernels as K
-from ._kernels import shape_sums
+from . import _kernels
+from .._dispatch import Kernels
 from ..box import as_box
 from ..errors import InputError, check_orders, check_p, check_positive
 from ..frame import Frame
 from ..options import CENTERS, VALIDITY, check_pair
 from ..geometry import (lookup, pack_polygons, polygon_area_centroid, polygon_cells, row_keys, table_polygons)
 from ..schema import interior_mask, validate
+
+K = Kernels(_kernels, "hexatissue.order._reference")
 
 __all__ = [
     "shape_function",
@@ -69,7 +71,7 @@ def shape_functions_flat(xy, starts, orders, center="vertex_mean"):
         c = np.asarray(center, dtype=float)
         if c.shape != (n, 2):
             raise InputError(f"center array must have shape ({n}, 2), one (x, y) per polygon; got {c.shape}")
-    gamma = shape_sums(xy, starts, np.ascontiguousarray(c), own_centre,
+    gamma = K.shape_sums(xy, starts, np.ascontiguousarray(c), own_centre,
                        np.array(orders, np.int64), DEGENERATE_AREA)
     return list(gamma)
 

@@ -68,3 +68,10 @@ def reference_shape_functions(xy, starts, orders, center):
             gamma[degenerate | ~(den > 0)] = np.nan
             out.append(gamma)
     return np.array(out)
+
+
+def shape_sums(xy, starts, centre, own_centre, orders, degenerate_area):
+    """:func:`reference_shape_functions` with the signature of :func:`hexatissue.order._kernels.shape_sums`."""
+    if degenerate_area != DEGENERATE_AREA:
+        raise ValueError(f"the reference tests degeneracy with DEGENERATE_AREA = {DEGENERATE_AREA}; got {degenerate_area}")
+    return reference_shape_functions(xy, starts, orders, None if own_centre else centre)

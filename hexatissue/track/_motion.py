@@ -19,7 +19,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._kernels import _cell_moments, _warp_index
+from . import _kernels
+from .._dispatch import Kernels
+
+K = Kernels(_kernels, "hexatissue.track._reference", names={"_cell_moments": "_cell_moments_reference",
+                                                            "_warp_index": "_warp_index_reference"})
 
 
 class Field(NamedTuple):
@@ -53,14 +57,14 @@ class Field(NamedTuple):
 
 def centroids(index: np.ndarray, shape, n: int) -> np.ndarray:
     """Pixel centroid (x, y), px, of each of the ``n`` cells of a flat compact index (-1 = background)."""
-    count, sx, sy = _cell_moments(index, int(shape[1]), int(n))
+    count, sx, sy = K._cell_moments(index, int(shape[1]), int(n))
     count = np.maximum(count, 1)
     return np.c_[sx / count, sy / count]
 
 
 def warp(index: np.ndarray, shape, field: Field, periodic: bool = False) -> np.ndarray:
     """A frame's flat compact index carried forward along ``field`` (-1 where nothing lands, unless periodic)."""
-    return _warp_index(index, int(shape[0]), int(shape[1]), float(field.x0), float(field.y0), float(field.step),
+    return K._warp_index(index, int(shape[0]), int(shape[1]), float(field.x0), float(field.y0), float(field.step),
                        np.ascontiguousarray(field.ux, float), np.ascontiguousarray(field.uy, float), bool(periodic))
 
 

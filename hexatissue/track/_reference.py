@@ -81,3 +81,25 @@ def _warp_index_reference(index, rows, cols, x0, y0, step, ux, uy, periodic):
     out = np.full(rows * cols, -1, np.int32)
     out[inside.ravel()] = index[(sr * cols + sc)[inside]]
     return out
+
+
+def _compact_index(flat, top):
+    """Reference of :func:`_compact_index` (``np.unique``): compact index per pixel (-1 for 0), ids, areas."""
+    ids, inverse, area = np.unique(flat, return_inverse=True, return_counts=True)
+    background = len(ids) > 0 and ids[0] == 0
+    index = (inverse.ravel() - int(background)).astype(np.int32)
+    if background:
+        ids, area = ids[1:], area[1:]
+    return index, ids.astype(np.int64), area.astype(np.int64)
+
+
+def _compact_overlaps(flat, top, prev, n_prev):
+    """Reference of :func:`_compact_overlaps`: :func:`_compact_index`, then the overlaps with ``prev``."""
+    index, ids, area = _compact_index(flat, top)
+    return (index, ids, area, *_dense_overlaps_reference(prev, index, n_prev, len(ids)))
+
+
+def _division_reference(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
+    """:func:`_divisions_reference` with the outputs of :func:`_division_kernel`: mothers, first and second daughters."""
+    mothers, daughters = _divisions_reference(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou)
+    return mothers.astype(np.int64), daughters[:, 0].astype(np.int64), daughters[:, 1].astype(np.int64)

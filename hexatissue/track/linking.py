@@ -8,8 +8,11 @@ from scipy.optimize import linear_sum_assignment
 from .._components import components
 from ..errors import InputError
 from ..mesh.labels import validate_labels
-from ._kernels import _division_kernel
+from . import _kernels
+from .._dispatch import Kernels
 from .overlap import _DENSE_LIMIT, _Compact, _compact, _contingency
+
+K = Kernels(_kernels, "hexatissue.track._reference", names={"_division_kernel": "_division_reference"})
 
 
 def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou):
@@ -31,7 +34,7 @@ def _divisions(i, j, n, area_a, area_b, child_fraction, mother_fraction, min_iou
         Indices into ``area_b``, the larger overlap first.
     """
     i, j, n = (np.ascontiguousarray(x, np.int64) for x in (i, j, n))
-    mothers, first, second = _division_kernel(i, j, n, np.asarray(area_a, np.int64), np.asarray(area_b, np.int64),
+    mothers, first, second = K._division_kernel(i, j, n, np.asarray(area_a, np.int64), np.asarray(area_b, np.int64),
                                               float(child_fraction), float(mother_fraction), float(min_iou))
     return mothers, np.stack((first, second), axis=1)
 

@@ -9,8 +9,12 @@ import pandas as pd
 
 from ..errors import InputError
 from ..mesh.labels import compact_labels, validate_labels
-from ._kernels import _compact_index, _compact_overlaps, _dense_overlaps, _sparse_overlaps
+from . import _kernels
+from .._dispatch import Kernels
 from ._motion import centroids
+
+K = Kernels(_kernels, "hexatissue.track._reference", names={"_dense_overlaps": "_dense_overlaps_reference",
+                                                            "_sparse_overlaps": "_sparse_overlaps_reference"})
 
 # Largest dense matrix made in one piece: two frames' overlap counts here, the IoU matrix handed to
 # linear_sum_assignment in .linking (larger problems are split into connected components of the overlap graph).
@@ -72,7 +76,7 @@ def _compact(labels: np.ndarray) -> _Compact:
     top = int(labels.max())
     if not _id_table_fits(top, labels.size):
         return _compact_reference(labels)
-    index, ids, area = _compact_index(labels.ravel(), top)
+    index, ids, area = K._compact_index(labels.ravel(), top)
     return _Compact(index, ids, area, labels.shape)
 
 
@@ -92,8 +96,8 @@ def _compact_reference(labels: np.ndarray) -> _Compact:
 def _index_overlaps(ia, ib, na, nb):
     """Sparse overlap counts ``(i, j, n)`` of two flat compact indices (dense count table when it is small)."""
     if (na + 1) * (nb + 1) <= _DENSE_LIMIT:
-        return _dense_overlaps(ia, ib, na, nb)
-    return _sparse_overlaps(ia, ib, na, nb)
+        return K._dense_overlaps(ia, ib, na, nb)
+    return K._sparse_overlaps(ia, ib, na, nb)
 
 
 def _contingency(a: _Compact, b: _Compact):
@@ -115,7 +119,7 @@ def _compact_after(previous: _Compact, labels: np.ndarray):
     if not fused:
         cur = _compact(labels)
         return cur, _contingency(previous, cur)
-    index, ids, area, i, j, n = _compact_overlaps(labels.ravel(), top, previous.index, len(previous.ids))
+    index, ids, area, i, j, n = K._compact_overlaps(labels.ravel(), top, previous.index, len(previous.ids))
     return _Compact(index, ids, area, labels.shape), (i, j, n)
 
 
