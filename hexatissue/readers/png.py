@@ -17,7 +17,7 @@ class PngReader:
 
     def __init__(self, path, channel=None):
         self.path, self.what = Path(path), repr(str(path))
-        refuse(f"a PNG file", channel=channel)
+        refuse("a PNG file", channel=channel)
         with open(self.path, "rb") as fh:
             head = fh.read(33)
         if head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
