@@ -316,15 +316,43 @@ def fit_line(x, y):
     return float(a), float(b)
 
 
-def markdown(results: dict) -> str:
+TITLE = "# Scale: memory, time and throughput of `analyze` against the movie's length (`bench_scale.py`)"
+
+
+def merged(sets: list) -> list:
+    """Result sets of the same movie and stages (several invocations) joined into one, in order of length."""
+    out = {}
+    for res in sets:
+        c = res["config"]
+        key = (c["size"], c["cells"], c["amplitude"], c["seed"], c["input"], c["deformation"])
+        if key not in out:
+            out[key] = {"config": dict(c, command=[c["command"]]), "runs": []}
+        else:
+            mc = out[key]["config"]
+            mc["command"].append(c["command"])
+            mc["load_before"] = min(mc["load_before"], c["load_before"])
+            mc["load_after"] = max(mc["load_after"], c["load_after"])
+            mc["date"] = mc["date"] if mc["date"] <= c["date"] else c["date"]
+        out[key]["runs"] += res["runs"]
+    for res in out.values():
+        order = {cfg: i for i, cfg in enumerate(dict.fromkeys(r["config"] for r in res["runs"]))}
+        res["runs"].sort(key=lambda r: (r["frames"], order[r["config"]]))
+    return list(out.values())
+
+
+def markdown(results: dict, heading: str = "##") -> str:
+    """One result set (one invocation) as markdown sections under ``heading``."""
     c = results["config"]
     runs = results["runs"]
+    stages = "default stages + deformation budget" if c["deformation"] else "default stages"
     lines = [
-        "# Scale: memory, time and throughput of `analyze` against the movie's length (`bench_scale.py`)",
+        f"{heading} {stages}, {', '.join(dict.fromkeys(r['config'] for r in runs))}",
         "",
         f"{c['date']}, shared {c['cores']}-core {c['machine']} VM, {c['memory_gb']:.0f} GB, Python {c['python']}; "
         f"1-minute load {c['load_before']:.2f} before, {c['load_after']:.2f} after (other users' jobs ran "
-        f"throughout: wall times are inflated by the load, CPU times much less). Command: `{c['command']}`.",
+        f"throughout: wall times are inflated by the load, CPU times much less). Command"
+        + (f": `{c['command']}`." if isinstance(c["command"], str) else
+           "s: " + "; ".join(f"`{cmd}`" for cmd in c["command"]) + "."),
         "",
         f"Movie: `voronoi_movie({c['cells']}, ({c['size']}, {c['size']}), F, periodic=False, amplitude="
         f"{c['amplitude']:g}, seed={c['seed']})`, {c['cells']:,} cells a frame, read "
@@ -348,13 +376,13 @@ def markdown(results: dict) -> str:
             f"{r['peak_tree_rss_mb']:.0f} | {r['peak_tree_pss_mb']:.0f} | {r['peak_main_hwm_mb']:.0f} | "
             f"{t['tables_mb']:.1f} | {t['tracks']} ({c['cells']}) | {t['cells_per_frame_min']}-"
             f"{t['cells_per_frame_max']} ({c['cells']}) |")
-    lines += ["", "## Memory against length: fit and extrapolation", "",
+    lines += ["", f"{heading}# Memory against length: fit and extrapolation", "",
               "Per configuration, least squares `peak = a + b x frames` over the lengths run; the rows for "
               "10^6, 10^7 and 10^8 cell-frames are **extrapolated** from that line, not measured (a length "
               "that was run is marked measured).", "",
               "| config | measure | a (MB) | b (MB / frame) | b (bytes / cell-frame) | 10^6 cell-frames | "
-              "10^7 cell-frames | 10^8 cell-frames | largest / smallest run |",
-              "|---|---|---|---|---|---|---|---|---|"]
+              "10^7 cell-frames | 10^8 cell-frames | 240 / 40 frames (goal <= 1.25) | largest / smallest run |",
+              "|---|---|---|---|---|---|---|---|---|---|"]
     fits = {}
     for cfg in dict.fromkeys(r["config"] for r in runs):
         mine = [r for r in runs if r["config"] == cfg]
@@ -366,13 +394,17 @@ def markdown(results: dict) -> str:
             ext = []
             for n in (1e6, 1e7, 1e8):
                 frames = n / c["cells"]
-                measured = any(abs(r["cell_frames"] - n) / n < 0.01 for r in mine)
-                ext.append(f"{(a + b * frames) / 1e3:.2f} GB ({'measured' if measured else 'extrapolated'}, "
-                           f"{frames:,.0f} frames)")
+                near = [r for r in mine if abs(r["cell_frames"] - n) / n < 0.01]
+                if near:  # run at this size (to within 1 %): the measured peak, not the line's
+                    ext.append(f"{near[0][key] / 1e3:.2f} GB (measured, {near[0]['frames']} frames)")
+                else:
+                    ext.append(f"{(a + b * frames) / 1e3:.2f} GB (extrapolated, {frames:,.0f} frames)")
+            at = {r["frames"]: r[key] for r in mine}
+            goal = f"{at[240] / at[40]:.2f}" if 40 in at and 240 in at else "-"
             lines.append(f"| {cfg} | {name} | {a:.0f} | {b:.2f} | {b * MB / c['cells']:.0f} | " + " | ".join(ext)
-                         + f" | {big[key] / small[key]:.2f} ({big['frames']} / {small['frames']} frames) |")
+                         + f" | {goal} | {big[key] / small[key]:.2f} ({big['frames']} / {small['frames']} frames) |")
     results["fits"] = {f"{k[0]} {k[1]}": v for k, v in fits.items()}
-    lines += ["", "## Peak per phase (largest run of each configuration)", "",
+    lines += ["", f"{heading}# Peak per phase (largest run of each configuration)", "",
               "Main VmHWM: the main process's own high-water mark, reset at the phase's start (exact). Tree "
               "peaks: the polled samples inside the phase (a phase shorter than the poll may have none: -).", "",
               "| config | frames | phase | wall s | main RSS at start MB | main VmHWM MB | tree peak RSS MB | "
@@ -405,7 +437,15 @@ def main(argv=None) -> int:
     ap.add_argument("--poll", type=float, default=0.1, help="sampling interval of the process tree, s (default 0.1)")
     ap.add_argument("--json", type=Path, help="also write every number to this JSON file")
     ap.add_argument("--write-md", action="store_true", help="write benchmarks/results_scale.md")
+    ap.add_argument("--from-json", type=Path, nargs="+",
+                    help="run nothing: write results_scale.md from these --json files (one section each)")
     args = ap.parse_args(argv)
+    if args.from_json:
+        text = TITLE + "\n\n" + "\n".join(markdown(s) for s in merged([json.loads(p.read_text())
+                                                                          for p in args.from_json]))
+        (HERE / "results_scale.md").write_text(text)
+        print(text)
+        return 0
 
     import hexatissue
 
@@ -462,7 +502,7 @@ def main(argv=None) -> int:
                           "command": "python benchmarks/bench_scale.py " + " ".join(argv if argv is not None
                                                                                       else sys.argv[1:])},
                "runs": runs}
-    text = markdown(results)
+    text = TITLE + "\n\n" + markdown(results)
     print(text)
     if args.write_md:
         (HERE / "results_scale.md").write_text(text)
