@@ -349,8 +349,8 @@ def markdown(results: dict, heading: str = "##") -> str:
         f"{heading} {stages}, {', '.join(dict.fromkeys(r['config'] for r in runs))}",
         "",
         f"{c['date']}, shared {c['cores']}-core {c['machine']} VM, {c['memory_gb']:.0f} GB, Python {c['python']}; "
-        f"1-minute load {c['load_before']:.2f} before, {c['load_after']:.2f} after (other users' jobs ran "
-        f"throughout: wall times are inflated by the load, CPU times much less). Command"
+        f"1-minute load {c['load_before']:.2f}-{c['load_after']:.2f} (before the first run, after the last; other "
+        f"users' jobs ran throughout: wall times are inflated by the load, CPU times much less). Command"
         + (f": `{c['command']}`." if isinstance(c["command"], str) else
            "s: " + "; ".join(f"`{cmd}`" for cmd in c["command"]) + "."),
         "",
@@ -404,6 +404,19 @@ def markdown(results: dict, heading: str = "##") -> str:
             lines.append(f"| {cfg} | {name} | {a:.0f} | {b:.2f} | {b * MB / c['cells']:.0f} | " + " | ".join(ext)
                          + f" | {goal} | {big[key] / small[key]:.2f} ({big['frames']} / {small['frames']} frames) |")
     results["fits"] = {f"{k[0]} {k[1]}": v for k, v in fits.items()}
+    lines += ["", f"{heading}# The issue's goals, for this code (the in-memory path)", ""]
+    for cfg in dict.fromkeys(r["config"] for r in runs):
+        at = {r["frames"]: r for r in runs if r["config"] == cfg}
+        a, b = fits[(cfg, "peak_tree_pss_mb")]
+        ratio = (f"peak tree PSS at 240 / 40 frames {at[240]['peak_tree_pss_mb'] / at[40]['peak_tree_pss_mb']:.2f} "
+                 f"(goal <= 1.25: {'met' if at[240]['peak_tree_pss_mb'] <= 1.25 * at[40]['peak_tree_pss_mb'] else 'not met'})"
+                 if 40 in at and 240 in at else "240 and 40 frames not both run")
+        ten7 = a + b * 1e7 / c["cells"]
+        cpu = sum(r["analyze_cpu_s"] for r in at.values())
+        lines.append(f"- {cfg}: {ratio}; 10^7 cell-frames extrapolated to {ten7 / 1e3:.1f} GB tree PSS (goal <= 8 GB: "
+                     f"{'met' if ten7 <= 8e3 else 'not met'}, extrapolated); throughput over its runs "
+                     f"{sum(r['cell_frames'] for r in at.values()) / cpu:,.0f} cell-frames per CPU-second (the "
+                     f"in-memory baseline the streaming path is to stay within 10 % of).")
     lines += ["", f"{heading}# Peak per phase (largest run of each configuration)", "",
               "Main VmHWM: the main process's own high-water mark, reset at the phase's start (exact). Tree "
               "peaks: the polled samples inside the phase (a phase shorter than the poll may have none: -).", "",
