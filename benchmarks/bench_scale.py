@@ -39,11 +39,16 @@ run) and extrapolated to 10^6, 10^7 and 10^8 cell-frames -- extrapolations, stat
 
 Usage::
 
-    PYTHONPATH=$PWD python benchmarks/bench_scale.py --frames 10 21 42 --write-md
     PYTHONPATH=$PWD python benchmarks/bench_scale.py --frames 5 10 --size 512 --cells 1200   # quick check
-    PYTHONPATH=$PWD python benchmarks/bench_scale.py --cell-frames 1e5 1e6 --configs 2 --deformation
+    # results_scale.md: three invocations (about 25 minutes at load 4-5, plus 5 minutes to render
+    # the 480-frame input once), joined
+    PYTHONPATH=$PWD python benchmarks/bench_scale.py --frames 21 40 208 240 --json A.json
+    PYTHONPATH=$PWD python benchmarks/bench_scale.py --frames 480 --configs 2 --json B.json
+    PYTHONPATH=$PWD python benchmarks/bench_scale.py --frames 40 240 --configs 2 --deformation --json C.json
+    PYTHONPATH=$PWD python benchmarks/bench_scale.py --from-json A.json B.json C.json
 
-Results: ``benchmarks/results_scale.md`` (written with ``--write-md``).
+Results: ``benchmarks/results_scale.md`` (written by ``--from-json`` or ``--write-md``).  10^7
+cell-frames (2,083 frames) was not run on the shared machine: the fit puts its peak near 15 GB.
 """
 from __future__ import annotations
 
