@@ -91,6 +91,17 @@ ENTRIES = (
         "met against the warm frame and the 10-frame run; a cold frame 5.2 MB over",
     ),
     Entry(
+        "results_scale.md",
+        "peak memory, time and throughput of `analyze` against the movie's length: 1024² x 4,800 cells, "
+        "1 and 2 workers and a dask LocalCluster, 10^5 to 2.3 x 10^6 cell-frames",
+        "`python benchmarks/bench_scale.py --frames 21 40 208 240` (`--configs 2 --deformation`; "
+        "`--frames 480 --configs 2`; `--from-json` joins the runs)",
+        "workers=2: 10^6 cell-frames 1.67 GB tree PSS, 37610 cell-frames / CPU s; 240 / 40 frames 3.57; "
+        "10^7 extrapolated 14.74 GB",
+        "240 frames <= 1.25 x 40 frames; 10^7 cell-frames <= 8 GB",
+        "not met: the whole movie's tables are gathered in the main process (1444 bytes / cell-frame)",
+    ),
+    Entry(
         "results_mpf.md",
         "MPF simulator throughput (440 cells) and speed against the published C code",
         "`python benchmarks/bench_mpf.py --repeats 5`; `python benchmarks/bench_mpf_vs_c.py --c-code DIR`",
