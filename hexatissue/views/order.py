@@ -155,7 +155,7 @@ STAR_SCALE = 0.45  # star leg for |gamma_p| = 1, in typical cell spacings (as he
 
 
 def star_layer(movie, p=6, scale=STAR_SCALE) -> tuple:
-    """Vectors layer of p-legged stars at the cell centroids: orientation Arg(gamma_p)/p, legs ~ |gamma_p|.
+    """Vectors layer of p-legged stars at the cell centroids: orientation ``Arg(gamma_p) / p``, legs ~ ``|gamma_p|``.
 
     Each leg is one vector from the centroid; its length is ``scale`` x the
     typical cell spacing x ``|gamma_p|`` (as :func:`hexatissue.plot.plot_stars`).
