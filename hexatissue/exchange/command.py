@@ -111,7 +111,8 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
 
         if movie.lineage is None:
             raise InputError("the results have no lineage table; expected the output of hexatissue analyze")
-        return [write_ctc(masks, movie.lineage, out, truth=truth, overwrite=overwrite)]
+        folder = write_ctc(masks, movie.lineage, out, truth=truth, overwrite=overwrite)
+        return [folder, folder.parent / "SEG"] if truth else [folder]  # the truth's reference segmentation too
     import numpy as np
 
     from .omezarr import track_properties, write_ome_zarr_labels
