@@ -371,7 +371,9 @@ def test_geff_exported_with_its_ome_zarr_points_to_the_labels_of_every_node(epic
 
 
 def test_ctc_truth_export_names_both_folders_it_writes(epicure, tmp_path):
-    written = ht.exchange.command.export(epicure["results"], tmp_path / "gt", "ctc", truth=True)
+    from hexatissue.exchange.command import export
+
+    written = export(epicure["results"], tmp_path / "gt", "ctc", truth=True)
     assert [w.name for w in written] == ["TRA", "SEG"] and all(w.is_dir() for w in written)
     assert len(list(written[1].glob("man_seg*.tif"))) == len(list(written[0].glob("man_track*.tif")))
 
