@@ -28,3 +28,23 @@ def emit(lines, load, out=None):
     if out:
         with open(out, "a") as fh:
             fh.write(text + "\n")
+
+
+def status_kb(pid: int, keys=("VmRSS", "VmHWM", "RssAnon", "RssFile", "RssShmem")) -> dict:
+    """The ``keys`` of ``/proc/PID/status`` (kB): resident memory, its high-water mark and its kinds (Linux)."""
+    out = {}
+    with open(f"/proc/{pid}/status") as fh:
+        for line in fh:
+            name, _, rest = line.partition(":")
+            if name in keys:
+                out[name] = int(rest.split()[0])
+    return out
+
+
+def pss_kb(pid: int) -> int:
+    """Proportional set size of a process (kB): its pages, shared ones split between their users (Linux)."""
+    with open(f"/proc/{pid}/smaps_rollup") as fh:
+        for line in fh:
+            if line.startswith("Pss:"):
+                return int(line.split()[1])
+    return 0

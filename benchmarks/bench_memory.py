@@ -70,6 +70,8 @@ from pathlib import Path
 
 import numpy as np
 
+from _timing import pss_kb, status_kb  # benchmarks/_timing.py
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 MB = 1e6
@@ -227,24 +229,6 @@ def build_warm_up(folder: Path) -> Path:
 # ----------------------------------------------------------------------------------------------
 # measuring a process tree
 # ----------------------------------------------------------------------------------------------
-def _status_kb(pid: int, keys=("VmRSS", "VmHWM", "RssAnon", "RssFile", "RssShmem")) -> dict:
-    out = {}
-    with open(f"/proc/{pid}/status") as fh:
-        for line in fh:
-            name, _, rest = line.partition(":")
-            if name in keys:
-                out[name] = int(rest.split()[0])
-    return out
-
-
-def _pss_kb(pid: int) -> int:
-    with open(f"/proc/{pid}/smaps_rollup") as fh:
-        for line in fh:
-            if line.startswith("Pss:"):
-                return int(line.split()[1])
-    return 0
-
-
 class TreeSampler(threading.Thread):
     """Polls a process and its descendants; keeps the peaks of the main RSS and of the tree's sums."""
 
@@ -276,8 +260,8 @@ class TreeSampler(threading.Thread):
         main = None
         for p in procs:
             try:
-                s = _status_kb(p.pid)
-                pss += _pss_kb(p.pid)
+                s = status_kb(p.pid)
+                pss += pss_kb(p.pid)
             except (OSError, ValueError):
                 continue  # the process ended between listing and reading
             if "VmRSS" not in s:

@@ -66,6 +66,8 @@ from pathlib import Path
 
 import numpy as np
 
+from _timing import pss_kb, status_kb  # benchmarks/_timing.py
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 MB = 1e6
@@ -190,24 +192,6 @@ def build_zarr(folder: Path, n_frames: int, size: int, n_cells: int, amplitude: 
 # ----------------------------------------------------------------------------------------------
 # measuring a process tree
 # ----------------------------------------------------------------------------------------------
-def _status_kb(pid: int) -> dict:
-    out = {}
-    with open(f"/proc/{pid}/status") as fh:
-        for line in fh:
-            name, _, rest = line.partition(":")
-            if name in ("VmRSS", "VmHWM"):
-                out[name] = int(rest.split()[0])
-    return out
-
-
-def _pss_kb(pid: int) -> int:
-    with open(f"/proc/{pid}/smaps_rollup") as fh:
-        for line in fh:
-            if line.startswith("Pss:"):
-                return int(line.split()[1])
-    return 0
-
-
 class TreeSampler(threading.Thread):
     """Polls a process and its descendants: time, summed RSS and PSS, main RSS, and every process's CPU time."""
 
@@ -236,8 +220,8 @@ class TreeSampler(threading.Thread):
         cpu = {}
         for p in procs:
             try:
-                s = _status_kb(p.pid)
-                pss += _pss_kb(p.pid)
+                s = status_kb(p.pid)
+                pss += pss_kb(p.pid)
                 times = p.cpu_times()
             except (OSError, ValueError, psutil.Error):
                 continue  # ended between listing and reading

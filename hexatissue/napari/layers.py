@@ -3,26 +3,12 @@
 Every stage's layers come from its views module (:mod:`hexatissue.views`, named by its entry in
 :data:`hexatissue.stages.STAGES`), stacked by rank; this module adds the labels and knows no stage.
 
-Each function returns a napari *layer data tuple* ``(data, kwargs, layer_type)``
-that ``napari.layers.Layer.create(*t)`` (or a reader's return value) turns into
-a layer.  Coordinates follow napari's order, ``(row, col)`` = ``(y, x)``, with
-a leading frame coordinate when the movie has more than one frame; the
-tables' ``x`` is the column and ``y`` the row, in px.  Every layer carries
-``scale = (frame_interval, pixel_size, pixel_size)`` for movies (or
-``(pixel_size, pixel_size)`` for one image) from the Movie's calibration, so
-the viewer's axes (and its scale bar) are in the calibrated units, which
-are also the layers' ``units`` (napari's pint names: ``"pixel"`` for px,
-frames and simulation iterations) and in ``kwargs["metadata"]["units"]``
-(hexatissue's names); the axes are labelled ``("t", "y", "x")`` (``("y", "x")``).
-:func:`aligned` puts the layers on another layer's scale, translate, units and
-axis labels instead (the analyze widget: results over their input layer).
+Each function returns a napari *layer data tuple* ``(data, kwargs, layer_type)``, in the coordinates,
+scale, units and axis labels :mod:`hexatissue.views.layerdata` describes; :func:`aligned` puts the
+layers on another layer's scale, translate, units and axis labels instead (the analyze widget: results
+over their input layer).
 
-Periodic boxes (MPF runs): every polygon is drawn once, contiguous (as
-:func:`hexatissue.geometry.table_polygons` unwraps it), at the periodic image
-nearest its cell's centroid; a cell cut by the box's edge therefore sticks
-out of the box on one side instead of being split.  Tracks are unwrapped the
-same way (each step to the nearest periodic image), so a cell that crosses
-the edge leaves the box instead of jumping to the far side.
+Periodic boxes: polygons and tracks are drawn contiguous, as :mod:`hexatissue.views.layerdata` says.
 """
 from __future__ import annotations
 
