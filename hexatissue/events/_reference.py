@@ -15,8 +15,10 @@ import pandas as pd
 from ..geometry import in_sorted, lookup, row_keys
 from ..graph import contact_table as graph_contacts
 from ..schema import interior_mask, track_ids, validate
-from . import _ChangeLog, _directed, _expand, _mix, classify_t1, default_censor
-from . import _Lists as _FrameLists  # (_Lists below is the whole-movie implementation's own)
+from .classify import classify_t1, default_censor
+from .neighbours import _ChangeLog, _mix
+from .neighbours import _Lists as _FrameLists  # (_Lists below is the whole-movie implementation's own)
+from .quartets import _directed, _expand
 
 
 def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:

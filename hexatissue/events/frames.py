@@ -1,0 +1,212 @@
+"""Cell-cell contacts of each frame, in track ids, streamed a block of frames at a time; the pairs held
+at four-fold vertices.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError, is_real
+from ..geometry import lookup, row_keys
+from ..graph import pair_groups
+from ..schema import FrameRows, track_ids
+
+
+def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
+    """Cell-cell contacts per frame, in track ids.
+
+    Parameters
+    ----------
+    edges : pandas.DataFrame
+        ``frame``, ``cell_a``, ``cell_b``, ``length`` (px); several junctions
+        between the same two cells are summed.
+    cells : pandas.DataFrame, optional
+        ``frame``, ``cell`` and ``track``: label ids are translated to track ids.
+        Without it (or without ``track``) label ids are track ids.
+    min_length : float
+        A contact whose total junction length is below ``min_length`` px is
+        treated as a four-fold vertex, i.e. not a contact.  0 keeps every junction.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame``, ``a`` < ``b`` (track ids, both > 0), ``length`` (px), sorted.
+    """
+    if cells is None or "track" not in cells.columns:  # label ids are track ids: every frame of the edges
+        frames = edges["frame"].to_numpy(np.int64) if "frame" in edges.columns else np.zeros(0, np.int64)
+        cells = pd.DataFrame({"frame": np.unique(frames), "cell": np.int64(0)})
+    parts = [(np.full(len(a), frame, np.int64), a, b, length)
+             for frame, _, a, b, length in _movie_frames(edges, cells, min_length)]
+    frame, a, b, length = (np.concatenate(c) for c in zip(*parts)) if parts else (np.zeros(0, np.int64),) * 4
+    return pd.DataFrame({"frame": frame, "a": a, "b": b, "length": length.astype(float)})
+
+
+#: Cell rows handled at once by the movie-level stages (whole frames): about 0.8 kB of temporaries per row.
+BLOCK_ROWS = 1 << 14
+
+
+def _movie_frames(edges, cells, min_length):
+    """Each frame of ``cells`` in turn: ``(frame, tracks, a, b, length)``.
+
+    ``tracks``: the track ids present (sorted, unique); ``a`` < ``b``: its contacts
+    in track ids, sorted, with their summed junction ``length`` (px).  The
+    contacts exist one block of about ``BLOCK_ROWS`` cell rows at a time: the
+    movie-level stages stream the movie instead of holding every contact of
+    it (three per cell-frame).
+    """
+    for col in ("frame", "cell_a", "cell_b", "length"):
+        if col not in edges.columns:
+            raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
+    if not is_real(min_length) or min_length < 0:
+        raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
+    cell_rows, edge_rows = FrameRows(cells["frame"].to_numpy(np.int64)), FrameRows(edges["frame"].to_numpy(np.int64))
+    translate = "track" in cells.columns
+    if translate and len(np.setdiff1d(edge_rows.frames, cell_rows.frames)):
+        raise InputError(MISSING_CELLS)
+    return _frames(edges, cells, min_length, cell_rows, edge_rows, translate)
+
+
+#: Edges whose cells the cells table does not have.
+MISSING_CELLS = "edges refer to (frame, cell) pairs missing from the cells table"
+
+
+def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
+    """The generator of :func:`_movie_frames` (its arguments checked): contacts found a block of frames at a time."""
+    tracks = track_ids(cells)
+    labels = cells["cell"].to_numpy(np.int64) if translate else None
+    c_frame = cells["frame"].to_numpy(np.int64)
+    e_frame = edges["frame"].to_numpy(np.int64)
+    e_a, e_b = edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)
+    e_length = edges["length"].to_numpy(float)
+    for frames, rows in cell_rows.blocks(BLOCK_ROWS):
+        er = edge_rows.between(frames[0], frames[-1])
+        frame, a, b, length = e_frame[er], e_a[er], e_b[er], e_length[er]
+        keep = a != 0  # contacts with the outside are not cell contacts
+        frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
+        order, starts = pair_groups(frame, a, b)
+        first = order[starts]
+        frame, a, b = frame[first], a[first], b[first]
+        length = np.add.reduceat(length[order], starts) if len(starts) else np.zeros(0)
+        if min_length > 0:
+            keep = length >= min_length
+            frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
+        here = c_frame[rows]
+        if labels is not None:  # label ids -> track ids
+            keys, track = row_keys(here, labels[rows]), tracks[rows]
+            a = lookup(keys, track, row_keys(frame, a), MISSING_CELLS)
+            b = lookup(keys, track, row_keys(frame, b), MISSING_CELLS)
+            a, b = np.minimum(a, b), np.maximum(a, b)
+            if not _increasing(frame, a, b):  # track ids need not keep the label order (they do when ids are kept)
+                order = np.lexsort((b, a, frame))
+                frame, a, b, length = frame[order], a[order], b[order], length[order]
+        present = _unique(row_keys(here, tracks[rows]))
+        p_bounds = np.searchsorted(present, row_keys(frames, 0))
+        c_bounds = np.searchsorted(frame, frames)
+        ids = present - row_keys(np.repeat(frames, np.diff(np.append(p_bounds, len(present)))), 0)
+        for k, f in enumerate(frames.tolist()):
+            lo, hi = c_bounds[k], c_bounds[k + 1] if k + 1 < len(frames) else len(frame)
+            p_hi = p_bounds[k + 1] if k + 1 < len(frames) else len(present)
+            yield f, ids[p_bounds[k]:p_hi], a[lo:hi], b[lo:hi], length[lo:hi]
+
+
+def _held_pairs(edges, cells):
+    """Per frame, the pairs of cells around each vertex of four or more cells, and those vertices' cells.
+
+    ``{frame: (a, b, vertex, cell)}``: the pairs ``a`` < ``b`` and, per vertex
+    of four or more cells (numbered ``vertex``), its cells (all track ids).
+
+    A four-fold vertex holds a contact (a junction shorter than
+    ``merge_distance``, contracted) between one of its two diagonal pairs:
+    the contacts table has neither, and a T1 whose flanking contact is held
+    so has no quartet of contacts on either side.  These pairs complete the
+    flanks the quartet search looks at (:func:`_find_t1`).  Empty when the
+    edges have no ``vertex_a``, ``vertex_b``.
+    """
+    if not {"vertex_a", "vertex_b"} <= set(edges.columns) or len(edges) == 0:
+        return {}
+    columns = [edges[c].to_numpy(np.int64) for c in ("frame", "vertex_a", "vertex_b", "cell_a", "cell_b")]
+    tracks = None
+    if "track" in cells.columns:
+        tracks = (row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64)), track_ids(cells))
+    out = {}
+    for _, rows in FrameRows(columns[0]).blocks(3 * BLOCK_ROWS):  # a block of frames at a time: the movie's
+        out.update(_held_block(*(c[rows] for c in columns), tracks))  # edges four times over would not stream
+    return out
+
+
+def _held_block(frame, vertex_a, vertex_b, cell_a, cell_b, tracks):
+    """:func:`_held_pairs` of the edges of a few whole frames; ``tracks``: (row keys, track ids) of the cells."""
+    frame = np.tile(frame, 4)
+    vertex = np.concatenate([vertex_a, vertex_a, vertex_b, vertex_b])  # each end with each side's cell
+    cell = np.tile(np.concatenate([cell_a, cell_b]), 2)
+    keep = cell > 0
+    frame, vertex, cell = frame[keep], vertex[keep], cell[keep]
+    order, starts = pair_groups(frame, vertex, cell)
+    first = order[starts]  # each (frame, vertex, cell) once, sorted by frame, vertex, cell
+    frame, vertex, cell = frame[first], vertex[first], cell[first]
+    group = np.r_[True, (frame[1:] != frame[:-1]) | (vertex[1:] != vertex[:-1])].cumsum() - 1
+    big = np.bincount(group)[group] >= 4
+    frame, group, cell = frame[big], group[big], cell[big]
+    if not len(cell):
+        return {}
+    if tracks is not None:
+        cell = lookup(tracks[0], tracks[1], row_keys(frame, cell), MISSING_CELLS)
+    later = np.searchsorted(group, group, "right") - np.arange(len(group)) - 1  # each cell with the later ones
+    i = np.repeat(np.arange(len(group)), later)
+    j = np.arange(later.sum()) - np.repeat(np.cumsum(later) - later, later) + i + 1
+    a, b = np.minimum(cell[i], cell[j]), np.maximum(cell[i], cell[j])
+    pair_bounds = {int(v): (lo, hi) for v, lo, hi in zip(*_frame_bounds(frame[i]))}
+    out = {}
+    for value, lo, hi in zip(*_frame_bounds(frame)):
+        p0, p1 = pair_bounds[int(value)]
+        out[int(value)] = (a[p0:p1], b[p0:p1], group[lo:hi], cell[lo:hi])
+    return out
+
+
+def _frame_bounds(frame):
+    """The distinct values of the sorted ``frame`` and where each run starts and ends."""
+    starts = np.flatnonzero(np.r_[True, frame[1:] != frame[:-1]])
+    return frame[starts], starts, np.r_[starts[1:], len(frame)]
+
+
+def _unique(values):
+    """``np.unique(values)``, without its sort (a hash unique) when ``values`` are strictly increasing already."""
+    return values if len(values) < 2 or bool(np.all(values[1:] > values[:-1])) else np.unique(values)
+
+
+def _increasing(frame, a, b):
+    """Whether the rows ``(frame, a, b)`` are in strictly increasing lexicographic order (a lexsort keeps them)."""
+    df, da, db = np.diff(frame), np.diff(a), np.diff(b)
+    return bool(np.all((df > 0) | ((df == 0) & ((da > 0) | ((da == 0) & (db > 0))))))
+
+
+def _ids(edges, cells):
+    """Every track id a movie's contacts can name, sorted: those of ``cells`` (label ids of the edges too
+    when ``cells`` has no ``track``)."""
+    tracks = track_ids(cells)
+    if "track" in cells.columns:
+        return np.unique(tracks)
+    return np.unique(np.r_[tracks, edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)])
+
+
+def _rows_at(cells, by_frame, frame, track):
+    """Row of ``cells`` of each (``frame``, ``track``), the first if several, -1 if none; a block of frames at a time."""
+    out = np.full(len(frame), -1, np.int64)
+    order = np.argsort(frame, kind="stable")
+    wanted = frame[order]
+    c_frame, c_track = cells["frame"].to_numpy(np.int64), track_ids(cells)
+    for frames, rows in by_frame.blocks(BLOCK_ROWS):
+        lo, hi = np.searchsorted(wanted, [frames[0], frames[-1] + 1])
+        if lo == hi:
+            continue
+        rows = np.arange(rows.start, rows.stop) if isinstance(rows, slice) else rows
+        sel = order[lo:hi]
+        pos = lookup(row_keys(c_frame[rows], c_track[rows]), None, row_keys(frame[sel], track[sel]))
+        out[sel] = np.where(pos >= 0, rows[np.maximum(pos, 0)], -1)
+    return out
+
+
+def _check_cells(cells):
+    for col in ("frame", "cell", "x", "y"):
+        if col not in cells.columns:
+            raise InputError(f"cells table is missing column {col!r}; expected frame, cell, x, y")
