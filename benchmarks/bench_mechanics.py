@@ -13,7 +13,7 @@ s.d. (one solve per unknown) is timed on ``--sd-cells`` cells.  Printed with
 the machine's load.
 
 ``--baseline REF`` compares the Bayesian estimate (mu = 0.01, no s.d., and
-with ABIC) and least squares of this tree with ``hexatissue/mechanics/__init__.py`` as it was at
+with ABIC) and least squares of this tree with ``hexatissue/mechanics/`` as it was at
 the git revision ``REF``, loaded beside it in the same process: runs
 alternated, best of ``--repeats``, the ratio new / old, and the largest
 differences of every output; written to ``benchmarks/results_mechanics.md``.
@@ -108,14 +108,20 @@ def run(tables, box, repeats, label):
 
 
 def baseline_module(ref):
-    """``hexatissue.mechanics`` as it was at git revision ``ref``, as a module of the installed package."""
+    """``hexatissue.mechanics`` as it was at git revision ``ref``, as a package beside the installed one."""
     root = Path(__file__).resolve().parents[1]
-    text = subprocess.run(["git", "-C", str(root), "show", f"{ref}:hexatissue/mechanics/__init__.py"],
-                          check=True, capture_output=True, text=True).stdout
-    path = Path(tempfile.mkdtemp()) / "mechanics_baseline.py"
-    path.write_text(text)
-    # a submodule of hexatissue.mechanics, so that its relative imports resolve as in the package
-    spec = importlib.util.spec_from_file_location("hexatissue.mechanics._baseline", path)
+    names = subprocess.run(["git", "-C", str(root), "ls-tree", "--name-only", ref, "hexatissue/mechanics/"],
+                           check=True, capture_output=True, text=True).stdout.split()
+    folder = Path(tempfile.mkdtemp())
+    for name in names:
+        if name.endswith(".py"):
+            text = subprocess.run(["git", "-C", str(root), "show", f"{ref}:{name}"],
+                                  check=True, capture_output=True, text=True).stdout
+            (folder / Path(name).name).write_text(text)
+    # a sibling of hexatissue.mechanics: its ``..`` imports resolve in the installed package, its ``.`` imports
+    # (the modules of a package split by concept) in the revision's own files
+    spec = importlib.util.spec_from_file_location("hexatissue._mechanics_baseline", folder / "__init__.py",
+                                                  submodule_search_locations=[str(folder)])
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # its dataclasses look their module up there
     spec.loader.exec_module(module)
