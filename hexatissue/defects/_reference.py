@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import winding  # the reference of _kernels.plaquette_defects, beside plaquette_charges
+from .field import winding  # the reference of _kernels.plaquette_defects, beside plaquette_charges
 
 
 def field_layouts(row, col, rows, cuts):

@@ -1,0 +1,142 @@
+"""Pair events of tracked defects (:func:`defect_events`): a +/- pair created or annihilated, a lone defect
+appearing or disappearing.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..box import as_box
+from ..errors import InputError, check_positive
+from ..schema import require_columns, rows_by_frame, string_column, validate
+from .tracking import _charge_keys, _match, _track_ends
+
+
+#: the ``kind`` of a defect event, alphabetical (events carry its index until their table is built)
+EVENT_KINDS = ("annihilation", "appearance", "creation", "disappearance")
+
+
+def _pair_ends(xy, charge, pair_distance, box):
+    """Positions in one frame's ends: positive matched to negative (charges cancelling) within ``pair_distance``."""
+    keys = _charge_keys(charge)
+    ia, ib = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for key in np.unique(keys[keys > 0]):  # each charge q pairs with -q only: independent matchings
+        pos, neg = np.flatnonzero(keys == key), np.flatnonzero(keys == -key)
+        i, j = _match(xy[pos], xy[neg], pair_distance, box)
+        ia.append(pos[i])
+        ib.append(neg[j])
+    ia, ib = np.concatenate(ia), np.concatenate(ib)
+    order = np.argsort(ia, kind="stable")  # in row order of the positive ends
+    return ia[order], ib[order]
+
+
+def defect_events(tracked, pair_distance, box=None, time_column="frame", include_unpaired=False, frames=None):
+    """Creation and annihilation of +- defect pairs from tracked defects.
+
+    A track that starts after the first frame of the movie is a birth and one
+    that ends before the last frame is a death.  In each frame, births are
+    paired (positive with negative, charges summing to zero, within
+    ``pair_distance``) by optimal assignment into *creation* events, and
+    deaths likewise into *annihilation* events.  Births and deaths without a
+    partner (a defect entering or leaving an open image, or a linking
+    failure) are ``appearance`` / ``disappearance`` events, reported only if
+    ``include_unpaired``.
+
+    Parameters
+    ----------
+    tracked : pandas.DataFrame
+        Output of :func:`track_defects` (columns ``time_column``, ``x``,
+        ``y``, ``charge``, ``track``).
+    pair_distance : float
+        Largest separation of the two partners, px (typically the
+        ``max_distance`` used for tracking, or a few grid spacings).
+    box : Box, optional
+        Periodic box for minimum-image distances and midpoints.
+    time_column : str
+        Column giving the time point.
+    include_unpaired : bool
+        Also report unpaired births and deaths.
+    frames : array_like, optional
+        Every time point of the movie.  Only its first and last entries
+        matter: tracks starting at the first or ending at the last frame are
+        not events.  Default: the first and last frames present in
+        ``tracked`` (so a pair annihilating just before a final frame without
+        any defect would be missed; pass ``frames`` to catch it).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per event, sorted by time: ``time_column`` (for a creation:
+        the first frame in which the pair exists; for an annihilation: the
+        last frame in which it exists), ``kind`` (``"creation"``,
+        ``"annihilation"``, and if requested ``"appearance"``,
+        ``"disappearance"``), ``x``, ``y`` (px: pair midpoint, minimum image,
+        wrapped into a periodic box; the defect itself for unpaired events),
+        ``track_plus``, ``track_minus`` (track ids of the positive and
+        negative partners; -1 when absent), ``separation`` (px, distance
+        between the partners; NaN when unpaired).
+    """
+    require_columns(tracked, (time_column, "x", "y", "charge", "track"), "tracked")
+    box = as_box(box)
+    check_positive(pair_distance, "pair_distance", unit="px")
+    columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
+    if len(tracked) == 0:
+        return _empty_events(columns, time_column)
+    span = tracked[time_column].to_numpy() if frames is None else np.asarray(frames)
+    if len(span) == 0:
+        raise InputError("frames must list at least one time point")
+    t_first, t_last = span.min(), span.max()
+    parts = []  # the columns of each frame's events of each kind: arrays, not a Python tuple per event
+    codes = {name: code for code, name in enumerate(EVENT_KINDS)}
+    for first, kind, lone in ((True, codes["creation"], codes["appearance"]),
+                              (False, codes["annihilation"], codes["disappearance"])):
+        ends = _track_ends(tracked, time_column, first).reset_index(drop=True)
+        ends = ends[ends[time_column] != (t_first if first else t_last)]
+        times = ends[time_column].to_numpy()
+        xy = ends[["x", "y"]].to_numpy(float)
+        charge, track = ends["charge"].to_numpy(float), ends["track"].to_numpy(np.int64)
+        for at in rows_by_frame(times).values():  # one frame's births (or deaths) at a time, as arrays
+            ip, ineg = _pair_ends(xy[at], charge[at], pair_distance, box)
+            parts.append(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
+            if include_unpaired:
+                alone = np.setdiff1d(np.arange(len(at)), np.r_[ip, ineg])
+                parts.append(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]], lone))
+    if not sum(len(part[0]) for part in parts):
+        return _empty_events(columns, time_column)
+    cols = {c: np.concatenate([part[k] for part in parts]) for k, c in enumerate(columns)}
+    # by time, kind (its codes sort as the names do), x, y: a numpy sort, and the names made a column once, in order
+    order = np.lexsort((cols["y"], cols["x"], cols["kind"], cols[time_column]))
+    cols = {c: v[order] for c, v in cols.items()}
+    cols["kind"] = string_column(cols["kind"], EVENT_KINDS)
+    out = pd.DataFrame(cols, copy=False)
+    return validate(out, "defect_events") if time_column == "frame" else out
+
+
+def _event_columns(t, kind, x, y, track_plus, track_minus, separation):
+    """One frame's events of one kind as the columns of :func:`defect_events` (``t`` and the :data:`EVENT_KINDS`
+    code ``kind`` repeated)."""
+    return (np.full(len(x), t), np.full(len(x), kind, np.int8), x, y, track_plus, track_minus, separation)
+
+
+def _pair_rows(xy, track, ip, ineg, t, kind, box):
+    d = xy[ineg] - xy[ip]
+    if box is not None:
+        d = box.min_image(d)
+    mid = xy[ip] + d / 2
+    if box is not None:
+        mid = box.wrap(mid)
+    return _event_columns(t, kind, mid[:, 0], mid[:, 1], track[ip], track[ineg], np.hypot(d[:, 0], d[:, 1]))
+
+
+def _lone_rows(xy, charge, track, t, kind):
+    plus = charge > 0
+    return _event_columns(t, kind, xy[:, 0], xy[:, 1], np.where(plus, track, -1), np.where(plus, -1, track),
+                          np.full(len(xy), np.nan))
+
+
+def _empty_events(columns, time_column):
+    out = pd.DataFrame({c: pd.Series(dtype=float) for c in columns})
+    out["kind"] = out["kind"].astype("string")
+    for c in ("track_plus", "track_minus"):
+        out[c] = out[c].astype(np.int64)
+    return out
