@@ -11,7 +11,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..geometry import polygon_area_centroid, segment_sum
-from . import DEGENERATE_AREA
+from .shape import DEGENERATE_AREA
 
 
 def disk_means(nodes, xy, values, counted, radii, order, starts, origin, size, nbins, period, empty, means, counts):
