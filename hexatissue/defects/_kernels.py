@@ -62,7 +62,7 @@ def field_layouts(row, col, rows, cuts):
 
 @njit(cache=True)
 def _wrapped(d, period):
-    """``d`` wrapped into (-period/2, period/2] (as ``hexatissue.defects._wrap_angle``)."""
+    """``d`` wrapped into (-period/2, period/2] (as ``hexatissue.defects.field._wrap_angle``)."""
     return d - period * np.ceil(d / period - 0.5)
 
 
