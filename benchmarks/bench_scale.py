@@ -136,11 +136,12 @@ t0 = time.time()
 phase("frames")
 with warnings.catch_warnings():
     warnings.simplefilter("ignore")
-    m = analyze(movie, progress=False, **kw, **opts)
+    m = analyze(movie, progress=False, out=cfg["out"] if cfg["stream"] else None, **kw, **opts)
 phase("Movie")
 t1 = time.time()
 phase("write")
-m.write(cfg["out"])
+if not cfg["stream"]:  # a streamed run wrote its folder itself, within analyze
+    m.write(cfg["out"])
 phase(None)
 t2 = time.time()
 cells = m.cells
@@ -148,7 +149,8 @@ per_frame = np.bincount(cells["frame"].to_numpy(), minlength=cfg["frames"])
 truth = {"cells_per_frame_min": int(per_frame.min()), "cells_per_frame_max": int(per_frame.max()),
          "tracks": int(cells["track"].nunique()), "t1_events": int(len(m.tables.get("events", []))),
          "rows": {k: int(len(v)) for k, v in m.tables.items()},
-         "tables_mb": float(sum(int(v.memory_usage(deep=True).sum()) for v in m.tables.values()) / 1e6)}
+         "tables_mb": float(sum(int(v.memory_usage(deep=True).sum()) for v in m.tables.values()
+                                if hasattr(v, "memory_usage")) / 1e6)}
 if client is not None:
     client.close()
     cluster.close()
@@ -313,7 +315,7 @@ def merged(sets: list) -> list:
     out = {}
     for res in sets:
         c = res["config"]
-        key = (c["size"], c["cells"], c["amplitude"], c["seed"], c["input"], c["deformation"])
+        key = (c["size"], c["cells"], c["amplitude"], c["seed"], c["input"], c["deformation"], c.get("stream", False))
         if key not in out:
             out[key] = {"config": dict(c, command=[c["command"]]), "runs": []}
         else:
@@ -334,6 +336,8 @@ def markdown(results: dict, heading: str = "##") -> str:
     c = results["config"]
     runs = results["runs"]
     stages = "default stages + deformation budget" if c["deformation"] else "default stages"
+    if c.get("stream"):
+        stages += ", streamed (`analyze(out=...)`: tables written as the frames finish)"
     lines = [
         f"{heading} {stages}, {', '.join(dict.fromkeys(r['config'] for r in runs))}",
         "",
@@ -431,6 +435,8 @@ def main(argv=None) -> int:
     ap.add_argument("--configs", nargs="+", default=["1", "2", "cluster"],
                     help="1 and 2: workers=1 / 2 (process pool); cluster: client= a 2-worker LocalCluster")
     ap.add_argument("--deformation", action="store_true", help="also run the deformation budget")
+    ap.add_argument("--stream", action="store_true",
+                    help="analyze(out=...): the tables streamed to the results folder as the frames finish")
     ap.add_argument("--input", choices=("zarr", "lazy"), default="zarr",
                     help="zarr: frames rendered beforehand into a cached zarr array; lazy: rendered in the run")
     ap.add_argument("--amplitude", type=float, default=0.3)
@@ -476,7 +482,8 @@ def main(argv=None) -> int:
                 run_cfg = {"frames": n, "cells": args.cells, "size": args.size, "amplitude": args.amplitude,
                            "seed": args.seed, "input": args.input, "zarr": str(zarr_path) if zarr_path else None,
                            "workers": None if cfg == "cluster" else int(cfg), "cluster": 2 if cfg == "cluster" else None,
-                           "deformation": args.deformation, "out": str(out), "report": str(work / "report.json"),
+                           "deformation": args.deformation, "stream": args.stream, "out": str(out),
+                           "report": str(work / "report.json"),
                            "label": label}
                 load = os.getloadavg()[0]
                 r = run_one(run_cfg, args.poll, env, pkg.parent)
@@ -496,7 +503,8 @@ def main(argv=None) -> int:
     import psutil
 
     results = {"config": {"size": args.size, "cells": args.cells, "amplitude": args.amplitude, "seed": args.seed,
-                          "input": args.input, "deformation": args.deformation, "poll": args.poll,
+                          "input": args.input, "deformation": args.deformation, "stream": args.stream,
+                          "poll": args.poll,
                           "cores": os.cpu_count(), "machine": platform.machine(),
                           "memory_gb": psutil.virtual_memory().total / 1e9, "python": sys.version.split()[0],
                           "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "load_before": load_before,

@@ -70,6 +70,13 @@ class Rows:
             buf[self.n:end] = column(name)
         self.n = end
 
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the rows held."""
+        if self.parts is not None:
+            return int(sum(part.memory_usage().sum() for part in self.parts))
+        return 0 if self.buffers is None else sum(self.n * buf.dtype.itemsize for buf in self.buffers)
+
     def table(self, name=None, orders=None, start=0) -> pd.DataFrame:
         """The rows from ``start`` on (views of the buffers); ``empty_table(name, orders)`` if nothing came."""
         if self.parts is not None:

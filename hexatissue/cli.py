@@ -65,6 +65,10 @@ def _analyze_parser(sub):
     run.add_argument("--checkpoint", metavar="DIR", help="movies: save progress to DIR and resume from it when run again")
     run.add_argument("--workers", type=int, help="local processes for movies (default: all cores)")
     run.add_argument("--scheduler", metavar="ADDRESS", help="dask.distributed scheduler address for movies")
+    run.add_argument("--stream", choices=["auto", "yes", "no"], default="auto",
+                     help="write the tables to --out as the frames finish, in Parquet parts by chunk of frames "
+                          "(OUT/cells/part-*.parquet, ...), so that memory does not grow with the movie; auto "
+                          "(default): for movies of more than 1.5e8 pixel-frames (about 1 GB of tables)")
     run.add_argument("--figures", action="store_true", help="also write PNG figures to OUT/figures")
     run.add_argument("--format", nargs="+", default=["parquet"], choices=["parquet", "csv"],
                      help="table formats to write (default: parquet)")
@@ -126,21 +130,33 @@ def _run_analyze(args) -> int:
 
 
 def _analyze_into(args, source, options) -> int:
-    from .pipeline import analyze, first_run_compiles
+    from .pipeline import analyze, first_run_compiles, streams_by_default
     from .results import write_results
 
     client = connect_scheduler(args.scheduler) if args.scheduler else None
     if first_run_compiles(source, client):
         announce_compile(source, options)
     start = time.perf_counter()
+    stream = args.stream == "yes" or (args.stream == "auto" and streams_by_default(source))
     try:
         movie = analyze(source, box=True if args.periodic else None, client=client, workers=args.workers,
-                        checkpoint=args.checkpoint, mask=args.mask, **options)
+                        checkpoint=args.checkpoint, mask=args.mask, out=args.out if stream else None, **options)
     finally:
         if client is not None:
             client.close()
     line = summary_line(movie)
-    if args.figures:
+    if stream:  # the folder is complete: the Parquet tables are written; CSV and figures come from them
+        if args.figures:
+            from .results import read_results
+            from .workflows.figures import save_movie_figures
+
+            tables = read_results(args.out, lazy=False)  # the figures' functions take DataFrames
+            (Path(args.out) / "metadata.json").unlink(missing_ok=True)
+            figures = save_movie_figures(tables, Path(args.out) / "figures", source)
+        else:
+            figures = []
+        written = movie.write(args.out, formats=tuple(args.format)) + figures
+    elif args.figures:
         from .workflows.figures import save_movie_figures
 
         # the figures first, then the tables and metadata.json last: a folder whose figures failed (a full

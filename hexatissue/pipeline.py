@@ -40,8 +40,11 @@ from ._version import __version__
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from .progress import progress as progress_bar
-from .results import Movie
+from .io import check_output_folder
+from .results import METADATA, Movie, check_replaceable_tables, write_results
+from .schema import TABLES as SCHEMAS
 from .source import open_source, read_mask
+from .stored import StoredTable
 from .stages import (FrameData, MovieData, frame_stages, frame_tables, movie_stages, run_frame, stage_options,
                      worker_stages)
 
@@ -55,7 +58,7 @@ REFERENCE_PIXELS = 500_000
 
 
 def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoint=None, checkpoint_every=100,
-            progress=True, **options) -> Movie:
+            progress=True, out=None, **options) -> Movie:
     """Every table of a label image, label movie or MPF run: networks, order, defects, tracks, T1 events.
 
     Parameters
@@ -91,6 +94,16 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     progress : bool or tqdm class
         Show a progress bar (on a terminal; see :mod:`hexatissue.progress`);
         a tqdm subclass (e.g. ``napari.utils.progress``) draws it with that class.
+    out : str or Path, optional
+        Stream the results to this folder: the frame tables are written as
+        they finish, in Parquet parts of a chunk of frames (``<out>/cells/
+        part-<first>-<last>.parquet``, ...; about :data:`PART_BYTES` of rows
+        each, or ``checkpoint_every`` frames with a checkpoint), the movie
+        stages read only the columns they use, and the folder is a complete
+        results folder (``metadata.json`` written last) when ``analyze``
+        returns.  Memory holds one chunk of frames and the columns the movie
+        stages read, not the movie's tables; the tables are those of the
+        run without ``out``.  Parquet only.
     **options
         The options of each stage (:data:`hexatissue.stages.STAGES`), by
         stage name: ``mesh`` (:class:`~hexatissue.MeshOptions`), ``order``
@@ -115,7 +128,10 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
         (:func:`~hexatissue.track.lineage_table`) and ``cell_events``
         (:func:`~hexatissue.events.cell_event_stats`); every table has a
         ``frame`` column except the per-event and per-track ones.  Columns
-        and units: :func:`hexatissue.schema.describe`.  The Movie carries the
+        and units: :func:`hexatissue.schema.describe`.  With ``out``, the
+        frame tables and ``flow`` are :class:`~hexatissue.stored.StoredTable`
+        objects (read on demand from the folder's parts), as
+        ``read_results(out, lazy=True)`` gives them.  The Movie carries the
         box, shape, calibration (pixel size, frame interval), the options
         used (``track.mode`` and ``events.censor`` resolved: see
         :class:`~hexatissue.TrackOptions` and
@@ -143,6 +159,8 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     followers = {s.options.stage: s.state for s in movie_work if s.state is not None}
     states = {name: follow.new(options[name], src, box) for name, follow in followers.items()}
     tables = frame_tables(frame_work)
+    orders = options["order"].p
+    streamed = None if out is None else _Streamed(out, tables, orders, checkpoint is not None)
     store = None
     if checkpoint is not None:
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
@@ -151,18 +169,81 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
         store = Checkpoint(checkpoint, key, checkpoint_every, tables)
     with references(kernel_mode(src, client)):
         rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client,
-                                workers, store, progress)
+                                workers, store, progress, streamed)
         release_freed_memory()  # the frames' freed temporaries, before the movie stages
-        orders = options["order"].p
-        movie = MovieData(tables={name: rows.pop(name).table(name, orders) for name in tables}, box=box,
-                          n_frames=src.n_frames, source=src, states=states, options=dict(options), images=images)
-        del states
+        if streamed is None:
+            done = {name: rows.pop(name).table(name, orders) for name in tables}
+        else:
+            streamed.flush(rows, src.n_frames - 1)  # what a resumed checkpoint held beyond the last part
+            done = dict(streamed.tables)
+        del rows
+        movie = MovieData(tables=done, box=box, n_frames=src.n_frames, source=src, states=states,
+                          options=dict(options), images=images, folder=None if streamed is None else streamed.folder)
+        del states, done
         for stage in movie_work:
             stage.run(movie, options[stage.options.stage])
             release_freed_memory()  # after each movie stage: its freed working set would stay under the next
-    return Movie(**movie.tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames, calibration=src.calibration,
-                 options=movie.options, source=_described(src.description, mask_info, images), version=__version__,
-                 summary=movie.summary)
+    result = Movie(**movie.tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames,
+                   calibration=src.calibration, options=movie.options,
+                   source=_described(src.description, mask_info, images), version=__version__, summary=movie.summary)
+    if streamed is not None:
+        write_results(result, streamed.folder)  # the parts are finished in place; the small tables, metadata.json
+    return result
+
+
+#: Bytes of rows (all frame tables) a streamed run (``analyze(out=...)``) gathers before it writes them as one part
+#: per table: 128 MB is ~20 frames of a 4,800-cell tissue (1.3 kB per cell and frame), a few hundred files per table
+#: for 10^7 cell-frames.
+PART_BYTES = 128 * 1024 ** 2
+
+
+#: Pixel-frames above which ``hexatissue analyze`` streams its tables (``--stream auto``): the default stages'
+#: tables take about 6 bytes per pixel-frame (1.3 kB per cell-frame on a tissue of 4,800 cells in 1024 x 1024 px,
+#: benchmarks/results_scale.md), so 1.5e8 pixel-frames (150 frames of 1024 x 1024) are about 1 GB in memory.
+STREAM_PIXELS = 150_000_000
+
+
+def streams_by_default(source) -> bool:
+    """Whether ``hexatissue analyze`` streams the tables of ``source`` unless told (:data:`STREAM_PIXELS`)."""
+    return source.n_frames * int(np.prod(source.shape)) > STREAM_PIXELS
+
+
+class _Streamed:
+    """The frame tables of a streamed run, written to ``folder`` in parts as the frames finish.
+
+    A part holds the frames gathered since the last one: :data:`PART_BYTES`
+    of rows, or, with a checkpoint, the frames between two checkpoints (so
+    that the checkpoint's parts and the written ones never split a frame's
+    rows differently).
+    """
+
+    def __init__(self, folder, names, orders, checkpointed):
+        self.folder = check_output_folder(folder, "out")
+        check_replaceable_tables(self.folder, "out")
+        (self.folder / METADATA).unlink(missing_ok=True)  # incomplete from here until write_results ends
+        for name in SCHEMAS:  # an earlier result's parts: this run writes its own
+            if (self.folder / name).is_dir():
+                for path in (self.folder / name).glob("part-*.parquet"):
+                    path.unlink()
+        self.tables = {name: StoredTable(self.folder / name, name, orders) for name in names}
+        self.orders = orders
+        self.checkpointed = checkpointed
+        self.first = 0  # the first frame not yet written
+
+    def due(self, rows, checkpoint_saved, last) -> bool:
+        """Whether the rows gathered are written now: at the last frame, at a checkpoint, or when large enough."""
+        if last or checkpoint_saved:
+            return True
+        return not self.checkpointed and sum(r.nbytes for r in rows.values()) >= PART_BYTES
+
+    def flush(self, rows, last):
+        """Write the rows of frames ``self.first`` to ``last`` as the next part of every table; empty ``rows``."""
+        if last < self.first:
+            return
+        for name in self.tables:
+            self.tables[name].append(rows[name].table(name, self.orders), self.first, last)
+            rows[name] = Rows(rows[name].expected_frames)
+        self.first = last + 1
 
 
 def kernel_mode(source, client=None) -> str:
@@ -311,13 +392,15 @@ def _batch_job(batch, stages, follow):
     return [(frame.tables, {name: p[k] for name, p in payloads.items()}, found[k]) for k, frame in enumerate(batch)]
 
 
-def _extract(src, box, stages, options, mask, images, followers, states, tables, client, workers, store, progress):
+def _extract(src, box, stages, options, mask, images, followers, states, tables, client, workers, store, progress,
+             streamed=None):
     """Per-frame ``tables`` (in frame order, as :class:`Rows`) and the frame ``states`` (by stage options name, of
     the :class:`~hexatissue.stages.FrameState` ``followers``), with few frames in flight.
 
     A checkpoint folder is locked for the whole extraction: two runs cannot share it.
     """
-    args = (src, box, stages, options, mask, images, followers, states, tables, client, workers, store, progress)
+    args = (src, box, stages, options, mask, images, followers, states, tables, client, workers, store, progress,
+            streamed)
     if store is None:
         return _extract_locked(*args)
     store.lock()
@@ -328,7 +411,7 @@ def _extract(src, box, stages, options, mask, images, followers, states, tables,
 
 
 def _extract_locked(src, box, stages, options, mask, images, followers, states, tables, client, workers, store,
-                    progress):
+                    progress, streamed):
     """The frame loop: batches of consecutive frames go to the executor; their results join the frame states in
     frame order.
 
@@ -377,6 +460,9 @@ def _extract_locked(src, box, stages, options, mask, images, followers, states, 
                 new = {name: [r.table(start=saved[name])] for name, r in rows.items() if r.n > saved[name]}
                 store.save(t + 1, new, {name: f.dump(states[name]) for name, f in followers.items()})
                 saved.update({name: r.n for name, r in rows.items()})
+            if streamed is not None and streamed.due(rows, t + 1 in due, t + 1 == n_frames):
+                streamed.flush(rows, t)
+                saved.update({name: 0 for name in rows})
 
     def frame_data(t):
         if polygons:

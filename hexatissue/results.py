@@ -30,6 +30,7 @@ from .frame import MESH_TABLES, Frame, Tables
 from .io import atomic_path, check_output_folder, read_table, read_units, write_table
 from .options import OPTION_CLASSES
 from .schema import TABLES as SCHEMAS, coerce, column_units, validate
+from .stored import PART_PATTERN, StoredTable
 from .units import Calibration
 
 __all__ = ["Movie", "write_results", "read_results", "check_replaceable_tables", "FORMATS", "METADATA", "RUN_LOCK"]
@@ -45,8 +46,8 @@ def _check_table(name, table):
     if name not in SCHEMAS:
         raise InputError(f"a Movie holds tables that have a schema; {name!r} has none (tables: {list(SCHEMAS)}; "
                          f"add an entry to hexatissue.schema.TABLES)")
-    if not isinstance(table, pd.DataFrame):
-        raise InputError(f"table {name!r} must be a pandas DataFrame; got {type(table).__name__}")
+    if not isinstance(table, (pd.DataFrame, StoredTable)):
+        raise InputError(f"table {name!r} must be a pandas DataFrame (or a StoredTable); got {type(table).__name__}")
     return table
 
 
@@ -173,6 +174,8 @@ class Movie:
         table = self.tables.get(name)
         if table is None:
             raise InputError(f"this movie has no {name!r} table; it has {sorted(self.tables)}")
+        if isinstance(table, StoredTable):
+            return table.read(frames=(t, t))
         return table[table["frame"].to_numpy() == t].reset_index(drop=True)
 
     def polygons(self, t: int) -> dict[int, np.ndarray]:
@@ -258,12 +261,15 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
     previous = _listed_tables(directory / METADATA)
     (directory / METADATA).unlink(missing_ok=True)  # the folder is incomplete from here until the end
     tables = dict(movie.tables)
-    names = sorted(tables, key=lambda n: int(tables[n].memory_usage().sum())) if release else list(tables)
+    names = sorted(tables, key=lambda n: _memory(tables[n])) if release else list(tables)
     written = []
     for name in names:
         if release:  # the previous table's pages (and what the caller freed last), before this table's buffers
             release_freed_memory()
-        written += [write_table(tables[name], directory / f"{name}.{fmt}", schema=name) for fmt in formats]
+        if isinstance(tables[name], StoredTable):
+            written += _write_stored(tables[name], directory, formats)
+        else:
+            written += [write_table(tables[name], directory / f"{name}.{fmt}", schema=name) for fmt in formats]
         if release:
             del tables[name]
             setattr(movie, name, None)
@@ -272,9 +278,51 @@ def write_results(movie, directory, formats=("parquet",), release=False) -> list
             stale = directory / f"{name}.{fmt}"
             if stale not in written:
                 stale.unlink(missing_ok=True)
+        parts = directory / name
+        if parts.is_dir() and not any(p.parent == parts for p in written):
+            _remove_parts(parts)
     with atomic_path(directory / METADATA) as tmp:
         tmp.write_text(json.dumps(meta, indent=2))
     return written + [directory / METADATA]
+
+
+def _memory(table):
+    """Bytes a table holds in memory (0 for one on disk)."""
+    return 0 if isinstance(table, StoredTable) else int(table.memory_usage().sum())
+
+
+def _remove_parts(folder):
+    """Remove a table's part files, then its folder if nothing else is in it."""
+    for path in folder.iterdir():
+        if PART_PATTERN.fullmatch(path.name):
+            path.unlink()
+    if not any(folder.iterdir()):
+        folder.rmdir()
+
+
+def _write_stored(table, directory, formats):
+    """Write a :class:`~hexatissue.stored.StoredTable` part by part: as a Parquet dataset ``directory/<name>/``
+    (its own parts are finished in place) and, for ``"csv"``, as one CSV file; returns the files written."""
+    written = []
+    for fmt in formats:
+        if fmt == "csv":
+            path = directory / f"{table.name}.csv"
+            with atomic_path(path) as tmp:
+                for k in range(len(table.parts)):
+                    table._part(k).to_csv(tmp, index=False, header=k == 0, mode="w" if k == 0 else "a")
+            written.append(path)
+            continue
+        target = directory / table.name
+        if target.resolve() == table.folder.resolve():
+            table.finish()
+        else:
+            if target.is_dir():
+                _remove_parts(target)
+            copy = StoredTable(target, table.name, table.orders)
+            for k, (first, last, _, _) in enumerate(table.parts):
+                copy.append(table._part(k), first, last)
+        written += [target / path.name for _, _, _, path in table.parts]
+    return written
 
 
 def _path_entries(source):
@@ -355,14 +403,28 @@ def _check_units(path, name):
                          f"in px and frames; the calibration converts them): written by another tool or version")
 
 
-def read_results(directory) -> Movie:
+#: Bytes on disk of a results folder's tables split in parts above which :func:`read_results` (``lazy="auto"``)
+#: leaves them on disk: Parquet packs the tables 3-5 times, so 2 GB of parts are 6-10 GB in memory.
+LAZY_BYTES = 2 * 1024 ** 3
+
+
+def read_results(directory, lazy="auto") -> Movie:
     """A results folder (:meth:`Movie.write`, ``hexatissue analyze``) read back as a :class:`Movie`.
 
     Parameters
     ----------
     directory : str or Path
         Folder holding ``metadata.json`` and the tables (Parquet preferred
-        over CSV when both exist).
+        over CSV when both exist): each a file ``<table>.parquet`` or, for
+        the large tables of a streamed analysis (``analyze(out=...)``), a
+        folder ``<table>/`` of Parquet parts by chunk of frames.
+    lazy : bool or "auto"
+        Tables in parts as :class:`~hexatissue.stored.StoredTable` (read by
+        column and frame range on demand: ``movie.cells.read(["x", "y"],
+        frames=(0, 9))``, ``movie.table_at("cells", 3)``,
+        ``.to_pandas()``, ``.dataset()`` for pyarrow or dask) instead of
+        DataFrames.  ``"auto"`` (default): when their parts hold more than
+        :data:`LAZY_BYTES` on disk.  Tables in single files are always read.
 
     Returns
     -------
@@ -390,8 +452,23 @@ def read_results(directory) -> Movie:
     except (OSError, ValueError) as exc:
         raise InputError(f"results folder {str(folder)!r}: {METADATA} cannot be read ({exc}); the folder is "
                          f"damaged: write it again") from None
+    if lazy not in (True, False, "auto"):
+        raise InputError(f"lazy must be True, False or 'auto'; got {lazy!r}")
+    stored = {name: StoredTable.open(folder / name, name) for name in SCHEMAS
+              if (folder / name).is_dir() and any(PART_PATTERN.fullmatch(p.name) for p in (folder / name).iterdir())}
+    if lazy == "auto":
+        lazy = sum(path.stat().st_size for t in stored.values() for _, _, _, path in t.parts) > LAZY_BYTES
     tables = {}
+    for name, table in stored.items():
+        try:
+            validate(table.head(), name)
+            _check_units(table.parts[0][3], name)
+            tables[name] = table if lazy else validate(table.read(), name)
+        except InputError as exc:
+            raise InputError(f"results folder {str(folder)!r}: {name}/: {exc}") from None
     for name in SCHEMAS:
+        if name in tables:
+            continue
         for fmt in FORMATS:
             path = folder / f"{name}.{fmt}"
             if path.exists():

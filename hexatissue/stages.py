@@ -52,6 +52,7 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
                       MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
+from .stored import StoredTable
 from .track import (MovieTracker, cells_with_tracks, check_divisions, check_extrusions, compact_frames, lineage_table,
                     tracking_summary, tracking_warning)
 
@@ -173,13 +174,18 @@ class FrameData:
 class MovieData:
     """The movie as the movie stages see it: its tables, and what they decide.
 
-    ``tables`` by name (stages add, replace and drop them); ``source`` the
-    opened :class:`~hexatissue.Source`; ``states`` the :class:`FrameState`
-    of each stage that has one, by stage options name (``states["track"]``:
-    the :class:`~hexatissue.track.MovieTracker` that linked the frames);
-    ``options`` the options by stage name (a stage records what it resolved,
-    e.g. the tracking mode used); ``summary`` what the stages decided, by
-    stage name.
+    ``tables`` by name (stages add, replace and drop them): DataFrames, or,
+    when the movie's tables are streamed to a folder (``folder``), the frame
+    tables as :class:`~hexatissue.stored.StoredTable` (Parquet parts on
+    disk).  Stages read them with :meth:`read` (only the columns they use)
+    and add columns with :meth:`add_column`, so that a stage works the same
+    on either.  ``source`` the opened :class:`~hexatissue.Source`;
+    ``states`` the :class:`FrameState` of each stage that has one, by stage
+    options name (``states["track"]``: the
+    :class:`~hexatissue.track.MovieTracker` that linked the frames);
+    ``options`` the options by stage name (a stage records what it
+    resolved, e.g. the tracking mode used); ``summary`` what the stages
+    decided, by stage name.
     """
 
     tables: dict
@@ -190,6 +196,48 @@ class MovieData:
     options: dict
     summary: dict = field(default_factory=dict)
     images: dict = field(default_factory=dict)  # the image stages' Sources by stage name (the flow's PIV reads them)
+    folder: object = None  # where the streamed tables are written (None: every table in memory)
+
+    def read(self, name, columns=None, frames=None) -> pd.DataFrame:
+        """Table ``name``: only the ``columns`` it has (all when None), only the rows of frames ``first`` to
+        ``last`` when ``frames = (first, last)``.  A table on disk is read from its parts."""
+        table = self.tables[name]
+        if isinstance(table, StoredTable):
+            return table.read(columns, frames)
+        if frames is not None:
+            f = table["frame"].to_numpy()
+            table = table[(f >= frames[0]) & (f <= frames[1])].reset_index(drop=True)
+        return table if columns is None else table[[c for c in columns if c in table.columns]]
+
+    def add_column(self, name, column, values, after=None):
+        """Set ``column`` of table ``name`` to ``values`` (every row, in order): replaced in place or appended,
+        or, with ``after``, moved to just after that column."""
+        table = self.tables[name]
+        if isinstance(table, StoredTable):
+            table.add_column(column, values, after)
+        elif after is not None:
+            if column in table.columns:
+                del table[column]
+            table.insert(table.columns.get_loc(after) + 1, column, values)
+        else:
+            table[column] = values
+
+    def frame_chunks(self, name) -> list:
+        """``(first, last)`` frames of the chunks table ``name`` is kept in (one chunk for a table in memory)."""
+        table = self.tables[name]
+        return table.frame_chunks if isinstance(table, StoredTable) else [(0, max(self.n_frames - 1, 0))]
+
+    def put_chunks(self, name, chunks, orders=None):
+        """Table ``name`` made chunk by chunk: ``chunks`` yields ``((first, last), DataFrame)``; written as parts
+        when the movie's tables are streamed, else concatenated."""
+        if self.folder is None:
+            parts = [table for _, table in chunks]
+            self.tables[name] = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
+            return
+        stored = StoredTable(self.folder / name, name, orders)
+        for (first, last), table in chunks:
+            stored.append(table, first, last)
+        self.tables[name] = stored
 
 
 # ----------------------------------------------------------------------------
@@ -348,11 +396,25 @@ def _link(tracker, payload, t):
         tracker.add_valid(labels, t, overlaps)
 
 
+#: The columns each movie stage reads, by table: a table kept on disk is read for these alone (the cells table of a
+#: long movie holds ~20 columns; the tracks stage needs 6).
+TRACK_READS = {"cells": ("frame", "cell", "x", "y", "area", "is_border")}
+FLOW_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
+              "grid": ("frame", "node", "x", "y", "radius", "valid")}
+T1_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
+            "edges": ("frame", "edge", "vertex_a", "vertex_b", "cell_a", "cell_b", "length"),
+            "vertices": ("frame", "vertex", "degree", "n_merged")}
+DEFORMATION_READS = {"cells": ("frame", "cell", "track", "x", "y", "area", "is_border"),
+                     "vertices": ("frame", "vertex", "x", "y", "degree", "is_border"),
+                     "cell_vertices": ("frame", "cell", "rank", "vertex", "image_x", "image_y"),
+                     "grid": ("frame", "node", "row", "col", "x", "y", "valid", "radius", "spacing")}
+
+
 def _tracks(movie, options):
     """Each cell's ``track`` from the tracker, the lineage, and what tracking decided."""
     tracker, src = movie.states["track"], movie.source
-    cells = cells_with_tracks(movie.tables["cells"], tracker)
-    movie.tables["cells"] = cells
+    cells = cells_with_tracks(movie.read("cells", TRACK_READS["cells"]), tracker)
+    movie.add_column("cells", "track", cells["track"].to_numpy(), after="cell")
     # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
@@ -374,44 +436,67 @@ def _defect_tracks(movie, options):
     When the frames are unrelated images (tracking ``off``) every frame is
     tracked alone: each defect is its own track and there are no pair events.
     """
-    tables, n_frames = movie.tables, movie.n_frames
-    cells, grid = tables["cells"], tables["grid"]
-    missing = n_frames - distinct_count(grid["frame"].to_numpy()) if len(cells) else 0
+    n_frames = movie.n_frames
+    grid = movie.read("grid", ("frame", "spacing"))
+    missing = n_frames - distinct_count(grid["frame"].to_numpy()) if len(movie.tables["cells"]) else 0
     if missing:
         warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
                       f"or defects there", HexatissueWarning, stacklevel=user_stacklevel())
     linked = movie.summary.get("tracking", {}).get("resolved") != "off"
+    # the defects (a few per frame) are linked in memory, from the grid's frames and spacing alone
+    tables = {"defects": movie.read("defects"), "grid": grid}
     link_movie_defects(tables, options.p, options.defect_max_distance, movie.box, n_frames, linked)
+    movie.tables.update(defects=tables["defects"], defect_events=tables["defect_events"])
 
 
 def _flow(movie, options):
-    """Every tracked cell's velocity (``cells.vx``, ``vy``) and, on the Gamma_p grid when there is one, ``flow``."""
-    cells = movie.tables["cells"]
-    cells["vx"], cells["vy"] = cell_velocities(cells, movie.box)
-    if "grid" in movie.tables:
-        movie.tables["flow"] = flow_fields(cells, movie.tables["grid"], movie.box, options.radius_factor,
-                                           options.min_cells)
-        image = movie.images.get("intensity")
-        if options.piv and image is not None and image.n_frames == movie.n_frames > 2:
-            piv = piv_fields(image.images(), movie.tables["grid"], movie.box)
-            for column in ("piv_vx", "piv_vy", "piv_peak"):
-                movie.tables["flow"][column] = piv[column].to_numpy()
+    """Every tracked cell's velocity (``cells.vx``, ``vy``) and, on the Gamma_p grid when there is one, ``flow``.
+
+    The grid's fits are per frame: they run chunk by chunk of the grid's frames.
+    """
+    cells = movie.read("cells", FLOW_READS["cells"])
+    vx, vy = cell_velocities(cells, movie.box)
+    movie.add_column("cells", "vx", vx)
+    movie.add_column("cells", "vy", vy)
+    if "grid" not in movie.tables:
+        return
+    cells = cells.assign(vx=vx, vy=vy)
+    frame = cells["frame"].to_numpy()
+
+    def chunks():
+        for first, last in movie.frame_chunks("grid"):
+            inside = (frame >= first) & (frame <= last)
+            grid = movie.read("grid", FLOW_READS["grid"], frames=(first, last))
+            yield (first, last), flow_fields(cells[inside], grid, movie.box, options.radius_factor,
+                                             options.min_cells)
+
+    movie.put_chunks("flow", chunks())
+    image = movie.images.get("intensity")
+    if options.piv and image is not None and image.n_frames == movie.n_frames > 2:
+        flow = movie.read("flow")
+        piv = piv_fields(image.images(), movie.read("grid"), movie.box)
+        for column in ("piv_vx", "piv_vy", "piv_peak"):
+            flow[column] = piv[column].to_numpy()
+        movie.tables["flow"] = flow
 
 
 def _t1_events(movie, options):
     """Quartet T1s and per-cell neighbour changes from one pass over the contacts, classified."""
     censor = default_censor(movie.n_frames) if options.censor is None else options.censor
     tables = movie.tables
-    tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], tables["cells"], options.min_length,
-                                                             censor, movie.box)
+    tables["events"], tables["neighbour_events"] = t1_tables(movie.read("edges", T1_READS["edges"]),
+                                                             movie.read("cells", T1_READS["cells"]),
+                                                             options.min_length, censor, movie.box)
     movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames,
-                                             tables.get("vertices"))
+                                             movie.read("vertices", T1_READS["vertices"])
+                                             if "vertices" in tables else None)
     movie.options["events"] = options.replace(censor=censor)
 
 
 def _cell_events(movie, options):
     """Per-cell T1 statistics."""
-    movie.tables["cell_events"] = cell_event_stats(movie.tables["events"], movie.tables["cells"])
+    movie.tables["cell_events"] = cell_event_stats(movie.tables["events"],
+                                                   movie.read("cells", ("frame", "cell", "track")))
 
 
 def _deformation(movie, options):
@@ -423,12 +508,13 @@ def _deformation(movie, options):
                          f"{why}. Run it on a movie, without --track off")
     tables = movie.tables
     t1 = tables["events"] if options.t1_events == "quartets" else tables["neighbour_events"]
-    grid = tables.get("grid") if options.grid else None
+    grid = movie.read("grid", DEFORMATION_READS["grid"]) if options.grid and "grid" in tables else None
     roi = read_roi(options.roi) if options.roi is not None else None
     shape = tuple(movie.source.shape)[-2:]
     if roi is not None and roi.shape != shape:
         raise InputError(f"DeformationOptions.roi has shape {roi.shape}; the frames are {shape} (rows, cols)")
-    budget, shear = deformation_budget(tables["cells"], tables["vertices"], tables["cell_vertices"],
+    budget, shear = deformation_budget(*(movie.read(name, DEFORMATION_READS[name])
+                                         for name in ("cells", "vertices", "cell_vertices")),
                                        tables["lineage"], t1, box=movie.box, grid=grid, roi=roi,
                                        roi_frame=options.roi_frame, t1_events=options.t1_events)
     doubtful = _doubtful_intervals(movie)

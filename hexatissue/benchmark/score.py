@@ -133,7 +133,7 @@ def _side(obj, labels, name, box):
         movie = obj
     elif isinstance(obj, (str, Path)) and Path(obj).is_dir() and (Path(obj) / "metadata.json").exists():
         folder = Path(obj)
-        movie = read_results(folder)
+        movie = read_results(folder, lazy=False)
     else:  # a label movie: analyse it (its tables are then those of hexatissue analyze with default options)
         from ..pipeline import analyze
 

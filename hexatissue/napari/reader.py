@@ -82,7 +82,7 @@ def read_folder(path) -> list:
     from ..results import read_results
 
     folder = _one(path)
-    movie = read_results(folder)
+    movie = read_results(folder, lazy=False)
     layers = with_movie(movie_layers(movie, labels=open_labels(movie, folder)), movie)
     _dock_legend()
     return layers

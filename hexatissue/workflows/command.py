@@ -45,7 +45,7 @@ def _run(args) -> int:
     if args.out is not None and Path(args.out).resolve() == Path(args.results).resolve():
         raise InputError(f"--out {args.out!r} is the results folder itself; the report goes into a folder of its own "
                          f"(default: RESULTS_DIR/report)")
-    movie = read_results(args.results)
+    movie = read_results(args.results, lazy=False)
     movie = movie.replace(calibration=movie.calibration.override(
         pixel_size=args.pixel_size, length_unit=args.units, frame_interval=args.frame_interval,
         time_unit=args.time_unit, assume_units=True))

@@ -186,7 +186,7 @@ def figure3(runs, out, *, param="D_r", p=6, dl=DEFAULT_DL, dt=25, n_control=5, s
     timing = {d: {} for d in DEFINITIONS}
     timing_frames = {d: {} for d in DEFINITIONS}
     for k, (value, folder) in enumerate(runs.items()):
-        movie = read_results(folder)
+        movie = read_results(folder, lazy=False)
         box, cells, defects = movie.box, movie.cells, movie.defects
         if calibration is not None and movie.calibration != calibration:
             raise InputError(f"{folder}: its calibration {movie.calibration} differs from the other runs' "
@@ -304,7 +304,7 @@ def timing_vs_frame_spacing(runs, strides=(1, 2, 4), param="D_r") -> pd.DataFram
     """
     rows = []
     for value, folder in _runs(runs).items():
-        movie = read_results(folder)
+        movie = read_results(folder, lazy=False)
         options = movie.options["events"]  # censor as resolved by hexatissue.analyze
         for stride in strides:
             cells, tables = events_at_spacing(movie.edges, movie.cells, stride, options.min_length, options.censor,

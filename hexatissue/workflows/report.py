@@ -95,7 +95,7 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
             raise InputError("out is required when results is a Movie (there is no results folder to write into)")
         movie = results
     else:
-        movie = read_results(results)
+        movie = read_results(results, lazy=False)
     folder = None if isinstance(results, Movie) else results
     name = Path(str(movie.source.get("path") or folder or "movie")).name  # the input's name, else the folder's
     out = check_output_folder(Path(results) / "report" if out is None else out, "out")

@@ -1,0 +1,198 @@
+"""Tables kept on disk as they are made: a Parquet dataset per table, one part per chunk of frames.
+
+A long movie's tables do not fit in memory (about 1.3 kB per cell and frame
+with the default stages: 13 GB at 10^7 cell-frames).  A :class:`StoredTable`
+holds one of them as ``<folder>/<name>/part-<first>-<last>.parquet`` files
+(frames ``first`` to ``last``, in frame order), written as the frames finish,
+and reads back only the columns and frames asked for.  Columns that the
+movie stages add (a cell's ``track``, its velocity) are kept as one array
+each until :meth:`StoredTable.finish` writes them into the parts.  The
+folder reads as one table with ``pandas.read_parquet(folder)`` or
+``pyarrow.dataset.dataset(folder)``; every column carries its unit in the
+Parquet field metadata, as :func:`hexatissue.io.write_table` writes.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+from .io import write_table
+from .schema import empty_table
+
+__all__ = ["StoredTable", "PART_PATTERN"]
+
+#: File name of one part: the frames it holds, first and last.
+PART_PATTERN = re.compile(r"part-(\d{8})-(\d{8})\.parquet")
+
+
+class StoredTable:
+    """One table of a movie as Parquet parts by chunk of frames, read by column and frame range.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The table's folder (``<results>/<name>``); created when the first part is written.
+    name : str
+        The table's schema name (:data:`hexatissue.schema.TABLES`).
+    orders : sequence of int, optional
+        The p of the gamma columns, for the empty table's columns.
+
+    Notes
+    -----
+    Parts are written whole and atomically (:func:`hexatissue.io.write_table`),
+    so a part on disk is complete.  Added columns live in memory, one array
+    over all rows in part order, until :meth:`finish`.
+    """
+
+    def __init__(self, folder, name, orders=None):
+        self.folder = Path(folder)
+        self.name = name
+        self.orders = orders
+        self.parts = []  # (first frame, last frame, rows, path), in frame order
+        self.added = []  # (column, values over all rows, insert after this column or None)
+        self._columns = None
+
+    @classmethod
+    def open(cls, folder, name):
+        """The table written in ``folder`` (its parts, found by name); InputError when it holds none."""
+        folder = Path(folder)
+        table = cls(folder, name)
+        files = sorted(p for p in folder.iterdir() if PART_PATTERN.fullmatch(p.name)) if folder.is_dir() else []
+        if not files:
+            raise InputError(f"table folder {str(folder)!r} holds no part-<first>-<last>.parquet files")
+        import pyarrow.parquet as pq
+
+        for path in files:
+            first, last = map(int, PART_PATTERN.fullmatch(path.name).groups())
+            table.parts.append((first, last, pq.ParquetFile(path).metadata.num_rows, path))
+        return table
+
+    # -- writing ---------------------------------------------------------------------------------------------
+
+    def append(self, table, first, last):
+        """Write the rows of frames ``first`` to ``last`` (a DataFrame) as the next part."""
+        if self.parts and first <= self.parts[-1][1]:
+            raise ValueError(f"{self.name}: part of frames {first}-{last} does not follow frame {self.parts[-1][1]}")
+        self.folder.mkdir(parents=True, exist_ok=True)
+        path = self.folder / f"part-{first:08d}-{last:08d}.parquet"
+        write_table(table, path, schema=self.name)
+        if self._columns is None:
+            self._columns = list(table.columns)
+        self.parts.append((int(first), int(last), len(table), path))
+
+    def add_column(self, column, values, after=None):
+        """Add (or replace) ``column``, ``values`` over every row in order, as pandas would.
+
+        ``after``: the column to insert it after (an existing ``column`` is
+        dropped first); None: replaced in place, or appended at the end.
+        """
+        values = np.asarray(values)
+        if len(values) != len(self):
+            raise ValueError(f"{self.name}.{column}: {len(values)} values for {len(self)} rows")
+        self.added.append((column, values, after))
+
+    def finish(self):
+        """Write the added columns into the parts (each rewritten atomically); a no-op without added columns."""
+        if not self.added:
+            return
+        for k, (first, last, _, path) in enumerate(self.parts):
+            write_table(self._part(k), path, schema=self.name)
+        self._columns = list(self._part(0).columns) if self.parts else None
+        self.added = []
+
+    # -- reading ---------------------------------------------------------------------------------------------
+
+    def __len__(self):
+        return sum(rows for _, _, rows, _ in self.parts)
+
+    @property
+    def columns(self) -> list:
+        """The table's columns, added ones included, in order."""
+        return list(self.head().columns)
+
+    @property
+    def frame_chunks(self) -> list:
+        """``(first, last)`` frames of every part."""
+        return [(first, last) for first, last, _, _ in self.parts]
+
+    def head(self) -> pd.DataFrame:
+        """The columns of the table with no rows."""
+        return self._part(0, rows=0) if self.parts else empty_table(self.name, self.orders)
+
+    def _offsets(self):
+        return np.concatenate([[0], np.cumsum([rows for _, _, rows, _ in self.parts])]).astype(np.int64)
+
+    def _part(self, k, columns=None, rows=None):
+        """Part ``k`` with the added columns (only ``columns`` when given; no rows when ``rows`` is 0)."""
+        stored = None if columns is None else [c for c in columns if c in self._stored_columns()]
+        if rows == 0:
+            import pyarrow.parquet as pq
+
+            schema = pq.read_schema(self.parts[k][3])
+            df = schema.empty_table().select(stored or schema.names).to_pandas()
+        else:
+            df = pd.read_parquet(self.parts[k][3], columns=stored)
+        start = self._offsets()[k]
+        for column, values, after in self.added:
+            if columns is not None and column not in columns:
+                continue
+            part = values[start:start + len(df)]
+            if after is not None:
+                df = df.drop(columns=column, errors="ignore")
+                df.insert(df.columns.get_loc(after) + 1 if after in df.columns else len(df.columns), column, part)
+            else:
+                df[column] = part
+        if columns is not None:
+            df = df[[c for c in columns if c in df.columns]]
+        return df
+
+    def _stored_columns(self):
+        if self._columns is None and self.parts:
+            import pyarrow.parquet as pq
+
+            self._columns = list(pq.read_schema(self.parts[0][3]).names)
+        return self._columns or []
+
+    def read(self, columns=None, frames=None) -> pd.DataFrame:
+        """The table (only ``columns`` that it has, when given; only the parts overlapping ``frames`` =
+        ``(first, last)`` and, of those, the rows of these frames) as one DataFrame."""
+        keep = [k for k, (first, last, _, _) in enumerate(self.parts)
+                if frames is None or (last >= frames[0] and first <= frames[1])]
+        if not keep:
+            head = self.head()
+            return head if columns is None else head[[c for c in columns if c in head.columns]]
+        # the frame column selects the rows, also when it is not asked for
+        want = columns if columns is None or frames is None or "frame" in columns else [*columns, "frame"]
+        out = pd.concat([self._part(k, want) for k in keep], ignore_index=True) if len(keep) > 1 \
+            else self._part(keep[0], want)
+        if frames is not None:
+            f = out["frame"].to_numpy()
+            inside = (f >= frames[0]) & (f <= frames[1])
+            if not inside.all():
+                out = out[inside].reset_index(drop=True)
+            if want is not columns:
+                out = out.drop(columns="frame")
+        return out
+
+    def __getitem__(self, column) -> pd.Series:
+        """One column over every row (a pandas Series)."""
+        if column not in self.columns:
+            raise KeyError(column)
+        return self.read([column])[column]
+
+    def to_pandas(self) -> pd.DataFrame:
+        """The whole table in memory."""
+        return self.read()
+
+    def dataset(self):
+        """The parts as a ``pyarrow.dataset.Dataset`` (added columns not yet finished are not in it)."""
+        import pyarrow.dataset as ds
+
+        return ds.dataset([str(p) for _, _, _, p in self.parts], format="parquet")
+
+    def __repr__(self):
+        return f"StoredTable({self.name!r}, {len(self)} rows in {len(self.parts)} part(s) at {str(self.folder)!r})"

@@ -1,0 +1,159 @@
+"""analyze(out=...): tables streamed to Parquet parts as the frames finish, movie stages on the columns they read.
+
+The streamed run must give exactly the tables of the in-memory run (values,
+dtypes, column order), on every kind of movie the stages treat differently:
+overlap tracking with relabelled ids, a periodic box, divisions, unrelated
+frames, the deformation budget, a checkpointed and resumed run; and its
+results folder must read back the same, eagerly or lazily.
+"""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hexatissue import DeformationOptions, EventOptions, InputError, TrackOptions, analyze, read_results
+from hexatissue import pipeline
+from hexatissue.stored import StoredTable
+from hexatissue.synthetic import relabel_movie, t1_movie, voronoi_movie
+from tests.test_pipeline import _FailingStack
+from tests.test_track import _division_movie
+
+pytestmark = pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+
+
+@pytest.fixture
+def small_parts(monkeypatch):
+    """Parts of a few frames each, so that every table spans several parts."""
+    monkeypatch.setattr(pipeline, "PART_BYTES", 40_000)
+
+
+def _assert_same_tables(streamed, memory):
+    assert list(streamed.tables) == list(memory.tables)
+    for name, table in memory.tables.items():
+        got = streamed.tables[name]
+        got = got.to_pandas() if isinstance(got, StoredTable) else got
+        pd.testing.assert_frame_equal(got, table, obj=name)
+    assert streamed.summary == memory.summary
+    assert {k: v.to_dict() for k, v in streamed.options.items()} == {k: v.to_dict() for k, v in memory.options.items()}
+
+
+def _relabelled(n_frames=8, seed=3):
+    mov = voronoi_movie(60, (120, 140), n_frames, periodic=False, amplitude=0.8, seed=seed)
+    return relabel_movie(np.stack([mov[t] for t in range(n_frames)]), seed=seed)[0]
+
+
+def test_streamed_tables_equal_the_in_memory_ones_with_overlap_tracking_and_the_budget(tmp_path, small_parts):
+    stack = _relabelled()
+    options = dict(workers=1, progress=False, deformation=DeformationOptions(enabled=True))
+    memory = analyze(stack, **options)
+    streamed = analyze(stack, out=tmp_path, **options)
+    assert isinstance(streamed.cells, StoredTable) and len(streamed.cells.parts) > 2  # several parts per table
+    assert (memory.cells["track"] != memory.cells["cell"]).any()  # the ids are not the tracks: tracking did work
+    _assert_same_tables(streamed, memory)
+    _assert_same_tables(read_results(tmp_path, lazy=False), memory)
+    files = sorted(p.name for p in (tmp_path / "cells").iterdir())
+    assert files[0] == "part-00000000-" + files[0][-16:] and all(f.endswith(".parquet") for f in files)
+    # the parts read as one table with the readers people use, units in the field metadata
+    import pyarrow.dataset as ds
+
+    table = ds.dataset(tmp_path / "cells", format="parquet").to_table()
+    assert table.num_rows == len(memory.cells) and table.schema.field("x").metadata[b"unit"] == b"px"
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "cells"), memory.cells)
+
+
+@pytest.mark.parametrize("periodic", [True, False], ids=["periodic", "open"])
+def test_streamed_t1_movie_equals_in_memory(tmp_path, small_parts, periodic):
+    movie = t1_movie(periodic=periodic, seed=2)
+    options = dict(box=movie.box, workers=1, progress=False,
+                   events=EventOptions(min_length=movie.min_length, censor=movie.censor))
+    memory = analyze(movie.labels, **options)
+    assert len(memory.events)
+    _assert_same_tables(analyze(movie.labels, out=tmp_path, **options), memory)
+
+
+def test_streamed_divisions_and_unrelated_frames_equal_in_memory(tmp_path, small_parts):
+    stack = _division_movie()[0]
+    memory = analyze(stack, workers=1, progress=False)
+    assert (memory.lineage["end"] == "division").any()
+    _assert_same_tables(analyze(stack, out=tmp_path / "a", workers=1, progress=False), memory)
+    off = dict(workers=1, progress=False, track=TrackOptions(mode="off"))
+    _assert_same_tables(analyze(stack, out=tmp_path / "b", **off), analyze(stack, **off))
+
+
+def test_streamed_run_resumes_from_its_checkpoint(tmp_path):
+    stack = _relabelled(n_frames=7, seed=8)
+    memory = analyze(stack, workers=1, progress=False)
+    with pytest.raises(InputError, match="frame 5.*simulated crash"):
+        analyze(_FailingStack(stack, 5), workers=1, progress=False, checkpoint=tmp_path / "ck", checkpoint_every=2,
+                out=tmp_path / "out")
+    assert not (tmp_path / "out" / "metadata.json").exists()  # the interrupted folder is not a result
+    with pytest.raises(InputError, match="metadata.json"):
+        read_results(tmp_path / "out")
+    resumed = analyze(_FailingStack(stack, 1), workers=1, progress=False, checkpoint=tmp_path / "ck",
+                      checkpoint_every=2, out=tmp_path / "out")
+    _assert_same_tables(resumed, memory)
+    # parts follow the checkpoints: frames 0-3 came back from it and go with 4-5 into the first part, then 6
+    assert resumed.cells.frame_chunks == [(0, 5), (6, 6)]
+
+
+def test_lazy_results_read_by_column_and_frame_and_written_elsewhere(tmp_path, small_parts):
+    stack = _relabelled(n_frames=6, seed=5)
+    memory = analyze(stack, workers=1, progress=False)
+    analyze(stack, out=tmp_path / "run", workers=1, progress=False)
+    lazy = read_results(tmp_path / "run", lazy=True)
+    assert isinstance(lazy.cells, StoredTable) and isinstance(lazy.events, pd.DataFrame)
+    assert lazy.cells.columns == list(memory.cells.columns) and len(lazy.cells) == len(memory.cells)
+    pd.testing.assert_frame_equal(lazy.table_at("edges", 3), memory.table_at("edges", 3))
+    part = lazy.cells.read(["track", "x"], frames=(2, 4))
+    f = memory.cells["frame"].between(2, 4)
+    pd.testing.assert_frame_equal(part, memory.cells.loc[f, ["track", "x"]].reset_index(drop=True))
+    pd.testing.assert_series_equal(lazy.cells["area"], memory.cells["area"])
+    # a lazy Movie written elsewhere: parts copied one by one; as CSV: one file
+    lazy.write(tmp_path / "copy", formats=("parquet", "csv"))
+    _assert_same_tables(read_results(tmp_path / "copy", lazy=False), memory)
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "copy" / "cells.csv"), pd.read_csv(
+        memory.write(tmp_path / "csv", formats="csv")[0].parent / "cells.csv"))
+    # an in-memory result written over the streamed folder replaces its parts
+    memory.write(tmp_path / "run")
+    assert not (tmp_path / "run" / "cells").exists() and (tmp_path / "run" / "cells.parquet").exists()
+    _assert_same_tables(read_results(tmp_path / "run"), memory)
+
+
+def test_auto_lazy_by_size_and_bad_values(tmp_path, monkeypatch):
+    stack = _relabelled(n_frames=3, seed=6)
+    analyze(stack, out=tmp_path, workers=1, progress=False)
+    from hexatissue import results
+
+    assert isinstance(read_results(tmp_path).cells, pd.DataFrame)  # small: read
+    monkeypatch.setattr(results, "LAZY_BYTES", 1)
+    assert isinstance(read_results(tmp_path).cells, StoredTable)  # large: left on disk
+    with pytest.raises(InputError, match="lazy must be"):
+        read_results(tmp_path, lazy="yes")
+    meta = json.loads((tmp_path / "metadata.json").read_text())
+    assert meta["tables"]["cells"] == len(read_results(tmp_path, lazy=False).cells)
+
+
+def test_out_refuses_a_folder_of_someone_elses_tables(tmp_path):
+    (tmp_path / "cells.parquet").write_bytes(b"not ours")
+    with pytest.raises(InputError, match="not a results folder"):
+        analyze(_relabelled(n_frames=2), out=tmp_path, workers=1, progress=False)
+    assert (tmp_path / "cells.parquet").read_bytes() == b"not ours"
+
+
+def test_cli_streams_on_request_and_by_size(tmp_path, monkeypatch, capsys):
+    from hexatissue.cli import main
+    from hexatissue.samples import sample_path
+
+    sample = str(sample_path("epicure_notum"))
+    assert main(["analyze", sample, "--out", str(tmp_path / "s"), "--stream", "yes", "--format", "parquet",
+                 "csv"]) == 0
+    assert main(["analyze", sample, "--out", str(tmp_path / "m"), "--stream", "no"]) == 0
+    assert (tmp_path / "s" / "cells").is_dir() and (tmp_path / "s" / "cells.csv").exists()
+    assert (tmp_path / "m" / "cells.parquet").is_file() and not (tmp_path / "m" / "cells").exists()
+    _assert_same_tables(read_results(tmp_path / "s"), read_results(tmp_path / "m"))
+    # auto: by the input's pixel-frames
+    monkeypatch.setattr(pipeline, "STREAM_PIXELS", 1000)
+    assert main(["analyze", sample, "--out", str(tmp_path / "a")]) == 0
+    assert (tmp_path / "a" / "cells").is_dir()
+    assert main(["report", str(tmp_path / "a"), "--out", str(tmp_path / "report")]) == 0
