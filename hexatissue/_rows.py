@@ -35,8 +35,9 @@ class Rows:
     def append(self, df, frames=1):
         """Add the rows of ``df`` (the table of ``frames`` frames, used to size the buffers).
 
-        ``df`` is a DataFrame or, as the frame job returns the network tables,
-        a dict of numpy columns (reading those is free; ``df[name]`` is not).
+        ``df`` is a dict of numpy columns, as the frame job returns every
+        table (reading those is free; ``df[name]`` is not), or a DataFrame
+        (a checkpoint's rows).
         """
         if isinstance(df, dict):
             names, dtypes, n_rows = list(df), [a.dtype for a in df.values()], len(next(iter(df.values())))

@@ -49,6 +49,12 @@ __all__ = [
 #: Colours of positive and negative defects (the paper's Fig. 3: red +, blue -).
 PLUS_COLOR = "#d62728"
 MINUS_COLOR = "#1f4fd6"
+#: Colours of the statistics figures (the paper's analyses and the stages' report figures): T1 events and their
+#: control, and the two kinds or populations of a pair (slow / fast, intercalation / cycle).
+EVENT_COLOR = "#2a7f62"
+CONTROL_COLOR = "#7f7f7f"
+SLOW_COLOR = "#1f77b4"
+FAST_COLOR = "#ff7f0e"
 
 
 def _new_axes(ax, figsize):
@@ -72,6 +78,28 @@ def _finish(fig, path):
     if path is not None:
         save_figure(fig, path)
     return fig
+
+
+def panels(ncols, figsize):
+    """A new figure of ``ncols`` axes side by side, for the statistics figures: ``(fig, [ax, ...])``."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize, dpi=100, layout="constrained")
+    return fig, [fig.add_subplot(1, ncols, k + 1) for k in range(ncols)]
+
+
+def finish_panels(fig, path, title=None):
+    """Head a statistics figure with ``title``, write it to ``path`` (PNG, 110 dpi) when given; returns ``fig``."""
+    if title:
+        fig.suptitle(title, fontsize=10)
+    if path is not None:
+        save_figure(fig, path, dpi=110)
+    return fig
+
+
+def empty_panel(ax, text):
+    """Say in ``ax``, in grey at its centre, why it has nothing to draw."""
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
 
 
 def scale_bar_length(width, fraction=0.2):

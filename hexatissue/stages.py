@@ -154,8 +154,11 @@ class FrameData:
     when known; ``cell_polygons`` is the frame of a polygon source;
     ``polygons`` the ``(xy, starts)`` the mesh built for its cells with a
     polygon, in the rows' order; ``images`` each image stage's frame by stage
-    options name; ``tables`` the frame's tables by name (DataFrames, or dicts
-    of numpy columns as the mesh returns them).
+    options name; ``tables`` the frame's tables by name, each a dict of numpy
+    columns in the table's column order, never a DataFrame (columns pickle
+    cheaply from the workers, and the spine's ``Rows`` read them without a
+    copy).  A stage reads a table as a DataFrame with :meth:`table`, stores
+    one with :meth:`set_table`, or adds columns to its dict.
     """
 
     t: int
@@ -168,6 +171,14 @@ class FrameData:
     membrane: np.ndarray | None = None
     polygons: tuple | None = None
     tables: dict = field(default_factory=dict)
+
+    def table(self, name) -> pd.DataFrame:
+        """The frame's table ``name`` as a DataFrame over its columns (no copy)."""
+        return pd.DataFrame(self.tables[name], copy=False)
+
+    def set_table(self, name, table):
+        """Store ``table`` (a DataFrame, or columns by name) as the frame's table ``name``: numpy columns."""
+        self.tables[name] = {column: np.asarray(values) for column, values in table.items()}
 
 
 @dataclass
@@ -247,41 +258,44 @@ class MovieData:
 def _mesh(frame, options):
     """Junction network of the frame's labels (or of its cell polygons)."""
     if frame.cell_polygons is not None:
-        frame.tables = polygon_network(frame.cell_polygons, frame.t, where=f"frame {frame.t}")
+        tables = polygon_network(frame.cell_polygons, frame.t, where=f"frame {frame.t}")
         frame.labels = frame.cell_polygons.cell  # the ids the tracker follows
-        return
-    raw = frame.labels
-    frame.labels, frame.membrane = mesh_labels(raw, frame.box, options, frame.mask, frame.raw_ids[0])
-    # the largest id is known while the labels are the ones checked
-    frame.tables, frame.polygons = network_columns(frame.labels, frame.membrane, frame.box, options.merge_distance,
-                                                   frame.t, frame.raw_ids[1] if frame.labels is raw else None)
+    else:
+        raw = frame.labels
+        frame.labels, frame.membrane = mesh_labels(raw, frame.box, options, frame.mask, frame.raw_ids[0])
+        # the largest id is known while the labels are the ones checked
+        tables, frame.polygons = network_columns(frame.labels, frame.membrane, frame.box, options.merge_distance,
+                                                 frame.t, frame.raw_ids[1] if frame.labels is raw else None)
+    for name, table in tables.items():
+        frame.set_table(name, table)
 
 
 def _intensity(frame, options):
     """Junction and cell intensities of the stage's image, and junction polarity."""
-    tables = {name: pd.DataFrame(frame.tables[name]) for name in ("cells", "vertices", "edges")}
-    cells, edges = measure_intensity(tables["cells"], tables["vertices"], tables["edges"], frame.labels,
-                                     frame.images["intensity"], frame.box, options.step)
-    frame.tables["cells"] = {c: cells[c].to_numpy() for c in cells.columns}
-    frame.tables["edges"] = {c: edges[c].to_numpy() for c in edges.columns}
+    cells, edges = measure_intensity(frame.table("cells"), frame.table("vertices"), frame.table("edges"),
+                                     frame.labels, frame.images["intensity"], frame.box, options.step)
+    frame.set_table("cells", cells)
+    frame.set_table("edges", edges)
 
 
 def _shape_order(frame, options):
     """gamma_p of every cell with a polygon, from the polygons the mesh built (or from the tables)."""
-    cells = frame.tables["cells"]
     if frame.polygons is not None:
+        cells = frame.tables["cells"]
         cells.update(gamma_arrays(*frame.polygons, polygon_rows(cells["n_sides"] > 0), options.p, options.center))
         return
-    frame.tables["cells"] = validate(gamma_columns(cells, frame.tables["vertices"], frame.tables["cell_vertices"],
-                                                   frame.box, options.p, options.center), "cells")
+    frame.set_table("cells", validate(gamma_columns(frame.table("cells"), frame.table("vertices"),
+                                                    frame.table("cell_vertices"), frame.box, options.p,
+                                                    options.center), "cells"))
 
 
 def _fields(frame, options):
     """The frame's coarse-grained fields Gamma_p and their defects, for every p."""
-    cells = validate(pd.DataFrame(frame.tables["cells"]), "cells")
+    cells = validate(frame.table("cells"), "cells")
     usable = interior_mask(cells) & np.isfinite(cells[f"gamma{options.p[0]}_re"].to_numpy(float))
     if not usable.any():
-        frame.tables.update(grid=empty_table("grid", options.p), defects=empty_table("defects"))
+        frame.set_table("grid", empty_table("grid", options.p))
+        frame.set_table("defects", empty_table("defects"))
         return
     grid = coarse_grain(cells, p=options.p, radius=options.radius, spacing=options.spacing, box=frame.box,
                         min_coverage=options.min_coverage, r_cell=options.r_cell, origin=options.origin,
@@ -290,14 +304,16 @@ def _fields(frame, options):
     if min(rows, cols) < 2:  # a small field of view: the field is kept, but no plaquette winds around a defect
         warnings.warn(f"the Gamma_p grid is only {rows} x {cols} node(s) (a small field of view): no defects; a "
                       f"smaller --spacing gives more nodes", HexatissueWarning, stacklevel=user_stacklevel())
-        frame.tables.update(grid=grid, defects=empty_table("defects"))
+        frame.set_table("grid", grid)
+        frame.set_table("defects", empty_table("defects"))
         return
-    frame.tables.update(grid=grid, defects=find_defects(grid, p=options.p, box=frame.box))
+    frame.set_table("grid", grid)
+    frame.set_table("defects", find_defects(grid, p=options.p, box=frame.box))
 
 
 def _mechanics(frame, options):
     """Tensions, pressures and stress of the frame from force balance, and the stress on its Gamma_p grid."""
-    tables = {name: pd.DataFrame(frame.tables[name]) for name in ("cells", "vertices", "edges", "cell_vertices")}
+    tables = {name: frame.table(name) for name in ("cells", "vertices", "edges", "cell_vertices")}
     cells, edges = tables["cells"], tables["edges"]
     # the junction model needs the junctions' own pixels: a label image (not polygons)
     forces, curvature, model, share = frame_forces(frame.labels, cells, tables["vertices"], edges,
@@ -314,15 +330,15 @@ def _mechanics(frame, options):
         table = frame.tables[name]
         for column, values in new.items():
             table[column] = values.to_numpy(float)
-    grid = frame.tables.get("grid")
+    grid = frame.table("grid") if "grid" in frame.tables else None
     if grid is not None and len(grid):
-        frame.tables["stress"] = stress_grid(cells, stress, pd.DataFrame(grid), box=frame.box)
+        frame.set_table("stress", stress_grid(cells, stress, grid, box=frame.box))
     else:
-        frame.tables["stress"] = empty_table("stress")
-    frame.tables["force_fit"] = pd.DataFrame({
+        frame.set_table("stress", empty_table("stress"))
+    frame.set_table("force_fit", pd.DataFrame({
         "frame": [frame.t], "arcs": [model == "curved"], "curved_share": [share], "mu": [forces.mu],
         "residual": [forces.residual], "n_equations": [forces.n_equations], "n_unknowns": [forces.n_unknowns],
-        "n_free": [int((forces.undetermined["reason"] == "free").sum())]})
+        "n_free": [int((forces.undetermined["reason"] == "free").sum())]}))
     if options.method == "bayes" and options.mu is None and forces.mu >= MU_RANGE[1] * (1 - 1e-9):
         # measured on mouse_epidermis_laptrack frame 1: every tension 1.00 with a median s.d. of 0.012
         warnings.warn(f"force inference: ABIC chose the largest prior weight it searches ({MU_RANGE[1]:g}): the "

@@ -18,10 +18,10 @@ import numpy as np
 import pandas as pd
 
 import hexatissue
-from hexatissue.analysis.plots import plot_event_flow
 from hexatissue.flow import angular_harmonics, t1_flow
 from hexatissue.results import read_results
 from hexatissue.theory import quadrupole_flow_exact
+from hexatissue.views.flow import plot_event_flow
 
 N_MAX = 8
 

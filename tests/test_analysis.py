@@ -389,8 +389,8 @@ def _figure_inputs():
 
 
 def test_figures_render_with_data_and_when_empty(tmp_path):
-    from hexatissue.analysis import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
-                                     plot_timing_vs_parameter)
+    from hexatissue.analysis import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
+    from hexatissue.views.events import plot_event_overview
 
     full, empty, pops, no_pops, timing = _figure_inputs()
     across = timing_across_runs({1e-5: timing, 4e-5: timing})
@@ -410,8 +410,8 @@ def test_figures_render_with_data_and_when_empty(tmp_path):
 
 @pytest.mark.parametrize("calibrated", [False, True])
 def test_figures_show_distances_and_times_in_the_calibration_units(calibrated):
-    from hexatissue.analysis import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
-                                     plot_timing_vs_parameter)
+    from hexatissue.analysis import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
+    from hexatissue.views.events import plot_event_overview
     from hexatissue.units import Calibration
 
     cal = Calibration(0.5, "um", 2.0, "min") if calibrated else None

@@ -5,12 +5,14 @@ options class (and stage keyword where the class first appears), whether it
 runs per frame or per movie, and every table or column it reads and writes;
 the spine block names every options class and every keyword of ``analyze``.
 """
+import ast
 import inspect
 import re
 from pathlib import Path
 
 import pytest
 
+import hexatissue
 from hexatissue import analyze, schema
 from hexatissue import stages as S
 from hexatissue.options import OPTION_CLASSES
@@ -18,6 +20,9 @@ from hexatissue.options import OPTION_CLASSES
 DOC = Path(__file__).resolve().parents[1] / "docs" / "architecture.md"
 pytestmark = pytest.mark.skipif(not DOC.is_file(), reason="docs/ is not beside the tests")
 NOT_TABLES = ("labels", "polygons", "image")  # what the frame stages hand on besides the tables
+PACKAGE = Path(hexatissue.__file__).resolve().parent
+#: The stage floor's modules that compute a stage (the models and tissue generators beside them are not stages).
+STAGE_PACKAGES = ("mesh", "intensity", "order", "defects", "mechanics", "track", "flow", "events", "deformation")
 
 
 def _section(title):
@@ -102,3 +107,44 @@ def test_the_spine_block_names_every_options_class_and_keyword_in_run_order():
 def test_the_module_map_lists_every_options_class():
     row = next(line for line in _section("Module map").splitlines() if "`options.py`" in line)
     assert set(re.findall(r"`(\w+Options)`", row)) == {cls.__name__ for cls in OPTION_CLASSES.values()}
+
+
+def _imported(module):
+    """The hexatissue modules that ``module``'s source imports, at its top and inside functions (read, not run).
+
+    ``from .x import y`` counts as importing ``x`` and ``x.y`` (``y`` may be a module).
+    """
+    parts = module.split(".")
+    path = PACKAGE.joinpath(*parts[1:])
+    path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+    package = parts if path.name == "__init__.py" else parts[:-1]
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            base = ".".join((package[:len(package) - node.level + 1] if node.level else [])
+                            + ([node.module] if node.module else []))
+            names |= {base} | {f"{base}.{alias.name}" for alias in node.names}
+    return {name for name in names if name.split(".")[0] == "hexatissue"}
+
+
+def _stage_imports(module):
+    return sorted(name for name in _imported(module) if name.split(".")[1:2] and name.split(".")[1] in STAGE_PACKAGES)
+
+
+def test_the_import_reader_sees_relative_imports_and_imports_inside_functions():
+    assert {"hexatissue.flow", "hexatissue.flow.piv", "hexatissue.views", "hexatissue.views.layerdata",
+            "hexatissue.views.LayerMaker"} <= _imported("hexatissue.views.flow")
+    assert "hexatissue.source" in _imported("hexatissue.napari.layers")  # imported inside a function
+    assert "hexatissue.analysis.plots" in _imported("hexatissue.analysis")  # a package's __init__.py
+    assert "hexatissue.flow.reliable_bins" in _stage_imports("hexatissue.views.flow")
+
+
+@pytest.mark.parametrize("module", ["hexatissue.plot", "hexatissue.analysis.plots", "hexatissue.workflows.report",
+                                    "hexatissue.workflows.figures", "hexatissue.napari.layers",
+                                    "hexatissue.napari.widget"])
+def test_the_figures_the_report_and_the_napari_layers_import_no_stage_package(module):
+    """They take every stage's presentation from its views module (the stage list names it) and the paper's
+    figures from ``analysis.plots``; a stage's figure lives in its views module, beside its report section."""
+    assert _stage_imports(module) == []

@@ -144,6 +144,46 @@ def test_frame_job_with_an_intensity_image_equals_the_plain_path():
     pd.testing.assert_frame_equal(pd.DataFrame(tables["edges"]), edges, check_exact=True)
 
 
+def _numpy_columns_only(frame):
+    """Every table of ``frame`` is a dict of 1-d numpy columns of one length, and ``frame.table`` a DataFrame over
+    them (no copy)."""
+    assert frame.tables
+    for name, columns in frame.tables.items():
+        assert isinstance(columns, dict), name
+        assert all(isinstance(v, np.ndarray) and v.ndim == 1 for v in columns.values()), name
+        assert len({len(v) for v in columns.values()}) == 1, name
+        table = frame.table(name)
+        assert list(table.columns) == list(columns) and len(table) == len(next(iter(columns.values()))), name
+        assert all(np.shares_memory(table[c].to_numpy(), v) for c, v in columns.items()), name
+
+
+@pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
+def test_every_frame_stage_leaves_the_frame_tables_as_numpy_columns():
+    """Labels through every frame stage (mesh, intensity, shape order, order fields, mechanics) and cell polygons
+    through theirs: no frame table is a DataFrame, and a stored DataFrame comes back equal."""
+    from hexatissue import MechanicsOptions
+    from hexatissue.mesh.polygons import as_polygons
+
+    labels = np.asarray(voronoi_movie(40, (80, 80), 1, periodic=False, amplitude=0.3, seed=1)[0])
+    image = np.random.default_rng(0).random(labels.shape)
+    options = stage_options({"intensity": image, "mechanics": MechanicsOptions(enabled=True)})
+    stages = frame_stages(options)
+    assert [s.name for s in stages] == ["junction network", "intensity", "shape order", "order fields", "mechanics"]
+    frame = FrameData(t=0, labels=labels, images={"intensity": image})
+    run_frame(frame, worker_stages(stages, options))
+    assert set(frame.tables) == {*TABLES, "grid", "defects", "stress", "force_fit"}
+    _numpy_columns_only(frame)
+    options = stage_options({})
+    polygons = FrameData(t=0, cell_polygons=as_polygons(mesh_from_labels(labels).polygons()))
+    run_frame(polygons, worker_stages(frame_stages(options), options))
+    assert set(polygons.tables) == {*TABLES, "grid", "defects"}
+    _numpy_columns_only(polygons)
+    grid = frame.table("grid")
+    polygons.set_table("grid", grid)
+    assert isinstance(polygons.tables["grid"], dict)
+    pd.testing.assert_frame_equal(polygons.table("grid"), grid, check_exact=True)
+
+
 def reference_kernels():
     """network's kernel module with every kernel replaced by its plain-Python reference."""
     names = ("corner_types", "trace_junctions", "mark_junctions", "trace_loops", "cell_moments", "merge_clusters",

@@ -299,7 +299,7 @@ def test_report_mean_sides_leaves_out_fragments(tissue, tmp_path):
 
 
 def test_cycle_histogram_keeps_the_longest_cycles():
-    from hexatissue.analysis import plot_event_overview
+    from hexatissue.views.events import plot_event_overview
 
     durations = np.r_[np.arange(1, 40), 95, 96]
     events = pd.DataFrame({"kind": "cycle", "frame_start": np.arange(len(durations)), "duration": durations})

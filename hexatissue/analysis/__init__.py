@@ -14,8 +14,7 @@ Positions are in px with x = column, y = row, origin at the centre of pixel (0, 
 from .migration import (DEFAULT_DL, PAPER_WINDOW_ITERATIONS, MigrationPopulations, cell_displacements, cell_steps,
                         frames_per_window, migration_populations, migration_table)
 from .mixture import GaussianMixture1D, fit_gaussian_mixture
-from .plots import (plot_event_overview, plot_migration, plot_t1_defect_distances, plot_timing,
-                    plot_timing_vs_parameter)
+from .plots import plot_migration, plot_t1_defect_distances, plot_timing, plot_timing_vs_parameter
 from .proximity import (ProximityResult, compare_distances, nearest_defect, random_cell_distances,
                         random_vertex_distances, t1_defect_distances, t1_defect_proximity)
 from .timing import cell_timing, in_time_units, timing_across_runs, timing_summary, timing_test
@@ -27,5 +26,5 @@ __all__ = [
     "MigrationPopulations", "DEFAULT_DL", "PAPER_WINDOW_ITERATIONS",
     "GaussianMixture1D", "fit_gaussian_mixture",
     "cell_timing", "in_time_units", "timing_summary", "timing_test", "timing_across_runs",
-    "plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter", "plot_event_overview",
+    "plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
 ]

@@ -1,106 +1,29 @@
-"""Figures of the tissue-scale analyses (Fig. 3e–g style), without pyplot.
+"""Figures of the paper's tissue-scale analyses (Fig. 3e–g style), without pyplot.
 
 Every function returns a matplotlib :class:`~matplotlib.figure.Figure` and
 writes a PNG atomically when ``path`` is given (same conventions as
 :mod:`hexatissue.plot`).  Their input tables are in px and frames, like all
 hexatissue tables; a :class:`~hexatissue.units.Calibration` converts
 distances to its length unit and times to its time unit on the figure (px
-and frames when there is none).
+and frames when there is none).  The stages' own report figures are in their
+views modules (:mod:`hexatissue.views`).
 """
 from __future__ import annotations
-
-from textwrap import fill
 
 import numpy as np
 
 from ..errors import as_generator
-from ..flow import correlation_length, in_units, msd_exponent, reliable_bins, velocity_unit
-from ..plot import MINUS_COLOR, PLUS_COLOR, save_figure
+from ..plot import (CONTROL_COLOR, EVENT_COLOR, FAST_COLOR, MINUS_COLOR, PLUS_COLOR, SLOW_COLOR, empty_panel,
+                    finish_panels, panels)
 from ..units import as_calibration
 
-__all__ = ["plot_cell_distributions", "plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter",
-           "plot_event_overview", "plot_flow_statistics", "plot_event_flow"]
-
-EVENT_COLOR = "#2a7f62"
-CONTROL_COLOR = "#7f7f7f"
-SLOW_COLOR = "#1f77b4"
-FAST_COLOR = "#ff7f0e"
-
-
-def _figure(ncols, figsize):
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize, dpi=100, layout="constrained")
-    return fig, [fig.add_subplot(1, ncols, k + 1) for k in range(ncols)]
-
-
-def _finish(fig, path, title=None):
-    if title:
-        fig.suptitle(title, fontsize=10)
-    if path is not None:
-        save_figure(fig, path, dpi=110)
-    return fig
+__all__ = ["plot_t1_defect_distances", "plot_migration", "plot_timing", "plot_timing_vs_parameter"]
 
 
 def _decade(values):
     """Power of ten of the largest finite positive value (0 when there is none)."""
     values = values[np.isfinite(values) & (values > 0)]
     return int(np.floor(np.log10(values.max()))) if len(values) else 0
-
-
-def _empty(ax, text):
-    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
-
-
-def plot_cell_distributions(cells, path=None, calibration=None, figsize=(10, 3.6)):
-    """Distributions of the interior cells' number of sides and area, over every frame of ``cells``.
-
-    Parameters
-    ----------
-    cells : pandas.DataFrame
-        A ``cells`` table (``n_sides``, ``area`` in px^2, ``is_border``); border cells are left out (cut by the
-        image edge), and so are cells without a polygon (``n_sides`` < 3) from the sides panel.
-    path : path-like, optional
-        PNG written atomically.
-    calibration : Calibration, optional
-        Areas in its length unit squared (px^2 when None).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Left: fraction of cells per number of sides, with the percentages; right: histogram of the areas with
-        the mean marked.
-    """
-    cal = as_calibration(calibration)
-    inner = cells[~cells["is_border"].to_numpy(bool)]
-    fig, (left, right) = _figure(2, figsize)
-    sides = inner["n_sides"].to_numpy(int)
-    sides = sides[sides >= 3]
-    if len(sides):
-        values, counts = np.unique(sides, return_counts=True)
-        share = counts / counts.sum()
-        left.bar(values, share, color=EVENT_COLOR, width=0.8)
-        for v, f in zip(values, share):
-            left.text(v, f, f"{100 * f:.1f}%", ha="center", va="bottom", fontsize=8)
-        left.set_xticks(values)
-        left.set_ylim(0, min(1.0, share.max() * 1.18))
-    else:
-        _empty(left, "no interior cell with a polygon")
-    left.set_xlabel("number of sides (neighbours)")
-    left.set_ylabel("fraction of interior cells")
-    left.set_title(f"{len(sides)} interior cell-frames", fontsize=10)
-    area = cal.area(inner["area"].to_numpy(float))
-    unit = f"{cal.length_label}$^2$" if cal.has_length else "px$^2$"
-    if len(area):
-        right.hist(area, bins=min(40, max(5, len(area) // 10)), color=CONTROL_COLOR)
-        right.axvline(area.mean(), color="k", linewidth=1)
-        right.text(area.mean(), right.get_ylim()[1] * 0.95, f" mean {area.mean():.3g} {unit}", fontsize=8,
-                   va="top")
-    else:
-        _empty(right, "no interior cell")
-    right.set_xlabel(f"cell area ({unit})")
-    right.set_ylabel("cells")
-    return _finish(fig, path, "interior cells: neighbour number and area")
 
 
 def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4), title=None):
@@ -130,7 +53,7 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
     """
     cal = as_calibration(calibration)
     unit = cal.length_label
-    fig, (ax, ax2) = _figure(2, figsize)
+    fig, (ax, ax2) = panels(2, figsize)
     e, c = cal.length(result.events["dr"].to_numpy(float)), cal.length(result.control["dr"].to_numpy(float))
     if len(e) or len(c):
         top = np.nanmax(np.r_[e, c]) if len(np.r_[e, c]) else 1.0
@@ -145,7 +68,7 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
         ax.set_title(f"KS p = {result.ks_pvalue:.2g} (two-sided), {result.ks_pvalue_closer:.2g} (T1s closer)",
                      fontsize=9)
     else:
-        _empty(ax, "no T1 event with a defect in its frame")
+        empty_panel(ax, "no T1 event with a defect in its frame")
     ax.set_xlabel(f"distance to nearest defect ({unit})")
     ax.set_ylabel("probability density")
     if len(e):
@@ -166,11 +89,11 @@ def plot_t1_defect_distances(result, path=None, calibration=None, figsize=(10, 4
         ax2.axvline(0, color="0.8", lw=0.8)
         ax2.legend(frameon=False, title="nearest defect", fontsize=8)
     else:
-        _empty(ax2, "no events")
+        empty_panel(ax2, "no events")
     ax2.set_aspect("equal")
     ax2.set_xlabel(f"dx = x_defect - x_T1 ({unit})")
     ax2.set_ylabel(f"dy ({unit})")
-    return _finish(fig, path, title)
+    return finish_panels(fig, path, title)
 
 
 def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
@@ -203,7 +126,7 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
     """
     t = populations.table
     cal = as_calibration(calibration)
-    fig, (ax, ax2) = _figure(2, figsize)
+    fig, (ax, ax2) = panels(2, figsize)
     moved = t["displacement"].to_numpy(float) > 0
     density = t["defect_density"].to_numpy(float) / cal.area(1.0)
     decade = _decade(density[moved])
@@ -227,7 +150,7 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
             title += f"; {populations.verdict}: no split"
         ax.set_title(title, fontsize=9)
     else:
-        _empty(ax, "no complete window")
+        empty_panel(ax, "no complete window")
     scale = f"$10^{{{decade}}}$ " if decade else ""
     ax.set_xlabel(f"defect density ({scale}{cal.length_label}$^{{-2}}$)")
     ax.set_ylabel(r"$\sum_t |\Delta r|^2 / \Delta\ell^2$")
@@ -251,10 +174,10 @@ def plot_migration(populations, path=None, calibration=None, figsize=(10, 4)):
                           f"{populations.verdict}", fontsize=9)
             ax2.legend(frameon=False)
     else:
-        _empty(ax2, "no data")
+        empty_panel(ax2, "no data")
     ax2.set_xlabel(r"$\log_{10}$ normalised displacement")
     ax2.set_ylabel("probability density")
-    return _finish(fig, path)
+    return finish_panels(fig, path)
 
 
 def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None, title=None):
@@ -286,7 +209,7 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None, ti
     cal = as_calibration(calibration)
     if not isinstance(runs, dict):
         runs = {None: runs}
-    fig, (ax,) = _figure(1, figsize or (max(4.5, 1.6 * len(runs) + 2), 4))
+    fig, (ax,) = panels(1, figsize or (max(4.5, 1.6 * len(runs) + 2), 4))
     data, pos, colors, groups, pvalues = [], [], [], [], []
     for k, (value, table) in enumerate(runs.items()):
         for j, (col, color) in enumerate((("mean_intercalation_interval", SLOW_COLOR),
@@ -307,7 +230,7 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None, ti
             patch.set_facecolor(colors[i])
             patch.set_alpha(0.6)
     else:
-        _empty(ax, "no intercalation interval or cycle period")
+        empty_panel(ax, "no intercalation interval or cycle period")
     if len(runs) == 1 and groups[0] is None:  # one run: a tick per category
         ax.set_xticks([0, 1], ["between\nintercalations", "T1-cycle\nperiod"])
     else:  # a pair of boxes per run, ticked with its parameter value
@@ -319,7 +242,7 @@ def plot_timing(runs, path=None, calibration=None, param="D_r", figsize=None, ti
     ax.legend(handles=[Patch(color=SLOW_COLOR, alpha=0.6, label="between intercalations"),
                        Patch(color=FAST_COLOR, alpha=0.6, label="T1-cycle period")], frameon=False, fontsize=8)
     ax.set_title("per-cell means; Welch t-test p = " + ", ".join(pvalues), fontsize=9, wrap=True)
-    return _finish(fig, path, title)
+    return finish_panels(fig, path, title)
 
 
 def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, figsize=(5, 4), title=None):
@@ -345,7 +268,7 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
     matplotlib.figure.Figure
     """
     cal = as_calibration(calibration)
-    fig, (ax,) = _figure(1, figsize)
+    fig, (ax,) = panels(1, figsize)
     for name, color, label in (("intercalation_interval", SLOW_COLOR, "between intercalations"),
                                ("cycle_period", FAST_COLOR, "T1-cycle period")):
         s = summary[summary["quantity"] == name].sort_values(param)
@@ -369,207 +292,4 @@ def plot_timing_vs_parameter(summary, param="D_r", path=None, calibration=None, 
     ax.set_xlabel(param)
     ax.set_ylabel(f"time ({cal.time_label})")
     ax.legend(frameon=False)
-    return _finish(fig, path, title)
-
-
-def plot_event_overview(events, n_frames=None, path=None, calibration=None, figsize=(10, 3.8)):
-    """T1 events per frame by kind (left) and the distribution of T1-cycle durations (right).
-
-    Parameters
-    ----------
-    events : pandas.DataFrame
-        Events table (``kind``, ``frame_start``, ``duration`` in frames).
-    n_frames : int, optional
-        Number of frames of the movie (the last event's start frame when None).
-    path : str or Path, optional
-        Where to write the PNG.
-    calibration : Calibration, optional
-        Times and durations are shown in its time unit (frames when None);
-        the counts stay per frame.
-    figsize : tuple of float
-        Width and height in inches (event counts and cycle durations).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    cal = as_calibration(calibration)
-    fig, (ax, ax2) = _figure(2, figsize)
-    kinds = (("cycle", FAST_COLOR), ("intercalation", SLOW_COLOR), ("unresolved", "0.6"))
-    if len(events):
-        last = int(events["frame_start"].max()) if n_frames is None else n_frames - 1
-        frames = np.arange(last + 1)
-        for kind, color in kinds:
-            f = events.loc[events["kind"] == kind, "frame_start"].to_numpy(np.int64)
-            ax.plot(cal.time(frames), np.bincount(f, minlength=last + 1)[:last + 1], color=color,
-                    label=f"{kind} ({len(f)})")
-        ax.legend(frameon=False, fontsize=8)
-    else:
-        _empty(ax, "no T1 events")
-    ax.set_xlabel(f"time ({cal.time_label})")
-    ax.set_ylabel("T1 events starting per frame")
-    d = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float) if len(events) else np.zeros(0)
-    d = d[np.isfinite(d)]
-    if len(d):
-        bins = _duration_bins(d)
-        ax2.hist(cal.time(d), bins=cal.time(bins), color=FAST_COLOR)
-    else:
-        _empty(ax2, "no T1 cycles")
-    ax2.set_xlabel(f"T1-cycle duration ({cal.time_label})")
-    ax2.set_ylabel("cycles")
-    return _finish(fig, path)
-
-
-def _duration_bins(durations, max_bins=30):
-    """Bin edges for durations in whole frames: centred on whole frames, ``step`` frames wide, covering all.
-
-    ``step`` is the smallest whole number giving at most ``max_bins`` bins;
-    the last edge is at or above ``max + 0.5``, so the longest durations are
-    counted.
-    """
-    d = np.asarray(durations, float)
-    d = d[np.isfinite(d)]
-    lo = min(0.5, float(np.floor(d.min())) - 0.5) if len(d) else 0.5
-    hi = float(d.max()) if len(d) else 1.0
-    step = max(1, int(np.ceil((hi - lo) / max_bins)))
-    n = max(1, int(np.ceil((hi + 0.5 - lo) / step)))
-    return lo + step * np.arange(n + 1)
-
-
-def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=None, spacing=None, figsize=(12, 3.8)):
-    """Mean speed and polar order over time, the velocity correlation C(r), and the MSD.
-
-    Parameters
-    ----------
-    per_frame, correlation, msd : pandas.DataFrame
-        :func:`hexatissue.flow.velocity_statistics`,
-        :func:`hexatissue.flow.velocity_correlation` and
-        :func:`hexatissue.flow.mean_squared_displacement` (px and frames).
-    calibration : Calibration, optional
-        Units of the axes (px and frames when None).
-    spacing : float, optional
-        The cell spacing, px (:func:`hexatissue.flow.cell_spacing`): a
-        correlation length below it is refused.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Three panels; C(r) shows its :func:`hexatissue.flow.reliable_bins`
-        with their standard errors, the fitted ``A exp(-r / xi) + B`` and its
-        length xi (:func:`hexatissue.flow.correlation_length`, or why it is
-        refused); the MSD exponent is marked.
-    """
-    cal = as_calibration(calibration)
-    fig, (a, b, c) = _figure(3, figsize)
-    time = cal.time(per_frame["frame"].to_numpy(float))
-    a.plot(time, in_units(per_frame["mean_speed"].to_numpy(float), cal), color="k", lw=1)
-    a.set_xlabel(f"time ({cal.time_label})")
-    a.set_ylabel(f"mean speed ({velocity_unit(cal)})")
-    twin = a.twinx()
-    twin.plot(time, per_frame["polar_order"].to_numpy(float), color=FAST_COLOR, lw=1)
-    twin.set_ylabel("polar order", color=FAST_COLOR)
-    twin.set_ylim(0, 1)
-    shown = reliable_bins(correlation)  # bins of a few pairs (tiny cells) are noise
-    r_px = correlation["r"].to_numpy(float)[shown]
-    value = correlation["correlation"].to_numpy(float)[shown]
-    sd = (correlation["correlation_sd"].to_numpy(float)[shown] if "correlation_sd" in correlation.columns
-          else np.full(len(value), np.nan))
-    b.errorbar(cal.length(r_px), value, yerr=np.where(np.isfinite(sd), sd, 0.0), fmt="o", ms=3, color=SLOW_COLOR,
-               lw=0.8, capsize=0)
-    b.plot([0.0], [1.0], "o", ms=3, mfc="none", color=SLOW_COLOR)  # C(0) = 1: a cell with itself
-    b.axhline(0.0, color="0.7", lw=0.6)
-    fit = correlation_length(correlation, spacing)
-    if np.isfinite(fit.length):
-        x = np.linspace(0.0, fit.r_fit, 100)
-        b.plot(cal.length(x), fit.amplitude * np.exp(-x / fit.length) + fit.offset, color="0.3", lw=0.9)
-        b.axvline(cal.length(fit.length), color="0.3", lw=0.8, ls=":")
-        b.set_title(f"correlation length {cal.length(fit.length):.3g} ± {cal.length(fit.sd):.2g} "
-                    f"{cal.length_label} (A = {fit.amplitude:.2f})", fontsize=9)
-    else:
-        b.set_title("no correlation length", fontsize=9)
-        b.text(0.98, 0.95, fill(fit.reason, 40), transform=b.transAxes, ha="right", va="top", fontsize=7)
-    b.set_xlabel(f"r ({cal.length_label})")
-    b.set_ylabel("velocity correlation C(r)")
-    ok = np.isfinite(msd["msd"].to_numpy(float)) & (msd["msd"].to_numpy(float) > 0)
-    if ok.any():
-        c.loglog(cal.time(msd["lag"].to_numpy(float)[ok]), in_units(msd["msd"].to_numpy(float)[ok], cal, 2, 0),
-                 "o-", ms=3, color="k")
-        c.set_title(f"MSD exponent {msd_exponent(msd):.2f}", fontsize=9)
-        from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
-
-        # lags of one or two decades: plain numbers at 1, 2, 5 x 10^k (log minor labels overlap)
-        c.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-        c.xaxis.set_major_formatter(ScalarFormatter())
-        c.xaxis.set_minor_formatter(NullFormatter())
-    else:
-        _empty(c, "no displacement pairs")
-    c.set_xlabel(f"lag ({cal.time_label})")
-    c.set_ylabel(f"MSD ({cal.length_label}$^2$)")
-    return _finish(fig, path)
-
-
-def plot_event_flow(average, path=None, calibration=None, title=None, x_label="x along the junction"):
-    """Event-centred mean flow: one panel per kind (rows) and time offset (columns).
-
-    Arrows are the mean relative velocity of each bin, over the radial
-    velocity ``v_r`` in colour (red: outward), in the event's axes (a T1's
-    vanishing junction along x, :func:`hexatissue.flow.t1_flow`; a defect's
-    orientation, :func:`hexatissue.flow.defect_flow`).
-
-    Parameters
-    ----------
-    average : pandas.DataFrame
-        The ``average`` table of :func:`hexatissue.flow.t1_flow` or
-        :func:`hexatissue.flow.defect_flow` (px, px/frame).
-    calibration : Calibration, optional
-        Units of the axes and the colour bar (px and frames when None).
-    x_label : str
-        What the x axis of the event's axes is.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    from matplotlib.figure import Figure
-
-    cal = as_calibration(calibration)
-    kinds = list(dict.fromkeys(average["kind"].astype(str)))
-    offsets = sorted(set(average["offset"].tolist()))
-    fig = Figure(figsize=(3.2 * max(len(offsets), 1) + 1.0, 3.0 * max(len(kinds), 1)), dpi=100, layout="constrained")
-    axes = fig.subplots(max(len(kinds), 1), max(len(offsets), 1), squeeze=False)
-    if not len(average):
-        _empty(axes[0, 0], "no event with velocities")
-        return _finish(fig, path, title)
-    x, y = average["x"].to_numpy(float), average["y"].to_numpy(float)
-    u, v = average["vx"].to_numpy(float), average["vy"].to_numpy(float)
-    r = np.hypot(x, y)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        radial = np.where(r > 0, (x * u + y * v) / r, 0.0)
-    top = float(np.nanpercentile(np.abs(in_units(radial, cal)), 98)) or 1.0
-    speed = float(np.percentile(np.hypot(u, v), 95)) or 1.0
-    gx, gy = np.unique(x), np.unique(y)  # the bins' lattice, shared by the panels
-    step = float(np.min(np.diff(gx))) if len(gx) > 1 else 1.0
-    mesh = None
-    for i, kind in enumerate(kinds):
-        for j, offset in enumerate(offsets):
-            ax = axes[i, j]
-            sel = (average["kind"].astype(str).to_numpy() == kind) & (average["offset"].to_numpy() == offset)
-            if not sel.any():
-                _empty(ax, "no event")
-                continue
-            image = np.full((len(gy), len(gx)), np.nan)
-            image[np.searchsorted(gy, y[sel]), np.searchsorted(gx, x[sel])] = in_units(radial[sel], cal)
-            mesh = ax.pcolormesh(cal.length(gx), cal.length(gy), np.ma.masked_invalid(image), cmap="RdBu_r",
-                                 vmin=-top, vmax=top, shading="nearest")
-            ax.quiver(cal.length(x[sel]), cal.length(y[sel]), u[sel], v[sel], angles="xy", scale_units="xy",
-                      scale=speed / (0.9 * cal.length(step)), width=0.006)
-            ax.plot([0], [0], "k+", ms=8)
-            ax.set_aspect("equal")
-            ax.invert_yaxis()  # image orientation, as the tissue figures
-            n_events = int(average.loc[sel, "n_events"].iloc[0])
-            ax.set_title(f"{kind}, offset {offset:+d} frames ({n_events} events)", fontsize=8)
-            ax.set_xlabel(f"{x_label} ({cal.length_label})", fontsize=8)
-            ax.set_ylabel(f"y ({cal.length_label})", fontsize=8)
-    if mesh is not None:
-        fig.colorbar(mesh, ax=axes, shrink=0.6, label=f"radial velocity ({velocity_unit(cal)})")
-    return _finish(fig, path, title)
+    return finish_panels(fig, path, title)

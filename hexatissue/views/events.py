@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..analysis.plots import plot_event_overview
 from ..analysis.timing import cell_timing, timing_summary, timing_test
+from ..plot import FAST_COLOR, SLOW_COLOR, empty_panel, finish_panels, panels
+from ..units import as_calibration
 from . import LayerMaker, Section, StageView, single
 from .layerdata import common, coords, is_movie, rgba, spacing
 from .text import md_table
 
-__all__ = ["VIEW", "event_layer", "EVENT_COLORS", "events_note", "censor_of"]
+__all__ = ["VIEW", "plot_event_overview", "event_layer", "EVENT_COLORS", "events_note", "censor_of"]
 
 
 def censor_of(movie):
@@ -73,6 +74,70 @@ def _one_frame_lines(movie):
             f"{e['n_one_frame_cycles']} of {e['n_events']} T1s; on segmented microscopy these are mostly four-fold "
             f"vertex flicker or segmentation errors (docs/t1.md, *T1 counts on real data*); leave them out with "
             f"`duration == 1` when the movie is not exactly resolved"]
+
+
+def plot_event_overview(events, n_frames=None, path=None, calibration=None, figsize=(10, 3.8)):
+    """T1 events per frame by kind (left) and the distribution of T1-cycle durations (right).
+
+    Parameters
+    ----------
+    events : pandas.DataFrame
+        Events table (``kind``, ``frame_start``, ``duration`` in frames).
+    n_frames : int, optional
+        Number of frames of the movie (the last event's start frame when None).
+    path : str or Path, optional
+        Where to write the PNG.
+    calibration : Calibration, optional
+        Times and durations are shown in its time unit (frames when None);
+        the counts stay per frame.
+    figsize : tuple of float
+        Width and height in inches (event counts and cycle durations).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    cal = as_calibration(calibration)
+    fig, (ax, ax2) = panels(2, figsize)
+    kinds = (("cycle", FAST_COLOR), ("intercalation", SLOW_COLOR), ("unresolved", "0.6"))
+    if len(events):
+        last = int(events["frame_start"].max()) if n_frames is None else n_frames - 1
+        frames = np.arange(last + 1)
+        for kind, color in kinds:
+            f = events.loc[events["kind"] == kind, "frame_start"].to_numpy(np.int64)
+            ax.plot(cal.time(frames), np.bincount(f, minlength=last + 1)[:last + 1], color=color,
+                    label=f"{kind} ({len(f)})")
+        ax.legend(frameon=False, fontsize=8)
+    else:
+        empty_panel(ax, "no T1 events")
+    ax.set_xlabel(f"time ({cal.time_label})")
+    ax.set_ylabel("T1 events starting per frame")
+    d = events.loc[events["kind"] == "cycle", "duration"].to_numpy(float) if len(events) else np.zeros(0)
+    d = d[np.isfinite(d)]
+    if len(d):
+        bins = _duration_bins(d)
+        ax2.hist(cal.time(d), bins=cal.time(bins), color=FAST_COLOR)
+    else:
+        empty_panel(ax2, "no T1 cycles")
+    ax2.set_xlabel(f"T1-cycle duration ({cal.time_label})")
+    ax2.set_ylabel("cycles")
+    return finish_panels(fig, path)
+
+
+def _duration_bins(durations, max_bins=30):
+    """Bin edges for durations in whole frames: centred on whole frames, ``step`` frames wide, covering all.
+
+    ``step`` is the smallest whole number giving at most ``max_bins`` bins;
+    the last edge is at or above ``max + 0.5``, so the longest durations are
+    counted.
+    """
+    d = np.asarray(durations, float)
+    d = d[np.isfinite(d)]
+    lo = min(0.5, float(np.floor(d.min())) - 0.5) if len(d) else 0.5
+    hi = float(d.max()) if len(d) else 1.0
+    step = max(1, int(np.ceil((hi - lo) / max_bins)))
+    n = max(1, int(np.ceil((hi + 0.5 - lo) / step)))
+    return lo + step * np.arange(n + 1)
 
 
 def _t1_events(movie, report):

@@ -2,20 +2,161 @@
 report, the flow arrows in napari, its switch in the napari widget."""
 from __future__ import annotations
 
+from textwrap import fill
+
 import numpy as np
 import pandas as pd
 
-from ..analysis.plots import plot_event_flow, plot_flow_statistics
-from ..flow import (angular_harmonics, defect_flow, flow_summary, mean_squared_displacement, t1_flow,
-                    velocity_correlation, velocity_statistics)
+from ..flow import (angular_harmonics, correlation_length, defect_flow, flow_summary, mean_squared_displacement,
+                    msd_exponent, reliable_bins, t1_flow, velocity_correlation, velocity_statistics)
 from ..flow.piv import piv_agreement
-from ..plot import plot_flow, typical_spacing
+from ..plot import FAST_COLOR, SLOW_COLOR, empty_panel, finish_panels, panels, plot_flow, typical_spacing
 from ..theory import quadrupole_flow_exact
+from ..units import as_calibration, in_units, velocity_unit
 from . import LayerMaker, Section, StageView, single, WidgetField
 from .layerdata import common, coords
 from .text import length, rate
 
-__all__ = ["VIEW", "flow_layer", "FLOW_ARROW", "FLOW_COLOR", "T1_OFFSETS"]
+__all__ = ["VIEW", "plot_flow_statistics", "plot_event_flow", "flow_layer", "FLOW_ARROW", "FLOW_COLOR", "T1_OFFSETS"]
+
+
+def plot_flow_statistics(per_frame, correlation, msd, path=None, calibration=None, spacing=None, figsize=(12, 3.8)):
+    """Mean speed and polar order over time, the velocity correlation C(r), and the MSD.
+
+    Parameters
+    ----------
+    per_frame, correlation, msd : pandas.DataFrame
+        :func:`hexatissue.flow.velocity_statistics`,
+        :func:`hexatissue.flow.velocity_correlation` and
+        :func:`hexatissue.flow.mean_squared_displacement` (px and frames).
+    calibration : Calibration, optional
+        Units of the axes (px and frames when None).
+    spacing : float, optional
+        The cell spacing, px (:func:`hexatissue.flow.cell_spacing`): a
+        correlation length below it is refused.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three panels; C(r) shows its :func:`hexatissue.flow.reliable_bins`
+        with their standard errors, the fitted ``A exp(-r / xi) + B`` and its
+        length xi (:func:`hexatissue.flow.correlation_length`, or why it is
+        refused); the MSD exponent is marked.
+    """
+    cal = as_calibration(calibration)
+    fig, (a, b, c) = panels(3, figsize)
+    time = cal.time(per_frame["frame"].to_numpy(float))
+    a.plot(time, in_units(per_frame["mean_speed"].to_numpy(float), cal), color="k", lw=1)
+    a.set_xlabel(f"time ({cal.time_label})")
+    a.set_ylabel(f"mean speed ({velocity_unit(cal)})")
+    twin = a.twinx()
+    twin.plot(time, per_frame["polar_order"].to_numpy(float), color=FAST_COLOR, lw=1)
+    twin.set_ylabel("polar order", color=FAST_COLOR)
+    twin.set_ylim(0, 1)
+    shown = reliable_bins(correlation)  # bins of a few pairs (tiny cells) are noise
+    r_px = correlation["r"].to_numpy(float)[shown]
+    value = correlation["correlation"].to_numpy(float)[shown]
+    sd = (correlation["correlation_sd"].to_numpy(float)[shown] if "correlation_sd" in correlation.columns
+          else np.full(len(value), np.nan))
+    b.errorbar(cal.length(r_px), value, yerr=np.where(np.isfinite(sd), sd, 0.0), fmt="o", ms=3, color=SLOW_COLOR,
+               lw=0.8, capsize=0)
+    b.plot([0.0], [1.0], "o", ms=3, mfc="none", color=SLOW_COLOR)  # C(0) = 1: a cell with itself
+    b.axhline(0.0, color="0.7", lw=0.6)
+    fit = correlation_length(correlation, spacing)
+    if np.isfinite(fit.length):
+        x = np.linspace(0.0, fit.r_fit, 100)
+        b.plot(cal.length(x), fit.amplitude * np.exp(-x / fit.length) + fit.offset, color="0.3", lw=0.9)
+        b.axvline(cal.length(fit.length), color="0.3", lw=0.8, ls=":")
+        b.set_title(f"correlation length {cal.length(fit.length):.3g} ± {cal.length(fit.sd):.2g} "
+                    f"{cal.length_label} (A = {fit.amplitude:.2f})", fontsize=9)
+    else:
+        b.set_title("no correlation length", fontsize=9)
+        b.text(0.98, 0.95, fill(fit.reason, 40), transform=b.transAxes, ha="right", va="top", fontsize=7)
+    b.set_xlabel(f"r ({cal.length_label})")
+    b.set_ylabel("velocity correlation C(r)")
+    ok = np.isfinite(msd["msd"].to_numpy(float)) & (msd["msd"].to_numpy(float) > 0)
+    if ok.any():
+        c.loglog(cal.time(msd["lag"].to_numpy(float)[ok]), in_units(msd["msd"].to_numpy(float)[ok], cal, 2, 0),
+                 "o-", ms=3, color="k")
+        c.set_title(f"MSD exponent {msd_exponent(msd):.2f}", fontsize=9)
+        from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+
+        # lags of one or two decades: plain numbers at 1, 2, 5 x 10^k (log minor labels overlap)
+        c.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        c.xaxis.set_major_formatter(ScalarFormatter())
+        c.xaxis.set_minor_formatter(NullFormatter())
+    else:
+        empty_panel(c, "no displacement pairs")
+    c.set_xlabel(f"lag ({cal.time_label})")
+    c.set_ylabel(f"MSD ({cal.length_label}$^2$)")
+    return finish_panels(fig, path)
+
+
+def plot_event_flow(average, path=None, calibration=None, title=None, x_label="x along the junction"):
+    """Event-centred mean flow: one panel per kind (rows) and time offset (columns).
+
+    Arrows are the mean relative velocity of each bin, over the radial
+    velocity ``v_r`` in colour (red: outward), in the event's axes (a T1's
+    vanishing junction along x, :func:`hexatissue.flow.t1_flow`; a defect's
+    orientation, :func:`hexatissue.flow.defect_flow`).
+
+    Parameters
+    ----------
+    average : pandas.DataFrame
+        The ``average`` table of :func:`hexatissue.flow.t1_flow` or
+        :func:`hexatissue.flow.defect_flow` (px, px/frame).
+    calibration : Calibration, optional
+        Units of the axes and the colour bar (px and frames when None).
+    x_label : str
+        What the x axis of the event's axes is.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    cal = as_calibration(calibration)
+    kinds = list(dict.fromkeys(average["kind"].astype(str)))
+    offsets = sorted(set(average["offset"].tolist()))
+    fig = Figure(figsize=(3.2 * max(len(offsets), 1) + 1.0, 3.0 * max(len(kinds), 1)), dpi=100, layout="constrained")
+    axes = fig.subplots(max(len(kinds), 1), max(len(offsets), 1), squeeze=False)
+    if not len(average):
+        empty_panel(axes[0, 0], "no event with velocities")
+        return finish_panels(fig, path, title)
+    x, y = average["x"].to_numpy(float), average["y"].to_numpy(float)
+    u, v = average["vx"].to_numpy(float), average["vy"].to_numpy(float)
+    r = np.hypot(x, y)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        radial = np.where(r > 0, (x * u + y * v) / r, 0.0)
+    top = float(np.nanpercentile(np.abs(in_units(radial, cal)), 98)) or 1.0
+    speed = float(np.percentile(np.hypot(u, v), 95)) or 1.0
+    gx, gy = np.unique(x), np.unique(y)  # the bins' lattice, shared by the panels
+    step = float(np.min(np.diff(gx))) if len(gx) > 1 else 1.0
+    mesh = None
+    for i, kind in enumerate(kinds):
+        for j, offset in enumerate(offsets):
+            ax = axes[i, j]
+            sel = (average["kind"].astype(str).to_numpy() == kind) & (average["offset"].to_numpy() == offset)
+            if not sel.any():
+                empty_panel(ax, "no event")
+                continue
+            image = np.full((len(gy), len(gx)), np.nan)
+            image[np.searchsorted(gy, y[sel]), np.searchsorted(gx, x[sel])] = in_units(radial[sel], cal)
+            mesh = ax.pcolormesh(cal.length(gx), cal.length(gy), np.ma.masked_invalid(image), cmap="RdBu_r",
+                                 vmin=-top, vmax=top, shading="nearest")
+            ax.quiver(cal.length(x[sel]), cal.length(y[sel]), u[sel], v[sel], angles="xy", scale_units="xy",
+                      scale=speed / (0.9 * cal.length(step)), width=0.006)
+            ax.plot([0], [0], "k+", ms=8)
+            ax.set_aspect("equal")
+            ax.invert_yaxis()  # image orientation, as the tissue figures
+            n_events = int(average.loc[sel, "n_events"].iloc[0])
+            ax.set_title(f"{kind}, offset {offset:+d} frames ({n_events} events)", fontsize=8)
+            ax.set_xlabel(f"{x_label} ({cal.length_label})", fontsize=8)
+            ax.set_ylabel(f"y ({cal.length_label})", fontsize=8)
+    if mesh is not None:
+        fig.colorbar(mesh, ax=axes, shrink=0.6, label=f"radial velocity ({velocity_unit(cal)})")
+    return finish_panels(fig, path, title)
 
 
 def _flow(movie, report):

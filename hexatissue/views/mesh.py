@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analysis.plots import plot_cell_distributions
 from ..geometry import table_polygons
-from ..plot import plot_labels
+from ..plot import CONTROL_COLOR, EVENT_COLOR, empty_panel, finish_panels, panels, plot_labels
+from ..units import as_calibration
 from . import LayerMaker, Section, StageView, WidgetField, shown_frames, single
 from .layerdata import common, coords, is_movie, rgba
 
-__all__ = ["VIEW", "polygon_layer", "vertex_layer", "SIDES_COLORS", "VERTEX_COLORS", "POLYGON_EDGE_COLOR"]
+__all__ = ["VIEW", "plot_cell_distributions", "polygon_layer", "vertex_layer", "SIDES_COLORS", "VERTEX_COLORS",
+           "POLYGON_EDGE_COLOR"]
 
 #: Epithelial cell apical areas span about 5-500 µm^2 (Drosophila ~10-50, MDCK ~100-400); a mean outside this
 #: wider range says the pixel size is wrong more likely than the cells.
@@ -54,6 +55,57 @@ def _tissue(movie, report):
             lines.append(f"- **check the pixel size**: a mean cell area of {cal.area(area):.4g} µm^2 is outside "
                          f"{CELL_AREA_UM2[0]:g}-{CELL_AREA_UM2[1]:g} µm^2, the range of epithelial cells")
     return lines
+
+
+def plot_cell_distributions(cells, path=None, calibration=None, figsize=(10, 3.6)):
+    """Distributions of the interior cells' number of sides and area, over every frame of ``cells``.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        A ``cells`` table (``n_sides``, ``area`` in px^2, ``is_border``); border cells are left out (cut by the
+        image edge), and so are cells without a polygon (``n_sides`` < 3) from the sides panel.
+    path : path-like, optional
+        PNG written atomically.
+    calibration : Calibration, optional
+        Areas in its length unit squared (px^2 when None).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Left: fraction of cells per number of sides, with the percentages; right: histogram of the areas with
+        the mean marked.
+    """
+    cal = as_calibration(calibration)
+    inner = cells[~cells["is_border"].to_numpy(bool)]
+    fig, (left, right) = panels(2, figsize)
+    sides = inner["n_sides"].to_numpy(int)
+    sides = sides[sides >= 3]
+    if len(sides):
+        values, counts = np.unique(sides, return_counts=True)
+        share = counts / counts.sum()
+        left.bar(values, share, color=EVENT_COLOR, width=0.8)
+        for v, f in zip(values, share):
+            left.text(v, f, f"{100 * f:.1f}%", ha="center", va="bottom", fontsize=8)
+        left.set_xticks(values)
+        left.set_ylim(0, min(1.0, share.max() * 1.18))
+    else:
+        empty_panel(left, "no interior cell with a polygon")
+    left.set_xlabel("number of sides (neighbours)")
+    left.set_ylabel("fraction of interior cells")
+    left.set_title(f"{len(sides)} interior cell-frames", fontsize=10)
+    area = cal.area(inner["area"].to_numpy(float))
+    unit = f"{cal.length_label}$^2$" if cal.has_length else "px$^2$"
+    if len(area):
+        right.hist(area, bins=min(40, max(5, len(area) // 10)), color=CONTROL_COLOR)
+        right.axvline(area.mean(), color="k", linewidth=1)
+        right.text(area.mean(), right.get_ylim()[1] * 0.95, f" mean {area.mean():.3g} {unit}", fontsize=8,
+                   va="top")
+    else:
+        empty_panel(right, "no interior cell")
+    right.set_xlabel(f"cell area ({unit})")
+    right.set_ylabel("cells")
+    return finish_panels(fig, path, "interior cells: neighbour number and area")
 
 
 def _cell_figure(movie, report):
