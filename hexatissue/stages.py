@@ -413,12 +413,12 @@ def _link(tracker, payload, t):
 
 
 #: The columns each movie stage reads, by table: a table kept on disk is read for these alone (the cells table of a
-#: long movie holds ~20 columns; the tracks stage needs 6).
+#: long movie holds ~20 columns; the tracks stage needs 6).  The T1 events stage reads the edges a block of frames
+#: at a time, from the table as it is kept.
 TRACK_READS = {"cells": ("frame", "cell", "x", "y", "area", "is_border")}
 FLOW_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
               "grid": ("frame", "node", "x", "y", "radius", "valid")}
 T1_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
-            "edges": ("frame", "edge", "vertex_a", "vertex_b", "cell_a", "cell_b", "length"),
             "vertices": ("frame", "vertex", "degree", "n_merged")}
 DEFORMATION_READS = {"cells": ("frame", "cell", "track", "x", "y", "area", "is_border"),
                      "vertices": ("frame", "vertex", "x", "y", "degree", "is_border"),
@@ -500,8 +500,8 @@ def _t1_events(movie, options):
     """Quartet T1s and per-cell neighbour changes from one pass over the contacts, classified."""
     censor = default_censor(movie.n_frames) if options.censor is None else options.censor
     tables = movie.tables
-    tables["events"], tables["neighbour_events"] = t1_tables(movie.read("edges", T1_READS["edges"]),
-                                                             movie.read("cells", T1_READS["cells"]),
+    # the edges as they are kept: a table on disk is read a part at a time (hexatissue.events.frames.edge_blocks)
+    tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], movie.read("cells", T1_READS["cells"]),
                                                              options.min_length, censor, movie.box)
     movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames,
                                              movie.read("vertices", T1_READS["vertices"])

@@ -159,24 +159,71 @@ class StoredTable:
 
     def read(self, columns=None, frames=None) -> pd.DataFrame:
         """The table (only ``columns`` that it has, when given; only the parts overlapping ``frames`` =
-        ``(first, last)`` and, of those, the rows of these frames) as one DataFrame."""
+        ``(first, last)`` and, of those, the rows of these frames) as one DataFrame.
+
+        The parts are read as one Arrow table and converted column by
+        column, each Arrow buffer freed once converted (not a DataFrame per
+        part, then their concatenation: twice the memory).
+        """
+        import pyarrow as pa
+        import pyarrow.dataset as ds
+
         keep = [k for k, (first, last, _, _) in enumerate(self.parts)
                 if frames is None or (last >= frames[0] and first <= frames[1])]
         if not keep:
             head = self.head()
             return head if columns is None else head[[c for c in columns if c in head.columns]]
+        on_disk = self._stored_columns()
+        stored = list(on_disk) if columns is None else [c for c in columns if c in on_disk]
         # the frame column selects the rows, also when it is not asked for
-        want = columns if columns is None or frames is None or "frame" in columns else [*columns, "frame"]
-        out = pd.concat([self._part(k, want) for k in keep], ignore_index=True) if len(keep) > 1 \
-            else self._part(keep[0], want)
+        selecting = frames is not None and "frame" not in stored
+        table = ds.dataset([str(self.parts[k][3]) for k in keep], format="parquet").to_table(
+            columns=stored + (["frame"] if selecting else []))
+        out = table.to_pandas(split_blocks=True, self_destruct=True)
+        del table
+        pa.default_memory_pool().release_unused()
+        offsets = self._offsets()
+        rows = slice(offsets[keep[0]], offsets[keep[-1] + 1])  # the kept parts are consecutive
+        for column, values, after in self.added:
+            if columns is not None and column not in columns:
+                continue
+            if after is not None:
+                if column in out.columns:
+                    del out[column]
+                out.insert(out.columns.get_loc(after) + 1 if after in out.columns else len(out.columns), column,
+                           values[rows])
+            else:
+                out[column] = values[rows]
         if frames is not None:
             f = out["frame"].to_numpy()
             inside = (f >= frames[0]) & (f <= frames[1])
             if not inside.all():
                 out = out[inside].reset_index(drop=True)
-            if want is not columns:
-                out = out.drop(columns="frame")
-        return out
+            if selecting:
+                del out["frame"]
+        return out if columns is None else out[[c for c in columns if c in out.columns]]
+
+    def frames_reader(self, columns):
+        """``read(first, last)``: the ``columns`` of the rows of frames ``first`` to ``last``, for ranges that move
+        forward through the movie; each part is read once while the ranges stay in it."""
+        held = {"parts": None, "table": None}
+
+        def read(first, last):
+            keep = tuple(k for k, (lo, hi, _, _) in enumerate(self.parts) if hi >= first and lo <= last)
+            if not keep:
+                return self.head()[[c for c in columns if c in self.columns]]
+            if held["parts"] != keep:
+                held["table"] = None  # the previous parts' memory, before these are read
+                held["table"] = self.read(columns, frames=(self.parts[keep[0]][0], self.parts[keep[-1]][1]))
+                held["parts"] = keep
+            table = held["table"]
+            f = table["frame"].to_numpy()
+            if len(f) > 1 and not np.all(f[1:] >= f[:-1]):  # parts written by analyze are in frame order
+                return table[(f >= first) & (f <= last)]
+            lo, hi = np.searchsorted(f, first, "left"), np.searchsorted(f, last, "right")
+            return table.iloc[lo:hi]
+
+        return read
 
     def __getitem__(self, column) -> pd.Series:
         """One column over every row (a pandas Series)."""

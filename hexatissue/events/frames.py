@@ -70,17 +70,31 @@ def _movie_frames(edges, cells, min_length):
 MISSING_CELLS = "edges refer to (frame, cell) pairs missing from the cells table"
 
 
+def edge_blocks(edges, columns, edge_rows=None):
+    """``read(first, last)``: the ``columns`` of the rows of ``edges`` in frames ``first`` to ``last``, as numpy
+    arrays, for ranges that move forward through the movie.
+
+    A DataFrame is sliced (``edge_rows``: its :class:`~hexatissue.schema.FrameRows`, made if not given); a table
+    kept on disk (anything with a ``frames_reader``, :class:`hexatissue.stored.StoredTable`) is read one part at a
+    time, so the movie's edges are never in memory at once.
+    """
+    if hasattr(edges, "frames_reader"):
+        read = edges.frames_reader(columns)
+        return lambda first, last: [column.to_numpy() for _, column in read(first, last).items()]
+    rows = FrameRows(edges["frame"].to_numpy(np.int64)) if edge_rows is None else edge_rows
+    arrays = [edges[c].to_numpy() for c in columns]
+    return lambda first, last: [a[rows.between(first, last)] for a in arrays]
+
+
 def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
     """The generator of :func:`_movie_frames` (its arguments checked): contacts found a block of frames at a time."""
     tracks = track_ids(cells)
     labels = cells["cell"].to_numpy(np.int64) if translate else None
     c_frame = cells["frame"].to_numpy(np.int64)
-    e_frame = edges["frame"].to_numpy(np.int64)
-    e_a, e_b = edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)
-    e_length = edges["length"].to_numpy(float)
+    read = edge_blocks(edges, ["frame", "cell_a", "cell_b", "length"], edge_rows)
     for frames, rows in cell_rows.blocks(BLOCK_ROWS):
-        er = edge_rows.between(frames[0], frames[-1])
-        frame, a, b, length = e_frame[er], e_a[er], e_b[er], e_length[er]
+        frame, a, b, length = read(frames[0], frames[-1])
+        frame, a, b, length = frame.astype(np.int64), a.astype(np.int64), b.astype(np.int64), length.astype(float)
         keep = a != 0  # contacts with the outside are not cell contacts
         frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
         order, starts = pair_groups(frame, a, b)
@@ -124,13 +138,17 @@ def _held_pairs(edges, cells):
     """
     if not {"vertex_a", "vertex_b"} <= set(edges.columns) or len(edges) == 0:
         return {}
-    columns = [edges[c].to_numpy(np.int64) for c in ("frame", "vertex_a", "vertex_b", "cell_a", "cell_b")]
+    frame = edges["frame"].to_numpy(np.int64)
+    edge_rows = FrameRows(frame)
+    read = edge_blocks(edges, ["frame", "vertex_a", "vertex_b", "cell_a", "cell_b"], edge_rows)
+    del frame
     tracks = None
     if "track" in cells.columns:
         tracks = (row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64)), track_ids(cells))
     out = {}
-    for _, rows in FrameRows(columns[0]).blocks(3 * BLOCK_ROWS):  # a block of frames at a time: the movie's
-        out.update(_held_block(*(c[rows] for c in columns), tracks))  # edges four times over would not stream
+    for frames, _ in edge_rows.blocks(3 * BLOCK_ROWS):  # a block of frames at a time: the movie's edges four times
+        block = read(frames[0], frames[-1])  # over would not stream
+        out.update(_held_block(*(c.astype(np.int64) for c in block), tracks))
     return out
 
 
