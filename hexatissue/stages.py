@@ -217,7 +217,9 @@ class MovieData:
             return table.read(columns, frames)
         if frames is not None:
             f = table["frame"].to_numpy()
-            table = table[(f >= frames[0]) & (f <= frames[1])].reset_index(drop=True)
+            inside = (f >= frames[0]) & (f <= frames[1])
+            if not inside.all():
+                table = table[inside].reset_index(drop=True)
         return table if columns is None else table[[c for c in columns if c in table.columns]]
 
     def add_column(self, name, column, values, after=None):
@@ -483,8 +485,8 @@ def _flow(movie, options):
         for first, last in movie.frame_chunks("grid"):
             inside = (frame >= first) & (frame <= last)
             grid = movie.read("grid", FLOW_READS["grid"], frames=(first, last))
-            yield (first, last), flow_fields(cells[inside], grid, movie.box, options.radius_factor,
-                                             options.min_cells)
+            yield (first, last), flow_fields(cells if inside.all() else cells[inside], grid, movie.box,
+                                             options.radius_factor, options.min_cells)
 
     movie.put_chunks("flow", chunks())
     image = movie.images.get("intensity")

@@ -241,5 +241,12 @@ class StoredTable:
 
         return ds.dataset([str(p) for _, _, _, p in self.parts], format="parquet")
 
+    def to_dask(self, columns=None):
+        """The parts as a ``dask.dataframe.DataFrame``, one partition per part (only ``columns`` when given; added
+        columns not yet finished are not in it)."""
+        import dask.dataframe as dd
+
+        return dd.read_parquet([str(p) for _, _, _, p in self.parts], columns=columns)
+
     def __repr__(self):
         return f"StoredTable({self.name!r}, {len(self)} rows in {len(self.parts)} part(s) at {str(self.folder)!r})"

@@ -109,6 +109,11 @@ def test_lazy_results_read_by_column_and_frame_and_written_elsewhere(tmp_path, s
     f = memory.cells["frame"].between(2, 4)
     pd.testing.assert_frame_equal(part, memory.cells.loc[f, ["track", "x"]].reset_index(drop=True))
     pd.testing.assert_series_equal(lazy.cells["area"], memory.cells["area"])
+    # the readers of large tables people use: pyarrow datasets and dask dataframes, one partition per part
+    assert lazy.cells.dataset().count_rows() == len(memory.cells)
+    frame = lazy.cells.to_dask(["frame", "x"])
+    assert frame.npartitions == len(lazy.cells.parts)
+    pd.testing.assert_frame_equal(frame.compute().reset_index(drop=True), memory.cells[["frame", "x"]])
     # a lazy Movie written elsewhere: parts copied one by one; as CSV: one file
     lazy.write(tmp_path / "copy", formats=("parquet", "csv"))
     _assert_same_tables(read_results(tmp_path / "copy", lazy=False), memory)
