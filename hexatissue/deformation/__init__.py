@@ -30,7 +30,7 @@ error).  The order follows TissueMiner's intermediate triangulations.
 
 The package, by concept (each module imports only those listed before it):
 :mod:`.triangles` (a triangle's state tensor -> area, elongation, rotation),
-:mod:`.flow` (the continuous part by quadrature), :mod:`.triangulation`
+:mod:`~hexatissue.deformation.flow` (the continuous part by quadrature), :mod:`.triangulation`
 (each frame's triangles and contacts), :mod:`.states` (triangulations with
 their shapes and regions), :mod:`.movie` (the cells by frame, the lineage,
 the T1s by frame), :mod:`.regions` (tissue, grid, regions of interest),
