@@ -106,7 +106,7 @@ def test_stages_are_listed_in_the_order_analyze_runs_them(monkeypatch):
     movie_frames = voronoi_movie(30, (64, 64), 3, periodic=False, amplitude=0.3, seed=1)
     labels = np.stack([np.asarray(movie_frames[t]) for t in range(3)])
     image = np.random.default_rng(0).random(labels.shape)
-    analyze(labels, intensity=image, mechanics=MechanicsOptions(enabled=True),
+    analyze(labels, intensity=image, surface=image, mechanics=MechanicsOptions(enabled=True),
             deformation=DeformationOptions(enabled=True), workers=1, progress=False)
     listed = [s.name for s in S.STAGES]
     assert list(dict.fromkeys(log)) == listed  # every stage ran, first in the list's order
