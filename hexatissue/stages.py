@@ -53,7 +53,7 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .stored import StoredTable
-from .surface import check_height, lift, surface_arrays, surface_cells
+from .surface import lift, surface_arrays, surface_cells
 from .track import (MovieTracker, cells_with_tracks, check_divisions, check_extrusions, compact_frames, lineage_table,
                     tracking_summary, tracking_warning)
 
@@ -293,7 +293,7 @@ def _shape_order(frame, options):
 def _surface(frame, options):
     """Each cell on the height map's surface: 3-D area and perimeter, normal, gamma_p in its tangent plane (for the
     orders of the order stage's columns); every vertex's height."""
-    height = check_height(frame.images["surface"], "the surface height map", frame.labels.shape)
+    height = frame.images["surface"]  # finite, of the labels' shape: checked when read (Source.image, analyze)
     cells = frame.tables["cells"]
     orders = tuple(int(c[5:-3]) for c in cells if c.startswith("gamma") and c.endswith("_re")) or (6, 2)
     vertices = frame.tables["vertices"]

@@ -213,3 +213,24 @@ def test_the_stage_runs_from_files_and_the_command_line_and_reads_back(tmp_path)
     frames = back.cells.groupby("frame")["surface_area"].sum()
     assert frames[0] == pytest.approx(frames[1])
     assert "z" in back.vertices and back.source["surface"]["path"].endswith("height.tif")
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_the_kernel_equals_its_numpy_reference(periodic):
+    """``surface_polygons`` (numba) against its plain-numpy reference, on a bump with degenerate polygons added."""
+    from hexatissue.surface import _kernels, _reference
+
+    b = gaussian_bump_tissue(shape=(96, 128), amplitude=30, width=25, spacing=16, seed=6)
+    polygons = list(voronoi_polygons(b.seeds, b.labels.shape).values())
+    n_cells = len(polygons)
+    polygons += [np.array([[3.0, 4.0], [5.0, 6.0]]), np.array([[1.0, 1.0], [1.0, 1.0], [1.0, 1.0]])]
+    if periodic:  # unwrapped polygons reaching beyond the image
+        polygons.append(polygons[0] + [120.0, -30.0])
+    xy, starts = pack_polygons(polygons)
+    args = (xy, starts, b.height, 0.7, periodic, 1e-9)
+    kernel, reference = _kernels.surface_polygons(*args), _reference.surface_polygons(*args)
+    for got, expected in zip(kernel, reference):
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
+    assert np.isfinite(kernel[0][:n_cells]).all() and np.isnan(kernel[0][n_cells:n_cells + 2]).all()
+    end = starts[n_cells + 2] if periodic else len(xy)
+    assert np.isnan(kernel[3][starts[n_cells]:end]).all()

@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._dispatch import Kernels
 from ..errors import InputError
 from ..geometry import bilinear, lookup, next_vertex, row_keys, segment_sum, table_polygons
 from ..options import CENTERS
 from ..order.shape import shape_functions_flat
+from . import _kernels
 
 __all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells"]
+
+K = Kernels(_kernels, "hexatissue.surface._reference")
 
 #: A cell whose vector area is below this fraction of its mean squared vertex distance from its centre has no
 #: tangent plane (collapsed or collinear vertices): its surface columns are NaN.
@@ -52,7 +56,7 @@ def lift(height, xy, scale=1.0, box=None) -> np.ndarray:
     return np.column_stack([xy, z])
 
 
-def tangent_polygons(xyz, starts):
+def tangent_polygons(xyz, starts, degenerate_area=DEGENERATE_AREA):
     """Each polygon of 3-D vertices in its own tangent plane.
 
     Parameters
@@ -71,7 +75,8 @@ def tangent_polygons(xyz, starts):
         ``(M, 2)``: every vertex in that frame, relative to the polygon's
         vertex mean (px); ``vector_area`` ``(N,)``: the length of the vector
         area (px^2).  Rows of polygons with fewer than three vertices, or
-        whose vector area vanishes (:data:`DEGENERATE_AREA`), are NaN.
+        whose vector area is not above ``degenerate_area`` times their
+        vertices' mean squared distance from their mean, are NaN.
     """
     xyz = np.asarray(xyz, dtype=float)
     starts = np.asarray(starts, dtype=np.int64)
@@ -84,7 +89,7 @@ def tangent_polygons(xyz, starts):
     vector = 0.5 * segment_sum(cross, starts, n)
     size = np.linalg.norm(vector, axis=1)
     spread = segment_sum((local ** 2).sum(axis=1), starts, n) / np.maximum(counts, 1)
-    bad = (counts < 3) | ~(size > DEGENERATE_AREA * spread)
+    bad = (counts < 3) | ~(size > degenerate_area * spread)
     with np.errstate(invalid="ignore", divide="ignore"):
         normal = vector / size[:, None]
     normal[normal[:, 2] < 0] *= -1  # a height map's surface faces +z
@@ -97,23 +102,6 @@ def tangent_polygons(xyz, starts):
     uv = np.column_stack([(local * e1[owner]).sum(axis=1), (local * e2[owner]).sum(axis=1)])
     size[bad] = np.nan
     return {"normal": normal, "e1": e1, "e2": e2, "uv": uv, "vector_area": size}
-
-
-def _fan_area(xyz, starts, apex, normal):
-    """Area of the triangle fan from ``apex`` (one 3-D point per polygon) over each polygon's sides.
-
-    Each triangle counts with the sign of its orientation against the
-    polygon's normal, so that a planar polygon gives its exact area from any
-    apex in its plane (a non-convex cell's fan folds back on itself).
-    """
-    n, m = len(starts), len(xyz)
-    counts = np.diff(np.r_[starts, m])
-    owner = np.repeat(np.arange(n), counts)
-    a = xyz - apex[owner]
-    cross = np.cross(a, a[next_vertex(m, starts)])
-    size = np.linalg.norm(cross, axis=1)
-    sign = np.where((cross * normal[owner]).sum(axis=1) < 0, -1.0, 1.0)
-    return 0.5 * segment_sum(sign * size, starts, n)
 
 
 def surface_arrays(xy, starts, take, height, scale=1.0, box=None, p=(6, 2), center="vertex_mean") -> dict:
@@ -146,26 +134,16 @@ def surface_arrays(xy, starts, take, height, scale=1.0, box=None, p=(6, 2), cent
     """
     if isinstance(center, str) and center not in CENTERS:
         raise InputError(f"center must be one of {CENTERS}; got {center!r}")
-    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    starts = np.asarray(starts, dtype=np.int64)
+    xy = np.ascontiguousarray(xy, dtype=float).reshape(-1, 2)
+    starts = np.ascontiguousarray(starts, dtype=np.int64)
     take = np.asarray(take, dtype=np.int64)
     n = len(starts)
-    # a side straight in the image is a curve on the surface: lifting its midpoint too cuts the fan's error on a
-    # curved surface 3-4 fold (Gaussian bump, exact vertices: median 0.39 % -> 0.10 %); a plane is unchanged
-    sides = np.empty((2 * len(xy), 2))
-    sides[0::2], sides[1::2] = xy, 0.5 * (xy + xy[next_vertex(len(xy), starts)])
-    fine, fine_starts = lift(height, sides, scale, box), 2 * starts
-    plane = tangent_polygons(fine[0::2], starts)  # the polygon's own vertices
-    counts = np.maximum(np.diff(np.r_[starts, len(xy)]), 1)
-    # the fan's apex: on the surface, above the polygon's vertex mean
-    apex = lift(height, segment_sum(xy, starts, n) / counts[:, None], scale, box)
-    area = _fan_area(fine, fine_starts, apex, plane["normal"])
-    perimeter = segment_sum(np.linalg.norm(fine[next_vertex(len(fine), fine_starts)] - fine, axis=1), fine_starts, n)
-    flat = ~np.isfinite(plane["vector_area"])
-    area[flat] = perimeter[flat] = np.nan
-    per_polygon = {"surface_area": area, "surface_perimeter": perimeter, "normal_x": plane["normal"][:, 0],
-                   "normal_y": plane["normal"][:, 1], "normal_z": plane["normal"][:, 2]}
-    uv = np.nan_to_num(plane["uv"])  # a degenerate cell's NaN frame: its gamma is NaN from the kernel's own test
+    area, perimeter, normal, uv = K.surface_polygons(xy, starts, np.ascontiguousarray(height, dtype=float),
+                                                     float(scale), box is not None, DEGENERATE_AREA)
+    flat = ~np.isfinite(area)
+    per_polygon = {"surface_area": area, "surface_perimeter": perimeter, "normal_x": normal[:, 0],
+                   "normal_y": normal[:, 1], "normal_z": normal[:, 2]}
+    uv = np.nan_to_num(uv)  # a degenerate cell's NaN frame: its gamma is NaN from the kernel's own test
     orders = tuple(p)
     for q, gamma in zip(orders, shape_functions_flat(uv, starts, orders, center) if n else [np.zeros(0)] * len(orders)):
         gamma = np.where(flat, np.nan + 0j, gamma)
