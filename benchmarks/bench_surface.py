@@ -14,7 +14,8 @@ Tissues (:mod:`hexatissue.synthetic_surface`), 5 seeds each:
   (``polygon_area`` against the exact projected polygon) is the pixel floor.
 
 Errors are pooled over the seeds' interior cells (medians, and the max where said); the cost of the stage is
-the ``surface_arrays`` time against the mesh's on a 2048 x 2048 tissue.
+the ``surface_arrays`` time against the mesh's, and a whole ``analyze`` with and without the stage, on a 2048 x 2048
+tissue (best of 7 alternating runs).
 
     NUMBA_NUM_THREADS=1 PYTHONPATH=$PWD python benchmarks/bench_surface.py [--out benchmarks/results_surface.md]
 """
@@ -28,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from hexatissue import analyze, mesh_from_labels
+from hexatissue._dispatch import references
 from hexatissue.geometry import pack_polygons
 from hexatissue.order import polygon_rows
 from hexatissue.surface import surface_arrays
@@ -37,6 +39,7 @@ from hexatissue.synthetic_surface import gaussian_bump_tissue, tilted_plane_tiss
 SEEDS = range(5)
 TILTS = (0, 30, 50, 70)
 BUMPS = ((80.0, 60.0), (60.0, 80.0))
+REPEATS = 7
 
 
 def _interior(cells):
@@ -90,23 +93,26 @@ def bump(amplitude, width):
 def cost():
     labels = voronoi_labels(jittered_seeds((2048, 2048), 20, seed=0), (2048, 2048))
     height = np.random.default_rng(0).random(labels.shape) * 20
-    t0 = time.perf_counter()
     f = mesh_from_labels(labels)
-    mesh = time.perf_counter() - t0
     polygons = f.mesh_polygons()
     take = polygon_rows(f.cells["n_sides"].to_numpy() > 0)
-    times = []
-    for _ in range(3):
-        t0 = time.perf_counter()
-        surface_arrays(*polygons, take, height)
-        times.append(time.perf_counter() - t0)
-    whole = {}
-    for name, given in (("without", {}), ("with", {"surface": height})):
-        analyze(labels, workers=1, progress=False, **given)  # compiled and cached first
-        t0 = time.perf_counter()
-        analyze(labels, workers=1, progress=False, **given)
-        whole[name] = time.perf_counter() - t0
-    return len(f.cells), mesh, float(np.median(times)), whole
+    surface_arrays(*polygons, take, height)  # compiled (or read from numba's cache) first
+    runs = {"with": {"surface": height}, "without": {}}
+    times = {name: [] for name in ("mesh", "surface", "reference", *runs)}
+    for _ in range(REPEATS):  # the codes alternate, so a change of the machine's load reaches both
+        times["mesh"].append(_seconds(lambda: mesh_from_labels(labels)))
+        times["surface"].append(_seconds(lambda: surface_arrays(*polygons, take, height)))
+        with references("reference"):  # the kernel's plain-numpy reference in its place
+            times["reference"].append(_seconds(lambda: surface_arrays(*polygons, take, height)))
+        for name, given in runs.items():
+            times[name].append(_seconds(lambda: analyze(labels, workers=1, progress=False, **given)))
+    return len(f.cells), {name: min(values) for name, values in times.items()}
+
+
+def _seconds(call):
+    t0 = time.perf_counter()
+    call()
+    return time.perf_counter() - t0
 
 
 def main(argv=None):
@@ -142,12 +148,12 @@ def main(argv=None):
         lines.append(f"| {h:g}, {s:g} | {len(a)} | {np.median(np.abs(a)):.2%}, {np.median(a):+.2%}, "
                      f"{np.abs(a).max():.1%} | {np.median(np.abs(e)):.2%}, {np.abs(e).max():.2%} | "
                      f"{np.median(np.abs(r['floor'])):.2%} | {np.median(np.abs(r['flat'])):.1%} |")
-    n_cells, mesh, surface, whole = cost()
+    n_cells, best = cost()
     lines += ["", "Goal: areas within 1 %.", "", "## Cost", "",
-              f"2048 x 2048 px, {n_cells} cells, one core: the junction network (`mesh_from_labels`) {mesh:.3f} s, "
-              f"the surface columns (`surface_arrays`, plain numpy, median of 3) {surface:.3f} s; a whole "
-              f"`analyze` of the frame {whole['without']:.2f} s without the surface stage, {whole['with']:.2f} s "
-              "with it (one run each, after a first one).", "",
+              f"2048 x 2048 px, {n_cells} cells, one core, best of {REPEATS} alternating runs: the junction network "
+              f"(`mesh_from_labels`) {best['mesh']:.3f} s, the surface columns (`surface_arrays`: its numba pass and "
+              f"gamma_p) {best['surface']:.3f} s ({best['reference']:.3f} s with the kernel's numpy reference); a whole `analyze` of the frame {best['without']:.2f} s without "
+              f"the surface stage, {best['with']:.2f} s with it.", "",
               f"1-minute load {os.getloadavg()[0]:.1f} after the run.", ""]
     text = "\n".join(lines)
     print(text)
