@@ -598,7 +598,7 @@ STAGES = (
     Stage("surface", SurfaceOptions, "frame", reads=("polygons", "image", "cells", "vertices"),
           writes=("cells.surface_area", "cells.surface_perimeter", "cells.normal_x", "cells.normal_y",
                   "cells.normal_z", "cells.surface_gamma{p}_re", "cells.surface_gamma{p}_im", "vertices.z"),
-          run=_surface, enabled=_enabled, image=True),
+          run=_surface, enabled=_enabled, image=True, views="hexatissue.views.surface"),
     Stage("order fields", OrderOptions, "frame", reads=("cells",), writes=("grid", "defects"), run=_fields,
           enabled=_fields_on),
     Stage("mechanics", MechanicsOptions, "frame",

@@ -46,8 +46,8 @@ def test_every_views_module_named_in_the_list_is_a_stage_view_on_the_analysis_fl
     from hexatissue.views import StageView, stage_views
 
     named = [s for s in S.STAGES if s.views is not None]
-    assert {s.views for s in named} == {f"hexatissue.views.{m}" for m in ("mesh", "order", "track", "events", "flow",
-                                                                          "deformation", "mechanics")}
+    assert {s.views for s in named} == {f"hexatissue.views.{m}" for m in ("mesh", "order", "surface", "track", "events",
+                                                                          "flow", "deformation", "mechanics")}
     views = stage_views()
     assert [stage.name for stage, _ in views] == [s.name for s in named]
     assert all(isinstance(view, StageView) for _, view in views)

@@ -234,3 +234,18 @@ def test_the_kernel_equals_its_numpy_reference(periodic):
     assert np.isfinite(kernel[0][:n_cells]).all() and np.isnan(kernel[0][n_cells:n_cells + 2]).all()
     end = starts[n_cells + 2] if periodic else len(xy)
     assert np.isnan(kernel[3][starts[n_cells]:end]).all()
+
+
+def test_the_report_shows_the_curved_tissue(tmp_path):
+    """``hexatissue report``'s section: the tangent planes' tilt and the surface over projected area, per frame."""
+    from hexatissue.workflows import report
+
+    t = tilted_plane_tissue(40, shape=(120, 160), spacing=20, seed=2)
+    movie = _run(t.labels, t.height)
+    numbers = report(movie, tmp_path / "report")
+    assert numbers["surface"]["median_tilt_deg"] == pytest.approx(40, abs=0.5)
+    assert numbers["surface"]["area_ratio"] == pytest.approx(1 / np.cos(np.radians(40)), rel=0.01)
+    assert "## Curved tissue" in (tmp_path / "report" / "report.md").read_text()
+    assert (tmp_path / "report" / "surface.csv").is_file()
+    report(analyze(t.labels, workers=1, progress=False), tmp_path / "flat")  # without a height map: no section
+    assert "## Curved tissue" not in (tmp_path / "flat" / "report.md").read_text()
