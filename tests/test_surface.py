@@ -249,3 +249,14 @@ def test_the_report_shows_the_curved_tissue(tmp_path):
     assert (tmp_path / "report" / "surface.csv").is_file()
     report(analyze(t.labels, workers=1, progress=False), tmp_path / "flat")  # without a height map: no section
     assert "## Curved tissue" not in (tmp_path / "flat" / "report.md").read_text()
+
+
+def test_a_height_map_file_with_nan_is_refused_saying_so(tmp_path):
+    import tifffile
+
+    labels = voronoi_labels(jittered_seeds((60, 80), 14, seed=1), (60, 80))
+    height = np.zeros(labels.shape, np.float32)
+    height[:3] = np.nan  # no surface found there
+    tifffile.imwrite(tmp_path / "height.tif", height)
+    with pytest.raises(InputError, match="frame 0 must be a finite 2-D intensity image; it holds 240 NaN"):
+        analyze(labels, surface=tmp_path / "height.tif", workers=1, progress=False)
