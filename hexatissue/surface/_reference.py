@@ -17,7 +17,7 @@ def surface_polygons(xy, starts, height, scale, periodic, degenerate_area):
     """Reference of :func:`hexatissue.surface._kernels.surface_polygons`."""
     n, m = len(starts), len(xy)
     box = Box(height.shape[1], height.shape[0]) if periodic else None
-    sides = np.empty((2 * m, 2))
+    sides = np.empty((2 * m, 2))  # every vertex, then its side's midpoint: lifted, they follow the curved side
     sides[0::2], sides[1::2] = xy, 0.5 * (xy + xy[next_vertex(m, starts)])
     fine, fine_starts = lift(height, sides, scale, box), 2 * starts
     plane = tangent_polygons(fine[0::2], starts, degenerate_area)
