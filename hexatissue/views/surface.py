@@ -1,5 +1,5 @@
-"""The surface stage's presentation: the curved tissue in the report (tilt, surface over projected area, |gamma_p|
-on the surface and in projection, per frame)."""
+"""The surface stage's presentation: the curved tissue in the report (tilt, surface over projected area, the modulus
+of gamma_p on the surface and in projection, per frame)."""
 from __future__ import annotations
 
 import numpy as np
