@@ -11,7 +11,7 @@ from .units import Calibration
 from .frame import Frame
 from .results import Movie, read_results
 from .options import (DeformationOptions, EventOptions, IntensityOptions, MechanicsOptions, MeshOptions, OrderOptions,
-                      TrackOptions)
+                      SurfaceOptions, TrackOptions)
 from .graph import contact_table, neighbor_graph, neighbour_graph
 from .io import read_table, write_table, write_tables
 from .mesh import mesh_from_labels, mesh_from_polygons
@@ -37,6 +37,7 @@ __all__ = [
     "TrackOptions",
     "EventOptions",
     "IntensityOptions",
+    "SurfaceOptions",
     "DeformationOptions",
     "MechanicsOptions",
     "shape_order",

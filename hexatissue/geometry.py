@@ -1,4 +1,4 @@
-"""Polygon geometry shared by the mesh and the order stages.
+"""Polygon geometry shared by the mesh, the order and the surface stages, and bilinear sampling of an image.
 
 Polygons are stored back to back: one ``(M, 2)`` array of vertices (x, y)
 plus the index of each polygon's first vertex (``starts``, ascending).  Each
@@ -16,7 +16,7 @@ from .errors import InputError
 
 __all__ = ["match_points", "segment_sum", "pack_polygons", "next_vertex", "polygon_area_centroid", "polygon_perimeter",
            "polygon_shape_tensor",
-           "polygon_cells", "table_polygons", "mesh_order_polygons", "row_keys", "lookup", "distinct_count"]
+           "polygon_cells", "table_polygons", "bilinear", "mesh_order_polygons", "row_keys", "lookup", "distinct_count"]
 
 
 def segment_sum(values, starts, n):
@@ -28,6 +28,28 @@ def segment_sum(values, starts, n):
     if nonempty.any():
         out[nonempty] = np.add.reduceat(values, starts[nonempty], axis=0)
     return out
+
+
+def bilinear(image, x, y, periodic=False):
+    """``image`` at positions (x = column, y = row, px), by bilinear interpolation.
+
+    Positions beyond the pixel centres are wrapped on a torus (``periodic``)
+    and clamped on an open image (the nearest edge pixels' values).  Exact
+    for an image linear in x and y.
+    """
+    rows, cols = image.shape
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = x - x0, y - y0
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+    x1, y1 = x0 + 1, y0 + 1
+    if periodic:
+        x0, x1, y0, y1 = x0 % cols, x1 % cols, y0 % rows, y1 % rows
+    else:
+        x0, x1 = np.clip(x0, 0, cols - 1), np.clip(x1, 0, cols - 1)
+        y0, y1 = np.clip(y0, 0, rows - 1), np.clip(y1, 0, rows - 1)
+    top = image[y0, x0] * (1 - fx) + image[y0, x1] * fx
+    bottom = image[y1, x0] * (1 - fx) + image[y1, x1] * fx
+    return top * (1 - fy) + bottom * fy
 
 
 def pack_polygons(polygons, name="polygons"):

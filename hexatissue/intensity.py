@@ -19,28 +19,12 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import InputError, check_positive
+from .geometry import bilinear
 from .mesh.labels import compact_labels
 
 __all__ = ["measure_intensity", "STEP"]
 
 STEP = 0.5  # px between samples along a junction
-
-
-def _bilinear(image, x, y, periodic):
-    """``image`` at positions (x = column, y = row), bilinear; wrapped on a torus, clamped on an open image."""
-    rows, cols = image.shape
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = x - x0, y - y0
-    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
-    x1, y1 = x0 + 1, y0 + 1
-    if periodic:
-        x0, x1, y0, y1 = x0 % cols, x1 % cols, y0 % rows, y1 % rows
-    else:
-        x0, x1 = np.clip(x0, 0, cols - 1), np.clip(x1, 0, cols - 1)
-        y0, y1 = np.clip(y0, 0, rows - 1), np.clip(y1, 0, rows - 1)
-    top = image[y0, x0] * (1 - fx) + image[y0, x1] * fx
-    bottom = image[y1, x0] * (1 - fx) + image[y1, x1] * fx
-    return top * (1 - fy) + bottom * fy
 
 
 def _junction_samples(vertices, edges, image, box, step):
@@ -55,7 +39,7 @@ def _junction_samples(vertices, edges, image, box, step):
     start = np.cumsum(n) - n
     frac = (np.arange(n.sum()) - start[owner]) / (n[owner] - 1)
     sx, sy = p0[owner, 0] + frac * d[owner, 0], p0[owner, 1] + frac * d[owner, 1]
-    values = _bilinear(image, sx, sy, box is not None)
+    values = bilinear(image, sx, sy, box is not None)
     mean = np.bincount(owner, values, len(edges)) / n if len(edges) else np.zeros(0)
     loop = edges["vertex_a"].to_numpy() == edges["vertex_b"].to_numpy()
     mean[loop] = np.nan  # a boundary with no vertex: not a straight segment

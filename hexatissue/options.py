@@ -18,8 +18,8 @@ import numpy as np
 
 from .errors import InputError, check_orders, check_positive, is_real
 
-__all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "DeformationOptions",
-           "FlowOptions", "MechanicsOptions", "OPTION_CLASSES",
+__all__ = ["MeshOptions", "OrderOptions", "TrackOptions", "EventOptions", "IntensityOptions", "SurfaceOptions",
+           "DeformationOptions", "FlowOptions", "MechanicsOptions", "OPTION_CLASSES",
            "cli_field", "add_flags", "from_flags", "flag_text"]
 
 # The vocabulary of the options: the stages read it from here (options sit on the data floor, below them).
@@ -476,6 +476,93 @@ class IntensityOptions(_Options, stage="intensity", title="raw channel intensiti
         image = self.image
         return {"image": os.fspath(image) if isinstance(image, (str, os.PathLike)) else None, "channel": self.channel,
                 "step": self.step}
+
+
+@dataclass(frozen=True)
+class SurfaceOptions(_Options, stage="surface", title="curved tissue: cells on a height map"):
+    """Cells measured on the curved surface a height map describes (:func:`hexatissue.surface.surface_arrays`).
+
+    Every cell polygon's vertices are lifted onto the height map (bilinear
+    at the sub-pixel vertex), and each cell is measured in its tangent plane:
+    its area and perimeter in 3-D, its unit normal and its shape functions
+    gamma_p (the orders of the order stage) in a tangent frame whose first
+    axis is the image x axis projected on the plane (docs/surface.md).
+
+    Parameters
+    ----------
+    image : str, Path, array or Source, optional
+        The height map: z of the tissue's surface at every pixel, of the
+        labels' shape, one frame per frame of the labels or one frame for all
+        (read with :func:`hexatissue.open_source`), as surface projections
+        (LocalZProjector, SurfCut, PreMosa, MorphoGraphX) write it; finite
+        everywhere.  None (default): the stage does not run.
+        ``metadata.json`` records a path as given and other images by their
+        description (``source["surface"]``).
+    channel : int, optional
+        Channel of a multi-channel ``image`` file (0-based).
+    pixel_size : float, optional
+        The height map's unit: None (default) when the heights are in px
+        (the lateral pixel's length); else the length of a pixel in the
+        heights' calibrated unit (e.g. 0.2 for heights in µm at 0.2 µm/px).
+    z_step : float
+        Length of one unit of the height map, in px or (with ``pixel_size``)
+        in the calibrated unit: the slice spacing for a height map of slice
+        indices (default 1).  Heights are converted to px as
+        ``z = height * z_step / pixel_size``.
+    center : {"vertex_mean", "area_centroid"}
+        Cell centre of the surface shape functions, in the tangent plane.
+    """
+
+    image: object = cli_field(None, "--surface", "a height map of the labels' shape (z of the tissue's surface per "
+                              "pixel, from a surface projection): cell areas, perimeters, normals and gamma_p on the "
+                              "surface", type=str, metavar="FILE")
+    channel: int | None = cli_field(None, "--surface-channel", "channel of a multi-channel --surface file")
+    pixel_size: float | None = cli_field(None, "--surface-pixel-size", "the heights are in a calibrated unit (e.g. "
+                                         "um) in which a pixel is this long (default: heights in px)", type=float)
+    z_step: float = cli_field(1.0, "--surface-z-step", "length of one unit of the height map, in px or in the unit of "
+                              "--surface-pixel-size (the slice spacing for heights given as slice indices)")
+    center: str = "vertex_mean"
+
+    def __post_init__(self):
+        self._number("channel", integer=True, allow_none=True)
+        self._number("pixel_size", strict=True, allow_none=True)
+        self._number("z_step", strict=True)
+        if self.center not in CENTERS:
+            _fail(type(self), "center", self.center, f"one of {CENTERS}")
+        if self.channel is not None and self.image is None:
+            raise InputError(f"SurfaceOptions.channel selects a channel of SurfaceOptions.image, which is not "
+                             f"given; got channel={self.channel!r}")
+        image = self.image
+        if image is None or isinstance(image, (str, os.PathLike)) or hasattr(image, "image"):
+            return  # a file or a Source: read (and checked) frame by frame
+        try:
+            heights = np.asarray(image, dtype=float)
+        except (TypeError, ValueError):
+            _fail(type(self), "image", f"<{type(image).__name__}>", "a height map: a path, a Source or a 2-D or "
+                  "3-D (frames, rows, cols) array of numbers")
+        if heights.ndim not in (2, 3):
+            _fail(type(self), "image", f"<array of shape {heights.shape}>", "a 2-D or 3-D (frames, rows, cols) "
+                  "array of heights")
+        if not np.isfinite(heights).all():
+            raise InputError(f"SurfaceOptions.image holds {int((~np.isfinite(heights)).sum())} NaN or infinite "
+                             f"height(s); fill the pixels with no surface (e.g. with their neighbours' heights)")
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the stage runs (a height map is given)."""
+        return self.image is not None
+
+    @property
+    def scale(self) -> float:
+        """px per unit of the height map: ``z_step / pixel_size`` (``z_step`` when the heights are in px)."""
+        return self.z_step / (1.0 if self.pixel_size is None else self.pixel_size)
+
+    def to_dict(self) -> dict:
+        """Plain dict for JSON; a height map that is not a path is recorded as None (its description is in
+        ``source["surface"]``)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}  # (asdict would deep-copy an array)
+        out["image"] = os.fspath(self.image) if isinstance(self.image, (str, os.PathLike)) else None
+        return out
 
 
 @dataclass(frozen=True)

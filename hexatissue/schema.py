@@ -77,6 +77,16 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "junction_polarity_im": ("f", "", "nematic of the junctions' integrated intensity, imaginary part"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
+        "surface_area": ("f", "px^2", "area of the cell polygon lifted onto the height map (with --surface; NaN "
+                         "without a polygon)"),
+        "surface_perimeter": ("f", "px", "perimeter of the lifted polygon: its 3-D junction lengths (with --surface)"),
+        "normal_x": ("f", "", "unit normal of the cell's tangent plane (its lifted polygon's vector area, facing +z), "
+                     "x component (with --surface)"),
+        "normal_y": ("f", "", "unit normal of the cell's tangent plane, y component"),
+        "normal_z": ("f", "", "unit normal of the cell's tangent plane, z component (the cosine of its tilt)"),
+        "surface_gamma{p}_re": ("f", "", "real part of the p-fold shape function in the cell's tangent plane, first "
+                                "axis the image x axis projected on it (with --surface)"),
+        "surface_gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function in the cell's tangent plane"),
         "vx": ("f", "px/frame", "velocity along x: centred difference of the centroid along the track (NaN at track "
                "ends, divisions and gaps; hexatissue.flow.cell_velocities)"),
         "vy": ("f", "px/frame", "velocity along y (rows), as vx"),
@@ -91,6 +101,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "vertex": ("i", "", "vertex id"),
         "x": ("f", "px", "column"),
         "y": ("f", "px", "row"),
+        "z": ("f", "px", "height of the vertex on the height map, converted to px (with --surface)"),
         "degree": ("i", "", "number of junctions (3; >=4 four-fold vertex / rosette; 2 at a corner of an open "
                    "image or on a boundary with no vertex winding around a periodic box)"),
         "is_border": ("b", "", "touches the background (cell 0)"),
@@ -277,7 +288,7 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
 }
 
 # columns a producer may leave out (every other schema column is required)
-_OPTIONAL = {"piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
+_OPTIONAL = {"surface_area", "surface_perimeter", "normal_x", "normal_y", "normal_z", "z", "piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "tracking_doubtful", "p", "shear_xx", "shear_xy", "vx", "vy",
              "tension", "tension_sd", "curvature", "n_merged", "division_area_ratio",
              "division_suspect", "division_reason", "extrusion_area_ratio", "extrusion_unconfirmed", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}

@@ -204,8 +204,12 @@ class Source:
         """
         t = self._index(t)
         arr = np.asarray(self.raw_frame(t), dtype=float)
-        if arr.ndim != 2 or not np.isfinite(arr).all():
+        if arr.ndim != 2:
             raise InputError(f"frame {t} must be a finite 2-D intensity image; got shape {arr.shape}")
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            raise InputError(f"frame {t} must be a finite 2-D intensity image; it holds {int(bad.sum())} NaN or "
+                             f"infinite value(s)")
         return arr
 
     def images(self) -> "_Images":

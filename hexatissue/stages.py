@@ -49,10 +49,11 @@ from .mesh.labels import mesh_labels
 from .mesh.network import network_columns
 from .mesh.polygons import polygon_network
 from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOptions, IntensityOptions,
-                      MechanicsOptions, MeshOptions, OrderOptions, TrackOptions)
+                      MechanicsOptions, MeshOptions, OrderOptions, SurfaceOptions, TrackOptions)
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .stored import StoredTable
+from .surface import lift, surface_arrays
 from .track import (MovieTracker, cells_with_tracks, check_divisions, check_extrusions, compact_frames, lineage_table,
                     tracking_summary, tracking_warning)
 
@@ -289,6 +290,19 @@ def _shape_order(frame, options):
     frame.set_table("cells", validate(gamma_columns(frame.table("cells"), frame.table("vertices"),
                                                     frame.table("cell_vertices"), frame.box, options.p,
                                                     options.center), "cells"))
+
+
+def _surface(frame, options):
+    """Each cell on the height map's surface: 3-D area and perimeter, normal, gamma_p in its tangent plane (for the
+    orders of the order stage's columns); every vertex's height."""
+    height = frame.images["surface"]  # finite, of the labels' shape: checked when read (Source.image, analyze)
+    cells = frame.tables["cells"]
+    orders = tuple(int(c[5:-3]) for c in cells if c.startswith("gamma") and c.endswith("_re"))  # OrderOptions.p
+    vertices = frame.tables["vertices"]
+    vertices["z"] = lift(height, np.column_stack([vertices["x"], vertices["y"]]), options.scale, frame.box)[:, 2]
+    # the mesh's polygons: a label image's (analyze refuses image stages on cell polygons, which have no pixels)
+    cells.update(surface_arrays(*frame.polygons, polygon_rows(cells["n_sides"] > 0), height, options.scale,
+                                frame.box, orders, options.center))
 
 
 def _fields(frame, options):
@@ -583,6 +597,10 @@ STAGES = (
           run=_intensity, enabled=_enabled, image=True),
     Stage("shape order", OrderOptions, "frame", reads=("polygons", "cells"),
           writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order, views="hexatissue.views.order"),
+    Stage("surface", SurfaceOptions, "frame", reads=("polygons", "image", "cells", "vertices"),
+          writes=("cells.surface_area", "cells.surface_perimeter", "cells.normal_x", "cells.normal_y",
+                  "cells.normal_z", "cells.surface_gamma{p}_re", "cells.surface_gamma{p}_im", "vertices.z"),
+          run=_surface, enabled=_enabled, image=True, views="hexatissue.views.surface"),
     Stage("order fields", OrderOptions, "frame", reads=("cells",), writes=("grid", "defects"), run=_fields,
           enabled=_fields_on),
     Stage("mechanics", MechanicsOptions, "frame",

@@ -22,7 +22,7 @@ pytestmark = pytest.mark.skipif(not DOC.is_file(), reason="docs/ is not beside t
 NOT_TABLES = ("labels", "polygons", "image")  # what the frame stages hand on besides the tables
 PACKAGE = Path(hexatissue.__file__).resolve().parent
 #: The stage floor's modules that compute a stage (the models and tissue generators beside them are not stages).
-STAGE_PACKAGES = ("mesh", "intensity", "order", "defects", "mechanics", "track", "flow", "events", "deformation")
+STAGE_PACKAGES = ("mesh", "intensity", "surface", "order", "defects", "mechanics", "track", "flow", "events", "deformation")
 
 
 def _section(title):

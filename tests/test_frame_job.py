@@ -159,17 +159,18 @@ def _numpy_columns_only(frame):
 
 @pytest.mark.filterwarnings("ignore::hexatissue.errors.HexatissueWarning")
 def test_every_frame_stage_leaves_the_frame_tables_as_numpy_columns():
-    """Labels through every frame stage (mesh, intensity, shape order, order fields, mechanics) and cell polygons
-    through theirs: no frame table is a DataFrame, and a stored DataFrame comes back equal."""
+    """Labels through every frame stage (mesh, intensity, shape order, surface, order fields, mechanics) and cell
+    polygons through theirs: no frame table is a DataFrame, and a stored DataFrame comes back equal."""
     from hexatissue import MechanicsOptions
     from hexatissue.mesh.polygons import as_polygons
 
     labels = np.asarray(voronoi_movie(40, (80, 80), 1, periodic=False, amplitude=0.3, seed=1)[0])
     image = np.random.default_rng(0).random(labels.shape)
-    options = stage_options({"intensity": image, "mechanics": MechanicsOptions(enabled=True)})
+    options = stage_options({"intensity": image, "surface": image, "mechanics": MechanicsOptions(enabled=True)})
     stages = frame_stages(options)
-    assert [s.name for s in stages] == ["junction network", "intensity", "shape order", "order fields", "mechanics"]
-    frame = FrameData(t=0, labels=labels, images={"intensity": image})
+    assert [s.name for s in stages] == ["junction network", "intensity", "shape order", "surface", "order fields",
+                                        "mechanics"]
+    frame = FrameData(t=0, labels=labels, images={"intensity": image, "surface": image})
     run_frame(frame, worker_stages(stages, options))
     assert set(frame.tables) == {*TABLES, "grid", "defects", "stress", "force_fit"}
     _numpy_columns_only(frame)

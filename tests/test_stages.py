@@ -46,8 +46,8 @@ def test_every_views_module_named_in_the_list_is_a_stage_view_on_the_analysis_fl
     from hexatissue.views import StageView, stage_views
 
     named = [s for s in S.STAGES if s.views is not None]
-    assert {s.views for s in named} == {f"hexatissue.views.{m}" for m in ("mesh", "order", "track", "events", "flow",
-                                                                          "deformation", "mechanics")}
+    assert {s.views for s in named} == {f"hexatissue.views.{m}" for m in ("mesh", "order", "surface", "track", "events",
+                                                                          "flow", "deformation", "mechanics")}
     views = stage_views()
     assert [stage.name for stage, _ in views] == [s.name for s in named]
     assert all(isinstance(view, StageView) for _, view in views)
@@ -106,7 +106,7 @@ def test_stages_are_listed_in_the_order_analyze_runs_them(monkeypatch):
     movie_frames = voronoi_movie(30, (64, 64), 3, periodic=False, amplitude=0.3, seed=1)
     labels = np.stack([np.asarray(movie_frames[t]) for t in range(3)])
     image = np.random.default_rng(0).random(labels.shape)
-    analyze(labels, intensity=image, mechanics=MechanicsOptions(enabled=True),
+    analyze(labels, intensity=image, surface=image, mechanics=MechanicsOptions(enabled=True),
             deformation=DeformationOptions(enabled=True), workers=1, progress=False)
     listed = [s.name for s in S.STAGES]
     assert list(dict.fromkeys(log)) == listed  # every stage ran, first in the list's order

@@ -1,0 +1,23 @@
+"""Curved epithelia: cells measured on the surface that a height map describes (the surface stage).
+
+Surface projections (LocalZProjector, SurfCut, PreMosa, MorphoGraphX) turn a
+curved epithelium into a 2-D image plus a height map, z per pixel.  The
+projected cells are foreshortened by the surface's tilt (a 50 degree tilt
+shrinks areas by 36 %) and their shapes and orientations are distorted.  The
+surface stage lifts every cell polygon's vertices onto the height map and
+measures each cell in its own tangent plane: area and perimeter in 3-D, the
+unit normal, and the shape functions gamma_p of the polygon's in-plane
+coordinates, with the definition of :func:`hexatissue.order.shape_function`
+(docs/surface.md).
+
+Conventions: ``(x, y, z)`` px, x = column, y = row, z the height converted
+to px, a right-handed frame; the normal faces +z; the tangent frame of a
+cell is ``e1`` = the image x axis projected on its plane and normalised,
+``e2 = n x e1`` (on a flat height map ``e1`` = x and ``e2`` = y, so the
+surface columns equal the flat ones).
+"""
+from __future__ import annotations
+
+from .tangent import DEGENERATE_AREA, check_height, lift, surface_arrays, surface_cells, tangent_polygons
+
+__all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells", "DEGENERATE_AREA"]
