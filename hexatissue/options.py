@@ -538,7 +538,7 @@ class SurfaceOptions(_Options, stage="surface", title="curved tissue: cells on a
         try:
             heights = np.asarray(image, dtype=float)
         except (TypeError, ValueError):
-            _fail(type(self), "image", f"<{type(image).__name__}>", "a height map: a path, a Source or a 2-D or "
+            _fail(type(self), "image", f"<{type(image).__name__}>", "the surface's height map: a path, a Source or a 2-D or "
                   "3-D (frames, rows, cols) array of numbers")
         if heights.ndim not in (2, 3):
             _fail(type(self), "image", f"<array of shape {heights.shape}>", "a 2-D or 3-D (frames, rows, cols) "

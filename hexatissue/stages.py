@@ -303,6 +303,26 @@ def _surface(frame, options):
     # the mesh's polygons: a label image's (analyze refuses image stages on cell polygons, which have no pixels)
     cells.update(surface_arrays(*frame.polygons, polygon_rows(cells["n_sides"] > 0), height, options.scale,
                                 frame.box, orders, options.center))
+    measured = np.isfinite(cells["normal_z"])
+    with_polygon = int((cells["n_sides"] > 0).sum())
+    if with_polygon and not measured.any():
+        warnings.warn(FrameWarning("no cell could be measured on the surface (every surface column is NaN): the "
+                                   "lifted polygons have no area; check the height map's unit "
+                                   "(SurfaceOptions.pixel_size, z_step)", f"{with_polygon} cells with a polygon"),
+                      stacklevel=user_stacklevel())
+        return
+    tilt = float(np.degrees(np.arccos(np.median(cells["normal_z"][measured])))) if measured.any() else 0.0
+    if tilt > MAX_TILT:  # a projection of so steep a surface keeps little of the cells' shapes
+        warnings.warn(FrameWarning(f"the height map tilts the cells by more than {MAX_TILT:g} degrees (median): "
+                                   f"their projected outlines are too foreshortened for the surface columns to be "
+                                   f"trusted; check the height map's unit (SurfaceOptions.pixel_size, z_step)",
+                                   f"median tilt {tilt:.0f} degrees"), stacklevel=user_stacklevel())
+
+
+#: Median tilt of a frame's cells (degrees) above which the surface stage warns: on tilted Voronoi tissues the
+#: median area error is 1.1 % at 30 degrees, 1.6 % at 50 and 2.4 % at 70 (benchmarks/results_surface.md), and a
+#: cell tilted 75 degrees is projected to a quarter of its width.
+MAX_TILT = 75.0
 
 
 def _fields(frame, options):

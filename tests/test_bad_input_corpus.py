@@ -495,9 +495,10 @@ def numeric_fields():
 
 
 # the stage's other options a field needs to be used at all
-NEEDS = {"intensity": dict(image=STACK.astype(float)), "deformation": dict(enabled=True),
+NEEDS = {"intensity": dict(image=STACK.astype(float)), "surface": dict(image=STACK.astype(float)), "deformation": dict(enabled=True),
          "mechanics": dict(enabled=True)}
-NEEDS_FLAGS = {"intensity": ("--intensity", "{d}/raw.npy"), "deformation": ("--deformation",),
+NEEDS_FLAGS = {"intensity": ("--intensity", "{d}/raw.npy"), "surface": ("--surface", "{d}/raw.npy"),
+               "deformation": ("--deformation",),
                "mechanics": ("--mechanics",)}
 #: expected outcome of each numeric field at 0 and at 1e12: "ok", "warn:" and the warning's text, or the error's
 #: text (which also names the field, as ``MeshOptions.field`` or its flag; "bare:" where it names it otherwise)
@@ -507,8 +508,8 @@ ZERO = {"mesh.merge_distance": "ok", "mesh.membrane_width": "ok", "mesh.min_area
         "track.child_fraction": "> 0", "track.mother_fraction": "> 0", "track.division_min_frames": "ok",
         "track.division_min_cycle": "ok", "track.division_area_tolerance": "ok", "events.min_length": "ok",
         "events.censor": "ok", "intensity.channel": "bare:channel=0", "intensity.step": "> 0",
-        "deformation.roi_frame": "ok",
-        "flow.radius_factor": "> 0", "flow.min_cells": ">= 3", "mechanics.mu": "positive"}
+        "deformation.roi_frame": "ok", "surface.channel": "bare:channel=0", "surface.pixel_size": "> 0",
+        "surface.z_step": "> 0", "flow.radius_factor": "> 0", "flow.min_cells": ">= 3", "mechanics.mu": "positive"}
 HUGE = {"mesh.merge_distance": "larger than the frames' diagonal", "mesh.membrane_width": "ok",
         "mesh.min_area": "bare:min_area = 1e+12", "mesh.fill_holes": "ok",
         "order.radius": "larger than the frames' diagonal", "order.spacing": "warn:1 x 1 node",
@@ -518,6 +519,8 @@ HUGE = {"mesh.merge_distance": "larger than the frames' diagonal", "mesh.membran
         "track.division_min_cycle": "ok", "track.division_area_tolerance": "ok", "events.min_length": "ok",
         "events.censor": "ok", "intensity.channel": "bare:channel=1000000000000",
         "intensity.step": "larger than the frames' diagonal", "deformation.roi_frame": "ok",
+        "surface.channel": "bare:channel=1000000000000", "surface.pixel_size": "ok",
+        "surface.z_step": "warn:check the height map's unit",
         "flow.radius_factor": "ok", "flow.min_cells": "ok", "mechanics.mu": "warn:force balance alone"}
 VALUES = {"0": 0, "-1": -1, "NaN": math.nan, "inf": math.inf, "-inf": -math.inf, "1e12": 10**12, "'x'": "x",
           "True": True, "[1]": [1]}

@@ -162,3 +162,39 @@ def test_cli_streams_on_request_and_by_size(tmp_path, monkeypatch, capsys):
     assert main(["analyze", sample, "--out", str(tmp_path / "a")]) == 0
     assert (tmp_path / "a" / "cells").is_dir()
     assert main(["report", str(tmp_path / "a"), "--out", str(tmp_path / "report")]) == 0
+
+
+class _KillingStack:
+    """Frames of ``stack``; reading frame ``at`` (in the main process, while earlier batches are on the workers)
+    kills one dask worker process."""
+
+    def __init__(self, stack, at, kill):
+        self.stack, self.at, self.kill, self.shape, self.dtype = stack, at, kill, stack.shape, stack.dtype
+
+    def __getitem__(self, t):
+        if t == self.at:
+            self.kill()
+        return self.stack[t]
+
+
+@pytest.mark.slow
+def test_streamed_run_on_a_dask_cluster_survives_a_killed_worker(tmp_path, small_parts):
+    import os
+    import signal
+
+    from distributed import Client, LocalCluster
+
+    stack = _relabelled(n_frames=12, seed=4)
+    memory = analyze(stack, workers=1, progress=False)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        pids = list(client.run(os.getpid).values())
+        killed = []
+
+        def kill():
+            os.kill(pids[0], signal.SIGKILL)  # the nanny starts a new worker; its tasks run again
+            killed.append(pids[0])
+
+        streamed = analyze(_KillingStack(stack, 6, kill), client=client, out=tmp_path, progress=False)
+    assert killed
+    _assert_same_tables(streamed, memory)

@@ -7,11 +7,13 @@ tessellation lifted onto a Gaussian bump (areas by quadrature of
 area error <= 2 % and median ``| |gamma6|_surface - |gamma6|_flat |`` <= 0.05;
 areas on a bump within 1 %.
 """
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
 
-from hexatissue import InputError, SurfaceOptions, analyze, mesh_from_labels, read_results
+from hexatissue import HexatissueWarning, InputError, SurfaceOptions, analyze, mesh_from_labels, read_results
 from hexatissue.geometry import pack_polygons
 from hexatissue.surface import surface_arrays, surface_cells
 from hexatissue.synthetic import jittered_seeds, voronoi_labels, voronoi_polygons
@@ -260,3 +262,14 @@ def test_a_height_map_file_with_nan_is_refused_saying_so(tmp_path):
     tifffile.imwrite(tmp_path / "height.tif", height)
     with pytest.raises(InputError, match="frame 0 must be a finite 2-D intensity image; it holds 240 NaN"):
         analyze(labels, surface=tmp_path / "height.tif", workers=1, progress=False)
+
+
+def test_a_height_map_too_steep_or_in_the_wrong_unit_is_flagged():
+    t = tilted_plane_tissue(50, shape=(240, 320), spacing=24, seed=2)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        analyze(t.labels, workers=1, progress=False, surface=t.height)
+    assert not [w for w in caught if "height map" in str(w.message)]
+    # the same heights read as slices of 10 px: tan(tilt) x 10, a tilt of 85 degrees
+    with pytest.warns(HexatissueWarning, match=r"tilts the cells by more than 75 degrees.*median tilt 85"):
+        analyze(t.labels, workers=1, progress=False, surface=SurfaceOptions(image=t.height, z_step=10.0))
