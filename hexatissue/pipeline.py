@@ -44,7 +44,7 @@ from .io import check_output_folder
 from .results import METADATA, Movie, check_replaceable_tables, write_results
 from .schema import TABLES as SCHEMAS
 from .source import open_source, read_mask
-from .stored import StoredTable
+from .stored import PART_PATTERN, StoredTable
 from .stages import (FrameData, MovieData, frame_stages, frame_tables, movie_stages, run_frame, stage_options,
                      worker_stages)
 
@@ -98,7 +98,7 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
         Stream the results to this folder: the frame tables are written as
         they finish, in Parquet parts of a chunk of frames (``<out>/cells/
         part-<first>-<last>.parquet``, ...; about :data:`PART_BYTES` of rows
-        each, or ``checkpoint_every`` frames with a checkpoint), the movie
+        each, and never across a checkpoint), the movie
         stages read only the columns they use, and the folder is a complete
         results folder (``metadata.json`` written last) when ``analyze``
         returns.  Memory holds one chunk of frames and the columns the movie
@@ -160,13 +160,15 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     states = {name: follow.new(options[name], src, box) for name, follow in followers.items()}
     tables = frame_tables(frame_work)
     orders = options["order"].p
-    streamed = None if out is None else _Streamed(out, tables, orders, checkpoint is not None)
+    streamed = None if out is None else _Streamed(out, tables, orders)
     store = None
     if checkpoint is not None:
         key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
                    source=_identity(src.description), options={k: v.to_dict() for k, v in options.items()},
                    mask=mask_info, images={name: _identity(image.description) for name, image in images.items()})
-        store = Checkpoint(checkpoint, key, checkpoint_every, tables)
+        if streamed is not None:  # the parts in `out` are the checkpoint's tables: it keeps the frame states
+            key["out"] = str(streamed.folder.resolve())
+        store = Checkpoint(checkpoint, key, checkpoint_every, () if streamed is not None else tables)
     with references(kernel_mode(src, client)):
         rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client,
                                 workers, store, progress, streamed)
@@ -212,29 +214,53 @@ class _Streamed:
     """The frame tables of a streamed run, written to ``folder`` in parts as the frames finish.
 
     A part holds the frames gathered since the last one: :data:`PART_BYTES`
-    of rows, or, with a checkpoint, the frames between two checkpoints (so
-    that the checkpoint's parts and the written ones never split a frame's
-    rows differently).
+    of rows, and never frames on both sides of a checkpoint.  With a
+    checkpoint, the parts are its tables (it keeps the frame states): the
+    parts are written before the checkpoint that counts their frames done,
+    and a resumed run keeps those and removes the others (:meth:`resume`).
     """
 
-    def __init__(self, folder, names, orders, checkpointed):
+    def __init__(self, folder, names, orders):
         self.folder = check_output_folder(folder, "out")
         check_replaceable_tables(self.folder, "out")
         (self.folder / METADATA).unlink(missing_ok=True)  # incomplete from here until write_results ends
-        for name in SCHEMAS:  # an earlier result's parts: this run writes its own
-            if (self.folder / name).is_dir():
-                for path in (self.folder / name).glob("part-*.parquet"):
-                    path.unlink()
         self.tables = {name: StoredTable(self.folder / name, name, orders) for name in names}
         self.orders = orders
-        self.checkpointed = checkpointed
         self.first = 0  # the first frame not yet written
 
+    def resume(self, start):
+        """Keep the parts of frames before ``start`` (a resumed checkpoint's: its tables are these parts), remove
+        every other part in the folder (an earlier result's, or frames written after the last checkpoint).
+
+        InputError when the parts kept do not hold every frame before ``start`` (the folder was changed).
+        """
+        for name in SCHEMAS:
+            folder = self.folder / name
+            if not folder.is_dir():
+                continue
+            for path in sorted(folder.glob("part-*.parquet")):
+                span = PART_PATTERN.fullmatch(path.name)
+                if span is None or int(span.group(1)) >= start or name not in self.tables:
+                    path.unlink()
+        if not start:
+            return
+        for name in self.tables:
+            try:
+                kept = StoredTable.open(self.folder / name, name)
+            except InputError:
+                kept = None
+            if kept is None or kept.frame_chunks[0][0] != 0 or kept.frame_chunks[-1][1] != start - 1 or any(
+                    b[0] != a[1] + 1 for a, b in zip(kept.frame_chunks, kept.frame_chunks[1:])):
+                raise InputError(f"out folder {str(self.folder)!r} does not hold the {name} of frames 0-{start - 1} "
+                                 f"that the checkpoint counts done; use the out folder the checkpointed run wrote, "
+                                 f"or delete the checkpoint folder to start again")
+            self.tables[name].parts = kept.parts
+        self.first = start
+
     def due(self, rows, checkpoint_saved, last) -> bool:
-        """Whether the rows gathered are written now: at the last frame, at a checkpoint, or when large enough."""
-        if last or checkpoint_saved:
-            return True
-        return not self.checkpointed and sum(r.nbytes for r in rows.values()) >= PART_BYTES
+        """Whether the rows gathered are written now: at the last frame, at a checkpoint (whose tables are the
+        parts: a part never spans one), or when large enough."""
+        return last or checkpoint_saved or sum(r.nbytes for r in rows.values()) >= PART_BYTES
 
     def flush(self, rows, last):
         """Write the rows of frames ``self.first`` to ``last`` as the next part of every table; empty ``rows``."""
@@ -429,6 +455,8 @@ def _extract_locked(src, box, stages, options, mask, images, followers, states, 
             for name, parts in loaded.items():
                 for table in parts:
                     rows[name].append(table, frames=table["frame"].nunique() if "frame" in table else 1)
+    if streamed is not None:
+        streamed.resume(start)
     if start >= n_frames:
         return rows, states
     sent = worker_stages(stages, options)
@@ -456,13 +484,13 @@ def _extract_locked(src, box, stages, options, mask, images, followers, states, 
             for name, table in done.items():
                 rows[name].append(table)
             del done, payloads
+            if streamed is not None and streamed.due(rows, t + 1 in due, t + 1 == n_frames):
+                streamed.flush(rows, t)  # before the checkpoint that counts these frames done
             if t + 1 in due:
-                new = {name: [r.table(start=saved[name])] for name, r in rows.items() if r.n > saved[name]}
+                new = {name: [r.table(start=saved[name])] for name, r in rows.items()
+                       if name in store.tables and r.n > saved[name]}
                 store.save(t + 1, new, {name: f.dump(states[name]) for name, f in followers.items()})
                 saved.update({name: r.n for name, r in rows.items()})
-            if streamed is not None and streamed.due(rows, t + 1 in due, t + 1 == n_frames):
-                streamed.flush(rows, t)
-                saved.update({name: 0 for name in rows})
 
     def frame_data(t):
         if polygons:

@@ -90,11 +90,28 @@ def test_streamed_run_resumes_from_its_checkpoint(tmp_path):
     assert not (tmp_path / "out" / "metadata.json").exists()  # the interrupted folder is not a result
     with pytest.raises(InputError, match="metadata.json"):
         read_results(tmp_path / "out")
+    # the checkpoint holds the frame states only: the tables of the frames it counts done are the parts in `out`
+    assert not list((tmp_path / "ck").glob("*.parquet"))
+    assert sorted(p.name for p in (tmp_path / "out" / "cells").iterdir()) == [
+        "part-00000000-00000001.parquet", "part-00000002-00000003.parquet"]
+    with pytest.raises(InputError, match="another movie or other options"):  # another out folder: not resumed
+        analyze(stack, workers=1, progress=False, checkpoint=tmp_path / "ck", checkpoint_every=2,
+                out=tmp_path / "elsewhere")
     resumed = analyze(_FailingStack(stack, 1), workers=1, progress=False, checkpoint=tmp_path / "ck",
-                      checkpoint_every=2, out=tmp_path / "out")
+                      checkpoint_every=2, out=tmp_path / "out")  # frames 0-3 are not read again
     _assert_same_tables(resumed, memory)
-    # parts follow the checkpoints: frames 0-3 came back from it and go with 4-5 into the first part, then 6
-    assert resumed.cells.frame_chunks == [(0, 5), (6, 6)]
+    assert resumed.cells.frame_chunks == [(0, 1), (2, 3), (4, 5), (6, 6)]  # one part per checkpoint
+
+
+def test_a_resumed_streamed_run_refuses_an_out_folder_without_its_frames(tmp_path):
+    stack = _relabelled(n_frames=5, seed=9)
+    with pytest.raises(InputError, match="simulated crash"):
+        analyze(_FailingStack(stack, 3), workers=1, progress=False, checkpoint=tmp_path / "ck", checkpoint_every=2,
+                out=tmp_path / "out")
+    (tmp_path / "out" / "edges" / "part-00000000-00000001.parquet").unlink()
+    with pytest.raises(InputError, match="does not hold the edges of frames 0-1"):
+        analyze(_FailingStack(stack, 99), workers=1, progress=False, checkpoint=tmp_path / "ck", checkpoint_every=2,
+                out=tmp_path / "out")
 
 
 def test_lazy_results_read_by_column_and_frame_and_written_elsewhere(tmp_path, small_parts):
