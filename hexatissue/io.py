@@ -267,8 +267,11 @@ def _write_parquet(df, path, schema):
         fields = [f.with_metadata({UNIT_KEY: units[f.name][0].encode(), DESCRIPTION_KEY: units[f.name][1].encode()})
                   if f.name in units else f for f in table.schema]
         table = pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=table.schema.metadata))
-    # row groups bound the writer's buffers (one whole-table group: +7% of the table)
-    pq.write_table(table, path, row_group_size=PARQUET_ROW_GROUP)
+    # row groups bound the writer's buffers (one whole-table group: +7% of the table); dictionary encoding only
+    # for the columns that repeat (frames, ids, flags, labels): on floats it halved the write speed for files 8 %
+    # larger (a 240-frame, 4,800-cell movie's parts: 4.1 against 2.0 CPU-s, 447 against 415 MB)
+    repeating = [f.name for f in table.schema if not pa.types.is_floating(f.type)]
+    pq.write_table(table, path, row_group_size=PARQUET_ROW_GROUP, use_dictionary=repeating)
 
 
 def read_units(path) -> dict[str, tuple[str, str]]:
