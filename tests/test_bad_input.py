@@ -768,6 +768,7 @@ def _every_crop_is_analysed(stack):
             assert len(movie) == len(crop) and movie.cells["frame"].nunique() == len(crop)
 
 
+@pytest.mark.slow  # 17-32 s: many crops through analyze
 def test_random_crops_of_the_bundled_sample_are_all_analysed():
     """Issue 32: 17 of 80 random crops of the EpiCure stack ended the analysis (too small a Gamma_p grid)."""
     import tifffile
@@ -776,6 +777,7 @@ def test_random_crops_of_the_bundled_sample_are_all_analysed():
                                             / "013_crop_labels.tif"))
 
 
+@pytest.mark.slow  # 17-32 s: many crops through analyze
 def test_random_crops_of_real_stacks_are_all_analysed(real_data):
     from .conftest import real_subdir
 

@@ -95,6 +95,7 @@ def test_dispersion_exact_limits():
     assert list(onset["alpha"]) == [0.0, 0.0]
 
 
+@pytest.mark.slow  # 12 s: a sweep of hydrodynamic runs
 def test_bulk_onset_is_where_the_first_mode_grows():
     p = HydroParams()
     for scheme, kmax in (("continuum", 4.0), ("spectral", 2 * np.pi / 3), ("fd", np.pi)):
