@@ -449,7 +449,8 @@ def comparison(sets: list) -> str:
                 continue
             cpu_s = r["analyze_cpu_s"] + r["write_cpu_s"]
             cpu_m = m["analyze_cpu_s"] + m["write_cpu_s"]
-            rows.append(f"| {r['config']} | {r['frames']} | {m['peak_tree_pss_mb']:.0f} | {r['peak_tree_pss_mb']:.0f} "
+            stages = "default + deformation budget" if res["config"]["deformation"] else "default"
+            rows.append(f"| {stages} | {r['config']} | {r['frames']} | {m['peak_tree_pss_mb']:.0f} | {r['peak_tree_pss_mb']:.0f} "
                         f"| {r['peak_tree_pss_mb'] / m['peak_tree_pss_mb']:.2f} | {cpu_m:.1f} | {cpu_s:.1f} | "
                         f"{cpu_m / cpu_s:.2f} |")
     if not rows:
@@ -459,8 +460,9 @@ def comparison(sets: list) -> str:
         "The same movie, configuration and length, from the sections above. CPU: the process tree's, analyze and "
         "the results folder's write (a streamed run writes within analyze; an in-memory run after it). "
         "Throughput ratio > 1: the streamed run is faster.", "",
-        "| config | frames | peak PSS MB, in memory | peak PSS MB, streamed | streamed / in memory | CPU s, in memory "
-        "| CPU s, streamed | throughput streamed / in memory |", "|---|---|---|---|---|---|---|---|", *rows, ""])
+        "| stages | config | frames | peak PSS MB, in memory | peak PSS MB, streamed | streamed / in memory | CPU s, "
+        "in memory | CPU s, streamed | throughput streamed / in memory |", "|---|---|---|---|---|---|---|---|---|",
+        *rows, ""])
 
 
 def main(argv=None) -> int:
