@@ -121,15 +121,15 @@ class StoredTable:
 
     def head(self) -> pd.DataFrame:
         """The columns of the table with no rows."""
-        return self._part(0, rows=0) if self.parts else empty_table(self.name, self.orders)
+        return self._part(0, empty=True) if self.parts else empty_table(self.name, self.orders)
 
     def _offsets(self):
         return np.concatenate([[0], np.cumsum([rows for _, _, rows, _ in self.parts])]).astype(np.int64)
 
-    def _part(self, k, columns=None, rows=None):
-        """Part ``k`` with the added columns (only ``columns`` when given; no rows when ``rows`` is 0)."""
+    def _part(self, k, columns=None, empty=False):
+        """Part ``k`` with the added columns (only ``columns`` when given; none of its rows when ``empty``)."""
         stored = None if columns is None else [c for c in columns if c in self._stored_columns()]
-        if rows == 0:
+        if empty:
             import pyarrow.parquet as pq
 
             schema = pq.read_schema(self.parts[k][3])
@@ -207,21 +207,23 @@ class StoredTable:
         """``read(first, last)``: the ``columns`` of the rows of frames ``first`` to ``last``, for ranges that move
         forward through the movie; each part is read once while the ranges stay in it."""
         held = {"parts": None, "table": None}
+        wanted = [c for c in columns if c in self.columns]
+        with_frame = wanted if "frame" in wanted else [*wanted, "frame"]  # the rows are found by their frame
 
         def read(first, last):
             keep = tuple(k for k, (lo, hi, _, _) in enumerate(self.parts) if hi >= first and lo <= last)
             if not keep:
-                return self.head()[[c for c in columns if c in self.columns]]
+                return self.head()[wanted]
             if held["parts"] != keep:
                 held["table"] = None  # the previous parts' memory, before these are read
-                held["table"] = self.read(columns, frames=(self.parts[keep[0]][0], self.parts[keep[-1]][1]))
+                held["table"] = self.read(with_frame, frames=(self.parts[keep[0]][0], self.parts[keep[-1]][1]))
                 held["parts"] = keep
             table = held["table"]
             f = table["frame"].to_numpy()
             if len(f) > 1 and not np.all(f[1:] >= f[:-1]):  # parts written by analyze are in frame order
-                return table[(f >= first) & (f <= last)]
+                return table.loc[(f >= first) & (f <= last), wanted]
             lo, hi = np.searchsorted(f, first, "left"), np.searchsorted(f, last, "right")
-            return table.iloc[lo:hi]
+            return table.iloc[lo:hi][wanted]
 
         return read
 

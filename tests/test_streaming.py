@@ -215,3 +215,14 @@ def test_streamed_run_on_a_dask_cluster_survives_a_killed_worker(tmp_path, small
         streamed = analyze(_KillingStack(stack, 6, kill), client=client, out=tmp_path, progress=False)
     assert killed
     _assert_same_tables(streamed, memory)
+
+
+def test_a_stored_table_is_read_a_block_of_frames_at_a_time(tmp_path, small_parts):
+    stack = _relabelled(n_frames=6, seed=7)
+    memory = analyze(stack, workers=1, progress=False)
+    analyze(stack, out=tmp_path, workers=1, progress=False)
+    edges = read_results(tmp_path, lazy=True).edges
+    read = edges.frames_reader(["cell_a", "length"])  # the frame column is not asked for: still used to find rows
+    for first, last in [(0, 0), (1, 3), (4, 5), (6, 9)]:
+        want = memory.edges.loc[memory.edges["frame"].between(first, last), ["cell_a", "length"]]
+        pd.testing.assert_frame_equal(read(first, last).reset_index(drop=True), want.reset_index(drop=True))
