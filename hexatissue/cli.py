@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import re
 import signal
 import sys
+import threading
 import time
 import warnings
 from importlib import import_module
@@ -25,6 +27,9 @@ SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command",
 #: What compiling the kernels cost, measured (benchmarks/results_first_run.md).
 COMPILE_TEXT = "measured: 38-54 CPU-seconds, 59-107 s on a shared 2-core machine at load 5-6"
 DEBUG_HELP = "on an error, show the Python traceback instead of one line"
+#: Seconds a command has to stop after Ctrl-C before it is ended: an interrupt inside numba's compiler (a first
+#: run, an empty cache) can be swallowed there, or end in an error that no longer names it.
+INTERRUPT_GRACE = 1.0
 
 
 def _analyze_parser(sub):
@@ -300,36 +305,80 @@ def _interrupted(exc) -> bool:
     return False
 
 
+class _Interrupt:
+    """The SIGINT handler of a command: a KeyboardInterrupt where the run is, and, if the command has not ended
+    :data:`INTERRUPT_GRACE` s later, its workers killed and the process ended with code 130.
+
+    Installed even where SIGINT was ignored (a shell without job control starts background commands so): kill
+    -INT, like Ctrl-C, must stop a run with its workers.
+    """
+
+    def __init__(self, command):
+        self.command = command
+        self.received = False
+        self.timer = None
+        self._lock = threading.Lock()
+        self._reported = False
+
+    def __call__(self, signum, frame):
+        if not self.received:
+            self.received = True
+            # an interrupt inside numba's compiler lands in ctypes callbacks of LLVM, which print it and go on, and
+            # leaves half-built LLVM objects whose destructors fail when collected: noise, not news
+            sys.unraisablehook = lambda unraisable: None
+            self.timer = threading.Timer(INTERRUPT_GRACE, self.end)
+            self.timer.daemon = True
+            self.timer.start()
+        raise KeyboardInterrupt
+
+    def report(self):
+        """Say once that the command was interrupted."""
+        with self._lock:
+            if not self._reported:
+                self._reported = True
+                print(f"hexatissue {self.command}: interrupted; files already written are complete", file=sys.stderr,
+                      flush=True)
+
+    def end(self):
+        """The command did not stop by itself: its worker processes are killed, then this one."""
+        import multiprocessing
+
+        for child in multiprocessing.active_children():
+            child.kill()
+        self.report()
+        os._exit(130)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``hexatissue`` command; returns the exit code."""
-    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
-        # a shell without job control starts background commands with SIGINT ignored; kill -INT (or
-        # Ctrl-C) must still stop a run, with its workers and helpers (the interrupt handler below)
-        with contextlib.suppress(ValueError):  # not the main thread: signals are the host's business
-            signal.signal(signal.SIGINT, signal.default_int_handler)
     parser = build_parser()
     args = parser.parse_args(argv)
     translate = getattr(args, "cli_text", None) or (lambda text: text)
     saved = warnings.showwarning
     if not args.debug:
         warnings.showwarning = _show_warning(args.command, translate)
+    interrupt, previous = _Interrupt(args.command), None
+    with contextlib.suppress(ValueError):  # not the main thread: signals are the host's business
+        previous = signal.signal(signal.SIGINT, interrupt)
     try:
         return int(args.func(args) or 0)
-    except (InputError, OSError) as exc:
-        # bad input (and files that cannot be read or written) is one line; --debug shows the traceback
-        if args.debug:
-            raise
-        print(f"hexatissue {args.command}: error: {translate(str(exc))}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, SystemError) as exc:
-        if not _interrupted(exc):
-            raise
-        print(f"hexatissue {args.command}: interrupted; files already written are complete", file=sys.stderr)
-        # an interrupt inside numba's compiler leaves half-built LLVM objects whose destructors fail when they are
-        # collected ("Exception ignored in ... PassBuilder"): noise after the message above, not news
-        sys.unraisablehook = lambda unraisable: None
-        return 130
+    except BaseException as exc:
+        # after Ctrl-C, whatever the run raised is the interrupt: numba's cache, interrupted while it compiled,
+        # fails with "no compiled object yet", which no longer names it
+        if interrupt.received or _interrupted(exc):
+            interrupt.report()
+            sys.unraisablehook = lambda unraisable: None  # as in _Interrupt: the compiler's leftovers are noise
+            return 130
+        if isinstance(exc, (InputError, OSError)) and not args.debug:
+            # bad input (and files that cannot be read or written) is one line; --debug shows the traceback
+            print(f"hexatissue {args.command}: error: {translate(str(exc))}", file=sys.stderr)
+            return 2
+        raise
     finally:
+        if interrupt.timer is not None:
+            interrupt.timer.cancel()  # the command did stop
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
         warnings.showwarning = saved
 
 

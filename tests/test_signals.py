@@ -120,3 +120,43 @@ def test_a_failed_figure_leaves_a_folder_that_does_not_read_as_complete(tmp_path
     assert not (tmp_path / "o" / "metadata.json").exists()
     with pytest.raises(InputError, match="metadata.json"):
         read_results(tmp_path / "o")
+
+
+def test_an_interrupt_swallowed_by_compiled_code_still_ends_the_command():
+    """numba's compiler runs LLVM through ctypes callbacks, which print a KeyboardInterrupt raised in them and go on:
+    the command must still end, with its message and code 130, within the grace period."""
+    script = """
+import os, signal, sys, time
+from hexatissue.cli import _Interrupt
+signal.signal(signal.SIGINT, _Interrupt("analyze"))
+try:
+    os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(0.1)
+except KeyboardInterrupt:
+    pass  # swallowed, as a ctypes callback does
+time.sleep(30)
+"""
+    start = time.monotonic()
+    run = subprocess.run([sys.executable, "-c", script], env=_env(), capture_output=True, text=True, timeout=60)
+    assert run.returncode == 130 and time.monotonic() - start < 10
+    assert run.stderr.strip() == "hexatissue analyze: interrupted; files already written are complete"
+
+
+def test_an_error_after_an_interrupt_is_the_interrupt(tmp_path, monkeypatch, capsys):
+    """An interrupt inside numba's compiler can surface as an unrelated error (its cache: "no compiled object
+    yet"): after Ctrl-C, the command says it was interrupted, with code 130, not a traceback."""
+    from hexatissue import cli
+
+    def interrupted_compile(args, source, options):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.1)
+        except KeyboardInterrupt:
+            pass
+        raise RuntimeError("no compiled object yet for <Library 'merge_clusters'>")
+
+    monkeypatch.setattr(cli, "_analyze_into", interrupted_compile)
+    np.save(tmp_path / "l.npy", voronoi_labels(jittered_seeds((64, 64), 14, seed=1), (64, 64)))
+    assert cli.main(["analyze", str(tmp_path / "l.npy"), "--out", str(tmp_path / "o")]) == 130
+    assert capsys.readouterr().err.strip() == "hexatissue analyze: interrupted; files already written are complete"
+    time.sleep(cli.INTERRUPT_GRACE + 0.5)  # the grace timer was cancelled: this process is still here
