@@ -308,8 +308,8 @@ def _write_stored(table, directory, formats):
         if fmt == "csv":
             path = directory / f"{table.name}.csv"
             with atomic_path(path) as tmp:
-                for k in range(len(table.parts)):
-                    table._part(k).to_csv(tmp, index=False, header=k == 0, mode="w" if k == 0 else "a")
+                for k, (_, part) in enumerate(table.iter_parts()):
+                    part.to_csv(tmp, index=False, header=k == 0, mode="w" if k == 0 else "a")
             written.append(path)
             continue
         target = directory / table.name
@@ -319,8 +319,8 @@ def _write_stored(table, directory, formats):
             if target.is_dir():
                 _remove_parts(target)
             copy = StoredTable(target, table.name, table.orders)
-            for k, (first, last, _, _) in enumerate(table.parts):
-                copy.append(table._part(k), first, last)
+            for (first, last), part in table.iter_parts():
+                copy.append(part, first, last)
         written += [target / path.name for _, _, _, path in table.parts]
     return written
 

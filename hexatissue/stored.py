@@ -99,9 +99,9 @@ class StoredTable:
         """Write the added columns into the parts (each rewritten atomically); a no-op without added columns."""
         if not self.added:
             return
-        for k, (first, last, _, path) in enumerate(self.parts):
-            write_table(self._part(k), path, schema=self.name)
-        self._columns = list(self._part(0).columns) if self.parts else None
+        for (_, _, _, path), (_, part) in zip(self.parts, self.iter_parts()):
+            write_table(part, path, schema=self.name)
+        self._columns = list(self.head().columns) if self.parts else None  # the parts' columns now
         self.added = []
 
     # -- reading ---------------------------------------------------------------------------------------------
@@ -137,17 +137,22 @@ class StoredTable:
         else:
             df = pd.read_parquet(self.parts[k][3], columns=stored)
         start = self._offsets()[k]
+        df = self._with_added(df, slice(start, start + len(df)), columns)
+        return df if columns is None else df[[c for c in columns if c in df.columns]]
+
+    def _with_added(self, df, rows, columns):
+        """``df`` (the table's ``rows``, a slice) with the added columns (only those in ``columns`` when given),
+        each set or inserted as :meth:`add_column` says."""
         for column, values, after in self.added:
             if columns is not None and column not in columns:
                 continue
-            part = values[start:start + len(df)]
             if after is not None:
-                df = df.drop(columns=column, errors="ignore")
-                df.insert(df.columns.get_loc(after) + 1 if after in df.columns else len(df.columns), column, part)
+                if column in df.columns:
+                    del df[column]
+                df.insert(df.columns.get_loc(after) + 1 if after in df.columns else len(df.columns), column,
+                          values[rows])
             else:
-                df[column] = part
-        if columns is not None:
-            df = df[[c for c in columns if c in df.columns]]
+                df[column] = values[rows]
         return df
 
     def _stored_columns(self):
@@ -183,17 +188,7 @@ class StoredTable:
         del table
         pa.default_memory_pool().release_unused()
         offsets = self._offsets()
-        rows = slice(offsets[keep[0]], offsets[keep[-1] + 1])  # the kept parts are consecutive
-        for column, values, after in self.added:
-            if columns is not None and column not in columns:
-                continue
-            if after is not None:
-                if column in out.columns:
-                    del out[column]
-                out.insert(out.columns.get_loc(after) + 1 if after in out.columns else len(out.columns), column,
-                           values[rows])
-            else:
-                out[column] = values[rows]
+        out = self._with_added(out, slice(offsets[keep[0]], offsets[keep[-1] + 1]), columns)  # consecutive parts
         if frames is not None:
             f = out["frame"].to_numpy()
             inside = (f >= frames[0]) & (f <= frames[1])
@@ -202,6 +197,11 @@ class StoredTable:
             if selecting:
                 del out["frame"]
         return out if columns is None else out[[c for c in columns if c in out.columns]]
+
+    def iter_parts(self):
+        """``((first, last), DataFrame)`` of every part in frame order, the added columns included."""
+        for k, (first, last, _, _) in enumerate(self.parts):
+            yield (first, last), self._part(k)
 
     def frames_reader(self, columns):
         """``read(first, last)``: the ``columns`` of the rows of frames ``first`` to ``last``, for ranges that move
@@ -216,11 +216,12 @@ class StoredTable:
                 return self.head()[wanted]
             if held["parts"] != keep:
                 held["table"] = None  # the previous parts' memory, before these are read
-                held["table"] = self.read(with_frame, frames=(self.parts[keep[0]][0], self.parts[keep[-1]][1]))
-                held["parts"] = keep
-            table = held["table"]
-            f = table["frame"].to_numpy()
-            if len(f) > 1 and not np.all(f[1:] >= f[:-1]):  # parts written by analyze are in frame order
+                table = self.read(with_frame, frames=(self.parts[keep[0]][0], self.parts[keep[-1]][1]))
+                f = table["frame"].to_numpy()
+                held.update(parts=keep, table=table, frame=f,
+                            ordered=len(f) < 2 or bool(np.all(f[1:] >= f[:-1])))  # analyze writes frame order
+            table, f = held["table"], held["frame"]
+            if not held["ordered"]:
                 return table.loc[(f >= first) & (f <= last), wanted]
             lo, hi = np.searchsorted(f, first, "left"), np.searchsorted(f, last, "right")
             return table.iloc[lo:hi][wanted]

@@ -94,7 +94,8 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
     read = edge_blocks(edges, ["frame", "cell_a", "cell_b", "length"], edge_rows)
     for frames, rows in cell_rows.blocks(BLOCK_ROWS):
         frame, a, b, length = read(frames[0], frames[-1])
-        frame, a, b, length = frame.astype(np.int64), a.astype(np.int64), b.astype(np.int64), length.astype(float)
+        frame, a, b = (c.astype(np.int64, copy=False) for c in (frame, a, b))  # no copy of int64 columns
+        length = length.astype(float, copy=False)
         keep = a != 0  # contacts with the outside are not cell contacts
         frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
         order, starts = pair_groups(frame, a, b)
@@ -148,7 +149,7 @@ def _held_pairs(edges, cells):
     out = {}
     for frames, _ in edge_rows.blocks(3 * BLOCK_ROWS):  # a block of frames at a time: the movie's edges four times
         block = read(frames[0], frames[-1])  # over would not stream
-        out.update(_held_block(*(c.astype(np.int64) for c in block), tracks))
+        out.update(_held_block(*(c.astype(np.int64, copy=False) for c in block), tracks))
     return out
 
 
