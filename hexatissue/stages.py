@@ -236,6 +236,15 @@ class MovieData:
         else:
             table[column] = values
 
+    def column_writer(self, name, column, dtype, after=None):
+        """A writer that adds ``column`` to table ``name`` from its values chunk by chunk in row order (``write``,
+        then ``close``; as :meth:`add_column` once closed): written to disk as it goes when the table is kept
+        there (:class:`~hexatissue.stored.ColumnWriter`)."""
+        table = self.tables[name]
+        if isinstance(table, StoredTable):
+            return table.column_writer(column, dtype, after)
+        return _ColumnPieces(lambda values: self.add_column(name, column, values, after), dtype)
+
     def frame_chunks(self, name) -> list:
         """``(first, last)`` frames of the chunks table ``name`` is kept in (one chunk for a table in memory)."""
         table = self.tables[name]
@@ -251,7 +260,24 @@ class MovieData:
         stored = StoredTable(self.folder / name, name, orders)
         for (first, last), table in chunks:
             stored.append(table, first, last)
+        kept = {path for _, _, _, path in stored.parts}
+        for path in self.folder.joinpath(name).glob("part-*.parquet"):  # a table replaced: its other parts go
+            if path not in kept:
+                path.unlink()
         self.tables[name] = stored
+
+
+class _ColumnPieces:
+    """:meth:`MovieData.column_writer` of a table in memory: the values gathered, then added at ``close``."""
+
+    def __init__(self, add, dtype):
+        self.add, self.dtype, self.pieces = add, np.dtype(dtype), []
+
+    def write(self, values):
+        self.pieces.append(np.asarray(values, self.dtype))
+
+    def close(self):
+        self.add(np.concatenate(self.pieces) if self.pieces else np.zeros(0, self.dtype))
 
 
 # ----------------------------------------------------------------------------
@@ -455,7 +481,7 @@ TRACK_READS = {"cells": ("frame", "cell", "x", "y", "area", "is_border")}
 FLOW_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
               "grid": ("frame", "node", "x", "y", "radius", "valid")}
 T1_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
-            "vertices": ("frame", "vertex", "degree", "n_merged")}
+            "vertices": ("n_merged",)}
 DEFORMATION_READS = {"cells": ("frame", "cell", "track", "x", "y", "area", "is_border"),
                      "vertices": ("frame", "vertex", "x", "y", "degree", "is_border"),
                      "cell_vertices": ("frame", "cell", "rank", "vertex", "image_x", "image_y"),
@@ -498,31 +524,47 @@ def _defect_tracks(movie, options):
     # the defects (a few per frame) are linked in memory, from the grid's frames and spacing alone
     tables = {"defects": movie.read("defects"), "grid": grid}
     link_movie_defects(tables, options.p, options.defect_max_distance, movie.box, n_frames, linked)
-    movie.tables.update(defects=tables["defects"], defect_events=tables["defect_events"])
+    movie.tables["defect_events"] = tables["defect_events"]
+    defects = tables.pop("defects")  # in frame order: kept as the frame tables are, in chunks of frames
+    frame = defects["frame"].to_numpy()
+    spans = movie.frame_chunks("defects") or [(0, max(n_frames - 1, 0))]
+    bounds = np.searchsorted(frame, [first for first, _ in spans] + [spans[-1][1] + 1])
+    movie.put_chunks("defects", ((span, defects.iloc[lo:hi].reset_index(drop=True))
+                                 for span, lo, hi in zip(spans, bounds[:-1], bounds[1:])), options.p)
 
 
 def _flow(movie, options):
     """Every tracked cell's velocity (``cells.vx``, ``vy``) and, on the Gamma_p grid when there is one, ``flow``.
 
-    The grid's fits are per frame: they run chunk by chunk of the grid's frames.
+    Chunk by chunk of the cells' frames (one chunk for tables in memory): a
+    velocity is a centred difference along the track, so each chunk is read
+    with one frame more on either side; the grid's fits are per frame.
     """
-    cells = movie.read("cells", FLOW_READS["cells"])
-    vx, vy = cell_velocities(cells, movie.box)
-    movie.add_column("cells", "vx", vx)
-    movie.add_column("cells", "vy", vy)
-    if "grid" not in movie.tables:
-        return
-    cells = cells.assign(vx=vx, vy=vy)
-    frame = cells["frame"].to_numpy()
+    gridded = "grid" in movie.tables
+    writers = [movie.column_writer("cells", column, np.float64) for column in ("vx", "vy")]
 
     def chunks():
-        for first, last in movie.frame_chunks("grid"):
+        for first, last in movie.frame_chunks("cells"):
+            cells = movie.read("cells", FLOW_READS["cells"], frames=(first - 1, last + 1))
+            vx, vy = cell_velocities(cells, movie.box)
+            frame = cells["frame"].to_numpy()
             inside = (frame >= first) & (frame <= last)
-            grid = movie.read("grid", FLOW_READS["grid"], frames=(first, last))
-            yield (first, last), flow_fields(cells if inside.all() else cells[inside], grid, movie.box,
-                                             options.radius_factor, options.min_cells)
+            writers[0].write(vx[inside])
+            writers[1].write(vy[inside])
+            if gridded:
+                cells = cells[inside].assign(vx=vx[inside], vy=vy[inside])
+                grid = movie.read("grid", FLOW_READS["grid"], frames=(first, last))
+                yield (first, last), flow_fields(cells, grid, movie.box, options.radius_factor, options.min_cells)
 
-    movie.put_chunks("flow", chunks())
+    if gridded:
+        movie.put_chunks("flow", chunks())
+    else:
+        for _ in chunks():  # the velocities are written as the chunks go; there is no field to keep
+            pass
+    for writer in writers:
+        writer.close()
+    if not gridded:
+        return
     image = movie.images.get("intensity")
     if options.piv and image is not None and image.n_frames == movie.n_frames > 2:
         flow = movie.read("flow")
@@ -540,7 +582,8 @@ def _t1_events(movie, options):
     tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], movie.read("cells", T1_READS["cells"]),
                                                              options.min_length, censor, movie.box)
     movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames,
-                                             movie.read("vertices", T1_READS["vertices"])
+                                             (movie.read("vertices", T1_READS["vertices"], frames=span)
+                                              for span in movie.frame_chunks("vertices"))
                                              if "vertices" in tables else None)
     movie.options["events"] = options.replace(censor=censor)
 

@@ -5,8 +5,9 @@ with the default stages: 13 GB at 10^7 cell-frames).  A :class:`StoredTable`
 holds one of them as ``<folder>/<name>/part-<first>-<last>.parquet`` files
 (frames ``first`` to ``last``, in frame order), written as the frames finish,
 and reads back only the columns and frames asked for.  Columns that the
-movie stages add (a cell's ``track``, its velocity) are kept as one array
-each until :meth:`StoredTable.finish` writes them into the parts.  The
+movie stages add (a cell's ``track``, its velocity) are kept on disk too,
+one ``.npy`` file each in the table's folder (hidden from Parquet readers of
+the folder), until :meth:`StoredTable.finish` writes them into the parts.  The
 folder reads as one table with ``pandas.read_parquet(folder)`` or
 ``pyarrow.dataset.dataset(folder)``; every column carries its unit in the
 Parquet field metadata, as :func:`hexatissue.io.write_table` writes.
@@ -23,10 +24,29 @@ from .errors import InputError
 from .io import write_table
 from .schema import empty_table
 
-__all__ = ["StoredTable", "PART_PATTERN"]
+__all__ = ["StoredTable", "ColumnWriter", "PART_PATTERN", "ADDED_PREFIX"]
 
 #: File name of one part: the frames it holds, first and last.
 PART_PATTERN = re.compile(r"part-(\d{8})-(\d{8})\.parquet")
+
+#: File name prefix of an added column (``.added-<column>.npy``): a leading dot, so that pyarrow and pandas
+#: readers of the table's folder skip it.
+ADDED_PREFIX = ".added-"
+
+
+def _POOL():
+    """The memory pool of the parts' reads: the system allocator's.
+
+    The columns read from the parts become the DataFrames' numpy arrays;
+    freed, they go back to malloc, whose free memory
+    :func:`hexatissue._system.release_freed_memory` returns to the OS.
+    Arrow's default pool (mimalloc) keeps what it freed resident: on a
+    240-frame movie of 4,800 cells that was 100 MB more under every movie stage
+    (about 90 bytes per cell-frame), growing with the movie.
+    """
+    import pyarrow as pa
+
+    return pa.system_memory_pool()
 
 
 class StoredTable:
@@ -44,8 +64,10 @@ class StoredTable:
     Notes
     -----
     Parts are written whole and atomically (:func:`hexatissue.io.write_table`),
-    so a part on disk is complete.  Added columns live in memory, one array
-    over all rows in part order, until :meth:`finish`.
+    so a part on disk is complete.  Added columns are ``.npy`` files beside
+    the parts, one array over all rows in part order, read a slice at a time,
+    until :meth:`finish`: a stage that adds a column part by part
+    (:meth:`column_writer`) holds no more than a part of it in memory.
     """
 
     def __init__(self, folder, name, orders=None):
@@ -53,7 +75,7 @@ class StoredTable:
         self.name = name
         self.orders = orders
         self.parts = []  # (first frame, last frame, rows, path), in frame order
-        self.added = []  # (column, values over all rows, insert after this column or None)
+        self.added = []  # (column, its .npy file over all rows, insert after this column or None)
         self._columns = None
 
     @classmethod
@@ -90,18 +112,36 @@ class StoredTable:
         ``after``: the column to insert it after (an existing ``column`` is
         dropped first); None: replaced in place, or appended at the end.
         """
-        values = np.asarray(values)
-        if len(values) != len(self):
-            raise ValueError(f"{self.name}.{column}: {len(values)} values for {len(self)} rows")
-        self.added.append((column, values, after))
+        writer = self.column_writer(column, np.asarray(values).dtype, after)
+        writer.write(values)
+        writer.close()
+
+    def column_writer(self, column, dtype, after=None) -> "ColumnWriter":
+        """A :class:`ColumnWriter` that adds ``column`` (of ``dtype``) from its values part by part, in row order;
+        ``after`` as for :meth:`add_column`."""
+        return ColumnWriter(self, column, dtype, after)
+
+    def _added_column(self, column, path, after):
+        """Register the finished file of an added ``column`` (replacing an earlier one of that name, whose place it
+        keeps when ``after`` is None)."""
+        earlier = [a for c, _, a in self.added if c == column]
+        if earlier and after is None:
+            after = earlier[-1]
+        self.added = [entry for entry in self.added if entry[0] != column]
+        target = self.folder / f"{ADDED_PREFIX}{column}.npy"
+        path.replace(target)
+        self.added.append((column, target, after))
 
     def finish(self):
-        """Write the added columns into the parts (each rewritten atomically); a no-op without added columns."""
+        """Write the added columns into the parts (each rewritten atomically), then remove their files; a no-op
+        without added columns."""
         if not self.added:
             return
         for (_, _, _, path), (_, part) in zip(self.parts, self.iter_parts()):
             write_table(part, path, schema=self.name)
         self._columns = list(self.head().columns) if self.parts else None  # the parts' columns now
+        for _, path, _ in self.added:
+            path.unlink(missing_ok=True)
         self.added = []
 
     # -- reading ---------------------------------------------------------------------------------------------
@@ -135,7 +175,8 @@ class StoredTable:
             schema = pq.read_schema(self.parts[k][3])
             df = schema.empty_table().select(stored or schema.names).to_pandas()
         else:
-            df = pd.read_parquet(self.parts[k][3], columns=stored)
+            df = self._arrow_read([k], stored).to_pandas(split_blocks=True, self_destruct=True,
+                                                         memory_pool=_POOL())
         start = self._offsets()[k]
         df = self._with_added(df, slice(start, start + len(df)), columns)
         return df if columns is None else df[[c for c in columns if c in df.columns]]
@@ -143,16 +184,17 @@ class StoredTable:
     def _with_added(self, df, rows, columns):
         """``df`` (the table's ``rows``, a slice) with the added columns (only those in ``columns`` when given),
         each set or inserted as :meth:`add_column` says."""
-        for column, values, after in self.added:
+        for column, path, after in self.added:
             if columns is not None and column not in columns:
                 continue
+            values = np.array(np.load(path, mmap_mode="r")[rows])  # the slice alone is read
             if after is not None:
                 if column in df.columns:
                     del df[column]
                 df.insert(df.columns.get_loc(after) + 1 if after in df.columns else len(df.columns), column,
-                          values[rows])
+                          values)
             else:
-                df[column] = values[rows]
+                df[column] = values
         return df
 
     def _stored_columns(self):
@@ -170,9 +212,6 @@ class StoredTable:
         column, each Arrow buffer freed once converted (not a DataFrame per
         part, then their concatenation: twice the memory).
         """
-        import pyarrow as pa
-        import pyarrow.dataset as ds
-
         keep = [k for k, (first, last, _, _) in enumerate(self.parts)
                 if frames is None or (last >= frames[0] and first <= frames[1])]
         if not keep:
@@ -182,11 +221,9 @@ class StoredTable:
         stored = list(on_disk) if columns is None else [c for c in columns if c in on_disk]
         # the frame column selects the rows, also when it is not asked for
         selecting = frames is not None and "frame" not in stored
-        table = ds.dataset([str(self.parts[k][3]) for k in keep], format="parquet").to_table(
-            columns=stored + (["frame"] if selecting else []))
-        out = table.to_pandas(split_blocks=True, self_destruct=True)
+        table = self._arrow_read(keep, stored + (["frame"] if selecting else []))
+        out = table.to_pandas(split_blocks=True, self_destruct=True, memory_pool=_POOL())
         del table
-        pa.default_memory_pool().release_unused()
         offsets = self._offsets()
         out = self._with_added(out, slice(offsets[keep[0]], offsets[keep[-1] + 1]), columns)  # consecutive parts
         if frames is not None:
@@ -197,6 +234,13 @@ class StoredTable:
             if selecting:
                 del out["frame"]
         return out if columns is None else out[[c for c in columns if c in out.columns]]
+
+    def _arrow_read(self, keep, columns):
+        """Parts ``keep`` (consecutive), only ``columns``, as one Arrow table in the system allocator's memory."""
+        import pyarrow.dataset as ds
+
+        return ds.dataset([str(self.parts[k][3]) for k in keep], format="parquet").to_table(
+            columns=columns, memory_pool=_POOL())
 
     def iter_parts(self):
         """``((first, last), DataFrame)`` of every part in frame order, the added columns included."""
@@ -253,3 +297,47 @@ class StoredTable:
 
     def __repr__(self):
         return f"StoredTable({self.name!r}, {len(self)} rows in {len(self.parts)} part(s) at {str(self.folder)!r})"
+
+
+class ColumnWriter:
+    """A column added to a :class:`StoredTable` from its values part by part (:meth:`StoredTable.column_writer`).
+
+    :meth:`write` appends the next rows' values (in row order) to a ``.npy``
+    file in the table's folder; :meth:`close` checks that every row has one
+    and adds the column.  Only the values given to one :meth:`write` are in
+    memory.
+    """
+
+    def __init__(self, table, column, dtype, after=None):
+        self.table, self.column, self.after = table, column, after
+        self.dtype = np.dtype(dtype)
+        if self.dtype.hasobject:
+            raise ValueError(f"{table.name}.{column}: an added column must be numeric or bool, not {self.dtype}")
+        table.folder.mkdir(parents=True, exist_ok=True)
+        self.path = table.folder / f"{ADDED_PREFIX}{column}.npy.tmp"
+        self._file = open(self.path, "wb")
+        self._header = {"descr": np.lib.format.dtype_to_descr(self.dtype), "fortran_order": False,
+                        "shape": (len(table),)}
+        np.lib.format.write_array_header_1_0(self._file, self._header)
+        self.rows = 0
+
+    def write(self, values):
+        """Append ``values`` (the next rows', in row order)."""
+        values = np.ascontiguousarray(values, dtype=self.dtype)
+        if self.rows + len(values) > self._header["shape"][0]:
+            self._abort()
+            raise ValueError(f"{self.table.name}.{self.column}: more values than the table's {len(self.table)} rows")
+        self._file.write(values.tobytes())
+        self.rows += len(values)
+
+    def close(self):
+        """Add the column to the table; ValueError (and nothing added) unless every row has its value."""
+        self._file.close()
+        if self.rows != self._header["shape"][0]:
+            self.path.unlink(missing_ok=True)
+            raise ValueError(f"{self.table.name}.{self.column}: {self.rows} values for {len(self.table)} rows")
+        self.table._added_column(self.column, self.path, self.after)
+
+    def _abort(self):
+        self._file.close()
+        self.path.unlink(missing_ok=True)

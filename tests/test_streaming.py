@@ -226,3 +226,53 @@ def test_a_stored_table_is_read_a_block_of_frames_at_a_time(tmp_path, small_part
     for first, last in [(0, 0), (1, 3), (4, 5), (6, 9)]:
         want = memory.edges.loc[memory.edges["frame"].between(first, last), ["cell_a", "length"]]
         pd.testing.assert_frame_equal(read(first, last).reset_index(drop=True), want.reset_index(drop=True))
+
+
+def _stored(tmp_path, n_parts=3, rows=4):
+    table = StoredTable(tmp_path / "cells", "cells")
+    for k in range(n_parts):
+        frame = np.full(rows, k, np.int64)
+        table.append(pd.DataFrame({"frame": frame, "cell": np.arange(1, rows + 1), "x": frame * 1.5}), k, k)
+    return table
+
+
+def test_a_column_added_part_by_part_is_kept_on_disk_until_finished(tmp_path):
+    table = _stored(tmp_path)
+    values = np.arange(12, dtype=np.float64) / 7
+    writer = table.column_writer("vx", np.float64)
+    for k in range(3):  # one part at a time, as the flow stage writes the velocities
+        writer.write(values[4 * k:4 * k + 4])
+    writer.close()
+    table.add_column("track", np.arange(100, 112), after="cell")
+    table.add_column("border", np.arange(12) % 2 == 0)
+    hidden = sorted(p.name for p in (tmp_path / "cells").iterdir() if not p.name.startswith("part-"))
+    assert hidden == [".added-border.npy", ".added-track.npy", ".added-vx.npy"]
+    # the folder's readers skip the added columns' files; the table reads them, a slice at a time
+    assert list(pd.read_parquet(tmp_path / "cells").columns) == ["frame", "cell", "x"]
+    got = table.read()
+    assert list(got.columns) == ["frame", "cell", "track", "x", "vx", "border"]
+    np.testing.assert_array_equal(got["vx"], values)
+    np.testing.assert_array_equal(table.read(["track"], frames=(1, 1))["track"], np.arange(104, 108))
+    assert got["border"].dtype == bool
+    # a column added again keeps its place; finish writes them into the parts and removes the files
+    table.add_column("track", np.arange(200, 212))
+    table.finish()
+    assert sorted(p.name for p in (tmp_path / "cells").iterdir()) == [f"part-{k:08d}-{k:08d}.parquet" for k in range(3)]
+    back = pd.read_parquet(tmp_path / "cells")
+    assert list(back.columns) == ["frame", "cell", "track", "x", "vx", "border"]
+    np.testing.assert_array_equal(back["track"], np.arange(200, 212))
+
+
+def test_a_column_writer_refuses_too_few_or_too_many_values_and_leaves_nothing(tmp_path):
+    table = _stored(tmp_path)
+    short = table.column_writer("vx", np.float64)
+    short.write(np.zeros(11))
+    with pytest.raises(ValueError, match="11 values for 12 rows"):
+        short.close()
+    long = table.column_writer("vy", np.float64)
+    with pytest.raises(ValueError, match="more values than the table's 12 rows"):
+        long.write(np.zeros(13))
+    with pytest.raises(ValueError, match="numeric or bool"):
+        table.column_writer("name", object)
+    assert table.added == []
+    assert all(p.name.startswith("part-") for p in (tmp_path / "cells").iterdir())

@@ -125,7 +125,8 @@ def events_summary(events, censor, given, n_frames, vertices=None):
     """Censoring window used (``given`` by the user, or the default rule), the number of events of each kind,
     and what the network could not resolve: the contacts held as four-fold vertices.
 
-    ``vertices``: the movie's vertices table; with its ``n_merged`` column
+    ``vertices``: the movie's vertices table, or an iterable of its chunks
+    (each a table of the same columns); with its ``n_merged`` column
     (label input), ``n_held_contacts`` counts the contact-frames of junctions
     shorter than ``merge_distance`` held as four-fold (or higher) vertices,
     summed over frames, and ``n_held_vertices`` the vertex-frames holding
@@ -142,11 +143,23 @@ def events_summary(events, censor, given, n_frames, vertices=None):
     if n["unresolved"] and not n["intercalation"]:
         warnings.warn(NO_INTERCALATION, HexatissueWarning, stacklevel=user_stacklevel())
     rule = "given" if given else "min(10, max(1, n_frames // 5))"
-    held = None if vertices is None or "n_merged" not in vertices.columns else vertices["n_merged"].to_numpy(np.int64)
+    held = None if vertices is None else _held_counts([vertices] if isinstance(vertices, pd.DataFrame) else vertices)
     return {"censor": int(censor), "censor_rule": rule, "n_frames": int(n_frames), "n_events": int(len(events)),
             "n_cycles": n["cycle"], "n_intercalations": n["intercalation"], "n_unresolved": n["unresolved"],
             "n_classified": n["cycle"] + n["intercalation"],
             "n_one_frame_cycles": int(((events["kind"].astype(str) == "cycle")
                                        & (events["duration"].to_numpy(float) == 1)).sum()),
-            "n_held_contacts": None if held is None else int(held.sum()),
-            "n_held_vertices": None if held is None else int((held > 0).sum())}
+            "n_held_contacts": None if held is None else held[0],
+            "n_held_vertices": None if held is None else held[1]}
+
+
+def _held_counts(chunks):
+    """``(contacts, vertices)`` held as four-fold vertices, summed over the vertices tables ``chunks``; None
+    when they have no ``n_merged`` column."""
+    contacts = vertices = 0
+    for table in chunks:
+        if "n_merged" not in table.columns:
+            return None
+        merged = table["n_merged"].to_numpy(np.int64)
+        contacts, vertices = contacts + int(merged.sum()), vertices + int((merged > 0).sum())
+    return contacts, vertices
