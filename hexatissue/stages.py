@@ -36,6 +36,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from ._system import release_freed_memory
 from .defects import find_defects, link_movie_defects
 from .deformation import deformation_budget, read_roi
 from .errors import FrameWarning, HexatissueWarning, InputError, user_stacklevel
@@ -475,13 +476,12 @@ def _link(tracker, payload, t):
 
 
 #: The columns each movie stage reads, by table: a table kept on disk is read for these alone (the cells table of a
-#: long movie holds ~20 columns; the tracks stage needs 6).  The T1 events stage reads the edges a block of frames
-#: at a time, from the table as it is kept.
+#: long movie holds ~20 columns; the tracks stage needs 6).  The T1 events stage reads the cells (frame, cell, track,
+#: x, y, is_border) and the edges a block of frames at a time, from the tables as they are kept.
 TRACK_READS = {"cells": ("frame", "cell", "x", "y", "area", "is_border")}
 FLOW_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
               "grid": ("frame", "node", "x", "y", "radius", "valid")}
-T1_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
-            "vertices": ("n_merged",)}
+T1_READS = {"vertices": ("n_merged",)}
 DEFORMATION_READS = {"cells": ("frame", "cell", "track", "x", "y", "area", "is_border"),
                      "vertices": ("frame", "vertex", "x", "y", "degree", "is_border"),
                      "cell_vertices": ("frame", "cell", "rank", "vertex", "image_x", "image_y"),
@@ -545,6 +545,7 @@ def _flow(movie, options):
 
     def chunks():
         for first, last in movie.frame_chunks("cells"):
+            release_freed_memory()  # the previous chunk's working set, before this one's
             cells = movie.read("cells", FLOW_READS["cells"], frames=(first - 1, last + 1))
             vx, vy = cell_velocities(cells, movie.box)
             frame = cells["frame"].to_numpy()
@@ -578,9 +579,10 @@ def _t1_events(movie, options):
     """Quartet T1s and per-cell neighbour changes from one pass over the contacts, classified."""
     censor = default_censor(movie.n_frames) if options.censor is None else options.censor
     tables = movie.tables
-    # the edges as they are kept: a table on disk is read a part at a time (hexatissue.events.frames.edge_blocks)
-    tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], movie.read("cells", T1_READS["cells"]),
-                                                             options.min_length, censor, movie.box)
+    # the cells and edges as they are kept: a table on disk is read a part at a time, a block of frames at a time
+    # (hexatissue.events.frames.CellFrames, edge_blocks)
+    tables["events"], tables["neighbour_events"] = t1_tables(tables["edges"], tables["cells"], options.min_length,
+                                                             censor, movie.box)
     movie.summary["events"] = events_summary(tables["events"], censor, options.censor is not None, movie.n_frames,
                                              (movie.read("vertices", T1_READS["vertices"], frames=span)
                                               for span in movie.frame_chunks("vertices"))

@@ -34,21 +34,6 @@ PART_PATTERN = re.compile(r"part-(\d{8})-(\d{8})\.parquet")
 ADDED_PREFIX = ".added-"
 
 
-def _POOL():
-    """The memory pool of the parts' reads: the system allocator's.
-
-    The columns read from the parts become the DataFrames' numpy arrays;
-    freed, they go back to malloc, whose free memory
-    :func:`hexatissue._system.release_freed_memory` returns to the OS.
-    Arrow's default pool (mimalloc) keeps what it freed resident: on a
-    240-frame movie of 4,800 cells that was 100 MB more under every movie stage
-    (about 90 bytes per cell-frame), growing with the movie.
-    """
-    import pyarrow as pa
-
-    return pa.system_memory_pool()
-
-
 class StoredTable:
     """One table of a movie as Parquet parts by chunk of frames, read by column and frame range.
 
@@ -175,8 +160,7 @@ class StoredTable:
             schema = pq.read_schema(self.parts[k][3])
             df = schema.empty_table().select(stored or schema.names).to_pandas()
         else:
-            df = self._arrow_read([k], stored).to_pandas(split_blocks=True, self_destruct=True,
-                                                         memory_pool=_POOL())
+            df = self._arrow_read([k], stored).to_pandas(split_blocks=True, self_destruct=True)
         start = self._offsets()[k]
         df = self._with_added(df, slice(start, start + len(df)), columns)
         return df if columns is None else df[[c for c in columns if c in df.columns]]
@@ -212,6 +196,8 @@ class StoredTable:
         column, each Arrow buffer freed once converted (not a DataFrame per
         part, then their concatenation: twice the memory).
         """
+        import pyarrow as pa
+
         keep = [k for k, (first, last, _, _) in enumerate(self.parts)
                 if frames is None or (last >= frames[0] and first <= frames[1])]
         if not keep:
@@ -222,8 +208,9 @@ class StoredTable:
         # the frame column selects the rows, also when it is not asked for
         selecting = frames is not None and "frame" not in stored
         table = self._arrow_read(keep, stored + (["frame"] if selecting else []))
-        out = table.to_pandas(split_blocks=True, self_destruct=True, memory_pool=_POOL())
+        out = table.to_pandas(split_blocks=True, self_destruct=True)
         del table
+        pa.default_memory_pool().release_unused()
         offsets = self._offsets()
         out = self._with_added(out, slice(offsets[keep[0]], offsets[keep[-1] + 1]), columns)  # consecutive parts
         if frames is not None:
@@ -236,11 +223,10 @@ class StoredTable:
         return out if columns is None else out[[c for c in columns if c in out.columns]]
 
     def _arrow_read(self, keep, columns):
-        """Parts ``keep`` (consecutive), only ``columns``, as one Arrow table in the system allocator's memory."""
+        """Parts ``keep`` (consecutive), only ``columns``, as one Arrow table."""
         import pyarrow.dataset as ds
 
-        return ds.dataset([str(self.parts[k][3]) for k in keep], format="parquet").to_table(
-            columns=columns, memory_pool=_POOL())
+        return ds.dataset([str(self.parts[k][3]) for k in keep], format="parquet").to_table(columns=columns)
 
     def iter_parts(self):
         """``((first, last), DataFrame)`` of every part in frame order, the added columns included."""

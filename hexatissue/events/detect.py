@@ -8,9 +8,9 @@ import pandas as pd
 
 from .._system import release_freed_memory
 from ..box import Box
-from ..schema import FrameRows, interior_mask, validate
+from ..schema import validate
 from .classify import _check_censor, classify_t1, default_censor
-from .frames import _check_cells, _held_pairs, _ids, _movie_frames, _rows_at
+from .frames import _check_cells, _held_pairs, _ids, _movie_frames, cell_frames
 from .neighbours import _changes, _lists, _neighbour_table
 from .quartets import _find_t1
 
@@ -24,25 +24,23 @@ def _centre(xy, box):
 
 
 def _positions(events, cells, box):
-    """Quartet centre (x, y) and border flag at frame_start, from the cells table."""
+    """Quartet centre (x, y) and border flag at frame_start, from the cells (a
+    :class:`~hexatissue.events.frames.CellFrames`)."""
     if events.empty:
         return np.empty(0), np.empty(0), np.empty(0, bool)
-    border = ~interior_mask(cells)
-    x, y = cells["x"].to_numpy(float), cells["y"].to_numpy(float)
     quartet = ("cell_a", "cell_b", "cell_c", "cell_d")
     frame = np.tile(events["frame_start"].to_numpy(np.int64), 4)
-    row = _rows_at(cells, FrameRows(cells["frame"].to_numpy(np.int64)), frame,
-                   np.concatenate([events[c].to_numpy(np.int64) for c in quartet])).reshape(4, -1).T
-    at = np.maximum(row, 0)
-    xy = np.where(row[..., None] >= 0, np.stack([x[at], y[at]], axis=-1), np.nan)  # event, cell, (x, y)
-    flag = ((row >= 0) & border[at]).any(axis=1)
+    found, at = cells.values_at(frame, np.concatenate([events[c].to_numpy(np.int64) for c in quartet]),
+                                ("x", "y", "is_border"))
+    xy = np.stack([at["x"], at["y"]], axis=-1).reshape(4, -1, 2).transpose(1, 0, 2)  # event, cell, (x, y)
+    flag = (found & at["is_border"]).reshape(4, -1).T.any(axis=1)
     centre = _centre(xy, box)
     return centre[:, 0], centre[:, 1], flag
 
 
 def _events_table(raw, cells, box, censor):
     """The ``events`` table of the raw T1s of :func:`find_t1`: classified, placed, numbered."""
-    events = classify_t1(raw, int(cells["frame"].max()) if len(cells) else 0, censor)
+    events = classify_t1(raw, cells.last_frame(), censor)
     x, y, border = _positions(events, cells, box)
     events.insert(8, "x", x)
     events.insert(9, "y", y)
@@ -86,10 +84,10 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
         ``frame_undo``, ``is_border`` (see ``hexatissue.schema.TABLES["events"]``).
     """
     _check_cells(cells)
+    cells = cell_frames(cells)
     frames = _movie_frames(edges, cells, min_length)
     raw = _find_t1(frames, _ids(edges, cells), _held_pairs(edges, cells))
-    last = int(cells["frame"].max()) if len(cells) else 0
-    return _events_table(raw, cells, box, default_censor(last + 1) if censor is None else censor)
+    return _events_table(raw, cells, box, default_censor(cells.last_frame() + 1) if censor is None else censor)
 
 
 def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0, censor: int = 10,
@@ -113,7 +111,8 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     """
     _check_cells(cells)
     _check_censor(censor)
-    changes, by_frame = _changes(cells)
+    cells = cell_frames(cells)
+    changes = _changes(cells)
 
     def contacts():  # each frame's contacts, to the per-cell lists as they go to the quartet search
         for f, tracks, a, b, length in _movie_frames(edges, cells, min_length):
@@ -122,4 +121,4 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
 
     raw = _find_t1(contacts(), _ids(edges, cells), _held_pairs(edges, cells))
     release_freed_memory()  # the contacts' freed working set would stay resident under the two tables' own
-    return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, by_frame, censor)
+    return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, censor)

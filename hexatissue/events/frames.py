@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, is_real
-from ..geometry import lookup, row_keys
+from ..geometry import in_sorted, lookup, row_keys
 from ..graph import pair_groups
-from ..schema import FrameRows, track_ids
+from ..schema import FrameRows
 
 
 def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_length: float = 0.0) -> pd.DataFrame:
@@ -45,6 +45,88 @@ def track_contacts(edges: pd.DataFrame, cells: pd.DataFrame | None = None, min_l
 BLOCK_ROWS = 1 << 14
 
 
+class CellFrames:
+    """A movie's cells table, read a block of whole frames at a time.
+
+    ``cells``: a DataFrame, or a table kept on disk (anything with
+    ``frame_chunks`` and ``read(columns, frames)``:
+    :class:`hexatissue.stored.StoredTable`), read part by part, so that the
+    T1 search never holds the movie's cells at once.  Blocks come in frame
+    order, and a frame's rows in row order (a frame column out of order is
+    put in order by one stable sort, of a DataFrame's column or of a part's).
+    """
+
+    def __init__(self, cells):
+        self.cells = cells
+        self.columns = list(cells.columns)
+        self.on_disk = not isinstance(cells, pd.DataFrame)
+        self._rows = None if self.on_disk else FrameRows(cells["frame"].to_numpy(np.int64))
+
+    def __len__(self):
+        return len(self.cells)
+
+    def blocks(self, columns, rows=BLOCK_ROWS):
+        """``(frames, block)``: ``frames`` the frames of the block (sorted), ``block`` ``{column: array}`` of the
+        ``columns`` that the table has, over the block's rows; about ``rows`` rows a block, a frame at least."""
+        columns = [c for c in dict.fromkeys(columns) if c in self.columns]
+        if not self.on_disk:
+            arrays = {c: self.cells[c].to_numpy() for c in columns}
+            for frames, at in self._rows.blocks(rows):
+                yield frames, {c: a[at] for c, a in arrays.items()}
+            return
+        for first, last in self.cells.frame_chunks:
+            part = self.cells.read(list(dict.fromkeys(["frame", *columns])), frames=(first, last))
+            by_frame = FrameRows(part["frame"].to_numpy(np.int64))
+            arrays = {c: part[c].to_numpy() for c in columns}
+            del part
+            for frames, at in by_frame.blocks(rows):
+                yield frames, {c: a[at] for c, a in arrays.items()}
+
+    def last_frame(self) -> int:
+        """The last frame with a cell (0 for no cells)."""
+        if not self.on_disk:
+            return int(self._rows.frames[-1]) if len(self._rows.frames) else 0
+        for first, last in reversed(self.cells.frame_chunks):
+            frame = self.cells.read(["frame"], frames=(first, last))["frame"].to_numpy(np.int64)
+            if len(frame):
+                return int(frame.max())
+        return 0
+
+    def values_at(self, frame, track, columns):
+        """The ``columns`` (of float or bool) of the cell of each (``frame``, ``track``): ``(found, {column:
+        array})``, NaN (False) where the cell is not in that frame, the first row if several."""
+        found = np.zeros(len(frame), bool)
+        out = {c: np.full(len(frame), np.nan) for c in columns if c != "is_border"}
+        out.update({c: np.zeros(len(frame), bool) for c in columns if c == "is_border"})
+        if not len(frame):
+            return found, out
+        order = np.argsort(frame, kind="stable")
+        wanted = frame[order]
+        for frames, block in self.blocks(["frame", "cell", "track", *columns]):
+            lo, hi = np.searchsorted(wanted, [frames[0], frames[-1] + 1])
+            if lo == hi:
+                continue
+            sel = order[lo:hi]
+            pos = lookup(row_keys(block["frame"].astype(np.int64), block_tracks(block)), None,
+                         row_keys(frame[sel], track[sel]))
+            hit = pos >= 0
+            found[sel] = hit
+            for c, values in out.items():
+                if c in block:
+                    values[sel[hit]] = block[c][pos[hit]]
+        return found, out
+
+
+def cell_frames(cells) -> CellFrames:
+    """``cells`` as a :class:`CellFrames` (itself when it is one)."""
+    return cells if isinstance(cells, CellFrames) else CellFrames(cells)
+
+
+def block_tracks(block) -> np.ndarray:
+    """Track id of every row of a block of :meth:`CellFrames.blocks`: ``track``, else the label ``cell``."""
+    return (block["track"] if "track" in block else block["cell"]).astype(np.int64, copy=False)
+
+
 def _movie_frames(edges, cells, min_length):
     """Each frame of ``cells`` in turn: ``(frame, tracks, a, b, length)``.
 
@@ -59,42 +141,46 @@ def _movie_frames(edges, cells, min_length):
             raise InputError(f"edges table is missing column {col!r}; expected frame, cell_a, cell_b, length")
     if not is_real(min_length) or min_length < 0:
         raise InputError(f"min_length must be a finite length >= 0 px; got {min_length!r}")
-    cell_rows, edge_rows = FrameRows(cells["frame"].to_numpy(np.int64)), FrameRows(edges["frame"].to_numpy(np.int64))
-    translate = "track" in cells.columns
-    if translate and len(np.setdiff1d(edge_rows.frames, cell_rows.frames)):
-        raise InputError(MISSING_CELLS)
-    return _frames(edges, cells, min_length, cell_rows, edge_rows, translate)
+    return _frames(edges, cell_frames(cells), min_length)
 
 
 #: Edges whose cells the cells table does not have.
 MISSING_CELLS = "edges refer to (frame, cell) pairs missing from the cells table"
 
 
-def edge_blocks(edges, columns, edge_rows=None):
+def edge_blocks(edges, columns):
     """``read(first, last)``: the ``columns`` of the rows of ``edges`` in frames ``first`` to ``last``, as numpy
     arrays, for ranges that move forward through the movie.
 
-    A DataFrame is sliced (``edge_rows``: its :class:`~hexatissue.schema.FrameRows`, made if not given); a table
-    kept on disk (anything with a ``frames_reader``, :class:`hexatissue.stored.StoredTable`) is read one part at a
-    time, so the movie's edges are never in memory at once.
+    A DataFrame is sliced; a table kept on disk (anything with a ``frames_reader``,
+    :class:`hexatissue.stored.StoredTable`) is read one part at a time, so the movie's edges are never in memory
+    at once.
     """
     if hasattr(edges, "frames_reader"):
         read = edges.frames_reader(columns)
         return lambda first, last: [column.to_numpy() for _, column in read(first, last).items()]
-    rows = FrameRows(edges["frame"].to_numpy(np.int64)) if edge_rows is None else edge_rows
+    rows = FrameRows(edges["frame"].to_numpy(np.int64))
     arrays = [edges[c].to_numpy() for c in columns]
     return lambda first, last: [a[rows.between(first, last)] for a in arrays]
 
 
-def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
-    """The generator of :func:`_movie_frames` (its arguments checked): contacts found a block of frames at a time."""
-    tracks = track_ids(cells)
-    labels = cells["cell"].to_numpy(np.int64) if translate else None
-    c_frame = cells["frame"].to_numpy(np.int64)
-    read = edge_blocks(edges, ["frame", "cell_a", "cell_b", "length"], edge_rows)
-    for frames, rows in cell_rows.blocks(BLOCK_ROWS):
-        frame, a, b, length = read(frames[0], frames[-1])
+def _frames(edges, cells, min_length):
+    """The generator of :func:`_movie_frames` (its arguments checked): contacts found a block of frames at a time.
+
+    Each block reads the edges of its frames and of any frame since the last
+    block's: an edge of a frame without cells is refused (:data:`MISSING_CELLS`)
+    wherever it lies.
+    """
+    translate = "track" in cells.columns
+    read = edge_blocks(edges, ["frame", "cell_a", "cell_b", "length"])
+    after = None  # the last frame read
+    for frames, block in cells.blocks(["frame", "cell", "track"]):
+        here, tracks = block["frame"].astype(np.int64, copy=False), block_tracks(block)
+        frame, a, b, length = read(frames[0] if after is None else after + 1, frames[-1])
+        after = int(frames[-1])
         frame, a, b = (c.astype(np.int64, copy=False) for c in (frame, a, b))  # no copy of int64 columns
+        if translate and not in_sorted(_unique(frame), frames).all():
+            raise InputError(MISSING_CELLS)
         length = length.astype(float, copy=False)
         keep = a != 0  # contacts with the outside are not cell contacts
         frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
@@ -105,16 +191,15 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
         if min_length > 0:
             keep = length >= min_length
             frame, a, b, length = frame[keep], a[keep], b[keep], length[keep]
-        here = c_frame[rows]
-        if labels is not None:  # label ids -> track ids
-            keys, track = row_keys(here, labels[rows]), tracks[rows]
-            a = lookup(keys, track, row_keys(frame, a), MISSING_CELLS)
-            b = lookup(keys, track, row_keys(frame, b), MISSING_CELLS)
+        if translate:  # label ids -> track ids
+            keys = row_keys(here, block["cell"].astype(np.int64, copy=False))
+            a = lookup(keys, tracks, row_keys(frame, a), MISSING_CELLS)
+            b = lookup(keys, tracks, row_keys(frame, b), MISSING_CELLS)
             a, b = np.minimum(a, b), np.maximum(a, b)
             if not _increasing(frame, a, b):  # track ids need not keep the label order (they do when ids are kept)
                 order = np.lexsort((b, a, frame))
                 frame, a, b, length = frame[order], a[order], b[order], length[order]
-        present = _unique(row_keys(here, tracks[rows]))
+        present = _unique(row_keys(here, tracks))
         p_bounds = np.searchsorted(present, row_keys(frames, 0))
         c_bounds = np.searchsorted(frame, frames)
         ids = present - row_keys(np.repeat(frames, np.diff(np.append(p_bounds, len(present)))), 0)
@@ -122,6 +207,8 @@ def _frames(edges, cells, min_length, cell_rows, edge_rows, translate):
             lo, hi = c_bounds[k], c_bounds[k + 1] if k + 1 < len(frames) else len(frame)
             p_hi = p_bounds[k + 1] if k + 1 < len(frames) else len(present)
             yield f, ids[p_bounds[k]:p_hi], a[lo:hi], b[lo:hi], length[lo:hi]
+    if translate and len(read(-1 if after is None else after + 1, np.iinfo(np.int64).max)[0]):
+        raise InputError(MISSING_CELLS)  # edges of frames after the last frame with cells
 
 
 def _held_pairs(edges, cells):
@@ -139,17 +226,18 @@ def _held_pairs(edges, cells):
     """
     if not {"vertex_a", "vertex_b"} <= set(edges.columns) or len(edges) == 0:
         return {}
-    frame = edges["frame"].to_numpy(np.int64)
-    edge_rows = FrameRows(frame)
-    read = edge_blocks(edges, ["frame", "vertex_a", "vertex_b", "cell_a", "cell_b"], edge_rows)
-    del frame
-    tracks = None
-    if "track" in cells.columns:
-        tracks = (row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64)), track_ids(cells))
-    out = {}
-    for frames, _ in edge_rows.blocks(3 * BLOCK_ROWS):  # a block of frames at a time: the movie's edges four times
-        block = read(frames[0], frames[-1])  # over would not stream
-        out.update(_held_block(*(c.astype(np.int64, copy=False) for c in block), tracks))
+    cells = cell_frames(cells)
+    read = edge_blocks(edges, ["frame", "vertex_a", "vertex_b", "cell_a", "cell_b"])
+    translate = "track" in cells.columns
+    out, after = {}, None
+    for frames, block in cells.blocks(["frame", "cell", "track"]):  # a block of frames at a time: the movie's
+        edge_block = read(frames[0] if after is None else after + 1, frames[-1])  # edges four times over would
+        after = int(frames[-1])  # not stream
+        tracks = None
+        if translate:
+            tracks = (row_keys(block["frame"].astype(np.int64, copy=False), block["cell"].astype(np.int64, copy=False)),
+                      block_tracks(block))
+        out.update(_held_block(*(c.astype(np.int64, copy=False) for c in edge_block), tracks))
     return out
 
 
@@ -202,27 +290,13 @@ def _increasing(frame, a, b):
 def _ids(edges, cells):
     """Every track id a movie's contacts can name, sorted: those of ``cells`` (label ids of the edges too
     when ``cells`` has no ``track``)."""
-    tracks = track_ids(cells)
+    cells = cell_frames(cells)
+    ids = np.zeros(0, np.int64)
+    for _, block in cells.blocks(["frame", "cell", "track"]):
+        ids = np.union1d(ids, block_tracks(block))
     if "track" in cells.columns:
-        return np.unique(tracks)
-    return np.unique(np.r_[tracks, edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)])
-
-
-def _rows_at(cells, by_frame, frame, track):
-    """Row of ``cells`` of each (``frame``, ``track``), the first if several, -1 if none; a block of frames at a time."""
-    out = np.full(len(frame), -1, np.int64)
-    order = np.argsort(frame, kind="stable")
-    wanted = frame[order]
-    c_frame, c_track = cells["frame"].to_numpy(np.int64), track_ids(cells)
-    for frames, rows in by_frame.blocks(BLOCK_ROWS):
-        lo, hi = np.searchsorted(wanted, [frames[0], frames[-1] + 1])
-        if lo == hi:
-            continue
-        rows = np.arange(rows.start, rows.stop) if isinstance(rows, slice) else rows
-        sel = order[lo:hi]
-        pos = lookup(row_keys(c_frame[rows], c_track[rows]), None, row_keys(frame[sel], track[sel]))
-        out[sel] = np.where(pos >= 0, rows[np.maximum(pos, 0)], -1)
-    return out
+        return ids
+    return np.union1d(ids, np.r_[edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)])
 
 
 def _check_cells(cells):

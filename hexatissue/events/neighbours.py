@@ -8,10 +8,10 @@ import pandas as pd
 
 from .._hashing import GOLDEN, mix64
 from ..geometry import in_sorted, row_keys
-from ..schema import FrameRows, interior_mask, string_column, track_ids, validate
+from ..schema import FrameRows, string_column, validate
 from ._kernels import _change_kernel, _close_kernel, _lists_kernel
 from .classify import KERNELS, T1_KINDS, _check_censor, _kind_codes
-from .frames import _check_cells, _movie_frames, _rows_at, _unique
+from .frames import _check_cells, _movie_frames, _unique, block_tracks, cell_frames
 from .quartets import _expand, _table_fits
 
 
@@ -209,44 +209,62 @@ def neighbour_events(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float
     """
     _check_cells(cells)
     _check_censor(censor)
-    changes, by_frame = _changes(cells)
+    cells = cell_frames(cells)
+    changes = _changes(cells)
     for frame, present, a, b, _ in _movie_frames(edges, cells, min_length):
         changes.add(_lists(frame, present, a, b))
-    return _neighbour_table(changes, cells, by_frame, censor)
+    return _neighbour_table(changes, cells, censor)
 
 
 def _changes(cells):
-    """An empty :class:`_Changes` for the cells of a movie, and their rows by frame."""
-    frames, tracks = cells["frame"].to_numpy(np.int64), track_ids(cells)
-    by_frame = FrameRows(frames)
-    constant = _same_cells_every_frame(by_frame, tracks)
-    top = int(tracks.max()) if len(tracks) else 0
-    changes = (KERNELS.replacement("_close_kernel", "_ChangesReference") or _Changes)(
-        None if constant else np.unique(row_keys(frames, tracks)), top if _table_fits(top, len(tracks)) else None)
-    return changes, by_frame
+    """An empty :class:`_Changes` for the cells of a movie (a :class:`~hexatissue.events.frames.CellFrames`).
+
+    Read a block of frames at a time: whether every frame has the same
+    cells, then, when not, the (frame, cell) keys of the movie that the
+    changes look cells up in (sorted: the blocks come in frame order).
+    """
+    top = 0
+
+    def frame_tracks():
+        nonlocal top
+        for _, block in cells.blocks(["frame", "cell", "track"]):
+            tracks = block_tracks(block)
+            top = max(top, int(tracks.max(initial=0)))
+            for _, rows in FrameRows(block["frame"]):
+                yield tracks[rows]
+
+    keys = None
+    if not _same_cells_every_frame(frame_tracks()):  # it stopped at the first difference: top is not known yet
+        keys = []
+        for _, block in cells.blocks(["frame", "cell", "track"]):
+            tracks = block_tracks(block)
+            top = max(top, int(tracks.max(initial=0)))
+            keys.append(np.unique(row_keys(block["frame"].astype(np.int64, copy=False), tracks)))
+        keys = np.concatenate(keys)
+    return (KERNELS.replacement("_close_kernel", "_ChangesReference") or _Changes)(
+        keys, top if _table_fits(top, len(cells)) else None)
 
 
-def _neighbour_table(changes, cells, by_frame, censor):
-    """The ``neighbour_events`` table of the changes of every frame of ``cells``."""
-    frames = cells["frame"].to_numpy(np.int64)
-    track, kind, start, end, n_lost, n_gained = changes.events(int(frames.max()) if len(frames) else 0, censor)
+def _neighbour_table(changes, cells, censor):
+    """The ``neighbour_events`` table of the changes of every frame of ``cells`` (a
+    :class:`~hexatissue.events.frames.CellFrames`)."""
+    track, kind, start, end, n_lost, n_gained = changes.events(cells.last_frame(), censor)
     order = np.lexsort((track, start))  # by frame_start, then track, stable
     track, kind, start, end, n_lost, n_gained = (v[order] for v in (track, kind, start, end, n_lost, n_gained))
-    row = _rows_at(cells, by_frame, start, track)
-    at = np.maximum(row, 0)
+    _, at = cells.values_at(start, track, ("x", "y", "is_border"))
     out = pd.DataFrame({"event": np.arange(len(track), dtype=np.int64), "track": track,
                         "kind": string_column(kind, T1_KINDS), "frame_start": start, "frame_end": end,
                         "duration": end - start, "n_lost": n_lost, "n_gained": n_gained,
-                        **{c: np.where(row >= 0, cells[c].to_numpy(float)[at], np.nan) for c in ("x", "y")},
-                        "is_border": ~interior_mask(cells)[at]})
+                        "x": at["x"], "y": at["y"], "is_border": at["is_border"]})
     return validate(out, "neighbour_events")
 
 
-def _same_cells_every_frame(by_frame, tracks):
-    """Whether every frame has the same set of cells (then neighbour lists compare by hash alone)."""
+def _same_cells_every_frame(frame_tracks):
+    """Whether every frame has the same set of cells (then neighbour lists compare by hash alone);
+    ``frame_tracks``: the track ids of each frame in turn."""
     first = None
-    for _, rows in by_frame:
-        here = _unique(tracks[rows])
+    for tracks in frame_tracks:
+        here = _unique(tracks)
         if first is None:
             first = here
         elif not np.array_equal(first, here):
