@@ -43,7 +43,7 @@ from .errors import FrameWarning, HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
 from .flow import cell_velocities, flow_fields
 from .flow.piv import piv_fields
-from .geometry import distinct_count
+from .geometry import distinct_count, in_sorted
 from .intensity import measure_intensity
 from .mechanics import MU_RANGE, cell_stress, frame_forces, stress_grid
 from .mesh.labels import mesh_labels
@@ -55,8 +55,8 @@ from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .stored import StoredTable
 from .surface import lift, surface_arrays
-from .track import (MovieTracker, cells_with_tracks, check_divisions, check_extrusions, compact_frames, lineage_table,
-                    tracking_summary, tracking_warning)
+from .track import (CellCounts, MovieTracker, cells_with_tracks, check_divisions, check_extrusions, checked_tracks,
+                    compact_frames, join_spans, lineage_from_spans, track_spans, tracking_summary, tracking_warning)
 
 __all__ = ["Stage", "FrameState", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages",
            "frame_tables", "worker_stages", "run_frame"]
@@ -489,23 +489,49 @@ DEFORMATION_READS = {"cells": ("frame", "cell", "track", "x", "y", "area", "is_b
 
 
 def _tracks(movie, options):
-    """Each cell's ``track`` from the tracker, the lineage, and what tracking decided."""
+    """Each cell's ``track`` from the tracker, the lineage, and what tracking decided.
+
+    Chunk by chunk of the cells' frames (one chunk for tables in memory): the
+    tracks are written, and each chunk's tracks' spans and counts kept; the
+    lineage is made of the spans, and its divisions and extrusions checked on
+    the rows of the tracks they look at alone (a second pass).
+    """
     tracker, src = movie.states["track"], movie.source
-    cells = cells_with_tracks(movie.read("cells", TRACK_READS["cells"]), tracker)
-    movie.add_column("cells", "track", cells["track"].to_numpy(), after="cell")
+    writer = movie.column_writer("cells", "track", np.int64, after="cell")
+    spans, counts = [], []
+    for span in movie.frame_chunks("cells"):
+        cells = cells_with_tracks(movie.read("cells", TRACK_READS["cells"], frames=span), tracker, span)
+        track = cells["track"].to_numpy(np.int64)
+        writer.write(track)
+        spans.append(track_spans(cells["frame"].to_numpy(np.int64), track, cells["is_border"].to_numpy(bool)))
+        counts.append(CellCounts.of(cells))
+    writer.close()
+    del cells, track
+    counts = CellCounts.join(counts)
     # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"
     parents = src.parents if keep_ids else tracker.parents
-    lineage = lineage_table(cells[["frame", "track"]], parents, cells["is_border"].to_numpy(bool))
-    lineage = check_divisions(lineage, cells, options.division_min_frames, options.division_min_cycle,
+    frames = (int(counts.frames[0]), int(counts.frames[-1])) if len(counts.frames) else (0, 0)
+    lineage = lineage_from_spans(join_spans(spans), parents, frames)
+    checked = _rows_of_tracks(movie, checked_tracks(lineage))
+    lineage = check_divisions(lineage, checked, options.division_min_frames, options.division_min_cycle,
                               options.division_area_tolerance, 1 + options.max_gap)
-    movie.tables["lineage"] = check_extrusions(lineage, cells)
-    movie.summary["tracking"] = tracking_summary(tracker, cells, parents, movie.tables["lineage"])
+    movie.tables["lineage"] = check_extrusions(lineage, checked)
+    movie.summary["tracking"] = tracking_summary(tracker, counts, parents, movie.tables["lineage"])
     broken = tracking_warning(movie.summary["tracking"])
     if broken:
         warnings.warn(broken, HexatissueWarning, stacklevel=user_stacklevel())
     movie.options["track"] = options.replace(mode=movie.summary["tracking"]["resolved"])
     movie.states["track"] = None  # its per-cell-frame ids are in cells now; the later stages need the memory
+
+
+def _rows_of_tracks(movie, tracks):
+    """``frame``, ``track``, ``area`` of the cells of ``tracks`` (sorted), read chunk by chunk."""
+    parts = []
+    for span in movie.frame_chunks("cells"):
+        cells = movie.read("cells", ("frame", "track", "area"), frames=span)
+        parts.append(cells[in_sorted(cells["track"].to_numpy(np.int64), tracks)])
+    return pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0].reset_index(drop=True)
 
 
 def _defect_tracks(movie, options):

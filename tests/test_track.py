@@ -635,3 +635,36 @@ def test_untracked_real_stacks_report_only_divisions_that_pass_the_rules(real_da
     if name == "epitools":  # the issue's tracks 101 and 103, born by division, divide again 1-2 frames later
         born_again = rows[rows["mother"].isin([101, 103])]
         assert len(born_again) == 2 and born_again["reason"].str.contains("redivision").all()
+
+
+def test_spans_of_chunks_join_into_the_movies_lineage():
+    """track_spans per chunk of frames, joined, give the lineage of the whole movie: first and last rows (ties in
+    row order), border flags and counts, with tracks that skip frames and chunks."""
+    rng = np.random.default_rng(4)
+    frame = np.sort(rng.integers(0, 30, 600))
+    track = rng.integers(1, 40, 600)
+    border = rng.random(600) < 0.3
+    parents = {5: 2, 6: 2, 17: 9}
+    whole = lineage_table(pd.DataFrame({"frame": frame, "track": track}), parents, border)
+    for cuts in ([0, 30], [0, 7, 8, 19, 30], list(range(31))):
+        chunks = []
+        for lo, hi in zip(cuts[:-1], cuts[1:]):
+            at = (frame >= lo) & (frame < hi)
+            chunks.append(trk.track_spans(frame[at], track[at], border[at]))
+        joined = trk.lineage_from_spans(trk.join_spans(chunks), parents, (int(frame.min()), int(frame.max())))
+        pd.testing.assert_frame_equal(joined, whole)
+    extruded = set(whole.loc[whole["end"] == "extrusion", "track"].tolist())
+    assert extruded and trk.checked_tracks(whole).tolist() == sorted({2, 5, 6, 9, 17} | extruded)
+
+
+@pytest.mark.parametrize("mode", ["never", "always", "off"])
+def test_a_trackers_tracks_of_a_frame_range_are_its_rows_there(mode):
+    movie = voronoi_movie(40, (90, 100), 7, periodic=False, amplitude=0.8, seed=5)
+    stack = relabel_movie(np.stack([movie[t] for t in range(7)]), seed=5)[0]
+    tracker = trk.MovieTracker(mode)
+    for t in range(7):
+        tracker.add_valid(stack[t], t)
+    whole = tracker.tracks()
+    for first, last in [(0, 0), (1, 3), (4, 6), (5, 9), (8, 9)]:
+        want = whole[whole["frame"].between(first, last)].reset_index(drop=True)
+        pd.testing.assert_frame_equal(tracker.tracks((first, last)), want)

@@ -24,19 +24,20 @@ from __future__ import annotations
 
 from ..options import FOLLOW_MODES, TRACK_MODES
 from ..schema import deprecated_column_lists
-from .lineage import (DIVISION_REASONS, EXTRUSION_SHRINK, check_divisions, check_extrusions,
-                      division_rows, lineage_roots, lineage_table)
+from .lineage import (DIVISION_REASONS, EXTRUSION_SHRINK, check_divisions, check_extrusions, checked_tracks,
+                      division_rows, join_spans, lineage_from_spans, lineage_roots, lineage_table, track_spans)
 from .linking import match_frames
 from .movie import ID_CONSISTENCY, IdTracker, MovieTracker, SeparateTracker, cells_with_tracks, track_labels
 from .overlap import Overlaps, compact_frames, count_overlaps, frame_overlaps
-from .qc import EXTRUSION_SHARE, FAR_APART, MIN_EXTRUSIONS, tracking_qc, tracking_summary, tracking_warning
+from .qc import EXTRUSION_SHARE, FAR_APART, MIN_EXTRUSIONS, CellCounts, tracking_qc, tracking_summary, tracking_warning
 from .tracker import CONFIDENT_IOU, CONFIDENT_SHARE, REFIT_PX, Tracker
 
 __all__ = ["Tracker", "FOLLOW_MODES", "IdTracker", "SeparateTracker", "MovieTracker", "TRACK_MODES", "ID_CONSISTENCY",
            "track_labels", "compact_frames", "Overlaps", "count_overlaps", "frame_overlaps", "match_frames",
            "lineage_roots", "check_divisions", "check_extrusions", "EXTRUSION_SHRINK", "division_rows",
            "DIVISION_REASONS", "tracking_qc", "tracking_warning", "EXTRUSION_SHARE", "MIN_EXTRUSIONS", "FAR_APART",
-           "CONFIDENT_IOU", "CONFIDENT_SHARE", "REFIT_PX", "cells_with_tracks", "lineage_table", "tracking_summary"]
+           "CONFIDENT_IOU", "CONFIDENT_SHARE", "REFIT_PX", "cells_with_tracks", "lineage_table", "tracking_summary",
+           "track_spans", "join_spans", "lineage_from_spans", "checked_tracks", "CellCounts"]
 
 
 # the column lists of hexatissue 0.1, now read from the one registry

@@ -30,9 +30,20 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
         ``frame_start``, ``frame_end`` (frames), ``n_frames``, ``parent``
         (0 = none), ``begin``, ``end``.
     """
-    parents = parents or {}
     frame, track = tracks["frame"].to_numpy(np.int64), tracks["track"].to_numpy(np.int64)
     border = np.zeros(len(track), bool) if is_border is None else np.asarray(is_border, bool)
+    span = (int(frame.min()), int(frame.max())) if len(frame) else (0, 0)
+    return lineage_from_spans(track_spans(frame, track, border), parents, span)
+
+
+def track_spans(frame, track, border) -> pd.DataFrame:
+    """Each track's span over these rows of a movie: ``track``, ``frame_start``, ``frame_end``, ``n_frames``
+    (rows), ``border_start``, ``border_end`` (the ``border`` flag of its first and last row), sorted by track.
+
+    A track's first (last) row is the first (last) of its rows of its first
+    (last) frame, in row order.  The spans of consecutive chunks of a movie
+    join with :func:`join_spans`.
+    """
     # rows in (track, frame) order, ties in row order: one index sort instead of a sorted copy and a groupby
     order = np.lexsort((frame, track))
     by_track = track[order]
@@ -40,21 +51,56 @@ def lineage_table(tracks: pd.DataFrame, parents=None, is_border=None) -> pd.Data
     change[1:] = by_track[1:] != by_track[:-1]
     bounds = np.append(np.flatnonzero(change), len(order))
     first, last = order[bounds[:-1]], order[bounds[1:] - 1]  # each track's first and last row
-    out = pd.DataFrame({"track": by_track[bounds[:-1]], "frame_start": frame[first], "frame_end": frame[last],
-                        "n_frames": np.diff(bounds)})
-    del order, by_track, change
+    return pd.DataFrame({"track": by_track[bounds[:-1]], "frame_start": frame[first], "frame_end": frame[last],
+                         "n_frames": np.diff(bounds), "border_start": border[first], "border_end": border[last]})
+
+
+def join_spans(chunks) -> pd.DataFrame:
+    """The :func:`track_spans` of a movie from those of its consecutive chunks of frames (in frame order)."""
+    spans = pd.concat(list(chunks), ignore_index=True)
+    order = np.lexsort((spans["frame_start"].to_numpy(), spans["track"].to_numpy()))  # a chunk's frames: its own
+    spans = spans.iloc[order]
+    track = spans["track"].to_numpy()
+    start = np.r_[True, track[1:] != track[:-1]] if len(track) else np.zeros(0, bool)
+    bounds = np.append(np.flatnonzero(start), len(track))
+    first, last = bounds[:-1], bounds[1:] - 1
+    return pd.DataFrame({"track": track[first], "frame_start": spans["frame_start"].to_numpy()[first],
+                         "frame_end": spans["frame_end"].to_numpy()[last],
+                         "n_frames": np.add.reduceat(spans["n_frames"].to_numpy(), first) if len(first)
+                         else np.zeros(0, np.int64),
+                         "border_start": spans["border_start"].to_numpy(bool)[first],
+                         "border_end": spans["border_end"].to_numpy(bool)[last]})
+
+
+def lineage_from_spans(spans, parents=None, frames=(0, 0)) -> pd.DataFrame:
+    """:func:`lineage_table` from the tracks' :func:`track_spans` (the whole movie's), ``parents`` and the movie's
+    first and last frame with a cell (``frames``)."""
+    parents = parents or {}
+    out = pd.DataFrame({"track": spans["track"].to_numpy(np.int64),
+                        "frame_start": spans["frame_start"].to_numpy(np.int64),
+                        "frame_end": spans["frame_end"].to_numpy(np.int64),
+                        "n_frames": spans["n_frames"].to_numpy(np.int64)})
     out["parent"] = out["track"].map(parents).fillna(0).astype(np.int64)
-    t0, t1 = (frame.min(), frame.max()) if len(frame) else (0, 0)
+    t0, t1 = frames
     mothers = set(parents.values())
-    begin = np.where(border[first], "border", "appearance").astype(object)
+    begin = np.where(spans["border_start"].to_numpy(bool), "border", "appearance").astype(object)
     begin[out["parent"].to_numpy() > 0] = "division"
     begin[out["frame_start"].to_numpy() == t0] = "movie_start"
-    end = np.where(border[last], "border", "extrusion").astype(object)
+    end = np.where(spans["border_end"].to_numpy(bool), "border", "extrusion").astype(object)
     end[out["track"].isin(mothers).to_numpy()] = "division"
     end[out["frame_end"].to_numpy() == t1] = "movie_end"
     out["begin"] = pd.array(begin, dtype="string")
     out["end"] = pd.array(end, dtype="string")
     return validate(out.reset_index(drop=True), "lineage")
+
+
+def checked_tracks(lineage) -> np.ndarray:
+    """The tracks whose areas :func:`check_divisions` and :func:`check_extrusions` look at (sorted): daughters,
+    their mothers, and tracks that end by extrusion; the cells of the others can be left out of their ``cells``."""
+    parent = lineage["parent"].to_numpy(np.int64)
+    track = lineage["track"].to_numpy(np.int64)
+    extruded = (lineage["end"].astype(str) == "extrusion").to_numpy()
+    return np.unique(np.r_[track[parent > 0], parent[parent > 0], track[extruded]])
 
 
 #: Why a division is suspect (``lineage.division_reason``, several joined by ``;``), in the order they are checked.

@@ -11,7 +11,7 @@ from ..options import TRACK_MODES
 from ..progress import progress as progress_bar
 from .lineage import lineage_table
 from .linking import _check_fractions, _divisions
-from .overlap import _Compact, _compact, _contingency, _narrow, _stored_rows
+from .overlap import _Compact, _compact, _contingency, _frame_span, _narrow, _stored_rows
 from .tracker import Tracker, _Feed
 
 #: ``mode="auto"`` trusts the ids when at least this fraction of the linked cells keep their id (see :class:`MovieTracker`).
@@ -87,9 +87,11 @@ class IdTracker(_Feed):
         own id is such a cell (NaN before two frames with cells)."""
         return self.n_same / self.n_linked if self.n_linked else float("nan")
 
-    def tracks(self) -> pd.DataFrame:
-        """``frame``, ``cell`` (label id), ``track`` (= ``cell``) of every cell added so far."""
-        frames, cells = _stored_rows(self._frames, self._cells)
+    def tracks(self, frames=None) -> pd.DataFrame:
+        """``frame``, ``cell`` (label id), ``track`` (= ``cell``) of every cell added so far (of frames ``first``
+        to ``last`` when ``frames = (first, last)``)."""
+        at = _frame_span(self._frames, frames)
+        frames, cells = _stored_rows(self._frames[at], self._cells[at])
         return pd.DataFrame({"frame": frames, "cell": cells, "track": cells.copy()}, copy=False)  # new arrays
 
     @property
@@ -124,10 +126,14 @@ class SeparateTracker:
         self._frames.append(int(frame))
         self._cells.append(_narrow(np.asarray(ids, np.int64)))
 
-    def tracks(self) -> pd.DataFrame:
-        """``frame``, ``cell``, ``track`` (1, 2, ... in frame and cell order)."""
-        frames, cells = _stored_rows(self._frames, self._cells)
-        return pd.DataFrame({"frame": frames, "cell": cells, "track": np.arange(1, len(cells) + 1, dtype=np.int64)},
+    def tracks(self, frames=None) -> pd.DataFrame:
+        """``frame``, ``cell``, ``track`` (1, 2, ... in frame and cell order; of frames ``first`` to ``last``
+        when ``frames = (first, last)``)."""
+        at = _frame_span(self._frames, frames)
+        before = sum(len(c) for c in self._cells[:at.start])  # the tracks of the earlier frames
+        frames, cells = _stored_rows(self._frames[at], self._cells[at])
+        return pd.DataFrame({"frame": frames, "cell": cells,
+                             "track": np.arange(before + 1, before + len(cells) + 1, dtype=np.int64)},
                             copy=False)  # new arrays: no copy
 
     @property
@@ -224,9 +230,10 @@ class MovieTracker:
     def _chosen(self):
         return {"never": self.ids, "always": self.overlap, "off": self.separate}[self.decision()[0]]
 
-    def tracks(self) -> pd.DataFrame:
-        """``frame``, ``cell``, ``track`` of the chosen tracking."""
-        return self._chosen().tracks()
+    def tracks(self, frames=None) -> pd.DataFrame:
+        """``frame``, ``cell``, ``track`` of the chosen tracking (of frames ``first`` to ``last`` when
+        ``frames = (first, last)``)."""
+        return self._chosen().tracks(frames)
 
     @property
     def parents(self) -> dict:
@@ -286,13 +293,14 @@ def track_labels(stack, min_iou=0.2, child_fraction=0.6, mother_fraction=0.2, ma
     return tracks, lineage
 
 
-def cells_with_tracks(cells, tracker):
+def cells_with_tracks(cells, tracker, frames=None):
     """``cells`` with a ``track`` column after ``cell``, from a :class:`MovieTracker`'s ``(frame, cell) -> track``.
 
     The tracker must have seen exactly the cells of ``cells`` (the mesh's
-    own labels, once each).
+    own labels, once each); ``frames = (first, last)``: ``cells`` are the
+    cells of those frames (a chunk of the movie), None: of every frame.
     """
-    ids = tracker.tracks()
+    ids = tracker.tracks(frames)
     if all(np.array_equal(ids[c].to_numpy(), cells[c].to_numpy()) for c in ("frame", "cell")):
         track = ids["track"].to_numpy(np.int64)  # the mesh's rows in the tracker's order (frame, id): no search
     else:

@@ -1,6 +1,7 @@
 """Label frames in compact form and the overlaps of two frames (the contingency table of their cells)."""
 from __future__ import annotations
 
+from bisect import bisect_left, bisect_right
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -60,6 +61,14 @@ def _narrow(values: np.ndarray) -> np.ndarray:
     if len(values) and (values.min() < small.min or values.max() > small.max):
         return values
     return values.astype(np.int32)
+
+
+def _frame_span(frames, span) -> slice:
+    """The positions of a tracker's frame list ``frames`` (ascending) inside ``span`` = ``(first, last)``: all of
+    them when ``span`` is None."""
+    if span is None:
+        return slice(0, len(frames))
+    return slice(bisect_left(frames, span[0]), bisect_right(frames, span[1]))
 
 
 def _stored_rows(frames, cells) -> tuple[np.ndarray, np.ndarray]:

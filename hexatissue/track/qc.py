@@ -1,10 +1,12 @@
 """How well the tracking went: per-frame checks, the warning they raise and the run's summary."""
 from __future__ import annotations
 
+import functools
+from typing import NamedTuple
+
 import numpy as np
 import pandas as pd
 
-from ..geometry import distinct_count
 from .tracker import CONFIDENT_SHARE
 
 #: A frame's tracking is doubtful when more than this share of its cells end inside the tissue (extrusions) ...
@@ -16,7 +18,32 @@ MIN_EXTRUSIONS = 2
 FAR_APART = 0.5
 
 
-def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame, links: pd.DataFrame | None = None) -> pd.DataFrame:
+class CellCounts(NamedTuple):
+    """What the tracking summary counts of a movie's tracked cells, gathered a chunk of frames at a time
+    (:meth:`of` a chunk's ``frame``, ``cell``, ``track``; :meth:`join` of consecutive chunks)."""
+
+    frames: np.ndarray  # the frames with cells, sorted
+    per_frame: np.ndarray  # the cells of each
+    ids: np.ndarray  # the distinct label ids, sorted
+    tracks: np.ndarray  # the distinct tracks, sorted
+    rows_track_not_cell: int  # rows whose track is not their label id
+
+    @classmethod
+    def of(cls, cells) -> "CellCounts":
+        frames, per_frame = np.unique(cells["frame"].to_numpy(np.int64), return_counts=True)
+        ids, tracks = cells["cell"].to_numpy(np.int64), cells["track"].to_numpy(np.int64)
+        return cls(frames, per_frame.astype(np.int64), np.unique(ids), np.unique(tracks), int((tracks != ids).sum()))
+
+    @classmethod
+    def join(cls, chunks) -> "CellCounts":
+        chunks = list(chunks)
+        union = functools.partial(functools.reduce, np.union1d)
+        return cls(np.concatenate([c.frames for c in chunks]), np.concatenate([c.per_frame for c in chunks]),
+                   union([c.ids for c in chunks]), union([c.tracks for c in chunks]),
+                   sum(c.rows_track_not_cell for c in chunks))
+
+
+def tracking_qc(lineage: pd.DataFrame, cells, links: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per frame: cells, tracks that appear and disappear, divisions plausible and suspect, and whether the
     tracking there is doubtful.
 
@@ -25,8 +52,8 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame, links: pd.DataFrame 
     lineage : pandas.DataFrame
         :func:`lineage_table`, checked by :func:`check_divisions` (without
         ``division_suspect`` every division counts as plausible).
-    cells : pandas.DataFrame
-        ``frame`` (one row per cell).
+    cells : pandas.DataFrame or CellCounts
+        ``frame`` (one row per cell), or the counts of a movie's cells.
     links : pandas.DataFrame, optional
         :meth:`Tracker.link_qc` (``frame``, ``link_iou``, ``confident``,
         ``motion``), e.g. from ``summary["tracking"]["links"]`` of an analysis.
@@ -49,10 +76,11 @@ def tracking_qc(lineage: pd.DataFrame, cells: pd.DataFrame, links: pd.DataFrame 
         frame's cells (and at least :data:`MIN_EXTRUSIONS`) ended inside the
         tissue there, or ``confident`` < :data:`FAR_APART`.
     """
-    frames = np.unique(cells["frame"].to_numpy(np.int64))
-    out = pd.DataFrame({"frame": frames})
-    out["cells"] = np.searchsorted(np.sort(cells["frame"].to_numpy(np.int64)), frames, "right") - \
-        np.searchsorted(np.sort(cells["frame"].to_numpy(np.int64)), frames, "left")
+    if isinstance(cells, CellCounts):
+        frames, per_frame = cells.frames, cells.per_frame
+    else:
+        frames, per_frame = np.unique(cells["frame"].to_numpy(np.int64), return_counts=True)
+    out = pd.DataFrame({"frame": frames, "cells": per_frame.astype(np.int64)})
     begin, end = lineage["begin"].astype(str), lineage["end"].astype(str)
     # the frame after a track's last one, in the movie's own frame numbers
     after = np.searchsorted(frames, lineage["frame_end"].to_numpy(np.int64), "right")
@@ -121,11 +149,14 @@ def tracking_warning(summary: dict) -> str | None:
 
 def tracking_summary(tracker, cells, parents, lineage=None):
     """The tracker's decision and what it changed: rows whose track differs from the id, tracks, divisions
-    (plausible and suspect ones when ``lineage`` was checked by :func:`check_divisions`)."""
+    (plausible and suspect ones when ``lineage`` was checked by :func:`check_divisions`).
+
+    ``cells``: the tracked cells (``frame``, ``cell``, ``track``), or their :class:`CellCounts`.
+    """
     out = tracker.summary()
-    ids, tracks = cells["cell"].to_numpy(), cells["track"].to_numpy()
-    out.update(rows_track_not_cell=int((tracks != ids).sum()), n_ids=distinct_count(ids),
-               n_tracks=distinct_count(tracks), n_divisions=len(set(parents.values())))
+    counts = cells if isinstance(cells, CellCounts) else CellCounts.of(cells)
+    out.update(rows_track_not_cell=counts.rows_track_not_cell, n_ids=len(counts.ids), n_tracks=len(counts.tracks),
+               n_divisions=len(set(parents.values())))
     if lineage is not None and "division_suspect" in lineage.columns:
         daughters = lineage[lineage["parent"] > 0]
         suspect = daughters.groupby("parent")["division_suspect"].any()
@@ -137,7 +168,7 @@ def tracking_summary(tracker, cells, parents, lineage=None):
     if lineage is not None and "extrusion_unconfirmed" in lineage.columns:
         out["n_extrusions_unconfirmed"] = int(lineage["extrusion_unconfirmed"].sum())
     if lineage is not None and out.get("resolved") != "off":  # untracked frames: every cell ends, nothing to doubt
-        qc = tracking_qc(lineage, cells, out.get("links"))
+        qc = tracking_qc(lineage, counts, out.get("links"))
         out["doubtful_frames"] = qc.loc[qc["doubtful"], "frame"].astype(int).tolist()
         out["interior_extrusions"] = int(qc["extrusions"].sum())
         out["interior_appearances"] = int(qc["interior_appearances"].sum())

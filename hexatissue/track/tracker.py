@@ -10,7 +10,7 @@ from ..mesh.labels import validate_labels
 from ..options import FOLLOW_MODES
 from ._motion import Field, fit_field, outline_piv, warp
 from .linking import _assign, _check_fractions, _link, _match
-from .overlap import _Compact, _compact, _contingency, _index_overlaps, _narrow, _stored_rows
+from .overlap import _Compact, _compact, _contingency, _index_overlaps, _frame_span, _narrow, _stored_rows
 
 #: A link is confident at this IoU after warping (it then feeds the fit of the motion field).
 CONFIDENT_IOU = 0.5
@@ -284,10 +284,12 @@ class Tracker(_Feed):
         cols = ["frame", "cells_prev", "cells", "links", "link_iou", "confident", "motion", "measured", "rescued"]
         return pd.DataFrame(self._links, columns=cols)
 
-    def tracks(self) -> pd.DataFrame:
-        """``frame``, ``cell`` (label id), ``track`` of every cell added so far."""
-        frame, cell = _stored_rows(self._frames, self._cells)
-        track = np.concatenate(self._tracks, dtype=np.int64) if self._tracks else np.empty(0, np.int64)
+    def tracks(self, frames=None) -> pd.DataFrame:
+        """``frame``, ``cell`` (label id), ``track`` of every cell added so far (of frames ``first`` to ``last``
+        when ``frames = (first, last)``)."""
+        at = _frame_span(self._frames, frames)
+        frame, cell = _stored_rows(self._frames[at], self._cells[at])
+        track = np.concatenate(self._tracks[at], dtype=np.int64) if self._tracks[at] else np.empty(0, np.int64)
         return pd.DataFrame({"frame": frame, "cell": cell, "track": track}, copy=False)  # new arrays: no copy
 
     @property
