@@ -617,9 +617,8 @@ def _t1_events(movie, options):
 
 
 def _cell_events(movie, options):
-    """Per-cell T1 statistics."""
-    movie.tables["cell_events"] = cell_event_stats(movie.tables["events"],
-                                                   movie.read("cells", ("frame", "cell", "track")))
+    """Per-cell T1 statistics; the rows of each track are the lineage's ``n_frames``."""
+    movie.tables["cell_events"] = cell_event_stats(movie.tables["events"], lineage=movie.tables["lineage"])
 
 
 def _deformation(movie, options):
@@ -708,7 +707,7 @@ STAGES = (
           run=_flow, enabled=_enabled, views="hexatissue.views.flow"),
     Stage("T1 events", EventOptions, "movie", reads=("cells", "edges", "vertices"),
           writes=("events", "neighbour_events"), run=_t1_events, views="hexatissue.views.events"),
-    Stage("cell events", EventOptions, "movie", reads=("events", "cells"), writes=("cell_events",),
+    Stage("cell events", EventOptions, "movie", reads=("events", "lineage"), writes=("cell_events",),
           run=_cell_events),
     Stage("deformation budget", DeformationOptions, "movie",
           reads=("cells", "vertices", "cell_vertices", "lineage", "events", "neighbour_events", "grid"),

@@ -848,3 +848,16 @@ def test_two_losses_seeing_one_gain_are_told_apart_by_junction_length_not_ids():
     assert pairing(1, 2, 3, 4, 5) == {1, 2}  # a-b had shrunk to 0.7 px, a-e was 6 px long
     assert pairing(3, 2, 1, 4, 5) == {2, 3}  # the same cells numbered the other way round
     assert pairing(5, 4, 3, 1, 2) == {4, 5}
+
+
+def test_cell_event_stats_from_the_lineage_equal_those_from_the_cells():
+    """analyze counts each track's rows from the lineage (no read of the movie's cells): the same table."""
+    from hexatissue import EventOptions, analyze
+
+    movie = t1_movie(periodic=False, seed=4)
+    result = analyze(movie.labels, box=movie.box, workers=1, progress=False,
+                     events=EventOptions(min_length=movie.min_length, censor=movie.censor))
+    assert len(result.events) and (result.cell_events["n_frames"] > 0).all()
+    pd.testing.assert_frame_equal(result.cell_events, cell_event_stats(result.events, result.cells))
+    pd.testing.assert_frame_equal(cell_event_stats(result.events, lineage=result.lineage.sample(frac=1, random_state=0)),
+                                  result.cell_events)

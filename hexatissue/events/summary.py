@@ -78,7 +78,8 @@ def _per_track(tracks, track, chosen, values=None):
         return np.where(count > 0, total / count, np.nan)
 
 
-def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) -> pd.DataFrame:
+def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None, lineage: pd.DataFrame | None = None
+                     ) -> pd.DataFrame:
     """Per-cell T1 statistics (columns: ``hexatissue.schema.TABLES["cell_events"]``).
 
     Parameters
@@ -88,6 +89,9 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
     cells : pandas.DataFrame, optional
         With ``frame`` and ``track`` (or ``cell``): every cell gets a row,
         also those without events, and ``n_frames`` is filled.
+    lineage : pandas.DataFrame, optional
+        The movie's lineage (:func:`hexatissue.track.lineage_table`), in place
+        of ``cells``: its ``track`` and ``n_frames`` (rows per track) are the same.
 
     Returns
     -------
@@ -97,7 +101,10 @@ def cell_event_stats(events: pd.DataFrame, cells: pd.DataFrame | None = None) ->
         ``mean_intercalation_interval`` (frames).
     """
     long = _participants(events)
-    if cells is not None:  # rows per track: a sort of one column (a hash table of it costs far more)
+    if lineage is not None:
+        order = np.argsort(lineage["track"].to_numpy(np.int64), kind="stable")
+        tracks, n_frames = lineage["track"].to_numpy(np.int64)[order], lineage["n_frames"].to_numpy(np.int64)[order]
+    elif cells is not None:  # rows per track: a sort of one column (a hash table of it costs far more)
         tracks, n_frames = np.unique(track_ids(cells), return_counts=True)
     else:
         tracks = np.unique(long["track"])
