@@ -446,7 +446,8 @@ def _delta(i, j, gamma, normal, e1, e2, p):
     """The wrapped p-fold phase step from cell i to cell j after transport, antisymmetric in (i, j) by construction."""
     lo, hi = np.minimum(i, j), np.maximum(i, j)
     phi = transport_angles(normal[lo], e1[lo], normal[hi], e1[hi], e2[hi])
-    step = np.angle(gamma[hi] * np.conj(gamma[lo]) * np.exp(-1j * p * phi))
+    phase = np.angle(gamma)  # phases apart: a product of two tiny gamma_p (p = 1 about the vertex mean) would vanish
+    step = np.angle(np.exp(1j * (phase[hi] - phase[lo] - p * phi)))
     return np.where(i < j, step, -step)
 
 
