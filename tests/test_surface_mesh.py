@@ -397,3 +397,5 @@ def test_a_label_property_named_by_argument_and_unoriented_faces(tmp_path):
         read_mesh(path, label="nope")
     with pytest.raises(InputError, match="not consistently oriented"):
         mesh_tissue(np.eye(4, 3), [[0, 1, 2], [0, 1, 3]], [1, 2])
+    with pytest.raises(InputError, match="not a manifold"):
+        mesh_tissue(np.random.default_rng(0).normal(size=(5, 3)), [[0, 1, 2], [1, 0, 3], [0, 1, 4]], [1, 2, 3])

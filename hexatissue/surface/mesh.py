@@ -103,6 +103,8 @@ def solid_angles(a, b, c):
 
 
 def _half_edges(faces, n_vertices, name):
+    """Half-edges ``3 f + k`` (from corner k to corner k+1 of face f): their ends, next and previous in the face,
+    and twin (-1 on the mesh's edge), by one sort of the undirected edges."""
     m = len(faces)
     frm = faces.ravel()
     to = faces[:, [1, 2, 0]].ravel()
@@ -110,17 +112,26 @@ def _half_edges(faces, n_vertices, name):
     base = h - h % 3
     nxt = base + (h % 3 + 1) % 3
     prv = base + (h % 3 + 2) % 3
-    key = frm * np.int64(n_vertices) + to
+    key = np.minimum(frm, to) * np.int64(n_vertices) + np.maximum(frm, to)
     order = np.argsort(key, kind="stable")
     sk = key[order]
-    dup = np.flatnonzero(sk[1:] == sk[:-1])
-    if len(dup):
-        a, b = divmod(int(sk[dup[0]]), n_vertices)
-        raise InputError(f"{name}: the edge from vertex {a} to vertex {b} runs the same way in two faces: the faces "
-                         f"are not consistently oriented, or more than two faces share the edge (not a manifold)")
-    tkey = to * np.int64(n_vertices) + frm
-    pos = np.minimum(np.searchsorted(sk, tkey), max(len(sk) - 1, 0))
-    twin = np.where(sk[pos] == tkey, order[pos], -1) if len(sk) else np.zeros(0, np.int64)
+    same = sk[1:] == sk[:-1]
+    twin = np.full(3 * m, -1, np.int64)
+    if same.any():
+        triple = same[1:] & same[:-1]
+        if triple.any():
+            a, b = divmod(int(sk[np.flatnonzero(triple)[0] + 1]), n_vertices)
+            raise InputError(f"{name}: the edge between vertices {a} and {b} belongs to more than two faces: the "
+                             f"mesh is not a manifold")
+        i = np.flatnonzero(same)
+        h0, h1 = order[i], order[i + 1]
+        wrong = frm[h0] == frm[h1]
+        if wrong.any():
+            k = int(np.flatnonzero(wrong)[0])
+            raise InputError(f"{name}: the edge from vertex {int(frm[h0[k]])} to vertex {int(to[h0[k]])} runs the "
+                             f"same way in faces {int(h0[k] // 3)} and {int(h1[k] // 3)}: the faces are not "
+                             f"consistently oriented")
+        twin[h0], twin[h1] = h1, h0
     return frm, to, nxt, prv, twin
 
 
@@ -240,11 +251,11 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     bnd = (lab > 0) & (other != lab)
 
     # ---- cells: areas, centroids, normals
-    cells, inverse = np.unique(L, return_inverse=True)
-    keep_face = cells[inverse] > 0
-    first = 1 if len(cells) and cells[0] == 0 else 0
-    cells = cells[first:]
-    idx = inverse - first  # cell index of each face (-1: background)
+    present = np.bincount(L) > 0 if m else np.zeros(1, bool)
+    present[0] = False
+    cells = np.flatnonzero(present)
+    idx = (np.cumsum(present) - 1)[L]  # cell index of each face (-1: background)
+    keep_face = L > 0
     nc = len(cells)
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     vec = 0.5 * np.cross(b - a, c - a)
@@ -267,8 +278,9 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     on_edge = np.zeros(n, bool)
     on_edge[frm[twin < 0]] = True
     on_edge[to[twin < 0]] = True
-    pairs = np.unique(np.r_[F.ravel() * np.int64(nc + 1) + np.repeat(idx + 1, 3),
-                            np.flatnonzero(on_edge) * np.int64(nc + 1)])
+    pairs = np.sort(np.r_[F.ravel() * np.int64(nc + 1) + np.repeat(idx + 1, 3),
+                          np.flatnonzero(on_edge) * np.int64(nc + 1)])
+    pairs = pairs[np.r_[True, pairs[1:] != pairs[:-1]]] if len(pairs) else pairs
     pv, pl = np.divmod(pairs, nc + 1)
     degree = np.bincount(pv, minlength=n)
     touches0 = np.zeros(n, bool)
@@ -366,7 +378,7 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
 
     defects, totals = _defects(V, F, L, frm, prv, twin, idx, face_of, jv[~touches0[jv]], normal, e1, e2, gammas,
                                orders, cells, frame)
-    used = np.unique(F)
+    used = np.flatnonzero(np.bincount(F.ravel(), minlength=n))
     n_edges = (3 * m + int((twin < 0).sum())) // 2
     ft = {"frame": np.array([frame], np.int64), "n_cells": np.array([nc], np.int64),
           "n_vertices": np.array([len(jv)], np.int64), "n_junctions": np.array([len(jt["junction"])], np.int64),
