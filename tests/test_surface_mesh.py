@@ -40,12 +40,12 @@ def sphere():
 # ---------------------------------------------------------------------------------------------- measures
 
 
-@pytest.mark.parametrize("subdivisions, area_tol, perimeter_tol", [(3, 5e-3, 3e-3), (4, 1.3e-3, 8e-4)])
+@pytest.mark.parametrize("subdivisions, area_tol, perimeter_tol", [(2, 1.5e-3, 6e-4), (3, 4e-4, 1.5e-4)])
 def test_exact_spherical_voronoi_cells_give_their_areas_and_perimeters_to_second_order(subdivisions, area_tol,
                                                                                        perimeter_tol):
     # each exact cell fanned from its seed and cut 4^s ways on the sphere: the flat triangles miss the sphere by
-    # O(h^2) (h ~ cell size / 2^s), so the errors fall fourfold per subdivision (measured 100 cells: s=4 max
-    # 0.11 %, s=5 0.03 %)
+    # O(h^2) (h ~ cell size / 2^s), so the errors fall fourfold per subdivision (benchmarks/results_surface_mesh.md,
+    # 5 x 100 cells: area max 0.107 % at s=2, 0.027 % at s=3)
     t = sphere_tissue(100, radius=100.0, seed=0, subdivisions=subdivisions, exact=True)
     c = _against_truth(t, _tables(t))
     assert len(c) == 100 and (c.n_sides == c.n_sides_true).all() and (c.n_neighbours == c.n_sides_true).all()
@@ -70,8 +70,8 @@ def mesh_area(t):
 def test_labelled_icosphere_areas_converge_with_the_mesh_and_the_polygon_perimeter_is_unbiased(
         subdivisions, median_tol, max_tol):
     # faces labelled by the nearest seed: each boundary is a staircase of mesh edges, the area off by about
-    # +-(edge length x perimeter / 4) per cell, partly cancelling (measured 100 cells of radius 100: median
-    # 0.72 % / max 3.5 % at s=5, edges 3.5 px; 0.26 % / 0.9 % at s=6, edges 1.7 px)
+    # +-(edge length x perimeter / 4) per cell, partly cancelling (benchmarks/results_surface_mesh.md, 5 x 100
+    # cells of radius 100: median 0.67 % / max 5.6 % at s=5, edges 3.8 px; 0.23 % / 1.3 % at s=6, edges 1.9 px)
     t = sphere_tissue(100, radius=100.0, seed=0, subdivisions=subdivisions)
     c = _against_truth(t, _tables(t))
     area = np.abs(c.area / c.area_true - 1)
