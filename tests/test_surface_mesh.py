@@ -399,3 +399,17 @@ def test_a_label_property_named_by_argument_and_unoriented_faces(tmp_path):
         mesh_tissue(np.eye(4, 3), [[0, 1, 2], [0, 1, 3]], [1, 2])
     with pytest.raises(InputError, match="not a manifold"):
         mesh_tissue(np.random.default_rng(0).normal(size=(5, 3)), [[0, 1, 2], [1, 0, 3], [0, 1, 4]], [1, 2, 3])
+
+
+def test_faces_ordered_the_other_way_turn_the_normals_and_keep_every_defect(sphere):
+    a = _tables(sphere)
+    b = mesh_tissue(sphere.vertices, sphere.faces[:, ::-1], sphere.labels)
+    ca, cb = a["mesh_cells"], b["mesh_cells"]
+    np.testing.assert_allclose(cb[["normal_x", "normal_y", "normal_z"]], -ca[["normal_x", "normal_y", "normal_z"]],
+                               atol=1e-15)
+    for q in (6, 2):  # the frame's e2 turns over: gamma_p is conjugated
+        np.testing.assert_allclose(cb[f"gamma{q}_re"] + 1j * cb[f"gamma{q}_im"],
+                                   ca[f"gamma{q}_re"] - 1j * ca[f"gamma{q}_im"], atol=1e-12)
+    key = ["p", "vertex", "charge"]
+    pd.testing.assert_frame_equal(a["mesh_defects"].sort_values(key)[key].reset_index(drop=True),
+                                  b["mesh_defects"].sort_values(key)[key].reset_index(drop=True))
