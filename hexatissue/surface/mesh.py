@@ -480,7 +480,8 @@ def mesh_tables(meshes, *, p=None, reference=(1.0, 0.0, 0.0)) -> dict:
 
 
 def read_mesh_tables(paths, *, label=None, p=None, reference=(1.0, 0.0, 0.0)) -> dict:
-    """Read mesh files (:func:`read_mesh`; several = frames, in the order given) and measure them (:func:`mesh_tables`)."""
+    """Read mesh files (:func:`read_mesh`; several = frames, in the order given) and measure them
+    (:func:`mesh_tables`)."""
     if isinstance(paths, (str, bytes)) or hasattr(paths, "__fspath__"):
         paths = [paths]
     return mesh_tables((read_mesh(path, label=label) for path in paths), p=p, reference=reference)
