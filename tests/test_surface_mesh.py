@@ -69,8 +69,8 @@ def mesh_area(t):
 @pytest.mark.parametrize("subdivisions, median_tol, max_tol", [(5, 0.012, 0.06), (6, 0.005, 0.02)])
 def test_labelled_icosphere_areas_converge_with_the_mesh_and_the_polygon_perimeter_is_unbiased(
         subdivisions, median_tol, max_tol):
-    # faces labelled by the nearest seed: each boundary is a staircase of mesh edges, the area off by about
-    # +-(edge length x perimeter / 4) per cell, partly cancelling (benchmarks/results_surface_mesh.md, 5 x 100
+    # faces labelled by the nearest seed: each boundary is a staircase of mesh edges, ~P/h faces along it each
+    # moving the area by a part of h^2 with either sign: errors ~ h^1.5 (benchmarks/results_surface_mesh.md, 5 x 100
     # cells of radius 100: median 0.67 % / max 5.6 % at s=5, edges 3.8 px; 0.23 % / 1.3 % at s=6, edges 1.9 px)
     t = sphere_tissue(100, radius=100.0, seed=0, subdivisions=subdivisions)
     c = _against_truth(t, _tables(t))
