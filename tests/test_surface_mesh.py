@@ -264,6 +264,10 @@ def test_cli_writes_the_tables_with_units_for_several_frames(tmp_path, capsys):
     assert (tmp_path / "out" / "mesh_defects.csv").exists()
     assert main(["surface-mesh", str(tmp_path / "missing.ply"), "--out", str(tmp_path / "o2")]) == 2
     assert "missing.ply" in capsys.readouterr().err
+    assert main(["surface-mesh", str(paths[0]), "--out", str(tmp_path / "o3"), "--label", "foo"]) == 2
+    assert "label property (--label) 'foo' missing" in capsys.readouterr().err
+    assert main(["surface-mesh", str(paths[0]), "--out", str(tmp_path / "o4"), "--reference", "0", "0", "0"]) == 2
+    assert "--reference must be" in capsys.readouterr().err
     back = read_mesh_tables(paths)
     pd.testing.assert_frame_equal(back["mesh_cells"], cells)
 
