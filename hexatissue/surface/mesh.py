@@ -318,7 +318,7 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     is_j = junction[frm[B]]
     on_best = best[loop_cell] == loop
     poly_he = B[on_best & is_j]
-    poly_cell = loop_cell[on_best & is_j]  # in loop order, loops in cell order? sort by cell, stable
+    poly_cell = loop_cell[on_best & is_j]  # in loop order; one loop per cell, so a stable sort by cell keeps it
     srt = np.argsort(poly_cell, kind="stable")
     poly_he, poly_cell = poly_he[srt], poly_cell[srt]
     n_sides = np.bincount(poly_cell, minlength=nc)
