@@ -326,7 +326,8 @@ SURFACE_MESH_TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     "mesh_junctions": {
         "frame": ("i", "frame", "the mesh's position among the meshes read"),
         "junction": ("i", "", "junction id"),
-        "cell_a": ("i", "", "the cell on the left going from vertex_a to vertex_b, seen from the side the normals face"),
+        "cell_a": ("i", "", "the cell on the left going from vertex_a to vertex_b, seen from the side the normals "
+                   "face"),
         "cell_b": ("i", "", "the cell on the right (0: the background or the mesh's edge)"),
         "vertex_a": ("i", "", "mesh vertex where the junction starts"),
         "vertex_b": ("i", "", "mesh vertex where the junction ends"),
