@@ -23,7 +23,7 @@ __all__ = ["main"]
 
 # stages that register their own subcommand with ``add_parser(subparsers)``
 SUBCOMMAND_MODULES = ("hexatissue.simulate.command", "hexatissue.hydro.command", "hexatissue.workflows.command",
-                      "hexatissue.exchange.command", "hexatissue.benchmark.command")
+                      "hexatissue.exchange.command", "hexatissue.benchmark.command", "hexatissue.surface.command")
 #: What compiling the kernels cost, measured (benchmarks/results_first_run.md).
 COMPILE_TEXT = "measured: 38-54 CPU-seconds, 59-107 s on a shared 2-core machine at load 5-6"
 DEBUG_HELP = "on an error, show the Python traceback instead of one line"

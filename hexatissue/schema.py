@@ -17,7 +17,7 @@ import pandas as pd
 
 from .errors import InputError
 
-__all__ = ["TABLES", "DEFORMATION_TERMS", "ISOTROPIC_TERMS", "validate", "describe", "column_units", "require_columns", "empty_table", "track_ids", "interior_mask",
+__all__ = ["TABLES", "SURFACE_MESH_TABLES", "DEFORMATION_TERMS", "ISOTROPIC_TERMS", "validate", "describe", "column_units", "require_columns", "empty_table", "track_ids", "interior_mask",
            "FrameRows", "rows_by_frame"]
 
 #: The terms of the deformation budget (``deformation`` table), each a shear rate with ``_xx`` and ``_xy`` columns.
@@ -287,6 +287,89 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     },
 }
 
+#: The tables of labelled surface meshes (:func:`hexatissue.surface.mesh_tissue`, ``hexatissue surface-mesh``): not
+#: tables of a Movie (``analyze`` does not make them), but described, validated and written with their units alike.
+SURFACE_MESH_TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
+    "mesh_cells": {
+        "frame": ("i", "frame", "the mesh's position among the meshes read (0 for one mesh)"),
+        "cell": ("i", "", "the cell's label in the mesh"),
+        "x": ("f", "px", "area centroid of the cell's faces, x (inside a curved surface, not on it)"),
+        "y": ("f", "px", "area centroid of the cell's faces, y"),
+        "z": ("f", "px", "area centroid of the cell's faces, z"),
+        "area": ("f", "px^2", "sum of the areas of the cell's faces"),
+        "perimeter": ("f", "px", "length of the cell's boundary (every loop) along the mesh edges"),
+        "polygon_perimeter": ("f", "px", "perimeter of the polygon of its junction vertices (straight sides; NaN "
+                              "below 3 sides)"),
+        "n_sides": ("i", "", "junction vertices on the cell's longest boundary loop (its polygon's vertices)"),
+        "n_neighbours": ("i", "", "cells sharing a boundary with the cell"),
+        "n_boundaries": ("i", "", "boundary loops of the cell (> 1: holes or pieces)"),
+        "n_faces": ("i", "", "mesh faces of the cell"),
+        "is_border": ("b", "", "the cell touches the background (label 0) or the mesh's edge"),
+        "normal_x": ("f", "", "unit normal (the vector area of its faces), x"),
+        "normal_y": ("f", "", "unit normal, y"),
+        "normal_z": ("f", "", "unit normal, z"),
+        "e1_x": ("f", "", "first axis of the cell's tangent frame (the reference direction projected), x"),
+        "e1_y": ("f", "", "first axis of the tangent frame, y"),
+        "e1_z": ("f", "", "first axis of the tangent frame, z"),
+        "gamma{p}_re": ("f", "", "real part of gamma_p of the junction polygon in the tangent frame"),
+        "gamma{p}_im": ("f", "", "imaginary part of gamma_p in the tangent frame"),
+    },
+    "mesh_vertices": {
+        "frame": ("i", "frame", "the mesh's position among the meshes read"),
+        "vertex": ("i", "", "index of the mesh vertex"),
+        "x": ("f", "px", "position, x"),
+        "y": ("f", "px", "position, y"),
+        "z": ("f", "px", "position, z"),
+        "n_cells": ("i", "", "cells meeting at the vertex"),
+        "is_border": ("b", "", "the background or the mesh's edge meets there too"),
+    },
+    "mesh_junctions": {
+        "frame": ("i", "frame", "the mesh's position among the meshes read"),
+        "junction": ("i", "", "junction id"),
+        "cell_a": ("i", "", "the cell on the left going from vertex_a to vertex_b, seen from the side the normals "
+                   "face"),
+        "cell_b": ("i", "", "the cell on the right (0: the background or the mesh's edge)"),
+        "vertex_a": ("i", "", "mesh vertex where the junction starts"),
+        "vertex_b": ("i", "", "mesh vertex where the junction ends"),
+        "length": ("f", "px", "length along the mesh edges"),
+        "chord": ("f", "px", "straight distance between its end vertices"),
+    },
+    "mesh_defects": {
+        "frame": ("i", "frame", "the mesh's position among the meshes read"),
+        "defect": ("i", "", "defect id (per frame)"),
+        "vertex": ("i", "", "the junction vertex (mesh vertex index) whose dual triangles carry the charge"),
+        "x": ("f", "px", "position (the junction vertex), x"),
+        "y": ("f", "px", "position, y"),
+        "z": ("f", "px", "position, z"),
+        "charge": ("f", "", "topological charge with the enclosed curvature (multiple of 1/p)"),
+        "p": ("i", "", "symmetry order"),
+        "cell_a": ("i", "", "first cell around the vertex (counter-clockwise about the normal)"),
+        "cell_b": ("i", "", "second cell around the vertex"),
+        "cell_c": ("i", "", "third cell around the vertex"),
+        "n_cells": ("i", "", "cells around the vertex (> 3: its dual triangles fanned from cell_a)"),
+    },
+    "mesh_frames": {
+        "frame": ("i", "frame", "the mesh's position among the meshes read"),
+        "n_cells": ("i", "", "cells"),
+        "n_vertices": ("i", "", "junction vertices"),
+        "n_junctions": ("i", "", "junctions"),
+        "euler": ("i", "", "Euler characteristic V - E + F of the mesh (2: a closed sphere-like surface)"),
+        "closed": ("b", "", "the mesh has no edge and every face is a cell"),
+        "charge{p}": ("f", "", "sum of the p-fold defect charges (= euler on a closed surface)"),
+        "undefined{p}": ("i", "", "dual triangles with no charge (a cell without gamma_p)"),
+    },
+}
+
+
+def _spec(table: str) -> dict:
+    """The schema of ``table``: :data:`TABLES` or :data:`SURFACE_MESH_TABLES`."""
+    if table in TABLES:
+        return TABLES[table]
+    if table in SURFACE_MESH_TABLES:
+        return SURFACE_MESH_TABLES[table]
+    raise InputError(f"table must be one of {sorted(TABLES) + sorted(SURFACE_MESH_TABLES)}; got {table!r}")
+
+
 # columns a producer may leave out (every other schema column is required)
 _OPTIONAL = {"surface_area", "surface_perimeter", "normal_x", "normal_y", "normal_z", "z", "piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "tracking_doubtful", "p", "shear_xx", "shear_xy", "vx", "vy",
@@ -320,9 +403,7 @@ def deprecated_column_lists(module, lists):
 
 def describe(table: str) -> pd.DataFrame:
     """The schema of ``table`` as a DataFrame (column, dtype kind, unit, meaning)."""
-    if table not in TABLES:
-        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
-    rows = [(c, k, u, m) for c, (k, u, m) in TABLES[table].items()]
+    rows = [(c, k, u, m) for c, (k, u, m) in _spec(table).items()]
     return pd.DataFrame(rows, columns=["column", "kind", "unit", "meaning"])
 
 
@@ -336,9 +417,7 @@ def column_units(table: str, columns) -> dict[str, tuple[str, str]]:
         order of ``columns``; a unit of ``""`` is a count, an id, a flag or
         a dimensionless number.  Columns not in the schema are left out.
     """
-    if table not in TABLES:
-        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
-    spec = TABLES[table]
+    spec = _spec(table)
     patterns = [(c, _pattern(c)) for c in spec if "{p}" in c]
     out = {}
     for column in columns:
@@ -360,11 +439,9 @@ def validate(df: pd.DataFrame, table: str) -> pd.DataFrame:
     add their own).  Raises :class:`~hexatissue.errors.InputError` naming the
     offending column.
     """
-    if table not in TABLES:
-        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
+    spec = _spec(table)
     if not isinstance(df, pd.DataFrame):
         raise InputError(f"{table} table must be a pandas DataFrame; got {type(df).__name__}")
-    spec = TABLES[table]
     dtypes = dict(zip(df.columns, df.dtypes))  # one look at the columns (df[c] per column is slow)
     for column, (kind, _, _) in spec.items():
         if "{p}" in column:
@@ -398,10 +475,8 @@ def require_columns(table, columns, name):
 
 def empty_table(table: str, orders=()) -> pd.DataFrame:
     """A table with no rows and the schema's columns and dtypes (``{p}`` columns for each of ``orders``)."""
-    if table not in TABLES:
-        raise InputError(f"table must be one of {sorted(TABLES)}; got {table!r}")
     columns = {}
-    for column, (kind, _, _) in TABLES[table].items():
+    for column, (kind, _, _) in _spec(table).items():
         names = [column.replace("{p}", str(q)) for q in orders] if "{p}" in column else [column]
         for name in names:
             columns[name] = pd.Series(dtype=_DTYPES[kind])
@@ -514,7 +589,7 @@ def interior_mask(cells) -> np.ndarray:
 
 def coerce(df: pd.DataFrame, table: str) -> pd.DataFrame:
     """``df`` with its schema columns cast to the schema's dtypes (for tables read back from CSV)."""
-    spec = TABLES[table]
+    spec = _spec(table)
     out = df.copy()
     for column, (kind, _, _) in spec.items():
         names = [c for c in out.columns if _pattern(column).match(str(c))] if "{p}" in column else [column]

@@ -14,6 +14,23 @@ cells' exact areas and perimeters on the surface.
   integrals of ``sqrt(1 + |grad z|^2)`` over each cell (7-point degree-5
   rule on a fine subdivision of the cell's triangles), perimeters the
   lifted ridges' lengths (Gauss-Legendre on sub-segments).
+
+Triangle meshes with cell labels (the surface-mesh measures,
+:func:`hexatissue.surface.mesh_tissue`; a :class:`MeshTissue` each):
+
+- :func:`sphere_tissue`: a spherical Voronoi tissue (seeds on a jittered
+  Fibonacci lattice) on a sphere; either rendered on an icosphere whose faces
+  take the label of the seed nearest their centroid (jagged cell boundaries
+  along mesh edges, as a segmented mesh has), or with ``exact=True`` as the
+  exact cells, each fanned from its seed and subdivided on the sphere (cell
+  boundaries on the great circles).  Truth from
+  :class:`scipy.spatial.SphericalVoronoi`: exact areas and arc perimeters.
+- :func:`sphere_movie`: frames of :func:`sphere_tissue` with the seeds
+  random-walking.
+- :func:`torus_tissue`: a Voronoi-like tissue on a torus (Euler
+  characteristic 0), faces labelled by the nearest seed.
+- :func:`polygon_mesh`: any polygons (a flat tissue) as a mesh, each fanned
+  from its vertex mean.
 """
 from __future__ import annotations
 
@@ -28,7 +45,8 @@ from .geometry import pack_polygons, polygon_perimeter
 from .order.shape import shape_functions_flat
 from .synthetic import jittered_seeds, voronoi_labels, voronoi_polygons
 
-__all__ = ["SurfaceTissue", "tilted_plane_tissue", "gaussian_bump_tissue"]
+__all__ = ["SurfaceTissue", "tilted_plane_tissue", "gaussian_bump_tissue", "MeshTissue", "icosphere",
+           "subdivide_mesh", "sphere_seeds", "sphere_tissue", "sphere_movie", "torus_tissue", "polygon_mesh"]
 
 #: The 7-point degree-5 rule on a triangle (Radon): barycentric points and weights (summing to 1).
 _A1, _B1, _A2, _B2 = 0.059715871789770, 0.470142064105115, 0.797426985353087, 0.101286507323456
@@ -213,3 +231,310 @@ def _lifted_length(xy, gradient, n_sub):
         gx, gy = gradient(*(p0 + t[:, None] * d).T)
         total += float(np.dot(w, np.sqrt(d @ d + (gx * d[0] + gy * d[1]) ** 2)))
     return total
+
+
+# ------------------------------------------------------------------------------------------- triangle meshes
+
+
+@dataclass
+class MeshTissue:
+    """A tissue as a triangle mesh with one cell label per face, and its exact cells where known.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float array
+        px.
+    faces : (m, 3) int64 array
+        Triangles, counter-clockwise seen from outside (outward normals).
+    labels : (m,) int64 array
+        Cell of every face (``k``: the cell of ``seeds[k - 1]``).
+    seeds : (N, 3) float array
+        The cells' seeds on the surface, px.
+    truth : pandas.DataFrame or None
+        Per cell: ``cell``, ``area`` (px^2), ``perimeter`` (px),
+        ``n_sides`` of the exact cell (spheres); None where not known (torus).
+    euler : int
+        The surface's Euler characteristic (2 sphere, 0 torus).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    labels: np.ndarray
+    seeds: np.ndarray
+    truth: pd.DataFrame | None
+    euler: int
+
+
+def subdivide_mesh(vertices, faces, labels=None, times=1, project=None):
+    """Each triangle cut into 4 (edge midpoints) ``times`` times; ``project`` maps new points (e.g. onto a sphere).
+
+    Shared edges get one midpoint, so a closed mesh stays closed; the
+    orientation and each face's label (repeated 4 times) are kept.
+    Returns ``(vertices, faces, labels)``.
+    """
+    v = np.asarray(vertices, dtype=float)
+    f = np.asarray(faces, dtype=np.int64)
+    lab = None if labels is None else np.asarray(labels, dtype=np.int64)
+    for _ in range(int(times)):
+        edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+        key = np.sort(edges, axis=1)
+        unique, inverse = np.unique(key, axis=0, return_inverse=True)
+        mid = 0.5 * (v[unique[:, 0]] + v[unique[:, 1]])
+        if project is not None:
+            mid = project(mid)
+        m = len(f)
+        ab, bc, ca = (len(v) + inverse.reshape(3, m)).astype(np.int64)
+        a, b, c = f[:, 0], f[:, 1], f[:, 2]
+        f = np.concatenate([np.c_[a, ab, ca], np.c_[ab, b, bc], np.c_[ca, bc, c], np.c_[ab, bc, ca]])
+        v = np.concatenate([v, mid])
+        if lab is not None:
+            lab = np.tile(lab, 4)
+    return v, f, lab
+
+
+def _unit(x):
+    return x / np.linalg.norm(x, axis=1)[:, None]
+
+
+def icosphere(subdivisions=4, radius=1.0):
+    """A geodesic sphere: the icosahedron cut ``subdivisions`` times (20 * 4^s faces), vertices on the sphere.
+
+    Faces are counter-clockwise seen from outside.  Returns ``(vertices, faces)``.
+    """
+    t = (1 + 5 ** 0.5) / 2
+    v = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],
+                  [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=float)
+    f = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
+                  [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5],
+                  [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]], dtype=np.int64)
+    v, f, _ = subdivide_mesh(_unit(v), f, None, check_positive(subdivisions + 1, "subdivisions", integer=True) - 1,
+                             _unit)
+    return radius * _unit(v), f
+
+
+def sphere_seeds(n_cells, jitter=0.3, seed=0):
+    """``n_cells`` unit vectors: a Fibonacci lattice, each moved by up to ``jitter`` times the lattice spacing."""
+    n = check_positive(n_cells, "n_cells", integer=True)
+    rng = np.random.default_rng(seed)
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = np.pi * (1 + 5 ** 0.5) * k
+    r = np.sqrt(1 - z * z)
+    u = np.c_[r * np.cos(phi), r * np.sin(phi), z]
+    spacing = np.sqrt(4 * np.pi / n)
+    step = rng.normal(size=(n, 3))
+    step -= (step * u).sum(axis=1)[:, None] * u
+    step = _unit(step) * (jitter * spacing * np.sqrt(rng.uniform(size=n)))[:, None]
+    return _unit(u + step)
+
+
+def _spherical_truth(units, radius):
+    from scipy.spatial import SphericalVoronoi
+
+    sv = SphericalVoronoi(units, radius=1.0)
+    sv.sort_vertices_of_regions()
+    areas = sv.calculate_areas() * radius ** 2
+    regions, perimeters = [], []
+    for k, region in enumerate(sv.regions):
+        region = list(region)
+        w = sv.vertices[region]
+        if np.dot(units[k], np.cross(w[1] - w[0], w[2] - w[0])) < 0:  # counter-clockwise seen from outside
+            region = region[::-1]
+            w = w[::-1]
+        regions.append(region)
+        dots = np.clip((w * np.roll(w, -1, axis=0)).sum(axis=1), -1, 1)
+        perimeters.append(radius * np.arccos(dots).sum())
+    truth = pd.DataFrame({"cell": np.arange(1, len(units) + 1, dtype=np.int64), "area": areas,
+                          "perimeter": np.array(perimeters), "n_sides": np.array([len(r) for r in regions], np.int64)})
+    return sv.vertices, regions, truth
+
+
+def _face_graph(faces):
+    """Pairs of faces sharing an edge."""
+    m = len(faces)
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    key = np.sort(edges, axis=1)
+    owner = np.tile(np.arange(m), 3)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    k, o = key[order], owner[order]
+    same = (k[1:] == k[:-1]).all(axis=1)
+    return o[:-1][same], o[1:][same]
+
+
+def _connected_labels(faces, labels):
+    """Labels with every cell in one edge-connected piece: faces off a cell's largest piece take their neighbours'
+    most common label (repeated until none is left)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    a, b = _face_graph(faces)
+    lab = labels.copy()
+    m = len(faces)
+    for _ in range(20):
+        same = lab[a] == lab[b]
+        graph = coo_matrix((np.ones(int(same.sum())), (a[same], b[same])), shape=(m, m))
+        _, comp = connected_components(graph, directed=False)
+        size = np.bincount(comp)
+        best = np.zeros(lab.max() + 1, np.int64)
+        np.maximum.at(best, lab, size[comp])
+        stray = size[comp] < best[lab]
+        if not stray.any():
+            return lab
+        for f in np.flatnonzero(stray):
+            around = np.r_[lab[b[a == f]], lab[a[b == f]]]
+            around = around[around != lab[f]]
+            if len(around):
+                values, counts = np.unique(around, return_counts=True)
+                lab[f] = values[np.argmax(counts)]
+    return lab
+
+
+def sphere_tissue(n_cells=100, radius=100.0, seed=0, subdivisions=5, jitter=0.3, exact=False,
+                  seeds=None) -> MeshTissue:
+    """A spherical Voronoi tissue as a labelled triangle mesh, with its exact cells.
+
+    Parameters
+    ----------
+    n_cells : int
+        Cells (seeds on a jittered Fibonacci lattice, :func:`sphere_seeds`).
+    radius : float
+        Sphere radius, px.
+    seed : int
+        Random seed of the jitter.
+    subdivisions : int
+        Mesh resolution.  Labelled (default): an icosphere cut
+        ``subdivisions`` times (20 * 4^s faces, edges about
+        ``1.1 radius / 2^s`` long), each face the cell of the seed nearest its
+        centroid (a face off its cell's main piece joins its neighbours).
+        Exact: each cell's fan from its seed cut ``subdivisions`` times.
+    jitter : float
+        Seed displacement, times the lattice spacing.
+    exact : bool
+        Render the exact cells (boundaries on the great circles) instead of
+        labelling an icosphere.
+    seeds : (n, 3) array, optional
+        Seed directions instead of the lattice (normalised).
+
+    Returns
+    -------
+    MeshTissue
+        ``truth``: the exact spherical Voronoi cells' ``area``, ``perimeter``
+        (great-circle arcs) and ``n_sides``.
+    """
+    radius = check_positive(radius, "radius")
+    units = sphere_seeds(n_cells, jitter, seed) if seeds is None else _unit(np.asarray(seeds, dtype=float))
+    corners, regions, truth = _spherical_truth(units, radius)
+    project = _unit
+    if exact:
+        n_v = len(corners)
+        tris, labs = [], []
+        for k, region in enumerate(regions):
+            r = np.asarray(region)
+            tris.append(np.c_[np.full(len(r), n_v + k), r, np.roll(r, -1)])
+            labs.append(np.full(len(r), k + 1))
+        v, f, lab = subdivide_mesh(np.concatenate([corners, units]), np.concatenate(tris), np.concatenate(labs),
+                                   subdivisions, project)
+        v = radius * v
+    else:
+        v, f = icosphere(subdivisions, 1.0)
+        centroid = v[f].mean(axis=1)
+        lab = cKDTree(units).query(centroid, workers=-1)[1].astype(np.int64) + 1
+        lab = _connected_labels(f, lab)
+        v = radius * v
+    return MeshTissue(vertices=v, faces=f, labels=lab, seeds=radius * units, truth=truth, euler=2)
+
+
+def sphere_movie(n_cells=100, n_frames=5, radius=100.0, seed=0, subdivisions=5, step=0.1, exact=False):
+    """Frames of :func:`sphere_tissue` whose seeds random-walk by ``step`` lattice spacings per frame."""
+    n_frames = check_positive(n_frames, "n_frames", integer=True)
+    rng = np.random.default_rng(seed)
+    units = sphere_seeds(n_cells, 0.3, seed)
+    spacing = np.sqrt(4 * np.pi / len(units))
+    frames = []
+    for _ in range(n_frames):
+        frames.append(sphere_tissue(n_cells, radius, seed, subdivisions, exact=exact, seeds=units))
+        move = rng.normal(size=units.shape) * step * spacing / np.sqrt(2)
+        move -= (move * units).sum(axis=1)[:, None] * units
+        units = _unit(units + move)
+    return frames
+
+
+def torus_tissue(n_cells=200, major=100.0, minor=40.0, seed=0, resolution=160, jitter=0.3) -> MeshTissue:
+    """A tissue on a torus (Euler characteristic 0): faces labelled by the nearest seed (3-D distance).
+
+    The torus ``((R + r cos v) cos u, (R + r cos v) sin u, r sin v)`` is a
+    ``resolution x (resolution r / R)`` grid of (u, v) cut into triangles,
+    counter-clockwise seen from outside; the seeds are a jittered (u, v)
+    lattice of about ``n_cells`` points, spaced for equal lengths along u
+    (at the tube's centre line) and v.  No truth (``truth`` None).
+    """
+    R, r = check_positive(major, "major"), check_positive(minor, "minor")
+    if r >= R:
+        raise InputError(f"minor radius must be below the major radius; got {r} >= {R}")
+    nu = check_positive(resolution, "resolution", integer=True)
+    nv = max(8, int(round(nu * r / R)))
+    u = 2 * np.pi * np.arange(nu) / nu
+    v = 2 * np.pi * np.arange(nv) / nv
+
+    def point(uu, vv):
+        rho = R + r * np.cos(vv)
+        return np.stack([rho * np.cos(uu), rho * np.sin(uu), r * np.sin(vv)], axis=-1)
+
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    verts = point(uu.ravel(), vv.ravel())
+    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
+    a = (i * nv + j).ravel()
+    b = (((i + 1) % nu) * nv + j).ravel()
+    c = (((i + 1) % nu) * nv + (j + 1) % nv).ravel()
+    d = (i * nv + (j + 1) % nv).ravel()
+    faces = np.concatenate([np.c_[a, b, c], np.c_[a, c, d]]).astype(np.int64)
+    rng = np.random.default_rng(seed)
+    ratio = R / r
+    n_v_seeds = max(3, int(round(np.sqrt(n_cells / ratio))))
+    n_u_seeds = max(3, int(round(n_cells / n_v_seeds)))
+    su, sv = np.meshgrid((np.arange(n_u_seeds) + 0.5) / n_u_seeds, (np.arange(n_v_seeds) + 0.5) / n_v_seeds,
+                         indexing="ij")
+    su = su.ravel() + rng.uniform(-jitter, jitter, su.size) / n_u_seeds
+    sv = sv.ravel() + rng.uniform(-jitter, jitter, sv.size) / n_v_seeds
+    seeds = point(2 * np.pi * su, 2 * np.pi * sv)
+    centroid = verts[faces].mean(axis=1)
+    lab = cKDTree(seeds).query(centroid, workers=-1)[1].astype(np.int64) + 1
+    lab = _connected_labels(faces, lab)
+    return MeshTissue(vertices=verts, faces=faces, labels=lab, seeds=seeds, truth=None, euler=0)
+
+
+def polygon_mesh(polygons):
+    """Polygons (a tissue) as a triangle mesh: each polygon fanned from its vertex mean.
+
+    Parameters
+    ----------
+    polygons : sequence of (k, 2) or (k, 3) arrays
+        Each cell's vertices in order (2-D ones are put at z = 0 and turned
+        counter-clockwise); vertices with equal coordinates are merged, so
+        neighbouring cells must share their vertices exactly.
+
+    Returns
+    -------
+    (vertices, faces, labels)
+        Cell ``k`` (1-based) is ``polygons[k - 1]``.
+    """
+    rings = []
+    for xy in polygons:
+        xy = np.asarray(xy, dtype=float)
+        if xy.shape[1] == 2:
+            x, y = xy[:, 0], xy[:, 1]
+            if np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) < 0:
+                xy = xy[::-1]
+            xy = np.c_[xy, np.zeros(len(xy))]
+        rings.append(xy)
+    points = np.concatenate(rings)
+    unique, inverse = np.unique(points, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    centres = np.array([ring.mean(axis=0) for ring in rings])
+    faces, labels, at = [], [], 0
+    for k, ring in enumerate(rings):
+        ids = inverse[at:at + len(ring)]
+        at += len(ring)
+        faces.append(np.c_[np.full(len(ids), len(unique) + k), ids, np.roll(ids, -1)])
+        labels.append(np.full(len(ids), k + 1))
+    return np.concatenate([unique, centres]), np.concatenate(faces).astype(np.int64), np.concatenate(labels)

@@ -15,9 +15,19 @@ to px, a right-handed frame; the normal faces +z; the tangent frame of a
 cell is ``e1`` = the image x axis projected on its plane and normalised,
 ``e2 = n x e1`` (on a flat height map ``e1`` = x and ``e2`` = y, so the
 surface columns equal the flat ones).
+
+Surface meshes (triangle meshes with cell labels, PLY/OBJ; closed surfaces
+and overhangs a height map cannot hold): :func:`read_mesh`,
+:func:`mesh_tissue` (cells, junction vertices, junctions, gamma_p in each
+cell's tangent frame, p-atic defects with the curvature they enclose),
+:func:`mesh_tables` and :func:`read_mesh_tables` for several frames;
+``hexatissue surface-mesh`` on the command line (docs/surface.md).
 """
 from __future__ import annotations
 
+from .files import LabelledMesh, read_mesh, write_obj, write_ply
+from .mesh import mesh_tables, mesh_tissue, read_mesh_tables
 from .tangent import DEGENERATE_AREA, check_height, lift, surface_arrays, surface_cells, tangent_polygons
 
-__all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells", "DEGENERATE_AREA"]
+__all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells", "DEGENERATE_AREA",
+           "LabelledMesh", "read_mesh", "write_ply", "write_obj", "mesh_tissue", "mesh_tables", "read_mesh_tables"]
