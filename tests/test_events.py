@@ -861,3 +861,23 @@ def test_cell_event_stats_from_the_lineage_equal_those_from_the_cells():
     pd.testing.assert_frame_equal(result.cell_events, cell_event_stats(result.events, result.cells))
     pd.testing.assert_frame_equal(cell_event_stats(result.events, lineage=result.lineage.sample(frac=1, random_state=0)),
                                   result.cell_events)
+
+
+def test_quartet_keys_find_the_four_cells_around_one_vertex_of_any_order():
+    """What the quartet search keeps of a frame's held vertices (one key per four cells around a vertex) says
+    exactly what the vertices' cell sets say, for four-, five- and six-fold vertices."""
+    from itertools import combinations
+
+    from hexatissue.events.quartets import _one_vertex, _quartet_keys, _vertex_quartets
+
+    rng = np.random.default_rng(7)
+    sizes = [4, 4, 5, 4, 6, 4]
+    group = np.repeat(np.arange(len(sizes)), sizes)
+    cell = np.concatenate([np.sort(rng.choice(np.arange(1, 40), n, replace=False)) for n in sizes])
+    keys = _vertex_quartets((None, None, group, cell))
+    around = {frozenset(q) for g in range(len(sizes)) for q in combinations(cell[group == g].tolist(), 4)}
+    quartets = [tuple(rng.choice(np.arange(1, 40), 4, replace=False).tolist()) for _ in range(300)]
+    quartets += [tuple(rng.permutation(list(q)).tolist()) for q in sorted(around, key=sorted)]
+    got = _one_vertex(keys, _quartet_keys(np.array(quartets)))
+    np.testing.assert_array_equal(got, [frozenset(q) in around for q in quartets])
+    assert got.sum() >= len(around) and not _one_vertex(None, _quartet_keys(np.array(quartets[:3]))).any()

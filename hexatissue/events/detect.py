@@ -10,7 +10,7 @@ from .._system import release_freed_memory
 from ..box import Box
 from ..schema import validate
 from .classify import _check_censor, classify_t1, default_censor
-from .frames import _check_cells, _held_pairs, _ids, _movie_frames, cell_frames
+from .frames import _check_cells, _held_frames, _ids, _movie_frames, cell_frames
 from .neighbours import _changes, _lists, _neighbour_table
 from .quartets import _find_t1
 
@@ -86,7 +86,7 @@ def detect_t1(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
     _check_cells(cells)
     cells = cell_frames(cells)
     frames = _movie_frames(edges, cells, min_length)
-    raw = _find_t1(frames, _ids(edges, cells), _held_pairs(edges, cells))
+    raw = _find_t1(frames, _ids(edges, cells), _held_frames(edges, cells))
     return _events_table(raw, cells, box, default_censor(cells.last_frame() + 1) if censor is None else censor)
 
 
@@ -119,6 +119,6 @@ def t1_tables(edges: pd.DataFrame, cells: pd.DataFrame, min_length: float = 0.0,
             changes.add(_lists(f, tracks, a, b))
             yield f, tracks, a, b, length
 
-    raw = _find_t1(contacts(), _ids(edges, cells), _held_pairs(edges, cells))
+    raw = _find_t1(contacts(), _ids(edges, cells), _held_frames(edges, cells))
     release_freed_memory()  # the contacts' freed working set would stay resident under the two tables' own
     return _events_table(raw, cells, box, censor), _neighbour_table(changes, cells, censor)

@@ -211,11 +211,12 @@ def _frames(edges, cells, min_length):
         raise InputError(MISSING_CELLS)  # edges of frames after the last frame with cells
 
 
-def _held_pairs(edges, cells):
+def _held_frames(edges, cells):
     """Per frame, the pairs of cells around each vertex of four or more cells, and those vertices' cells.
 
-    ``{frame: (a, b, vertex, cell)}``: the pairs ``a`` < ``b`` and, per vertex
-    of four or more cells (numbered ``vertex``), its cells (all track ids).
+    ``(frame, (a, b, vertex, cell))`` of each frame that has such a vertex, in frame order, made a block
+    of frames at a time as they are asked for (:func:`_held_pairs`: all of them in a dict): the pairs
+    ``a`` < ``b`` and, per vertex of four or more cells (numbered ``vertex``), its cells (all track ids).
 
     A four-fold vertex holds a contact (a junction shorter than
     ``merge_distance``, contracted) between one of its two diagonal pairs:
@@ -225,11 +226,11 @@ def _held_pairs(edges, cells):
     edges have no ``vertex_a``, ``vertex_b``.
     """
     if not {"vertex_a", "vertex_b"} <= set(edges.columns) or len(edges) == 0:
-        return {}
+        return
     cells = cell_frames(cells)
     read = edge_blocks(edges, ["frame", "vertex_a", "vertex_b", "cell_a", "cell_b"])
     translate = "track" in cells.columns
-    out, after = {}, None
+    after = None
     for frames, block in cells.blocks(["frame", "cell", "track"]):  # a block of frames at a time: the movie's
         edge_block = read(frames[0] if after is None else after + 1, frames[-1])  # edges four times over would
         after = int(frames[-1])  # not stream
@@ -237,8 +238,12 @@ def _held_pairs(edges, cells):
         if translate:
             tracks = (row_keys(block["frame"].astype(np.int64, copy=False), block["cell"].astype(np.int64, copy=False)),
                       block_tracks(block))
-        out.update(_held_block(*(c.astype(np.int64, copy=False) for c in edge_block), tracks))
-    return out
+        yield from _held_block(*(c.astype(np.int64, copy=False) for c in edge_block), tracks).items()
+
+
+def _held_pairs(edges, cells):
+    """``{frame: (a, b, vertex, cell)}``: :func:`_held_frames` of every frame at once."""
+    return dict(_held_frames(edges, cells))
 
 
 def _held_block(frame, vertex_a, vertex_b, cell_a, cell_b, tracks):

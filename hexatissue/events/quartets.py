@@ -3,10 +3,12 @@ the pairing of losses with gains into one T1 each.
 """
 from __future__ import annotations
 
+from itertools import combinations
+
 import numpy as np
 import pandas as pd
 
-from .._hashing import GOLDEN
+from .._hashing import GOLDEN, mix64
 from ..geometry import in_sorted
 from ..schema import FrameRows
 from ._kernels import _both_in, _lists_kernel, _quartet_kernel, _t1_kernel
@@ -15,19 +17,32 @@ from .frames import _unique
 from .pairing import _pair_losses_and_gains, _runs
 
 
-def _one_vertex(held, cells):
-    """Whether the ``cells`` are all around one vertex of four or more cells (``held``: a frame's
-    :func:`_held_pairs` entry, or None)."""
-    if held is None:
-        return False
+def _quartet_keys(ids):
+    """An order-free key of each row of four cell ids (``(n, 4)``): the sum of their 64-bit hashes."""
+    with np.errstate(over="ignore"):
+        return mix64(np.asarray(ids, np.int64).astype(np.uint64) + np.uint64(GOLDEN)).sum(axis=1, dtype=np.uint64)
+
+
+def _vertex_quartets(held):
+    """The :func:`_quartet_keys` of every four cells around one vertex of four or more cells, sorted (``held``: a
+    frame's :func:`~hexatissue.events.frames._held_pairs` entry): what :func:`_find_t1` keeps of a frame's held
+    vertices once its contacts are searched, to tell a vertex whose sides collapse in turn (8 bytes a four-fold
+    vertex, not its pairs)."""
     group, cell = held[2], held[3]
-    common = None
-    for c in cells:
-        around = set(group[cell == c].tolist())
-        common = around if common is None else common & around
-        if not common:
-            return False
-    return True
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]]) if len(group) else np.zeros(0, np.int64)
+    sizes = np.diff(np.r_[starts, len(group)])
+    quartets = [cell[starts[sizes == 4, None] + np.arange(4)]]  # the four-fold vertices at once
+    for start, size in zip(starts[sizes > 4].tolist(), sizes[sizes > 4].tolist()):  # the rarer higher ones
+        quartets.append(cell[start + np.array(list(combinations(range(size), 4)))])
+    return np.sort(_quartet_keys(np.concatenate(quartets)))
+
+
+def _one_vertex(keys, quartets):
+    """Whether each of the ``quartets`` (:func:`_quartet_keys`) is around one vertex of four or more cells, from a
+    frame's :func:`_vertex_quartets` ``keys`` (None: the frame has none)."""
+    if keys is None or not len(keys):
+        return np.zeros(len(quartets), bool)
+    return keys[np.minimum(np.searchsorted(keys, quartets), len(keys) - 1)] == quartets
 
 
 def _expand(lo, hi):
@@ -136,9 +151,11 @@ def _find_t1(frames, ids, held=None):
     common neighbours before; a contact gained (its cells present before) is
     a gain, with a quartet for each pair of common neighbours after; the runs
     of frames of every contact say which loss and gain were not interrupted.
-    ``held`` (:func:`_held_pairs`): per frame, the pairs around four-fold
-    vertices, which count as neighbours in the quartet search (not as
-    contacts that are lost or gained).  ``length`` (px, per contact, in the
+    ``held`` (:func:`~hexatissue.events.frames._held_frames`, or the dict of
+    :func:`~hexatissue.events.frames._held_pairs`): per frame, the pairs
+    around four-fold vertices, which count as neighbours in the quartet
+    search (not as contacts that are lost or gained); taken frame by frame
+    as the frames come.  ``length`` (px, per contact, in the
     order of ``a``, ``b``; or None) breaks ties between candidate pairings
     (:func:`_pair_losses_and_gains`).
     """
@@ -146,14 +163,19 @@ def _find_t1(frames, ids, held=None):
     starts, stops, losses, gains, values, every_loss, lengths = [], [], [], [], [], [], []
     prev = None
     index = _index_of(ids)
-    held = {} if held is None else held
+    held = iter(sorted(held.items()) if isinstance(held, dict) else held or ())
+    pending = next(held, None)
+    vertex_keys = {}  # per frame with held vertices: its _vertex_quartets
     for i, (frame, tracks, a, b, length) in enumerate(frames):
         cur = _FrameGraph(index(tracks), index(a), index(b), K)
         # the contacts' lengths in the order of cur.keys (the contacts come sorted and unique, see _frames)
         cur.length = length if length is not None and len(length) == len(cur.keys) else None
-        if frame in held:
-            ha, hb = held[frame][:2]
+        while pending is not None and pending[0] < frame:
+            pending = next(held, None)
+        if pending is not None and pending[0] == frame:
+            ha, hb = pending[1][:2]
             cur.flanks = _FrameGraph(cur.present, index(np.r_[a, ha]), index(np.r_[b, hb]), K)
+            vertex_keys[frame] = _vertex_quartets(pending[1])
         values.append(frame)
         if prev is None:
             starts.append((cur.keys, 0))
@@ -193,11 +215,16 @@ def _find_t1(frames, ids, held=None):
         lengths = pd.DataFrame(dict(zip(("pair", "frame", "length"), (np.concatenate(c) for c in zip(*lengths)))))
     m = _pair_losses_and_gains(losses, gains, lost, lengths if len(lengths) else None)
     values = np.asarray(values, np.int64)
-    if held:  # a four-fold vertex's sides collapsing in turn: its four cells around it before the loss and after the gain
-        quartet = np.stack([ids[m["ab"] // K], ids[m["ab"] % K], ids[m["cd"] // K], ids[m["cd"] % K]], axis=1)
+    if vertex_keys:  # a four-fold vertex's sides collapsing in turn: its four cells around it before the loss and after
+        quartet = _quartet_keys(np.stack([ids[m["ab"] // K], ids[m["ab"] % K], ids[m["cd"] // K], ids[m["cd"] % K]],
+                                         axis=1))  # the gain
         before, after = values[m["frame_lost"].to_numpy(np.int64) - 1], values[m["frame_gain"].to_numpy(np.int64)]
-        m = m[np.array([not (_one_vertex(held.get(int(f0)), q) and _one_vertex(held.get(int(f1)), q))
-                        for q, f0, f1 in zip(quartet.tolist(), before.tolist(), after.tolist())], bool)]
+        around = np.zeros((2, len(m)), bool)
+        for side, frame in enumerate((before, after)):
+            for f in np.unique(frame).tolist():
+                at = np.flatnonzero(frame == f)
+                around[side, at] = _one_vertex(vertex_keys.get(f), quartet[at])
+        m = m[~(around[0] & around[1])]
     ab, cd = m["ab"].to_numpy(np.int64), m["cd"].to_numpy(np.int64)
     out = pd.DataFrame({
         "frame_lost": values[m["frame_lost"].to_numpy(np.int64)],
