@@ -235,3 +235,21 @@ def test_node_normals_of_a_plane_and_of_a_bump():
     np.testing.assert_allclose(node_normals(plane, [10.0], [10.0], scale=2.0),
                                [np.array([-0.6, 1.4, 1.0]) / np.sqrt(1 + 0.36 + 1.96)], atol=1e-12)
     np.testing.assert_array_equal(node_normals(np.full((5, 5), 3.0), [1.5], [2.25]), [[0.0, 0.0, 1.0]])
+
+
+def test_in_a_periodic_box_the_surface_charges_sum_to_zero():
+    """A periodic height map is a torus: the steps cancel around the wrapped grid and the node normals' solid
+    angles sum to 4 pi deg = 0 (its Gauss map has degree 0), so the charges of every p sum to 0."""
+    shape = (128, 160)
+    labels = voronoi_labels(jittered_seeds(shape, 12, seed=5), shape, periodic=True)
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]].astype(float)
+    height = 15.0 * np.sin(2 * np.pi * xx / shape[1]) * np.cos(2 * np.pi * yy / shape[0] * 2)
+    movie = _run(labels, height, box=True)
+    grid = movie.grid
+    assert grid["valid"].all() and np.abs(grid["normal_z"] - 1).max() > 0.05
+    d = movie.defects
+    assert len(d) > 10
+    for p in (6, 2):
+        assert abs(d.loc[d["p"] == p, "charge"].sum()) < 1e-9
+    flat = _run(labels, box=True)  # the same tissue read flat: other defects
+    assert not flat.defects[["x", "y", "charge"]].equals(d[["x", "y", "charge"]])
