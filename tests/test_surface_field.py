@@ -253,3 +253,32 @@ def test_in_a_periodic_box_the_surface_charges_sum_to_zero():
         assert abs(d.loc[d["p"] == p, "charge"].sum()) < 1e-9
     flat = _run(labels, box=True)  # the same tissue read flat: other defects
     assert not flat.defects[["x", "y", "charge"]].equals(d[["x", "y", "charge"]])
+
+
+def test_on_any_plane_the_transport_is_the_identity():
+    """z = 0.4 x - 0.3 y + 5: every cell's and node's normal is the plane's, their frames are one frame, and the
+    surface Gamma_p is the plain mean of the cells' surface gamma_p (coarse_grain of those columns) to 1e-12."""
+    labels = voronoi_labels(jittered_seeds((96, 128), 12, seed=6), (96, 128))
+    yy, xx = np.mgrid[0:96, 0:128].astype(float)
+    height = 0.4 * xx - 0.3 * yy + 5.0
+    movie = _run(labels, height)
+    cells, grid = movie.cells, movie.grid
+    plane = np.array([-0.4, 0.3, 1.0]) / np.sqrt(1.25)
+    measured = np.isfinite(cells["normal_z"]).to_numpy() & ~cells["is_border"].to_numpy(bool)  # (the border
+    # cells' vertices on the image's edge are lifted with the edge's heights, clamped)
+    np.testing.assert_allclose(cells.loc[measured, NORMALS].to_numpy(), np.tile(plane, (measured.sum(), 1)),
+                               atol=1e-9)
+    np.testing.assert_allclose(grid[NORMALS].to_numpy(), np.tile(plane, (len(grid), 1)), atol=1e-12)
+    plain = cells.assign(**{f"gamma{p}_{part}": cells[f"surface_gamma{p}_{part}"] for p in (6, 2)
+                            for part in ("re", "im")})
+    flat = coarse_grain(plain, p=(6, 2))
+    for p in (6, 2):
+        both = np.isfinite(flat[f"Gamma{p}_re"]).to_numpy()
+        assert both.sum() > 20
+        for part in ("re", "im"):
+            np.testing.assert_allclose(grid[f"Gamma{p}_{part}"][both], flat[f"Gamma{p}_{part}"][both], atol=1e-9)
+    expected = find_defects(flat, p=(6, 2))
+    assert len(expected) > 5
+    def rows(d):
+        return d[["p", "x", "y", "charge"]].sort_values(["p", "x", "y"]).reset_index(drop=True)
+    pd.testing.assert_frame_equal(rows(movie.defects), rows(expected))
