@@ -251,6 +251,10 @@ def test_in_a_periodic_box_the_surface_charges_sum_to_zero():
     assert len(d) > 10
     for p in (6, 2):
         assert abs(d.loc[d["p"] == p, "charge"].sum()) < 1e-9
+    with warnings.catch_warnings():  # the disks are coarse_grain's exactly (no warning of a count that differs)
+        warnings.simplefilter("error")
+        again = surface_coarse_grain(movie.cells, height, p=(6, 2), box=movie.box)
+    pd.testing.assert_frame_equal(again[list(grid.columns)], grid[list(grid.columns)], check_dtype=False)
     flat = _run(labels, box=True)  # the same tissue read flat: other defects
     assert not flat.defects[["x", "y", "charge"]].equals(d[["x", "y", "charge"]])
 
