@@ -146,6 +146,10 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "valid": ("b", "", "node used for statistics and defects"),
         "radius": ("f", "px", "coarse-graining disk radius"),
         "spacing": ("f", "px", "requested grid spacing"),
+        "normal_x": ("f", "", "unit normal of the height map at the node, x (with a height map only: Gamma_p is "
+                              "then in the node's tangent frame, e1 = x projected on its plane)"),
+        "normal_y": ("f", "", "unit normal of the height map at the node, y (with a height map only)"),
+        "normal_z": ("f", "", "unit normal of the height map at the node, z (with a height map only)"),
     },
     "defects": {
         "frame": ("i", "frame", "time point (0 for a single image)"),

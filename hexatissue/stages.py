@@ -54,7 +54,7 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .stored import StoredTable
-from .surface import lift, surface_arrays
+from .surface import lift, surface_arrays, surface_coarse_grain, surface_defects
 from .track import (CellCounts, MovieTracker, cells_with_tracks, check_divisions, check_extrusions, checked_tracks,
                     compact_frames, join_spans, lineage_from_spans, track_spans, tracking_summary, tracking_warning)
 
@@ -113,7 +113,9 @@ class Stage:
     reads, writes : tuple of str
         Tables (``"cells"``) or columns (``"cells.track"``) it reads and
         writes; ``"labels"``, ``"polygons"`` and ``"image"`` are the frame's
-        normalised labels, its cell polygons and the stage's own image.
+        normalised labels, its cell polygons and the stage's own image;
+        ``"height"`` the height map the surface stage hands on to the order
+        fields stage (:attr:`FrameData.height_scale`).
     run : callable
         ``run(data, options)`` with a :class:`FrameData` or a :class:`MovieData`.
     enabled : callable, optional
@@ -173,6 +175,7 @@ class FrameData:
     membrane: np.ndarray | None = None
     polygons: tuple | None = None
     tables: dict = field(default_factory=dict)
+    height_scale: float | None = None  # px per unit of images["surface"], once the surface stage ran
 
     def table(self, name) -> pd.DataFrame:
         """The frame's table ``name`` as a DataFrame over its columns (no copy)."""
@@ -323,6 +326,7 @@ def _surface(frame, options):
     """Each cell on the height map's surface: 3-D area and perimeter, normal, gamma_p in its tangent plane (for the
     orders of the order stage's columns); every vertex's height."""
     height = frame.images["surface"]  # finite, of the labels' shape: checked when read (Source.image, analyze)
+    frame.height_scale = options.scale  # the order fields stage coarse-grains on the surface
     cells = frame.tables["cells"]
     orders = tuple(int(c[5:-3]) for c in cells if c.startswith("gamma") and c.endswith("_re"))  # OrderOptions.p
     vertices = frame.tables["vertices"]
@@ -353,25 +357,44 @@ MAX_TILT = 75.0
 
 
 def _fields(frame, options):
-    """The frame's coarse-grained fields Gamma_p and their defects, for every p."""
+    """The frame's coarse-grained fields Gamma_p and their defects, for every p: of the cells' gamma_p, or, after
+    the surface stage, of their surface gamma_p transported into each node's tangent plane (docs/surface.md)."""
     cells = validate(frame.table("cells"), "cells")
-    usable = interior_mask(cells) & np.isfinite(cells[f"gamma{options.p[0]}_re"].to_numpy(float))
+    height = frame.images.get("surface") if frame.height_scale is not None else None
+    # a constant height map is the image plane: frames (x, y), transport the identity, the surface columns the flat
+    # ones (to 1e-12): the flat field and defects, byte for byte, with the nodes' normal (0, 0, 1)
+    plane = height is not None and float(np.ptp(height)) == 0.0
+    on_surface = height is not None and not plane
+    prefix = "surface_" if on_surface else ""
+    usable = interior_mask(cells) & np.isfinite(cells[f"{prefix}gamma{options.p[0]}_re"].to_numpy(float))
     if not usable.any():
-        frame.set_table("grid", empty_table("grid", options.p))
+        grid = empty_table("grid", options.p)
+        if height is not None:
+            for name in ("normal_x", "normal_y", "normal_z"):
+                grid[name] = np.zeros(0)
+        frame.set_table("grid", grid)
         frame.set_table("defects", empty_table("defects"))
         return
-    grid = coarse_grain(cells, p=options.p, radius=options.radius, spacing=options.spacing, box=frame.box,
-                        min_coverage=options.min_coverage, r_cell=options.r_cell, origin=options.origin,
-                        shape=options.shape, validity=options.validity)
+    kwargs = dict(p=options.p, radius=options.radius, spacing=options.spacing, box=frame.box,
+                  min_coverage=options.min_coverage, r_cell=options.r_cell, origin=options.origin,
+                  shape=options.shape, validity=options.validity)
+    if on_surface:
+        grid = surface_coarse_grain(cells, height, frame.height_scale, **kwargs)
+    else:
+        grid = coarse_grain(cells, **kwargs)
     rows, cols = (int(grid["row"].max()) + 1, int(grid["col"].max()) + 1) if len(grid) else (0, 0)
     if min(rows, cols) < 2:  # a small field of view: the field is kept, but no plaquette winds around a defect
         warnings.warn(f"the Gamma_p grid is only {rows} x {cols} node(s) (a small field of view): no defects; a "
                       f"smaller --spacing gives more nodes", HexatissueWarning, stacklevel=user_stacklevel())
-        frame.set_table("grid", grid)
-        frame.set_table("defects", empty_table("defects"))
-        return
+        defects = empty_table("defects")
+    elif on_surface:
+        defects = surface_defects(grid, p=options.p, box=frame.box)
+    else:
+        defects = find_defects(grid, p=options.p, box=frame.box)
+    if plane:
+        grid["normal_x"], grid["normal_y"], grid["normal_z"] = 0.0, 0.0, 1.0
     frame.set_table("grid", grid)
-    frame.set_table("defects", find_defects(grid, p=options.p, box=frame.box))
+    frame.set_table("defects", defects)
 
 
 def _mechanics(frame, options):
@@ -689,9 +712,10 @@ STAGES = (
           writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order, views="hexatissue.views.order"),
     Stage("surface", SurfaceOptions, "frame", reads=("polygons", "image", "cells", "vertices"),
           writes=("cells.surface_area", "cells.surface_perimeter", "cells.normal_x", "cells.normal_y",
-                  "cells.normal_z", "cells.surface_gamma{p}_re", "cells.surface_gamma{p}_im", "vertices.z"),
+                  "cells.normal_z", "cells.surface_gamma{p}_re", "cells.surface_gamma{p}_im", "vertices.z",
+                  "height"),
           run=_surface, enabled=_enabled, image=True, views="hexatissue.views.surface"),
-    Stage("order fields", OrderOptions, "frame", reads=("cells",), writes=("grid", "defects"), run=_fields,
+    Stage("order fields", OrderOptions, "frame", reads=("cells", "height"), writes=("grid", "defects"), run=_fields,
           enabled=_fields_on),
     Stage("mechanics", MechanicsOptions, "frame",
           reads=("labels", "cells", "vertices", "edges", "cell_vertices", "grid"),

@@ -19,7 +19,7 @@ from hexatissue.options import OPTION_CLASSES
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "architecture.md"
 pytestmark = pytest.mark.skipif(not DOC.is_file(), reason="docs/ is not beside the tests")
-NOT_TABLES = ("labels", "polygons", "image")  # what the frame stages hand on besides the tables
+NOT_TABLES = ("labels", "polygons", "image", "height")  # what the frame stages hand on besides the tables
 PACKAGE = Path(hexatissue.__file__).resolve().parent
 #: The stage floor's modules that compute a stage (the models and tissue generators beside them are not stages).
 STAGE_PACKAGES = ("mesh", "intensity", "surface", "order", "defects", "mechanics", "track", "flow", "events", "deformation")

@@ -101,14 +101,21 @@ def _stack_positions(x, y, stacking, count, shape, box):
     return gx, gy, dx, dy
 
 
-def _stack_defects(re, im, usable, stacking, positions, count, shape, p, box):
-    """Defects of a stack of fields of one shape: field index in the stack, positions and charges."""
+def _stack_defects(re, im, usable, stacking, positions, count, shape, p, box, plaquettes=None):
+    """Defects of a stack of fields of one shape: field index in the stack, positions and charges.
+
+    ``plaquettes(theta, p, periodic, stacking, count, shape)``, when given, finds the charged
+    plaquettes instead of the flat kernel (the surface's, with the connection between node frames).
+    """
     theta = np.arctan2(_stack(im, *stacking, count, shape), _stack(re, *stacking, count, shape))
     theta /= p  # = Arg / p (in place: theta is a new array)
     unusable = ~_stack(usable, *stacking, count, shape, fill=False)
     if unusable.any():
         theta[unusable] = np.nan
-    flat, charge = K.plaquette_defects(theta, p, box is not None)
+    if plaquettes is None:
+        flat, charge = K.plaquette_defects(theta, p, box is not None)
+    else:
+        flat, charge = plaquettes(theta, p, box is not None, stacking, count, shape)
     g, i, j = np.unravel_index(flat, (count, *shape) if box is not None else (count, shape[0] - 1, shape[1] - 1))
     gx, gy, dx, dy = positions
     # plaquette [i, j] spans nodes [i, j] .. [i+1, j+1]; its centre is half a step from node [i, j]
@@ -151,9 +158,15 @@ def find_defects(grid, p=6, box=None):
         centre, px; x = column, y = row, origin at the centre of pixel (0,
         0)), ``charge`` (a nonzero multiple of ``1/p``), ``p``.
     """
+    return grid_defects(grid, p, box)
+
+
+def grid_defects(grid, p=6, box=None, plaquettes=None, columns=()):
+    """:func:`find_defects` with another finder of the charged plaquettes (``plaquettes``, see
+    :func:`_stack_defects`; None: the flat winding) that needs the grid's ``columns`` too."""
     orders = check_orders(p)
     fields = [f"Gamma{q}_{part}" for q in orders for part in ("re", "im")]
-    require_columns(grid, ("row", "col", "x", "y", *fields), "grid")
+    require_columns(grid, ("row", "col", "x", "y", *fields, *columns), "grid")
     if len(grid) == 0:
         raise InputError("grid is empty; expected the nodes of at least a 2 x 2 grid")
     box = as_box(box)
@@ -177,7 +190,7 @@ def find_defects(grid, p=6, box=None):
             usable &= valid
         for shape, members in shapes.items():
             g, xy, charge = _stack_defects(re, im, usable, stackings[shape], positions[shape], len(members), shape,
-                                           q, box)
+                                           q, box, plaquettes)
             for name, value in (("group", np.asarray(members)[g]), ("rank", np.full(len(g), rank)),
                                 ("x", xy[:, 0]), ("y", xy[:, 1]), ("charge", charge)):
                 found[name].append(value)

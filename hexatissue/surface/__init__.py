@@ -22,12 +22,23 @@ and overhangs a height map cannot hold): :func:`read_mesh`,
 cell's tangent frame, p-atic defects with the curvature they enclose),
 :func:`mesh_tables` and :func:`read_mesh_tables` for several frames;
 ``hexatissue surface-mesh`` on the command line (docs/surface.md).
+
+Gamma_p on a height map's surface (the order fields stage after the surface
+stage): :func:`surface_coarse_grain` (each cell's surface gamma_p
+parallel-transported into the tangent frame of the grid node, from
+:func:`node_normals`, before the mean) and :func:`surface_defects` (plaquette
+charges with the transport between node frames and the curvature each
+plaquette encloses: :func:`surface_plaquette_charges`).
 """
 from __future__ import annotations
 
+from .field import (node_frames, node_normals, surface_coarse_grain, surface_defects, surface_plaquette_charges,
+                    transport_to_nodes)
 from .files import LabelledMesh, read_mesh, write_obj, write_ply
 from .mesh import mesh_tables, mesh_tissue, read_mesh_tables
 from .tangent import DEGENERATE_AREA, check_height, lift, surface_arrays, surface_cells, tangent_polygons
 
 __all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells", "DEGENERATE_AREA",
-           "LabelledMesh", "read_mesh", "write_ply", "write_obj", "mesh_tissue", "mesh_tables", "read_mesh_tables"]
+           "LabelledMesh", "read_mesh", "write_ply", "write_obj", "mesh_tissue", "mesh_tables", "read_mesh_tables",
+           "node_normals", "node_frames", "transport_to_nodes", "surface_coarse_grain", "surface_plaquette_charges",
+           "surface_defects"]
