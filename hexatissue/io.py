@@ -197,12 +197,38 @@ def check_output_folder(path, name="out") -> Path:
     return path
 
 
-def lock_folder(folder, filename, what):
-    """Take the exclusive lock of ``folder`` (the file ``filename`` in it, fcntl); InputError when another run holds it.
+#: The folder locks this process holds: lock file (resolved) -> [its open file, holders in this process].
+_HELD = {}
 
-    Returns the open lock file (closing it releases the lock; so does the
-    end of the process), or None where fcntl is missing (Windows: nothing
-    is locked).  ``what`` names the folder in the message (``"--out
+
+class FolderLock:
+    """A folder's exclusive lock held by this process (:func:`lock_folder`); :meth:`close` lets go of it, and the
+    last holder in the process releases it."""
+
+    def __init__(self, path):
+        self.path = path
+
+    def close(self):
+        if self.path is None:
+            return
+        held = _HELD[self.path]
+        held[1] -= 1
+        if not held[1]:
+            held[0].close()  # closing the file releases the flock
+            del _HELD[self.path]
+        self.path = None
+
+
+def lock_folder(folder, filename, what):
+    """Take the exclusive lock of ``folder`` (the file ``filename`` in it, fcntl); InputError when another process
+    holds it.
+
+    Returns a :class:`FolderLock` (its ``close`` releases the lock; so does
+    the end of the process), or None where fcntl is missing (Windows:
+    nothing is locked).  Within one process the lock is taken again by the
+    same holder, not refused: ``hexatissue analyze`` holds its ``--out``
+    folder and :func:`hexatissue.analyze` takes it again for the tables it
+    streams there.  ``what`` names the folder in the message (``"--out
     folder"``).  The folder is made if it does not exist.
     """
     try:
@@ -211,7 +237,11 @@ def lock_folder(folder, filename, what):
         return None
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    handle = open(folder / filename, "a+")
+    path = (folder / filename).resolve()
+    if path in _HELD:
+        _HELD[path][1] += 1
+        return FolderLock(path)
+    handle = open(path, "a+")
     try:
         fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
@@ -222,7 +252,8 @@ def lock_folder(folder, filename, what):
     handle.truncate()
     handle.write(f"{os.getpid()}\n")
     handle.flush()
-    return handle
+    _HELD[path] = [handle, 1]
+    return FolderLock(path)
 
 
 #: Rows per Parquet row group: the writer holds one group's encoded columns at a time.

@@ -41,8 +41,8 @@ from ._version import __version__
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
 from .progress import progress as progress_bar
-from .io import check_output_folder
-from .results import METADATA, Movie, check_replaceable_tables, write_results
+from .io import check_output_folder, lock_folder
+from .results import METADATA, RUN_LOCK, Movie, check_replaceable_tables, write_results
 from .schema import TABLES as SCHEMAS
 from .source import open_source, read_mask
 from .stored import PART_PATTERN, StoredTable
@@ -162,37 +162,43 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
     tables = frame_tables(frame_work)
     orders = options["order"].p
     streamed = None if out is None else _Streamed(out, tables, orders)
-    store = None
-    if checkpoint is not None:
-        key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
-                   source=_identity(src.description), options={k: v.to_dict() for k, v in options.items()},
-                   mask=mask_info, images={name: _identity(image.description) for name, image in images.items()})
-        if streamed is not None:  # the parts in `out` are the checkpoint's tables: it keeps the frame states
-            key["out"] = str(streamed.folder.resolve())
-        store = Checkpoint(checkpoint, key, checkpoint_every, () if streamed is not None else tables)
-    # a streamed run's Parquet traffic on malloc, whose freed memory release_freed_memory returns (_system)
-    with references(kernel_mode(src, client)), arrow_on_malloc() if streamed is not None else nullcontext():
-        rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client,
-                                workers, store, progress, streamed)
-        release_freed_memory()  # the frames' freed temporaries, before the movie stages
-        if streamed is None:
-            done = {name: rows.pop(name).table(name, orders) for name in tables}
-        else:
-            streamed.flush(rows, src.n_frames - 1)  # what a resumed checkpoint held beyond the last part
-            done = dict(streamed.tables)
-        del rows
-        movie = MovieData(tables=done, box=box, n_frames=src.n_frames, source=src, states=states,
-                          options=dict(options), images=images, folder=None if streamed is None else streamed.folder)
-        del states, done
-        for stage in movie_work:
-            stage.run(movie, options[stage.options.stage])
-            release_freed_memory()  # after each movie stage: its freed working set would stay under the next
-    result = Movie(**movie.tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames,
-                   calibration=src.calibration, options=movie.options,
-                   source=_described(src.description, mask_info, images), version=__version__, summary=movie.summary)
-    if streamed is not None:
-        write_results(result, streamed.folder)  # the parts are finished in place; the small tables, metadata.json
-    return result
+    try:
+        store = None
+        if checkpoint is not None:
+            key = dict(n_frames=src.n_frames, shape=list(src.shape), box=None if box is None else box.to_list(),
+                       source=_identity(src.description), options={k: v.to_dict() for k, v in options.items()},
+                       mask=mask_info, images={name: _identity(image.description) for name, image in images.items()})
+            if streamed is not None:  # the parts in `out` are the checkpoint's tables: it keeps the frame states
+                key["out"] = str(streamed.folder.resolve())
+            store = Checkpoint(checkpoint, key, checkpoint_every, () if streamed is not None else tables)
+        # a streamed run's Parquet traffic on malloc, whose freed memory release_freed_memory returns (_system)
+        with references(kernel_mode(src, client)), arrow_on_malloc() if streamed is not None else nullcontext():
+            rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client,
+                                    workers, store, progress, streamed)
+            release_freed_memory()  # the frames' freed temporaries, before the movie stages
+            if streamed is None:
+                done = {name: rows.pop(name).table(name, orders) for name in tables}
+            else:
+                streamed.flush(rows, src.n_frames - 1)  # what a resumed checkpoint held beyond the last part
+                done = dict(streamed.tables)
+            del rows
+            movie = MovieData(tables=done, box=box, n_frames=src.n_frames, source=src, states=states,
+                              options=dict(options), images=images,
+                              folder=None if streamed is None else streamed.folder)
+            del states, done
+            for stage in movie_work:
+                stage.run(movie, options[stage.options.stage])
+                release_freed_memory()  # after each movie stage: its freed working set would stay under the next
+        result = Movie(**movie.tables, box=box, shape=tuple(src.shape), n_frames=src.n_frames,
+                       calibration=src.calibration, options=movie.options,
+                       source=_described(src.description, mask_info, images), version=__version__,
+                       summary=movie.summary)
+        if streamed is not None:
+            write_results(result, streamed.folder)  # the parts are finished in place; the small tables, metadata.json
+        return result
+    finally:
+        if streamed is not None:
+            streamed.release()  # the out folder's lock: another run may write there now
 
 
 #: Bytes of rows (all frame tables) a streamed run (``analyze(out=...)``) gathers before it writes them as one part
@@ -225,10 +231,17 @@ class _Streamed:
     def __init__(self, folder, names, orders):
         self.folder = check_output_folder(folder, "out")
         check_replaceable_tables(self.folder, "out")
+        # a second analysis streaming into this folder is refused (the CLI holding it already is not)
+        self.lock = lock_folder(self.folder, RUN_LOCK, "out folder")
         (self.folder / METADATA).unlink(missing_ok=True)  # incomplete from here until write_results ends
         self.tables = {name: StoredTable(self.folder / name, name, orders) for name in names}
         self.orders = orders
         self.first = 0  # the first frame not yet written
+
+    def release(self):
+        """Let go of the out folder's lock (:func:`hexatissue.io.lock_folder`)."""
+        if self.lock is not None:
+            self.lock.close()
 
     def resume(self, start):
         """Keep the parts of frames before ``start`` (a resumed checkpoint's: its tables are these parts), remove

@@ -1,5 +1,8 @@
 """Shared fixtures and helpers: the folder of real third-party data (skipped cleanly when absent), PNG writing."""
 import os
+import subprocess
+import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -57,3 +60,18 @@ def mdck_published_gamma(folder, image, p):
     """
     dat = np.loadtxt(folder / "dat" / f"exp_{image}.dat")
     return dat[:, 2 + 2 * (p - 2)] + 1j * dat[:, 3 + 2 * (p - 2)]
+
+
+@contextmanager
+def lock_held_elsewhere(folder, filename):
+    """``folder``'s lock (:func:`hexatissue.io.lock_folder` on ``filename``) held by another process, as a
+    running analysis holds it, for the block (within one process the lock is taken again, not refused)."""
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys; from hexatissue.io import lock_folder; "
+        f"lock = lock_folder({str(folder)!r}, {filename!r}, 'folder'); print('held', flush=True); sys.stdin.read()")],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        yield
+    finally:
+        holder.communicate("")

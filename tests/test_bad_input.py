@@ -733,17 +733,14 @@ def test_a_results_table_that_lost_a_column_is_refused(tmp_path, capsys):
 @pytest.mark.skipif(sys.platform == "win32", reason="no fcntl locks")
 def test_an_out_folder_in_use_by_another_run_is_refused(tmp_path, capsys):
     """Issue 32: two analyze runs into one --out both exited 0, the later silently replacing the earlier."""
-    from hexatissue.io import lock_folder
+    from tests.conftest import lock_held_elsewhere
 
     labels = np.repeat(np.repeat(np.arange(1, 26).reshape(5, 5), 12, 0), 12, 1)
     np.save(tmp_path / "labels.npy", labels)
-    held = lock_folder(tmp_path / "out", ".hexatissue.lock", "--out folder")  # as a running analysis holds it
-    try:
+    with lock_held_elsewhere(tmp_path / "out", ".hexatissue.lock"):  # as a running analysis holds it
         assert "--out folder" in _cli_error(["analyze", str(tmp_path / "labels.npy"), "--out", str(tmp_path / "out")],
                                             capsys)
         assert not (tmp_path / "out" / "metadata.json").exists()
-    finally:
-        held.close()
     assert main(["analyze", str(tmp_path / "labels.npy"), "--out", str(tmp_path / "out")]) == 0
     # a run that fails during the analysis does not leave the folder it made behind
     np.save(tmp_path / "empty.npy", np.zeros((2, 30, 30), np.int32))  # no cell: refused frame by frame

@@ -276,3 +276,24 @@ def test_a_column_writer_refuses_too_few_or_too_many_values_and_leaves_nothing(t
         table.column_writer("name", object)
     assert table.added == []
     assert all(p.name.startswith("part-") for p in (tmp_path / "cells").iterdir())
+
+
+def test_a_second_analysis_streaming_into_a_folder_in_use_is_refused(tmp_path):
+    """Another process holds the out folder (a running analysis): analyze(out=) refuses it, naming the folder, and
+    writes nothing there; once it is free, the folder is used.  In one process the lock is taken again (the CLI
+    holds its --out folder while analyze streams into it)."""
+    from hexatissue.io import lock_folder
+    from hexatissue.results import RUN_LOCK
+    from tests.conftest import lock_held_elsewhere
+
+    stack = _relabelled(n_frames=3)
+    with lock_held_elsewhere(tmp_path, RUN_LOCK):
+        with pytest.raises(InputError, match="out folder .* is in use by another running analysis"):
+            analyze(stack, out=tmp_path, workers=1, progress=False)
+        assert not (tmp_path / "cells").exists()
+    mine = lock_folder(tmp_path, RUN_LOCK, "--out folder")
+    try:
+        movie = analyze(stack, out=tmp_path, workers=1, progress=False)
+    finally:
+        mine.close()
+    assert (tmp_path / "metadata.json").is_file() and len(movie.cells)
