@@ -1,11 +1,10 @@
-"""The C library, where the package needs it directly (Linux only; a no-op elsewhere), and the allocators."""
+"""The C library, where the package needs it directly (Linux only; a no-op elsewhere)."""
 from __future__ import annotations
 
 import ctypes
 import functools
 import mmap
 import sys
-from contextlib import contextmanager
 
 import numpy as np
 
@@ -36,28 +35,6 @@ def release_freed_memory():
     arrow = sys.modules.get("pyarrow")  # pandas' string columns and the Parquet writer allocate from Arrow's pool
     if arrow is not None:
         arrow.default_memory_pool().release_unused()
-
-
-@contextmanager
-def arrow_on_malloc():
-    """Arrow's default memory pool set to the system allocator (malloc) inside the block, then put back.
-
-    Arrow's own pool (mimalloc in the PyPI wheels) keeps what it freed
-    resident, per thread of Arrow's pools: a streamed analysis writes and
-    reads its tables as Parquet parts all along, and that memory stayed under
-    every movie stage (on a 240-frame, 4,800-cell movie: 60-100 MB, more
-    with the movie's length).  Freed to malloc, it goes back to the OS at
-    :func:`release_freed_memory`.  Buffers made inside the block keep the
-    pool they came from when freed after it.
-    """
-    import pyarrow as pa
-
-    previous = pa.default_memory_pool()
-    pa.set_memory_pool(pa.system_memory_pool())
-    try:
-        yield
-    finally:
-        pa.set_memory_pool(previous)
 
 
 def reserve(n, dtype):

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import warnings
 from collections import deque
-from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +35,7 @@ from ._checkpoint import Checkpoint
 from ._dispatch import reference_mode, references
 from ._executors import batch_size, executor
 from ._rows import Rows
-from ._system import arrow_on_malloc, release_freed_memory
+from ._system import release_freed_memory
 from ._version import __version__
 from .box import as_box
 from .errors import HexatissueWarning, InputError, check_positive, user_stacklevel
@@ -171,8 +170,7 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
             if streamed is not None:  # the parts in `out` are the checkpoint's tables: it keeps the frame states
                 key["out"] = str(streamed.folder.resolve())
             store = Checkpoint(checkpoint, key, checkpoint_every, () if streamed is not None else tables)
-        # a streamed run's Parquet traffic on malloc, whose freed memory release_freed_memory returns (_system)
-        with references(kernel_mode(src, client)), arrow_on_malloc() if streamed is not None else nullcontext():
+        with references(kernel_mode(src, client)):
             rows, states = _extract(src, box, frame_work, options, mask, images, followers, states, tables, client,
                                     workers, store, progress, streamed)
             release_freed_memory()  # the frames' freed temporaries, before the movie stages

@@ -529,7 +529,6 @@ def _tracks(movie, options):
         spans.append(track_spans(cells["frame"].to_numpy(np.int64), track, cells["is_border"].to_numpy(bool)))
         counts.append(CellCounts.of(cells))
     writer.close()
-    del cells, track
     counts = CellCounts.join(counts)
     # a source that records its divisions (CTC folders) is the lineage wherever its ids are the tracks
     keep_ids = src.parents is not None and tracker.decision()[0] == "never"

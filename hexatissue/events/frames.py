@@ -296,12 +296,12 @@ def _ids(edges, cells):
     """Every track id a movie's contacts can name, sorted: those of ``cells`` (label ids of the edges too
     when ``cells`` has no ``track``)."""
     cells = cell_frames(cells)
-    ids = np.zeros(0, np.int64)
-    for _, block in cells.blocks(["frame", "cell", "track"]):
-        ids = np.union1d(ids, block_tracks(block))
-    if "track" in cells.columns:
-        return ids
-    return np.union1d(ids, np.r_[edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)])
+    # each block's distinct ids, then one unique of them all: a union per block would sort the ids so far again at
+    # every block (quadratic where every cell is its own track)
+    ids = [np.unique(block_tracks(block)) for _, block in cells.blocks(["frame", "cell", "track"])]
+    if "track" not in cells.columns:
+        ids += [edges["cell_a"].to_numpy(np.int64), edges["cell_b"].to_numpy(np.int64)]
+    return np.unique(np.concatenate(ids)) if ids else np.zeros(0, np.int64)
 
 
 def _check_cells(cells):

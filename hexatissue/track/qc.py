@@ -1,7 +1,6 @@
 """How well the tracking went: per-frame checks, the warning they raise and the run's summary."""
 from __future__ import annotations
 
-import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -37,7 +36,10 @@ class CellCounts(NamedTuple):
     @classmethod
     def join(cls, chunks) -> "CellCounts":
         chunks = list(chunks)
-        union = functools.partial(functools.reduce, np.union1d)
+
+        def union(arrays):  # one unique of them all, not a union per chunk (quadratic in the chunks)
+            return np.unique(np.concatenate(arrays)) if arrays else np.zeros(0, np.int64)
+
         return cls(np.concatenate([c.frames for c in chunks]), np.concatenate([c.per_frame for c in chunks]),
                    union([c.ids for c in chunks]), union([c.tracks for c in chunks]),
                    sum(c.rows_track_not_cell for c in chunks))
