@@ -25,6 +25,7 @@ import numpy as np
 from .box import as_box
 from .errors import InputError, as_generator
 from .io import atomic_path
+from .surface import node_frames
 from .units import as_calibration, in_units, velocity_unit
 
 __all__ = [
@@ -322,11 +323,23 @@ def plot_labels(labels=None, polygons=None, cells=None, ax=None, path=None, show
     return _finish(fig, path)
 
 
-def star_segments(xy, angle, length, p):
-    """``p`` legs per point: segments from each centre at ``angle + 2 pi k / p``."""
+def star_segments(xy, angle, length, p, normals=None):
+    """``p`` legs per point: segments from each centre at ``angle + 2 pi k / p``.
+
+    With ``normals`` (one unit normal per point, facing +z: a height map's
+    surface) the angles are measured in each point's tangent frame
+    (:func:`hexatissue.surface.node_frames`) and every leg is drawn as the
+    image-plane projection of the surface leg: on a tilted surface the star is
+    foreshortened along the slope, as the tissue is in the image.
+    """
     k = np.arange(p)
     a = angle[:, None] + 2 * np.pi * k[None, :] / p
-    ends = xy[:, None, :] + length[:, None, None] * np.stack([np.cos(a), np.sin(a)], axis=-1)
+    if normals is None:
+        legs = np.stack([np.cos(a), np.sin(a)], axis=-1)
+    else:
+        e1, e2 = node_frames(np.asarray(normals, float))
+        legs = np.cos(a)[..., None] * e1[:, None, :2] + np.sin(a)[..., None] * e2[:, None, :2]
+    ends = xy[:, None, :] + length[:, None, None] * legs
     starts = np.broadcast_to(xy[:, None, :], ends.shape)
     return np.stack([starts, ends], axis=2).reshape(-1, 2, 2)
 
@@ -386,10 +399,10 @@ def plot_stars(cells, p=6, polygons=None, labels=None, ax=None, path=None, scale
     return _finish(fig, path)
 
 
-def _add_stars(ax, xy, value, p, unit_length, color, linewidth):
+def _add_stars(ax, xy, value, p, unit_length, color, linewidth, normals=None):
     from matplotlib.collections import LineCollection
 
-    segments = star_segments(xy, np.angle(value) / p, np.abs(value) * unit_length, p)
+    segments = star_segments(xy, np.angle(value) / p, np.abs(value) * unit_length, p, normals)
     ax.add_collection(LineCollection(segments, colors=color, linewidths=linewidth, capstyle="round"))
 
 
@@ -448,7 +461,10 @@ def plot_order_field(grid, defects=None, p=6, polygons=None, labels=None, ax=Non
     spacing = _grid_spacing(grid)
     # the longest star spans 0.8 grid spacings, so neighbouring stars never touch
     largest = np.abs(gamma[valid]).max() if valid.any() else 1.0
-    _add_stars(ax, xy[valid], gamma[valid] / max(largest, 1e-12), p, 0.4 * spacing, "k", linewidth=0.8)
+    # on a height map Gamma_p's angle is measured in each node's tangent frame: the stars are drawn projected
+    normals = grid[["normal_x", "normal_y", "normal_z"]].to_numpy(float)[valid] if "normal_x" in grid.columns else None
+    _add_stars(ax, xy[valid], gamma[valid] / max(largest, 1e-12), p, 0.4 * spacing, "k", linewidth=0.8,
+               normals=normals)
     if defects is not None and len(defects):
         _draw_defects(ax, defects, p, size=8)
     _image_axes(ax, _extent_of(background, polygons, xy, as_box(box)), calibration)

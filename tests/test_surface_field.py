@@ -286,3 +286,20 @@ def test_on_any_plane_the_transport_is_the_identity():
     def rows(d):
         return d[["p", "x", "y", "charge"]].sort_values(["p", "x", "y"]).reset_index(drop=True)
     pd.testing.assert_frame_equal(rows(movie.defects), rows(expected))
+
+
+def test_the_field_figure_draws_each_surface_star_as_its_projection_into_the_image():
+    """Tilted by 50 degrees about x, a star of angle a in a node's tangent frame is the flat tissue's star of angle a
+    squeezed along y by cos 50 degrees (the projection); a normal along z draws the flat star exactly."""
+    from hexatissue.plot import star_segments
+
+    rng = np.random.default_rng(3)
+    xy, angle, length = rng.uniform(0, 100, (20, 2)), rng.uniform(-np.pi, np.pi, 20), rng.uniform(1, 5, 20)
+    flat = star_segments(xy, angle, length, 6)
+    up = np.tile([0.0, 0.0, 1.0], (20, 1))
+    np.testing.assert_array_equal(star_segments(xy, angle, length, 6, normals=up), flat)
+    tilt = np.radians(50.0)
+    tilted = np.tile([0.0, -np.sin(tilt), np.cos(tilt)], (20, 1))
+    squeezed = flat.copy()
+    squeezed[:, 1, 1] = flat[:, 0, 1] + np.cos(tilt) * (flat[:, 1, 1] - flat[:, 0, 1])
+    np.testing.assert_allclose(star_segments(xy, angle, length, 6, normals=tilted), squeezed, atol=1e-12)
