@@ -9,6 +9,9 @@ cells' exact areas and perimeters on the surface.
 - :func:`tilted_plane_tissue`: a flat Voronoi tissue on a plane tilted by an
   angle about the x axis; its truth is the flat tissue's own polygons (area,
   perimeter, gamma_p), and ``flat_labels`` the same tissue imaged flat.
+- :func:`junction_stack`: the z-stack a microscope would record of such a
+  tissue with its junctions stained (the input of
+  :func:`hexatissue.surface.height_map`).
 - :func:`gaussian_bump_tissue`: a Voronoi tessellation of the (x, y)
   parameter plane lifted onto ``z = h exp(-r^2 / 2 s^2)``; areas are the
   integrals of ``sqrt(1 + |grad z|^2)`` over each cell (7-point degree-5
@@ -38,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from scipy.ndimage import gaussian_filter
 from scipy.spatial import cKDTree
 
 from .errors import InputError, check_orders, check_positive
@@ -45,7 +49,7 @@ from .geometry import pack_polygons, polygon_perimeter
 from .order.shape import shape_functions_flat
 from .synthetic import jittered_seeds, voronoi_labels, voronoi_polygons
 
-__all__ = ["SurfaceTissue", "tilted_plane_tissue", "gaussian_bump_tissue", "MeshTissue", "icosphere",
+__all__ = ["SurfaceTissue", "tilted_plane_tissue", "gaussian_bump_tissue", "junction_stack", "MeshTissue", "icosphere",
            "subdivide_mesh", "sphere_seeds", "sphere_tissue", "sphere_movie", "torus_tissue", "polygon_mesh"]
 
 #: The 7-point degree-5 rule on a triangle (Radon): barycentric points and weights (summing to 1).
@@ -185,6 +189,49 @@ def gaussian_bump_tissue(shape=(256, 256), amplitude=80.0, width=60.0, spacing=2
         perimeters.append(_lifted_length(polygons[k], gradient, n_sub))
     truth = pd.DataFrame({"cell": np.array(cells, np.int64), "area": np.array(areas), "perimeter": np.array(perimeters)})
     return SurfaceTissue(labels=voronoi_labels(seeds, (rows, cols)), height=z(gx, gy), seeds=seeds, truth=truth)
+
+
+def junction_stack(tissue, z_step=4.0, n_planes=None, psf_xy=1.0, psf_z=6.0, background=0.1, noise=0.05,
+                   seed=0) -> np.ndarray:
+    """The z-stack of a :class:`SurfaceTissue` with its junctions stained, plane 0 at height 0.
+
+    Every junction pixel (a pixel whose 4-neighbour is another cell) shines
+    with intensity 1 at its surface height; the signal is blurred by a
+    Gaussian point spread function (``psf_xy`` laterally, ``psf_z`` along z,
+    px) and sampled every ``z_step`` px; a uniform ``background`` and
+    Gaussian ``noise`` (standard deviation, in units of the junctions'
+    intensity) are added.
+
+    Parameters
+    ----------
+    tissue : SurfaceTissue
+        Labels and height map (px).
+    z_step : float
+        Plane spacing, px: the true height in planes is ``height / z_step``.
+    n_planes : int, optional
+        Default: enough to hold the surface with ``2 psf_z`` to spare on either
+        side (plane 0 at height 0).
+    psf_xy, psf_z, background, noise, seed
+        Imaging: lateral and axial blur (px), background, noise.
+
+    Returns
+    -------
+    (planes, rows, cols) float32 array
+    """
+    labels, height = np.asarray(tissue.labels), np.asarray(tissue.height, float)
+    z_step = check_positive(z_step, "z_step", unit="px")
+    if n_planes is None:
+        n_planes = int(np.ceil((height.max() + 2 * psf_z) / z_step)) + 1
+    junction = np.zeros(labels.shape, bool)
+    junction[:, 1:] |= labels[:, 1:] != labels[:, :-1]
+    junction[:, :-1] |= labels[:, 1:] != labels[:, :-1]
+    junction[1:] |= labels[1:] != labels[:-1]
+    junction[:-1] |= labels[1:] != labels[:-1]
+    z = np.arange(n_planes)[:, None, None] * z_step
+    profile = np.exp(-0.5 * ((z - height[None]) / psf_z) ** 2)
+    stack = gaussian_filter(junction[None] * profile, (0.0, psf_xy, psf_xy)) if psf_xy > 0 else junction * profile
+    rng = np.random.default_rng(seed)
+    return (stack + background + noise * rng.standard_normal(stack.shape)).astype(np.float32)
 
 
 def _nearest(seeds, points):

@@ -29,6 +29,9 @@ parallel-transported into the tangent frame of the grid node, from
 :func:`node_normals`, before the mean) and :func:`surface_defects` (plaquette
 charges with the transport between node frames and the curvature each
 plaquette encloses: :func:`surface_plaquette_charges`).
+
+A height map from a z-stack of the junctions, when no surface projection
+gave one: :func:`height_map`, and the projected image :func:`project_stack`.
 """
 from __future__ import annotations
 
@@ -36,9 +39,10 @@ from .field import (node_frames, node_normals, surface_coarse_grain, surface_def
                     transport_to_nodes)
 from .files import LabelledMesh, read_mesh, write_obj, write_ply
 from .mesh import mesh_tables, mesh_tissue, read_mesh_tables
+from .stack import HeightMap, height_map, project_stack
 from .tangent import DEGENERATE_AREA, check_height, lift, surface_arrays, surface_cells, tangent_polygons
 
 __all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells", "DEGENERATE_AREA",
            "LabelledMesh", "read_mesh", "write_ply", "write_obj", "mesh_tissue", "mesh_tables", "read_mesh_tables",
            "node_normals", "node_frames", "transport_to_nodes", "surface_coarse_grain", "surface_plaquette_charges",
-           "surface_defects"]
+           "surface_defects", "HeightMap", "height_map", "project_stack"]
