@@ -362,6 +362,23 @@ SURFACE_MESH_TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "charge{p}": ("f", "", "sum of the p-fold defect charges (= euler on a closed surface)"),
         "undefined{p}": ("i", "", "dual triangles with no charge (a cell without gamma_p)"),
     },
+    "mesh_events": {
+        "event": ("i", "", "event id"),
+        "kind": ("O", "", "cycle, intercalation or unresolved"),
+        "frame_start": ("i", "frame", "first frame after the a-b contact is lost"),
+        "frame_end": ("f", "frame", "frame the inverse T1 restores a-b (NaN unless kind == cycle)"),
+        "duration": ("f", "frame", "frame_end - frame_start (cycles), else NaN"),
+        "cell_a": ("i", "", "first cell losing the contact (its label)"),
+        "cell_b": ("i", "", "second cell losing the contact"),
+        "cell_c": ("i", "", "first cell gaining a contact"),
+        "cell_d": ("i", "", "second cell gaining a contact"),
+        "x": ("f", "px", "mean of the four cells' centroids at frame_start, x (inside a curved surface)"),
+        "y": ("f", "px", "mean of the four cells' centroids, y"),
+        "z": ("f", "px", "mean of the four cells' centroids, z"),
+        "frame_gain": ("i", "frame", "first frame with the c-d contact (> frame_start: a four-fold vertex persisted)"),
+        "frame_undo": ("f", "frame", "first frame without the c-d contact again in the inverse T1 (cycles), else NaN"),
+        "is_border": ("b", "", "one of the four cells touches the background or the mesh's edge at frame_start"),
+    },
 }
 
 

@@ -20,8 +20,9 @@ def add_parser(subparsers):
                     "write, and measure the tissue on the surface: every cell's area, perimeter, normal and "
                     "gamma_p in its tangent plane, the junctions, and the p-atic defects with the curvature they "
                     "enclose (on a closed surface the charges sum to its Euler characteristic). Several files are "
-                    "frames, in the order given. Writes mesh_cells, mesh_vertices, mesh_junctions, mesh_defects and "
-                    "mesh_frames to --out (lengths in the mesh's unit, called px; docs/surface.md).")
+                    "frames, in the order given, whose labels are the same cells in every frame: their T1 events "
+                    "(cycles, intercalations) go to mesh_events. Writes mesh_cells, mesh_vertices, mesh_junctions, "
+                    "mesh_defects, mesh_frames and mesh_events to --out (lengths in the mesh's unit, called px; docs/surface.md).")
     p.add_argument("files", nargs="+", help="mesh files (.ply, .obj); several = frames")
     p.add_argument("--out", required=True, help="output folder for the tables")
     p.add_argument("--label", default=None,
@@ -169,5 +170,10 @@ def _run(args) -> int:
         charges = ", ".join(f"p={q}: {getattr(row, 'charge' + q):g}" for q in orders)
         print(f"frame {row.frame} ({args.files[row.frame]}): {row.n_cells} cells, Euler characteristic "
               f"{row.euler}{'' if row.closed else ' (open)'}; defect charges sum to {charges}")
+    events = tables["mesh_events"]
+    if len(frames) > 1:
+        kinds = events["kind"].value_counts() if len(events) else {}
+        print(f"T1 events (labels taken as the same cells in every frame): {len(events)}: "
+              + ", ".join(f"{kinds.get(k, 0)} {k}" for k in ("cycle", "intercalation", "unresolved")))
     print(f"tables written to {out}")
     return 0

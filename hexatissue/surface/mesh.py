@@ -34,6 +34,7 @@ from ..errors import HexatissueWarning, InputError, check_orders
 from ..options import OrderOptions
 from ..order.shape import shape_functions_flat
 from .files import LabelledMesh, check_mesh, read_mesh
+from .mesh_events import mesh_events
 
 __all__ = ["mesh_tissue", "mesh_tables", "read_mesh_tables", "tangent_frames", "transport_angles",
            "solid_angles", "FALLBACK_COS", "MESH_TABLE_NAMES"]
@@ -42,7 +43,7 @@ __all__ = ["mesh_tissue", "mesh_tables", "read_mesh_tables", "tangent_frames", "
 #: coordinate axis most orthogonal to the reference instead (the frame does not change |gamma_p| or defects).
 FALLBACK_COS = 0.9
 #: The tables :func:`mesh_tissue` returns, in order.
-MESH_TABLE_NAMES = ("mesh_cells", "mesh_vertices", "mesh_junctions", "mesh_defects", "mesh_frames")
+MESH_TABLE_NAMES = ("mesh_cells", "mesh_vertices", "mesh_junctions", "mesh_defects", "mesh_frames", "mesh_events")
 #: A charge times p further than this from an integer is reported (it cannot happen but through round-off).
 _CHARGE_TOLERANCE = 1e-6
 
@@ -464,19 +465,26 @@ def _delta(i, j, gamma, normal, e1, e2, p):
 
 
 def mesh_tables(meshes, *, p=None, reference=(1.0, 0.0, 0.0)) -> dict:
-    """:func:`mesh_tissue` of each mesh (frame = its position), the tables of all frames concatenated.
+    """:func:`mesh_tissue` of each mesh (frame = its position), the tables of all frames concatenated, and the
+    T1 events between the frames (``mesh_events``, :func:`~hexatissue.surface.mesh_events.mesh_events`).
 
     ``meshes``: :class:`LabelledMesh` objects or ``(vertices, faces, labels)``
-    tuples.  Cell labels are taken as given in every frame (no tracking).
+    tuples.  Cell labels are taken as given in every frame (no tracking): a
+    label is one cell throughout.
     """
-    parts = {name: [] for name in MESH_TABLE_NAMES}
+    parts = {name: [] for name in MESH_TABLE_NAMES if name != "mesh_events"}
     for t, mesh in enumerate(meshes):
         tables = (mesh_tissue(mesh, frame=t, p=p, reference=reference) if isinstance(mesh, LabelledMesh)
                   else mesh_tissue(*mesh, frame=t, p=p, reference=reference))
         for name, table in tables.items():
             parts[name].append(table)
-    return {name: (pd.concat(tables, ignore_index=True) if tables else pd.DataFrame())
-            for name, tables in parts.items()}
+    out = {name: (pd.concat(tables, ignore_index=True) if tables else pd.DataFrame())
+           for name, tables in parts.items()}
+    if len(out["mesh_cells"]):
+        out["mesh_events"] = mesh_events(out["mesh_cells"], out["mesh_junctions"])
+    else:
+        out["mesh_events"] = pd.DataFrame()
+    return out
 
 
 def read_mesh_tables(paths, *, label=None, p=None, reference=(1.0, 0.0, 0.0)) -> dict:
