@@ -267,8 +267,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "surface_strain_xy": ("f", "1/frame", "surface rate of strain (L12 + L21) / 2 in the node's tangent frame"),
         "mean_curvature": ("f", "1/px", "mean curvature H = -div_s n / 2 of the cells' normals (negative on a dome, "
                            "positive in a trough; with --surface)"),
-        "areal_rate": ("f", "1/frame", "rate of change of the log of a surface area moving with the cells: "
-                       "div_s v_t - 2 H vn (with --surface)"),
+        "areal_rate": ("f", "1/frame", "rate of change of the log of a surface area moving with the cells: the "
+                       "surface divergence of their 3-D velocity, div_s v = div_s v_t - 2 H vn (with --surface)"),
         "piv_vx": ("f", "px/frame", "PIV velocity of the raw channel at the node, along x (with --intensity)"),
         "piv_vy": ("f", "px/frame", "PIV velocity of the raw channel at the node, along y (with --intensity)"),
         "piv_peak": ("f", "", "PIV normalised correlation peak (1: an exact copy)"),

@@ -21,8 +21,13 @@ frame ``(E1, E2)`` (the surface stage's frame of the node normal, the grid's
 tangential velocity its trace is the surface divergence ``div_s v_t``; of the
 normals, ``div_s n = -2 H`` gives the mean curvature ``H``; of the whole
 velocity, its symmetric traceless part is the surface rate of strain and its
-antisymmetric part the vorticity.  A patch of surface moving with the cells
-changes its area at the rate ``d log A / dt = div_s v_t - 2 H vn``.
+antisymmetric part the vorticity, and its trace ``div_s v`` the rate at which
+a patch of surface moving with the cells changes its area:
+``d log A / dt = div_s v = div_s v_t - 2 H vn``.  The areal rate is taken as
+that trace, of the one fit of the velocity: the product of the fits of ``H``
+and ``vn`` carries the errors of both (on a growing bump, 18 % against 7 %:
+docs/surface.md); the columns ``surface_divergence``, ``mean_curvature`` and
+``vn`` give the two terms apart.
 """
 from __future__ import annotations
 
@@ -154,8 +159,9 @@ def surface_flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=3):
         motion's included), ``mean_curvature`` (``H = -div_s n / 2``, 1/px:
         negative on a dome, positive in a trough; ``(1/R1 + 1/R2) / 2`` with
         the principal radii signed by this convention) and ``areal_rate``
-        (``div_s v_t - 2 H vn``, the rate of change of the log of a surface
-        area moving with the cells, 1/frame); NaN where there is no fit.
+        (``L_11 + L_22 = div_s v = div_s v_t - 2 H vn``, the rate of change
+        of the log of a surface area moving with the cells, 1/frame); NaN
+        where there is no fit.
     """
     require_columns(cells, ["frame", "x", "y", "z", "vx", "vy", "vz", *NORMALS], "cells")
     require_columns(grid, ["frame", "node", "x", "y", "radius", "valid", *NORMALS], "grid")
@@ -179,12 +185,11 @@ def surface_flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=3):
     bend = _tangent_gradient(normals, e1, e2)
     curvature = -0.5 * (bend[0, 0] + bend[1, 1])
     at_node = velocity[:, 0].T  # (n, 3)
-    normal_velocity = (at_node * node_normal).sum(axis=1)
     columns = {"surface_vx": (at_node * e1).sum(axis=1), "surface_vy": (at_node * e2).sum(axis=1),
-               "vn": normal_velocity, "surface_vorticity": gradient[1, 0] - gradient[0, 1],
+               "vn": (at_node * node_normal).sum(axis=1), "surface_vorticity": gradient[1, 0] - gradient[0, 1],
                "surface_divergence": divergence, "surface_strain_xx": (gradient[0, 0] - gradient[1, 1]) * 0.5,
                "surface_strain_xy": (gradient[0, 1] + gradient[1, 0]) * 0.5, "mean_curvature": curvature,
-               "areal_rate": divergence - 2.0 * curvature * normal_velocity}
+               "areal_rate": gradient[0, 0] + gradient[1, 1]}
     return pd.DataFrame({"frame": grid["frame"].to_numpy(np.int64), "node": grid["node"].to_numpy(np.int64),
                          **columns}, copy=False)
 
