@@ -199,14 +199,14 @@ def test_a_tissue_translating_on_a_tilted_plane_moves_at_its_true_speed_on_the_s
     assert len(cells) > 80
     speed = np.hypot(cells["surface_vx"], cells["surface_vy"])
     projected = np.hypot(cells["vx"], cells["vy"])
-    # measured: median |speed - 1| 0.035, mean speed 0.998; projected median 0.644
+    # measured: median |speed - 1| 0.024 over 112 cells, mean speed 1.002; projected median 0.645
     assert np.median(np.abs(speed - 1)) < 0.06 and abs(speed.mean() - 1) < 0.01
     assert abs(np.median(projected) - np.cos(np.radians(50.0))) < 0.02
     np.testing.assert_allclose(cells["vn"], 0.0, atol=1e-9)  # the cells stay in the plane
     np.testing.assert_allclose(np.median(cells["surface_vy"]), 1.0, atol=0.01)  # e2 runs up the slope
     flow = result.flow[result.flow["valid"] & np.isfinite(result.flow["areal_rate"])]
     assert len(flow) > 100
-    # measured: median 0.012; the areal rate of a uniform translation is zero (median |.| 6e-4 1/frame)
+    # measured: median 0.013; the areal rate of a uniform translation is zero (median |.| 6.6e-4 1/frame)
     assert np.median(np.abs(np.hypot(flow["surface_vx"], flow["surface_vy"]) - 1)) < 0.03
     assert np.median(np.abs(flow["areal_rate"])) < 2e-3
     np.testing.assert_allclose(flow[["vn", "mean_curvature"]], 0.0, atol=1e-9)
@@ -235,7 +235,7 @@ def test_on_a_growing_bump_the_areal_rate_is_the_rate_of_the_cells_surface_areas
     rate[1:-1][centred] = (area[2:] - area[:-2])[centred] / (2 * area[1:-1][centred])
     inner = ~cells["is_border"].to_numpy() & np.isfinite(rate)
     truth = _area_element_rate(cells["x"], cells["y"], cells["frame"])[inner]
-    # the cells' own area rates follow the area element's (measured: 0.7 % of the median rate)
+    # the cells' own area rates follow the area element's (measured: 0.9 % of the median rate)
     assert np.median(np.abs(rate[inner] - truth)) < 0.02 * np.median(truth)
     np.testing.assert_allclose(cells["vx"][inner], 0.0, atol=1e-12)
     flow = result.flow[result.flow["valid"] & np.isfinite(result.flow["areal_rate"])]
@@ -243,7 +243,7 @@ def test_on_a_growing_bump_the_areal_rate_is_the_rate_of_the_cells_surface_areas
     truth = _area_element_rate(flow["x"], flow["y"], flow["frame"])
     scale = np.median(truth)
     error = np.median(np.abs(flow["areal_rate"] - truth)) / scale
-    # measured: 0.026 of the median rate (1.6e-2 1/frame); the flat divergence is exactly 0
+    # measured: 0.030 of the median rate (1.85e-2 1/frame) over 846 nodes; the flat divergence is exactly 0
     assert error < 0.05, error
     np.testing.assert_array_equal(flow["divergence"], 0.0)
     # the region of each node: its cells' summed surface area changes at the node's areal rate
@@ -255,9 +255,10 @@ def test_on_a_growing_bump_the_areal_rate_is_the_rate_of_the_cells_surface_areas
             near = np.hypot(xy[:, 0] - x, xy[:, 1] - y) <= radius
             if near.sum() >= 3:
                 regional.append(areal - (a[near] * r[near]).sum() / a[near].sum())
-    # measured: 0.024 of the median rate
+    # measured: 0.022 of the median rate
     assert np.median(np.abs(regional)) < 0.05 * scale
-    # the decomposition: the normal term carries the growth, the tangential divergence the rest
+    # the decomposition: the normal term carries the growth, the tangential divergence the rest (measured: their
+    # sum is 0.086 of the median rate off, the product of two fits carrying the errors of both)
     normal_term = -2 * flow["mean_curvature"] * flow["vn"]
     assert np.median(np.abs(flow["surface_divergence"] + normal_term - truth)) < 0.15 * scale
     top = np.hypot(flow["x"] - 79.5, flow["y"] - 79.5) < 15
@@ -311,3 +312,24 @@ def test_bad_input_is_named():
         bump_movie(drift=(1.0,))
     with pytest.raises(InputError, match="growth"):
         bump_movie(n_frames=5, growth=-0.5)
+
+
+def test_streamed_surface_flow_equals_the_in_memory_one(tmp_path, monkeypatch):
+    """Tables streamed to Parquet parts of a few frames each: the flow stage reads the surface columns chunk by
+    chunk (one frame of halo) and writes the same columns."""
+    from hexatissue import pipeline
+    from hexatissue.stored import StoredTable
+
+    monkeypatch.setattr(pipeline, "PART_BYTES", 20_000)
+    movie = bump_movie(6, amplitude=40.0, growth=0.05, width=35.0, drift=(0.5, 0.2), shape=(96, 96), spacing=12.0,
+                       subdivisions=1)
+    memory = _run(movie.labels, movie.height)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        streamed = analyze(movie.labels, surface=movie.height, out=tmp_path, workers=1, progress=False)
+    assert isinstance(streamed.cells, StoredTable) and len(streamed.cells.parts) > 1
+    for name, columns in (("cells", CELL_COLUMNS), ("flow", FLOW_COLUMNS)):
+        got = streamed.tables[name]
+        got = got.to_pandas() if isinstance(got, StoredTable) else got
+        assert np.isfinite(memory.tables[name][columns[-1]]).sum() > 20
+        pd.testing.assert_frame_equal(got[columns], memory.tables[name][columns], obj=name)
