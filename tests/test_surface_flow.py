@@ -56,8 +56,7 @@ def test_a_constant_height_map_gives_the_flat_flow_byte_for_byte(periodic):
     surface = _run(labels, np.full(labels.shape[1:], 7.0), box=box)
     assert not set(CELL_COLUMNS) & set(flat.cells.columns) and not set(FLOW_COLUMNS) & set(flat.flow.columns)
     pd.testing.assert_frame_equal(surface.flow[list(flat.flow.columns)], flat.flow, check_exact=True)
-    pd.testing.assert_frame_equal(surface.cells[list(flat.cells.columns)].drop(columns=["z"], errors="ignore"),
-                                  flat.cells, check_exact=True)
+    pd.testing.assert_frame_equal(surface.cells[list(flat.cells.columns)], flat.cells, check_exact=True)
     cells, flow = surface.cells, surface.flow
     moving, fitted = np.isfinite(cells["vx"]).to_numpy(), np.isfinite(flow["divergence"]).to_numpy()
     assert moving.sum() > 100 and fitted.sum() > 50

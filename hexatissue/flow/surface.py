@@ -110,8 +110,9 @@ def surface_velocities(cells, box=None) -> dict:
 def _tangent_gradient(fits, e1, e2):
     """``L_ij = E_i . (dv/dx E_jx + dv/dy E_jy)``, ``(2, 2, n)``, of the fits ``(3, 3, n)`` of a 3-D vector's
     components (value, d/dx, d/dy per node) in the nodes' frames ``E1``, ``E2`` ``(n, 3)``."""
-    frame = np.stack([e1, e2])  # (2, n, 3)
-    return np.einsum("ina,abn,jnb->ijn", frame, fits[:, 1:], frame[:, :, :2])
+    frame = (e1.T, e2.T)  # (3, n) each
+    along = [fits[:, 1] * e[0] + fits[:, 2] * e[1] for e in frame]  # dv/dE_j, (3, n)
+    return np.array([[(e * d).sum(axis=0) for d in along] for e in frame])
 
 
 def surface_flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=3):
