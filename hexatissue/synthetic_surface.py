@@ -265,8 +265,8 @@ def bump_movie(n_frames=5, amplitude=60.0, growth=0.05, width=45.0, drift=(0.0, 
     no drift every cell stays at the same (x, y), so its surface point moves
     straight up at ``dz/dt = amplitude growth exp(-r^2 / 2 s^2)`` and its area
     grows at the rate of the area element ``sqrt(1 + |grad z|^2)``:
-    ``d log sqrt(1 + |grad z|^2) / dt = h growth |grad g|^2 / (1 + h^2 |grad g|^2)``
-    with ``z = h g``.
+    ``d log sqrt(1 + |grad z|^2) / dt = h_t amplitude growth |grad g|^2 / (1 + h_t^2 |grad g|^2)``
+    with ``z = h_t g``, ``g = exp(-r^2 / 2 s^2)``.
 
     Parameters
     ----------
@@ -282,8 +282,9 @@ def bump_movie(n_frames=5, amplitude=60.0, growth=0.05, width=45.0, drift=(0.0, 
     shape, spacing, jitter, seed
         As :func:`gaussian_bump_tissue`.
     subdivisions : int
-        Of the truth's quadratures (:func:`gaussian_bump_tissue`; 4: areas to
-        about 1e-7 relative).
+        Of the truth's quadratures (:func:`gaussian_bump_tissue`; against 8
+        on cells 12 px apart on a bump h = 60, s = 45 px: 3e-8 relative at
+        1, 4e-10 at 2, 5e-12 at 4).
 
     Returns
     -------
