@@ -253,7 +253,8 @@ def tilted_plane_movie(tilt=50.0, n_frames=5, velocity=(0.0, 1.0), shape=(240, 3
                                    "area": np.array([_shoelace(polygons[k]) for k in cells]),
                                    "perimeter": polygon_perimeter(xy, starts)}))
     return SurfaceMovie(labels=np.stack(labels), height=gy * np.tan(np.radians(tilt)),
-                        truth=pd.concat(truth, ignore_index=True), velocity=np.array([step[0], step[1] * cos, step[1] * sin]))
+                        truth=pd.concat(truth, ignore_index=True),
+                        velocity=np.array([step[0], step[1] * cos, step[1] * sin]))
 
 
 def bump_movie(n_frames=5, amplitude=60.0, growth=0.05, width=45.0, drift=(0.0, 0.0), shape=(192, 192), spacing=16.0,

@@ -284,7 +284,7 @@ def test_turning_labels_and_height_maps_by_90_degrees_keeps_the_surface_flow():
     # np.rot90: (x, y) -> (y, n - 1 - x), a vector (a, b) -> (b, -a)
     np.testing.assert_allclose(b["vx"][moving], a["vy"][moving], atol=1e-9)
     np.testing.assert_allclose(b["vy"][moving], -a["vx"][moving], atol=1e-9)
-    fa, fb = one.flow.merge(one.grid[["frame", "node", "row", "col"]]), two.flow.merge(two.grid[["frame", "node", "row", "col"]])
+    fa, fb = (m.flow.merge(m.grid[["frame", "node", "row", "col"]]) for m in (one, two))
     fb = fb.set_index(["frame", "row", "col"]).loc[list(zip(fa["frame"], shape[1] - 1 - fa["col"], fa["row"]))]
     np.testing.assert_allclose(fb["x"], fa["y"])
     both = np.isfinite(fa["areal_rate"]).to_numpy()

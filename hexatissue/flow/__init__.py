@@ -35,7 +35,8 @@ from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _centred_
                          flow_summary, mean_squared_displacement, msd_exponent, reliable_bins, rms_step,
                          velocity_correlation, velocity_statistics)
 
-__all__ = ["cell_velocities", "flow_fields", "surface_velocities", "surface_flow_fields", "velocity_statistics", "velocity_correlation", "correlation_length",
+__all__ = ["cell_velocities", "flow_fields", "surface_velocities", "surface_flow_fields", "velocity_statistics",
+           "velocity_correlation", "correlation_length",
            "mean_squared_displacement", "msd_exponent", "flow_summary", "velocity_unit", "in_units", "MIN_CELLS",
            "t1_flow", "defect_flow", "angular_harmonics", "reliable_bins", "SPARSE_BIN", "MIN_BIN_PAIRS", "CorrelationLength",
            "rms_step", "cell_spacing"]

@@ -46,16 +46,16 @@ __all__ = ["surface_velocities", "surface_flow_fields"]
 NORMALS = ["normal_x", "normal_y", "normal_z"]
 
 
+#: A cell normal within this angle (rad) of +z is +z: the lifted polygons of a constant height map tilt by rounding
+#: alone (measured: 1.3e-16), and their frames are then exactly x, y, so that the image plane's surface columns are
+#: the flat ones bit for bit.
+LEVEL = 1e-12
+
+
 def _cell_normals(cells):
-    """The cells' unit normals ``(m, 3)``: their tangent planes' (``normal_x/_y/_z``), and exactly ``(0, 0, 1)`` in a
-    frame whose cells all lie at one height (a constant height map: the image plane, whose frames are x, y)."""
+    """The cells' unit normals ``(m, 3)`` (``normal_x/_y/_z``), those within :data:`LEVEL` of +z set to +z."""
     normal = cells[NORMALS].to_numpy(float, copy=True)
-    z = cells["z"].to_numpy(float)
-    frames, inverse = np.unique(cells["frame"].to_numpy(np.int64), return_inverse=True)
-    low, high = np.full(len(frames), np.inf), np.full(len(frames), -np.inf)
-    np.minimum.at(low, inverse, z)  # a NaN height makes its frame's bounds NaN: not a plane
-    np.maximum.at(high, inverse, z)
-    normal[(low == high)[inverse]] = (0.0, 0.0, 1.0)
+    normal[np.hypot(normal[:, 0], normal[:, 1]) <= LEVEL] = (0.0, 0.0, 1.0)
     return normal
 
 
@@ -68,9 +68,9 @@ def surface_velocities(cells, box=None) -> dict:
     :func:`hexatissue.cell_velocities`: NaN at the ends of tracks); split in
     the cell's tangent frame at ``t`` (:func:`hexatissue.surface.tangent_polygons`:
     ``e1`` the image x axis projected on the tangent plane, ``e2 = n x e1``).
-    In a frame whose cells all lie at one height (a constant height map) the
-    frame is exactly x, y, z, so ``surface_vx``, ``surface_vy`` are ``vx``,
-    ``vy``.
+    A normal within :data:`LEVEL` (1e-12 rad) of +z is taken as +z, so that
+    on a constant height map the frame is exactly x, y, z and
+    ``surface_vx``, ``surface_vy`` are ``vx``, ``vy``.
 
     Parameters
     ----------
@@ -103,7 +103,8 @@ def surface_velocities(cells, box=None) -> dict:
     out[order] = v
     normal = _cell_normals(cells)
     e1, e2 = node_frames(normal)
-    return {"vx": out[:, 0].copy(), "vy": out[:, 1].copy(), "vz": out[:, 2].copy(), "surface_vx": (out * e1).sum(axis=1),
+    return {"vx": out[:, 0].copy(), "vy": out[:, 1].copy(), "vz": out[:, 2].copy(),
+            "surface_vx": (out * e1).sum(axis=1),
             "surface_vy": (out * e2).sum(axis=1), "vn": (out * normal).sum(axis=1)}
 
 
@@ -119,14 +120,16 @@ def surface_flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=3):
     """The flow on the surface of a height map at the nodes of its grid: the surface columns of the ``flow`` table.
 
     On the grid of the surface field (its node normals ``normal_x/_y/_z``),
-    each node fits, over the interior cells of its disk that have a 3-D
-    velocity and a normal, the cells' velocities ``v``, their tangential
-    velocities ``v_t = v - vn n`` and their normals ``n`` by affine functions
-    of the image position, as :func:`hexatissue.flow_fields` fits ``vx``,
-    ``vy`` (the same disks, ``min_cells`` and spread), and takes their
-    gradients in the node's tangent frame (module docstring).  In a frame
-    whose cells all lie at one height (a constant height map) the frames are
-    exactly x, y, z and every surface column equals its flat counterpart.
+    each node fits the cells' velocities ``v`` over the interior cells of its
+    disk that have a 3-D velocity, and their tangential velocities
+    ``v_t = v - vn n`` and normals ``n`` over those of them that also have a
+    normal, by affine functions of the image position, as
+    :func:`hexatissue.flow_fields` fits ``vx``, ``vy`` (the same disks,
+    ``min_cells`` and spread), and takes their gradients in the node's
+    tangent frame (module docstring).  On a constant height map (node normals
+    +z, cell normals +z within :data:`LEVEL`, the cells at one height) the
+    frames are exactly x, y, z and every surface column equals its flat
+    counterpart.
 
     Parameters
     ----------
@@ -172,14 +175,17 @@ def surface_flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=3):
     v = cells[["vx", "vy", "vz"]].to_numpy(float)
     normal = _cell_normals(cells)
     vn = (v * normal).sum(axis=1)
-    values = np.column_stack([v, v - vn[:, None] * normal, normal])
-    use = interior_mask(cells) & np.isfinite(xy).all(axis=1) & np.isfinite(values).all(axis=1)
-    fits, _ = grid_fits(xy[use], cells["frame"].to_numpy(np.int64)[use], values[use],
-                        grid["frame"].to_numpy(np.int64), grid[["x", "y"]].to_numpy(float),
-                        radius, box, check_min_cells(min_cells))
+    frame = cells["frame"].to_numpy(np.int64)
+    moving = interior_mask(cells) & np.isfinite(xy).all(axis=1) & np.isfinite(v).all(axis=1)
+    with_normal = moving & np.isfinite(normal).all(axis=1)
+    nodes = (grid["frame"].to_numpy(np.int64), grid[["x", "y"]].to_numpy(float), radius, box,
+             check_min_cells(min_cells))
+    velocity, _ = grid_fits(xy[moving], frame[moving], v[moving], *nodes)
+    fits, _ = grid_fits(xy[with_normal], frame[with_normal],
+                        np.column_stack([v - vn[:, None] * normal, normal])[with_normal], *nodes)
     node_normal = grid[NORMALS].to_numpy(float)
     e1, e2 = node_frames(node_normal)
-    velocity, tangential, normals = fits[0:3], fits[3:6], fits[6:9]
+    tangential, normals = fits[0:3], fits[3:6]
     gradient = _tangent_gradient(velocity, e1, e2)
     divergence = _tangent_gradient(tangential, e1, e2)
     divergence = divergence[0, 0] + divergence[1, 1]
