@@ -25,7 +25,7 @@ antisymmetric part the vorticity, and its trace ``div_s v`` the rate at which
 a patch of surface moving with the cells changes its area:
 ``d log A / dt = div_s v = div_s v_t - 2 H vn``.  The areal rate is taken as
 that trace, of the one fit of the velocity: the product of the fits of ``H``
-and ``vn`` carries the errors of both (on a growing bump, 18 % against 7 %:
+and ``vn`` carries the errors of both (on a growing bump, 8.5 % against 2.9 %:
 docs/surface.md); the columns ``surface_divergence``, ``mean_curvature`` and
 ``vn`` give the two terms apart.
 """
