@@ -151,8 +151,7 @@ def test_the_cells_velocities_are_split_in_their_tangent_frames():
                                     "z": 4 + start @ gradient + t * V[2]}))
     cells = pd.concat(frames, ignore_index=True)
     cells[NORMALS] = n
-    cells.loc[5, NORMALS] = np.nan  # frame 0 has no velocities: the NaN normal is on frame 1
-    cells.loc[25, NORMALS] = np.nan
+    cells.loc[25, NORMALS] = np.nan  # a cell of frame 1 without a polygon
     out = surface_velocities(cells)
     middle = (cells["frame"] == 1).to_numpy() & (cells.index != 25)
     np.testing.assert_allclose(np.column_stack([out["vx"], out["vy"], out["vz"]])[middle], np.tile(V, (19, 1)),
