@@ -271,6 +271,16 @@ ENTRIES = (
         "tilt met; bump 1.04 % median (signed -0.12 %), the 2-D network's own pixel error being 0.97 %",
     ),
     Entry(
+        "results_surface_flow.md",
+        "the tissue flow on a height map's surface: a tissue translating on tilted planes, cells fixed on a growing "
+        "bump (areal rate against the area element's), 5 seeds",
+        "`NUMBA_NUM_THREADS=1 python benchmarks/bench_surface_flow.py`",
+        "50° tilt: speed on the surface within 2.8% (projected 0.643); growing bump: areal_rate 2.9% of the rate "
+        "(flat divergence 0e+00)",
+        "speed on the surface within 5 % at 50°; areal rate within 5 % on the bump",
+        "met",
+    ),
+    Entry(
         "results_surface_mesh.md",
         "labelled surface meshes against spherical Voronoi tissues (100 cells, 5 seeds): area error vs mesh "
         "resolution, defect charge sums; 10,000 cells",

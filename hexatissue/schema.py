@@ -77,6 +77,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "junction_polarity_im": ("f", "", "nematic of the junctions' integrated intensity, imaginary part"),
         "gamma{p}_re": ("f", "", "real part of the p-fold shape function"),
         "gamma{p}_im": ("f", "", "imaginary part of the p-fold shape function"),
+        "z": ("f", "px", "height of the surface above the cell's centroid, converted to px: the z of its 3-D "
+              "position (with --surface)"),
         "surface_area": ("f", "px^2", "area of the cell polygon lifted onto the height map (with --surface; NaN "
                          "without a polygon)"),
         "surface_perimeter": ("f", "px", "perimeter of the lifted polygon: its 3-D junction lengths (with --surface)"),
@@ -90,6 +92,13 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "vx": ("f", "px/frame", "velocity along x: centred difference of the centroid along the track (NaN at track "
                "ends, divisions and gaps; hexatissue.flow.cell_velocities)"),
         "vy": ("f", "px/frame", "velocity along y (rows), as vx"),
+        "vz": ("f", "px/frame", "velocity along z: centred difference of the cell's height z along the track, as vx "
+               "(with --surface; hexatissue.flow.surface_velocities)"),
+        "surface_vx": ("f", "px/frame", "3-D velocity (vx, vy, vz) along the first axis of the cell's tangent frame (the "
+                       "image x axis projected on its tangent plane, as surface_gamma{p}; with --surface)"),
+        "surface_vy": ("f", "px/frame", "3-D velocity along the second axis of the cell's tangent frame (normal x first "
+                       "axis)"),
+        "vn": ("f", "px/frame", "3-D velocity along the cell's normal (positive towards +z; with --surface)"),
         "pressure": ("f", "tension/px", "inferred pressure, relative to the frame's mean (with --mechanics)"),
         "pressure_sd": ("f", "tension/px", "posterior s.d. of the pressure (Bayesian estimator)"),
         "stress_xx": ("f", "tension/px", "Batchelor stress of the cell, xx (with --mechanics)"),
@@ -244,6 +253,22 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "strain_xy": ("f", "1/frame", "traceless strain rate (dvx/dy + dvy/dx) / 2"),
         "n_cells": ("i", "", "cells in the disk with a velocity"),
         "valid": ("b", "", "the grid node is valid and the fit exists"),
+        "surface_vx": ("f", "px/frame", "fitted 3-D velocity at the node along the first axis of its tangent frame (the "
+                       "image x axis projected on the tangent plane of grid.normal_x/_y/_z; with --surface)"),
+        "surface_vy": ("f", "px/frame", "fitted 3-D velocity along the second axis of the node's tangent frame (normal x "
+                       "first axis)"),
+        "vn": ("f", "px/frame", "fitted 3-D velocity along the node's normal (positive towards +z; with --surface)"),
+        "surface_vorticity": ("f", "1/frame", "vorticity on the surface: L21 - L12 of the velocity gradient in the "
+                              "node's tangent frame (with --surface)"),
+        "surface_divergence": ("f", "1/frame", "surface divergence of the tangential velocity, div_s v_t (with "
+                               "--surface)"),
+        "surface_strain_xx": ("f", "1/frame", "surface rate of strain (L11 - L22) / 2 in the node's tangent frame, the "
+                              "normal motion's included (with --surface)"),
+        "surface_strain_xy": ("f", "1/frame", "surface rate of strain (L12 + L21) / 2 in the node's tangent frame"),
+        "mean_curvature": ("f", "1/px", "mean curvature H = -div_s n / 2 of the cells' normals (negative on a dome, "
+                           "positive in a trough; with --surface)"),
+        "areal_rate": ("f", "1/frame", "rate of change of the log of a surface area moving with the cells: the "
+                       "surface divergence of their 3-D velocity, div_s v = div_s v_t - 2 H vn (with --surface)"),
         "piv_vx": ("f", "px/frame", "PIV velocity of the raw channel at the node, along x (with --intensity)"),
         "piv_vy": ("f", "px/frame", "PIV velocity of the raw channel at the node, along y (with --intensity)"),
         "piv_peak": ("f", "", "PIV normalised correlation peak (1: an exact copy)"),
@@ -392,7 +417,8 @@ def _spec(table: str) -> dict:
 
 
 # columns a producer may leave out (every other schema column is required)
-_OPTIONAL = {"surface_area", "surface_perimeter", "normal_x", "normal_y", "normal_z", "z", "piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
+_OPTIONAL = {"vz", "surface_vx", "surface_vy", "vn", "surface_vorticity", "surface_divergence", "surface_strain_xx",
+             "surface_strain_xy", "mean_curvature", "areal_rate", "surface_area", "surface_perimeter", "normal_x", "normal_y", "normal_z", "z", "piv_vx", "piv_vy", "piv_peak", "image_x", "image_y", "intensity_mean", "intensity_total", "junction_polarity_re", "junction_polarity_im", "track", "n_boundaries", "polygon_area", "row", "col", "coverage", "valid", "radius", "spacing",
              "frame_gain", "frame_undo", "is_border", "tracking_doubtful", "p", "shear_xx", "shear_xy", "vx", "vy",
              "tension", "tension_sd", "curvature", "n_merged", "division_area_ratio",
              "division_suspect", "division_reason", "extrusion_area_ratio", "extrusion_unconfirmed", "pressure", "pressure_sd", "stress_xx", "stress_xy", "stress_yy"}

@@ -41,7 +41,7 @@ from .defects import find_defects, link_movie_defects
 from .deformation import deformation_budget, read_roi
 from .errors import FrameWarning, HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
-from .flow import cell_velocities, flow_fields
+from .flow import cell_velocities, flow_fields, surface_flow_fields, surface_velocities
 from .flow.piv import piv_fields
 from .geometry import distinct_count, in_sorted
 from .intensity import measure_intensity
@@ -54,7 +54,7 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .stored import StoredTable
-from .surface import lift, surface_arrays, surface_coarse_grain, surface_defects
+from .surface import cell_heights, lift, surface_arrays, surface_coarse_grain, surface_defects
 from .track import (CellCounts, MovieTracker, cells_with_tracks, check_divisions, check_extrusions, checked_tracks,
                     compact_frames, join_spans, lineage_from_spans, track_spans, tracking_summary, tracking_warning)
 
@@ -323,14 +323,15 @@ def _shape_order(frame, options):
 
 
 def _surface(frame, options):
-    """Each cell on the height map's surface: 3-D area and perimeter, normal, gamma_p in its tangent plane (for the
-    orders of the order stage's columns); every vertex's height."""
+    """Each cell on the height map's surface: the height above its centroid, 3-D area and perimeter, normal, gamma_p
+    in its tangent plane (for the orders of the order stage's columns); every vertex's height."""
     height = frame.images["surface"]  # finite, of the labels' shape: checked when read (Source.image, analyze)
     frame.height_scale = options.scale  # the order fields stage coarse-grains on the surface
     cells = frame.tables["cells"]
     orders = tuple(int(c[5:-3]) for c in cells if c.startswith("gamma") and c.endswith("_re"))  # OrderOptions.p
     vertices = frame.tables["vertices"]
     vertices["z"] = lift(height, np.column_stack([vertices["x"], vertices["y"]]), options.scale, frame.box)[:, 2]
+    cells["z"] = cell_heights(height, cells["x"], cells["y"], options.scale, frame.box)  # the cells' 3-D positions
     # the mesh's polygons: a label image's (analyze refuses image stages on cell polygons, which have no pixels)
     cells.update(surface_arrays(*frame.polygons, polygon_rows(cells["n_sides"] > 0), height, options.scale,
                                 frame.box, orders, options.center))
@@ -502,8 +503,12 @@ def _link(tracker, payload, t):
 #: long movie holds ~20 columns; the tracks stage needs 6).  The T1 events stage reads the cells (frame, cell, track,
 #: x, y, is_border) and the edges a block of frames at a time, from the tables as they are kept.
 TRACK_READS = {"cells": ("frame", "cell", "x", "y", "area", "is_border")}
-FLOW_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border"),
-              "grid": ("frame", "node", "x", "y", "radius", "valid")}
+FLOW_READS = {"cells": ("frame", "cell", "track", "x", "y", "is_border", "z", "normal_x", "normal_y", "normal_z"),
+              "grid": ("frame", "node", "x", "y", "radius", "valid", "normal_x", "normal_y", "normal_z")}
+#: The flow's columns on a height map's surface (after the surface stage), in the cells table and the flow table.
+SURFACE_VELOCITIES = ("vz", "surface_vx", "surface_vy", "vn")
+SURFACE_FLOW = ("surface_vx", "surface_vy", "vn", "surface_vorticity", "surface_divergence", "surface_strain_xx",
+                "surface_strain_xy", "mean_curvature", "areal_rate")
 T1_READS = {"vertices": ("n_merged",)}
 DEFORMATION_READS = {"cells": ("frame", "cell", "track", "x", "y", "area", "is_border"),
                      "vertices": ("frame", "vertex", "x", "y", "degree", "is_border"),
@@ -582,35 +587,48 @@ def _defect_tracks(movie, options):
 
 
 def _flow(movie, options):
-    """Every tracked cell's velocity (``cells.vx``, ``vy``) and, on the Gamma_p grid when there is one, ``flow``.
+    """Every tracked cell's velocity (``cells.vx``, ``vy``) and, on the Gamma_p grid when there is one, ``flow``;
+    after the surface stage also on the surface: the cells' 3-D velocities in their tangent frames and, on the
+    surface field's grid, the surface divergence and the areal rate with the normal motion (docs/flow.md).
 
     Chunk by chunk of the cells' frames (one chunk for tables in memory): a
     velocity is a centred difference along the track, so each chunk is read
     with one frame more on either side; the grid's fits are per frame.
     """
     gridded = "grid" in movie.tables
-    writers = [movie.column_writer("cells", column, np.float64) for column in ("vx", "vy")]
+    surface = getattr(movie.options.get("surface"), "enabled", False)
+    names = ("vx", "vy") + (SURFACE_VELOCITIES if surface else ())
+    writers = {name: movie.column_writer("cells", name, np.float64) for name in names}
 
     def chunks():
         for first, last in movie.frame_chunks("cells"):
             release_freed_memory()  # the previous chunk's working set, before this one's
             cells = movie.read("cells", FLOW_READS["cells"], frames=(first - 1, last + 1))
             vx, vy = cell_velocities(cells, movie.box)
+            velocities = {"vx": vx, "vy": vy}
+            if surface:
+                velocities.update({name: values for name, values in surface_velocities(cells, movie.box).items()
+                                   if name in SURFACE_VELOCITIES})
             frame = cells["frame"].to_numpy()
             inside = (frame >= first) & (frame <= last)
-            writers[0].write(vx[inside])
-            writers[1].write(vy[inside])
+            for name, writer in writers.items():
+                writer.write(velocities[name][inside])
             if gridded:
-                cells = cells[inside].assign(vx=vx[inside], vy=vy[inside])
+                cells = cells[inside].assign(**{name: values[inside] for name, values in velocities.items()})
                 grid = movie.read("grid", FLOW_READS["grid"], frames=(first, last))
-                yield (first, last), flow_fields(cells, grid, movie.box, options.radius_factor, options.min_cells)
+                flow = flow_fields(cells, grid, movie.box, options.radius_factor, options.min_cells)
+                if surface and "normal_x" in grid.columns:
+                    fields = surface_flow_fields(cells, grid, movie.box, options.radius_factor, options.min_cells)
+                    for name in SURFACE_FLOW:
+                        flow[name] = fields[name].to_numpy()
+                yield (first, last), flow
 
     if gridded:
         movie.put_chunks("flow", chunks())
     else:
         for _ in chunks():  # the velocities are written as the chunks go; there is no field to keep
             pass
-    for writer in writers:
+    for writer in writers.values():
         writer.close()
     if not gridded:
         return
@@ -710,7 +728,7 @@ STAGES = (
     Stage("shape order", OrderOptions, "frame", reads=("polygons", "cells"),
           writes=("cells.gamma{p}_re", "cells.gamma{p}_im"), run=_shape_order, views="hexatissue.views.order"),
     Stage("surface", SurfaceOptions, "frame", reads=("polygons", "image", "cells", "vertices"),
-          writes=("cells.surface_area", "cells.surface_perimeter", "cells.normal_x", "cells.normal_y",
+          writes=("cells.z", "cells.surface_area", "cells.surface_perimeter", "cells.normal_x", "cells.normal_y",
                   "cells.normal_z", "cells.surface_gamma{p}_re", "cells.surface_gamma{p}_im", "vertices.z",
                   "height"),
           run=_surface, enabled=_enabled, image=True, views="hexatissue.views.surface"),
@@ -726,7 +744,8 @@ STAGES = (
           views="hexatissue.views.track"),
     Stage("defect tracks", OrderOptions, "movie", reads=("cells", "grid", "defects"),
           writes=("defects.track", "defect_events"), run=_defect_tracks, enabled=_fields_on),
-    Stage("tissue flow", FlowOptions, "movie", reads=("cells", "grid"), writes=("cells.vx", "cells.vy", "flow"),
+    Stage("tissue flow", FlowOptions, "movie", reads=("cells", "grid"),
+          writes=("cells.vx", "cells.vy", "cells.vz", "cells.surface_vx", "cells.surface_vy", "cells.vn", "flow"),
           run=_flow, enabled=_enabled, views="hexatissue.views.flow"),
     Stage("T1 events", EventOptions, "movie", reads=("cells", "edges", "vertices"),
           writes=("events", "neighbour_events"), run=_t1_events, views="hexatissue.views.events"),

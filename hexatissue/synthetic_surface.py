@@ -17,6 +17,10 @@ cells' exact areas and perimeters on the surface.
   integrals of ``sqrt(1 + |grad z|^2)`` over each cell (7-point degree-5
   rule on a fine subdivision of the cell's triangles), perimeters the
   lifted ridges' lengths (Gauss-Legendre on sub-segments).
+- :func:`tilted_plane_movie`, :func:`bump_movie` (a :class:`SurfaceMovie`
+  each): a tissue translating uniformly on a tilted plane (its 3-D
+  velocity known), and a tissue on a bump that grows in time (its cells'
+  areas known in every frame), for the flow on the surface.
 
 Triangle meshes with cell labels (the surface-mesh measures,
 :func:`hexatissue.surface.mesh_tissue`; a :class:`MeshTissue` each):
@@ -49,7 +53,8 @@ from .geometry import pack_polygons, polygon_perimeter
 from .order.shape import shape_functions_flat
 from .synthetic import jittered_seeds, voronoi_labels, voronoi_polygons
 
-__all__ = ["SurfaceTissue", "tilted_plane_tissue", "gaussian_bump_tissue", "junction_stack", "MeshTissue", "icosphere",
+__all__ = ["SurfaceTissue", "tilted_plane_tissue", "gaussian_bump_tissue", "junction_stack", "SurfaceMovie",
+           "tilted_plane_movie", "bump_movie", "MeshTissue", "icosphere",
            "subdivide_mesh", "sphere_seeds", "sphere_tissue", "sphere_movie", "torus_tissue", "polygon_mesh"]
 
 #: The 7-point degree-5 rule on a triangle (Radon): barycentric points and weights (summing to 1).
@@ -166,6 +171,155 @@ def gaussian_bump_tissue(shape=(256, 256), amplitude=80.0, width=60.0, spacing=2
     rows, cols = (check_positive(n, "shape", integer=True) for n in shape)
     h, s = float(amplitude), check_positive(width, "width")
     n_sub = check_positive(subdivisions, "subdivisions", integer=True)
+    seeds = jittered_seeds((rows, cols), spacing, jitter, seed)
+    labels, height, truth = _bump(seeds, (rows, cols), h, s, n_sub)
+    return SurfaceTissue(labels=labels, height=height, seeds=seeds, truth=truth)
+
+
+@dataclass
+class SurfaceMovie:
+    """A tissue moving on an analytic surface, as a surface projection gives it frame by frame.
+
+    Attributes
+    ----------
+    labels : (frames, rows, cols) int32 array
+        The projected tissue of every frame: cell ``k`` is the Voronoi cell of
+        seed ``k - 1`` in every frame (the ids are the tracks).
+    height : (frames, rows, cols) or (rows, cols) float array
+        z of the surface at every pixel centre, px: one map per frame, or one
+        for all frames.
+    truth : pandas.DataFrame
+        The exact cells: ``frame``, ``cell``, ``area`` (px^2), ``perimeter``
+        (px) on the surface, for the cells wholly inside the image.
+    velocity : (3,) float array or None
+        The 3-D velocity of every cell (x, y, z; px/frame) when the tissue
+        moves as a whole.
+    """
+
+    labels: np.ndarray
+    height: np.ndarray
+    truth: pd.DataFrame
+    velocity: np.ndarray | None = None
+
+
+def tilted_plane_movie(tilt=50.0, n_frames=5, velocity=(0.0, 1.0), shape=(240, 320), spacing=24.0, jitter=0.35,
+                       seed=0) -> SurfaceMovie:
+    """A flat Voronoi tissue translating uniformly in a plane tilted by ``tilt`` degrees about the image x axis.
+
+    As :func:`tilted_plane_tissue`: the plane's point (u, v) sits at
+    ``(x, y, z) = (u, v cos(tilt), v sin(tilt))``; the seeds move by
+    ``velocity = (du, dv)`` px/frame in the plane's own coordinates, so every
+    cell moves at ``|velocity|`` on the surface and the 3-D velocity is
+    ``(du, dv cos(tilt), dv sin(tilt))``, of which the image sees
+    ``(du, dv cos(tilt))``.  Seeds fill the plane beyond the image, so cells
+    enter and leave across its edges.
+
+    Parameters
+    ----------
+    tilt : float
+        Tilt angle, degrees, in [0, 80).
+    n_frames : int
+        Frames.
+    velocity : (float, float)
+        ``(du, dv)``, px/frame in the plane.
+    shape, spacing, jitter, seed
+        As :func:`tilted_plane_tissue` (``shape`` of the flat tissue).
+
+    Returns
+    -------
+    SurfaceMovie
+        ``labels`` per frame, one ``height`` (``z = y tan(tilt)``) for all
+        frames, ``truth`` the flat cells' areas and perimeters (the cells
+        wholly inside the image, in every frame) and ``velocity``.
+    """
+    tilt = float(tilt)
+    if not 0.0 <= tilt < 80.0:
+        raise InputError(f"tilt must be an angle in degrees in [0, 80); got {tilt!r}")
+    rows, cols = (check_positive(n, "shape", integer=True) for n in shape)
+    n_frames = check_positive(n_frames, "n_frames", integer=True)
+    step = np.asarray(velocity, dtype=float)
+    if step.shape != (2,) or not np.isfinite(step).all():
+        raise InputError(f"velocity must be two finite numbers (du, dv), px/frame; got {velocity!r}")
+    cos, sin = np.cos(np.radians(tilt)), np.sin(np.radians(tilt))
+    margin = float(spacing) + n_frames * float(np.abs(step).max())
+    seeds = jittered_seeds((rows + 2 * margin, cols + 2 * margin), spacing, jitter, seed) - margin
+    image_rows = max(1, int(round(rows * cos)))
+    gy, gx = np.mgrid[0:image_rows, 0:cols].astype(float)
+    points = np.column_stack([gx.ravel(), gy.ravel() / cos])
+    labels, truth = [], []
+    for t in range(n_frames):
+        moved = seeds + t * step
+        labels.append(_nearest(moved, points).reshape(image_rows, cols))
+        polygons = voronoi_polygons(moved, (rows, cols))
+        cells = [k for k, xy in polygons.items() if np.all(xy[:, 1] * cos <= image_rows - 0.5)]
+        xy, starts = pack_polygons([polygons[k] for k in cells])
+        truth.append(pd.DataFrame({"frame": t, "cell": np.array(cells, np.int64),
+                                   "area": np.array([_shoelace(polygons[k]) for k in cells]),
+                                   "perimeter": polygon_perimeter(xy, starts)}))
+    return SurfaceMovie(labels=np.stack(labels), height=gy * np.tan(np.radians(tilt)),
+                        truth=pd.concat(truth, ignore_index=True),
+                        velocity=np.array([step[0], step[1] * cos, step[1] * sin]))
+
+
+def bump_movie(n_frames=5, amplitude=60.0, growth=0.05, width=45.0, drift=(0.0, 0.0), shape=(192, 192), spacing=16.0,
+               jitter=0.35, seed=0, subdivisions=4) -> SurfaceMovie:
+    """A Voronoi tissue on a Gaussian bump that grows in time, its seeds drifting in (x, y).
+
+    Frame ``t`` is :func:`gaussian_bump_tissue`'s tissue with the height
+    ``h_t = amplitude (1 + growth t)`` and the seeds moved by ``t drift``: with
+    no drift every cell stays at the same (x, y), so its surface point moves
+    straight up at ``dz/dt = amplitude growth exp(-r^2 / 2 s^2)`` and its area
+    grows at the rate of the area element ``sqrt(1 + |grad z|^2)``:
+    ``d log sqrt(1 + |grad z|^2) / dt = h_t amplitude growth |grad g|^2 / (1 + h_t^2 |grad g|^2)``
+    with ``z = h_t g``, ``g = exp(-r^2 / 2 s^2)``.
+
+    Parameters
+    ----------
+    n_frames : int
+        Frames.
+    amplitude, width : float
+        The bump's height at frame 0 and its width ``s``, px.
+    growth : float
+        Relative growth of the height per frame (negative: the bump sinks;
+        ``1 + growth t`` must stay positive).
+    drift : (float, float)
+        Velocity of the seeds in (x, y), px/frame.
+    shape, spacing, jitter, seed
+        As :func:`gaussian_bump_tissue`.
+    subdivisions : int
+        Of the truth's quadratures (:func:`gaussian_bump_tissue`; against 8
+        on cells 12 px apart on a bump h = 60, s = 45 px: 3e-8 relative at
+        1, 4e-10 at 2, 5e-12 at 4).
+
+    Returns
+    -------
+    SurfaceMovie
+        ``labels`` and ``height`` per frame, ``truth`` per frame and cell.
+    """
+    rows, cols = (check_positive(n, "shape", integer=True) for n in shape)
+    n_frames = check_positive(n_frames, "n_frames", integer=True)
+    s, n_sub = check_positive(width, "width"), check_positive(subdivisions, "subdivisions", integer=True)
+    if not 1.0 + float(growth) * (n_frames - 1) > 0.0:
+        raise InputError(f"growth {growth!r} flattens the bump within {n_frames} frames (1 + growth t must stay "
+                         f"positive)")
+    step = np.asarray(drift, dtype=float)
+    if step.shape != (2,) or not np.isfinite(step).all():
+        raise InputError(f"drift must be two finite numbers (dx, dy), px/frame; got {drift!r}")
+    seeds = jittered_seeds((rows, cols), spacing, jitter, seed)
+    labels, heights, truth = [], [], []
+    for t in range(n_frames):
+        frame_labels, height, cells = _bump(seeds + t * step, (rows, cols), float(amplitude) * (1 + growth * t), s,
+                                            n_sub)
+        labels.append(frame_labels)
+        heights.append(height)
+        truth.append(cells.assign(frame=t)[["frame", "cell", "area", "perimeter"]])
+    return SurfaceMovie(labels=np.stack(labels), height=np.stack(heights), truth=pd.concat(truth, ignore_index=True))
+
+
+def _bump(seeds, shape, h, s, n_sub):
+    """Labels, height map and truth (cells wholly inside the image: ``cell``, ``area``, ``perimeter``) of the Voronoi
+    tissue of ``seeds`` in (x, y) on the Gaussian bump of height ``h`` and width ``s`` centred on the image."""
+    rows, cols = shape
     centre = np.array([(cols - 1) / 2, (rows - 1) / 2])
 
     def z(x, y):
@@ -179,7 +333,6 @@ def gaussian_bump_tissue(shape=(256, 256), amplitude=80.0, width=60.0, spacing=2
         gx, gy = gradient(x, y)
         return np.sqrt(1 + gx ** 2 + gy ** 2)
 
-    seeds = jittered_seeds((rows, cols), spacing, jitter, seed)
     gy, gx = np.mgrid[0:rows, 0:cols].astype(float)
     polygons = voronoi_polygons(seeds, (rows, cols))
     cells = sorted(polygons)
@@ -188,7 +341,7 @@ def gaussian_bump_tissue(shape=(256, 256), amplitude=80.0, width=60.0, spacing=2
         areas.append(_surface_area(polygons[k], metric, n_sub))
         perimeters.append(_lifted_length(polygons[k], gradient, n_sub))
     truth = pd.DataFrame({"cell": np.array(cells, np.int64), "area": np.array(areas), "perimeter": np.array(perimeters)})
-    return SurfaceTissue(labels=voronoi_labels(seeds, (rows, cols)), height=z(gx, gy), seeds=seeds, truth=truth)
+    return voronoi_labels(seeds, (rows, cols)), z(gx, gy), truth
 
 
 def junction_stack(tissue, z_step=4.0, n_planes=None, psf_xy=1.0, psf_z=6.0, background=0.1, noise=0.05,

@@ -4,6 +4,9 @@
 - :func:`flow_fields`: velocity, vorticity, divergence and strain rate on the nodes of the
   coarse-grained order field (:func:`hexatissue.coarse_grain`), from a least-squares affine fit
   to the cells within each node's disk;
+- :func:`surface_velocities`, :func:`surface_flow_fields` (:mod:`hexatissue.flow.surface`): on a height
+  map's surface, each cell's 3-D velocity in its tangent frame (and its normal velocity), and the surface
+  divergence, vorticity, rate of strain, mean curvature and areal rate on the grid of the surface field;
 - :func:`velocity_statistics`, :func:`velocity_correlation`, :func:`mean_squared_displacement`,
   :func:`flow_summary` (:mod:`hexatissue.flow.statistics`): mean speed, polar order, spatial velocity
   correlation and its length, MSD and its exponent;
@@ -21,23 +24,22 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .._dispatch import Kernels
 from ..box import as_box
-from ..errors import InputError, check_positive
+from ..errors import check_positive
 from ..schema import interior_mask, require_columns, validate
 from ..units import in_units, velocity_unit  # the flow's units (defined with the calibration), kept in its API
-from . import _kernels
+from ._grid import check_min_cells, grid_fits
+from .surface import surface_flow_fields, surface_velocities
 from .centred import angular_harmonics, defect_flow, t1_flow
-from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _track_rows, cell_spacing, correlation_length,
+from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _centred_rows, cell_spacing, correlation_length,
                          flow_summary, mean_squared_displacement, msd_exponent, reliable_bins, rms_step,
                          velocity_correlation, velocity_statistics)
 
-__all__ = ["cell_velocities", "flow_fields", "velocity_statistics", "velocity_correlation", "correlation_length",
+__all__ = ["cell_velocities", "flow_fields", "surface_velocities", "surface_flow_fields", "velocity_statistics",
+           "velocity_correlation", "correlation_length",
            "mean_squared_displacement", "msd_exponent", "flow_summary", "velocity_unit", "in_units", "MIN_CELLS",
            "t1_flow", "defect_flow", "angular_harmonics", "reliable_bins", "SPARSE_BIN", "MIN_BIN_PAIRS", "CorrelationLength",
            "rms_step", "cell_spacing"]
-
-K = Kernels(_kernels, "hexatissue.flow._reference")
 
 #: Fewest cells an affine fit takes (three non-collinear points fix a 2-D affine map).
 MIN_CELLS = 3
@@ -70,28 +72,13 @@ def cell_velocities(cells, box=None):
         row order, px/frame (NaN where undefined, see above).
     """
     box = as_box(box)
-    order, t, f, xy = _track_rows(cells)
-    # row k (in track order) is followed by the same track one frame later
-    step = (t[1:] == t[:-1]) & (f[1:] == f[:-1] + 1)
-    centred = np.zeros(len(t), bool)
-    centred[1:-1] = step[1:] & step[:-1]
-    v = np.full((len(t), 2), np.nan)
-    inner = np.flatnonzero(centred)
+    order, xy, inner = _centred_rows(cells)
+    v = np.full((len(xy), 2), np.nan)
     d = xy[inner + 1] - xy[inner - 1]
     v[inner] = 0.5 * (d if box is None else box.min_image(d))
     out = np.empty_like(v)
     out[order] = v
     return out[:, 0].copy(), out[:, 1].copy()
-
-
-def _period(box):
-    """``(Lx, Ly)`` of a periodic box, ``(0, 0)`` for an open image (the kernels' convention)."""
-    return np.zeros(2) if box is None else box.lengths
-
-
-def _frame_rows(frames, blocks):
-    """``(start, end)`` of the rows of each of the frames ``blocks`` in the sorted ``frames`` (empty if absent)."""
-    return np.c_[np.searchsorted(frames, blocks, "left"), np.searchsorted(frames, blocks, "right")].astype(np.int64)
 
 
 def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
@@ -150,40 +137,20 @@ def flow_fields(cells, grid, box=None, radius_factor=2.0, min_cells=MIN_CELLS):
     require_columns(grid, ["frame", "node", "x", "y", "radius", "valid"], "grid")
     box = as_box(box)
     radius_factor = check_positive(radius_factor, "radius_factor")
-    if isinstance(min_cells, bool) or not isinstance(min_cells, (int, np.integer)) or min_cells < 3:
-        raise InputError(f"min_cells must be an integer >= 3 (an affine fit needs three cells); got {min_cells!r}")
+    min_cells = check_min_cells(min_cells)
     xy = cells[["x", "y"]].to_numpy(float)
     uv = cells[["vx", "vy"]].to_numpy(float)
     use = interior_mask(cells) & np.isfinite(xy).all(axis=1) & np.isfinite(uv).all(axis=1)
-    frame = cells["frame"].to_numpy(np.int64)[use]
-    c_order = np.argsort(frame, kind="stable")
-    xy, uv, frame = xy[use][c_order], uv[use][c_order], frame[c_order]
-    if box is not None:
-        xy = box.wrap(xy)
     g_frame = grid["frame"].to_numpy(np.int64)
-    # the grid of analyze is in frame order: then its rows go to the kernel as they are
-    g_order = None if bool(np.all(g_frame[1:] >= g_frame[:-1])) else np.argsort(g_frame, kind="stable")
-
-    def sorted_(values):
-        return values if g_order is None else values[g_order]
-
-    blocks = np.unique(g_frame)
     names = ["x", "y", "radius", "vx", "vy", "vorticity", "divergence", "strain_xx", "strain_xy"]
     # one float block whose rows are the columns (as coarse_grain's grid): no copy into the DataFrame
     block = np.empty((len(names), len(grid)))
     columns = dict(zip(names, block))
     columns["x"][:], columns["y"][:] = grid["x"].to_numpy(float), grid["y"].to_numpy(float)
     np.multiply(grid["radius"].to_numpy(float), radius_factor, out=columns["radius"])
-    fits = np.empty((6, len(grid)))
-    counts = np.empty(len(grid), np.int64)
-    K.affine_fits(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]), np.ascontiguousarray(uv[:, 0]),
-                  np.ascontiguousarray(uv[:, 1]), _frame_rows(frame, blocks),
-                  np.ascontiguousarray(sorted_(columns["x"])), np.ascontiguousarray(sorted_(columns["y"])),
-                  np.ascontiguousarray(sorted_(columns["radius"])), _frame_rows(sorted_(g_frame), blocks), _period(box),
-                  int(min_cells), fits, counts)
-    if g_order is not None:
-        fits[:, g_order], counts[g_order] = fits.copy(), counts.copy()
-    v0x, v0y, lxx, lxy, lyx, lyy = fits
+    (u, v), counts = grid_fits(xy[use], cells["frame"].to_numpy(np.int64)[use], uv[use], g_frame, block[:2].T,
+                               columns["radius"], box, min_cells)
+    (v0x, lxx, lxy), (v0y, lyx, lyy) = u, v
     columns["vx"][:], columns["vy"][:] = v0x, v0y
     np.subtract(lyx, lxy, out=columns["vorticity"])
     np.add(lxx, lyy, out=columns["divergence"])

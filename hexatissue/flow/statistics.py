@@ -31,6 +31,16 @@ def _track_rows(cells):
     return order, track[order], frame[order], cells[["x", "y"]].to_numpy(float)[order]
 
 
+def _centred_rows(cells):
+    """The rows of ``cells`` by (track, frame), their (x, y) in that order, and the places ``k`` in that order whose
+    track is also in the frames before (place ``k - 1``) and after (``k + 1``): the rows of a centred difference."""
+    order, t, f, xy = _track_rows(cells)
+    step = (t[1:] == t[:-1]) & (f[1:] == f[:-1] + 1)
+    centred = np.zeros(len(t), bool)
+    centred[1:-1] = step[1:] & step[:-1]
+    return order, xy, np.flatnonzero(centred)
+
+
 def _moving_cells(cells):
     """Rows that enter the statistics: interior cells with a finite position and velocity."""
     require_columns(cells, ["frame", "x", "y", "vx", "vy"], "cells")

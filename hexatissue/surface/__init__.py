@@ -6,7 +6,9 @@ projected cells are foreshortened by the surface's tilt (a 50 degree tilt
 shrinks areas by 36 %) and their shapes and orientations are distorted.  The
 surface stage lifts every cell polygon's vertices onto the height map and
 measures each cell in its own tangent plane: area and perimeter in 3-D, the
-unit normal, and the shape functions gamma_p of the polygon's in-plane
+unit normal, the height above its centroid (its 3-D position, which the tissue
+flow differentiates along the tracks: :mod:`hexatissue.flow.surface`), and the
+shape functions gamma_p of the polygon's in-plane
 coordinates, with the definition of :func:`hexatissue.order.shape_function`
 (docs/surface.md).
 
@@ -40,9 +42,9 @@ from .field import (node_frames, node_normals, surface_coarse_grain, surface_def
 from .files import LabelledMesh, read_mesh, write_obj, write_ply
 from .mesh import mesh_tables, mesh_tissue, read_mesh_tables
 from .stack import HeightMap, height_map, project_stack
-from .tangent import DEGENERATE_AREA, check_height, lift, surface_arrays, surface_cells, tangent_polygons
+from .tangent import DEGENERATE_AREA, cell_heights, check_height, lift, surface_arrays, surface_cells, tangent_polygons
 
-__all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells", "DEGENERATE_AREA",
+__all__ = ["check_height", "lift", "cell_heights", "tangent_polygons", "surface_arrays", "surface_cells", "DEGENERATE_AREA",
            "LabelledMesh", "read_mesh", "write_ply", "write_obj", "mesh_tissue", "mesh_tables", "read_mesh_tables",
            "node_normals", "node_frames", "transport_to_nodes", "surface_coarse_grain", "surface_plaquette_charges",
            "surface_defects", "HeightMap", "height_map", "project_stack"]

@@ -17,7 +17,7 @@ from ..options import CENTERS
 from ..order.shape import shape_functions_flat
 from . import _kernels
 
-__all__ = ["check_height", "lift", "tangent_polygons", "surface_arrays", "surface_cells"]
+__all__ = ["check_height", "lift", "cell_heights", "tangent_polygons", "surface_arrays", "surface_cells"]
 
 K = Kernels(_kernels, "hexatissue.surface._reference")
 
@@ -54,6 +54,20 @@ def lift(height, xy, scale=1.0, box=None) -> np.ndarray:
     xy = np.asarray(xy, dtype=float).reshape(-1, 2)
     z = scale * bilinear(height, xy[:, 0], xy[:, 1], box is not None)
     return np.column_stack([xy, z])
+
+
+def cell_heights(height, x, y, scale=1.0, box=None) -> np.ndarray:
+    """The height of the surface above the cells' centres ``(x, y)`` (px): their 3-D positions' z, px.
+
+    ``scale`` times the height map at the points, as :func:`lift` lifts them;
+    on a constant height map exactly its value (the bilinear weights would
+    change its last bits), so that the cells of an image plane lie at one
+    height.
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if height.size and float(np.ptp(height)) == 0.0:
+        return np.full(len(x), scale * float(height.flat[0]))
+    return lift(height, np.column_stack([x, y]), scale, box)[:, 2]
 
 
 def tangent_polygons(xyz, starts, degenerate_area=DEGENERATE_AREA):
@@ -173,15 +187,17 @@ def surface_cells(cells, vertices, cell_vertices, height, scale=1.0, box=None, p
     Returns
     -------
     pandas.DataFrame
-        ``cells`` with ``surface_area``, ``surface_perimeter``,
+        ``cells`` with ``z`` (the height above the centroid, px,
+        :func:`cell_heights`), ``surface_area``, ``surface_perimeter``,
         ``normal_x/_y/_z`` and ``surface_gamma{p}_re/_im``; NaN for cells
-        without a polygon.
+        without a polygon (but ``z``).
     """
     height = check_height(height)
     keys, xy, starts = table_polygons(vertices, cell_vertices, box)
     take = lookup(row_keys(keys["frame"].to_numpy(np.int64), keys["cell"].to_numpy(np.int64)), None,
                   row_keys(cells["frame"].to_numpy(np.int64), cells["cell"].to_numpy(np.int64)))
     out = cells.copy(deep=False)
+    out["z"] = cell_heights(height, cells["x"], cells["y"], scale, box)
     for name, values in surface_arrays(xy, starts, take, height, scale, box, p, center).items():
         out[name] = values
     return out
