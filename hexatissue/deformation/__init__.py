@@ -35,7 +35,8 @@ The package, by concept (each module imports only those listed before it):
 their shapes and regions), :mod:`.movie` (the cells by frame, the lineage,
 the T1s by frame), :mod:`.regions` (tissue, grid, regions of interest),
 :mod:`.interval` (one frame interval's steps) and :mod:`.budget`
-(:func:`deformation_budget`).
+(:func:`deformation_budget`; :func:`budget_chunks`, the same a chunk of frames
+at a time, for movies read from disk, and :func:`event_shear`).
 """
 from __future__ import annotations
 

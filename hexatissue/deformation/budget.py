@@ -23,7 +23,7 @@ from ..schema import DEFORMATION_TERMS, ISOTROPIC_TERMS, empty_table, require_co
 from .interval import _pair
 from .movie import _Candidates, _Frames, _Lineage, _runs
 from .regions import _Layers, _Membership, _grid_nodes, roi_tracks
-from .triangulation import frame_contacts, frame_triangles, triangle_edges
+from .triangulation import _triangulation, frame_contacts, triangle_edges
 
 __all__ = ["deformation_budget", "budget_chunks", "event_shear"]
 
@@ -110,9 +110,9 @@ def budget_chunks(read, spans, lineage, t1=None, *, box=None, grid=False, roi=No
 
     Memory holds one chunk's tables at a time, and beyond them what is kept
     per track (the lineage, the regions of interest) and per T1 (the events,
-    their shares), and, for every frame, the triangulation's diagonals that
-    its four-fold vertices and rosettes resolve into (a few per such
-    vertex; on a 4,800-cell movie 1.5 kB a frame).
+    their shares), and, for every frame, the diagonals its four-fold
+    vertices and rosettes resolve into (8 bytes each: 8.7 kB a frame on a
+    4,800-cell tissue with ~1,000 four-fold vertices a frame).
 
     Parameters
     ----------
@@ -217,10 +217,11 @@ def _resolved_into(read, spans, K, box):
     takes the fan with the most diagonals of the triangulation it resolves into, so that resolving into
     those contacts later is no retriangulation that no event explains.  That triangulation is the next
     frame's, itself chosen the same way from the frame after it, back from the last frame (a gap in the
-    frames ends the chain).  Only its keys between cells that share a vertex of four or more cells are kept:
-    those are the only ones a ring's fan asks about.  Kept whole they would be ~3 keys per cell and frame
-    (8 bytes each: 0.23 MB a frame on a 4,800-cell tissue, 0.5 GB over 2,000 frames); of those, the
-    benchmark movie's rings ask about ~1.5 kB a frame.
+    frames ends the chain).  Only its keys of the frame's rings' diagonals are kept: those are the only ones a
+    ring's fan asks about.  Kept whole, the keys would be ~2.8 per cell and frame (106 kB a frame on the
+    4,800-cell benchmark movie, ``voronoi_movie(4800, (1024, 1024), F, amplitude=0.3)``: 0.22 GB over its
+    2,083 frames); its rings' diagonals are 8.7 kB a frame (1,080 keys, 18 MB over 2,083 frames), small
+    enough to keep in memory rather than on disk.
     """
     later, following, after, total = {}, None, None, 0
     for first, last in reversed(spans):
@@ -236,12 +237,12 @@ def _resolved_into(read, spans, K, box):
             total += 1
             if after is not None and after != t + 1:
                 following = None
+            ids, _, diagonals = _triangles(frames, index, t, K, following)
             if following is not None:
-                rings = _ring_pairs(frames, index, t, K)
-                kept = following[in_sorted(following, rings)]
+                kept = following[in_sorted(following, diagonals)]
                 if len(kept):
                     later[t] = kept
-            following = triangle_edges(_triangles(frames, index, t, K, following)[0], K)
+            following = triangle_edges(ids, K)
             after = t
     return later, total
 
@@ -284,7 +285,7 @@ def _chunk_budget(tables, span, carry, movie, step=None):
     for t in sorted(frames.bounds):
         if not first <= t <= last:  # the frame before the chunk: its triangulation is carried
             continue
-        tri = _triangles(frames, index, t, K, carry.edges, movie.later.get(t))
+        tri = _triangles(frames, index, t, K, carry.edges, movie.later.get(t))[:2]
         sl = frames.rows(t)
         contacts = frame_contacts(frames.track[sl], frames.cell[sl], index.part("cell_vertices", t), K)
         if carry.triangles is not None and t == carry.time + 1:
@@ -322,19 +323,10 @@ class _FrameTables:
 
 
 def _triangles(frames, index, t, K, before, after=None):
+    """Frame ``t``'s triangles (ids, corners) and the pair keys of its rings' diagonals (:func:`_triangulation`)."""
     sl = frames.rows(t)
-    return frame_triangles(frames.track[sl], frames.xy[sl], frames.cell[sl], index.part("vertices", t),
+    return _triangulation(frames.track[sl], frames.xy[sl], frames.cell[sl], index.part("vertices", t),
                            index.part("cell_vertices", t), frames.box, before, frames.interior[sl], K, after)
-
-
-def _ring_pairs(frames, index, t, K):
-    """The sorted pair keys of the cells that share a vertex of four or more cells in frame ``t``: every diagonal
-    a ring's fan may take (:func:`frame_triangles`)."""
-    cell_vertices = index.part("cell_vertices", t)
-    vertex = cell_vertices["vertex"].to_numpy(np.int64)
-    ids, counts = np.unique(vertex, return_counts=True)
-    sl = frames.rows(t)
-    return frame_contacts(frames.track[sl], frames.cell[sl], cell_vertices[np.isin(vertex, ids[counts >= 4])], K)
 
 
 def _frame_index(table):
