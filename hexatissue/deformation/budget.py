@@ -5,9 +5,8 @@ table's columns, and each T1's share of them.
 Each frame's triangulation depends on the frames around it: a four-fold vertex or rosette keeps the
 diagonals of the previous frame's triangulation, and one that the past says nothing about takes those of
 the triangulation it resolves into later.  So the movie is read twice, chunk by chunk: backwards (last
-chunk first) for what each frame's rings resolve into (:func:`_resolved_into`), then forwards, each chunk
-with the frame before it, carrying the last frame's triangulation from chunk to chunk
-(:func:`_chunk_budget`).  Once those are known, an interval's budget depends only on its two frames.
+chunk first) for what each frame's rings resolve into (:func:`_resolved_into`), then forwards, carrying the
+last frame (its triangulation, contacts, cells and grid rows) from chunk to chunk (:func:`_chunk_budget`).  Once those are known, an interval's budget depends only on its two frames.
 """
 from __future__ import annotations
 
@@ -94,7 +93,7 @@ def deformation_budget(cells, vertices, cell_vertices, lineage, t1=None, *, box=
     frame = cells["frame"].to_numpy(np.int64)
     spans = [(int(frame.min()), int(frame.max()))] if len(frame) else []
     K = int(cells["track"].to_numpy(np.int64).max(initial=0)) + 1
-    # one chunk: every read of it is the whole tables (the frame before it has no rows)
+    # one chunk: every read of it is the whole tables
     chunks = _chunks(lambda first, last: tables, spans, lineage, t1, K, box, gridded, roi, roi_frame, t1_events,
                      tolerance, progress)
     parts, shares = [], []
@@ -120,8 +119,8 @@ def budget_chunks(read, spans, lineage, t1=None, *, box=None, grid=False, roi=No
         ``read(first, last)``: a dict of the ``cells``, ``vertices`` and
         ``cell_vertices`` (and ``grid`` when ``grid``) DataFrames of frames
         ``first`` to ``last``, each in its rows' order (the columns of
-        :func:`deformation_budget`).  Each chunk is read twice, and the
-        forward pass reads it with the frame before it.
+        :func:`deformation_budget`).  Each chunk is read twice: backwards,
+        then forwards.
     spans : list of (int, int)
         The chunks' first and last frames, in frame order, not overlapping.
     lineage : pandas.DataFrame
@@ -176,12 +175,15 @@ class _Movie(NamedTuple):
 
 class _Carry(NamedTuple):
     """The forward pass's state between chunks: the last frame triangulated (``time``, None before the first),
-    its triangulation's pair keys (``edges``), its triangles (``triangles``: ids, corners) and its contacts."""
+    its triangulation's pair keys (``edges``), its triangles (``triangles``: ids, corners), its contacts, and its
+    rows of ``cells`` and ``grid`` (the interval into the next chunk's first frame starts from them)."""
 
     time: int | None = None
     edges: np.ndarray | None = None
     triangles: tuple | None = None
     contacts: np.ndarray | None = None
+    cells: pd.DataFrame | None = None
+    grid: pd.DataFrame | None = None
 
 
 def _chunks(read, spans, lineage, t1, K, box, grid, roi, roi_frame, t1_events, tolerance, progress):
@@ -204,7 +206,7 @@ def _chunks(read, spans, lineage, t1, K, box, grid, roi, roi_frame, t1_events, t
         progress(done, total)
 
     for first, last in spans:
-        table, share, carry = _chunk_budget(read(first - 1, last), (first, last), carry, movie,
+        table, share, carry = _chunk_budget(read(first, last), (first, last), carry, movie,
                                             None if progress is None else step)
         yield (first, last), table, share
 
@@ -254,8 +256,7 @@ def _chunk_budget(tables, span, carry, movie, step=None):
     ----------
     tables : dict of pandas.DataFrame
         ``cells``, ``vertices``, ``cell_vertices`` (and ``grid``) of the
-        frames ``span[0] - 1`` to ``span[1]``: the chunk and the frame before
-        it.
+        chunk's frames.
     span : (int, int)
         The chunk's first and last frame.
     carry : _Carry
@@ -278,12 +279,16 @@ def _chunk_budget(tables, span, carry, movie, step=None):
     """
     first, last = span
     box, K = movie.box, movie.K
-    frames = _Frames(tables["cells"], box)
+    cells, grid = tables["cells"], tables.get("grid") if movie.grid else None
+    if carry.cells is not None:  # the last frame before the chunk, where the interval into its first frame starts
+        cells = pd.concat([carry.cells, cells], ignore_index=True)
+        grid = pd.concat([carry.grid, grid], ignore_index=True) if movie.grid else None
+    frames = _Frames(cells, box)
     index = _FrameTables(tables)
-    layers = _Layers(_grid_nodes(tables["grid"]) if movie.grid else None, movie.members, box)
+    layers = _Layers(_grid_nodes(grid) if movie.grid else None, movie.members, box)
     rows, events = [], []
     for t in sorted(frames.bounds):
-        if not first <= t <= last:  # the frame before the chunk: its triangulation is carried
+        if not first <= t <= last:  # the frame before the chunk: its triangulation is carried too
             continue
         tri = _triangles(frames, index, t, K, carry.edges, movie.later.get(t))[:2]
         sl = frames.rows(t)
@@ -296,6 +301,9 @@ def _chunk_budget(tables, span, carry, movie, step=None):
         carry = _Carry(t, triangle_edges(tri[0], K), tri, contacts)
         if step is not None:
             step()
+    if carry.time is not None and first <= carry.time <= last:
+        carry = carry._replace(cells=cells[cells["frame"].to_numpy() == carry.time],
+                               grid=grid[grid["frame"].to_numpy() == carry.time] if movie.grid else None)
     ids, sxx, sxy = (np.array(v, dtype) for v, dtype in zip(zip(*events) if events else ((), (), ()),
                                                             (np.int64, float, float)))
     return _table(rows), (ids, sxx, sxy), carry
