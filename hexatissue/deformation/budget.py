@@ -368,6 +368,8 @@ def _table(rows):
     parts = [part for interval in rows for part in interval]
     if not parts:
         return empty_table("deformation")
-    table = pd.DataFrame({name: np.concatenate([p[name] for p in parts]) for name in parts[0]})
+    # its columns as they are joined, not copied again into one block per dtype (a chunk's rows of a 4,800-cell
+    # movie with its grid are ~100 MB)
+    table = pd.DataFrame({name: np.concatenate([p[name] for p in parts]) for name in parts[0]}, copy=False)
     table["region"] = table["region"].astype("string")
     return table
