@@ -136,8 +136,8 @@ def budget_chunks(read, spans, lineage, t1=None, *, box=None, grid=False, roi=No
     -------
     iterator of ((int, int), pandas.DataFrame, tuple)
         Per chunk, in frame order: its frames, the rows of the intervals
-        that end in it (:func:`deformation_budget`'s ``table``; of a movie
-        that has no interval, one chunk of no rows), and its T1 shares
+        that end in it (:func:`deformation_budget`'s ``table``; no rows
+        when none does), and its T1 shares
         (event ids, shear xx, shear xy: one entry per interval that changes
         the event's triangulation), which :func:`event_shear` sums.
     """
