@@ -38,7 +38,7 @@ import pandas as pd
 
 from ._system import release_freed_memory
 from .defects import find_defects, link_movie_defects
-from .deformation import deformation_budget, read_roi
+from .deformation import budget_chunks, event_shear, read_roi
 from .errors import FrameWarning, HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
 from .flow import cell_velocities, flow_fields, surface_flow_fields, surface_velocities
@@ -662,7 +662,13 @@ def _cell_events(movie, options):
 
 
 def _deformation(movie, options):
-    """The tissue's deformation budget per frame pair (whole tissue, grid regions, regions of interest)."""
+    """The tissue's deformation budget per frame pair (whole tissue, grid regions, regions of interest).
+
+    Chunk by chunk of the cells' frames (one chunk for tables in memory,
+    :func:`~hexatissue.deformation.budget_chunks`): each chunk's rows are
+    kept as the frame tables are (parts when streamed), the T1s' shares
+    summed at the end.
+    """
     tracking = movie.summary.get("tracking", {}).get("resolved")
     if tracking == "off" or movie.n_frames < 2:
         why = "its frames are unrelated images (tracking off)" if tracking == "off" else "it has one frame"
@@ -670,28 +676,41 @@ def _deformation(movie, options):
                          f"{why}. Run it on a movie, without --track off")
     tables = movie.tables
     t1 = tables["events"] if options.t1_events == "quartets" else tables["neighbour_events"]
-    grid = movie.read("grid", DEFORMATION_READS["grid"]) if options.grid and "grid" in tables else None
+    gridded = bool(options.grid and "grid" in tables and len(tables["grid"]))
     roi = read_roi(options.roi) if options.roi is not None else None
     shape = tuple(movie.source.shape)[-2:]
     if roi is not None and roi.shape != shape:
         raise InputError(f"DeformationOptions.roi has shape {roi.shape}; the frames are {shape} (rows, cols)")
-    budget, shear = deformation_budget(*(movie.read(name, DEFORMATION_READS[name])
-                                         for name in ("cells", "vertices", "cell_vertices")),
-                                       tables["lineage"], t1, box=movie.box, grid=grid, roi=roi,
-                                       roi_frame=options.roi_frame, t1_events=options.t1_events)
+    names = ("cells", "vertices", "cell_vertices") + (("grid",) if gridded else ())
+
+    def read(first, last):
+        release_freed_memory()  # the previous chunk's working set, before this one's
+        return {name: movie.read(name, DEFORMATION_READS[name], frames=(first, last)) for name in names}
+
+    chunks = budget_chunks(read, movie.frame_chunks("cells"), tables["lineage"], t1, box=movie.box, grid=gridded,
+                           roi=roi, roi_frame=options.roi_frame, t1_events=options.t1_events)
     doubtful = _doubtful_intervals(movie)
-    budget["tracking_doubtful"] = budget["frame"].isin(doubtful).to_numpy(bool)
-    tables["deformation"] = budget
+    shares = []
+    summary = {"pairs": 0, "max_closure": 0.0, "n_flipped": 0, "doubtful_pairs": set()}
+
+    def parts():
+        for span, budget, share in chunks:
+            budget["tracking_doubtful"] = budget["frame"].isin(doubtful).to_numpy(bool)
+            shares.append(share)
+            tissue = budget[budget["region"] == "tissue"]
+            summary["pairs"] += int(len(tissue))
+            summary["max_closure"] = max(summary["max_closure"], float(
+                tissue[["closure_xx", "closure_xy"]].abs().to_numpy().max(initial=0.0)))
+            summary["n_flipped"] += int(tissue["n_flipped"].sum())
+            summary["doubtful_pairs"] |= set(tissue["frame"].tolist()) & doubtful
+            yield span, budget
+
+    movie.put_chunks("deformation", parts())
     if options.t1_events == "quartets":
         events = tables["events"].drop(columns=["shear_xx", "shear_xy"], errors="ignore")
-        tables["events"] = events.merge(shear, on="event", how="left")
-    tissue = budget[budget["region"] == "tissue"]
-    movie.summary["deformation"] = {
-        "pairs": int(len(tissue)),
-        "max_closure": float(tissue[["closure_xx", "closure_xy"]].abs().to_numpy().max(initial=0.0)),
-        "n_flipped": int(tissue["n_flipped"].sum()),
-        "doubtful_pairs": sorted(int(t) for t in set(tissue["frame"].tolist()) & doubtful),
-    }
+        tables["events"] = events.merge(event_shear(shares), on="event", how="left")
+    summary["doubtful_pairs"] = sorted(int(t) for t in summary["doubtful_pairs"])
+    movie.summary["deformation"] = summary
 
 
 def _doubtful_intervals(movie) -> set:

@@ -6,8 +6,8 @@ from scipy import ndimage
 from scipy.linalg import expm
 
 import hexatissue as ht
-from hexatissue.deformation import (_stays_positive, deformation_budget, frame_contacts, frame_triangles, pair_keys,
-                                    roi_tracks)
+from hexatissue.deformation import (_stays_positive, budget_chunks, deformation_budget, event_shear, frame_contacts,
+                                    frame_triangles, pair_keys, roi_tracks)
 from hexatissue.deformation.flow import integrate_flow
 from hexatissue.deformation.triangles import REFERENCE_INVERSE, edge_matrices, elongation, state_tensors
 from hexatissue.errors import InputError
@@ -522,3 +522,92 @@ def test_the_scripted_t1s_are_not_resampling(scripted):
     """Every retriangulation of the scripted T1 movie changes a contact: none is resampling."""
     _, _, d = scripted
     assert d[["resampling_xx", "resampling_xy", "resampling_iso"]].abs().to_numpy().max() < 1e-14
+
+
+# ----------------------------------------------------------------------------
+# A chunk of frames at a time
+# ----------------------------------------------------------------------------
+
+def _reader(movie, grid=True):
+    """``read(first, last)`` of :func:`budget_chunks` over an analysed movie's tables."""
+    names = ("cells", "vertices", "cell_vertices") + (("grid",) if grid else ())
+
+    def read(first, last):
+        out = {}
+        for name in names:
+            frame = movie.tables[name]["frame"].to_numpy()
+            out[name] = movie.tables[name][(frame >= first) & (frame <= last)].reset_index(drop=True)
+        return out
+    return read
+
+
+def _by_chunks(movie, size, box=None, grid=True, **kwargs):
+    """The budget of ``movie`` read ``size`` frames at a time: the table and the events' shear."""
+    spans = [(a, min(a + size - 1, movie.n_frames - 1)) for a in range(0, movie.n_frames, size)]
+    chunks = list(budget_chunks(_reader(movie, grid), spans, movie.lineage, movie.events, box=box, grid=grid,
+                                **kwargs))
+    assert [span for span, _, _ in chunks] == spans
+    return (pd.concat([table for _, table, _ in chunks if len(table)], ignore_index=True),
+            event_shear([share for _, _, share in chunks]))
+
+
+def test_the_budget_by_chunks_equals_the_whole_movie_with_t1s_and_four_fold_vertices_across_chunks(scripted):
+    """The scripted T1s and the four-fold vertices held over frames 12-17, 20-24 and 29-30 fall across the
+    chunks' borders; the regions of interest and the grid's too."""
+    m, movie, _ = scripted
+    roi = np.zeros(m.labels.shape[1:], np.int32)
+    roi[:, : roi.shape[1] // 2] = 1
+    whole, shear = deformation_budget(movie.cells, movie.vertices, movie.cell_vertices, movie.lineage, movie.events,
+                                      box=m.box, grid=movie.grid, roi=roi)
+    assert (whole["region"] == "grid").any() and (whole["region"] == "roi").any() and len(shear) == len(movie.events)
+    for size in (1, 5):  # every interval across a border; the held four-fold vertices of 12-17 and 29-30 too
+        table, chunked_shear = _by_chunks(movie, size, m.box, roi=roi)
+        pd.testing.assert_frame_equal(table, whole, check_exact=True)
+        pd.testing.assert_frame_equal(chunked_shear, shear, check_exact=True)
+
+
+def test_the_backward_pass_keeps_only_what_the_rings_ask_about(scripted, monkeypatch):
+    """The keys kept for the forward pass (the diagonals of the rings of four or more cells) give the same budget
+    as the later triangulations kept whole: each four-fold vertex keeps the one diagonal it resolves into."""
+    from hexatissue.deformation import budget
+
+    m, movie, d = scripted
+    K = int(movie.cells["track"].max()) + 1
+    later, total = budget._resolved_into(_reader(movie), [(0, movie.n_frames - 1)], K, m.box)
+    assert total == movie.n_frames and set(later) == {12, 13, 14, 15, 16, 17, 20, 21, 22, 23, 24, 29, 30}
+    assert all(len(keys) == 1 + (t in (22, 23, 24)) for t, keys in later.items())  # two four-fold vertices in 22-24
+    # every key of the next frame's triangulation kept: the budget is the same
+    monkeypatch.setattr(budget, "in_sorted", lambda values, keys: np.ones(len(values), bool))
+    kept_whole = _again(movie, m.box, grid=movie.grid).drop(columns="tracking_doubtful", errors="ignore")
+    pd.testing.assert_frame_equal(kept_whole, d.drop(columns="tracking_doubtful"), check_exact=True)
+
+
+def test_the_budget_by_chunks_equals_the_whole_movie_with_a_division_and_an_extrusion():
+    shape = (240, 240)
+    seeds = jittered_seeds(shape, 20, seed=5)
+    ids = np.arange(1, len(seeds) + 1)
+    mother, gone = np.argsort(np.hypot(*(seeds - 120.0).T))[[0, 5]]
+    axis = np.array([6.0, 2.0])
+    split = np.vstack([np.delete(seeds, mother, axis=0), seeds[mother] + axis, seeds[mother] - axis])
+    after = np.r_[np.delete(ids, mother), len(ids) + 1, len(ids) + 2]
+    kept = after != ids[gone]
+    frames = [(seeds, ids)] * 2 + [(split, after)] * 2 + [(split[kept], after[kept])] * 2
+    movie, d = _budget(_seed_movie(frames, shape), grid=False)
+    assert (movie.lineage["end"] == "division").sum() == 1 and (movie.lineage["end"] == "extrusion").sum() == 1
+    tissue = d[d["region"] == "tissue"].set_index("frame")
+    assert tissue.loc[1, "division_iso"] > 0 and tissue.loc[3, "extrusion_iso"] < 0
+    for size in (1, 2, 4):  # the division (interval 1-2) and the extrusion (3-4) across a border or inside a chunk
+        table, _ = _by_chunks(movie, size, grid=False)
+        pd.testing.assert_frame_equal(table, d.drop(columns="tracking_doubtful"), check_exact=True)
+
+
+def test_budget_chunks_refuses_spans_out_of_order_and_tracks_missing_from_the_lineage(scripted):
+    m, movie, _ = scripted
+    with pytest.raises(InputError, match="spans must be"):
+        list(budget_chunks(_reader(movie), [(0, 5), (5, 9)], movie.lineage, box=m.box))
+    with pytest.raises(InputError, match="the lineage must list every track"):
+        list(budget_chunks(_reader(movie, grid=False), [(0, 35)], movie.lineage[movie.lineage["track"] < movie.cells["track"].max()],
+                           box=m.box))
+    with pytest.raises(InputError, match="roi_frame 40 has no cells; the movie's frames are 0..35"):
+        list(budget_chunks(_reader(movie, grid=False), [(0, 17), (18, 35)], movie.lineage, box=m.box,
+                           roi=np.ones(m.labels.shape[1:], int), roi_frame=40))

@@ -65,11 +65,14 @@ def test_streamed_tables_equal_the_in_memory_ones_with_overlap_tracking_and_the_
 @pytest.mark.parametrize("periodic", [True, False], ids=["periodic", "open"])
 def test_streamed_t1_movie_equals_in_memory(tmp_path, small_parts, periodic):
     movie = t1_movie(periodic=periodic, seed=2)
-    options = dict(box=movie.box, workers=1, progress=False,
+    options = dict(box=movie.box, workers=1, progress=False, deformation=DeformationOptions(enabled=True),
                    events=EventOptions(min_length=movie.min_length, censor=movie.censor))
     memory = analyze(movie.labels, **options)
-    assert len(memory.events)
-    _assert_same_tables(analyze(movie.labels, out=tmp_path, **options), memory)
+    assert len(memory.events) and (memory.deformation["region"] == "grid").any()
+    streamed = analyze(movie.labels, out=tmp_path, **options)
+    # the budget is made a chunk of frames at a time and kept in parts, as the frame tables
+    assert streamed.deformation.frame_chunks == streamed.cells.frame_chunks and len(streamed.cells.parts) > 2
+    _assert_same_tables(streamed, memory)
 
 
 def test_streamed_divisions_and_unrelated_frames_equal_in_memory(tmp_path, small_parts):

@@ -35,16 +35,18 @@ The package, by concept (each module imports only those listed before it):
 their shapes and regions), :mod:`.movie` (the cells by frame, the lineage,
 the T1s by frame), :mod:`.regions` (tissue, grid, regions of interest),
 :mod:`.interval` (one frame interval's steps) and :mod:`.budget`
-(:func:`deformation_budget`).
+(:func:`deformation_budget`; :func:`budget_chunks`, the same a chunk of frames
+at a time, for movies read from disk, and :func:`event_shear`).
 """
 from __future__ import annotations
 
 from . import interval, triangulation
-from .budget import deformation_budget
+from .budget import budget_chunks, deformation_budget, event_shear
 from .regions import read_roi, roi_tracks
 from .triangulation import frame_contacts, frame_triangles
 
-__all__ = ["frame_triangles", "frame_contacts", "deformation_budget", "roi_tracks", "read_roi"]
+__all__ = ["frame_triangles", "frame_contacts", "deformation_budget", "budget_chunks", "event_shear", "roi_tracks",
+           "read_roi"]
 
 # beyond __all__, the names other code and the tests read from the package keep their names here (assigned, not
 # imported: the module map above says where each lives)

@@ -56,7 +56,8 @@ def _rings(rows, centre, track, xy, box):
 
 
 def _fans(ids, pos, previous, K, following=None):
-    """Triangles (index triples into each ring) of rings of four or more cells, all of one size.
+    """Triangles (ids, corners) of rings of four or more cells, all of one size, and the pair keys of every
+    diagonal their fans chose among.
 
     A ring's triangulation is the fan (from one of its cells) with the most
     diagonals the previous frame's triangulation had (``previous``: its
@@ -71,13 +72,12 @@ def _fans(ids, pos, previous, K, following=None):
     n, k = ids.shape
     # the fan from start s: triangles (s, s + j, s + j + 1), j = 1 .. k - 2; its diagonals (s, s + j), j = 2 .. k - 2
     diag = (np.arange(k)[:, None] + np.arange(2, k - 1)[None, :]) % k  # (k, k - 3)
+    diagonals = pair_keys(np.broadcast_to(ids[:, :, None], (n, k, k - 3)).ravel(), ids[:, diag].ravel(), K)
 
     def votes(keys):
         if keys is None or len(keys) == 0:
             return np.zeros((n, k))
-        a = np.broadcast_to(ids[:, :, None], (n, k, k - 3))
-        b = ids[:, diag]
-        return in_sorted(pair_keys(a.ravel(), b.ravel(), K), keys).reshape(n, k, k - 3).sum(axis=2)
+        return in_sorted(diagonals, keys).reshape(n, k, k - 3).sum(axis=2)
 
     score = votes(previous)
     informed = score.max(axis=1) > score.min(axis=1)
@@ -91,7 +91,7 @@ def _fans(ids, pos, previous, K, following=None):
     step = np.arange(1, k - 1)[None, :]
     fan = np.stack([np.broadcast_to(first, (n, k - 2)), (first + step) % k, (first + step + 1) % k], axis=2)
     rows = np.arange(n)[:, None, None]
-    return ids[rows, fan].reshape(-1, 3), pos[rows, fan].reshape(-1, 3, 2)
+    return ids[rows, fan].reshape(-1, 3), pos[rows, fan].reshape(-1, 3, 2), diagonals
 
 
 def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous=None, interior=None, K=None,
@@ -135,6 +135,13 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
         The corners' positions, px, contiguous (a periodic triangle's
         corners are the images nearest its first corner).
     """
+    return _triangulation(track, xy, cell, vertices, cell_vertices, box, previous, interior, K, following)[:2]
+
+
+def _triangulation(track, xy, cell, vertices, cell_vertices, box=None, previous=None, interior=None, K=None,
+                   following=None):
+    """:func:`frame_triangles`' triangles (ids, corners), and the sorted pair keys of every diagonal its rings'
+    fans chose among: the only keys of ``previous`` and ``following`` it asks about."""
     track = np.asarray(track, np.int64)
     K = int(track.max(initial=0)) + 1 if K is None else int(K)
     previous = np.zeros(0, np.int64) if previous is None else previous
@@ -162,16 +169,17 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
     counts = np.diff(np.r_[starts, len(vrow)])
     three = starts[counts == 3]
     rows = np.stack([row[three], row[three + 1], row[three + 2]], axis=1)
-    ids_parts, xy_parts = [track[rows]], [xy[rows]]
+    ids_parts, xy_parts, diagonals = [track[rows]], [xy[rows]], [np.zeros(0, np.int64)]
     xy_parts[0][:, 1:] = xy_parts[0][:, :1] + _min_image(xy_parts[0][:, 1:] - xy_parts[0][:, :1], box)
     vxy = vertices[["x", "y"]].to_numpy(float)
     for k in np.unique(counts[counts > 3]):
         at_k = starts[counts == k]
         ring_rows = row[at_k[:, None] + np.arange(k)[None, :]]
         ring_ids, ring_xy = _rings(ring_rows, vxy[vrow[at_k]], track, xy, box)
-        fan_ids, fan_xy = _fans(ring_ids, ring_xy, previous, K, following)
+        fan_ids, fan_xy, fan_diagonals = _fans(ring_ids, ring_xy, previous, K, following)
         ids_parts.append(fan_ids)
         xy_parts.append(fan_xy)
+        diagonals.append(fan_diagonals)
     ids, tri_xy = np.concatenate(ids_parts), np.concatenate(xy_parts)
     ids, tri_xy = _orient(ids.astype(np.int64), tri_xy)
     R = edge_matrices(tri_xy)
@@ -179,7 +187,7 @@ def frame_triangles(track, xy, cell, vertices, cell_vertices, box=None, previous
     ids, tri_xy = ids[~flat], tri_xy[~flat]
     # two vertices joining the same three cells (cells that share two junctions) give one triangle
     first = _first_of_each(_triple_keys(ids))
-    return ids[first], tri_xy[first]
+    return ids[first], tri_xy[first], _sorted_unique(np.concatenate(diagonals))
 
 
 def frame_contacts(track, cell, cell_vertices, K):
