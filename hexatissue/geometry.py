@@ -16,7 +16,8 @@ from .errors import InputError
 
 __all__ = ["match_points", "segment_sum", "pack_polygons", "next_vertex", "polygon_area_centroid", "polygon_perimeter",
            "polygon_shape_tensor",
-           "polygon_cells", "table_polygons", "bilinear", "mesh_order_polygons", "row_keys", "lookup", "distinct_count"]
+           "polygon_cells", "table_polygons", "bilinear", "mesh_order_polygons", "row_keys", "lookup", "distinct_count",
+           "node_frames"]
 
 
 def segment_sum(values, starts, n):
@@ -357,3 +358,13 @@ def match_points(a, b, radius, box=None):
         ok = cost[r, c] < big
         out.append(np.c_[ui[r[ok]], uj[c[ok]], cost[r[ok], c[ok]]])
     return np.concatenate(out)
+
+
+def node_frames(normals):
+    """``(e1, e2)`` of unit normals facing +z: ``e1`` the image x axis projected on the tangent plane, normalised
+    (the cells' frame, :func:`hexatissue.surface.tangent_polygons`; the grid nodes' on a height map), ``e2 = n x e1``;
+    NaN normals give NaN."""
+    e1 = np.column_stack([1.0 - normals[:, 0] ** 2, -normals[:, 0] * normals[:, 1], -normals[:, 0] * normals[:, 2]])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e1 /= np.linalg.norm(e1, axis=1)[:, None]
+    return e1, np.cross(normals, e1)

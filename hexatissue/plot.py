@@ -24,8 +24,8 @@ import numpy as np
 
 from .box import as_box
 from .errors import InputError, as_generator
+from .geometry import node_frames
 from .io import atomic_path
-from .surface import node_frames
 from .units import as_calibration, in_units, velocity_unit
 
 __all__ = [
@@ -328,7 +328,7 @@ def star_segments(xy, angle, length, p, normals=None):
 
     With ``normals`` (one unit normal per point, facing +z: a height map's
     surface) the angles are measured in each point's tangent frame
-    (:func:`hexatissue.surface.node_frames`) and every leg is drawn as the
+    (:func:`hexatissue.geometry.node_frames`) and every leg is drawn as the
     image-plane projection of the surface leg: on a tilted surface the star is
     foreshortened along the slope, as the tissue is in the image.
     """

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import HexatissueWarning, check_orders
-from ..geometry import bilinear
+from ..geometry import bilinear, node_frames
 from ..order import coarse_grain
 from ..order.coarse import _frames
 from ..schema import interior_mask, require_columns
@@ -55,15 +55,6 @@ def node_normals(height, x, y, scale=1.0, box=None) -> np.ndarray:
     periodic = box is not None
     n = np.column_stack([-bilinear(gx, x, y, periodic), -bilinear(gy, x, y, periodic), np.ones(len(x))])
     return n / np.linalg.norm(n, axis=1)[:, None]
-
-
-def node_frames(normals):
-    """``(e1, e2)`` of unit normals facing +z: ``e1`` the image x axis projected on the tangent plane, normalised
-    (the cells' frame, :func:`hexatissue.surface.tangent_polygons`), ``e2 = n x e1``; NaN normals give NaN."""
-    e1 = np.column_stack([1.0 - normals[:, 0] ** 2, -normals[:, 0] * normals[:, 1], -normals[:, 0] * normals[:, 2]])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        e1 /= np.linalg.norm(e1, axis=1)[:, None]
-    return e1, np.cross(normals, e1)
 
 
 def transport_to_nodes(gamma, cell_normals, node_normals, p):
