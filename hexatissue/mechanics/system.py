@@ -79,6 +79,32 @@ def _tangent_frames(vertices, normals):
     return z, n, e1, e2
 
 
+def _polygon_normals(xy, z, cv_v, cv_row, rank, nxt, n_cells, box, vertex_normals):
+    """Per row of cell_vertices: the unit vector area of its cell's lifted polygon (facing +z).
+
+    The polygon is taken about its first vertex (by ``rank``), so a constant
+    height gives ``(0, 0, 1)`` exactly; where the vector area vanishes, the
+    vertex's own normal.
+    """
+    order = np.lexsort((rank, cv_row))
+    c = cv_row[order]
+    m = len(c)
+    start = np.r_[True, c[1:] != c[:-1]] if m else np.zeros(0, bool)
+    first = np.empty(m, np.int64)
+    first[order] = order[np.maximum.accumulate(np.where(start, np.arange(m), 0))]
+    r = np.column_stack([_min_image(xy[cv_v] - xy[cv_v[first]], box), z[cv_v] - z[cv_v[first]]])
+    cross = np.cross(r, r[nxt])
+    vector = np.column_stack([np.bincount(cv_row, weights=cross[:, a], minlength=n_cells) for a in range(3)])
+    size = np.linalg.norm(vector, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        normal = vector / size[:, None]
+    normal[normal[:, 2] < 0] *= -1
+    normal = normal[cv_row]
+    flat = ~(size[cv_row] > 0)
+    normal[flat] = vertex_normals[cv_v[flat]]
+    return normal
+
+
 def _cycle_neighbours(cell, rank):
     """For rows of cell_vertices: the rows of the previous and next vertex in the same cell's polygon."""
     order = np.lexsort((rank, cell))
@@ -151,9 +177,11 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
         balanced in its tangent plane (two rows: the components along ``e1``,
         the image x axis projected on the plane, and ``e2 = n x e1``): the
         junctions' 3-D unit vectors (vertex to vertex; a given direction is
-        lifted onto the tangent plane) and the pressure terms ``P_c (c x n)
+        lifted onto the tangent plane) and the pressure terms ``P_c (c x N_c)
         / 2``, ``c`` the 3-D chord from the polygon's previous vertex to its
-        next (docs/surface.md, "Forces on a height map").  A constant height
+        next and ``N_c`` the unit vector area of the cell's lifted polygon
+        (``(c x N_c) / 2`` is the gradient of its area), projected on the
+        plane (docs/surface.md, "Forces on a height map").  A constant height
         (normals ``(0, 0, 1)``) gives the equations of the image plane, to
         the last bit.  Not with ``curvature``.  None: the image plane.
 
@@ -296,10 +324,12 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
         if frames is None:
             vals += [0.5 * chord[:, 1], -0.5 * chord[:, 0]]
         else:
-            # dA/dx of the lifted polygon in the tangent plane: (c x n) / 2, c the 3-D chord prev -> next
+            # the gradient of the lifted polygon's area |sum_i X_i x X_(i+1)| / 2: (c x N) / 2, c the 3-D chord
+            # prev -> next and N the polygon's unit vector area, its component in the vertex's tangent plane
             here_z = z[cv_v[k]]
             c3 = np.column_stack([chord, (z[cv_v[nxt[k]]] - here_z) - (z[cv_v[prev[k]]] - here_z)])
-            push = np.cross(c3, n[cv_v[k]])
+            push = np.cross(c3, _polygon_normals(xy, z, cv_v, cv_row, cell_vertices["rank"].to_numpy(np.int64), nxt,
+                                                 len(cid), box, n)[k])
             vals += [0.5 * np.sum(push * e1[cv_v[k]], axis=1), 0.5 * np.sum(push * e2[cv_v[k]], axis=1)]
         if arc.any():
             # an arc carries the pressure difference across it itself (Young-Laplace): its share of the polygons'
