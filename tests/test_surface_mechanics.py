@@ -62,6 +62,19 @@ def test_tilted_plane_is_balanced_by_the_flat_truth_and_gives_the_untilted_force
     assert np.nanmax(np.abs(t_projected - flat.edges["tension"].to_numpy())) > 0.1
 
 
+def test_image_directions_are_lifted_onto_the_tangent_plane(sheet):
+    # on a plane, the chord's image direction lifted at either end is the 3-D chord's direction
+    net = tilted_network(*sheet, 50.0, 30.0)
+    v = net.tables["vertices"].set_index("vertex")
+    e = net.tables["edges"]
+    d = v.loc[e["vertex_b"], ["x", "y"]].to_numpy() - v.loc[e["vertex_a"], ["x", "y"]].to_numpy()
+    directions = 3.0 * d / np.hypot(d[:, 0], d[:, 1])[:, None]  # any length: normalised after the lift
+    directions[::7] = np.nan  # NaN rows: the chords
+    chords = force_system(*_args(net), normals=net.normals)
+    lifted = force_system(*_args(net), normals=net.normals, directions=directions)
+    assert abs(chords.matrix - lifted.matrix).max() < 1e-12
+
+
 def test_stress_in_the_tangent_frame_of_a_plane_tilted_about_x_is_the_untilted_stress(sheet, untilted):
     # tilted about the image x axis, a cell's tangent frame (e1 = x projected, e2 = n x e1) is the sheet's own (u, v)
     net = tilted_network(*sheet, 50.0, 0.0)

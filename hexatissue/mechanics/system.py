@@ -275,8 +275,8 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
             w = u3[keep]
             if given[keep].any():
                 # a direction in the image lifted onto the tangent plane at the vertex: (u, -(n_x u_x + n_y u_y) / n_z)
-                nv_ = n[end[keep]]
-                lifted = np.column_stack([u[keep], -(nv_[:, 0] * u[keep, 0] + nv_[:, 1] * u[keep, 1]) / nv_[:, 2]])
+                nk = n[end[keep]]
+                lifted = np.column_stack([u[keep], -(nk[:, 0] * u[keep, 0] + nk[:, 1] * u[keep, 1]) / nk[:, 2]])
                 lifted /= np.linalg.norm(lifted, axis=1)[:, None]
                 w = np.where(given[keep][:, None], lifted, w)
             ux = sign * np.sum(w * e1[end[keep]], axis=1)
