@@ -101,7 +101,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "vn": ("f", "px/frame", "3-D velocity along the cell's normal (positive towards +z; with --surface)"),
         "pressure": ("f", "tension/px", "inferred pressure, relative to the frame's mean (with --mechanics)"),
         "pressure_sd": ("f", "tension/px", "posterior s.d. of the pressure (Bayesian estimator)"),
-        "stress_xx": ("f", "tension/px", "Batchelor stress of the cell, xx (with --mechanics)"),
+        "stress_xx": ("f", "tension/px", "Batchelor stress of the cell, xx (with --mechanics; on a height map along "
+                       "the cell's tangent axes e1, e2 instead of x, y)"),
         "stress_xy": ("f", "tension/px", "Batchelor stress of the cell, xy"),
         "stress_yy": ("f", "tension/px", "Batchelor stress of the cell, yy"),
     },
@@ -291,7 +292,8 @@ TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "node": ("i", "", "grid node id (as in grid)"),
         "x": ("f", "px", "node position, column"),
         "y": ("f", "px", "node position, row"),
-        "stress_xx": ("f", "tension/px", "area-weighted mean Batchelor stress of the cells in the node's disk, xx"),
+        "stress_xx": ("f", "tension/px", "area-weighted mean Batchelor stress of the cells in the node's disk, xx "
+                       "(on a height map along the node's tangent axes e1, e2)"),
         "stress_xy": ("f", "tension/px", "mean stress, xy"),
         "stress_yy": ("f", "tension/px", "mean stress, yy"),
         "stress_iso": ("f", "tension/px", "isotropic part, (xx + yy) / 2"),

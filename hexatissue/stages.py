@@ -54,7 +54,7 @@ from .options import (OPTION_CLASSES, DeformationOptions, EventOptions, FlowOpti
 from .order import coarse_grain, gamma_arrays, gamma_columns, polygon_rows
 from .schema import TABLES as SCHEMAS, empty_table, interior_mask, validate
 from .stored import StoredTable
-from .surface import cell_heights, lift, surface_arrays, surface_coarse_grain, surface_defects
+from .surface import cell_heights, lift, node_normals, surface_arrays, surface_coarse_grain, surface_defects
 from .track import (CellCounts, MovieTracker, cells_with_tracks, check_divisions, check_extrusions, checked_tracks,
                     compact_frames, join_spans, lineage_from_spans, track_spans, tracking_summary, tracking_warning)
 
@@ -399,16 +399,22 @@ def _fields(frame, options):
 
 
 def _mechanics(frame, options):
-    """Tensions, pressures and stress of the frame from force balance, and the stress on its Gamma_p grid."""
+    """Tensions, pressures and stress of the frame from force balance, and the stress on its Gamma_p grid; after the
+    surface stage, each vertex balanced in the height map's tangent plane and each cell's stress in its own
+    (docs/surface.md, "Forces on a height map")."""
     tables = {name: frame.table(name) for name in ("cells", "vertices", "edges", "cell_vertices")}
-    cells, edges = tables["cells"], tables["edges"]
+    cells, edges, vertices = tables["cells"], tables["edges"], tables["vertices"]
+    height = frame.images.get("surface") if frame.height_scale is not None else None
+    on_surface = height is not None and "z" in vertices.columns
+    normals = (node_normals(height, vertices["x"].to_numpy(float), vertices["y"].to_numpy(float),
+                            frame.height_scale, frame.box) if on_surface else None)
     # the junction model needs the junctions' own pixels: a label image (not polygons)
-    forces, curvature, model, share = frame_forces(frame.labels, cells, tables["vertices"], edges,
+    forces, curvature, model, share = frame_forces(frame.labels, cells, vertices, edges,
                                                    tables["cell_vertices"], box=frame.box,
                                                    junctions=options.junctions, method=options.method,
-                                                   mu=options.mu, sd=options.sd)
-    stress = cell_stress(cells, tables["vertices"], edges, forces.edges["tension"].to_numpy(),
-                         forces.cells["pressure"].to_numpy(), box=frame.box)
+                                                   mu=options.mu, sd=options.sd, normals=normals)
+    stress = cell_stress(cells, vertices, edges, forces.edges["tension"].to_numpy(),
+                         forces.cells["pressure"].to_numpy(), box=frame.box, surface=on_surface)
     columns = {"cells": {"pressure": forces.cells["pressure"], "pressure_sd": forces.cells["pressure_sd"],
                          **{c: stress[c] for c in ("stress_xx", "stress_xy", "stress_yy")}},
                "edges": {"tension": forces.edges["tension"], "tension_sd": forces.edges["tension_sd"],
@@ -419,7 +425,7 @@ def _mechanics(frame, options):
             table[column] = values.to_numpy(float)
     grid = frame.table("grid") if "grid" in frame.tables else None
     if grid is not None and len(grid):
-        frame.set_table("stress", stress_grid(cells, stress, grid, box=frame.box))
+        frame.set_table("stress", stress_grid(cells, stress, grid, box=frame.box, surface=on_surface))
     else:
         frame.set_table("stress", empty_table("stress"))
     frame.set_table("force_fit", pd.DataFrame({
@@ -754,7 +760,7 @@ STAGES = (
     Stage("order fields", OrderOptions, "frame", reads=("cells", "height"), writes=("grid", "defects"), run=_fields,
           enabled=_fields_on),
     Stage("mechanics", MechanicsOptions, "frame",
-          reads=("labels", "cells", "vertices", "edges", "cell_vertices", "grid"),
+          reads=("labels", "cells", "vertices", "edges", "cell_vertices", "grid", "height"),
           writes=("edges.tension", "edges.tension_sd", "edges.curvature", "cells.pressure", "cells.pressure_sd",
                   "cells.stress_xx", "cells.stress_xy", "cells.stress_yy", "stress", "force_fit"),
           run=_mechanics, enabled=_enabled, views="hexatissue.views.mechanics"),

@@ -22,6 +22,18 @@ cells' exact areas and perimeters on the surface.
   velocity known), and a tissue on a bump that grows in time (its cells'
   areas known in every frame), for the flow on the surface.
 
+Junction networks at force balance (force inference on a height map; a
+:class:`SurfaceNetwork` each):
+
+- :func:`tilted_network`: a flat vertex model at force balance
+  (:func:`hexatissue.synthetic.vertex_model_tissue`) cut open and laid
+  rigidly on a tilted plane, projected: labels, the plane's height map, the
+  exact normals, and the flat tensions and pressures, which a rigid motion
+  keeps balanced.
+- :func:`bump_vertex_model_tissue`: a periodic vertex model relaxed with its
+  vertices on a bump (3-D lengths and lifted polygon areas): exactly
+  balanced in the surface's tangent planes.
+
 Triangle meshes with cell labels (the surface-mesh measures,
 :func:`hexatissue.surface.mesh_tissue`; a :class:`MeshTissue` each):
 
@@ -49,13 +61,14 @@ from scipy.ndimage import gaussian_filter
 from scipy.spatial import cKDTree
 
 from .errors import InputError, check_orders, check_positive
-from .geometry import pack_polygons, polygon_perimeter
+from .geometry import pack_polygons, polygon_area_centroid, polygon_perimeter
 from .order.shape import shape_functions_flat
 from .synthetic import jittered_seeds, voronoi_labels, voronoi_polygons
 
 __all__ = ["SurfaceTissue", "tilted_plane_tissue", "gaussian_bump_tissue", "junction_stack", "SurfaceMovie",
            "tilted_plane_movie", "bump_movie", "MeshTissue", "icosphere",
-           "subdivide_mesh", "sphere_seeds", "sphere_tissue", "sphere_movie", "torus_tissue", "polygon_mesh"]
+           "subdivide_mesh", "sphere_seeds", "sphere_tissue", "sphere_movie", "torus_tissue", "polygon_mesh",
+           "SurfaceNetwork", "tilted_network", "bump_vertex_model_tissue"]
 
 #: The 7-point degree-5 rule on a triangle (Radon): barycentric points and weights (summing to 1).
 _A1, _B1, _A2, _B2 = 0.059715871789770, 0.470142064105115, 0.797426985353087, 0.101286507323456
@@ -738,3 +751,302 @@ def polygon_mesh(polygons):
         faces.append(np.c_[np.full(len(ids), len(unique) + k), ids, np.roll(ids, -1)])
         labels.append(np.full(len(ids), k + 1))
     return np.concatenate([unique, centres]), np.concatenate(faces).astype(np.int64), np.concatenate(labels)
+
+
+@dataclass
+class SurfaceNetwork:
+    """A junction network at force balance on a surface, as a height map's analysis sees it, with its exact forces.
+
+    Attributes
+    ----------
+    tables : dict of pandas.DataFrame
+        ``cells``, ``vertices``, ``edges``, ``cell_vertices`` of the
+        projected network (x = column, y = row, px; polygons counter-clockwise
+        in x, y); ``vertices`` has ``z`` (px), the surface's height there.
+    tension : ndarray
+        Per row of ``edges``: the junction's tension (tension units).
+    pressure : ndarray
+        Per row of ``cells``: the cell's pressure (tension/px, on the surface).
+    normals : (n_vertices, 3) ndarray
+        Per row of ``vertices``: the surface's exact unit normal (facing +z).
+    box : Box or None
+        The periodic box (of the network and of the image); None for an
+        open image.
+    labels : (rows, cols) int32 ndarray
+        The projected network drawn at 1 px per px (pixel centres inside each
+        projected polygon; 0 outside the tissue).
+    height : (rows, cols) ndarray
+        z of the surface at every pixel centre, px.
+    """
+
+    tables: dict
+    tension: np.ndarray
+    pressure: np.ndarray
+    normals: np.ndarray
+    box: object
+    labels: np.ndarray
+    height: np.ndarray
+
+
+def _draw_polygons(tables, shape):
+    """Label image of ``shape`` (an open image): each pixel centre inside a cell's polygon gets the cell's id."""
+    from skimage.draw import polygon as draw_polygon
+
+    xy = tables["vertices"][["x", "y"]].to_numpy(float)
+    vpos = pd.Index(tables["vertices"]["vertex"].to_numpy()).get_indexer
+    labels = np.zeros(shape, np.int32)
+    for cell, group in tables["cell_vertices"].sort_values(["cell", "rank"]).groupby("cell", sort=True):
+        poly = xy[vpos(group["vertex"].to_numpy())]
+        rr, cc = draw_polygon(poly[:, 1], poly[:, 0], shape)
+        labels[rr, cc] = cell
+    return labels
+
+
+def tilted_network(tables, tension, pressure, box, tilt, azimuth=0.0, margin=3.0) -> SurfaceNetwork:
+    """A flat periodic network at force balance, cut open and laid on a plane tilted by ``tilt`` degrees, projected.
+
+    The cells whose polygon does not cross the box's edge are kept (the
+    others become the outside, cell 0); their point ``(u, v)`` goes to ``R
+    (u, v, 0)``, ``R`` the rotation by ``tilt`` about the axis at ``azimuth``
+    degrees from x in the image plane, and is seen at ``(x, y)`` with height
+    ``z``, shifted to ``margin`` px from the image's top-left corner.  The
+    height map is the plane ``z = a x + b y + c`` at every pixel centre.
+    Tensions and pressures are the flat network's: a rigid motion keeps the
+    force balance on the plane.
+
+    Parameters
+    ----------
+    tables, tension, pressure, box
+        A periodic network at force balance and its forces
+        (:func:`hexatissue.synthetic.vertex_model_tissue`).
+    tilt : float
+        Degrees, in [0, 80).
+    azimuth : float
+        Direction of the tilt axis, degrees from the image x axis.
+    margin : float
+        Px between the tissue's extent and the image's top and left edges (and
+        at least its bottom and right edges).
+
+    Returns
+    -------
+    SurfaceNetwork
+        An open image; ``tension`` and ``pressure`` per row of the kept
+        edges and cells; edges with one kept cell border the outside.
+    """
+    tilt = float(tilt)
+    if not 0.0 <= tilt < 80.0:
+        raise InputError(f"tilt must be an angle in degrees in [0, 80); got {tilt!r}")
+    vertices, edges, cv = tables["vertices"], tables["edges"], tables["cell_vertices"]
+    xy = vertices[["x", "y"]].to_numpy(float)
+    vpos = pd.Index(vertices["vertex"].to_numpy())
+    # a cell is kept when its polygon, as stored, needs no unwrapping
+    order = cv.sort_values(["cell", "rank"])
+    poly_v = vpos.get_indexer(order["vertex"].to_numpy())
+    nxt = order.groupby("cell")["vertex"].transform(lambda v: np.roll(v.to_numpy(), -1)).to_numpy()
+    step = xy[vpos.get_indexer(nxt)] - xy[poly_v]
+    whole = np.all(np.isclose(step, box.min_image(step), rtol=0.0, atol=1e-9), axis=1)
+    cut = set(order["cell"].to_numpy()[~whole])
+    cells = tables["cells"]
+    keep_cell = ~cells["cell"].isin(cut).to_numpy()
+    kept = set(cells["cell"].to_numpy()[keep_cell])
+    ca = edges["cell_a"].where(edges["cell_a"].isin(kept), 0).to_numpy()
+    cb = edges["cell_b"].where(edges["cell_b"].isin(kept), 0).to_numpy()
+    keep_edge = (ca != 0) | (cb != 0)
+    out_edges = edges[keep_edge].assign(cell_a=ca[keep_edge], cell_b=cb[keep_edge]).reset_index(drop=True)
+    used = np.unique(np.r_[out_edges["vertex_a"].to_numpy(), out_edges["vertex_b"].to_numpy()])
+    on_outside = np.unique(out_edges.loc[(out_edges["cell_a"] == 0) | (out_edges["cell_b"] == 0),
+                                         ["vertex_a", "vertex_b"]].to_numpy())
+    t, a = np.radians(tilt), np.radians(float(azimuth))
+    axis = np.array([np.cos(a), np.sin(a), 0.0])
+    skew = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    rotation = np.eye(3) + np.sin(t) * skew + (1 - np.cos(t)) * skew @ skew  # Rodrigues
+    vrows = vpos.get_indexer(used)
+    lifted = np.column_stack([xy[vrows], np.zeros(len(vrows))]) @ rotation.T
+    shift = margin - lifted[:, :2].min(axis=0)
+    lifted[:, :2] += shift
+    normal = rotation[:, 2]
+    out_vertices = vertices.iloc[vrows].reset_index(drop=True).assign(
+        x=lifted[:, 0], y=lifted[:, 1], z=lifted[:, 2], is_border=np.isin(used, on_outside))
+    out_cv = cv[cv["cell"].isin(kept)].reset_index(drop=True)
+    out_cells = cells[keep_cell].reset_index(drop=True).copy()
+    open_tables = {"cells": out_cells, "vertices": out_vertices, "edges": out_edges, "cell_vertices": out_cv}
+    _projected_geometry(open_tables)
+    out_cells["is_border"] = out_cells["cell"].isin(np.r_[out_edges.loc[out_edges["cell_b"] == 0, "cell_a"],
+                                                          out_edges.loc[out_edges["cell_a"] == 0, "cell_b"]])
+    shape = tuple(int(np.ceil(v + margin)) + 1 for v in lifted[:, 1::-1].max(axis=0))
+    gy, gx = np.mgrid[0:shape[0], 0:shape[1]].astype(float)
+    # the plane through the lifted points: n . (X - X_0) = 0
+    height = lifted[0, 2] - (normal[0] * (gx - lifted[0, 0]) + normal[1] * (gy - lifted[0, 1])) / normal[2]
+    return SurfaceNetwork(tables=open_tables, tension=np.asarray(tension, float)[keep_edge],
+                          pressure=np.asarray(pressure, float)[keep_cell], normals=np.tile(normal, (len(used), 1)),
+                          box=None, labels=_draw_polygons(open_tables, shape), height=height)
+
+
+def _projected_geometry(tables):
+    """The open tables' 2-D geometry columns recomputed from the vertices (edges' length; cells' x, y, areas,
+    perimeter)."""
+    xy = tables["vertices"][["x", "y"]].to_numpy(float)
+    vpos = pd.Index(tables["vertices"]["vertex"].to_numpy()).get_indexer
+    edges, cells = tables["edges"], tables["cells"]
+    d = xy[vpos(edges["vertex_b"].to_numpy())] - xy[vpos(edges["vertex_a"].to_numpy())]
+    edges["length"] = np.hypot(d[:, 0], d[:, 1])
+    polygons = {cell: xy[vpos(group["vertex"].to_numpy())]
+                for cell, group in tables["cell_vertices"].sort_values(["cell", "rank"]).groupby("cell", sort=True)}
+    packed, starts = pack_polygons([polygons[c] for c in cells["cell"].to_numpy()])
+    area, centroid = polygon_area_centroid(packed, starts)
+    cells["x"], cells["y"] = centroid.T
+    cells["area"] = cells["polygon_area"] = area
+    cells["perimeter"] = polygon_perimeter(packed, starts)
+
+
+#: bump_vertex_model_tissue: the bump is raised in this many equal steps, each relaxed by Newton steps (4 diverged
+#: at h = 20 px, s = 35 px on 6 x 6 cells).
+_BUMP_STEPS = 8
+
+
+class _SurfaceVertexModel:
+    """``E = sum_j Lambda_j l_j + sum_c K / 2 (A_c - A0_c)^2`` of a periodic network whose vertices ``(x, y)`` lie on
+    ``z = height(x, y)``, lengths and areas in 3-D, and its gradient in ``(x, y)``."""
+
+    def __init__(self, tables, box, line_tension, K, A0, height, gradient):
+        from .synthetic import _polygon_rows
+
+        self.box, self.lam, self.K, self.A0, self.height, self.gradient = box, line_tension, K, A0, height, gradient
+        vpos = pd.Index(tables["vertices"]["vertex"].to_numpy()).get_indexer
+        edges, cv = tables["edges"], tables["cell_vertices"]
+        self.va, self.vb = vpos(edges["vertex_a"].to_numpy()), vpos(edges["vertex_b"].to_numpy())
+        order, self.nxt, self.first = _polygon_rows(cv)
+        self.v = vpos(cv["vertex"].to_numpy()[order])
+        self.prev = np.empty_like(self.nxt)
+        self.prev[self.nxt] = np.arange(len(self.nxt))
+        self.cell = pd.Index(tables["cells"]["cell"].to_numpy()).get_indexer(cv["cell"].to_numpy()[order])
+        self.n_cells = len(tables["cells"])
+
+    def lift(self, xy):
+        return np.column_stack([xy, self.height(xy[:, 0], xy[:, 1])])
+
+    def vector_areas(self, xyz):
+        """Each cell's vector area ``sum_i r_i x r_(i+1) / 2`` (``r`` about its first vertex; z read as is: the height
+        is periodic)."""
+        r = xyz[self.v] - xyz[self.v[self.first]]
+        r[:, :2] = self.box.min_image(r[:, :2])
+        cross = np.cross(r, r[self.nxt])
+        return 0.5 * np.column_stack([np.bincount(self.cell, weights=cross[:, a], minlength=self.n_cells)
+                                      for a in range(3)])
+
+    def energy(self, flat):
+        xy = flat.reshape(-1, 2)
+        xyz = self.lift(xy)
+        d = xyz[self.vb] - xyz[self.va]
+        d[:, :2] = self.box.min_image(d[:, :2])
+        length = np.linalg.norm(d, axis=1)
+        vector = self.vector_areas(xyz)
+        area = np.linalg.norm(vector, axis=1)
+        energy = np.sum(self.lam * length) + 0.5 * self.K * np.sum((area - self.A0) ** 2)
+        grad = np.zeros_like(xyz)
+        f = self.lam[:, None] * d / length[:, None]
+        np.add.at(grad, self.vb, f)
+        np.add.at(grad, self.va, -f)
+        chord = xyz[self.v[self.nxt]] - xyz[self.v[self.prev]]
+        chord[:, :2] = self.box.min_image(chord[:, :2])
+        normal = (vector / area[:, None])[self.cell]
+        np.add.at(grad, self.v, (self.K * (area - self.A0))[self.cell, None] * 0.5 * np.cross(chord, normal))
+        gx, gy = self.gradient(xy[:, 0], xy[:, 1])
+        return energy, np.column_stack([grad[:, 0] + grad[:, 2] * gx, grad[:, 1] + grad[:, 2] * gy]).ravel()
+
+
+def bump_vertex_model_tissue(nx=6, ny=6, spacing=24.0, amplitude=20.0, width=35.0, tension_spread=0.15,
+                             area_spread=0.1, K=0.01, seed=0) -> SurfaceNetwork:
+    """A periodic vertex-model tissue at force balance on a bump, with its exact tensions and pressures.
+
+    The flat vertex model (:func:`hexatissue.synthetic.vertex_model_tissue`,
+    its tensions ``Lambda_j`` and target areas) relaxed with its vertices on
+    the periodic bump ``z = h exp(k (cos(2 pi x' / L_x) + cos(2 pi y' /
+    L_y) - 2))``, ``x', y'`` from the box's centre and ``k = (L / 2 pi s)^2``
+    for ``L`` the mean box side (near the top, the Gaussian of height ``h``
+    and width ``s``; periodic, so every vertex is inside the tissue): the
+    minimum of ``E = sum_j Lambda_j l_j + sum_c K / 2 (A_c - A0_c)^2`` with
+    3-D junction lengths (straight, vertex to vertex) and the areas of the
+    lifted polygons (``|sum_i X_i x X_(i+1)| / 2``), taken over the vertices'
+    ``(x, y)``: the bump raised in 8 steps from the flat minimum, each
+    relaxed by Newton steps on the dense finite-difference Hessian with a
+    backtracking line search (L-BFGS needs thousands of iterations on the
+    soft long-wavelength modes; the dense Hessian keeps this to small
+    tissues: 6 x 6 cells in about 10 s).  At the minimum the force on each vertex has no component in
+    the surface's tangent plane: tension ``Lambda_j``, pressure ``-K (A_c -
+    A0_c)``.
+
+    Parameters
+    ----------
+    nx, ny, spacing
+        The flat lattice (``ny`` even), px.
+    amplitude, width : float
+        ``h`` and ``s``, px.
+    tension_spread, area_spread, K, seed
+        As :func:`hexatissue.synthetic.vertex_model_tissue`.
+
+    Returns
+    -------
+    SurfaceNetwork
+        Periodic (``box``, whole pixels: the rows are ``spacing sqrt(3) /
+        2`` rounded down to half pixels, ``ny`` even); ``labels`` the
+        projected network drawn by
+        :func:`hexatissue.synthetic.network_labels`, ``height`` the bump.
+    """
+    from .synthetic import _with_positions, network_labels, vertex_model_tissue
+
+    h, s = float(amplitude), check_positive(width, "width")
+    row = np.floor(2 * spacing * np.sqrt(3) / 2) / 2  # whole pixels for ny even
+    tables, lam, pressure, box = vertex_model_tissue(nx, ny, spacing, tension_spread=tension_spread,
+                                                     area_spread=area_spread, K=K, seed=seed, row_spacing=row)
+    A0 = tables["cells"]["polygon_area"].to_numpy(float) + pressure / K
+    lengths = np.array([box.Lx, box.Ly])
+    centre = lengths / 2
+    k = (lengths.mean() / (2 * np.pi * s)) ** 2
+    w = 2 * np.pi / lengths
+
+    def height(x, y):
+        return h * np.exp(k * (np.cos(w[0] * (x - centre[0])) + np.cos(w[1] * (y - centre[1])) - 2))
+
+    def gradient(x, y):
+        z = height(x, y)
+        return -z * k * w[0] * np.sin(w[0] * (x - centre[0])), -z * k * w[1] * np.sin(w[1] * (y - centre[1]))
+
+    x = tables["vertices"][["x", "y"]].to_numpy(float).ravel()
+    for fraction in np.linspace(0.0, 1.0, _BUMP_STEPS + 1)[1:]:
+        model = _SurfaceVertexModel(tables, box, lam, K, A0, lambda x_, y_, f=fraction: f * height(x_, y_),
+                                    lambda x_, y_, f=fraction: tuple(f * g for g in gradient(x_, y_)))
+        for _ in range(12):
+            grad = model.energy(x)[1]
+            if np.abs(grad).max() < 1e-11:
+                break
+            step = 1e-5
+            hess = np.column_stack([(model.energy(x + step * e)[1] - model.energy(x - step * e)[1]) / (2 * step)
+                                    for e in np.eye(len(x))])
+            hess = 0.5 * (hess + hess.T)
+            dx = -np.linalg.lstsq(hess, grad, rcond=1e-12)[0]
+            # a full step can overshoot while the bump rises: halved until the energy or the largest force drops
+            e0 = model.energy(x)[0]
+            t = 1.0
+            while t > 1e-4:
+                e1, g1 = model.energy(x + t * dx)
+                if e1 <= e0 + 1e-12 * abs(e0) or np.abs(g1).max() < np.abs(grad).max():
+                    break
+                t *= 0.5
+            x = x + t * dx
+    xy = box.wrap(x.reshape(-1, 2))
+    force = np.abs(model.energy(xy.ravel())[1]).max()
+    if force > 1e-9:
+        raise InputError(f"the vertex model on the bump did not reach a force balance (largest force {force:.1e}): "
+                         f"lower amplitude or tension_spread")
+    tables = _with_positions(tables, xy, box)
+    xyz = model.lift(xy)
+    tables["vertices"]["z"] = xyz[:, 2]
+    area = np.linalg.norm(model.vector_areas(xyz), axis=1)
+    gx, gy = gradient(xy[:, 0], xy[:, 1])
+    normals = np.column_stack([-gx, -gy, np.ones(len(xy))])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    labels, image_box = network_labels(tables, box, 1.0)
+    rows, cols = np.mgrid[0:labels.shape[0], 0:labels.shape[1]].astype(float)
+    return SurfaceNetwork(tables=tables, tension=lam, pressure=-K * (area - A0), normals=normals, box=image_box,
+                          labels=labels, height=height(cols, rows))

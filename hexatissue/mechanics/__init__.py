@@ -34,7 +34,9 @@ runs, chooses between the two from the junctions' own pixels
 (:func:`hexatissue.mechanics.curvature.junction_shapes`).
 :mod:`hexatissue.mechanics.stress` turns
 the forces into the Batchelor stress of each cell, of the tissue and on the
-Gamma_p grid.
+Gamma_p grid.  On a height map (``normals``, with the vertices' heights) every
+vertex is balanced in the surface's tangent plane, and the stress is taken
+in each cell's tangent frame (docs/surface.md, "Forces on a height map").
 
 The package, by concept (each module imports only those listed before it):
 :mod:`.curvature` (junction arcs), :mod:`.stress` (Batchelor stress),

@@ -3,9 +3,11 @@ junctions chosen from the junctions' own pixels.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FrameWarning, InputError, user_stacklevel
 from .curvature import junction_curvature, junction_shapes
 from .inference import infer_forces
 
@@ -26,7 +28,7 @@ _VERTEX_SD = 0.2
 
 
 def frame_forces(labels, cells, vertices, edges, cell_vertices, box=None, junctions="auto", method="bayes", mu=None,
-                 sd=True):
+                 sd=True, normals=None):
     """Forces of one frame with the junction model chosen from its pixels: what the mechanics stage runs.
 
     ``junctions="auto"``: every interior junction with at least 4 pixel
@@ -48,6 +50,16 @@ def frame_forces(labels, cells, vertices, edges, cell_vertices, box=None, juncti
     ``"curved"``: that model for every junction.  ``labels`` None (polygon
     input): straight.
 
+    On a surface (``normals``, with ``vertices["z"]``) every vertex is
+    balanced in its tangent plane (:func:`force_system`).  Arcs are modelled
+    in the image plane only: a circle on a tilted or curved surface is not a
+    circle in its projection, and Young-Laplace on it needs the junction's
+    geodesic curvature, which its projected pixels do not give.  So where the
+    surface is not the image plane itself (some normal other than ``(0, 0,
+    1)``), a frame found curved (or ``"curved"``) is inferred with straight
+    junctions, with a :class:`~hexatissue.errors.FrameWarning`; on a constant
+    height map everything is as without it.
+
     Parameters
     ----------
     labels : ndarray (H, W) of int or None
@@ -57,6 +69,10 @@ def frame_forces(labels, cells, vertices, edges, cell_vertices, box=None, juncti
     junctions : {"auto", "straight", "curved"}
     method, mu, sd
         As :func:`infer_forces`.
+    normals : ndarray (n_vertices, 3), optional
+        The surface's unit normal at every vertex (e.g.
+        :func:`hexatissue.surface.node_normals` of the height map at the
+        vertices); None: the image plane.
 
     Returns
     -------
@@ -65,7 +81,8 @@ def frame_forces(labels, cells, vertices, edges, cell_vertices, box=None, juncti
         Per row of ``edges``: the curvature of the arcs, 1/px; 0 for
         straight junctions.
     model : str
-        The model used: ``"straight"`` or ``"curved"``.
+        The model used: ``"straight"`` or ``"curved"`` (never ``"curved"`` on
+        a surface other than the image plane).
     curved_share : float
         The share of the tested junctions whose pixels show a curvature (NaN
         when none was tested: ``"straight"``, ``"curved"``, no pixels).
@@ -81,7 +98,18 @@ def frame_forces(labels, cells, vertices, edges, cell_vertices, box=None, juncti
         if tested.any():
             share = float(shapes["curved"].to_numpy(bool)[tested].mean())
             model = "curved" if share > _CURVED_SHARE else "straight"
+    if normals is not None and model == "curved":
+        if np.all(np.asarray(normals, float) == (0.0, 0.0, 1.0)):
+            normals = None  # the image plane: its arcs are the image's
+        else:
+            why = (f"{share:.0%} of the tested junctions are curved" if junctions == "auto"
+                   else 'junctions="curved" was asked')
+            warnings.warn(FrameWarning("force inference on a surface: junction arcs are modelled in the image plane "
+                                       "only, so the junctions are taken straight (vertex to vertex in 3-D) and the "
+                                       "pressures push on the vertices; the curvature column is 0",
+                                       f"{why}; the height map is not constant"), stacklevel=user_stacklevel())
+            model = "straight"
     curvature = junction_curvature(labels, vertices, edges, box) if model == "curved" else None
     forces = infer_forces(cells, vertices, edges, cell_vertices, box=box, method=method, mu=mu, sd=sd,
-                          curvature=curvature, vertex_sd=_VERTEX_SD if pixels else None)
+                          curvature=curvature, vertex_sd=_VERTEX_SD if pixels else None, normals=normals)
     return forces, (np.zeros(len(edges)) if curvature is None else curvature), model, share

@@ -77,7 +77,7 @@ class Forces:
 
 
 def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes", mu=None, sd=True,
-                 seed=0, curvature=None, arcs=None, directions=None, vertex_sd=None) -> Forces:
+                 seed=0, curvature=None, arcs=None, directions=None, vertex_sd=None, normals=None) -> Forces:
     """Tensions of the interior junctions and pressures of the interior cells of one frame, from force balance.
 
     The equations are those of :func:`force_system` (straight junctions).
@@ -125,7 +125,12 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
         balanced vertices; the posterior s.d. use the larger of that and the
         fitted ``s^2``.  None: the fitted ``s^2`` alone.  A square periodic
         network meets its equations whatever its vertices' errors, so its
-        fitted ``s^2`` says nothing about them.
+        fitted ``s^2`` says nothing about them.  ``l_j`` is the junction's
+        length in the image (the vertices are found there), also on a surface.
+    normals : ndarray (n_vertices, 3), optional
+        The surface's unit normal at every vertex, with ``vertices["z"]``:
+        each vertex balanced in its tangent plane (:func:`force_system`);
+        not with ``curvature``.  None: the image plane.
 
     Returns
     -------
@@ -143,7 +148,7 @@ def infer_forces(cells, vertices, edges, cell_vertices, box=None, method="bayes"
     if vertex_sd is not None and not (is_real(vertex_sd) and vertex_sd >= 0):
         raise InputError(f"vertex_sd must be a non-negative finite number or None; got {vertex_sd!r}")
     frame = _frame_of(cells, "cells")
-    system = force_system(cells, vertices, edges, cell_vertices, box, curvature, arcs, directions)
+    system = force_system(cells, vertices, edges, cell_vertices, box, curvature, arcs, directions, normals)
     A = system.matrix
     n_t, n_p = len(system.edge_rows), len(system.cell_rows)
     n = n_t + n_p

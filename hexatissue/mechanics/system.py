@@ -11,6 +11,7 @@ from scipy.sparse import csr_matrix
 
 from ..errors import InputError
 from ..schema import require_columns
+from ..surface.field import node_frames
 
 
 # Weight of the Young-Laplace rows against the vertex rows (both in force units).  A junction's curvature is a
@@ -57,6 +58,53 @@ def _min_image(d, box):
     return d if box is None else box.min_image(d)
 
 
+def _tangent_frames(vertices, normals):
+    """``z`` (px) and the unit normal, ``e1``, ``e2`` of every vertex's tangent plane, the normals checked.
+
+    ``e1`` is the image x axis projected on the plane and normalised,
+    ``e2 = n x e1`` (the frame of :func:`hexatissue.surface.node_frames`);
+    normals ``(0, 0, 1)`` give the image axes exactly.
+    """
+    require_columns(vertices, ("z",), "vertices (the heights of a surface, with normals)")
+    n = np.asarray(normals, float)
+    if n.shape != (len(vertices), 3):
+        raise InputError(f"normals must hold one (x, y, z) unit vector per row of vertices ({len(vertices)}); got "
+                         f"shape {n.shape}")
+    z = vertices["z"].to_numpy(float)
+    if not (np.isfinite(n).all() and np.isfinite(z).all()):
+        raise InputError("normals and vertices['z'] must be finite: a vertex off the surface has no tangent plane")
+    if np.abs(np.linalg.norm(n, axis=1) - 1.0).max(initial=0.0) > 1e-9 or (n[:, 2] <= 0).any():
+        raise InputError("normals must be unit vectors facing +z (normals of a height map)")
+    e1, e2 = node_frames(n)
+    return z, n, e1, e2
+
+
+def _polygon_normals(xy, z, cv_v, cv_row, rank, nxt, n_cells, box, vertex_normals):
+    """Per row of cell_vertices: the unit vector area of its cell's lifted polygon (facing +z).
+
+    The polygon is taken about its first vertex (by ``rank``), so a constant
+    height gives ``(0, 0, 1)`` exactly; where the vector area vanishes, the
+    vertex's own normal.
+    """
+    order = np.lexsort((rank, cv_row))
+    c = cv_row[order]
+    m = len(c)
+    start = np.r_[True, c[1:] != c[:-1]] if m else np.zeros(0, bool)
+    first = np.empty(m, np.int64)
+    first[order] = order[np.maximum.accumulate(np.where(start, np.arange(m), 0))]
+    r = np.column_stack([_min_image(xy[cv_v] - xy[cv_v[first]], box), z[cv_v] - z[cv_v[first]]])
+    cross = np.cross(r, r[nxt])
+    vector = np.column_stack([np.bincount(cv_row, weights=cross[:, a], minlength=n_cells) for a in range(3)])
+    size = np.linalg.norm(vector, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        normal = vector / size[:, None]
+    normal[normal[:, 2] < 0] *= -1
+    normal = normal[cv_row]
+    flat = ~(size[cv_row] > 0)
+    normal[flat] = vertex_normals[cv_v[flat]]
+    return normal
+
+
 def _cycle_neighbours(cell, rank):
     """For rows of cell_vertices: the rows of the previous and next vertex in the same cell's polygon."""
     order = np.lexsort((rank, cell))
@@ -76,7 +124,7 @@ def _cycle_neighbours(cell, rank):
 
 
 def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None, arcs=None,
-                 directions=None) -> ForceSystem:
+                 directions=None, normals=None) -> ForceSystem:
     """The force balance of every vertex inside the tissue, as a sparse matrix in the tensions and pressures.
 
     Straight junctions (``curvature`` None): the equations of the module
@@ -122,6 +170,20 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
         from ``vertex_a`` to ``vertex_b``, e.g. of the line fitted to its
         pixels (:func:`hexatissue.mechanics.curvature.junction_shapes`);
         NaN rows and None: the chord between the end vertices.
+    normals : ndarray (n_vertices, 3), optional
+        Per row of ``vertices``: the unit normal of the surface at the vertex
+        (e.g. of a height map: :func:`hexatissue.surface.node_normals`), with
+        the vertices' heights in ``vertices["z"]`` (px).  Each vertex is then
+        balanced in its tangent plane (two rows: the components along ``e1``,
+        the image x axis projected on the plane, and ``e2 = n x e1``): the
+        junctions' 3-D unit vectors (vertex to vertex; a given direction is
+        lifted onto the tangent plane) and the pressure terms ``P_c (c x N_c)
+        / 2``, ``c`` the 3-D chord from the polygon's previous vertex to its
+        next and ``N_c`` the unit vector area of the cell's lifted polygon
+        (``(c x N_c) / 2`` is the gradient of its area), projected on the
+        plane (docs/surface.md, "Forces on a height map").  A constant height
+        (normals ``(0, 0, 1)``) gives the equations of the image plane, to
+        the last bit.  Not with ``curvature``.  None: the image plane.
 
     Returns
     -------
@@ -141,6 +203,12 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
         raise InputError("edges names vertices that are not in vertices")
     d = _min_image(xy[vb] - xy[va], box)
     length = np.hypot(d[:, 0], d[:, 1])
+    frames = None
+    if normals is not None:
+        if curvature is not None:
+            raise InputError("curvature cannot be given with normals: junction arcs are modelled in the image "
+                             "plane only (docs/surface.md, \"Forces on a height map\")")
+        frames = _tangent_frames(vertices, normals)
     cid = cells["cell"].to_numpy(np.int64)
     has_polygon = cells["n_sides"].to_numpy(np.int64) >= 3
     if "polygon_area" in cells.columns:
@@ -189,12 +257,30 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
             arc = arcs[t_edge].copy()
         sin_psi = np.where(arc, np.clip(kappa[t_edge] * length[t_edge] / 2, -1.0, 1.0), 0.0)
         cos_psi = np.sqrt(1.0 - sin_psi ** 2)
+    if frames is not None:
+        z, n, e1, e2 = frames
+        # the 3-D junction: its height difference is read as is (a periodic height map is periodic)
+        dz = z[vb[t_edge]] - z[va[t_edge]]
+        length3 = np.hypot(length[t_edge], dz)  # = the 2-D length, bit for bit, where dz = 0
+        u3 = np.column_stack([d[t_edge] / length3[:, None], dz / length3])
+        given = np.zeros(len(t_edge), bool) if directions is None else given
     rows, cols, vals = [], [], []
     for end, sign in ((va[t_edge], 1.0), (vb[t_edge], -1.0)):
         keep = balanced[end]
         col = np.flatnonzero(keep)
         r = vrow[end[keep]]
         ux, uy = sign * u[keep, 0], sign * u[keep, 1]
+        if frames is not None:
+            # the tension along the 3-D junction, its component in the vertex's tangent plane
+            w = u3[keep]
+            if given[keep].any():
+                # a direction in the image lifted onto the tangent plane at the vertex: (u, -(n_x u_x + n_y u_y) / n_z)
+                nk = n[end[keep]]
+                lifted = np.column_stack([u[keep], -(nk[:, 0] * u[keep, 0] + nk[:, 1] * u[keep, 1]) / nk[:, 2]])
+                lifted /= np.linalg.norm(lifted, axis=1)[:, None]
+                w = np.where(given[keep][:, None], lifted, w)
+            ux = sign * np.sum(w * e1[end[keep]], axis=1)
+            uy = sign * np.sum(w * e2[end[keep]], axis=1)
         if arc.any():  # the tangent of an arc: the chord turned by -psi at vertex_a, +psi at vertex_b
             chord = sign * d[t_edge][keep] / length[t_edge][keep, None]
             sn, cs = -sign * sin_psi[keep], cos_psi[keep]
@@ -235,7 +321,16 @@ def force_system(cells, vertices, edges, cell_vertices, box=None, curvature=None
         r = vrow[cv_v[k]]
         rows += [2 * r, 2 * r + 1]
         cols += [pcol[cv_row[k]], pcol[cv_row[k]]]
-        vals += [0.5 * chord[:, 1], -0.5 * chord[:, 0]]
+        if frames is None:
+            vals += [0.5 * chord[:, 1], -0.5 * chord[:, 0]]
+        else:
+            # the gradient of the lifted polygon's area |sum_i X_i x X_(i+1)| / 2: (c x N) / 2, c the 3-D chord
+            # prev -> next and N the polygon's unit vector area, its component in the vertex's tangent plane
+            here_z = z[cv_v[k]]
+            c3 = np.column_stack([chord, (z[cv_v[nxt[k]]] - here_z) - (z[cv_v[prev[k]]] - here_z)])
+            push = np.cross(c3, _polygon_normals(xy, z, cv_v, cv_row, cell_vertices["rank"].to_numpy(np.int64), nxt,
+                                                 len(cid), box, n)[k])
+            vals += [0.5 * np.sum(push * e1[cv_v[k]], axis=1), 0.5 * np.sum(push * e2[cv_v[k]], axis=1)]
         if arc.any():
             # an arc carries the pressure difference across it itself (Young-Laplace): its share of the polygons'
             # push, 0.5 (P_left - P_right) (d_y, -d_x) at each end, is taken back out
