@@ -9,7 +9,9 @@ and the function that runs it:
   :class:`FrameData` (the frame's labels and tables); what they write is
   gathered into the movie's tables in frame order;
 - **movie stages** run once, in the main process, in list order, on a
-  :class:`MovieData` (every table of the movie) after the frames are done;
+  :class:`MovieData` (every table of the movie) after the frames are done
+  (a stage whose chunks of frames are independent may send them to the
+  workers: :meth:`MovieData.map_chunks`, as the tissue flow does);
   a movie stage may also follow the frames as they come (its
   :class:`FrameState`: the tracks stage's tracker), in frame order, in the
   main process, its state saved in the checkpoints.
