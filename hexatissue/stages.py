@@ -231,6 +231,22 @@ class MovieData:
         """``fn(chunk, *args)`` of every chunk (e.g. ``(first, last)`` of :meth:`frame_chunks`), yielded in chunk
         order; on the analysis's executor when the tables are on disk.
 
+        Parameters
+        ----------
+        fn : callable
+            ``fn(chunk, *args)``: one chunk's result, picklable.
+        chunks : iterable
+            The chunks, in the order their results are wanted.
+        *args
+            What ``fn`` needs besides its chunk, picklable (sent with every task).
+
+        Yields
+        ------
+        object
+            ``fn(chunk, *args)`` of each chunk, in chunk order.
+
+        Notes
+        -----
         The tasks are independent: ``fn`` (a module-level function, sent by
         name) reads its inputs itself, from ``args``: the tables as kept
         (``self.tables[name]``, read with :func:`read_table`; a
@@ -323,9 +339,24 @@ class MovieData:
 
 
 def read_table(table, columns=None, frames=None) -> pd.DataFrame:
-    """A movie's table as kept (a DataFrame, or a :class:`~hexatissue.stored.StoredTable` read from its parts): only
-    the ``columns`` it has (all when None), only the rows of frames ``first`` to ``last`` when ``frames = (first,
-    last)``."""
+    """A movie's table as kept: by column and frame range, from memory or from its parts on disk.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame or StoredTable
+        The table (``MovieData.tables[name]``); a
+        :class:`~hexatissue.stored.StoredTable` is read from its parts.
+    columns : sequence of str, optional
+        The columns wanted (those the table lacks are left out); None: all.
+    frames : (int, int), optional
+        Only the rows of frames ``first`` to ``last`` (inclusive).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows and columns asked for, in the table's row order, with the
+        table's columns and units (:func:`hexatissue.schema.describe`).
+    """
     if isinstance(table, StoredTable):
         return table.read(columns, frames)
     if frames is not None:
