@@ -416,6 +416,31 @@ def test_a_lost_pool_worker_stops_the_chunks_as_it_stops_the_frames(tmp_path):
     assert not mp.active_children()
 
 
+def _sleeping_chunk(span):
+    import time
+
+    if span[0]:  # the first chunk runs here, before the pool forks; the others wait in the workers
+        time.sleep(60)
+    return span
+
+
+def test_an_interrupt_stops_the_chunks_and_their_workers_at_once(tmp_path):
+    import multiprocessing as mp
+    import signal
+    import threading
+    import time
+
+    main = threading.main_thread().ident
+    timer = threading.Timer(1.0, lambda: signal.pthread_kill(main, signal.SIGINT))  # Ctrl-C, as the terminal sends it
+    start = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        list(_chunk_movie(tmp_path, workers=2).map_chunks(_sleeping_chunk, SPANS))
+    while mp.active_children() and time.monotonic() < start + 3.0:
+        time.sleep(0.05)
+    assert not mp.active_children() and time.monotonic() - start < 3.0
+
+
 @pytest.mark.slow
 def test_a_lost_dask_worker_costs_its_chunks_alone(tmp_path):
     from distributed import Client, LocalCluster
