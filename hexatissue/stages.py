@@ -751,8 +751,10 @@ def _flow_chunk(span, cells, grid, box, radius_factor, min_cells):
     if grid is None:
         return vx, vy, None
     cells = cells[inside].assign(vx=vx, vy=vy)
-    return vx, vy, flow_fields(cells, read_table(grid, FLOW_READS["grid"], frames=span), box, radius_factor,
-                               min_cells)
+    flow = flow_fields(cells, read_table(grid, FLOW_READS["grid"], frames=span), box, radius_factor, min_cells)
+    del cells
+    release_freed_memory()  # a worker would hold this chunk's working set while the others run theirs
+    return vx, vy, flow
 
 
 def _t1_events(movie, options):
