@@ -1,7 +1,11 @@
-"""Where the spine's per-frame work runs: in this process, a local process pool, or a dask cluster.
+"""Where the spine's per-frame work, and the movie stages' chunks, run: in this process, a local process pool, or a
+dask cluster.
 
 Every executor has ``submit(fn, *args) -> future`` (with ``future.result()``)
-and ``shutdown()``; :func:`executor` picks one.
+and ``shutdown()``; :func:`executor` picks one.  The frames have theirs; each
+movie stage that maps its chunks (:meth:`hexatissue.stages.MovieData.map_chunks`)
+makes its own from the same ``client`` or ``workers``: a pool forks then, and
+its workers are gone once the stage's chunks are done.
 """
 from __future__ import annotations
 
@@ -125,13 +129,14 @@ class _Pool:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
-def executor(client, workers, n_frames, warm_ups=()):
-    """``(executor, tasks kept in flight)``: twice the workers, so none waits while the main process collects."""
+def executor(client, workers, n_tasks, warm_ups=()):
+    """``(executor, tasks kept in flight)`` for ``n_tasks`` tasks: twice the workers, so none waits while the main
+    process collects.  ``warm_ups`` run here before a pool forks (:class:`_Pool`)."""
     if client is not None:
         threads = sum(client.nthreads().values()) if hasattr(client, "nthreads") else 1
         return _Dask(client), max(2, 2 * threads)
     workers = (os.cpu_count() or 1) if workers is None else check_positive(workers, "workers", integer=True)
-    workers = min(workers, n_frames)
+    workers = min(workers, n_tasks)
     if workers == 1:
         return _Serial(), 1
     return _Pool(workers, warm_ups), 2 * workers

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import warnings
 from collections import deque
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -182,7 +183,8 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
             del rows
             movie = MovieData(tables=done, box=box, n_frames=src.n_frames, source=src, states=states,
                               options=dict(options), images=images,
-                              folder=None if streamed is None else streamed.folder)
+                              folder=None if streamed is None else streamed.folder,
+                              executor=partial(executor, client, workers))
             del states, done
             for stage in movie_work:
                 stage.run(movie, options[stage.options.stage])
@@ -227,7 +229,8 @@ class _Streamed:
     """
 
     def __init__(self, folder, names, orders):
-        self.folder = check_output_folder(folder, "out")
+        # absolute: the movie stages' tasks read the parts in processes that may run elsewhere (a dask worker)
+        self.folder = check_output_folder(folder, "out").absolute()
         check_replaceable_tables(self.folder, "out")
         # a second analysis streaming into this folder is refused (the CLI holding it already is not)
         self.lock = lock_folder(self.folder, RUN_LOCK, "out folder")

@@ -9,7 +9,9 @@ and the function that runs it:
   :class:`FrameData` (the frame's labels and tables); what they write is
   gathered into the movie's tables in frame order;
 - **movie stages** run once, in the main process, in list order, on a
-  :class:`MovieData` (every table of the movie) after the frames are done;
+  :class:`MovieData` (every table of the movie) after the frames are done
+  (a stage whose chunks of frames are independent may send them to the
+  workers: :meth:`MovieData.map_chunks`, as the tissue flow does);
   a movie stage may also follow the frames as they come (its
   :class:`FrameState`: the tracks stage's tracker), in frame order, in the
   main process, its state saved in the checkpoints.
@@ -30,6 +32,8 @@ from __future__ import annotations
 
 import pickle
 import warnings
+from collections import deque
+from contextlib import closing
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
@@ -58,8 +62,8 @@ from .surface import cell_heights, lift, node_normals, surface_arrays, surface_c
 from .track import (CellCounts, MovieTracker, cells_with_tracks, check_divisions, check_extrusions, checked_tracks,
                     compact_frames, join_spans, lineage_from_spans, track_spans, tracking_summary, tracking_warning)
 
-__all__ = ["Stage", "FrameState", "STAGES", "FrameData", "MovieData", "stage_options", "frame_stages", "movie_stages",
-           "frame_tables", "worker_stages", "run_frame"]
+__all__ = ["Stage", "FrameState", "STAGES", "FrameData", "MovieData", "read_table", "stage_options", "frame_stages",
+           "movie_stages", "frame_tables", "worker_stages", "run_frame"]
 
 @dataclass(frozen=True)
 class FrameState:
@@ -201,7 +205,10 @@ class MovieData:
     :class:`~hexatissue.track.MovieTracker` that linked the frames);
     ``options`` the options by stage name (a stage records what it
     resolved, e.g. the tracking mode used); ``summary`` what the stages
-    decided, by stage name.
+    decided, by stage name.  ``executor``: the spine's maker of the
+    analysis's executor (:meth:`map_chunks`), ``executor(n_tasks, warm_ups)
+    -> (executor, tasks kept in flight)``, on the ``client`` or ``workers``
+    the frames ran on; None: every chunk runs in this process.
     """
 
     tables: dict
@@ -213,19 +220,79 @@ class MovieData:
     summary: dict = field(default_factory=dict)
     images: dict = field(default_factory=dict)  # the image stages' Sources by stage name (the flow's PIV reads them)
     folder: object = None  # where the streamed tables are written (None: every table in memory)
+    executor: Callable | None = None
 
     def read(self, name, columns=None, frames=None) -> pd.DataFrame:
         """Table ``name``: only the ``columns`` it has (all when None), only the rows of frames ``first`` to
-        ``last`` when ``frames = (first, last)``.  A table on disk is read from its parts."""
-        table = self.tables[name]
-        if isinstance(table, StoredTable):
-            return table.read(columns, frames)
-        if frames is not None:
-            f = table["frame"].to_numpy()
-            inside = (f >= frames[0]) & (f <= frames[1])
-            if not inside.all():
-                table = table[inside].reset_index(drop=True)
-        return table if columns is None else table[[c for c in columns if c in table.columns]]
+        ``last`` when ``frames = (first, last)``.  A table on disk is read from its parts (:func:`read_table`)."""
+        return read_table(self.tables[name], columns, frames)
+
+    def map_chunks(self, fn, chunks, *args):
+        """``fn(chunk, *args)`` of every chunk (e.g. ``(first, last)`` of :meth:`frame_chunks`), yielded in chunk
+        order; on the analysis's executor when the tables are on disk.
+
+        Parameters
+        ----------
+        fn : callable
+            ``fn(chunk, *args)``: one chunk's result, picklable.
+        chunks : iterable
+            The chunks, in the order their results are wanted.
+        *args
+            What ``fn`` needs besides its chunk, picklable (sent with every task).
+
+        Yields
+        ------
+        object
+            ``fn(chunk, *args)`` of each chunk, in chunk order.
+
+        Notes
+        -----
+        The tasks are independent: ``fn`` (a module-level function, sent by
+        name) reads its inputs itself, from ``args``: the tables as kept
+        (``self.tables[name]``, read with :func:`read_table`; a
+        :class:`~hexatissue.stored.StoredTable` pickles as the paths of its
+        parts and added columns, a few hundred bytes), never a table's rows.
+        When the movie's tables are streamed (``folder``) and the analysis
+        has workers (:attr:`executor`), the chunks run on the local process
+        pool (the first chunk here, before the pool forks, so the workers
+        inherit the numba kernels it compiled) or on the dask cluster (whose
+        workers must see the out folder: a shared filesystem); with the
+        tables in memory, one worker, or one chunk, here.  At most the
+        executor's tasks in flight (twice its workers) are computed ahead of
+        the chunk taken, so memory holds a few chunks' results.  A task's
+        warnings are issued here, in chunk order; its exception is raised
+        here (the same type and message as when run here); the pool's
+        workers are killed then, or when the caller stops before the last
+        chunk (close the generator: ``contextlib.closing``).  With dask, a
+        chunk whose worker is lost is run again by the scheduler.
+        """
+        chunks = list(chunks)
+        if self.folder is None or self.executor is None or len(chunks) < 2:
+            for chunk in chunks:
+                yield fn(chunk, *args)
+            return
+        ahead = []
+
+        def first_here():  # a pool's warm-up: the kernels compiled here are forked into its workers
+            ahead.append(fn(chunks[0], *args))
+
+        work, in_flight = self.executor(len(chunks), (first_here,))
+        pending = deque()
+        try:
+            if ahead:
+                yield ahead.pop()
+                chunks = chunks[1:]
+            for chunk in chunks:
+                pending.append(work.submit(_chunk_task, fn, chunk, args))
+                if len(pending) >= in_flight:
+                    yield _chunk_result(pending.popleft())
+            while pending:
+                yield _chunk_result(pending.popleft())
+        except BaseException:  # an error, an interrupt, or the caller gone: the tasks still running are of no use
+            pending.clear()  # a dask future released is cancelled
+            work.shutdown(abort=True)
+            raise
+        work.shutdown()
 
     def add_column(self, name, column, values, after=None):
         """Set ``column`` of table ``name`` to ``values`` (every row, in order): replaced in place or appended,
@@ -269,6 +336,51 @@ class MovieData:
             if path not in kept:
                 path.unlink()
         self.tables[name] = stored
+
+
+def read_table(table, columns=None, frames=None) -> pd.DataFrame:
+    """A movie's table as kept: by column and frame range, from memory or from its parts on disk.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame or StoredTable
+        The table (``MovieData.tables[name]``); a
+        :class:`~hexatissue.stored.StoredTable` is read from its parts.
+    columns : sequence of str, optional
+        The columns wanted (those the table lacks are left out); None: all.
+    frames : (int, int), optional
+        Only the rows of frames ``first`` to ``last`` (inclusive).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows and columns asked for, in the table's row order, with the
+        table's columns and units (:func:`hexatissue.schema.describe`).
+    """
+    if isinstance(table, StoredTable):
+        return table.read(columns, frames)
+    if frames is not None:
+        f = table["frame"].to_numpy()
+        inside = (f >= frames[0]) & (f <= frames[1])
+        if not inside.all():
+            table = table[inside].reset_index(drop=True)
+    return table if columns is None else table[[c for c in columns if c in table.columns]]
+
+
+def _chunk_task(fn, chunk, args):
+    """In a worker: ``fn(chunk, *args)`` and its warnings, as ``(category, text)`` pairs for the main process."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = fn(chunk, *args)
+    return result, [(w.category, str(w.message)) for w in caught]
+
+
+def _chunk_result(future):
+    """A chunk task's result, its warnings issued here (through this process's filters)."""
+    result, caught = future.result()
+    for category, text in caught:
+        warnings.warn(text, category, stacklevel=user_stacklevel())
+    return result
 
 
 class _ColumnPieces:
@@ -597,43 +709,32 @@ def _flow(movie, options):
     after the surface stage also on the surface: the cells' 3-D velocities in their tangent frames and, on the
     surface field's grid, the surface divergence and the areal rate with the normal motion (docs/flow.md).
 
-    Chunk by chunk of the cells' frames (one chunk for tables in memory): a
-    velocity is a centred difference along the track, so each chunk is read
-    with one frame more on either side; the grid's fits are per frame.
+    Chunk by chunk of the cells' frames (one chunk for tables in memory), each
+    chunk independent (:func:`_flow_chunk`) and, when the tables are on disk,
+    on the analysis's executor (:meth:`MovieData.map_chunks`); the results are
+    written here, in chunk order.
     """
     gridded = "grid" in movie.tables
     surface = getattr(movie.options.get("surface"), "enabled", False)
     names = ("vx", "vy") + (SURFACE_VELOCITIES if surface else ())
     writers = {name: movie.column_writer("cells", name, np.float64) for name in names}
+    spans = movie.frame_chunks("cells")
+    results = movie.map_chunks(_flow_chunk, spans, movie.tables["cells"], movie.tables.get("grid"), movie.box,
+                               options.radius_factor, options.min_cells, surface)
 
     def chunks():
-        for first, last in movie.frame_chunks("cells"):
-            release_freed_memory()  # the previous chunk's working set, before this one's
-            cells = movie.read("cells", FLOW_READS["cells"], frames=(first - 1, last + 1))
-            vx, vy = cell_velocities(cells, movie.box)
-            velocities = {"vx": vx, "vy": vy}
-            if surface:
-                velocities.update({name: values for name, values in surface_velocities(cells, movie.box).items()
-                                   if name in SURFACE_VELOCITIES})
-            frame = cells["frame"].to_numpy()
-            inside = (frame >= first) & (frame <= last)
+        for span, (velocities, flow) in zip(spans, results):
             for name, writer in writers.items():
-                writer.write(velocities[name][inside])
+                writer.write(velocities[name])
             if gridded:
-                cells = cells[inside].assign(**{name: values[inside] for name, values in velocities.items()})
-                grid = movie.read("grid", FLOW_READS["grid"], frames=(first, last))
-                flow = flow_fields(cells, grid, movie.box, options.radius_factor, options.min_cells)
-                if surface and "normal_x" in grid.columns:
-                    fields = surface_flow_fields(cells, grid, movie.box, options.radius_factor, options.min_cells)
-                    for name in SURFACE_FLOW:
-                        flow[name] = fields[name].to_numpy()
-                yield (first, last), flow
+                yield span, flow
 
-    if gridded:
-        movie.put_chunks("flow", chunks())
-    else:
-        for _ in chunks():  # the velocities are written as the chunks go; there is no field to keep
-            pass
+    with closing(results):  # an error here stops the chunks still running
+        if gridded:
+            movie.put_chunks("flow", chunks())
+        else:
+            for _ in chunks():  # the velocities are written as the chunks go; there is no field to keep
+                pass
     for writer in writers.values():
         writer.close()
     if not gridded:
@@ -645,6 +746,39 @@ def _flow(movie, options):
         for column in ("piv_vx", "piv_vy", "piv_peak"):
             flow[column] = piv[column].to_numpy()
         movie.tables["flow"] = flow
+
+
+def _flow_chunk(span, cells, grid, box, radius_factor, min_cells, surface=False):
+    """The tissue flow of frames ``span = (first, last)`` from the ``cells`` and ``grid`` tables as kept (grid None:
+    no field): ``(velocities, flow)``, the span's cells' ``vx``, ``vy`` (and, on the ``surface``, the
+    :data:`SURFACE_VELOCITIES`) by name in row order, and its ``flow`` rows (None without a grid).
+
+    A velocity is a centred difference along the track, so the cells are read
+    with one frame more on either side; the grid's fits are per frame.
+    """
+    release_freed_memory()  # the previous chunk's working set, before this one's
+    first, last = span
+    cells = read_table(cells, FLOW_READS["cells"], frames=(first - 1, last + 1))
+    vx, vy = cell_velocities(cells, box)
+    velocities = {"vx": vx, "vy": vy}
+    if surface:
+        velocities.update({name: values for name, values in surface_velocities(cells, box).items()
+                           if name in SURFACE_VELOCITIES})
+    frame = cells["frame"].to_numpy()
+    inside = (frame >= first) & (frame <= last)
+    velocities = {name: values[inside] for name, values in velocities.items()}
+    if grid is None:
+        return velocities, None
+    cells = cells[inside].assign(**velocities)
+    grid = read_table(grid, FLOW_READS["grid"], frames=span)
+    flow = flow_fields(cells, grid, box, radius_factor, min_cells)
+    if surface and "normal_x" in grid.columns:
+        fields = surface_flow_fields(cells, grid, box, radius_factor, min_cells)
+        for name in SURFACE_FLOW:
+            flow[name] = fields[name].to_numpy()
+    del cells, grid
+    release_freed_memory()  # a worker would hold this chunk's working set while the others run theirs
+    return velocities, flow
 
 
 def _t1_events(movie, options):

@@ -286,3 +286,172 @@ def test_a_new_stage_brings_its_figure_report_section_napari_layer_and_widget_fi
     assert kind == "points" and len(data) == len(movie.cells)
     assert list(legend_entries(movie)["label"])[-1] == "toy cell"
     assert (toy_stage, WidgetField("factor")) in widget_fields()
+
+
+# ----------------------------------------------------------------------------
+# A movie stage's chunks on the analysis's executor (MovieData.map_chunks)
+# ----------------------------------------------------------------------------
+
+def _chunk_movie(folder, workers=None, client=None, make=None):
+    """A MovieData whose tables are on disk (``folder``), with the spine's executor of ``workers`` or ``client``."""
+    from functools import partial
+
+    from hexatissue._executors import executor
+
+    return S.MovieData(tables={}, box=None, n_frames=12, source=None, states={}, options={}, folder=folder,
+                       executor=make or partial(executor, client, workers))
+
+
+def _square_chunk(span, scale):
+    """A chunk task: the chunk's frames times ``scale``, with the process it ran in."""
+    import os
+
+    return [t * scale for t in range(span[0], span[1] + 1)], os.getpid()
+
+
+def _slow_first_chunk(span, scale):
+    """Later chunks finish first: the results must still come in chunk order."""
+    import time
+
+    time.sleep(0.2 if span[0] == 2 else 0.0)
+    return _square_chunk(span, scale)[0]
+
+
+def _failing_chunk(span):
+    if span[0] == 4:
+        raise InputError(f"frames {span[0]}-{span[1]}: no cells")
+    return span
+
+
+def _warning_chunk(span):
+    import warnings
+
+    from hexatissue.errors import HexatissueWarning
+
+    warnings.warn(f"chunk {span[0]}", HexatissueWarning)
+    return span
+
+
+SPANS = [(0, 1), (2, 3), (4, 5), (6, 7), (8, 9), (10, 11)]
+
+
+def test_chunks_on_a_process_pool_come_back_in_order_from_the_workers(tmp_path):
+    import os
+
+    got = list(_chunk_movie(tmp_path, workers=2).map_chunks(_square_chunk, SPANS, 3))
+    assert [values for values, _ in got] == [[3 * t for t in range(a, b + 1)] for a, b in SPANS]
+    pids = [pid for _, pid in got]
+    # the first chunk runs here (the pool forks after it), the others in the pool's workers
+    assert pids[0] == os.getpid() and os.getpid() not in pids[1:] and len(set(pids[1:])) <= 2
+    assert list(_chunk_movie(tmp_path, workers=2).map_chunks(_slow_first_chunk, SPANS, 1)) == [
+        list(range(a, b + 1)) for a, b in SPANS]
+    # tables in memory (no folder), one worker or no executor: every chunk here
+    for movie in (_chunk_movie(None, workers=2), _chunk_movie(tmp_path, workers=1),
+                  replace(_chunk_movie(tmp_path), executor=None)):
+        assert {pid for _, pid in movie.map_chunks(_square_chunk, SPANS, 1)} == {os.getpid()}
+
+
+def test_chunks_in_flight_are_bounded_by_the_executor(tmp_path):
+    submitted = []
+
+    class Counting:
+        def submit(self, fn, *args):
+            submitted.append(args[1])
+            done = fn(*args)
+            return type("Done", (), {"result": lambda self: done})()
+
+        def shutdown(self, abort=False):
+            submitted.append("abort" if abort else "end")
+
+    results = _chunk_movie(tmp_path, make=lambda n, warm_ups: (Counting(), 3)).map_chunks(_square_chunk, SPANS, 1)
+    for k, _ in enumerate(results):
+        assert len(submitted) <= k + 3  # the chunk taken and at most two ahead of it
+    assert submitted == [*SPANS, "end"]
+    results = _chunk_movie(tmp_path, make=lambda n, warm_ups: (Counting(), 3)).map_chunks(_square_chunk, SPANS, 1)
+    submitted.clear()
+    next(results)
+    results.close()  # the caller stops early: the executor is stopped, no further chunk is sent
+    assert submitted == [(0, 1), (2, 3), (4, 5), "abort"]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_an_error_in_a_chunk_task_is_the_error_raised_in_process(tmp_path, workers):
+    with pytest.raises(InputError, match=r"^frames 4-5: no cells$"):
+        list(_chunk_movie(tmp_path, workers=workers).map_chunks(_failing_chunk, SPANS))
+
+
+def test_a_chunk_tasks_warnings_are_issued_in_chunk_order(tmp_path):
+    from hexatissue.errors import HexatissueWarning
+
+    with pytest.warns(HexatissueWarning) as caught:
+        assert list(_chunk_movie(tmp_path, workers=2).map_chunks(_warning_chunk, SPANS)) == SPANS
+    assert [str(w.message) for w in caught] == [f"chunk {a}" for a, _ in SPANS]
+
+
+def _killing_chunk(span, marks):
+    """A chunk task whose worker dies (SIGKILL, as the OOM killer does) the first time it runs chunk (4, 5)."""
+    import os
+    import signal
+
+    from pathlib import Path
+
+    Path(marks, f"{span[0]}-{os.getpid()}").touch()  # every run of every chunk, by process
+    if span[0] == 4 and not Path(marks, "killed").exists():
+        Path(marks, "killed").write_text(str(os.getpid()))
+        os.kill(os.getpid(), signal.SIGKILL)
+    return span
+
+
+def test_a_lost_pool_worker_stops_the_chunks_as_it_stops_the_frames(tmp_path):
+    import multiprocessing as mp
+    import time
+    from concurrent.futures.process import BrokenProcessPool
+
+    with pytest.raises(BrokenProcessPool):  # as a frame batch's lost worker does: the run stops, its pool killed
+        list(_chunk_movie(tmp_path, workers=2).map_chunks(_killing_chunk, SPANS, tmp_path))
+    assert (tmp_path / "killed").exists()
+    deadline = time.monotonic() + 2.0  # the killed workers are reaped as they are found dead
+    while mp.active_children() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not mp.active_children()
+
+
+def _sleeping_chunk(span):
+    import time
+
+    if span[0]:  # the first chunk runs here, before the pool forks; the others wait in the workers
+        time.sleep(60)
+    return span
+
+
+def test_an_interrupt_stops_the_chunks_and_their_workers_at_once(tmp_path):
+    import multiprocessing as mp
+    import signal
+    import threading
+    import time
+
+    main = threading.main_thread().ident
+    timer = threading.Timer(1.0, lambda: signal.pthread_kill(main, signal.SIGINT))  # Ctrl-C, as the terminal sends it
+    start = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        list(_chunk_movie(tmp_path, workers=2).map_chunks(_sleeping_chunk, SPANS))
+    while mp.active_children() and time.monotonic() < start + 3.0:
+        time.sleep(0.05)
+    assert not mp.active_children() and time.monotonic() - start < 3.0
+
+
+@pytest.mark.slow
+def test_a_lost_dask_worker_costs_its_chunks_alone(tmp_path):
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        got = list(_chunk_movie(tmp_path, client=client).map_chunks(_killing_chunk, SPANS, tmp_path))
+    assert got == SPANS
+    killed = (tmp_path / "killed").read_text()
+    runs = {a: sorted(p.name.split("-")[1] for p in tmp_path.glob(f"{a}-*")) for a, _ in SPANS}
+    # the scheduler ran the lost worker's chunks again elsewhere (the one it was running, and those whose results it
+    # held, not yet taken); every other chunk ran once
+    assert len(runs[4]) == 2 and killed in runs[4]
+    assert all(len(pids) == 1 or (len(pids) == 2 and killed in pids) for pids in runs.values())

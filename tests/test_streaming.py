@@ -14,6 +14,8 @@ import pytest
 
 from hexatissue import DeformationOptions, EventOptions, InputError, TrackOptions, analyze, read_results
 from hexatissue import pipeline
+from hexatissue._dispatch import references
+from hexatissue import stages as _stages
 from hexatissue.stored import StoredTable
 from hexatissue.synthetic import relabel_movie, t1_movie, voronoi_movie
 from tests.test_pipeline import _FailingStack
@@ -300,3 +302,48 @@ def test_a_second_analysis_streaming_into_a_folder_in_use_is_refused(tmp_path):
     finally:
         mine.close()
     assert (tmp_path / "metadata.json").is_file() and len(movie.cells)
+
+
+_FLOW_CHUNK = _stages._flow_chunk
+_PIDS = []  # the file the recording task writes to (set before the pool forks: its workers inherit it)
+
+
+def _recording_flow_chunk(span, *args):
+    """The flow stage's chunk task, recording the process it ran in."""
+    import os
+
+    with open(_PIDS[0], "a") as f:
+        f.write(f"{os.getpid()}\n")
+    return _FLOW_CHUNK(span, *args)
+
+
+def test_the_streamed_flow_runs_its_chunks_on_the_process_pool_and_equals_in_memory(tmp_path, small_parts,
+                                                                                     monkeypatch):
+    import os
+
+    stack = _relabelled(n_frames=8, seed=6)
+    memory = analyze(stack, workers=1, progress=False)
+    monkeypatch.setattr(_stages, "_flow_chunk", _recording_flow_chunk)
+    _PIDS.append(tmp_path / "pids")
+    try:
+        streamed = analyze(stack, out=tmp_path / "out", workers=2, progress=False)
+    finally:
+        _PIDS.clear()
+    pids = [int(line) for line in (tmp_path / "pids").read_text().split()]
+    assert len(pids) == len(streamed.cells.parts) > 2  # one task per chunk
+    assert pids[0] == os.getpid() and os.getpid() not in pids[1:]  # the first here, before the pool forks
+    assert (memory.cells["vx"].notna().sum() > 0) and len(memory.flow)
+    _assert_same_tables(streamed, memory)
+
+
+def test_the_streamed_flow_on_a_dask_client_equals_in_memory(tmp_path, small_parts):
+    from distributed import Client, LocalCluster
+
+    stack = _relabelled(n_frames=6, seed=10)
+    memory = analyze(stack, workers=1, progress=False)
+    # workers in this process, running the references of the kernels not compiled, as the in-process run does
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client, references("auto"):
+        streamed = analyze(stack, client=client, out=tmp_path, progress=False)
+    assert len(streamed.cells.parts) > 2
+    _assert_same_tables(streamed, memory)
