@@ -577,7 +577,7 @@ def _defect_tracks(movie, options):
         warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
                       f"or defects there", HexatissueWarning, stacklevel=user_stacklevel())
     linked = movie.summary.get("tracking", {}).get("resolved") != "off"
-    linker = MovieDefects(options.p, max_distance, movie.box, n_frames, linked)
+    linker = MovieDefects(options.p, max_distance, movie.box, linked)
 
     def chunks():
         # the parts as they are: each is read whole before the tracked one replaces it

@@ -265,11 +265,11 @@ def _scripted_movie():
     return table, events
 
 
-def _chunked(defects, cuts, orders, max_distance, box, n_frames, linked=True):
+def _chunked(defects, cuts, orders, max_distance, box, linked=True):
     """The defects linked by one MovieDefects over the chunks of frames ``cuts[k]`` to ``cuts[k + 1] - 1``."""
     from hexatissue.defects import MovieDefects
 
-    linker = MovieDefects(orders, max_distance, box, n_frames, linked)
+    linker = MovieDefects(orders, max_distance, box, linked)
     frame = defects["frame"].to_numpy()
     parts = [linker.link(defects[(frame >= lo) & (frame < hi)].reset_index(drop=True), lo, hi - 1)
              for lo, hi in zip(cuts[:-1], cuts[1:])]
@@ -284,7 +284,7 @@ def test_a_movie_linked_chunk_by_chunk_gives_the_true_tracks_and_pair_events(cut
     from hexatissue.defects import link_movie_defects
 
     table, truth = _scripted_movie()
-    tracked, events = _chunked(table.drop(columns="truth"), np.array(cuts), (6, 2), 3.0, None, 10)
+    tracked, events = _chunked(table.drop(columns="truth"), np.array(cuts), (6, 2), 3.0, None)
     expected = table.sort_values(["frame", "p", "defect"], kind="stable").reset_index(drop=True)
     assert list(tracked.columns) == ["frame", "defect", "x", "y", "charge", "p", "track"]
     pd.testing.assert_frame_equal(tracked.drop(columns="track"), expected.drop(columns=["truth"]))
@@ -353,7 +353,7 @@ def test_chunked_linking_equals_the_whole_movies_on_random_movies(seed):
         n_events += len(expected[1])
         for _ in range(2):
             cuts = np.unique(np.r_[0, rng.integers(1, n_frames, rng.integers(0, n_frames)), n_frames])
-            tracked, events = _chunked(defects, cuts, (6, 2), 2.5, box, n_frames, linked)
+            tracked, events = _chunked(defects, cuts, (6, 2), 2.5, box, linked)
             pd.testing.assert_frame_equal(tracked, expected[0])
             pd.testing.assert_frame_equal(events, expected[1])
     assert n_events > 0 and expected[1].empty  # events when linked; none when every frame is alone
@@ -398,7 +398,7 @@ def test_chunked_linking_refuses_frames_out_of_order():
         linker.link([2, 3], [[1.0, 0.0]], [0.5])
     table, _ = _scripted_movie()
     defects = table.drop(columns="truth")
-    movie = MovieDefects((6, 2), 3.0, None, 10)
+    movie = MovieDefects((6, 2), 3.0)
     with pytest.raises(InputError, match="holds defects of frames 0 to 9"):
         movie.link(defects.copy(), 0, 4)
     movie.link(defects[defects["frame"] <= 4].reset_index(drop=True), 0, 4)

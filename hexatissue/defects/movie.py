@@ -63,10 +63,11 @@ class MovieDefects:
     (:class:`~hexatissue.defects.pairs.PairEvents`, built from each frame's
     births and deaths as the frames are linked: a track is born in a frame
     where its id was not in the frame before and dies in a frame whose
-    successor lacks it).  Between chunks only the last frame's defects of
-    each p are kept, so that linking a movie chunk by chunk, in frame order,
-    gives exactly the tables of linking it whole, with a chunk's defects in
-    memory.
+    successor lacks it; births in the movie's first frame and deaths in its
+    last are not events).  Between chunks only the last frame's defects of
+    each p are kept, so that linking a movie chunk by chunk, in frame order
+    from frame 0, gives exactly the tables of linking it whole, with a
+    chunk's defects in memory.
 
     Parameters
     ----------
@@ -77,16 +78,13 @@ class MovieDefects:
         separation of a created or annihilated pair.
     box : Box, optional
         Periodic box; None for an open image.
-    n_frames : int
-        The movie's frames: births in frame 0 and deaths in its last frame
-        are not events.
     linked : bool
         False when the frames are unrelated images: every frame is tracked
         alone (each defect is its own track) and there are no pair events.
     """
 
-    def __init__(self, orders, max_distance, box=None, n_frames=0, linked=True):
-        self.orders, self.n_frames, self.linked = tuple(orders), n_frames, linked
+    def __init__(self, orders, max_distance, box=None, linked=True):
+        self.orders, self.linked = tuple(orders), linked
         self._linkers = {q: DefectLinker(max_distance, box) for q in self.orders}
         self._events = {q: PairEvents(max_distance, box) for q in self.orders}
         self._last = dict.fromkeys(self.orders)  # the last frame linked of each p: (frame, xy, charge, track)
@@ -182,7 +180,7 @@ def link_movie_defects(tables, orders, max_distance=None, box=None, n_frames=0, 
     if max_distance is None:
         max_distance = default_max_distance(*np.unique(tables["grid"]["spacing"].to_numpy(float), return_counts=True))
         release_freed_memory()  # the sorted copy of the grid column would stay resident under the tracking
-    linker = MovieDefects(orders, max_distance, box, n_frames, linked)
+    linker = MovieDefects(orders, max_distance, box, linked)
     tables["defects"] = linker.link(defects, 0, n_frames - 1)
     del defects
     tables["defect_events"] = linker.events()
