@@ -402,5 +402,5 @@ def test_chunked_linking_refuses_frames_out_of_order():
     with pytest.raises(InputError, match="holds defects of frames 0 to 9"):
         movie.link(defects.copy(), 0, 4)
     movie.link(defects[defects["frame"] <= 4].reset_index(drop=True), 0, 4)
-    with pytest.raises(InputError, match="does not follow frame 4"):
+    with pytest.raises(InputError, match="must start at frame 5"):
         movie.link(defects[defects["frame"] >= 6].reset_index(drop=True), 6, 9)

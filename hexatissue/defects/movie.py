@@ -97,8 +97,8 @@ class MovieDefects:
         the table's order; a ``track`` column is replaced).  Its columns are
         taken one at a time as the tracked table is built (``defects`` is
         left empty), so that at most one column more than the chunk is in
-        memory.  The chunks come in frame order, each starting after the
-        last frame of the one before.
+        memory.  The chunks come in frame order: the first at frame 0,
+        each next one at the frame after the last of the one before.
 
         Returns
         -------
@@ -109,7 +109,8 @@ class MovieDefects:
             of the track's first frame, then of row order).
         """
         if first != self._next:
-            raise InputError(f"defects: the chunk of frames {first}-{last} does not follow frame {self._next - 1}")
+            raise InputError(f"defects: the chunk of frames {first}-{last} must start at frame {self._next} (the chunks "
+                             f"follow each other from frame 0)")
         frame, p = defects["frame"].to_numpy(), defects["p"].to_numpy()
         if len(frame) and (frame.min() < first or frame.max() > last):
             raise InputError(f"defects: the chunk of frames {first}-{last} holds defects of frames {frame.min()} to "
