@@ -101,7 +101,8 @@ class PairEvents:
 
     What a movie's defects linked chunk by chunk of frames give: each
     frame's births and deaths are paired as they are found, and only the
-    events are kept.
+    events are kept (every :data:`MERGE_PARTS` frames' arrays made one block:
+    a movie's thousands of small arrays would cost more than their values).
 
     Parameters
     ----------
@@ -115,11 +116,15 @@ class PairEvents:
         Also keep unpaired births and deaths.
     """
 
+    #: Parts (one frame's events of one kind) gathered before they are concatenated into one block.
+    MERGE_PARTS = 256
+
     def __init__(self, pair_distance, box=None, time_column="frame", include_unpaired=False):
         self.box = as_box(box)
         check_positive(pair_distance, "pair_distance", unit="px")
         self.pair_distance, self.time_column, self.include_unpaired = pair_distance, time_column, include_unpaired
-        self._parts = []  # the columns of each frame's events of each kind: arrays, not a Python tuple per event
+        self._blocks = []  # the columns of many frames' events (lists of arrays, in _event_columns' order)
+        self._parts = []  # the columns of each frame's events of each kind since the last block
 
     def add(self, t, first, xy, charge, track):
         """The births (``first``) or deaths at time ``t`` of the tracks ``track``: their positions ``xy`` (n, 2;
@@ -134,21 +139,54 @@ class PairEvents:
         if self.include_unpaired:
             alone = np.setdiff1d(np.arange(len(track)), np.r_[ip, ineg])
             self._parts.append(_lone_rows(xy[alone], charge[alone], track[alone], t, lone))
+        if len(self._parts) >= self.MERGE_PARTS:
+            self._merge()
+
+    def _merge(self):
+        if self._parts:
+            self._blocks.append([np.concatenate(column) for column in zip(*self._parts)])
+            self._parts = []
+
+    def take_columns(self):
+        """The events gathered, sorted as the table is, as a dict of numpy columns (``kind``: the index in
+        :data:`EVENT_KINDS`), or None without any; the gatherer is left empty, its arrays let go column by column
+        as the sorted ones are made.
+
+        Sorted by time, kind (whose codes sort as the names do), x, y (a
+        stable sort): the rows of one time and kind come from one frame's
+        pairing, so the order in which frames were added is not seen.
+        """
+        self._merge()
+        blocks, self._blocks = self._blocks, []
+        if not sum(len(block[0]) for block in blocks):
+            return None
+
+        def column(k):
+            values = np.concatenate([block[k] for block in blocks])
+            for block in blocks:
+                block[k] = None
+            return values
+
+        names = [self.time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
+        key = [column(k) for k in range(4)]  # time, kind, x, y
+        order = np.lexsort(key[::-1])
+        out = {}
+        for k, name in enumerate(names):
+            out[name] = (key[k] if k < 4 else column(k))[order]
+            if k < 4:
+                key[k] = None
+        return out
 
     def table(self) -> pd.DataFrame:
-        """The events so far, one row each, as :func:`defect_events` returns them."""
-        time_column = self.time_column
-        columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
-        if not sum(len(part[0]) for part in self._parts):
-            return _empty_events(columns, time_column)
-        cols = {c: np.concatenate([part[k] for part in self._parts]) for k, c in enumerate(columns)}
-        # by time, kind (its codes sort as the names do), x, y: a numpy sort, and the names made a column once, in
-        # order; the rows of one time and kind come from one frame's pairing, so the order of the parts is not seen
-        order = np.lexsort((cols["y"], cols["x"], cols["kind"], cols[time_column]))
-        cols = {c: v[order] for c, v in cols.items()}
-        cols["kind"] = string_column(cols["kind"], EVENT_KINDS)
+        """The events gathered, one row each, as :func:`defect_events` returns them (the gatherer is left
+        empty)."""
+        cols = self.take_columns()
+        if cols is None:
+            return _empty_events([self.time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"],
+                                 self.time_column)
+        cols["kind"] = string_column(cols["kind"], EVENT_KINDS)  # the names made a column once, in order
         out = pd.DataFrame(cols, copy=False)
-        return validate(out, "defect_events") if time_column == "frame" else out
+        return validate(out, "defect_events") if self.time_column == "frame" else out
 
 
 def _event_columns(t, kind, x, y, track_plus, track_minus, separation):
