@@ -230,7 +230,7 @@ def test_track_ends_match_the_groupby_reference(seed):
     pd.testing.assert_frame_equal(_track_ends(empty, "frame", True), _track_ends_reference(empty, "frame", True))
 
 
-# ---------------------------------------------------------------------------- a movie linked a chunk of frames at a time
+# ---------------------------------------------------------------------------- a movie linked chunk by chunk
 
 def _scripted_movie():
     """Ten frames of p = 6 and p = 2 defects (open image, links and pairs within 3 px), with the truth.

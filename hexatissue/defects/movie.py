@@ -109,8 +109,8 @@ class MovieDefects:
             of the track's first frame, then of row order).
         """
         if first != self._next:
-            raise InputError(f"defects: the chunk of frames {first}-{last} must start at frame {self._next} (the chunks "
-                             f"follow each other from frame 0)")
+            raise InputError(f"defects: the chunk of frames {first}-{last} must start at frame {self._next} (the "
+                             f"chunks follow each other from frame 0)")
         frame, p = defects["frame"].to_numpy(), defects["p"].to_numpy()
         if len(frame) and (frame.min() < first or frame.max() > last):
             raise InputError(f"defects: the chunk of frames {first}-{last} holds defects of frames {frame.min()} to "
@@ -165,7 +165,7 @@ class MovieDefects:
             tables = [self._events[q].table().assign(p=np.int64(q)) for q in self.orders]
             return validate(pd.concat(tables, ignore_index=True).astype({"frame": np.int64}), "defect_events")
         # each column of every p at once, each p's let go as it is copied: not a table per p, then their
-        # concatenation (which, with its copies, took three times the events' memory at 10^7 cell-frames)
+        # concatenation, which copies every column at each step
         lengths = [len(columns["frame"]) for _, columns in taken]
         cols = {}
         for name in list(taken[0][1]):

@@ -101,8 +101,9 @@ class PairEvents:
 
     What a movie's defects linked chunk by chunk of frames give: each
     frame's births and deaths are paired as they are found, and only the
-    events are kept (every :data:`MERGE_PARTS` frames' arrays made one block:
-    a movie's thousands of small arrays would cost more than their values).
+    events are kept (the arrays of every :attr:`MERGE_PARTS` frames' births
+    or deaths concatenated into one block: a long movie's many thousands of
+    small arrays would cost more than their values).
 
     Parameters
     ----------
