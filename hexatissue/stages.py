@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ._system import release_freed_memory
-from .defects import find_defects, link_movie_defects
+from .defects import MovieDefects, default_max_distance, find_defects
 from .deformation import budget_chunks, event_shear, read_roi
 from .errors import FrameWarning, HexatissueWarning, InputError, user_stacklevel
 from .events import cell_event_stats, default_censor, events_summary, t1_tables
@@ -628,6 +628,7 @@ SURFACE_VELOCITIES = ("vz", "surface_vx", "surface_vy", "vn")
 SURFACE_FLOW = ("surface_vx", "surface_vy", "vn", "surface_vorticity", "surface_divergence", "surface_strain_xx",
                 "surface_strain_xy", "mean_curvature", "areal_rate")
 T1_READS = {"vertices": ("n_merged",)}
+DEFECT_READS = {"grid": ("frame", "spacing")}
 DEFORMATION_READS = {"cells": ("frame", "cell", "track", "x", "y", "area", "is_border"),
                      "vertices": ("frame", "vertex", "x", "y", "degree", "is_border"),
                      "cell_vertices": ("frame", "cell", "rank", "vertex", "image_x", "image_y"),
@@ -682,26 +683,47 @@ def _rows_of_tracks(movie, tracks):
 def _defect_tracks(movie, options):
     """Defects linked over frames per p (``track``) and their pair events (``defect_events``).
 
+    Chunk by chunk of the defects' frames (one chunk for tables in memory):
+    the default largest displacement comes from the grid's spacings, counted
+    chunk by chunk; then each chunk's defects are linked, carrying the last
+    frame's defects of each p to the next chunk, and written as they are done.
     When the frames are unrelated images (tracking ``off``) every frame is
     tracked alone: each defect is its own track and there are no pair events.
     """
     n_frames = movie.n_frames
-    grid = movie.read("grid", ("frame", "spacing"))
-    missing = n_frames - distinct_count(grid["frame"].to_numpy()) if len(movie.tables["cells"]) else 0
+    with_grid, values, counts = _grid_spacings(movie)
+    max_distance = options.defect_max_distance
+    if max_distance is None:
+        max_distance = default_max_distance(values, counts)
+    missing = n_frames - with_grid if len(movie.tables["cells"]) else 0
     if missing:
         warnings.warn(f"{missing} of {n_frames} frame(s) have no interior cell with a polygon: no Gamma_p field "
                       f"or defects there", HexatissueWarning, stacklevel=user_stacklevel())
     linked = movie.summary.get("tracking", {}).get("resolved") != "off"
-    # the defects (a few per frame) are linked in memory, from the grid's frames and spacing alone
-    tables = {"defects": movie.read("defects"), "grid": grid}
-    link_movie_defects(tables, options.p, options.defect_max_distance, movie.box, n_frames, linked)
-    movie.tables["defect_events"] = tables["defect_events"]
-    defects = tables.pop("defects")  # in frame order: kept as the frame tables are, in chunks of frames
-    frame = defects["frame"].to_numpy()
-    spans = movie.frame_chunks("defects") or [(0, max(n_frames - 1, 0))]
-    bounds = np.searchsorted(frame, [first for first, _ in spans] + [spans[-1][1] + 1])
-    movie.put_chunks("defects", ((span, defects.iloc[lo:hi].reset_index(drop=True))
-                                 for span, lo, hi in zip(spans, bounds[:-1], bounds[1:])), options.p)
+    linker = MovieDefects(options.p, max_distance, movie.box, linked)
+
+    def chunks():
+        # the parts as they are: each is read whole before the tracked one replaces it
+        for first, last in movie.frame_chunks("defects") or [(0, max(n_frames - 1, 0))]:
+            release_freed_memory()  # the previous chunk's working set, before this one's
+            # every column (a table in memory is itself, emptied column by column as its rows are linked)
+            yield (first, last), linker.link(movie.read("defects", frames=(first, last)), first, last)
+
+    movie.put_chunks("defects", chunks(), options.p)
+    movie.tables["defect_events"] = linker.events()
+
+
+def _grid_spacings(movie):
+    """How many frames have a grid, and the distinct values of the grid's ``spacing`` with how many rows hold each
+    (per chunk, concatenated: a few a frame), read chunk by chunk of frames."""
+    with_grid, values, counts = 0, [np.zeros(0)], [np.zeros(0, np.int64)]
+    for span in movie.frame_chunks("grid"):
+        grid = movie.read("grid", DEFECT_READS["grid"], frames=span)
+        with_grid += distinct_count(grid["frame"].to_numpy())  # the chunks hold distinct frames
+        chunk_values, chunk_counts = np.unique(grid["spacing"].to_numpy(float), return_counts=True)
+        values.append(chunk_values)
+        counts.append(chunk_counts)
+    return with_grid, np.concatenate(values), np.concatenate(counts)
 
 
 def _flow(movie, options):

@@ -52,6 +52,9 @@ def test_streamed_tables_equal_the_in_memory_ones_with_overlap_tracking_and_the_
     streamed = analyze(stack, out=tmp_path, **options)
     assert isinstance(streamed.cells, StoredTable) and len(streamed.cells.parts) > 2  # several parts per table
     assert (memory.cells["track"] != memory.cells["cell"]).any()  # the ids are not the tracks: tracking did work
+    # defects linked a part at a time: tracks across parts, pair events
+    assert len(streamed.defects.parts) > 2 and len(memory.defect_events)
+    assert (memory.defects.groupby(["p", "track"])["frame"].nunique() > 1).any()
     _assert_same_tables(streamed, memory)
     _assert_same_tables(read_results(tmp_path, lazy=False), memory)
     files = sorted(p.name for p in (tmp_path / "cells").iterdir())
@@ -84,6 +87,17 @@ def test_streamed_divisions_and_unrelated_frames_equal_in_memory(tmp_path, small
     _assert_same_tables(analyze(stack, out=tmp_path / "a", workers=1, progress=False), memory)
     off = dict(workers=1, progress=False, track=TrackOptions(mode="off"))
     _assert_same_tables(analyze(stack, out=tmp_path / "b", **off), analyze(stack, **off))
+
+
+def test_streamed_unrelated_frames_have_each_defect_its_own_track_as_in_memory(tmp_path, small_parts):
+    stack = _relabelled(n_frames=4, seed=5)
+    off = dict(workers=1, progress=False, track=TrackOptions(mode="off"))
+    memory = analyze(stack, **off)
+    streamed = analyze(stack, out=tmp_path, **off)
+    assert len(streamed.defects.parts) > 1 and len(memory.defects) and memory.defect_events.empty
+    for _, of_p in memory.defects.groupby("p"):  # numbered per p in frame, then row order
+        assert of_p["track"].tolist() == list(range(len(of_p)))
+    _assert_same_tables(streamed, memory)
 
 
 def test_streamed_run_resumes_from_its_checkpoint(tmp_path):

@@ -11,8 +11,8 @@ x = column, y = row.
 The package, by concept (each module imports only those listed before it):
 :mod:`.field` (the winding of one field), :mod:`.grid` (the defects of a
 coarse-grained grid table), :mod:`.density`, :mod:`.tracking` (trajectories),
-:mod:`.pairs` (pair events) and :mod:`.movie` (a movie's defects per p, what
-the order stage runs).
+:mod:`.pairs` (pair events) and :mod:`.movie` (a movie's defects per p, a
+chunk of frames at a time: what the defect tracks stage runs).
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from .density import defect_density
 from .field import charge_mask, defects_from_field, plaquette_charges
 from .grid import find_defects
 from .pairs import defect_events
-from .tracking import track_defects
+from .tracking import DefectLinker, track_defects
 
 __all__ = [
     "plaquette_charges",
@@ -29,6 +29,7 @@ __all__ = [
     "find_defects",
     "defect_density",
     "track_defects",
+    "DefectLinker",
     "defect_events",
     "charge_mask",
 ]
@@ -37,3 +38,4 @@ __all__ = [
 # imported: the module map above says where each lives)
 K, EVENT_KINDS, DEFECT_SPACINGS = grid.K, pairs.EVENT_KINDS, movie.DEFECT_SPACINGS
 winding, link_movie_defects, _track_ends = field.winding, movie.link_movie_defects, tracking._track_ends
+MovieDefects, default_max_distance = movie.MovieDefects, movie.default_max_distance

@@ -1,5 +1,5 @@
-"""Pair events of tracked defects (:func:`defect_events`): a +/- pair created or annihilated, a lone defect
-appearing or disappearing.
+"""Pair events of tracked defects (:func:`defect_events`; :class:`PairEvents`, gathered frame by frame): a +/- pair
+created or annihilated, a lone defect appearing or disappearing.
 """
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from .tracking import _charge_keys, _match, _track_ends
 
 #: the ``kind`` of a defect event, alphabetical (events carry its index until their table is built)
 EVENT_KINDS = ("annihilation", "appearance", "creation", "disappearance")
+_KIND_CODES = {name: code for code, name in enumerate(EVENT_KINDS)}
 
 
 def _pair_ends(xy, charge, pair_distance, box):
@@ -77,39 +78,116 @@ def defect_events(tracked, pair_distance, box=None, time_column="frame", include
         between the partners; NaN when unpaired).
     """
     require_columns(tracked, (time_column, "x", "y", "charge", "track"), "tracked")
-    box = as_box(box)
-    check_positive(pair_distance, "pair_distance", unit="px")
-    columns = [time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
+    events = PairEvents(pair_distance, box, time_column, include_unpaired)
     if len(tracked) == 0:
-        return _empty_events(columns, time_column)
+        return events.table()
     span = tracked[time_column].to_numpy() if frames is None else np.asarray(frames)
     if len(span) == 0:
         raise InputError("frames must list at least one time point")
     t_first, t_last = span.min(), span.max()
-    parts = []  # the columns of each frame's events of each kind: arrays, not a Python tuple per event
-    codes = {name: code for code, name in enumerate(EVENT_KINDS)}
-    for first, kind, lone in ((True, codes["creation"], codes["appearance"]),
-                              (False, codes["annihilation"], codes["disappearance"])):
+    for first in (True, False):
         ends = _track_ends(tracked, time_column, first).reset_index(drop=True)
         ends = ends[ends[time_column] != (t_first if first else t_last)]
         times = ends[time_column].to_numpy()
         xy = ends[["x", "y"]].to_numpy(float)
         charge, track = ends["charge"].to_numpy(float), ends["track"].to_numpy(np.int64)
         for at in rows_by_frame(times).values():  # one frame's births (or deaths) at a time, as arrays
-            ip, ineg = _pair_ends(xy[at], charge[at], pair_distance, box)
-            parts.append(_pair_rows(xy[at], track[at], ip, ineg, times[at[0]], kind, box))
-            if include_unpaired:
-                alone = np.setdiff1d(np.arange(len(at)), np.r_[ip, ineg])
-                parts.append(_lone_rows(xy[at][alone], charge[at][alone], track[at][alone], times[at[0]], lone))
-    if not sum(len(part[0]) for part in parts):
-        return _empty_events(columns, time_column)
-    cols = {c: np.concatenate([part[k] for part in parts]) for k, c in enumerate(columns)}
-    # by time, kind (its codes sort as the names do), x, y: a numpy sort, and the names made a column once, in order
-    order = np.lexsort((cols["y"], cols["x"], cols["kind"], cols[time_column]))
-    cols = {c: v[order] for c, v in cols.items()}
-    cols["kind"] = string_column(cols["kind"], EVENT_KINDS)
-    out = pd.DataFrame(cols, copy=False)
-    return validate(out, "defect_events") if time_column == "frame" else out
+            events.add(times[at[0]], first, xy[at], charge[at], track[at])
+    return events.table()
+
+
+class PairEvents:
+    """The events of :func:`defect_events` gathered one frame's births or deaths at a time, then made a table.
+
+    What a movie's defects linked chunk by chunk of frames give: each
+    frame's births and deaths are paired as they are found, and only the
+    events are kept (the arrays of every :attr:`MERGE_PARTS` frames' births
+    or deaths concatenated into one block: a long movie's many thousands of
+    small arrays would cost more than their values).
+
+    Parameters
+    ----------
+    pair_distance : float
+        Largest separation of the two partners, px.
+    box : Box, optional
+        Periodic box for minimum-image distances and midpoints.
+    time_column : str
+        Name of the time column of the table.
+    include_unpaired : bool
+        Also keep unpaired births and deaths.
+    """
+
+    #: Parts (one frame's events of one kind) gathered before they are concatenated into one block.
+    MERGE_PARTS = 256
+
+    def __init__(self, pair_distance, box=None, time_column="frame", include_unpaired=False):
+        self.box = as_box(box)
+        check_positive(pair_distance, "pair_distance", unit="px")
+        self.pair_distance, self.time_column, self.include_unpaired = pair_distance, time_column, include_unpaired
+        self._blocks = []  # the columns of many frames' events (lists of arrays, in _event_columns' order)
+        self._parts = []  # the columns of each frame's events of each kind since the last block
+
+    def add(self, t, first, xy, charge, track):
+        """The births (``first``) or deaths at time ``t`` of the tracks ``track``: their positions ``xy`` (n, 2;
+        px) and charges at that time, in row order; all of one time's births (or deaths) in one call, since they
+        are paired among themselves."""
+        if not len(track):
+            return
+        kind, lone = ((_KIND_CODES["creation"], _KIND_CODES["appearance"]) if first else
+                      (_KIND_CODES["annihilation"], _KIND_CODES["disappearance"]))
+        ip, ineg = _pair_ends(xy, charge, self.pair_distance, self.box)
+        self._parts.append(_pair_rows(xy, track, ip, ineg, t, kind, self.box))
+        if self.include_unpaired:
+            alone = np.setdiff1d(np.arange(len(track)), np.r_[ip, ineg])
+            self._parts.append(_lone_rows(xy[alone], charge[alone], track[alone], t, lone))
+        if len(self._parts) >= self.MERGE_PARTS:
+            self._merge()
+
+    def _merge(self):
+        if self._parts:
+            self._blocks.append([np.concatenate(column) for column in zip(*self._parts)])
+            self._parts = []
+
+    def take_columns(self):
+        """The events gathered, sorted as the table is, as a dict of numpy columns (``kind``: the index in
+        :data:`EVENT_KINDS`), or None without any; the gatherer is left empty, its arrays let go column by column
+        as the sorted ones are made.
+
+        Sorted by time, kind (whose codes sort as the names do), x, y (a
+        stable sort): the rows of one time and kind come from one frame's
+        pairing, so the order in which frames were added is not seen.
+        """
+        self._merge()
+        blocks, self._blocks = self._blocks, []
+        if not sum(len(block[0]) for block in blocks):
+            return None
+
+        def column(k):
+            values = np.concatenate([block[k] for block in blocks])
+            for block in blocks:
+                block[k] = None
+            return values
+
+        names = [self.time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"]
+        key = [column(k) for k in range(4)]  # time, kind, x, y
+        order = np.lexsort(key[::-1])
+        out = {}
+        for k, name in enumerate(names):
+            out[name] = (key[k] if k < 4 else column(k))[order]
+            if k < 4:
+                key[k] = None
+        return out
+
+    def table(self) -> pd.DataFrame:
+        """The events gathered, one row each, as :func:`defect_events` returns them (the gatherer is left
+        empty)."""
+        cols = self.take_columns()
+        if cols is None:
+            return _empty_events([self.time_column, "kind", "x", "y", "track_plus", "track_minus", "separation"],
+                                 self.time_column)
+        cols["kind"] = string_column(cols["kind"], EVENT_KINDS)  # the names made a column once, in order
+        out = pd.DataFrame(cols, copy=False)
+        return validate(out, "defect_events") if self.time_column == "frame" else out
 
 
 def _event_columns(t, kind, x, y, track_plus, track_minus, separation):
