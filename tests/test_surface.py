@@ -13,7 +13,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hexatissue import HexatissueWarning, InputError, SurfaceOptions, analyze, mesh_from_labels, read_results
+from hexatissue import (HexatissueWarning, InputError, MechanicsOptions, SurfaceOptions, analyze, mesh_from_labels,
+                        read_results)
 from hexatissue.geometry import pack_polygons
 from hexatissue.surface import surface_arrays, surface_cells
 from hexatissue.synthetic import jittered_seeds, voronoi_labels, voronoi_polygons
@@ -251,6 +252,14 @@ def test_the_report_shows_the_curved_tissue(tmp_path):
     assert (tmp_path / "report" / "surface.csv").is_file()
     report(analyze(t.labels, workers=1, progress=False), tmp_path / "flat")  # without a height map: no section
     assert "## Curved tissue" not in (tmp_path / "flat" / "report.md").read_text()
+    # the force inference section says its balance and stress are on the surface (in tangent planes)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        forces = analyze(t.labels, surface=t.height, mechanics=MechanicsOptions(enabled=True), workers=1,
+                         progress=False)
+    report(forces, tmp_path / "forces")
+    text = (tmp_path / "forces" / "report.md").read_text()
+    assert "## Force inference" in text and "balanced in its tangent plane" in text
 
 
 def test_a_height_map_file_with_nan_is_refused_saying_so(tmp_path):

@@ -14,6 +14,13 @@ from .text import md_table
 __all__ = ["VIEW", "tension_layer"]
 
 
+
+# a run with a height map balances the vertices on the surface (docs/surface.md, Forces on a height map)
+_SURFACE_TEXT = ("; on the height map's surface: every vertex balanced in its tangent plane with the junctions' 3-D "
+                 "directions, pressures per px^2 of surface, and each cell's stress along its own tangent axes "
+                 "(e1 the image x axis projected on its plane), so the tissue's stress adds components of "
+                 "different frames where the surface curves")
+
 def _forces(movie, report):
     """Force inference: tensions and pressures of the first frame, the tissue stress per frame."""
     edges = movie.tables.get("edges")
@@ -66,7 +73,8 @@ def _forces(movie, report):
              f"the junctions and cells with an estimate, the negative "
              f"tensions (`negative_90`: below 0 by more than their 90 % posterior interval), the median posterior "
              f"s.d. of the tensions, and the tissue's Batchelor stress (area-weighted mean of the cells with a "
-             f"stress, tension/px):", "", md_table(table.head(20)), ""]
+             f"stress, tension/px){_SURFACE_TEXT if 'z' in movie.vertices.columns else ''}:", "",
+             md_table(table.head(20)), ""]
     if len(table) > 20:
         lines += [f"(first 20 of {len(table)} frames; all in mechanics.csv)", ""]
     if not np.isfinite(edges["tension"]).any():
