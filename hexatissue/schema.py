@@ -350,6 +350,8 @@ SURFACE_MESH_TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "Gamma{p}_im": ("f", "", "imaginary part of the coarse-grained Gamma_p at the cell"),
         "n_disk": ("i", "", "interior cells averaged in Gamma_p (those within the radius, the cell itself if "
                    "interior)"),
+        "valid": ("b", "", "Gamma_p's disk lies on the tissue: it averages a cell and holds no border cell (every "
+                  "cell of a closed surface); the coarse defects are looked for only where all cells are valid"),
     },
     "mesh_vertices": {
         "frame": ("i", "frame", "the mesh's position among the meshes read"),

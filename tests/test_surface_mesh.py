@@ -297,17 +297,30 @@ def test_the_coarse_field_of_a_sphere_has_far_fewer_defects_and_border_cells_sta
     counts = tables["mesh_defects"].groupby(["field", "p"]).size()
     assert counts["coarse", 6] < counts["cells", 6] / 3 and counts["coarse", 2] < counts["cells", 2] / 3
     assert tables["mesh_frames"].coarse_charge6[0] == 2 and tables["mesh_frames"].coarse_charge2[0] == 2
-    # an open cap: only interior cells are averaged, every cell has a Gamma_p
+    # an open cap: border cells are never averaged; a disk without one is valid and is the closed sphere's disk
     centroid = sphere.vertices[sphere.faces].mean(axis=1)
     keep = centroid[:, 2] > 0
     used, faces = np.unique(sphere.faces[keep], return_inverse=True)
-    whole = _tables(sphere)["mesh_cells"].set_index("cell")
-    cap = mesh_tissue(sphere.vertices[used], faces.reshape(-1, 3), sphere.labels[keep],
-                      radius=_tables(sphere)["mesh_frames"].radius[0])["mesh_cells"].set_index("cell")
-    inner = cap.index[~cap.is_border & (cap.n_disk == whole.n_disk.loc[cap.index])]
-    border = cap.index[cap.is_border]
-    assert len(inner) > 10 and np.isfinite(cap.Gamma6_re[border]).any()
-    assert (cap.n_disk[~cap.is_border] <= whole.n_disk.loc[cap.index[~cap.is_border]]).all()
+    closed = _tables(sphere)
+    whole = closed["mesh_cells"].set_index("cell")
+    assert whole.valid.all()
+    tables = mesh_tissue(sphere.vertices[used], faces.reshape(-1, 3), sphere.labels[keep],
+                         radius=closed["mesh_frames"].radius[0])
+    cap = tables["mesh_cells"].set_index("cell")
+    x, n = cap[["x", "y", "z"]].to_numpy(), cap[["normal_x", "normal_y", "normal_z"]].to_numpy()
+    i, j = (k.ravel() for k in np.meshgrid(np.arange(len(cap)), np.arange(len(cap)), indexing="ij"))
+    near = (arc_lengths(x[i], x[j], n[i], n[j]) <= closed["mesh_frames"].radius[0]).reshape(len(cap), len(cap))
+    border = cap.is_border.to_numpy()
+    np.testing.assert_array_equal(cap.n_disk, (near & ~border[None, :]).sum(axis=1))
+    np.testing.assert_array_equal(cap.valid, (cap.n_disk > 0) & ~(near & border[None, :]).any(axis=1))
+    valid = cap.index[cap.valid]
+    assert 10 < len(valid) < (~cap.is_border).sum() and np.isfinite(cap.Gamma6_re[cap.is_border]).any()
+    for q in (6, 2):
+        np.testing.assert_allclose(cap.loc[valid, f"Gamma{q}_re"], whole.loc[valid, f"Gamma{q}_re"], atol=1e-12)
+        np.testing.assert_allclose(cap.loc[valid, f"Gamma{q}_im"], whole.loc[valid, f"Gamma{q}_im"], atol=1e-12)
+    d = tables["mesh_defects"]
+    d = d[d.field == "coarse"]
+    assert d[["cell_a", "cell_b", "cell_c"]].isin(set(valid)).all().all()
 
 
 def test_arc_lengths_are_exact_on_a_sphere_and_a_plane():

@@ -141,13 +141,16 @@ def _cell_radius(area, interior):
 
 
 def _coarse_field(centroid, normal, e1, e2, gammas, orders, interior, radius):
-    """Gamma_p at every cell (docs/surface.md, "Gamma_p on a mesh") and the cells averaged in each disk.
+    """Gamma_p at every cell (docs/surface.md, "Gamma_p on a mesh"), the cells averaged in each disk and whether
+    the disk lies on the tissue.
 
     Cell j is in cell c's disk when :func:`arc_lengths` between their
     centroids is at most ``radius``; the interior cells of the disk whose
     gamma_p of every order is finite enter the mean, each carried into c's
     frame (``gamma_j exp(i p phi_jc)``, :func:`transport_angles`).  An empty
-    disk gives NaN.
+    disk gives NaN.  A disk is valid when it averages a cell and holds no
+    border cell (the flat grid's full coverage: the disk does not reach the
+    tissue's edge).
     """
     from scipy.spatial import cKDTree
 
@@ -157,12 +160,13 @@ def _coarse_field(centroid, normal, e1, e2, gammas, orders, interior, radius):
     member = ok & interior & np.isfinite(gamma).all(axis=1)
     nodes = np.flatnonzero(ok)
     if not np.isfinite(radius) or len(nodes) == 0:
-        return [np.full(nc, complex(np.nan, np.nan)) for _ in orders], np.zeros(nc, np.int64)
+        return [np.full(nc, complex(np.nan, np.nan)) for _ in orders], np.zeros(nc, np.int64), np.zeros(nc, bool)
     # an arc is never shorter than its chord: the chord's ball holds every cell of the disk
     pairs = cKDTree(centroid[nodes]).query_pairs(radius * (1 + 1e-9), output_type="ndarray")
     i, j = nodes[pairs[:, 0]], nodes[pairs[:, 1]]
     node, cell = np.r_[i, j, nodes], np.r_[j, i, nodes]
     near = arc_lengths(centroid[node], centroid[cell], normal[node], normal[cell]) <= radius
+    edge = np.bincount(node[near & ~interior[cell]], minlength=nc) > 0
     near &= member[cell]
     node, cell = node[near], cell[near]
     phi = transport_angles(normal[cell], e1[cell], normal[node], e1[node], e2[node])
@@ -176,7 +180,7 @@ def _coarse_field(centroid, normal, e1, e2, gammas, orders, interior, radius):
         total = np.bincount(node, carried.real, nc) + 1j * np.bincount(node, carried.imag, nc)
         with np.errstate(invalid="ignore", divide="ignore"):
             means.append(np.where(count > 0, total / np.maximum(count, 1), complex(np.nan, np.nan)))
-    return means, count.astype(np.int64)
+    return means, count.astype(np.int64), (count > 0) & ~edge
 
 
 def _half_edges(faces, n_vertices, name):
@@ -292,7 +296,9 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
         (the coarse-grained field at the cell, in its frame: the mean of the
         gamma_p of the interior cells within R along the surface, each
         parallel-transported into the frame; NaN when there is none),
-        ``n_disk`` (the cells averaged).
+        ``n_disk`` (the cells averaged), ``valid`` (the disk lies on the
+        tissue: it averages a cell and holds no border cell, as the flat
+        grid's full coverage; every cell of a closed surface).
 
         ``mesh_vertices``: ``frame``, ``vertex`` (mesh vertex index), ``x``,
         ``y``, ``z`` (px), ``n_cells`` (cells meeting there), ``is_border``.
@@ -305,7 +311,8 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
 
         ``mesh_defects``: ``frame``, ``defect`` (id), ``field``
         (``"coarse"``: the defects of Gamma_p, the flat analysis's defects,
-        listed first; ``"cells"``: those of the cells' own gamma_p),
+        listed first, at the vertices whose cells are all ``valid``;
+        ``"cells"``: those of the cells' own gamma_p),
         ``vertex``, ``x``, ``y``, ``z`` (the junction vertex, px), ``charge``
         (a multiple of 1/p), ``p``, ``cell_a``, ``cell_b``, ``cell_c`` (the
         first three cells counter-clockwise around the vertex), ``n_cells``.
@@ -441,11 +448,12 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
         cell_table[f"gamma{q}_im"] = gam.imag
     r_cell = _cell_radius(area, ~is_border)
     radius = RADIUS_FACTOR * r_cell if radius is None else radius
-    coarse, n_disk = _coarse_field(centroid, normal, e1, e2, gammas, orders, ~is_border, radius)
+    coarse, n_disk, valid = _coarse_field(centroid, normal, e1, e2, gammas, orders, ~is_border, radius)
     for q, gam in zip(orders, coarse):
         cell_table[f"Gamma{q}_re"] = gam.real
         cell_table[f"Gamma{q}_im"] = gam.imag
     cell_table["n_disk"] = n_disk
+    cell_table["valid"] = valid
 
     # ---- junctions: each loop cut at its junction vertices
     has_j = np.bincount(loop, is_j, n_loops) > 0 if n_loops else np.zeros(0, bool)
@@ -477,9 +485,9 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     vt = {"frame": np.full(len(jv), frame, np.int64), "vertex": jv.astype(np.int64), "x": V[jv, 0], "y": V[jv, 1],
           "z": V[jv, 2], "n_cells": (degree[jv] - touches0[jv]).astype(np.int64), "is_border": touches0[jv]}
 
-    dual = _dual_triangles(frm, prv, twin, idx, face_of, jv[~touches0[jv]], normal)
-    coarse_defects, coarse_totals = _defects(dual, V, normal, e1, e2, coarse, orders, cells, frame, "coarse")
-    cell_defects, totals = _defects(dual, V, normal, e1, e2, gammas, orders, cells, frame, "cells")
+    dual = _dual_triangles(frm, prv, twin, idx, face_of, jv[~touches0[jv]], normal, e1, e2)
+    coarse_defects, coarse_totals = _defects(dual, V, coarse, orders, cells, frame, "coarse", valid)
+    cell_defects, totals = _defects(dual, V, gammas, orders, cells, frame, "cells")
     defects = pd.concat([coarse_defects, cell_defects], ignore_index=True)
     defects["defect"] = np.arange(len(defects), dtype=np.int64)
     used = np.flatnonzero(np.bincount(F.ravel(), minlength=n))
@@ -499,10 +507,11 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
             "mesh_junctions": pd.DataFrame(jt), "mesh_defects": defects, "mesh_frames": pd.DataFrame(ft)}
 
 
-def _dual_triangles(frm, prv, twin, idx, face_of, verts, normal):
+def _dual_triangles(frm, prv, twin, idx, face_of, verts, normal, e1, e2):
     """The dual triangles around the junction vertices ``verts`` (docs/surface.md, "Surface meshes"): each vertex's
     cells counter-clockwise (``ring`` from ``ring_start``, ``d`` of them), its fan triangles of distinct cells
-    (``owner`` vertex, cells ``i0, i1, i2``) and the solid angle of each triangle's normals (``curvature``)."""
+    (``owner`` vertex, cells ``i0, i1, i2``), each side's cells and transport angle (``sides``) and the solid angle
+    of each triangle's normals (``curvature``)."""
     n_he = len(frm)
     out_he = np.full(int(frm.max()) + 1 if n_he else 0, -1, np.int64)
     out_he[frm[::-1]] = np.arange(n_he)[::-1]
@@ -535,22 +544,33 @@ def _dual_triangles(frm, prv, twin, idx, face_of, verts, normal):
     i2 = ring[ring_start[owner] + k + 1]
     proper = (i0 != i1) & (i1 != i2) & (i0 != i2)
     owner, i0, i1, i2 = owner[proper], i0[proper], i1[proper], i2[proper]
+    # each side's transport angle from its lower cell to its higher, once for every field and order
+    sides = [(i, j, transport_angles(normal[np.minimum(i, j)], e1[np.minimum(i, j)], normal[np.maximum(i, j)],
+                                     e1[np.maximum(i, j)], e2[np.maximum(i, j)]))
+             for i, j in ((i0, i1), (i1, i2), (i2, i0))]
     return {"verts": verts, "ring": ring, "ring_start": ring_start, "d": d, "owner": owner, "i0": i0, "i1": i1,
-            "i2": i2, "curvature": solid_angles(normal[i0], normal[i1], normal[i2])}
+            "i2": i2, "sides": sides, "curvature": solid_angles(normal[i0], normal[i1], normal[i2])}
 
 
-def _defects(dual, V, normal, e1, e2, fields, orders, cells, frame, field):
+def _defects(dual, V, fields, orders, cells, frame, field, valid=None):
     """The defects of one field (one complex array per order, a value per cell, in the cells' frames) on the dual
-    triangles (:func:`_dual_triangles`), labelled ``field``, and ``{p: (total charge, undefined triangles)}``."""
+    triangles (:func:`_dual_triangles`), labelled ``field``, and ``{p: (total charge, undefined triangles)}``.
+
+    With ``valid`` (a flag per cell), only the vertices whose cells are all valid are looked at.
+    """
     columns = ["frame", "defect", "field", "vertex", "x", "y", "z", "charge", "p", "cell_a", "cell_b", "cell_c",
                "n_cells"]
     verts, ring, ring_start, d = dual["verts"], dual["ring"], dual["ring_start"], dual["d"]
     owner, i0, i1, i2 = dual["owner"], dual["i0"], dual["i1"], dual["i2"]
+    looked = np.ones(len(owner), bool)
+    if valid is not None:
+        outside = np.bincount(owner[~(valid[i0] & valid[i1] & valid[i2])], minlength=len(verts)) > 0
+        looked = ~outside[owner]
     rows, totals = [], {}
     for q, gam in zip(orders, fields):
-        winding = (_delta(i0, i1, gam, normal, e1, e2, q) + _delta(i1, i2, gam, normal, e1, e2, q)
-                   + _delta(i2, i0, gam, normal, e1, e2, q))
-        x = (winding + q * dual["curvature"]) / (2 * np.pi)
+        phase = np.angle(gam)  # phases apart: a product of two tiny gamma_p (p = 1 about the vertex mean) would vanish
+        winding = sum(_delta(i, j, phi, phase, q) for i, j, phi in dual["sides"])
+        x = np.where(looked, (winding + q * dual["curvature"]) / (2 * np.pi), 0.0)
         ok = np.isfinite(x)
         whole = np.round(x[ok])
         if len(whole) and np.abs(x[ok] - whole).max() > _CHARGE_TOLERANCE:
@@ -572,11 +592,10 @@ def _defects(dual, V, normal, e1, e2, fields, orders, cells, frame, field):
     return table[columns], totals
 
 
-def _delta(i, j, gamma, normal, e1, e2, p):
-    """The wrapped p-fold phase step from cell i to cell j after transport, antisymmetric in (i, j) by construction."""
+def _delta(i, j, phi, phase, p):
+    """The wrapped p-fold phase step from cell i to cell j after transport (``phi``: from the lower cell's frame to
+    the higher's), antisymmetric in (i, j) by construction."""
     lo, hi = np.minimum(i, j), np.maximum(i, j)
-    phi = transport_angles(normal[lo], e1[lo], normal[hi], e1[hi], e2[hi])
-    phase = np.angle(gamma)  # phases apart: a product of two tiny gamma_p (p = 1 about the vertex mean) would vanish
     step = np.angle(np.exp(1j * (phase[hi] - phase[lo] - p * phi)))
     return np.where(i < j, step, -step)
 
