@@ -5,14 +5,17 @@ embryo) gives the cell of every triangle.  :func:`mesh_tissue` turns one such
 mesh into tables (:data:`hexatissue.schema.SURFACE_MESH_TABLES`):
 
 - ``mesh_cells``: every cell's area, boundary length, centroid, unit normal,
-  tangent frame, junction polygon, neighbours and gamma_p;
+  tangent frame, junction polygon, neighbours, gamma_p and the
+  coarse-grained Gamma_p at the cell (the gamma_p of the cells within a
+  radius along the surface, parallel-transported into its frame);
 - ``mesh_vertices``: the junction vertices (mesh vertices where >= 3 cells,
   or cells and the background, meet);
 - ``mesh_junctions``: the boundaries between two cells (or a cell and the
   background) from junction vertex to junction vertex;
-- ``mesh_defects``: the p-atic defects of the cells' gamma_p field, with
-  the curvature each dual triangle encloses (Gauss-Bonnet: on a closed
-  surface the charges sum to its Euler characteristic, 2 on a sphere);
+- ``mesh_defects``: the p-atic defects of the Gamma_p field and of the
+  cells' gamma_p field, with the curvature each dual triangle encloses
+  (Gauss-Bonnet: on a closed surface the charges of either sum to its Euler
+  characteristic, 2 on a sphere);
 - ``mesh_frames``: per mesh, the counts, the mesh's Euler characteristic
   and the total charge per p.
 
@@ -37,20 +40,16 @@ from .files import LabelledMesh, check_mesh, read_mesh
 from .mesh_events import mesh_events
 
 __all__ = ["mesh_tissue", "mesh_tables", "read_mesh_tables", "tangent_frames", "transport_angles",
-           "solid_angles", "arc_lengths", "FALLBACK_COS", "RADIUS_FACTOR", "MESH_TABLE_NAMES",
-           "DEFECT_FIELDS"]
+           "solid_angles", "arc_lengths", "FALLBACK_COS", "RADIUS_FACTOR", "MESH_TABLE_NAMES"]
 
 #: Where ``|n . reference| > FALLBACK_COS`` (within 25.8 degrees of the normal) the tangent frame's e1 is the
 #: coordinate axis most orthogonal to the reference instead (the frame does not change |gamma_p| or defects).
 FALLBACK_COS = 0.9
 #: The tables :func:`mesh_tissue` returns, in order.
 MESH_TABLE_NAMES = ("mesh_cells", "mesh_vertices", "mesh_junctions", "mesh_defects", "mesh_frames", "mesh_events")
-#: The fields whose defects ``mesh_defects`` holds (its ``field`` column): the coarse-grained Gamma_p at every cell
-#: (as the flat analysis reports) and the cells' own gamma_p.
-DEFECT_FIELDS = ("coarse", "cells")
 #: Default coarse-graining radius on a mesh, in units of R_cell = sqrt(mean area / pi).  The flat grid's 1.5 R_cell
 #: disks sit anywhere between cells and hold (1.5)^2 = 2.25 cells on average; centred on a cell, whose neighbours are
-#: about 1.9 R_cell away (a hexagonal tiling's spacing), a 1.5 R_cell disk holds the cell alone (1.0-1.3 cells on
+#: about 1.9 R_cell away (a hexagonal tiling's spacing), a 1.5 R_cell disk holds the cell alone (1.0-1.2 cells on
 #: spheres of 400 cells) and Gamma_p is gamma_p.  2.5 R_cell takes in the first shell of neighbours, not the second
 #: (3.3 R_cell): about 7 cells (docs/surface.md, "Gamma_p on a mesh").
 RADIUS_FACTOR = 2.5
@@ -171,7 +170,7 @@ def _coarse_field(centroid, normal, e1, e2, gammas, orders, interior, radius):
     node, cell = node[near], cell[near]
     phi = transport_angles(normal[cell], e1[cell], normal[node], e1[node], e2[node])
     phi[node == cell] = 0.0  # a cell in its own frame: exactly, not to the round-off of the rotation's formula
-    keep = np.isfinite(phi)  # antipodal normals (a disk across a fold as thin as R): no transport, not averaged
+    keep = np.isfinite(phi)  # opposed normals (a disk across a thin fold) have no minimal rotation: not averaged
     node, cell, phi = node[keep], cell[keep], phi[keep]
     count = np.bincount(node, minlength=nc)
     means = []
