@@ -3,7 +3,8 @@
 Truth: spherical Voronoi tissues (scipy's SphericalVoronoi: exact areas and arc perimeters) rendered as meshes,
 exactly (``exact=True``: cells fanned from their seeds, boundaries on the great circles) and as a segmented mesh
 gives them (icosphere faces labelled by the nearest seed: jagged boundaries); flat Voronoi polygons (the 2-D
-gamma_p); a torus (Euler characteristic 0).  Numbers quoted in docs/surface.md ("Surface meshes").
+gamma_p, and coarse_grain's Gamma_p at the cells); a torus (Euler characteristic 0).  Numbers quoted in
+docs/surface.md ("Surface meshes").
 """
 import re
 
