@@ -344,6 +344,14 @@ SURFACE_MESH_TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "e1_z": ("f", "", "first axis of the tangent frame, z"),
         "gamma{p}_re": ("f", "", "real part of gamma_p of the junction polygon in the tangent frame"),
         "gamma{p}_im": ("f", "", "imaginary part of gamma_p in the tangent frame"),
+        "Gamma{p}_re": ("f", "", "real part of the coarse-grained Gamma_p at the cell, in its tangent frame: the mean "
+                        "gamma_p of the interior cells within the radius along the surface, each parallel-transported "
+                        "into the frame (NaN: no such cell)"),
+        "Gamma{p}_im": ("f", "", "imaginary part of the coarse-grained Gamma_p at the cell"),
+        "n_disk": ("i", "", "interior cells averaged in Gamma_p (those within the radius, the cell itself if "
+                   "interior)"),
+        "valid": ("b", "", "Gamma_p's disk lies on the tissue: it averages a cell and holds no border cell (every "
+                  "cell of a closed surface); the coarse defects are looked for only where all cells are valid"),
     },
     "mesh_vertices": {
         "frame": ("i", "frame", "the mesh's position among the meshes read"),
@@ -368,6 +376,8 @@ SURFACE_MESH_TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
     "mesh_defects": {
         "frame": ("i", "frame", "the mesh's position among the meshes read"),
         "defect": ("i", "", "defect id (per frame)"),
+        "field": ("O", "", "the field whose defect it is: coarse (the coarse-grained Gamma_p, the flat analysis's "
+                  "defects) or cells (each cell's own gamma_p)"),
         "vertex": ("i", "", "the junction vertex (mesh vertex index) whose dual triangles carry the charge"),
         "x": ("f", "px", "position (the junction vertex), x"),
         "y": ("f", "px", "position, y"),
@@ -386,8 +396,15 @@ SURFACE_MESH_TABLES: dict[str, dict[str, tuple[str, str, str]]] = {
         "n_junctions": ("i", "", "junctions"),
         "euler": ("i", "", "Euler characteristic V - E + F of the mesh (2: a closed sphere-like surface)"),
         "closed": ("b", "", "the mesh has no edge and every face is a cell"),
-        "charge{p}": ("f", "", "sum of the p-fold defect charges (= euler on a closed surface)"),
-        "undefined{p}": ("i", "", "dual triangles with no charge (a cell without gamma_p)"),
+        "r_cell": ("f", "px", "R_cell = sqrt(mean area / pi) of the interior cells (of all cells when none is "
+                   "interior)"),
+        "radius": ("f", "px", "radius of the coarse-graining disks along the surface (default 2.5 R_cell)"),
+        "charge{p}": ("f", "", "sum of the p-fold defect charges of the cells' gamma_p (= euler on a closed surface)"),
+        "undefined{p}": ("i", "", "dual triangles with no charge of the cells' gamma_p (a cell without gamma_p)"),
+        "coarse_charge{p}": ("f", "", "sum of the p-fold defect charges of the coarse-grained Gamma_p (= euler on a "
+                             "closed surface)"),
+        "coarse_undefined{p}": ("i", "", "dual triangles with no charge of Gamma_p (a cell whose disk averages no "
+                                "cell)"),
     },
     "mesh_events": {
         "event": ("i", "", "event id"),

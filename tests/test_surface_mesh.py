@@ -3,7 +3,8 @@
 Truth: spherical Voronoi tissues (scipy's SphericalVoronoi: exact areas and arc perimeters) rendered as meshes,
 exactly (``exact=True``: cells fanned from their seeds, boundaries on the great circles) and as a segmented mesh
 gives them (icosphere faces labelled by the nearest seed: jagged boundaries); flat Voronoi polygons (the 2-D
-gamma_p); a torus (Euler characteristic 0).  Numbers quoted in docs/surface.md ("Surface meshes").
+gamma_p, and coarse_grain's Gamma_p at the cells); a torus (Euler characteristic 0).  Numbers quoted in
+docs/surface.md ("Surface meshes").
 """
 import re
 
@@ -15,11 +16,11 @@ from scipy.spatial.transform import Rotation
 from hexatissue import InputError
 from hexatissue.cli import main
 from hexatissue.io import read_units
-from hexatissue.order import shape_function
+from hexatissue.order import cell_radius, coarse_grain, shape_function
 from hexatissue.schema import SURFACE_MESH_TABLES, validate
 from hexatissue.surface import LabelledMesh, mesh_tables, mesh_tissue, read_mesh, read_mesh_tables, write_obj, write_ply
 from hexatissue.surface.files import face_labels_from_vertices
-from hexatissue.surface.mesh import solid_angles, tangent_frames, transport_angles
+from hexatissue.surface.mesh import RADIUS_FACTOR, arc_lengths, solid_angles, tangent_frames, transport_angles
 from hexatissue.surface.mesh_events import mesh_events
 from hexatissue.synthetic import jittered_seeds, voronoi_polygons
 from hexatissue.synthetic_surface import icosphere, polygon_mesh, sphere_movie, sphere_tissue, torus_tissue
@@ -124,13 +125,16 @@ def test_rigid_rotation_changes_no_area_perimeter_abs_gamma_or_defect(sphere):
     for col in ("area", "perimeter", "polygon_perimeter"):
         np.testing.assert_allclose(cb[col], ca[col], rtol=1e-10)
     for q in (6, 2):
-        np.testing.assert_allclose(np.hypot(cb[f"gamma{q}_re"], cb[f"gamma{q}_im"]),
-                                   np.hypot(ca[f"gamma{q}_re"], ca[f"gamma{q}_im"]), atol=1e-10)
+        for g in ("gamma", "Gamma"):
+            np.testing.assert_allclose(np.hypot(cb[f"{g}{q}_re"], cb[f"{g}{q}_im"]),
+                                       np.hypot(ca[f"{g}{q}_re"], ca[f"{g}{q}_im"]), atol=1e-10)
+    assert (cb.n_disk == ca.n_disk).all() and ca.n_disk.mean() > 5
     np.testing.assert_allclose(cb[["normal_x", "normal_y", "normal_z"]], ca[["normal_x", "normal_y", "normal_z"]] @ R.T,
                                atol=1e-12)
     da, db = a["mesh_defects"], b["mesh_defects"]
-    pd.testing.assert_frame_equal(db[["vertex", "charge", "p", "cell_a", "cell_b", "cell_c"]],
-                                  da[["vertex", "charge", "p", "cell_a", "cell_b", "cell_c"]])
+    assert set(da.field) == {"coarse", "cells"}
+    pd.testing.assert_frame_equal(db[["field", "vertex", "charge", "p", "cell_a", "cell_b", "cell_c"]],
+                                  da[["field", "vertex", "charge", "p", "cell_a", "cell_b", "cell_c"]])
     np.testing.assert_allclose(db[["x", "y", "z"]], da[["x", "y", "z"]] @ R.T + [3.0, -40.0, 1000.0], atol=1e-9)
 
 
@@ -143,18 +147,19 @@ def test_the_tangent_frame_turns_gamma_p_by_p_times_its_angle_and_changes_no_def
     beta = np.arctan2((np.cross(n, e1a) * e1b).sum(axis=1), (e1a * e1b).sum(axis=1))  # e1_b in frame a
     assert np.abs(beta).max() > 1.0
     for q in (6, 2):
-        ga = (ca[f"gamma{q}_re"] + 1j * ca[f"gamma{q}_im"]).to_numpy()
-        gb = (cb[f"gamma{q}_re"] + 1j * cb[f"gamma{q}_im"]).to_numpy()
-        np.testing.assert_allclose(gb, ga * np.exp(-1j * q * beta), atol=1e-10)
+        for g in ("gamma", "Gamma"):  # Gamma_p is in the cell's frame too: the transport carries the frames' turn
+            ga = (ca[f"{g}{q}_re"] + 1j * ca[f"{g}{q}_im"]).to_numpy()
+            gb = (cb[f"{g}{q}_re"] + 1j * cb[f"{g}{q}_im"]).to_numpy()
+            np.testing.assert_allclose(gb, ga * np.exp(-1j * q * beta), atol=1e-10)
     pd.testing.assert_frame_equal(a["mesh_defects"], b["mesh_defects"])
 
 
 # ---------------------------------------------------------------------------------------- Gauss-Bonnet
 
 
-def _charge_numerators(tables, q):
+def _charge_numerators(tables, q, field="cells"):
     d = tables["mesh_defects"]
-    k = d.charge[d.p == q].to_numpy() * q
+    k = d.charge[(d.p == q) & (d.field == field)].to_numpy() * q
     assert np.array_equal(k, np.round(k))  # exact multiples of 1/p
     return int(np.round(k).sum())
 
@@ -168,11 +173,16 @@ def test_defect_charges_sum_to_2_on_a_sphere_in_every_frame_for_hexatic_and_nema
     assert (summary.euler == 2).all() and summary.closed.all() and len(summary) == 4
     assert (summary.charge6 == 2.0).all() and (summary.charge2 == 2.0).all()
     assert (summary.undefined6 == 0).all() and (summary.undefined2 == 0).all()
+    assert (summary.coarse_charge6 == 2.0).all() and (summary.coarse_charge2 == 2.0).all()
+    assert (summary.coarse_undefined6 == 0).all() and (summary.coarse_undefined2 == 0).all()
     for t in range(4):
         part = {"mesh_defects": tables["mesh_defects"][tables["mesh_defects"].frame == t]}
-        assert _charge_numerators(part, 6) == 12 and _charge_numerators(part, 2) == 4
-        counts = part["mesh_defects"].groupby("p").charge.count()
-        assert counts[6] > 12 and counts[2] > 2  # a disordered tissue: many defects, still summing to 2
+        for field in ("cells", "coarse"):
+            assert _charge_numerators(part, 6, field) == 12 and _charge_numerators(part, 2, field) == 4
+        counts = part["mesh_defects"].groupby(["field", "p"]).charge.count()
+        assert counts["cells", 6] > 12 and counts["cells", 2] > 2  # a disordered tissue: many defects, summing to 2
+        # the coarse field (each cell and its first shell of neighbours) has fewer (150 cells: 12 at the least)
+        assert counts["coarse", 6] < counts["cells", 6] and counts["coarse", 2] < counts["cells", 2]
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -184,6 +194,7 @@ def test_charges_of_every_order_sum_to_the_euler_characteristic_on_spheres_and_a
         assert summary.euler == t.euler
         for q in orders:
             assert summary[f"charge{q}"] == t.euler and summary[f"undefined{q}"] == 0
+            assert summary[f"coarse_charge{q}"] == t.euler and summary[f"coarse_undefined{q}"] == 0
 
 
 def test_a_goldberg_tiling_has_twelve_hexatic_defects_of_one_sixth_at_its_pentagons():
@@ -193,6 +204,7 @@ def test_a_goldberg_tiling_has_twelve_hexatic_defects_of_one_sixth_at_its_pentag
     t = sphere_tissue(seeds=v, radius=50.0, subdivisions=3, exact=True)
     tables = _tables(t, p=(6,))
     d = tables["mesh_defects"]
+    d = d[d.field == "cells"]
     assert len(d) == 12 and (d.charge == 1 / 6).all()
     pentagons = set(t.truth.cell[t.truth.n_sides == 5])
     assert len(pentagons) == 12
@@ -238,6 +250,97 @@ def test_background_faces_are_no_cell():
     assert tables["mesh_cells"].is_border.sum() == t.truth.n_sides[6]
 
 
+# ------------------------------------------------------------------------------- the coarse-grained field
+
+
+def test_a_flat_mesh_gives_coarse_grain_at_the_cells_with_the_same_disk():
+    # on a plane the arc is the chord and the transport the identity: Gamma_p at a cell is coarse_grain's mean over
+    # a disk centred on the cell's centroid (a one-node grid there), border cells left out alike
+    seeds = jittered_seeds((300, 400), 22.0, 0.35, seed=4)
+    polygons = voronoi_polygons(seeds, (300, 400))
+    v, f, lab = polygon_mesh([polygons[k] for k in sorted(polygons)])
+    tables = mesh_tissue(v, f, lab, p=(6, 2))
+    mc, frames = tables["mesh_cells"], tables["mesh_frames"].iloc[0]
+    assert frames.r_cell == pytest.approx(cell_radius(mc), rel=1e-14)
+    assert frames.radius == pytest.approx(RADIUS_FACTOR * frames.r_cell, rel=1e-14)
+    assert mc.is_border.sum() > 10 and mc.n_disk[~mc.is_border].mean() > 5
+    assert np.isnan(mc.Gamma6_re[mc.n_disk == 0]).all() and np.isnan(mc.Gamma6_im[mc.n_disk == 0]).all()
+    for radius in (frames.radius, 40.0):
+        if radius != frames.radius:
+            mc = mesh_tissue(v, f, lab, p=(6, 2), radius=radius)["mesh_cells"]
+        for row in mc.iloc[::5].itertuples():
+            node = coarse_grain(mc, p=(6, 2), radius=radius, origin=(row.x, row.y), shape=(1, 1),
+                                validity="occupied").iloc[0]
+            assert node.n_cells == row.n_disk
+            for q in (6, 2):
+                got = [getattr(row, f"Gamma{q}_re"), getattr(row, f"Gamma{q}_im")]
+                np.testing.assert_allclose(got, node[[f"Gamma{q}_re", f"Gamma{q}_im"]].to_numpy(float), rtol=0,
+                                           atol=1e-14)  # NaN where the disk holds no interior cell, in both
+
+
+def test_a_disk_of_one_cell_gives_its_gamma_p_and_its_defects():
+    t = sphere_tissue(150, radius=60.0, seed=1, subdivisions=2, exact=True)
+    tables = _tables(t, radius=1e-6)
+    c, d = tables["mesh_cells"], tables["mesh_defects"]
+    assert (c.n_disk == 1).all()
+    for q in (6, 2):
+        np.testing.assert_array_equal(c[f"Gamma{q}_re"] + 1j * c[f"Gamma{q}_im"], c[f"gamma{q}_re"] + 1j * c[f"gamma{q}_im"])
+    columns = ["vertex", "charge", "p", "cell_a", "cell_b", "cell_c", "n_cells"]
+    pd.testing.assert_frame_equal(d[d.field == "coarse"][columns].reset_index(drop=True),
+                                  d[d.field == "cells"][columns].reset_index(drop=True))
+    assert (d.defect == np.arange(len(d))).all() and list(d.field.unique()) == ["coarse", "cells"]
+
+
+def test_the_coarse_field_of_a_sphere_has_far_fewer_defects_and_border_cells_stay_out_of_it(sphere):
+    # 400 cells, jitter 0.3 (benchmarks/results_surface_mesh.md: 5 seeds, hexatic 146 -> 34 defects on seed 0)
+    t = sphere_tissue(400, radius=100.0, seed=0, subdivisions=2, exact=True)
+    tables = _tables(t)
+    counts = tables["mesh_defects"].groupby(["field", "p"]).size()
+    assert counts["coarse", 6] < counts["cells", 6] / 3 and counts["coarse", 2] < counts["cells", 2] / 3
+    assert tables["mesh_frames"].coarse_charge6[0] == 2 and tables["mesh_frames"].coarse_charge2[0] == 2
+    # an open cap: border cells are never averaged; a disk without one is valid and is the closed sphere's disk
+    centroid = sphere.vertices[sphere.faces].mean(axis=1)
+    keep = centroid[:, 2] > 0
+    used, faces = np.unique(sphere.faces[keep], return_inverse=True)
+    closed = _tables(sphere)
+    whole = closed["mesh_cells"].set_index("cell")
+    assert whole.valid.all()
+    tables = mesh_tissue(sphere.vertices[used], faces.reshape(-1, 3), sphere.labels[keep],
+                         radius=closed["mesh_frames"].radius[0])
+    cap = tables["mesh_cells"].set_index("cell")
+    x, n = cap[["x", "y", "z"]].to_numpy(), cap[["normal_x", "normal_y", "normal_z"]].to_numpy()
+    i, j = (k.ravel() for k in np.meshgrid(np.arange(len(cap)), np.arange(len(cap)), indexing="ij"))
+    near = (arc_lengths(x[i], x[j], n[i], n[j]) <= closed["mesh_frames"].radius[0]).reshape(len(cap), len(cap))
+    border = cap.is_border.to_numpy()
+    np.testing.assert_array_equal(cap.n_disk, (near & ~border[None, :]).sum(axis=1))
+    np.testing.assert_array_equal(cap.valid, (cap.n_disk > 0) & ~(near & border[None, :]).any(axis=1))
+    valid = cap.index[cap.valid]
+    assert 10 < len(valid) < (~cap.is_border).sum() and np.isfinite(cap.Gamma6_re[cap.is_border]).any()
+    for q in (6, 2):
+        np.testing.assert_allclose(cap.loc[valid, f"Gamma{q}_re"], whole.loc[valid, f"Gamma{q}_re"], atol=1e-12)
+        np.testing.assert_allclose(cap.loc[valid, f"Gamma{q}_im"], whole.loc[valid, f"Gamma{q}_im"], atol=1e-12)
+    d = tables["mesh_defects"]
+    d = d[d.field == "coarse"]
+    assert d[["cell_a", "cell_b", "cell_c"]].isin(set(valid)).all().all()
+
+
+def test_arc_lengths_are_exact_on_a_sphere_and_a_plane():
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=(2, 500, 3))
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    b = a + rng.uniform(0.0, 1.5, (500, 1)) * b / np.linalg.norm(b, axis=1)[:, None]
+    b /= np.linalg.norm(b, axis=1)[:, None]
+    b[:5] = a[:5]  # the same point
+    got = arc_lengths(70.0 * a, 70.0 * b, a, b)
+    angle = 2 * np.arctan2(np.linalg.norm(b - a, axis=1), np.linalg.norm(b + a, axis=1))
+    np.testing.assert_allclose(got, 70.0 * angle, rtol=1e-12, atol=0)
+    up = np.tile([0.0, 0.0, 1.0], (500, 1))
+    np.testing.assert_array_equal(arc_lengths(a, b, up, up), np.linalg.norm(b - a, axis=1))
+    assert (arc_lengths(a, b, a, up) >= np.linalg.norm(b - a, axis=1)).all()
+    with pytest.raises(InputError, match="radius must be a positive"):
+        mesh_tissue(*polygon_mesh([np.eye(3)[:, :2]]), radius=0)
+
+
 # ------------------------------------------------------------------------------------------ tables, CLI
 
 
@@ -247,7 +350,7 @@ def test_every_column_has_a_schema_entry_with_a_unit_and_is_listed_in_the_docstr
         validate(table, name)
         spec = SURFACE_MESH_TABLES[name]
         for column in table.columns:
-            pattern = re.sub(r"(gamma|charge|undefined)\d+", r"\1{p}", column)
+            pattern = re.sub(r"(gamma|Gamma|charge|undefined)\d+", r"\1{p}", column)
             assert column in spec or pattern in spec, (name, column)
             stem = re.sub(r"_(x|y|z|re|im)$", "", pattern)
             assert f"``{pattern}``" in mesh_tissue.__doc__ or f"``{stem}_" in mesh_tissue.__doc__, (name, column)
@@ -258,7 +361,9 @@ def test_cli_writes_the_tables_with_units_for_several_frames(tmp_path, capsys):
     paths = [write_ply(tmp_path / f"f{k}.ply", t.vertices, t.faces, t.labels) for k, t in enumerate(frames)]
     assert main(["surface-mesh", *map(str, paths), "--out", str(tmp_path / "out"), "--format", "parquet", "csv"]) == 0
     text = capsys.readouterr().out
-    assert "Euler characteristic 2" in text and "p=6: 2" in text and "T1 events (labels taken as" in text
+    assert "Euler characteristic 2" in text and "T1 events (labels taken as" in text
+    assert re.search(r"Gamma_p within [\d.]+ \(2\.5 R_cell\): p=6: \d+ defects summing to 2", text)
+    assert re.search(r"the cells' gamma_p: p=6: \d+ defects summing to 2", text)
     assert (tmp_path / "out" / "mesh_events.parquet").exists()
     cells = pd.read_parquet(tmp_path / "out" / "mesh_cells.parquet")
     assert sorted(cells.frame.unique()) == [0, 1]
@@ -270,6 +375,11 @@ def test_cli_writes_the_tables_with_units_for_several_frames(tmp_path, capsys):
     assert "label property (--label) 'foo' missing" in capsys.readouterr().err
     assert main(["surface-mesh", str(paths[0]), "--out", str(tmp_path / "o4"), "--reference", "0", "0", "0"]) == 2
     assert "--reference must be" in capsys.readouterr().err
+    assert main(["surface-mesh", str(paths[0]), "--out", str(tmp_path / "o5"), "--radius", "-1"]) == 2
+    assert "--radius must be a positive" in capsys.readouterr().err
+    assert main(["surface-mesh", str(paths[0]), "--out", str(tmp_path / "o6"), "--radius", "12.5"]) == 0
+    assert "Gamma_p within 12.5 (" in capsys.readouterr().out
+    assert (pd.read_parquet(tmp_path / "o6" / "mesh_frames.parquet").radius == 12.5).all()
     back = read_mesh_tables(paths)
     pd.testing.assert_frame_equal(back["mesh_cells"], cells)
 
@@ -462,7 +572,10 @@ def test_faces_ordered_the_other_way_turn_the_normals_and_keep_every_defect(sphe
     for q in (6, 2):  # the frame's e2 turns over: gamma_p is conjugated
         np.testing.assert_allclose(cb[f"gamma{q}_re"] + 1j * cb[f"gamma{q}_im"],
                                    ca[f"gamma{q}_re"] - 1j * ca[f"gamma{q}_im"], atol=1e-12)
-    key = ["p", "vertex", "charge"]
+    for q in (6, 2):
+        np.testing.assert_allclose(cb[f"Gamma{q}_re"] + 1j * cb[f"Gamma{q}_im"],
+                                   ca[f"Gamma{q}_re"] - 1j * ca[f"Gamma{q}_im"], atol=1e-12)
+    key = ["field", "p", "vertex", "charge"]
     pd.testing.assert_frame_equal(a["mesh_defects"].sort_values(key)[key].reset_index(drop=True),
                                   b["mesh_defects"].sort_values(key)[key].reset_index(drop=True))
 

@@ -21,7 +21,8 @@ surface columns equal the flat ones).
 Surface meshes (triangle meshes with cell labels, PLY/OBJ; closed surfaces
 and overhangs a height map cannot hold): :func:`read_mesh`,
 :func:`mesh_tissue` (cells, junction vertices, junctions, gamma_p in each
-cell's tangent frame, p-atic defects with the curvature they enclose),
+cell's tangent frame, the coarse-grained Gamma_p at every cell, the p-atic
+defects of both with the curvature they enclose),
 :func:`mesh_tables` and :func:`read_mesh_tables` for several frames;
 ``hexatissue surface-mesh`` on the command line (docs/surface.md).
 

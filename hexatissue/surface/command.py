@@ -18,8 +18,10 @@ def add_parser(subparsers):
         description="Read triangle meshes whose faces (or vertices) carry cell labels (PLY: ASCII or binary, a "
                     "label property; OBJ: 'g cell_<label>' groups), as MorphoGraphX and tissue-cartography tools "
                     "write, and measure the tissue on the surface: every cell's area, perimeter, normal and "
-                    "gamma_p in its tangent plane, the junctions, and the p-atic defects with the curvature they "
-                    "enclose (on a closed surface the charges sum to its Euler characteristic). Several files are "
+                    "gamma_p in its tangent plane, the junctions, the coarse-grained field Gamma_p at every cell (the "
+                    "mean gamma_p within --radius along the surface, transported into the cell's plane), and the "
+                    "p-atic defects of Gamma_p and of the cells' gamma_p with the curvature they enclose (on a closed "
+                    "surface the charges sum to its Euler characteristic). Several files are "
                     "frames, in the order given, whose labels are the same cells in every frame: their T1 events "
                     "(cycles, intercalations) go to mesh_events. Writes mesh_cells, mesh_vertices, mesh_junctions, "
                     "mesh_defects, mesh_frames and mesh_events to --out (lengths in the mesh's unit, called px; docs/surface.md).")
@@ -33,6 +35,9 @@ def add_parser(subparsers):
     p.add_argument("--reference", type=float, nargs=3, default=(1.0, 0.0, 0.0), metavar=("X", "Y", "Z"),
                    help="direction whose projection on a cell's tangent plane is its frame's first axis "
                         "(default 1 0 0); changes the phases of gamma_p only")
+    p.add_argument("--radius", type=float, default=None,
+                   help="radius of the coarse-graining disks along the surface, in the mesh's unit (default 2.5 "
+                        "R_cell: each cell and its first shell of neighbours)")
     p.add_argument("--format", nargs="+", default=["parquet"], choices=["parquet", "csv"],
                    help="table formats (default parquet)")
     p.set_defaults(func=_run, cli_text=cli_text)
@@ -145,7 +150,7 @@ def _run_height(args) -> int:
 def cli_text(text: str) -> str:
     """An error text of the library with its argument names replaced by the ``surface-mesh`` options."""
     for name, flag in (("label property", "label property (--label)"), ("reference must", "--reference must"),
-                       ("p must", "--p must"), ("sigma must", "--sigma must"), ("smooth must", "--smooth must")):
+                       ("p must", "--p must"), ("radius must", "--radius must"), ("sigma must", "--sigma must"), ("smooth must", "--smooth must")):
         if name in text and flag not in text:
             text = text.replace(name, flag, 1)
     return text
@@ -160,16 +165,23 @@ def _run(args) -> int:
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {str(out)!r} is a file; expected a folder")
     meshes = [read_mesh(path, label=args.label) for path in args.files]
-    tables = mesh_tables(meshes, p=args.p, reference=args.reference)
+    tables = mesh_tables(meshes, p=args.p, reference=args.reference, radius=args.radius)
     for name in MESH_TABLE_NAMES:
         for fmt in args.format:
             write_table(tables[name], out / f"{name}.{fmt}", schema=name)
     frames = tables["mesh_frames"]
     orders = [c[len("charge"):] for c in frames.columns if c.startswith("charge")]
+    found = tables["mesh_defects"].groupby(["frame", "field", "p"]).size() if len(tables["mesh_defects"]) else {}
+
+    def charges(row, field, prefix):
+        return ", ".join(f"p={q}: {found.get((row.frame, field, int(q)), 0)} defects summing to "
+                         f"{getattr(row, prefix + 'charge' + q):g}" for q in orders)
+
     for row in frames.itertuples(index=False):
-        charges = ", ".join(f"p={q}: {getattr(row, 'charge' + q):g}" for q in orders)
         print(f"frame {row.frame} ({args.files[row.frame]}): {row.n_cells} cells, Euler characteristic "
-              f"{row.euler}{'' if row.closed else ' (open)'}; defect charges sum to {charges}")
+              f"{row.euler}{'' if row.closed else ' (open)'}; Gamma_p within {row.radius:.4g} "
+              f"({row.radius / row.r_cell:.3g} R_cell): {charges(row, 'coarse', 'coarse_')}; the cells' gamma_p: "
+              f"{charges(row, 'cells', '')}")
     events = tables["mesh_events"]
     if len(frames) > 1:
         kinds = events["kind"].value_counts() if len(events) else {}

@@ -5,14 +5,17 @@ embryo) gives the cell of every triangle.  :func:`mesh_tissue` turns one such
 mesh into tables (:data:`hexatissue.schema.SURFACE_MESH_TABLES`):
 
 - ``mesh_cells``: every cell's area, boundary length, centroid, unit normal,
-  tangent frame, junction polygon, neighbours and gamma_p;
+  tangent frame, junction polygon, neighbours, gamma_p and the
+  coarse-grained Gamma_p at the cell (the gamma_p of the cells within a
+  radius along the surface, parallel-transported into its frame);
 - ``mesh_vertices``: the junction vertices (mesh vertices where >= 3 cells,
   or cells and the background, meet);
 - ``mesh_junctions``: the boundaries between two cells (or a cell and the
   background) from junction vertex to junction vertex;
-- ``mesh_defects``: the p-atic defects of the cells' gamma_p field, with
-  the curvature each dual triangle encloses (Gauss-Bonnet: on a closed
-  surface the charges sum to its Euler characteristic, 2 on a sphere);
+- ``mesh_defects``: the p-atic defects of the Gamma_p field and of the
+  cells' gamma_p field, with the curvature each dual triangle encloses
+  (Gauss-Bonnet: on a closed surface the charges of either sum to its Euler
+  characteristic, 2 on a sphere);
 - ``mesh_frames``: per mesh, the counts, the mesh's Euler characteristic
   and the total charge per p.
 
@@ -30,20 +33,26 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from ..errors import HexatissueWarning, InputError, check_orders
+from ..errors import HexatissueWarning, InputError, check_orders, check_positive
 from ..options import OrderOptions
 from ..order.shape import shape_functions_flat
 from .files import LabelledMesh, check_mesh, read_mesh
 from .mesh_events import mesh_events
 
 __all__ = ["mesh_tissue", "mesh_tables", "read_mesh_tables", "tangent_frames", "transport_angles",
-           "solid_angles", "FALLBACK_COS", "MESH_TABLE_NAMES"]
+           "solid_angles", "arc_lengths", "FALLBACK_COS", "RADIUS_FACTOR", "MESH_TABLE_NAMES"]
 
 #: Where ``|n . reference| > FALLBACK_COS`` (within 25.8 degrees of the normal) the tangent frame's e1 is the
 #: coordinate axis most orthogonal to the reference instead (the frame does not change |gamma_p| or defects).
 FALLBACK_COS = 0.9
 #: The tables :func:`mesh_tissue` returns, in order.
 MESH_TABLE_NAMES = ("mesh_cells", "mesh_vertices", "mesh_junctions", "mesh_defects", "mesh_frames", "mesh_events")
+#: Default coarse-graining radius on a mesh, in units of R_cell = sqrt(mean area / pi).  The flat grid's 1.5 R_cell
+#: disks sit anywhere between cells and hold (1.5)^2 = 2.25 cells on average; centred on a cell, whose neighbours are
+#: about 1.9 R_cell away (a hexagonal tiling's spacing), a 1.5 R_cell disk holds the cell alone (1.0-1.2 cells on
+#: spheres of 400 cells) and Gamma_p is gamma_p.  2.5 R_cell takes in the first shell of neighbours, not the second
+#: (3.3 R_cell): about 7 cells (docs/surface.md, "Gamma_p on a mesh").
+RADIUS_FACTOR = 2.5
 #: A charge times p further than this from an integer is reported (it cannot happen but through round-off).
 _CHARGE_TOLERANCE = 1e-6
 
@@ -101,6 +110,76 @@ def solid_angles(a, b, c):
     triple = (a * np.cross(b, c)).sum(axis=1)
     den = 1.0 + (a * b).sum(axis=1) + (b * c).sum(axis=1) + (c * a).sum(axis=1)
     return 2.0 * np.arctan2(triple, den)
+
+
+def arc_lengths(a, b, n_a, n_b):
+    """Distance along the surface between points ``a`` and ``b`` ``(N, 3)`` with unit normals ``n_a``, ``n_b``.
+
+    The arc of the circle through both points whose normal turns from
+    ``n_a`` to ``n_b``: ``|b - a| theta / (2 sin(theta / 2))``, ``theta`` the
+    angle between the normals (``theta / |n_b - n_a|``, as ``|n_b - n_a| =
+    2 sin(theta / 2)``).  Exact on a plane (the chord) and between points of
+    a sphere (the great circle's arc); elsewhere the arc of the normal
+    section's osculating circle.  Never shorter than the chord.
+    """
+    chord = np.linalg.norm(b - a, axis=1)
+    gap = np.linalg.norm(n_b - n_a, axis=1)
+    theta = 2.0 * np.arctan2(gap, np.linalg.norm(n_b + n_a, axis=1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # below 1e-4 the series (error ~ gap^4 / 600) avoids 0 / 0 and keeps a plane's distance the exact chord
+        stretch = np.where(gap > 1e-4, theta / gap, 1.0 + gap * gap / 24.0)
+    return chord * stretch
+
+
+def _cell_radius(area, interior):
+    """R_cell = sqrt(mean area / pi) of the interior cells with a positive finite area (of every such cell when no
+    cell is interior: a patch that is all border), as :func:`hexatissue.order.cell_radius`; NaN without any."""
+    good = np.isfinite(area) & (area > 0)
+    use = good & interior if (good & interior).any() else good
+    return float(np.sqrt(area[use].mean() / np.pi)) if use.any() else np.nan
+
+
+def _coarse_field(centroid, normal, e1, e2, gammas, orders, interior, radius):
+    """Gamma_p at every cell (docs/surface.md, "Gamma_p on a mesh"), the cells averaged in each disk and whether
+    the disk lies on the tissue.
+
+    Cell j is in cell c's disk when :func:`arc_lengths` between their
+    centroids is at most ``radius``; the interior cells of the disk whose
+    gamma_p of every order is finite enter the mean, each carried into c's
+    frame (``gamma_j exp(i p phi_jc)``, :func:`transport_angles`).  An empty
+    disk gives NaN.  A disk is valid when it averages a cell and holds no
+    border cell (the flat grid's full coverage: the disk does not reach the
+    tissue's edge).
+    """
+    from scipy.spatial import cKDTree
+
+    nc = len(centroid)
+    ok = np.isfinite(centroid).all(axis=1) & np.isfinite(normal).all(axis=1)
+    gamma = np.column_stack(gammas) if len(orders) else np.zeros((nc, 0), complex)
+    member = ok & interior & np.isfinite(gamma).all(axis=1)
+    nodes = np.flatnonzero(ok)
+    if not np.isfinite(radius) or len(nodes) == 0:
+        return [np.full(nc, complex(np.nan, np.nan)) for _ in orders], np.zeros(nc, np.int64), np.zeros(nc, bool)
+    # an arc is never shorter than its chord: the chord's ball holds every cell of the disk
+    pairs = cKDTree(centroid[nodes]).query_pairs(radius * (1 + 1e-9), output_type="ndarray")
+    i, j = nodes[pairs[:, 0]], nodes[pairs[:, 1]]
+    node, cell = np.r_[i, j, nodes], np.r_[j, i, nodes]
+    near = arc_lengths(centroid[node], centroid[cell], normal[node], normal[cell]) <= radius
+    edge = np.bincount(node[near & ~interior[cell]], minlength=nc) > 0
+    near &= member[cell]
+    node, cell = node[near], cell[near]
+    phi = transport_angles(normal[cell], e1[cell], normal[node], e1[node], e2[node])
+    phi[node == cell] = 0.0  # a cell in its own frame: exactly, not to the round-off of the rotation's formula
+    keep = np.isfinite(phi)  # opposed normals (a disk across a thin fold) have no minimal rotation: not averaged
+    node, cell, phi = node[keep], cell[keep], phi[keep]
+    count = np.bincount(node, minlength=nc)
+    means = []
+    for a, q in enumerate(orders):
+        carried = gamma[cell, a] * np.exp(1j * q * phi)
+        total = np.bincount(node, carried.real, nc) + 1j * np.bincount(node, carried.imag, nc)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            means.append(np.where(count > 0, total / np.maximum(count, 1), complex(np.nan, np.nan)))
+    return means, count.astype(np.int64), (count > 0) & ~edge
 
 
 def _half_edges(faces, n_vertices, name):
@@ -162,7 +241,7 @@ def _list_order(succ):
     return comp, size[comp] - 1 - rank
 
 
-def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference=(1.0, 0.0, 0.0),
+def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference=(1.0, 0.0, 0.0), radius=None,
                 name="mesh") -> dict:
     """The tissue of a labelled triangle mesh: its cells, junction vertices, junctions, defects and summary.
 
@@ -186,6 +265,13 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
         ``e1`` (default x); the axis most orthogonal to it where it is within
         ``acos(FALLBACK_COS)`` of the normal.  Changes the phase of gamma_p,
         not ``|gamma_p|`` nor the defects.
+    radius : float, optional
+        Radius R of the coarse-graining disks along the surface, px (the
+        mesh's unit).  Default ``RADIUS_FACTOR R_cell`` (2.5: each cell and
+        its first shell of neighbours; :data:`RADIUS_FACTOR`), R_cell =
+        sqrt(mean area / pi) of the interior cells as in
+        :func:`hexatissue.coarse_grain` (of all cells when every cell is a
+        border cell).
     name : str
         The mesh's name in error messages.
 
@@ -205,7 +291,13 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
         ``n_faces``, ``is_border`` (touches the background or the mesh's
         edge), ``normal_x/_y/_z`` (unit vector area of its faces),
         ``e1_x/_y/_z`` (its tangent frame's first axis), ``gamma{p}_re/_im``
-        (gamma_p of its junction polygon in that frame).
+        (gamma_p of its junction polygon in that frame), ``Gamma{p}_re/_im``
+        (the coarse-grained field at the cell, in its frame: the mean of the
+        gamma_p of the interior cells within R along the surface, each
+        parallel-transported into the frame; NaN when there is none),
+        ``n_disk`` (the cells averaged), ``valid`` (the disk lies on the
+        tissue: it averages a cell and holds no border cell, as the flat
+        grid's full coverage; every cell of a closed surface).
 
         ``mesh_vertices``: ``frame``, ``vertex`` (mesh vertex index), ``x``,
         ``y``, ``z`` (px), ``n_cells`` (cells meeting there), ``is_border``.
@@ -216,16 +308,22 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
         going from a to b), ``length`` (along mesh edges, px), ``chord``
         (straight, px).
 
-        ``mesh_defects``: ``frame``, ``defect`` (id), ``vertex``, ``x``,
-        ``y``, ``z`` (the junction vertex, px), ``charge`` (a multiple of
-        1/p), ``p``, ``cell_a``, ``cell_b``, ``cell_c`` (the first three
-        cells counter-clockwise around the vertex), ``n_cells``.
+        ``mesh_defects``: ``frame``, ``defect`` (id), ``field``
+        (``"coarse"``: the defects of Gamma_p, the flat analysis's defects,
+        listed first, at the vertices whose cells are all ``valid``;
+        ``"cells"``: those of the cells' own gamma_p),
+        ``vertex``, ``x``, ``y``, ``z`` (the junction vertex, px), ``charge``
+        (a multiple of 1/p), ``p``, ``cell_a``, ``cell_b``, ``cell_c`` (the
+        first three cells counter-clockwise around the vertex), ``n_cells``.
 
         ``mesh_frames``: ``frame``, ``n_cells``, ``n_vertices`` (junction
         vertices), ``n_junctions``, ``euler`` (V - E + F of the mesh),
-        ``closed`` (no mesh edge and no background), ``charge{p}`` (sum of
-        the charges), ``undefined{p}`` (dual triangles without a charge: a
-        cell without gamma_p).
+        ``closed`` (no mesh edge and no background), ``r_cell`` (R_cell,
+        px), ``radius`` (R, px), ``charge{p}`` (sum of the charges of the
+        cells' gamma_p), ``undefined{p}`` (its dual triangles without a
+        charge: a cell without gamma_p), ``coarse_charge{p}``,
+        ``coarse_undefined{p}`` (the same for Gamma_p: a cell with an empty
+        disk).
 
     Raises
     ------
@@ -243,6 +341,7 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
             raise InputError("mesh_tissue needs vertices, faces and labels (or a LabelledMesh)")
         mesh = check_mesh(vertices, faces, labels, name)
     orders = check_orders(OrderOptions().p if p is None else p, "p")
+    radius = None if radius is None else check_positive(radius, "radius", unit="px (the mesh's unit)")
     V, F, L = mesh.vertices, mesh.faces, mesh.labels
     n, m = len(V), len(F)
     frm, to, nxt, prv, twin = _half_edges(F, n, name)
@@ -346,6 +445,14 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     for q, gam in zip(orders, gammas):
         cell_table[f"gamma{q}_re"] = gam.real
         cell_table[f"gamma{q}_im"] = gam.imag
+    r_cell = _cell_radius(area, ~is_border)
+    radius = RADIUS_FACTOR * r_cell if radius is None else radius
+    coarse, n_disk, valid = _coarse_field(centroid, normal, e1, e2, gammas, orders, ~is_border, radius)
+    for q, gam in zip(orders, coarse):
+        cell_table[f"Gamma{q}_re"] = gam.real
+        cell_table[f"Gamma{q}_im"] = gam.imag
+    cell_table["n_disk"] = n_disk
+    cell_table["valid"] = valid
 
     # ---- junctions: each loop cut at its junction vertices
     has_j = np.bincount(loop, is_j, n_loops) > 0 if n_loops else np.zeros(0, bool)
@@ -377,33 +484,42 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     vt = {"frame": np.full(len(jv), frame, np.int64), "vertex": jv.astype(np.int64), "x": V[jv, 0], "y": V[jv, 1],
           "z": V[jv, 2], "n_cells": (degree[jv] - touches0[jv]).astype(np.int64), "is_border": touches0[jv]}
 
-    defects, totals = _defects(V, F, L, frm, prv, twin, idx, face_of, jv[~touches0[jv]], normal, e1, e2, gammas,
-                               orders, cells, frame)
+    dual = _dual_triangles(frm, prv, twin, idx, face_of, jv[~touches0[jv]], normal, e1, e2)
+    coarse_defects, coarse_totals = _defects(dual, V, coarse, orders, cells, frame, "coarse", valid)
+    cell_defects, totals = _defects(dual, V, gammas, orders, cells, frame, "cells")
+    defects = pd.concat([coarse_defects, cell_defects], ignore_index=True)
+    defects["defect"] = np.arange(len(defects), dtype=np.int64)
     used = np.flatnonzero(np.bincount(F.ravel(), minlength=n))
     n_edges = (3 * m + int((twin < 0).sum())) // 2
     ft = {"frame": np.array([frame], np.int64), "n_cells": np.array([nc], np.int64),
           "n_vertices": np.array([len(jv)], np.int64), "n_junctions": np.array([len(jt["junction"])], np.int64),
           "euler": np.array([len(used) - n_edges + m], np.int64),
-          "closed": np.array([bool((twin >= 0).all() and (L > 0).all())])}
+          "closed": np.array([bool((twin >= 0).all() and (L > 0).all())]), "r_cell": np.array([r_cell]),
+          "radius": np.array([float(radius)])}
     for q in orders:
         ft[f"charge{q}"] = np.array([totals[q][0]])
         ft[f"undefined{q}"] = np.array([totals[q][1]], np.int64)
+    for q in orders:
+        ft[f"coarse_charge{q}"] = np.array([coarse_totals[q][0]])
+        ft[f"coarse_undefined{q}"] = np.array([coarse_totals[q][1]], np.int64)
     return {"mesh_cells": pd.DataFrame(cell_table), "mesh_vertices": pd.DataFrame(vt),
             "mesh_junctions": pd.DataFrame(jt), "mesh_defects": defects, "mesh_frames": pd.DataFrame(ft)}
 
 
-def _defects(V, F, L, frm, prv, twin, idx, face_of, verts, normal, e1, e2, gammas, orders, cells, frame):
-    """The defects table and ``{p: (total charge, undefined triangles)}`` (docs/surface.md, "Surface meshes")."""
-    columns = ["frame", "defect", "vertex", "x", "y", "z", "charge", "p", "cell_a", "cell_b", "cell_c", "n_cells"]
-    n = len(V)
-    out_he = np.full(n, -1, np.int64)
-    out_he[frm[::-1]] = np.arange(len(frm))[::-1]
+def _dual_triangles(frm, prv, twin, idx, face_of, verts, normal, e1, e2):
+    """The dual triangles around the junction vertices ``verts`` (docs/surface.md, "Surface meshes"): each vertex's
+    cells counter-clockwise (``ring`` from ``ring_start``, ``d`` of them), its fan triangles of distinct cells
+    (``owner`` vertex, cells ``i0, i1, i2``), each side's cells and transport angle (``sides``) and the solid angle
+    of each triangle's normals (``curvature``)."""
+    n_he = len(frm)
+    out_he = np.full(int(frm.max()) + 1 if n_he else 0, -1, np.int64)
+    out_he[frm[::-1]] = np.arange(n_he)[::-1]
     # the faces around each interior junction vertex, counter-clockwise: h -> twin(prev(h))
     start = out_he[verts]
     seqs = [idx[face_of[start]]]
     cur = start.copy()
     active = np.ones(len(verts), bool)
-    for _ in range(len(frm)):
+    for _ in range(n_he):
         cur = np.where(active, twin[prv[cur]], cur)
         active &= cur != start
         if not active.any():
@@ -427,17 +543,38 @@ def _defects(V, F, L, frm, prv, twin, idx, face_of, verts, normal, e1, e2, gamma
     i2 = ring[ring_start[owner] + k + 1]
     proper = (i0 != i1) & (i1 != i2) & (i0 != i2)
     owner, i0, i1, i2 = owner[proper], i0[proper], i1[proper], i2[proper]
-    curvature = solid_angles(normal[i0], normal[i1], normal[i2])
+    # each side's transport angle from its lower cell to its higher, once for every field and order
+    sides = [(i, j, transport_angles(normal[np.minimum(i, j)], e1[np.minimum(i, j)], normal[np.maximum(i, j)],
+                                     e1[np.maximum(i, j)], e2[np.maximum(i, j)]))
+             for i, j in ((i0, i1), (i1, i2), (i2, i0))]
+    return {"verts": verts, "ring": ring, "ring_start": ring_start, "d": d, "owner": owner, "i0": i0, "i1": i1,
+            "i2": i2, "sides": sides, "curvature": solid_angles(normal[i0], normal[i1], normal[i2])}
+
+
+def _defects(dual, V, fields, orders, cells, frame, field, valid=None):
+    """The defects of one field (one complex array per order, a value per cell, in the cells' frames) on the dual
+    triangles (:func:`_dual_triangles`), labelled ``field``, and ``{p: (total charge, undefined triangles)}``.
+
+    With ``valid`` (a flag per cell), only the vertices whose cells are all valid are looked at.
+    """
+    columns = ["frame", "defect", "field", "vertex", "x", "y", "z", "charge", "p", "cell_a", "cell_b", "cell_c",
+               "n_cells"]
+    verts, ring, ring_start, d = dual["verts"], dual["ring"], dual["ring_start"], dual["d"]
+    owner, i0, i1, i2 = dual["owner"], dual["i0"], dual["i1"], dual["i2"]
+    looked = np.ones(len(owner), bool)
+    if valid is not None:
+        outside = np.bincount(owner[~(valid[i0] & valid[i1] & valid[i2])], minlength=len(verts)) > 0
+        looked = ~outside[owner]
     rows, totals = [], {}
-    for q, gam in zip(orders, gammas):
-        winding = (_delta(i0, i1, gam, normal, e1, e2, q) + _delta(i1, i2, gam, normal, e1, e2, q)
-                   + _delta(i2, i0, gam, normal, e1, e2, q))
-        x = (winding + q * curvature) / (2 * np.pi)
+    for q, gam in zip(orders, fields):
+        phase = np.angle(gam)  # phases apart: a product of two tiny gamma_p (p = 1 about the vertex mean) would vanish
+        winding = sum(_delta(i, j, phi, phase, q) for i, j, phi in dual["sides"])
+        x = np.where(looked, (winding + q * dual["curvature"]) / (2 * np.pi), 0.0)
         ok = np.isfinite(x)
         whole = np.round(x[ok])
         if len(whole) and np.abs(x[ok] - whole).max() > _CHARGE_TOLERANCE:
-            warnings.warn(f"defect charges of p = {q} are up to {np.abs(x[ok] - whole).max():.2g} / {q} from a "
-                          f"multiple of 1/{q} (round-off); rounded", HexatissueWarning, stacklevel=3)
+            warnings.warn(f"defect charges of p = {q} ({field}) are up to {np.abs(x[ok] - whole).max():.2g} / {q} "
+                          f"from a multiple of 1/{q} (round-off); rounded", HexatissueWarning, stacklevel=3)
         numer = np.bincount(owner[ok], whole, len(verts)).astype(np.int64)
         bad = np.bincount(owner[~ok], minlength=len(verts)) > 0
         totals[q] = (float(numer[~bad].sum()) / q, int((~ok).sum()))
@@ -446,36 +583,36 @@ def _defects(V, F, L, frm, prv, twin, idx, face_of, verts, normal, e1, e2, gamma
         rs = ring_start[hit]
         rows.append(pd.DataFrame({
             "frame": np.full(len(hit), frame, np.int64), "defect": np.zeros(len(hit), np.int64),
-            "vertex": v.astype(np.int64), "x": V[v, 0], "y": V[v, 1], "z": V[v, 2],
-            "charge": numer[hit] / q, "p": np.full(len(hit), q, np.int64),
+            "field": np.full(len(hit), field, object), "vertex": v.astype(np.int64), "x": V[v, 0], "y": V[v, 1],
+            "z": V[v, 2], "charge": numer[hit] / q, "p": np.full(len(hit), q, np.int64),
             "cell_a": cells[ring[rs]].astype(np.int64), "cell_b": cells[ring[rs + 1]].astype(np.int64),
             "cell_c": cells[ring[rs + 2]].astype(np.int64), "n_cells": d[hit].astype(np.int64)}))
     table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=columns)
-    table["defect"] = np.arange(len(table), dtype=np.int64)
     return table[columns], totals
 
 
-def _delta(i, j, gamma, normal, e1, e2, p):
-    """The wrapped p-fold phase step from cell i to cell j after transport, antisymmetric in (i, j) by construction."""
+def _delta(i, j, phi, phase, p):
+    """The wrapped p-fold phase step from cell i to cell j after transport (``phi``: from the lower cell's frame to
+    the higher's), antisymmetric in (i, j) by construction."""
     lo, hi = np.minimum(i, j), np.maximum(i, j)
-    phi = transport_angles(normal[lo], e1[lo], normal[hi], e1[hi], e2[hi])
-    phase = np.angle(gamma)  # phases apart: a product of two tiny gamma_p (p = 1 about the vertex mean) would vanish
     step = np.angle(np.exp(1j * (phase[hi] - phase[lo] - p * phi)))
     return np.where(i < j, step, -step)
 
 
-def mesh_tables(meshes, *, p=None, reference=(1.0, 0.0, 0.0)) -> dict:
+def mesh_tables(meshes, *, p=None, reference=(1.0, 0.0, 0.0), radius=None) -> dict:
     """:func:`mesh_tissue` of each mesh (frame = its position), the tables of all frames concatenated, and the
     T1 events between the frames (``mesh_events``, :func:`~hexatissue.surface.mesh_events.mesh_events`).
 
     ``meshes``: :class:`LabelledMesh` objects or ``(vertices, faces, labels)``
     tuples.  Cell labels are taken as given in every frame (no tracking): a
-    label is one cell throughout.
+    label is one cell throughout.  ``radius`` (px) is every frame's
+    coarse-graining radius; by default each frame's ``RADIUS_FACTOR R_cell``.
     """
     parts = {name: [] for name in MESH_TABLE_NAMES if name != "mesh_events"}
     for t, mesh in enumerate(meshes):
-        tables = (mesh_tissue(mesh, frame=t, p=p, reference=reference) if isinstance(mesh, LabelledMesh)
-                  else mesh_tissue(*mesh, frame=t, p=p, reference=reference))
+        tables = (mesh_tissue(mesh, frame=t, p=p, reference=reference, radius=radius)
+                  if isinstance(mesh, LabelledMesh) else mesh_tissue(*mesh, frame=t, p=p, reference=reference,
+                                                                      radius=radius))
         for name, table in tables.items():
             parts[name].append(table)
     out = {name: (pd.concat(tables, ignore_index=True) if tables else pd.DataFrame())
@@ -487,9 +624,9 @@ def mesh_tables(meshes, *, p=None, reference=(1.0, 0.0, 0.0)) -> dict:
     return out
 
 
-def read_mesh_tables(paths, *, label=None, p=None, reference=(1.0, 0.0, 0.0)) -> dict:
+def read_mesh_tables(paths, *, label=None, p=None, reference=(1.0, 0.0, 0.0), radius=None) -> dict:
     """Read mesh files (:func:`read_mesh`; several = frames, in the order given) and measure them
     (:func:`mesh_tables`)."""
     if isinstance(paths, (str, bytes)) or hasattr(paths, "__fspath__"):
         paths = [paths]
-    return mesh_tables((read_mesh(path, label=label) for path in paths), p=p, reference=reference)
+    return mesh_tables((read_mesh(path, label=label) for path in paths), p=p, reference=reference, radius=radius)
