@@ -16,7 +16,7 @@ hexatic and nematic defect charges in every tissue.  Cost: :func:`hexatissue.sur
 The coarse-grained field Gamma_p: defects of the cells' gamma_p and of Gamma_p against the disk radius (in R_cell)
 on exact tissues of 400 cells on a sphere of radius 100 px (5 seeds, jitter 0.3 and 0.1) and on a torus (R = 100,
 r = 40 px, 250 cells, 3 seeds), with the cells per disk and the charge sums; and the disk's distance: the chord and
-the arc of the normals' circle (:func:`hexatissue.surface.mesh.arc_lengths`, what the disks use) against the great
+the arc of the normals' circle (:func:`hexatissue.surface.transport.arc_lengths`, what the disks use) against the great
 circle between the centroids' directions on the sphere (100, 400 and 2000 cells, 3 seeds): median relative error
 of the pairs within 1.3 R and the cells per disk whose membership differs.
 
@@ -32,7 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from hexatissue.surface import mesh_tissue
-from hexatissue.surface.mesh import _coarse_field, arc_lengths
+from hexatissue.surface.mesh_field import coarse_field
+from hexatissue.surface.transport import arc_lengths
 from hexatissue.synthetic_surface import sphere_tissue, torus_tissue
 
 SEEDS = range(5)
@@ -78,7 +79,7 @@ def cost():
         field = np.inf
         for _ in range(REPEATS):
             t0 = time.perf_counter()
-            _coarse_field(c[["x", "y", "z"]].to_numpy(), normal, e1, np.cross(normal, e1), gammas, (6, 2),
+            coarse_field(c[["x", "y", "z"]].to_numpy(), normal, e1, np.cross(normal, e1), gammas, (6, 2),
                           ~c.is_border.to_numpy(), frames.radius)
             field = min(field, time.perf_counter() - t0)
         out["exact" if exact else "labelled"] = (len(t.faces), best, field, frames)

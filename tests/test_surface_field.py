@@ -16,7 +16,7 @@ import pytest
 from hexatissue import OrderOptions, analyze, coarse_grain, find_defects
 from hexatissue.surface import (node_frames, node_normals, surface_coarse_grain, surface_defects,
                                 surface_plaquette_charges)
-from hexatissue.surface.mesh import solid_angles, transport_angles
+from hexatissue.surface.transport import solid_angles, transport_angles
 from hexatissue.synthetic import jittered_seeds, voronoi_labels
 from hexatissue.synthetic_surface import gaussian_bump_tissue, tilted_plane_tissue
 

@@ -20,7 +20,8 @@ from hexatissue.order import cell_radius, coarse_grain, shape_function
 from hexatissue.schema import SURFACE_MESH_TABLES, validate
 from hexatissue.surface import LabelledMesh, mesh_tables, mesh_tissue, read_mesh, read_mesh_tables, write_obj, write_ply
 from hexatissue.surface.files import face_labels_from_vertices
-from hexatissue.surface.mesh import RADIUS_FACTOR, arc_lengths, solid_angles, tangent_frames, transport_angles
+from hexatissue.surface.mesh_field import RADIUS_FACTOR
+from hexatissue.surface.transport import arc_lengths, solid_angles, tangent_frames, transport_angles
 from hexatissue.surface.mesh_events import mesh_events
 from hexatissue.synthetic import jittered_seeds, voronoi_polygons
 from hexatissue.synthetic_surface import icosphere, polygon_mesh, sphere_movie, sphere_tissue, torus_tissue

@@ -24,7 +24,7 @@ from ..order import coarse_grain
 from ..order.coarse import _frames
 from ..schema import interior_mask, require_columns
 from ..defects.grid import _stack, grid_defects
-from .mesh import solid_angles, transport_angles
+from .transport import solid_angles, transport_angles
 from .tangent import check_height
 
 __all__ = ["node_normals", "node_frames", "transport_to_nodes", "surface_coarse_grain", "surface_plaquette_charges",
@@ -59,7 +59,7 @@ def node_normals(height, x, y, scale=1.0, box=None) -> np.ndarray:
 
 def transport_to_nodes(gamma, cell_normals, node_normals, p):
     """``gamma`` (per pair, of order ``p``) carried from the cells' tangent frames into the nodes':
-    ``gamma exp(i p phi)``, ``phi`` the transport angle (:func:`hexatissue.surface.mesh.transport_angles`)."""
+    ``gamma exp(i p phi)``, ``phi`` the transport angle (:func:`hexatissue.surface.transport.transport_angles`)."""
     e1_cell, _ = node_frames(cell_normals)
     e1_node, e2_node = node_frames(node_normals)
     phi = transport_angles(cell_normals, e1_cell, node_normals, e1_node, e2_node)

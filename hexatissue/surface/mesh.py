@@ -28,160 +28,22 @@ reference is within ``acos(FALLBACK_COS)`` of the normal, ``e2 = n x e1``.
 """
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pandas as pd
 
-from ..errors import HexatissueWarning, InputError, check_orders, check_positive
+from ..errors import InputError, check_orders, check_positive
 from ..options import OrderOptions
 from ..order.shape import shape_functions_flat
 from .files import LabelledMesh, check_mesh, read_mesh
+from .mesh_defects import dual_triangles, field_defects
 from .mesh_events import mesh_events
+from .mesh_field import RADIUS_FACTOR, cell_radius, coarse_field
+from .transport import tangent_frames
 
-__all__ = ["mesh_tissue", "mesh_tables", "read_mesh_tables", "tangent_frames", "transport_angles",
-           "solid_angles", "arc_lengths", "FALLBACK_COS", "RADIUS_FACTOR", "MESH_TABLE_NAMES"]
+__all__ = ["mesh_tissue", "mesh_tables", "read_mesh_tables", "MESH_TABLE_NAMES"]
 
-#: Where ``|n . reference| > FALLBACK_COS`` (within 25.8 degrees of the normal) the tangent frame's e1 is the
-#: coordinate axis most orthogonal to the reference instead (the frame does not change |gamma_p| or defects).
-FALLBACK_COS = 0.9
 #: The tables :func:`mesh_tissue` returns, in order.
 MESH_TABLE_NAMES = ("mesh_cells", "mesh_vertices", "mesh_junctions", "mesh_defects", "mesh_frames", "mesh_events")
-#: Default coarse-graining radius on a mesh, in units of R_cell = sqrt(mean area / pi).  The flat grid's 1.5 R_cell
-#: disks sit anywhere between cells and hold (1.5)^2 = 2.25 cells on average; centred on a cell, whose neighbours are
-#: about 1.9 R_cell away (a hexagonal tiling's spacing), a 1.5 R_cell disk holds the cell alone (1.0-1.2 cells on
-#: spheres of 400 cells) and Gamma_p is gamma_p.  2.5 R_cell takes in the first shell of neighbours, not the second
-#: (3.3 R_cell): about 7 cells (docs/surface.md, "Gamma_p on a mesh").
-RADIUS_FACTOR = 2.5
-#: A charge times p further than this from an integer is reported (it cannot happen but through round-off).
-_CHARGE_TOLERANCE = 1e-6
-
-
-def tangent_frames(normals, reference=(1.0, 0.0, 0.0), fallback_cos=FALLBACK_COS):
-    """``(e1, e2)`` of unit normals ``(N, 3)``: the reference direction projected on each tangent plane.
-
-    ``e1`` is ``reference`` minus its normal component, normalised; where
-    ``|n . reference| > fallback_cos`` the coordinate axis most orthogonal
-    to ``reference`` is projected instead.  ``e2 = n x e1``.  NaN normals
-    give NaN frames.
-    """
-    n = np.asarray(normals, dtype=float).reshape(-1, 3)
-    ref = np.asarray(reference, dtype=float).reshape(3)
-    size = np.linalg.norm(ref)
-    if not np.isfinite(ref).all() or size == 0:
-        raise InputError(f"reference must be a finite non-zero 3-vector; got {reference!r}")
-    ref = ref / size
-    other = np.zeros(3)
-    other[int(np.argmin(np.abs(ref)))] = 1.0
-    dot = n @ ref
-    use = np.where((np.abs(dot) > fallback_cos)[:, None], other, ref)
-    e1 = use - (n * use).sum(axis=1)[:, None] * n
-    with np.errstate(invalid="ignore", divide="ignore"):
-        e1 /= np.linalg.norm(e1, axis=1)[:, None]
-    e2 = np.cross(n, e1)
-    return e1, e2
-
-
-def transport_angles(n_from, e1_from, n_to, e1_to, e2_to):
-    """Angle (rad, in (-pi, pi]) of frame ``from``'s e1, carried onto ``to``'s plane, in frame ``to``.
-
-    The carrying rotation is the minimal one taking ``n_from`` to ``n_to``
-    (about ``n_from x n_to``): the Levi-Civita transport along the great
-    circle between the normals on the unit sphere.  A vector at angle
-    ``alpha`` in frame ``from`` is at ``alpha + angle`` in frame ``to``.
-    Antipodal normals give NaN.
-    """
-    c = (n_from * n_to).sum(axis=1)
-    v = np.cross(n_from, n_to)
-    x = e1_from
-    with np.errstate(invalid="ignore", divide="ignore"):
-        scale = np.where(1.0 + c > 1e-12, 1.0 / (1.0 + c), np.nan)
-    rx = x * c[:, None] + np.cross(v, x) + v * ((v * x).sum(axis=1) * scale)[:, None]
-    return np.arctan2((rx * e2_to).sum(axis=1), (rx * e1_to).sum(axis=1))
-
-
-def solid_angles(a, b, c):
-    """Signed area (sr) of the geodesic triangles ``(a, b, c)`` of unit vectors on the unit sphere.
-
-    ``2 atan2(a . (b x c), 1 + a.b + b.c + c.a)`` (Van Oosterom and
-    Strackee 1983), positive when ``a, b, c`` turn counter-clockwise seen
-    from outside the sphere.
-    """
-    triple = (a * np.cross(b, c)).sum(axis=1)
-    den = 1.0 + (a * b).sum(axis=1) + (b * c).sum(axis=1) + (c * a).sum(axis=1)
-    return 2.0 * np.arctan2(triple, den)
-
-
-def arc_lengths(a, b, n_a, n_b):
-    """Distance along the surface between points ``a`` and ``b`` ``(N, 3)`` with unit normals ``n_a``, ``n_b``.
-
-    The arc of the circle through both points whose normal turns from
-    ``n_a`` to ``n_b``: ``|b - a| theta / (2 sin(theta / 2))``, ``theta`` the
-    angle between the normals (``theta / |n_b - n_a|``, as ``|n_b - n_a| =
-    2 sin(theta / 2)``).  Exact on a plane (the chord) and between points of
-    a sphere (the great circle's arc); elsewhere the arc of the normal
-    section's osculating circle.  Never shorter than the chord.
-    """
-    chord = np.linalg.norm(b - a, axis=1)
-    gap = np.linalg.norm(n_b - n_a, axis=1)
-    theta = 2.0 * np.arctan2(gap, np.linalg.norm(n_b + n_a, axis=1))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # below 1e-4 the series (error ~ gap^4 / 600) avoids 0 / 0 and keeps a plane's distance the exact chord
-        stretch = np.where(gap > 1e-4, theta / gap, 1.0 + gap * gap / 24.0)
-    return chord * stretch
-
-
-def _cell_radius(area, interior):
-    """R_cell = sqrt(mean area / pi) of the interior cells with a positive finite area (of every such cell when no
-    cell is interior: a patch that is all border), as :func:`hexatissue.order.cell_radius`; NaN without any."""
-    good = np.isfinite(area) & (area > 0)
-    use = good & interior if (good & interior).any() else good
-    return float(np.sqrt(area[use].mean() / np.pi)) if use.any() else np.nan
-
-
-def _coarse_field(centroid, normal, e1, e2, gammas, orders, interior, radius):
-    """Gamma_p at every cell (docs/surface.md, "Gamma_p on a mesh"), the cells averaged in each disk and whether
-    the disk lies on the tissue.
-
-    Cell j is in cell c's disk when :func:`arc_lengths` between their
-    centroids is at most ``radius``; the interior cells of the disk whose
-    gamma_p of every order is finite enter the mean, each carried into c's
-    frame (``gamma_j exp(i p phi_jc)``, :func:`transport_angles`).  An empty
-    disk gives NaN.  A disk is valid when it averages a cell and holds no
-    border cell (the flat grid's full coverage: the disk does not reach the
-    tissue's edge).
-    """
-    from scipy.spatial import cKDTree
-
-    nc = len(centroid)
-    ok = np.isfinite(centroid).all(axis=1) & np.isfinite(normal).all(axis=1)
-    gamma = np.column_stack(gammas) if len(orders) else np.zeros((nc, 0), complex)
-    member = ok & interior & np.isfinite(gamma).all(axis=1)
-    nodes = np.flatnonzero(ok)
-    if not np.isfinite(radius) or len(nodes) == 0:
-        return [np.full(nc, complex(np.nan, np.nan)) for _ in orders], np.zeros(nc, np.int64), np.zeros(nc, bool)
-    # an arc is never shorter than its chord: the chord's ball holds every cell of the disk
-    pairs = cKDTree(centroid[nodes]).query_pairs(radius * (1 + 1e-9), output_type="ndarray")
-    i, j = nodes[pairs[:, 0]], nodes[pairs[:, 1]]
-    node, cell = np.r_[i, j, nodes], np.r_[j, i, nodes]
-    near = arc_lengths(centroid[node], centroid[cell], normal[node], normal[cell]) <= radius
-    edge = np.bincount(node[near & ~interior[cell]], minlength=nc) > 0
-    near &= member[cell]
-    node, cell = node[near], cell[near]
-    phi = transport_angles(normal[cell], e1[cell], normal[node], e1[node], e2[node])
-    phi[node == cell] = 0.0  # a cell in its own frame: exactly, not to the round-off of the rotation's formula
-    keep = np.isfinite(phi)  # opposed normals (a disk across a thin fold) have no minimal rotation: not averaged
-    node, cell, phi = node[keep], cell[keep], phi[keep]
-    count = np.bincount(node, minlength=nc)
-    means = []
-    for a, q in enumerate(orders):
-        carried = gamma[cell, a] * np.exp(1j * q * phi)
-        total = np.bincount(node, carried.real, nc) + 1j * np.bincount(node, carried.imag, nc)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            means.append(np.where(count > 0, total / np.maximum(count, 1), complex(np.nan, np.nan)))
-    return means, count.astype(np.int64), (count > 0) & ~edge
-
-
 def _half_edges(faces, n_vertices, name):
     """Half-edges ``3 f + k`` (from corner k to corner k+1 of face f): their ends, next and previous in the face,
     and twin (-1 on the mesh's edge), by one sort of the undirected edges."""
@@ -445,9 +307,9 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     for q, gam in zip(orders, gammas):
         cell_table[f"gamma{q}_re"] = gam.real
         cell_table[f"gamma{q}_im"] = gam.imag
-    r_cell = _cell_radius(area, ~is_border)
+    r_cell = cell_radius(area, ~is_border)
     radius = RADIUS_FACTOR * r_cell if radius is None else radius
-    coarse, n_disk, valid = _coarse_field(centroid, normal, e1, e2, gammas, orders, ~is_border, radius)
+    coarse, n_disk, valid = coarse_field(centroid, normal, e1, e2, gammas, orders, ~is_border, radius)
     for q, gam in zip(orders, coarse):
         cell_table[f"Gamma{q}_re"] = gam.real
         cell_table[f"Gamma{q}_im"] = gam.imag
@@ -484,9 +346,9 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
     vt = {"frame": np.full(len(jv), frame, np.int64), "vertex": jv.astype(np.int64), "x": V[jv, 0], "y": V[jv, 1],
           "z": V[jv, 2], "n_cells": (degree[jv] - touches0[jv]).astype(np.int64), "is_border": touches0[jv]}
 
-    dual = _dual_triangles(frm, prv, twin, idx, face_of, jv[~touches0[jv]], normal, e1, e2)
-    coarse_defects, coarse_totals = _defects(dual, V, coarse, orders, cells, frame, "coarse", valid)
-    cell_defects, totals = _defects(dual, V, gammas, orders, cells, frame, "cells")
+    dual = dual_triangles(frm, prv, twin, idx, face_of, jv[~touches0[jv]], normal, e1, e2)
+    coarse_defects, coarse_totals = field_defects(dual, V, coarse, orders, cells, frame, "coarse", valid)
+    cell_defects, totals = field_defects(dual, V, gammas, orders, cells, frame, "cells")
     defects = pd.concat([coarse_defects, cell_defects], ignore_index=True)
     defects["defect"] = np.arange(len(defects), dtype=np.int64)
     used = np.flatnonzero(np.bincount(F.ravel(), minlength=n))
@@ -504,99 +366,6 @@ def mesh_tissue(vertices, faces=None, labels=None, *, frame=0, p=None, reference
         ft[f"coarse_undefined{q}"] = np.array([coarse_totals[q][1]], np.int64)
     return {"mesh_cells": pd.DataFrame(cell_table), "mesh_vertices": pd.DataFrame(vt),
             "mesh_junctions": pd.DataFrame(jt), "mesh_defects": defects, "mesh_frames": pd.DataFrame(ft)}
-
-
-def _dual_triangles(frm, prv, twin, idx, face_of, verts, normal, e1, e2):
-    """The dual triangles around the junction vertices ``verts`` (docs/surface.md, "Surface meshes"): each vertex's
-    cells counter-clockwise (``ring`` from ``ring_start``, ``d`` of them), its fan triangles of distinct cells
-    (``owner`` vertex, cells ``i0, i1, i2``), each side's cells and transport angle (``sides``) and the solid angle
-    of each triangle's normals (``curvature``)."""
-    n_he = len(frm)
-    out_he = np.full(int(frm.max()) + 1 if n_he else 0, -1, np.int64)
-    out_he[frm[::-1]] = np.arange(n_he)[::-1]
-    # the faces around each interior junction vertex, counter-clockwise: h -> twin(prev(h))
-    start = out_he[verts]
-    seqs = [idx[face_of[start]]]
-    cur = start.copy()
-    active = np.ones(len(verts), bool)
-    for _ in range(n_he):
-        cur = np.where(active, twin[prv[cur]], cur)
-        active &= cur != start
-        if not active.any():
-            break
-        seqs.append(np.where(active, idx[face_of[cur]], -2))
-    seq = np.column_stack(seqs) if len(verts) else np.zeros((0, 1), np.int64)
-    valid = seq != -2
-    length = valid.sum(axis=1)
-    prev = np.roll(seq, 1, axis=1)
-    prev[:, 0] = seq[np.arange(len(seq)), length - 1] if len(seq) else prev[:, 0]
-    keep = valid & (seq != prev)
-    d = keep.sum(axis=1)
-    ring = seq[keep]  # the cells around each vertex, counter-clockwise, vertex after vertex
-    ring_start = np.r_[0, np.cumsum(d)[:-1]].astype(np.int64)
-    # fan: (c0, c_k, c_k+1), k = 1 .. d-2
-    n_tri = np.maximum(d - 2, 0)
-    owner = np.repeat(np.arange(len(verts)), n_tri)
-    k = np.arange(int(n_tri.sum())) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri) + 1
-    i0 = ring[ring_start[owner]]
-    i1 = ring[ring_start[owner] + k]
-    i2 = ring[ring_start[owner] + k + 1]
-    proper = (i0 != i1) & (i1 != i2) & (i0 != i2)
-    owner, i0, i1, i2 = owner[proper], i0[proper], i1[proper], i2[proper]
-    # each side's transport angle from its lower cell to its higher, once for every field and order
-    sides = [(i, j, transport_angles(normal[np.minimum(i, j)], e1[np.minimum(i, j)], normal[np.maximum(i, j)],
-                                     e1[np.maximum(i, j)], e2[np.maximum(i, j)]))
-             for i, j in ((i0, i1), (i1, i2), (i2, i0))]
-    return {"verts": verts, "ring": ring, "ring_start": ring_start, "d": d, "owner": owner, "i0": i0, "i1": i1,
-            "i2": i2, "sides": sides, "curvature": solid_angles(normal[i0], normal[i1], normal[i2])}
-
-
-def _defects(dual, V, fields, orders, cells, frame, field, valid=None):
-    """The defects of one field (one complex array per order, a value per cell, in the cells' frames) on the dual
-    triangles (:func:`_dual_triangles`), labelled ``field``, and ``{p: (total charge, undefined triangles)}``.
-
-    With ``valid`` (a flag per cell), only the vertices whose cells are all valid are looked at.
-    """
-    columns = ["frame", "defect", "field", "vertex", "x", "y", "z", "charge", "p", "cell_a", "cell_b", "cell_c",
-               "n_cells"]
-    verts, ring, ring_start, d = dual["verts"], dual["ring"], dual["ring_start"], dual["d"]
-    owner, i0, i1, i2 = dual["owner"], dual["i0"], dual["i1"], dual["i2"]
-    looked = np.ones(len(owner), bool)
-    if valid is not None:
-        outside = np.bincount(owner[~(valid[i0] & valid[i1] & valid[i2])], minlength=len(verts)) > 0
-        looked = ~outside[owner]
-    rows, totals = [], {}
-    for q, gam in zip(orders, fields):
-        phase = np.angle(gam)  # phases apart: a product of two tiny gamma_p (p = 1 about the vertex mean) would vanish
-        winding = sum(_delta(i, j, phi, phase, q) for i, j, phi in dual["sides"])
-        x = np.where(looked, (winding + q * dual["curvature"]) / (2 * np.pi), 0.0)
-        ok = np.isfinite(x)
-        whole = np.round(x[ok])
-        if len(whole) and np.abs(x[ok] - whole).max() > _CHARGE_TOLERANCE:
-            warnings.warn(f"defect charges of p = {q} ({field}) are up to {np.abs(x[ok] - whole).max():.2g} / {q} "
-                          f"from a multiple of 1/{q} (round-off); rounded", HexatissueWarning, stacklevel=3)
-        numer = np.bincount(owner[ok], whole, len(verts)).astype(np.int64)
-        bad = np.bincount(owner[~ok], minlength=len(verts)) > 0
-        totals[q] = (float(numer[~bad].sum()) / q, int((~ok).sum()))
-        hit = np.flatnonzero((numer != 0) & ~bad)
-        v = verts[hit]
-        rs = ring_start[hit]
-        rows.append(pd.DataFrame({
-            "frame": np.full(len(hit), frame, np.int64), "defect": np.zeros(len(hit), np.int64),
-            "field": np.full(len(hit), field, object), "vertex": v.astype(np.int64), "x": V[v, 0], "y": V[v, 1],
-            "z": V[v, 2], "charge": numer[hit] / q, "p": np.full(len(hit), q, np.int64),
-            "cell_a": cells[ring[rs]].astype(np.int64), "cell_b": cells[ring[rs + 1]].astype(np.int64),
-            "cell_c": cells[ring[rs + 2]].astype(np.int64), "n_cells": d[hit].astype(np.int64)}))
-    table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=columns)
-    return table[columns], totals
-
-
-def _delta(i, j, phi, phase, p):
-    """The wrapped p-fold phase step from cell i to cell j after transport (``phi``: from the lower cell's frame to
-    the higher's), antisymmetric in (i, j) by construction."""
-    lo, hi = np.minimum(i, j), np.maximum(i, j)
-    step = np.angle(np.exp(1j * (phase[hi] - phase[lo] - p * phi)))
-    return np.where(i < j, step, -step)
 
 
 def mesh_tables(meshes, *, p=None, reference=(1.0, 0.0, 0.0), radius=None) -> dict:
