@@ -37,7 +37,7 @@ import pandas as pd
 from ..box import as_box
 from ..errors import check_positive
 from ..schema import interior_mask, require_columns
-from ..surface.field import node_frames
+from ..geometry import node_frames
 from ._grid import check_min_cells, grid_fits
 from .statistics import _centred_rows
 
