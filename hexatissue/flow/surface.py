@@ -36,8 +36,8 @@ import pandas as pd
 
 from ..box import as_box
 from ..errors import check_positive
-from ..schema import interior_mask, require_columns
 from ..geometry import node_frames
+from ..schema import interior_mask, require_columns
 from ._grid import check_min_cells, grid_fits
 from .statistics import _centred_rows
 
