@@ -181,10 +181,13 @@ def analyze(source, *, box=None, mask=None, client=None, workers=None, checkpoin
                 streamed.flush(rows, src.n_frames - 1)  # what a resumed checkpoint held beyond the last part
                 done = dict(streamed.tables)
             del rows
+            # a movie stage's independent chunks go to a dask cluster's workers (memory on their nodes); a local
+            # process pool would add a chunk's working set per worker on this machine for no time measured
+            # (benchmarks/results_scale.md: 240 / 40 frames 1.82 with workers=2, flow no faster on 2 cores)
             movie = MovieData(tables=done, box=box, n_frames=src.n_frames, source=src, states=states,
                               options=dict(options), images=images,
                               folder=None if streamed is None else streamed.folder,
-                              executor=partial(executor, client, workers))
+                              executor=None if client is None else partial(executor, client, workers))
             del states, done
             for stage in movie_work:
                 stage.run(movie, options[stage.options.stage])
