@@ -10,8 +10,9 @@ and the function that runs it:
   gathered into the movie's tables in frame order;
 - **movie stages** run once, in the main process, in list order, on a
   :class:`MovieData` (every table of the movie) after the frames are done
-  (a stage whose chunks of frames are independent may send them to the
-  workers: :meth:`MovieData.map_chunks`, as the tissue flow does);
+  (a stage whose chunks of frames are independent may send them to a
+  dask cluster's workers: :meth:`MovieData.map_chunks`, as the tissue flow
+  does);
   a movie stage may also follow the frames as they come (its
   :class:`FrameState`: the tracks stage's tracker), in frame order, in the
   main process, its state saved in the checkpoints.
@@ -207,8 +208,10 @@ class MovieData:
     resolved, e.g. the tracking mode used); ``summary`` what the stages
     decided, by stage name.  ``executor``: the spine's maker of the
     analysis's executor (:meth:`map_chunks`), ``executor(n_tasks, warm_ups)
-    -> (executor, tasks kept in flight)``, on the ``client`` or ``workers``
-    the frames ran on; None: every chunk runs in this process.
+    -> (executor, tasks kept in flight)``, on the dask ``client`` the frames
+    ran on (the spine gives none for local workers, whose chunks would add
+    their working sets on the same machine); None: every chunk runs in this
+    process.
     """
 
     tables: dict
@@ -252,9 +255,8 @@ class MovieData:
         (``self.tables[name]``, read with :func:`read_table`; a
         :class:`~hexatissue.stored.StoredTable` pickles as the paths of its
         parts and added columns, a few hundred bytes), never a table's rows.
-        When the movie's tables are streamed (``folder``) and the analysis
-        has workers (:attr:`executor`), the chunks run on the local process
-        pool (the first chunk here, before the pool forks, so the workers
+        When the movie's tables are streamed (``folder``) and there is an
+        :attr:`executor`, the chunks run on its local process pool (the first chunk here, before the pool forks, so the workers
         inherit the numba kernels it compiled) or on the dask cluster (whose
         workers must see the out folder: a shared filesystem); with the
         tables in memory, one worker, or one chunk, here.  At most the
