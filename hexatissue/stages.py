@@ -256,12 +256,13 @@ class MovieData:
         :class:`~hexatissue.stored.StoredTable` pickles as the paths of its
         parts and added columns, a few hundred bytes), never a table's rows.
         When the movie's tables are streamed (``folder``) and there is an
-        :attr:`executor`, the chunks run on its local process pool (the first chunk here, before the pool forks, so the workers
-        inherit the numba kernels it compiled) or on the dask cluster (whose
+        :attr:`executor`, the chunks run on its local process pool (the
+        first chunk here, before the pool forks, so the workers inherit the
+        numba kernels it compiled) or on the dask cluster (whose
         workers must see the out folder: a shared filesystem); with the
-        tables in memory, one worker, or one chunk, here.  At most the
-        executor's tasks in flight (twice its workers) are computed ahead of
-        the chunk taken, so memory holds a few chunks' results.  A task's
+        tables in memory, one worker, or one chunk, here.  One chunk per
+        worker is computed ahead of the chunk taken (a chunk's working set
+        is large), so memory holds as many chunks as there are workers.  A task's
         warnings are issued here, in chunk order; its exception is raised
         here (the same type and message as when run here); the pool's
         workers are killed then, or when the caller stops before the last
@@ -279,6 +280,9 @@ class MovieData:
             ahead.append(fn(chunks[0], *args))
 
         work, in_flight = self.executor(len(chunks), (first_here,))
+        # one chunk per worker (the executor keeps two tasks per worker for the frames): a chunk's working set is
+        # hundreds of MB, so memory then holds as many chunks as there are workers, whatever the movie's length
+        in_flight = max(1, in_flight // 2)
         pending = deque()
         try:
             if ahead:
