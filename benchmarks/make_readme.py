@@ -97,13 +97,13 @@ ENTRIES = (
         "cell-frames",
         "`python benchmarks/bench_scale.py --frames 40 240 --configs 1 2 cluster [--stream]`, `--frames 2083 "
         "--configs 2 --stream`, `--frames 40 240 --configs 2 --deformation [--stream]`; `--from-json` joins them",
-        "streamed, workers=2: 10^7 cell-frames measured 1.93 GB tree PSS (in memory: 15.2 GB extrapolated); "
-        "240 / 40 frames 1.05-1.24 (in memory 2.49-3.95); throughput 0.85-0.91 x the in-memory path at 240 frames "
-        "(at load 4)",
+        "streamed, workers=2: 10^7 cell-frames measured 1.88 GB tree PSS (in memory: 16.32 GB extrapolated); "
+        "240 / 40 frames 1.05-1.27 (in memory 2.69-3.89); throughput 1.04-1.15 x the in-memory path at 240 frames "
+        "(at load 3-5)",
         "240 frames <= 1.25 x 40 frames; 10^7 cell-frames <= 8 GB; throughput within 10 %",
-        "10^7 met; 240 / 40 met with 1 and 2 workers and on the cluster (1.24, 1.05, 1.17); throughput met with 1 "
-        "worker (0.91) and on the cluster (0.90), not with 2 workers (0.85), measured at load 4; the T1 search "
-        "still grows with the movie (2.03 GB of the 10^7 run's peak)",
+        "10^7 met; 240 / 40 met with 2 workers (1.05), at the goal's edge with 1 worker and on the cluster (1.27, "
+        "1.26: the runs move by about 0.1); throughput met (0.94-1.15); the T1 search still grows with the movie "
+        "(2.00 GB, the 10^7 run's peak; 14.01 GB extrapolated to 10^8)",
     ),
     Entry(
         "results_mpf.md",
