@@ -363,7 +363,7 @@ def test_cli_writes_the_tables_with_units_for_several_frames(tmp_path, capsys):
     assert main(["surface-mesh", *map(str, paths), "--out", str(tmp_path / "out"), "--format", "parquet", "csv"]) == 0
     text = capsys.readouterr().out
     assert "Euler characteristic 2" in text and "T1 events (labels taken as" in text
-    assert re.search(r"Gamma_p within [\d.]+ \(2\.5 R_cell\): p=6: \d+ defects summing to 2", text)
+    assert re.search(r"Gamma_p within [\d.]+ px \(2\.5 R_cell\): p=6: \d+ defects summing to 2", text)
     assert re.search(r"the cells' gamma_p: p=6: \d+ defects summing to 2", text)
     assert (tmp_path / "out" / "mesh_events.parquet").exists()
     cells = pd.read_parquet(tmp_path / "out" / "mesh_cells.parquet")
@@ -379,7 +379,7 @@ def test_cli_writes_the_tables_with_units_for_several_frames(tmp_path, capsys):
     assert main(["surface-mesh", str(paths[0]), "--out", str(tmp_path / "o5"), "--radius", "-1"]) == 2
     assert "--radius must be a positive" in capsys.readouterr().err
     assert main(["surface-mesh", str(paths[0]), "--out", str(tmp_path / "o6"), "--radius", "12.5"]) == 0
-    assert "Gamma_p within 12.5 (" in capsys.readouterr().out
+    assert "Gamma_p within 12.5 px (" in capsys.readouterr().out
     assert (pd.read_parquet(tmp_path / "o6" / "mesh_frames.parquet").radius == 12.5).all()
     back = read_mesh_tables(paths)
     pd.testing.assert_frame_equal(back["mesh_cells"], cells)

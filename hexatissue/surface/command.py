@@ -179,7 +179,7 @@ def _run(args) -> int:
 
     for row in frames.itertuples(index=False):
         print(f"frame {row.frame} ({args.files[row.frame]}): {row.n_cells} cells, Euler characteristic "
-              f"{row.euler}{'' if row.closed else ' (open)'}; Gamma_p within {row.radius:.4g} "
+              f"{row.euler}{'' if row.closed else ' (open)'}; Gamma_p within {row.radius:.4g} px "
               f"({row.radius / row.r_cell:.3g} R_cell): {charges(row, 'coarse', 'coarse_')}; the cells' gamma_p: "
               f"{charges(row, 'cells', '')}")
     events = tables["mesh_events"]
