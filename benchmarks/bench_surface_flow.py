@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from hexatissue import FlowOptions, analyze
-from hexatissue.flow import cell_velocities, flow_fields, surface_flow_fields, surface_velocities
+from hexatissue.flow import area_rates, cell_velocities, flow_fields, surface_flow_fields, surface_velocities
 from hexatissue.synthetic_surface import bump_movie, tilted_plane_movie
 
 SEEDS = range(5)
@@ -79,10 +79,8 @@ def bump(spacing, size, radius_factor):
                            seed=seed, subdivisions=2)
         result = _analyze(movie.labels, movie.height, flow=FlowOptions(radius_factor=radius_factor))
         cells = result.cells.sort_values(["track", "frame"]).reset_index(drop=True)
-        area, track, frame = (cells[c].to_numpy() for c in ("surface_area", "track", "frame"))
-        centred = (track[2:] == track[:-2]) & (frame[2:] == frame[:-2] + 2)
-        rate = np.full(len(cells), np.nan)
-        rate[1:-1][centred] = (area[2:] - area[:-2])[centred] / (2 * area[1:-1][centred])
+        rate = area_rates(cells)
+        area, frame = cells["surface_area"].to_numpy(), cells["frame"].to_numpy()
         inner = ~cells["is_border"].to_numpy() & np.isfinite(rate)
         out["cells"].append(rate[inner])
         out["cell_truth"].append(area_element_rate(cells["x"], cells["y"], cells["frame"], centre).to_numpy()[inner])

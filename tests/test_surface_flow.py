@@ -18,7 +18,7 @@ import pytest
 
 from hexatissue import FlowOptions, OrderOptions, analyze
 from hexatissue.errors import InputError
-from hexatissue.flow import surface_flow_fields, surface_velocities
+from hexatissue.flow import area_rates, surface_flow_fields, surface_velocities
 from hexatissue.surface import node_frames
 from hexatissue.synthetic import jittered_seeds, voronoi_labels
 from hexatissue.synthetic_surface import bump_movie, tilted_plane_movie
@@ -227,10 +227,8 @@ def test_on_a_growing_bump_the_areal_rate_is_the_rate_of_the_cells_surface_areas
     movie = _growing_bump()
     result = _run(movie.labels, movie.height, flow=FlowOptions(radius_factor=1.5))
     cells = result.cells.sort_values(["track", "frame"]).reset_index(drop=True)
-    area, track, frame = (cells[c].to_numpy() for c in ("surface_area", "track", "frame"))
-    centred = (track[2:] == track[:-2]) & (frame[2:] == frame[:-2] + 2)
-    rate = np.full(len(cells), np.nan)
-    rate[1:-1][centred] = (area[2:] - area[:-2])[centred] / (2 * area[1:-1][centred])
+    rate = area_rates(cells)
+    area, frame = cells["surface_area"].to_numpy(), cells["frame"].to_numpy()
     inner = ~cells["is_border"].to_numpy() & np.isfinite(rate)
     truth = _area_element_rate(cells["x"], cells["y"], cells["frame"])[inner]
     # the cells' own area rates follow the area element's (measured: 0.9 % of the median rate)
@@ -331,3 +329,12 @@ def test_streamed_surface_flow_equals_the_in_memory_one(tmp_path, monkeypatch):
         got = got.to_pandas() if isinstance(got, StoredTable) else got
         assert np.isfinite(memory.tables[name][columns[-1]]).sum() > 20
         pd.testing.assert_frame_equal(got[columns], memory.tables[name][columns], obj=name)
+
+
+def test_area_rates_are_centred_along_each_track_in_row_order():
+    cells = pd.DataFrame({"track": [2, 1, 1, 2, 1, 2, 1], "frame": [0, 2, 0, 1, 1, 2, 4],
+                          "surface_area": [10.0, 4.0, 1.0, 12.0, 2.0, 16.0, 8.0]})
+    rate = area_rates(cells)
+    # track 1: frames 0, 1, 2 then a gap (4): only frame 1 is centred; track 2: frame 1
+    np.testing.assert_array_equal(np.isnan(rate), [True, True, True, False, False, True, True])
+    assert rate[4] == (4.0 - 1.0) / (2 * 2.0) and rate[3] == (16.0 - 10.0) / (2 * 12.0)

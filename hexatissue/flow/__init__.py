@@ -29,14 +29,14 @@ from ..errors import check_positive
 from ..schema import interior_mask, require_columns, validate
 from ..units import in_units, velocity_unit  # the flow's units (defined with the calibration), kept in its API
 from ._grid import check_min_cells, grid_fits
-from .surface import surface_flow_fields, surface_velocities
+from .surface import area_rates, surface_flow_fields, surface_velocities
 from .centred import angular_harmonics, defect_flow, t1_flow
 from .statistics import (MIN_BIN_PAIRS, SPARSE_BIN, CorrelationLength, _centred_rows, cell_spacing, correlation_length,
                          flow_summary, mean_squared_displacement, msd_exponent, reliable_bins, rms_step,
                          velocity_correlation, velocity_statistics)
 
-__all__ = ["cell_velocities", "flow_fields", "surface_velocities", "surface_flow_fields", "velocity_statistics",
-           "velocity_correlation", "correlation_length",
+__all__ = ["cell_velocities", "flow_fields", "surface_velocities", "surface_flow_fields", "area_rates",
+           "velocity_statistics", "velocity_correlation", "correlation_length",
            "mean_squared_displacement", "msd_exponent", "flow_summary", "velocity_unit", "in_units", "MIN_CELLS",
            "t1_flow", "defect_flow", "angular_harmonics", "reliable_bins", "SPARSE_BIN", "MIN_BIN_PAIRS", "CorrelationLength",
            "rms_step", "cell_spacing"]

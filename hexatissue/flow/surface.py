@@ -41,7 +41,7 @@ from ..schema import interior_mask, require_columns
 from ._grid import check_min_cells, grid_fits
 from .statistics import _centred_rows
 
-__all__ = ["surface_velocities", "surface_flow_fields"]
+__all__ = ["surface_velocities", "surface_flow_fields", "area_rates"]
 
 NORMALS = ["normal_x", "normal_y", "normal_z"]
 
@@ -106,6 +106,25 @@ def surface_velocities(cells, box=None) -> dict:
     return {"vx": out[:, 0].copy(), "vy": out[:, 1].copy(), "vz": out[:, 2].copy(),
             "surface_vx": (out * e1).sum(axis=1),
             "surface_vy": (out * e2).sum(axis=1), "vn": (out * normal).sum(axis=1)}
+
+
+def area_rates(cells, column="surface_area") -> np.ndarray:
+    """Each cell's rate of log area along its track, 1/frame: the centred difference
+    ``(A(t+1) - A(t-1)) / (2 A(t))`` of ``column`` (NaN at a track's ends and across a gap), in row order.
+
+    What the flow's ``areal_rate`` measures, from the cells' own areas (on a
+    height map, ``surface_area``).
+    """
+    require_columns(cells, ("track", "frame", column), "cells")
+    order = np.lexsort((cells["frame"].to_numpy(), cells["track"].to_numpy()))
+    area, track, frame = (cells[c].to_numpy()[order] for c in (column, "track", "frame"))
+    centred = (track[2:] == track[:-2]) & (frame[2:] == frame[:-2] + 2)
+    rate = np.full(len(order), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate[1:-1][centred] = (area[2:] - area[:-2])[centred] / (2 * area[1:-1][centred])
+    out = np.empty(len(order))
+    out[order] = rate
+    return out
 
 
 def _tangent_gradient(fits, e1, e2):
