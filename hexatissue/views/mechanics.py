@@ -46,7 +46,7 @@ def _forces(movie, report):
                           "pressures": int(np.isfinite(rows["pressure"]).sum()), "cells": int(len(rows)),
                           "stress_xx": s[0, 0], "stress_xy": s[0, 1], "stress_yy": s[1, 1]})
     table = pd.DataFrame(per_frame)
-    fit = movie.tables.get("force_fit")
+    fit = columns(movie, "force_fit", ["frame", "arcs", "mu", "n_free"])
     if fit is not None and len(fit):
         # the model and the prior weight each frame's estimate actually used
         fit = fit.set_index("frame")
