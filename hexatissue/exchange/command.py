@@ -89,7 +89,9 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     _check_out(results, out, to, truth, overwrite)
     if with_ome_zarr:
         _check_out(results, Path(out) / OME_ZARR_BESIDE, "ome-zarr", truth, overwrite)
-    movie = results if isinstance(results, Movie) else read_results(results, lazy=False)
+    # the labels' exports read four columns of the cells (and the lineage); GEFF and AnnData write every cell's
+    # columns, the neighbours from the edges and (AnnData) the polygons: whole tables
+    movie = results if isinstance(results, Movie) else read_results(results, lazy=to in ("ctc", "ome-zarr"))
     if to == "geff":
         from .geff import write_geff
 
