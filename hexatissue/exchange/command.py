@@ -71,6 +71,14 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     ``out/cells.zarr``, and the GEFF stores point to it
     (``related_objects``); the OME-Zarr is returned first.
 
+    A results folder is read for ``ctc`` and ``ome-zarr`` with its large
+    tables left on disk (``read_results(lazy=True)``): of them these read
+    only the cells' ``frame``, ``cell``, ``track`` and ``area`` (and the
+    lineage); the masks they write are made from the labels, every frame
+    in memory before it is written.  ``geff`` and ``anndata`` read the
+    whole tables: every column of every cell, the edges (neighbours) and,
+    for AnnData, the vertices and the cells' vertices (the shape tensors).
+
     Nothing is deleted that an export did not write: ``out`` (for geff its
     two stores, for ctc its mask folder) must not exist, be empty or be an
     earlier export of the same format, else it is refused before any work

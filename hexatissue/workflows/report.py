@@ -57,8 +57,11 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     ----------
     results : path or Movie
         A results folder (``hexatissue analyze``, :meth:`Movie.write`), read
-        with :func:`hexatissue.read_results`, or a Movie.  Lengths and times
-        are shown in its calibration's units when it has them.
+        with :func:`hexatissue.read_results` (``lazy=True``: the tables a
+        streamed analysis wrote in parts stay on disk, and each section
+        reads only the columns it needs, :func:`hexatissue.views.columns`),
+        or a Movie.  Lengths and times are shown in its calibration's units
+        when it has them.
     out : path, optional
         Report folder (default ``results/report``; required for a Movie).
     p : int
