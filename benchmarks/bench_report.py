@@ -76,10 +76,10 @@ def _run_one(folder, mode, out):
 
     rows = []
 
-    def measured(name, run, *args):
+    def measured(name, run, *args, **kwargs):
         _reset_peak()
         start, t0 = _kb("VmRSS"), time.time()
-        result = run(*args)
+        result = run(*args, **kwargs)
         rows.append({"phase": name, "rss_start_mb": start / 1e3, "hwm_mb": _kb("VmHWM") / 1e3,
                      "wall_s": time.time() - t0})
         return result
@@ -99,7 +99,7 @@ def _run_one(folder, mode, out):
         if mode == "lazy":
             report_module.report(folder, out)
         else:
-            movie = measured("read_results", read_results, folder, False)
+            movie = measured("read_results", read_results, folder, lazy=False)
             report_module.report(movie, out)
     for row in rows:
         print(json.dumps(row))
