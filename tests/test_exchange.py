@@ -953,3 +953,33 @@ def test_export_replaces_its_own_earlier_output_and_a_foreign_one_only_with_over
     with pytest.raises(InputError, match="not an earlier output"):
         write_ctc(*scripted_masks(), masks)
     assert _tree(masks) == before
+
+
+def test_ctc_and_ome_zarr_exports_of_a_streamed_folder_read_four_columns_and_equal_the_in_memory_ones(tmp_path,
+                                                                                                      monkeypatch):
+    from hexatissue import pipeline
+    from hexatissue.exchange.command import export
+    from hexatissue.stored import StoredTable
+    from hexatissue.synthetic import voronoi_movie
+
+    monkeypatch.setattr(pipeline, "PART_BYTES", 20_000)  # the cells in several parts
+    m = voronoi_movie(25, (60, 70), 6, periodic=False, amplitude=0.8, seed=4)
+    np.save(tmp_path / "movie.npy", np.stack([m[t] for t in range(len(m))]))
+    ht.analyze(tmp_path / "movie.npy", out=tmp_path / "results", workers=1, progress=False)
+    assert len(StoredTable.open(tmp_path / "results" / "cells", "cells").parts) > 2
+    reads, read = [], StoredTable.read
+
+    def recording(self, columns=None, frames=None):
+        reads.append((self.name, columns))
+        return read(self, columns, frames)
+
+    monkeypatch.setattr(StoredTable, "read", recording)
+    for to in ("ctc", "ome-zarr"):
+        reads.clear()
+        streamed = export(tmp_path / "results", tmp_path / "streamed" / to, to)
+        assert reads and all(name == "cells" and len(columns) == 4 for name, columns in reads)
+        memory = export(ht.read_results(tmp_path / "results", lazy=False), tmp_path / "memory" / to, to)
+        files = [sorted(p.relative_to(top) for p in top.rglob("*") if p.is_file()) for top in (streamed[0], memory[0])]
+        assert files[0] == files[1] and len(files[0]) >= len(m)
+        for name in files[0]:
+            assert (streamed[0] / name).read_bytes() == (memory[0] / name).read_bytes(), name

@@ -1,4 +1,5 @@
 """``hexatissue report`` on analysis folders: a synthetic periodic movie, a single frame, real movies."""
+import json
 from pathlib import Path
 
 import numpy as np
@@ -262,3 +263,46 @@ def test_a_movie_without_events_has_no_empty_panels_and_says_so(tmp_path):
     assert "nan" not in text.replace("nan px", "")  # no statistic of nothing
     assert "Nothing to compare: there are no T1 events" in text and "Too little to compare" in text
     assert numbers["events"] == {}
+
+
+WHOLE_TABLES = ("cells", "vertices", "edges", "cell_vertices", "grid", "defects", "flow")
+
+
+def test_the_report_of_a_streamed_folder_reads_columns_and_equals_the_in_memory_report(tmp_path, monkeypatch):
+    from hexatissue import DeformationOptions, MechanicsOptions, pipeline
+    from hexatissue.stored import StoredTable
+
+    monkeypatch.setattr(pipeline, "PART_BYTES", 40_000)  # every table in several parts
+    m = voronoi_movie(30, (80, 90), 8, periodic=False, amplitude=0.6, seed=2)
+    analyze(np.stack([m[t] for t in range(len(m))]), out=tmp_path / "results", events=EventOptions(censor=3),
+            order=OrderOptions(p=(6, 2)), deformation=DeformationOptions(enabled=True),
+            mechanics=MechanicsOptions(enabled=True), workers=1, progress=False)
+    assert len(StoredTable.open(tmp_path / "results" / "cells", "cells").parts) > 2
+    reads, read = [], StoredTable.read
+
+    def recording(self, columns=None, frames=None):
+        reads.append((self.name, columns, frames))
+        return read(self, columns, frames)
+
+    monkeypatch.setattr(StoredTable, "read", recording)
+    kwargs = dict(dl=25.0, dt=4, seed=3)
+    streamed = report(tmp_path / "results", tmp_path / "streamed", **kwargs)
+    # every whole-movie read names its columns: a table is read whole only one frame at a time (the figures)
+    assert reads and all(columns is not None or frames[0] == frames[1] for _, columns, frames in reads)
+    assert {name for name, columns, _ in reads if columns is not None} >= {"cells", "grid", "defects", "edges"}
+    wide = {name: max(len(c) for n, c, _ in reads if n == name and c is not None) for name in ("cells", "edges")}
+    assert wide["cells"] < len(read(StoredTable.open(tmp_path / "results" / "cells", "cells")).columns) // 2
+    whole = read_results(tmp_path / "results", lazy=False)
+    reads.clear()
+    memory = report(whole, tmp_path / "memory", **kwargs)
+    assert not reads  # the tables in memory are used as they are
+    written = [Path(p).name for p in memory.pop("written")]
+    assert [Path(p).name for p in streamed.pop("written")] == written
+    # NaN is not equal to itself in a dict; their JSON texts are equal
+    assert json.dumps(streamed, sort_keys=True, default=str) == json.dumps(memory, sort_keys=True, default=str)
+    assert {"mechanics", "deformation", "flow", "migration", "proximity", "timing"} <= set(memory)
+    for name in written:
+        a, b = (tmp_path / "streamed" / name).read_bytes(), (tmp_path / "memory" / name).read_bytes()
+        if name == "report.md":  # the title names the results folder, or "movie" for a Movie
+            a, b = a.split(b"\n", 1)[1], b.split(b"\n", 1)[1]
+        assert a == b, name

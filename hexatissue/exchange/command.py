@@ -71,6 +71,14 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     ``out/cells.zarr``, and the GEFF stores point to it
     (``related_objects``); the OME-Zarr is returned first.
 
+    A results folder is read for ``ctc`` and ``ome-zarr`` with its large
+    tables left on disk (``read_results(lazy=True)``): of them these read
+    only the cells' ``frame``, ``cell``, ``track`` and ``area`` (and the
+    lineage); the masks they write are made from the labels, every frame
+    in memory before it is written.  ``geff`` and ``anndata`` read the
+    whole tables: every column of every cell, the edges (neighbours) and,
+    for AnnData, the vertices and the cells' vertices (the shape tensors).
+
     Nothing is deleted that an export did not write: ``out`` (for geff its
     two stores, for ctc its mask folder) must not exist, be empty or be an
     earlier export of the same format, else it is refused before any work
@@ -89,7 +97,9 @@ def export(results, out, to, *, labels=None, mask=None, truth=False, levels=1, i
     _check_out(results, out, to, truth, overwrite)
     if with_ome_zarr:
         _check_out(results, Path(out) / OME_ZARR_BESIDE, "ome-zarr", truth, overwrite)
-    movie = results if isinstance(results, Movie) else read_results(results, lazy=False)
+    # the labels' exports read four columns of the cells (and the lineage); GEFF and AnnData write every cell's
+    # columns, the neighbours from the edges and (AnnData) the polygons: whole tables
+    movie = results if isinstance(results, Movie) else read_results(results, lazy=to in ("ctc", "ome-zarr"))
     if to == "geff":
         from .geff import write_geff
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..mesh.labels import detect_kind, mesh_labels, relabel
+from ..views import columns
 
 __all__ = ["track_masks"]
 
@@ -93,7 +94,7 @@ def track_masks(movie, labels=None, mask=None, membranes=False) -> list[np.ndarr
                          f"{movie.n_frames} of {tuple(movie.shape)}: pass the labels they were computed from")
     inside = _mask(movie, mask)
     mesh = movie.options.get("mesh", MeshOptions())
-    cells = movie.cells.sort_values(["frame", "cell"], kind="stable")
+    cells = columns(movie, "cells", ["frame", "cell", "track", "area"]).sort_values(["frame", "cell"], kind="stable")
     frame_of = cells["frame"].to_numpy(np.int64)
     bounds = np.searchsorted(frame_of, np.arange(movie.n_frames + 1))
     ids, tracks = cells["cell"].to_numpy(np.int64), cells["track"].to_numpy(np.int64)

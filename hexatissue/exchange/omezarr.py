@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import InputError, check_positive
 from ..units import as_calibration
+from ..views import columns
 
 __all__ = ["write_ome_zarr_labels", "is_ome_zarr_export", "downsample_labels", "boundary_image", "label_colors",
            "track_properties", "NGFF_LENGTH", "NGFF_TIME", "NGFF_VERSIONS", "LABELS_KEY"]
@@ -159,7 +160,7 @@ def track_properties(movie) -> tuple[list[dict], list[dict]]:
     """
     from ..track import lineage_roots
 
-    cells = movie.cells
+    cells = columns(movie, "cells", ["track", "frame", "area", "n_sides"])
     by_track = cells.groupby("track", sort=True)
     stats = by_track.agg(frame_start=("frame", "min"), frame_end=("frame", "max"), n_frames=("frame", "size"),
                          area_mean=("area", "mean"), n_sides_mean=("n_sides", "mean"))

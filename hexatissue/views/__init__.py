@@ -28,9 +28,33 @@ from pathlib import Path
 from typing import Callable
 
 from ..io import write_table
+from ..stored import StoredTable
 
 __all__ = ["StageView", "Section", "LayerMaker", "WidgetField", "Report", "stage_views", "report_sections",
-           "layer_makers", "legend_rows", "widget_fields", "movie_figures", "shown_frames", "single"]
+           "layer_makers", "legend_rows", "widget_fields", "movie_figures", "shown_frames", "single", "columns",
+           "has_column"]
+
+
+def columns(movie, name, wanted):
+    """Table ``name`` of ``movie`` for a function that reads only the ``wanted`` columns; None when it is absent.
+
+    A table kept on disk in parts (:class:`~hexatissue.stored.StoredTable`,
+    ``read_results(lazy=True)``) is read with only the ``wanted`` columns it
+    has, every row: the memory of those columns, not of the table.  A table
+    in memory is returned as it is (no copy); the function reads the same
+    columns of it.
+    """
+    table = movie.tables.get(name)
+    if isinstance(table, StoredTable):
+        present = set(table.columns)
+        return table.read([c for c in dict.fromkeys(wanted) if c in present])
+    return table
+
+
+def has_column(movie, name, column) -> bool:
+    """Table ``name`` of ``movie`` is present and has ``column`` (read from its schema when on disk)."""
+    table = movie.tables.get(name)
+    return table is not None and column in table.columns
 
 
 def shown_frames(movie) -> list[int]:

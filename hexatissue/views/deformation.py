@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from ..plot import BUDGET_GROUPS, plot_deformation_budget, plot_deformation_map
-from . import LayerMaker, Section, StageView, WidgetField
+from . import LayerMaker, Section, StageView, WidgetField, columns
 from .layerdata import common, coords, spacing
 from .text import md_table
 
@@ -15,9 +15,9 @@ __all__ = ["VIEW", "deformation_layers"]
 
 def _budget(movie, report):
     """The deformation budget: cumulative contributions over the movie, the curves and the map."""
-    budget = movie.deformation
-    if budget is None or len(budget) == 0:
+    if movie.deformation is None or len(movie.deformation) == 0:
         return []
+    budget = columns(movie, "deformation", movie.deformation.columns)  # every column: the table is the CSV's
     cal = movie.calibration
     everything = budget[budget["region"] == "tissue"]
     # the headline leaves out the intervals whose events rest on doubtful tracking (their totals stay in the CSV)
@@ -69,7 +69,8 @@ def _budget(movie, report):
     lines += report.figure(path, "deformation budget")
     if (budget["region"] == "grid").any() and movie.grid is not None:
         path = report.out / "deformation_map.png"
-        plot_deformation_map(budget, movie.grid, calibration=cal, path=path, box=movie.box)
+        plot_deformation_map(budget, columns(movie, "grid", ["frame", "node", "x", "y"]), calibration=cal, path=path,
+                             box=movie.box)
         lines += report.figure(path, "deformation map")
     return lines
 

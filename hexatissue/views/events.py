@@ -8,11 +8,15 @@ import pandas as pd
 from ..analysis.timing import cell_timing, timing_summary, timing_test
 from ..plot import FAST_COLOR, SLOW_COLOR, empty_panel, finish_panels, panels
 from ..units import as_calibration
-from . import LayerMaker, Section, StageView, single
+from . import LayerMaker, Section, StageView, columns, single
 from .layerdata import common, coords, is_movie, rgba, spacing
 from .text import md_table
 
-__all__ = ["VIEW", "plot_event_overview", "event_layer", "EVENT_COLORS", "events_note", "censor_of"]
+__all__ = ["VIEW", "plot_event_overview", "event_layer", "EVENT_COLORS", "events_note", "censor_of", "TRACK_KEYS"]
+
+#: The columns of ``cells`` that give each row its track (``track``, else the label ``cell``): all that the
+#: per-cell event timing reads of it (its rows per track).
+TRACK_KEYS = ("track", "cell")
 
 
 def censor_of(movie):
@@ -180,7 +184,7 @@ def _per_cell_definition(movie, report):
              + ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())) + ")"
              + (f"; {int(flicker.sum())} of the cycles last one frame (flickers: a contact lost and regained at "
                 f"once, often segmentation noise) and are left out below" if flicker.any() else "") + ".", ""]
-    per_cell = cell_timing(events[~flicker], movie.cells, frame_interval=cal.frame_interval)
+    per_cell = cell_timing(events[~flicker], columns(movie, "cells", TRACK_KEYS), frame_interval=cal.frame_interval)
     test = timing_test(per_cell)
     report.numbers["timing_per_cell_definition"] = {"summary": timing_summary(per_cell).to_dict("records"),
                                              "n_flickers": int(flicker.sum()), **test}

@@ -13,7 +13,7 @@ from ..flow.piv import piv_agreement
 from ..plot import FAST_COLOR, SLOW_COLOR, empty_panel, finish_panels, panels, plot_flow, typical_spacing
 from ..theory import quadrupole_flow_exact
 from ..units import as_calibration, in_units, velocity_unit
-from . import LayerMaker, Section, StageView, single, WidgetField
+from . import LayerMaker, Section, StageView, columns, has_column, single, WidgetField
 from .layerdata import common, coords
 from .text import length, rate
 
@@ -159,11 +159,19 @@ def plot_event_flow(average, path=None, calibration=None, title=None, x_label="x
     return finish_panels(fig, path, title)
 
 
+#: The columns of ``cells`` that the report's flow statistics and the flow around T1s and defects read, over every
+#: frame (the velocity statistics, the MSD and the centred flows follow the tracks through the movie).
+MOVING_CELLS = ("frame", "track", "cell", "x", "y", "vx", "vy", "area", "is_border")
+#: The columns of ``flow`` that the report's numbers read (the PIV ones when the flow has them).
+FLOW_NUMBERS = ("frame", "valid", "radius", "vorticity", "divergence", "vx", "vy", "piv_vx", "piv_vy")
+
+
 def _flow(movie, report):
     """The tissue flow: velocity statistics, the flow field of a middle frame, C(r) and the MSD."""
-    cells, cal, box = movie.cells, movie.calibration, movie.box
-    if "vx" not in cells.columns:
+    cal, box = movie.calibration, movie.box
+    if not has_column(movie, "cells", "vx"):
         return ["## Tissue flow", "", "No cell velocities in the results folder (analysed with `--no-flow`).", ""]
+    cells = columns(movie, "cells", MOVING_CELLS)
     per_frame = velocity_statistics(cells)
     correlation = velocity_correlation(cells, box)
     msd = mean_squared_displacement(cells, box)
@@ -190,7 +198,7 @@ def _flow(movie, report):
                  else f"not measured: {summary['correlation_reason']}"),
               f"- MSD exponent (MSD ~ lag^alpha, lags {int(msd['lag'].min())}-{int(msd['lag'].max())} frames): "
               f"{summary['msd_exponent']:.3g}"]
-    flow = movie.tables.get("flow")
+    flow = columns(movie, "flow", FLOW_NUMBERS)
     shown = None
     if flow is not None and flow["valid"].any():
         valid = flow[flow["valid"]]
@@ -224,9 +232,9 @@ def _flow(movie, report):
                        path=path)
         lines += report.figure(path, f"flow, frame {shown}")
     if movie.events is not None and len(movie.events):
-        lines += _t1_flow_lines(movie, report)
-    if movie.grid is not None and movie.defects is not None and f"Gamma{report.p}_re" in movie.grid.columns:
-        lines += _defect_flow_lines(movie, report)
+        lines += _t1_flow_lines(movie, cells, report)
+    if movie.defects is not None and has_column(movie, "grid", f"Gamma{report.p}_re"):
+        lines += _defect_flow_lines(movie, cells, report)
     return lines
 
 
@@ -242,13 +250,17 @@ def _harmonics_table(harmonics, cal):
     return lines, numbers
 
 
-def _defect_flow_lines(movie, report):
-    """The flow averaged around the ±1/p defects in their own axes, and its harmonics."""
+def _defect_flow_lines(movie, cells, report):
+    """The flow averaged around the ±1/p defects in their own axes, and its harmonics (``cells``: the
+    :data:`MOVING_CELLS` columns)."""
     cal, p = movie.calibration, report.p
-    average, samples = defect_flow(movie.cells, movie.defects, movie.grid, p=p, box=movie.box)
+    defects = columns(movie, "defects", ["frame", "defect", "x", "y", "charge", "p"])
+    grid = columns(movie, "grid", ["frame", "x", "y", f"Gamma{p}_re", f"Gamma{p}_im", "valid", "spacing"])
+    average, samples = defect_flow(cells, defects, grid, p=p, box=movie.box)
+    del defects, grid
     if not len(samples):
         return [f"### Flow around ±1/{p} defects", "", f"No ±1/{p} defect has cells with velocities around it.", ""]
-    r_cell = float(np.sqrt(np.nanmean(movie.cells["area"].to_numpy(float)) / np.pi))
+    r_cell = float(np.sqrt(np.nanmean(cells["area"].to_numpy(float)) / np.pi))
     harmonics = angular_harmonics(samples, r_min=r_cell)
     path = report.out / "defect_flow.png"
     plot_event_flow(average, path=path, calibration=cal, title=f"mean flow around ±1/{p} defects (defect axes)",
@@ -282,14 +294,15 @@ def _n6_share(harmonics):
     return float(h.loc[h["n"] == 6, "radial_amplitude"].sum() / total) if total > 0 else float("nan")
 
 
-def _t1_flow_lines(movie, report):
-    """The flow averaged around the T1s (cycles and intercalations apart), its harmonics, and the theory's."""
+def _t1_flow_lines(movie, cells, report):
+    """The flow averaged around the T1s (cycles and intercalations apart), its harmonics, and the theory's
+    (``cells``: the :data:`MOVING_CELLS` columns)."""
     cal = movie.calibration
-    average, samples = t1_flow(movie.cells, movie.events, movie.box, offsets=T1_OFFSETS)
+    average, samples = t1_flow(cells, movie.events, movie.box, offsets=T1_OFFSETS)
     if not len(samples):
         return ["### Flow around T1 events", "", "No T1 event has its four cells with velocities at the offsets "
                 f"{list(T1_OFFSETS)} frames.", ""]
-    r_cell = float(np.sqrt(np.nanmean(movie.cells["area"].to_numpy(float)) / np.pi))
+    r_cell = float(np.sqrt(np.nanmean(cells["area"].to_numpy(float)) / np.pi))
     harmonics = angular_harmonics(samples, r_min=r_cell)
     theory = _n6_share(_quadrupole_harmonics())
     path = report.out / "t1_flow.png"

@@ -7,7 +7,7 @@ import pandas as pd
 
 from ..mechanics import MU_RANGE, t1_tension_histories, tissue_stress
 from ..plot import plot_stress, plot_t1_tensions, plot_tension_histogram, plot_tensions
-from . import LayerMaker, Section, StageView, single, WidgetField
+from . import LayerMaker, Section, StageView, columns, has_column, single, WidgetField
 from .layerdata import common, coords
 from .text import md_table
 
@@ -23,10 +23,11 @@ _SURFACE_TEXT = ("; on the height map's surface: every vertex balanced in its ta
 
 def _forces(movie, report):
     """Force inference: tensions and pressures of the first frame, the tissue stress per frame."""
-    edges = movie.tables.get("edges")
-    if edges is None or "tension" not in edges.columns:
+    if not has_column(movie, "edges", "tension"):
         return []
-    cells, cal = movie.cells, movie.calibration
+    edges = columns(movie, "edges", ["frame", "cell_a", "cell_b", "length", "tension", "tension_sd", "curvature"])
+    cells = columns(movie, "cells", ["frame", "polygon_area", "stress_xx", "stress_xy", "stress_yy", "pressure"])
+    cal = movie.calibration
     per_frame = []
     for t, rows in cells.groupby("frame", sort=True):
         s = tissue_stress(rows, rows)
@@ -45,7 +46,7 @@ def _forces(movie, report):
                           "pressures": int(np.isfinite(rows["pressure"]).sum()), "cells": int(len(rows)),
                           "stress_xx": s[0, 0], "stress_xy": s[0, 1], "stress_yy": s[1, 1]})
     table = pd.DataFrame(per_frame)
-    fit = movie.tables.get("force_fit")
+    fit = columns(movie, "force_fit", ["frame", "arcs", "mu", "n_free"])
     if fit is not None and len(fit):
         # the model and the prior weight each frame's estimate actually used
         fit = fit.set_index("frame")
@@ -82,14 +83,14 @@ def _forces(movie, report):
                   "open image or a network with four-fold vertices; use the Bayesian estimator).", ""]
         return lines
     path = report.out / "tensions.png"
-    plot_tensions(edges[edges["frame"] == first], movie.vertices[movie.vertices["frame"] == first],
-                  calibration=cal, box=movie.box, path=path)
+    plot_tensions(movie.table_at("edges", first), movie.table_at("vertices", first), calibration=cal, box=movie.box,
+                  path=path)
     lines += report.figure(path, f"tensions, frame {first}")
     path = report.out / "tension_histogram.png"
-    plot_tension_histogram(edges[edges["frame"] == first], path=path)
+    plot_tension_histogram(movie.table_at("edges", first), path=path)
     lines += report.figure(path, f"tension histogram, frame {first}")
     path = report.out / "pressure.png"
-    plot_stress(cells[cells["frame"] == first], "pressure", movie.polygons(first), box=movie.box, calibration=cal,
+    plot_stress(movie.table_at("cells", first), "pressure", movie.polygons(first), box=movie.box, calibration=cal,
                 title=f"inferred pressure relative to the mean (tension/px), frame {first}", path=path)
     lines += report.figure(path, f"pressure, frame {first}")
     lines += _t1_tension_lines(movie, edges, report)
@@ -97,11 +98,13 @@ def _forces(movie, report):
 
 
 def _t1_tension_lines(movie, edges, report, before=10):
-    """The tension of each T1's lost junction over the frames before it, by kind (when there are T1s)."""
+    """The tension of each T1's lost junction over the frames before it, by kind (when there are T1s; ``edges``:
+    their ``frame``, ``cell_a``, ``cell_b``, ``length`` and ``tension``)."""
     events = movie.tables.get("events")
     if events is None or not len(events):
         return []
-    histories = t1_tension_histories(events, edges, movie.cells, before=before)
+    histories = t1_tension_histories(events, edges, columns(movie, "cells", ["frame", "cell", "track"]),
+                                     before=before)
     report.table(histories, "t1_tensions.csv")
     last = histories[histories["lag"] == -1].groupby("kind")["tension"].median()
     report.numbers["mechanics"]["t1_tension_at_lag_minus_1"] = {str(k): float(v) for k, v in last.items()}

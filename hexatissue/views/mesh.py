@@ -7,7 +7,7 @@ import numpy as np
 from ..geometry import table_polygons
 from ..plot import CONTROL_COLOR, EVENT_COLOR, empty_panel, finish_panels, panels, plot_labels
 from ..units import as_calibration
-from . import LayerMaker, Section, StageView, WidgetField, shown_frames, single
+from . import LayerMaker, Section, StageView, WidgetField, columns, shown_frames, single
 from .layerdata import common, coords, is_movie, rgba
 
 __all__ = ["VIEW", "plot_cell_distributions", "polygon_layer", "vertex_layer", "SIDES_COLORS", "VERTEX_COLORS",
@@ -17,10 +17,14 @@ __all__ = ["VIEW", "plot_cell_distributions", "polygon_layer", "vertex_layer", "
 #: wider range says the pixel size is wrong more likely than the cells.
 CELL_AREA_UM2 = (1.0, 5000.0)
 
+#: The columns of ``cells`` the report's tissue numbers and cell figure read (over every frame: their means and
+#: histograms pool every cell-frame).
+CELL_STATISTICS = ("is_border", "n_sides", "area")
+
 
 def _tissue(movie, report):
     """The tissue: frames, cells, calibration, sides and areas of the interior cells."""
-    cells, cal = movie.cells, movie.calibration
+    cells, cal = columns(movie, "cells", CELL_STATISTICS), movie.calibration
     n_frames = max(len(movie), 1)
     inner = cells[~cells["is_border"].to_numpy(bool)]
     numbers = report.numbers
@@ -113,7 +117,7 @@ def _cell_figure(movie, report):
     if movie.cells is None or not len(movie.cells):
         return []
     path = report.out / "cells.png"
-    plot_cell_distributions(movie.cells, path=path, calibration=movie.calibration)
+    plot_cell_distributions(columns(movie, "cells", CELL_STATISTICS), path=path, calibration=movie.calibration)
     return report.figure(path, "neighbour number and area of the interior cells")
 
 

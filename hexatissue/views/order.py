@@ -13,7 +13,7 @@ from ..errors import InputError
 from ..order import coarse_grain
 from ..plot import MINUS_COLOR, PLUS_COLOR, plot_labels, plot_order_field, plot_stars, star_segments
 from ..units import as_calibration
-from . import LayerMaker, Section, StageView, WidgetField, shown_frames
+from . import LayerMaker, Section, StageView, WidgetField, columns, has_column, shown_frames
 from .layerdata import common, coords, rgba, spacing
 from .text import md_table
 
@@ -22,9 +22,12 @@ __all__ = ["VIEW", "save_analysis_figures", "star_layer", "defect_layers", "STAR
 
 def _order_numbers(movie, report):
     """gamma_p per cell, Gamma_p on the grid and the defects per frame, for every order shown."""
-    cells, numbers = movie.cells, report.numbers
+    numbers = report.numbers
     n_frames = max(len(movie), 1)
+    orders = [(f"gamma{q}_re", f"gamma{q}_im") for q in report.order_p]
+    cells = columns(movie, "cells", ["is_border", *(c for pair in orders for c in pair)])
     inner = cells[~cells["is_border"].to_numpy(bool)]
+    grid = columns(movie, "grid", ["valid", *(f"Gamma{q}_{part}" for q in report.order_p for part in ("re", "im"))])
     lines = []
     for q in report.order_p:
         col = f"gamma{q}_re"
@@ -32,14 +35,14 @@ def _order_numbers(movie, report):
             mag = np.hypot(inner[col], inner[f"gamma{q}_im"]).mean()
             lines.append(f"- mean |gamma_{q}| per cell: {mag:.3f}")
             numbers[f"mean_abs_gamma{q}"] = float(mag)
-        if movie.grid is not None and f"Gamma{q}_re" in movie.grid.columns:
-            g = movie.grid[movie.grid["valid"].to_numpy(bool)]
+        if has_column(movie, "grid", f"Gamma{q}_re"):
+            g = grid[grid["valid"].to_numpy(bool)]
             mag = float(np.nanmean(np.hypot(g[f"Gamma{q}_re"], g[f"Gamma{q}_im"]))) if len(g) else np.nan
             lines.append(f"- mean |Gamma_{q}| on valid grid nodes: {mag:.3f}")
             numbers[f"mean_abs_Gamma{q}"] = mag
     if movie.defects is not None and len(movie.defects):
         rows = []
-        for q, g in movie.defects.groupby("p"):
+        for q, g in columns(movie, "defects", ["p", "charge"]).groupby("p"):
             rows.append({"p": int(q), "+ per frame": (g["charge"] > 0).sum() / n_frames,
                          "- per frame": (g["charge"] < 0).sum() / n_frames,
                          "net charge per frame": g["charge"].sum() / n_frames})

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from . import Section, StageView
+from . import Section, StageView, columns, has_column
 from .text import md_table
 
 __all__ = ["VIEW", "surface_summary"]
@@ -20,9 +20,10 @@ def surface_summary(movie, p=6) -> pd.DataFrame:
     a flat tissue); ``median_abs_gamma{p}_surface`` and
     ``median_abs_gamma{p}_projected``.  Empty when the stage did not run.
     """
-    cells = movie.cells
-    if cells is None or "surface_area" not in cells.columns:
+    if not has_column(movie, "cells", "surface_area"):
         return pd.DataFrame()
+    cells = columns(movie, "cells", ["frame", "is_border", "surface_area", "polygon_area", "normal_z",
+                                     f"surface_gamma{p}_re", f"surface_gamma{p}_im", f"gamma{p}_re", f"gamma{p}_im"])
     cells = cells[~cells["is_border"].to_numpy(bool) & np.isfinite(cells["surface_area"].to_numpy(float))]
     rows = []
     for t, c in cells.groupby("frame", sort=True):

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from ..track import DIVISION_REASONS, division_rows, tracking_qc, tracking_warning
-from . import LayerMaker, Section, StageView, single, WidgetField
+from . import LayerMaker, Section, StageView, columns, single, WidgetField
 from .layerdata import common, is_movie
 from .text import md_table
 
@@ -24,7 +24,7 @@ def _tracking_qc(movie, report):
     if lineage is None:
         return []
     summary = movie.summary.get("tracking", {}) or {}
-    qc = tracking_qc(lineage, movie.cells, summary.get("links"))
+    qc = tracking_qc(lineage, columns(movie, "cells", ["frame"]), summary.get("links"))
     divisions = division_rows(lineage)
     report.table(qc, "tracking_qc.csv")
     report.table(divisions, "divisions.csv")

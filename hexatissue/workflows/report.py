@@ -27,8 +27,8 @@ from ..errors import HexatissueWarning, InputError, check_p, check_positive
 from ..io import atomic_path, check_output_folder
 from ..results import Movie, read_results
 from ..schema import empty_table
-from ..views import Report, Section, report_sections
-from ..views.events import events_note
+from ..views import Report, Section, columns, report_sections
+from ..views.events import TRACK_KEYS, events_note
 from ..views.text import length, md_table, speed
 
 __all__ = ["report", "default_window"]
@@ -57,8 +57,11 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
     ----------
     results : path or Movie
         A results folder (``hexatissue analyze``, :meth:`Movie.write`), read
-        with :func:`hexatissue.read_results`, or a Movie.  Lengths and times
-        are shown in its calibration's units when it has them.
+        with :func:`hexatissue.read_results` (``lazy=True``: the tables a
+        streamed analysis wrote in parts stay on disk, and each section
+        reads only the columns it needs, :func:`hexatissue.views.columns`),
+        or a Movie.  Lengths and times are shown in its calibration's units
+        when it has them.
     out : path, optional
         Report folder (default ``results/report``; required for a Movie).
     p : int
@@ -95,7 +98,7 @@ def report(results, out=None, *, p=6, order_p=None, dl=DEFAULT_DL, dt=None, n_co
             raise InputError("out is required when results is a Movie (there is no results folder to write into)")
         movie = results
     else:
-        movie = read_results(results, lazy=False)
+        movie = read_results(results, lazy=True)  # each section reads the columns it needs
     folder = None if isinstance(results, Movie) else results
     name = Path(str(movie.source.get("path") or folder or "movie")).name  # the input's name, else the folder's
     out = check_output_folder(Path(results) / "report" if out is None else out, "out")
@@ -131,17 +134,34 @@ def _independent(movie) -> bool:
     return (movie.summary.get("tracking") or {}).get("resolved") == "off"
 
 
+#: The columns of ``cells`` that the T1-defect proximity's control and the migration read: each cell-frame's
+#: frame, track (else its label), centroid and whether it is on the border.
+POSITIONS = ("frame", *TRACK_KEYS, "x", "y", "is_border")
+
+
+def _defects(movie):
+    """The columns of the defects table that the proximity and the migration read (an empty table when the
+    analysis has none): each defect-frame's frame, id, order, charge and position."""
+    if movie.defects is None:
+        return empty_table("defects")
+    return columns(movie, "defects", ["frame", "defect", "p", "charge", "x", "y"])
+
+
 def _proximity(movie, report):
     """Fig. 3e: the distance of each T1 to the nearest ±1/p defect against random cells (or vertices)."""
-    cells, events, box, cal = movie.cells, movie.events, movie.box, movie.calibration
+    events, box, cal = movie.events, movie.box, movie.calibration
     if events is None:
         return []
-    defects = movie.defects if movie.defects is not None else empty_table("defects")
+    defects = _defects(movie)
     p, n_control, seed, include_border, control = (report.p, report.n_control, report.seed, report.include_border,
                                                   report.control)
+    # the control draws from one table only: its positions, frames, ids and whether on the border
+    cells = columns(movie, "cells", POSITIONS) if control == "cells" else None
+    vertices = columns(movie, "vertices", ["frame", "vertex", "x", "y", "degree", "is_border"]) \
+        if control == "vertices" else movie.vertices
     lines = []
     prox = t1_defect_proximity(events, cells, defects, p=p, box=box, n_control=n_control, seed=seed,
-                               include_border=include_border, control=control, vertices=movie.vertices)
+                               include_border=include_border, control=control, vertices=vertices)
     s = prox.summary()
     report.numbers["proximity"] = s
     lines += [f"## T1 events and ±1/{p} defects (Fig. 3e)", ""]
@@ -171,10 +191,10 @@ def _proximity(movie, report):
 
 def _migration(movie, report):
     """Fig. 3f: migration against defect density, subregion by subregion."""
-    cells, events, box, cal = movie.cells, movie.events, movie.box, movie.calibration
+    events, box, cal = movie.events, movie.box, movie.calibration
     if events is None:
         return []
-    defects = movie.defects if movie.defects is not None else empty_table("defects")
+    cells, defects = columns(movie, "cells", POSITIONS), _defects(movie)
     p, seed, include_border = report.p, report.seed, report.include_border
     lines = []
     note = events_note(movie, events)
@@ -226,9 +246,10 @@ def _migration(movie, report):
 
 def _timing(movie, report):
     """Fig. 3g: the per-cell T1-cycle periods and intercalation intervals, compared."""
-    cells, events, cal = movie.cells, movie.events, movie.calibration
+    events, cal = movie.events, movie.calibration
     if events is None:
         return []
+    cells = columns(movie, "cells", TRACK_KEYS)
     frame_interval, time_unit = cal.frame_interval, cal.time_label
     note = events_note(movie, events)
     counts = events["kind"].astype(str).value_counts().to_dict()
