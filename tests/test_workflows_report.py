@@ -268,6 +268,7 @@ def test_a_movie_without_events_has_no_empty_panels_and_says_so(tmp_path):
 WHOLE_TABLES = ("cells", "vertices", "edges", "cell_vertices", "grid", "defects", "flow")
 
 
+@pytest.mark.slow  # about 30 s on a loaded machine
 def test_the_report_of_a_streamed_folder_reads_columns_and_equals_the_in_memory_report(tmp_path, monkeypatch):
     from hexatissue import DeformationOptions, MechanicsOptions, pipeline
     from hexatissue.stored import StoredTable
