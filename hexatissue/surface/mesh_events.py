@@ -8,6 +8,7 @@ import pandas as pd
 
 from ..errors import InputError
 from ..events import classify_t1, default_censor, find_t1
+from ..geometry import lookup, row_keys
 from ..schema import require_columns, validate
 
 __all__ = ["mesh_events"]
@@ -61,12 +62,9 @@ def mesh_events(cells, junctions, censor=None) -> pd.DataFrame:
                          max(n_frames - 1, 0), int(censor))
     quartet = np.stack([events[c].to_numpy(np.int64) for c in ("cell_a", "cell_b", "cell_c", "cell_d")], axis=1)
     # each quartet cell's row at frame_start (a and b are there: a contact is lost between present cells)
-    top = int(cells["cell"].to_numpy(np.int64).max(initial=0)) + 1
-    key = cells["frame"].to_numpy(np.int64) * top + cells["cell"].to_numpy(np.int64)
-    order = np.argsort(key)
-    wanted = events["frame_start"].to_numpy(np.int64)[:, None] * top + quartet
-    at = order[np.minimum(np.searchsorted(key[order], wanted), len(key) - 1)]
-    found = key[at] == wanted
+    at = lookup(row_keys(cells["frame"], cells["cell"]), None,
+                row_keys(events["frame_start"].to_numpy(np.int64)[:, None], quartet).ravel()).reshape(quartet.shape)
+    found = at >= 0
     xyz = np.where(found[..., None], cells[["x", "y", "z"]].to_numpy(float)[at], np.nan)
     centre = np.nanmean(xyz, axis=1) if len(events) else np.zeros((0, 3))
     border = (found & cells["is_border"].to_numpy(bool)[at]).any(axis=1)
